@@ -1,0 +1,1 @@
+"""The ``robolobe`` command: parse, call, print; no logic lives here."""

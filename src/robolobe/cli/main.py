@@ -1,0 +1,75 @@
+"""Entry point of the ``robolobe`` command.
+
+Each group of subcommands lives in its own module of this package and exposes
+``register(app)``. Errors derived from :class:`robolobe.errors.RobolobeError`
+become one readable line on stderr and exit code 2 (3: no feasible plan).
+"""
+
+from __future__ import annotations
+
+import importlib
+import sys
+
+import typer
+
+from robolobe.errors import RobolobeError
+
+__all__ = ["app", "main"]
+
+HELP = """\
+robolobe: chatter-free milling plans for industrial robots.
+
+Units: SI inside; files and options say their unit in the name
+(q_deg: degrees, depth_mm / a_lim_mm: millimetres, f_hz: hertz, rpm:
+spindle revolutions per minute, k_N_per_m: N/m, Kt/Kn: N/m^2, zeta: damping
+ratio as a fraction). Files: robot descriptions (TOML, robolobe-robot/1),
+hammer-test campaigns (folder with campaign.toml, postures.csv, frf.csv or
+frf/*.uff), modal datasets (modal.csv), job files (TOML) and toolpaths
+(G-code, APT/CL, KUKA KRL, ABB RAPID, CSV). See the README for each format.
+"""
+
+app = typer.Typer(
+    name="robolobe",
+    help=HELP,
+    no_args_is_help=True,
+    pretty_exceptions_enable=False,
+    add_completion=False,
+    rich_markup_mode="rich",
+)
+
+# Command modules, in the order they appear in --help.
+_COMMAND_MODULES = (
+    "plan",
+    "simulate",
+    "identify",
+    "tl",
+    "sld",
+    "diagnose",
+)
+
+for _name in _COMMAND_MODULES:
+    try:
+        _mod = importlib.import_module(f"robolobe.cli.{_name}")
+    except ModuleNotFoundError as exc:  # a command group not built yet
+        if exc.name != f"robolobe.cli.{_name}":
+            raise
+        continue
+    _mod.register(app)
+
+
+def main(argv: list[str] | None = None) -> None:
+    """Run the CLI; turn robolobe errors into one line and an exit code."""
+    from robolobe.cli._common import err_console
+
+    try:
+        app(args=argv, standalone_mode=True)
+    except RobolobeError as exc:
+        err_console.print(f"[bold red]error:[/] {exc}", highlight=False, soft_wrap=True)
+        sys.exit(exc.exit_code)
+    except KeyboardInterrupt:
+        err_console.print("[bold red]interrupted[/]")
+        sys.exit(130)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,1 @@
+"""robolobe.diagnose (see DESIGN.md)."""

@@ -1,0 +1,1 @@
+"""robolobe.modal (see DESIGN.md)."""

@@ -1,0 +1,1 @@
+"""robolobe.plan (see DESIGN.md)."""

@@ -1,0 +1,1 @@
+"""robolobe.robots (see DESIGN.md)."""

@@ -1,0 +1,299 @@
+"""Data model of a serial 6-axis arm with elastic joints (FORMATS.md section 1).
+
+All quantities are SI and radians. Instances are frozen; their arrays are
+read-only. Build them with :func:`robolobe.robots.io.load_robot` (files) or
+directly (tests, code).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass, field
+from typing import Any, Literal
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+__all__ = ["Convention", "Joint", "LinearConstraint", "RigidBody", "Robot", "robots_allclose"]
+
+Convention = Literal["standard-dh", "modified-dh"]
+FloatArray = NDArray[np.float64]
+
+
+def _frozen_array(value: ArrayLike, shape: tuple[int, ...], name: str) -> FloatArray:
+    arr = np.array(value, dtype=np.float64)  # always a copy
+    if arr.shape != shape:
+        raise ValueError(f"{name}: expected shape {shape}, found {arr.shape}")
+    if not np.all(np.isfinite(arr)):
+        raise ValueError(f"{name}: expected finite numbers, found {arr.tolist()}")
+    arr.setflags(write=False)
+    return arr
+
+
+@dataclass(frozen=True, eq=False)
+class RigidBody:
+    """A rigid body.
+
+    Parameters
+    ----------
+    mass_kg : float
+        Mass [kg], >= 0.
+    com_m : ndarray, shape (3,)
+        Centre of mass [m] in the body's frame.
+    inertia_kgm2 : ndarray, shape (3, 3)
+        Inertia tensor [kg m^2] about the centre of mass, body-frame axes.
+    """
+
+    mass_kg: float
+    com_m: FloatArray
+    inertia_kgm2: FloatArray
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "mass_kg", float(self.mass_kg))
+        object.__setattr__(self, "com_m", _frozen_array(self.com_m, (3,), "com_m"))
+        inertia = _frozen_array(self.inertia_kgm2, (3, 3), "inertia_kgm2")
+        object.__setattr__(self, "inertia_kgm2", inertia)
+
+    def spatial_inertia(self) -> FloatArray:
+        """6x6 spatial inertia about the body-frame origin, [v; w] ordering.
+
+        Returns
+        -------
+        ndarray, shape (6, 6)
+            ``[[m I3, -m [c]x], [m [c]x, I_c - m [c]x [c]x]]``.
+        """
+        m = self.mass_kg
+        c = self.com_m
+        cx = np.array([[0.0, -c[2], c[1]], [c[2], 0.0, -c[0]], [-c[1], c[0], 0.0]])
+        out = np.zeros((6, 6))
+        out[:3, :3] = m * np.eye(3)
+        out[:3, 3:] = -m * cx
+        out[3:, :3] = m * cx
+        out[3:, 3:] = self.inertia_kgm2 - m * cx @ cx
+        return out
+
+
+@dataclass(frozen=True, eq=False)
+class Joint:
+    """One revolute joint and the link it moves.
+
+    Parameters
+    ----------
+    a_m, alpha_rad, d_m, theta_offset_rad : float
+        DH parameters [m, rad] (for modified DH, ``a_m``/``alpha_rad`` hold
+        a_{i-1}/alpha_{i-1}, FORMATS.md section 1).
+    q_min_rad, q_max_rad : float
+        Joint limits of the controller axis angle q_i [rad].
+    body : RigidBody
+        Link i (moved by joint i), given in DH frame i.
+    stiffness_Nm_per_rad : float
+        Joint stiffness [N m/rad], acting on the controller axis q_i.
+    damping_Nms_per_rad : float
+        Joint viscous damping [N m s/rad], acting on q_i.
+    """
+
+    a_m: float
+    alpha_rad: float
+    d_m: float
+    theta_offset_rad: float
+    q_min_rad: float
+    q_max_rad: float
+    body: RigidBody
+    stiffness_Nm_per_rad: float
+    damping_Nms_per_rad: float
+
+    def __post_init__(self) -> None:
+        for f in dataclasses.fields(self):
+            if f.name != "body":
+                object.__setattr__(self, f.name, float(getattr(self, f.name)))
+
+
+@dataclass(frozen=True, eq=False)
+class LinearConstraint:
+    """A linear limit ``lo_rad <= coeffs @ q <= hi_rad`` on the axis angles.
+
+    Parameters
+    ----------
+    coeffs : ndarray, shape (6,)
+        Coefficients (dimensionless).
+    lo_rad, hi_rad : float
+        Bounds [rad].
+    """
+
+    coeffs: FloatArray
+    lo_rad: float
+    hi_rad: float
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "coeffs", _frozen_array(self.coeffs, (6,), "coeffs"))
+        object.__setattr__(self, "lo_rad", float(self.lo_rad))
+        object.__setattr__(self, "hi_rad", float(self.hi_rad))
+
+
+@dataclass(frozen=True, eq=False)
+class Robot:
+    """A serial 6-axis arm with elastic joints (the nominal model).
+
+    Parameters
+    ----------
+    name : str
+        Free text.
+    convention : {"standard-dh", "modified-dh"}
+        DH convention of ``joints``.
+    joints : tuple of Joint
+        Exactly six, base to flange.
+    base : ndarray, shape (4, 4)
+        Pose of the base (DH frame 0) in the world.
+    coupling : ndarray, shape (6, 6)
+        DH angle ``theta = coupling @ q + theta_offset`` (q: controller axes).
+    tool : ndarray, shape (4, 4)
+        TCP frame in the flange (DH frame 6).
+    end_effector : RigidBody or None
+        Body fixed to the TCP frame (spindle, holder, tool), in the TCP frame.
+    constraints : tuple of LinearConstraint
+        Linear limits on q (e.g. a parallelogram's relative angle).
+    source : str
+        File path, or ``"built-in A"`` etc.
+    """
+
+    name: str
+    convention: Convention
+    joints: tuple[Joint, ...]
+    base: FloatArray = field(default_factory=lambda: np.eye(4))
+    coupling: FloatArray = field(default_factory=lambda: np.eye(6))
+    tool: FloatArray = field(default_factory=lambda: np.eye(4))
+    end_effector: RigidBody | None = None
+    constraints: tuple[LinearConstraint, ...] = ()
+    source: str = "<code>"
+
+    def __post_init__(self) -> None:
+        if self.convention not in ("standard-dh", "modified-dh"):
+            raise ValueError(
+                f"convention: expected 'standard-dh' or 'modified-dh', found {self.convention!r}"
+            )
+        joints = tuple(self.joints)
+        if len(joints) != 6:
+            raise ValueError(f"joints: expected exactly 6, found {len(joints)}")
+        object.__setattr__(self, "joints", joints)
+        object.__setattr__(self, "constraints", tuple(self.constraints))
+        object.__setattr__(self, "base", _frozen_array(self.base, (4, 4), "base"))
+        object.__setattr__(self, "tool", _frozen_array(self.tool, (4, 4), "tool"))
+        coupling = _frozen_array(self.coupling, (6, 6), "coupling")
+        if abs(np.linalg.det(coupling)) < 1e-9:
+            raise ValueError("coupling: expected an invertible 6x6 matrix, found a singular one")
+        object.__setattr__(self, "coupling", coupling)
+
+    # ---------------------------------------------------------------- views
+    def _vec(self, attr: str) -> FloatArray:
+        out = np.array([getattr(j, attr) for j in self.joints], dtype=np.float64)
+        out.setflags(write=False)
+        return out
+
+    @property
+    def q_min(self) -> FloatArray:
+        """Lower joint limits [rad], shape (6,)."""
+        return self._vec("q_min_rad")
+
+    @property
+    def q_max(self) -> FloatArray:
+        """Upper joint limits [rad], shape (6,)."""
+        return self._vec("q_max_rad")
+
+    @property
+    def stiffness(self) -> FloatArray:
+        """Joint stiffnesses [N m/rad] on the controller axes, shape (6,)."""
+        return self._vec("stiffness_Nm_per_rad")
+
+    @property
+    def damping(self) -> FloatArray:
+        """Joint viscous damping [N m s/rad] on the controller axes, shape (6,)."""
+        return self._vec("damping_Nms_per_rad")
+
+    @property
+    def a(self) -> FloatArray:
+        """DH ``a`` [m], shape (6,)."""
+        return self._vec("a_m")
+
+    @property
+    def alpha(self) -> FloatArray:
+        """DH ``alpha`` [rad], shape (6,)."""
+        return self._vec("alpha_rad")
+
+    @property
+    def d(self) -> FloatArray:
+        """DH ``d`` [m], shape (6,)."""
+        return self._vec("d_m")
+
+    @property
+    def theta_offset(self) -> FloatArray:
+        """DH angle offsets [rad], shape (6,)."""
+        return self._vec("theta_offset_rad")
+
+    @property
+    def total_mass_kg(self) -> float:
+        """Mass of the moving links plus the end effector [kg]."""
+        m = sum(j.body.mass_kg for j in self.joints)
+        return float(m + (self.end_effector.mass_kg if self.end_effector else 0.0))
+
+    # -------------------------------------------------------------- changes
+    def replace(self, **changes: Any) -> Robot:
+        """Return a copy with fields replaced (:func:`dataclasses.replace`)."""
+        return dataclasses.replace(self, **changes)
+
+    def _with_joint_values(self, attr: str, values: ArrayLike) -> Robot:
+        v = np.asarray(values, dtype=np.float64)
+        if v.shape != (6,):
+            raise ValueError(f"{attr}: expected shape (6,), found {v.shape}")
+        joints = tuple(
+            dataclasses.replace(j, **{attr: float(x)}) for j, x in zip(self.joints, v, strict=True)
+        )
+        return self.replace(joints=joints)
+
+    def with_stiffness(self, k: ArrayLike) -> Robot:
+        """Copy with joint stiffnesses ``k`` [N m/rad], shape (6,)."""
+        return self._with_joint_values("stiffness_Nm_per_rad", k)
+
+    def with_damping(self, c: ArrayLike) -> Robot:
+        """Copy with joint damping ``c`` [N m s/rad], shape (6,)."""
+        return self._with_joint_values("damping_Nms_per_rad", c)
+
+
+def _bodies_close(a: RigidBody | None, b: RigidBody | None, rtol: float, atol: float) -> bool:
+    if a is None or b is None:
+        return a is None and b is None
+    return bool(
+        np.isclose(a.mass_kg, b.mass_kg, rtol=rtol, atol=atol)
+        and np.allclose(a.com_m, b.com_m, rtol=rtol, atol=atol)
+        and np.allclose(a.inertia_kgm2, b.inertia_kgm2, rtol=rtol, atol=atol)
+    )
+
+
+def robots_allclose(a: Robot, b: Robot, *, rtol: float = 1e-9, atol: float = 1e-12) -> bool:
+    """Whether two robots are numerically equal (names and sources ignored).
+
+    Parameters
+    ----------
+    a, b : Robot
+    rtol, atol : float
+        Tolerances of :func:`numpy.allclose`.
+    """
+    if a.convention != b.convention or len(a.constraints) != len(b.constraints):
+        return False
+    for f in ("base", "coupling", "tool"):
+        if not np.allclose(getattr(a, f), getattr(b, f), rtol=rtol, atol=atol):
+            return False
+    for ja, jb in zip(a.joints, b.joints, strict=True):
+        for f in dataclasses.fields(Joint):
+            if f.name == "body":
+                if not _bodies_close(ja.body, jb.body, rtol, atol):
+                    return False
+            elif not np.isclose(getattr(ja, f.name), getattr(jb, f.name), rtol=rtol, atol=atol):
+                return False
+    for ca, cb in zip(a.constraints, b.constraints, strict=True):
+        if not (
+            np.allclose(ca.coeffs, cb.coeffs, rtol=rtol, atol=atol)
+            and np.isclose(ca.lo_rad, cb.lo_rad, rtol=rtol, atol=atol)
+            and np.isclose(ca.hi_rad, cb.hi_rad, rtol=rtol, atol=atol)
+        ):
+            return False
+    return _bodies_close(a.end_effector, b.end_effector, rtol, atol)

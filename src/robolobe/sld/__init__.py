@@ -1,0 +1,1 @@
+"""robolobe.sld (see DESIGN.md)."""

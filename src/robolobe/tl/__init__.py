@@ -1,0 +1,1 @@
+"""robolobe.tl (see DESIGN.md)."""

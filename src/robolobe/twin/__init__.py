@@ -1,0 +1,1 @@
+"""robolobe.twin (see DESIGN.md)."""
