@@ -155,9 +155,7 @@ def joint_axes(robot: Robot, frames: FloatArray) -> tuple[FloatArray, FloatArray
     return frames[..., sl, :3, 2], frames[..., sl, :3, 3]
 
 
-def frame_jacobians(
-    robot: Robot, q: ArrayLike, points_m: ArrayLike | None = None
-) -> FloatArray:
+def frame_jacobians(robot: Robot, q: ArrayLike, points_m: ArrayLike | None = None) -> FloatArray:
     """Geometric Jacobians of points fixed in frames 1..7, all at once.
 
     Parameters

@@ -19,6 +19,17 @@ __all__ = ["Convention", "Joint", "LinearConstraint", "RigidBody", "Robot", "rob
 Convention = Literal["standard-dh", "modified-dh"]
 FloatArray = NDArray[np.float64]
 
+_JOINT_SCALARS = (
+    "a_m",
+    "alpha_rad",
+    "d_m",
+    "theta_offset_rad",
+    "q_min_rad",
+    "q_max_rad",
+    "stiffness_Nm_per_rad",
+    "damping_Nms_per_rad",
+)
+
 
 def _frozen_array(value: ArrayLike, shape: tuple[int, ...], name: str) -> FloatArray:
     arr = np.array(value, dtype=np.float64)  # always a copy
@@ -103,9 +114,8 @@ class Joint:
     damping_Nms_per_rad: float
 
     def __post_init__(self) -> None:
-        for f in dataclasses.fields(self):
-            if f.name != "body":
-                object.__setattr__(self, f.name, float(getattr(self, f.name)))
+        for name in _JOINT_SCALARS:
+            object.__setattr__(self, name, float(getattr(self, name)))
 
 
 @dataclass(frozen=True, eq=False)
@@ -130,7 +140,7 @@ class LinearConstraint:
         object.__setattr__(self, "hi_rad", float(self.hi_rad))
 
 
-@dataclass(frozen=True, eq=False)
+@dataclass(frozen=True, eq=False, repr=False)
 class Robot:
     """A serial 6-axis arm with elastic joints (the nominal model).
 
@@ -182,6 +192,12 @@ class Robot:
         if abs(np.linalg.det(coupling)) < 1e-9:
             raise ValueError("coupling: expected an invertible 6x6 matrix, found a singular one")
         object.__setattr__(self, "coupling", coupling)
+
+    def __repr__(self) -> str:
+        return (
+            f"Robot(name={self.name!r}, convention={self.convention!r}, "
+            f"source={self.source!r}, mass={self.total_mass_kg:.1f} kg)"
+        )
 
     # ---------------------------------------------------------------- views
     def _vec(self, attr: str) -> FloatArray:
@@ -244,8 +260,9 @@ class Robot:
         v = np.asarray(values, dtype=np.float64)
         if v.shape != (6,):
             raise ValueError(f"{attr}: expected shape (6,), found {v.shape}")
+        changes: list[dict[str, Any]] = [{attr: float(x)} for x in v]
         joints = tuple(
-            dataclasses.replace(j, **{attr: float(x)}) for j, x in zip(self.joints, v, strict=True)
+            dataclasses.replace(j, **c) for j, c in zip(self.joints, changes, strict=True)
         )
         return self.replace(joints=joints)
 
@@ -283,11 +300,10 @@ def robots_allclose(a: Robot, b: Robot, *, rtol: float = 1e-9, atol: float = 1e-
         if not np.allclose(getattr(a, f), getattr(b, f), rtol=rtol, atol=atol):
             return False
     for ja, jb in zip(a.joints, b.joints, strict=True):
-        for f in dataclasses.fields(Joint):
-            if f.name == "body":
-                if not _bodies_close(ja.body, jb.body, rtol, atol):
-                    return False
-            elif not np.isclose(getattr(ja, f.name), getattr(jb, f.name), rtol=rtol, atol=atol):
+        if not _bodies_close(ja.body, jb.body, rtol, atol):
+            return False
+        for name in _JOINT_SCALARS:
+            if not np.isclose(getattr(ja, name), getattr(jb, name), rtol=rtol, atol=atol):
                 return False
     for ca, cb in zip(a.constraints, b.constraints, strict=True):
         if not (

@@ -30,7 +30,9 @@ def rot_x(angle: ArrayLike) -> FloatArray:
     t = np.asarray(angle, dtype=np.float64)
     c, s = np.cos(t), np.sin(t)
     o, z = np.ones_like(t), np.zeros_like(t)
-    return np.stack([np.stack([o, z, z], -1), np.stack([z, c, -s], -1), np.stack([z, s, c], -1)], -2)
+    return np.stack(
+        [np.stack([o, z, z], -1), np.stack([z, c, -s], -1), np.stack([z, s, c], -1)], -2
+    )
 
 
 def rot_y(angle: ArrayLike) -> FloatArray:
@@ -38,7 +40,9 @@ def rot_y(angle: ArrayLike) -> FloatArray:
     t = np.asarray(angle, dtype=np.float64)
     c, s = np.cos(t), np.sin(t)
     o, z = np.ones_like(t), np.zeros_like(t)
-    return np.stack([np.stack([c, z, s], -1), np.stack([z, o, z], -1), np.stack([-s, z, c], -1)], -2)
+    return np.stack(
+        [np.stack([c, z, s], -1), np.stack([z, o, z], -1), np.stack([-s, z, c], -1)], -2
+    )
 
 
 def rot_z(angle: ArrayLike) -> FloatArray:
@@ -46,7 +50,9 @@ def rot_z(angle: ArrayLike) -> FloatArray:
     t = np.asarray(angle, dtype=np.float64)
     c, s = np.cos(t), np.sin(t)
     o, z = np.ones_like(t), np.zeros_like(t)
-    return np.stack([np.stack([c, -s, z], -1), np.stack([s, c, z], -1), np.stack([z, z, o], -1)], -2)
+    return np.stack(
+        [np.stack([c, -s, z], -1), np.stack([s, c, z], -1), np.stack([z, z, o], -1)], -2
+    )
 
 
 def rotation_from_zyx(zyx_rad: ArrayLike) -> FloatArray:

@@ -1,0 +1,200 @@
+"""``robolobe simulate``: simulated hammer-test campaigns from the twin."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Annotated
+
+import numpy as np
+import typer
+
+from robolobe.errors import InputError
+
+__all__ = ["parse_dirs", "register"]
+
+_AXES = "xyz"
+_ALL = tuple(r + e for r in _AXES for e in _AXES)
+
+
+def parse_dirs(text: str) -> tuple[str, ...]:
+    """``"xx,yy,zz"`` or ``"all"`` -> directions in array order (InputError if bad)."""
+    t = text.strip().lower()
+    if t in ("all", "*"):
+        return _ALL
+    items = [d.strip() for d in t.split(",") if d.strip()]
+    bad = [d for d in items if d not in _ALL]
+    if not items or bad:
+        raise InputError(
+            "expected 'all' or a comma list of two letters from x, y, z (response, excitation), "
+            f"e.g. xx,yy,zz; found {text!r}",
+            source="--dirs",
+        )
+    return tuple(d for d in _ALL if d in items)
+
+
+def register(app: typer.Typer) -> None:
+    """Add the ``simulate`` command to ``app``."""
+
+    @app.command("simulate")
+    def simulate(
+        robot: Annotated[str, typer.Argument(help="Robot: A, B, C or a robot .toml file.")],
+        output: Annotated[
+            Path, typer.Option("--output", "-o", help="Campaign folder to write.")
+        ],
+        postures: Annotated[
+            Path | None,
+            typer.Option(
+                "--postures", help="postures.csv (posture_id,q1_deg,...,q6_deg) to test."
+            ),
+        ] = None,
+        design: Annotated[
+            str | None,
+            typer.Option(
+                "--design",
+                help="Instead of --postures: 'seed' (the seed paper's design for A, B, C) "
+                "or 'random' (uniform within the limits; needs --n).",
+            ),
+        ] = None,
+        n: Annotated[int | None, typer.Option("--n", help="Postures for --design random.")] = None,
+        exact: Annotated[
+            bool,
+            typer.Option(
+                "--exact", help="Write the noise-free nominal receptance, not a simulated test."
+            ),
+        ] = False,
+        seed: Annotated[int, typer.Option("--seed", help="Random seed (test noise, design).")] = 0,
+        fmt: Annotated[
+            str, typer.Option("--format", help="csv (frf.csv) or uff (frf/<posture_id>.uff).")
+        ] = "csv",
+        dirs: Annotated[
+            str,
+            typer.Option("--dirs", help="Directions: 'all' (3x3) or a list like xx,yy,zz."),
+        ] = "all",
+        fmax: Annotated[
+            float, typer.Option("--fmax", help="Upper end of the written band [Hz].")
+        ] = 40.0,
+        noise: Annotated[
+            float,
+            typer.Option(
+                "--noise",
+                help="Noise level as a multiple of the default (0.2 N force, 2e-3 m/s^2 "
+                "acceleration, RMS); 0: noise-free test.",
+            ),
+        ] = 1.0,
+        impacts: Annotated[int, typer.Option("--impacts", help="Impacts per direction.")] = 5,
+        double_hits: Annotated[
+            float, typer.Option("--double-hits", help="Probability of a double hit per impact.")
+        ] = 0.0,
+    ) -> None:
+        """Simulate a hammer-test campaign of ROBOT and write it as a campaign folder.
+
+        Each posture is hit in the requested excitation directions (the
+        second letters of --dirs) with the seed paper's test (1024 Hz, 4 s,
+        0.25 Hz, 5 impacts, exponential window); the H1 receptance from 0 to
+        --fmax Hz is written. With --exact the twin's receptance itself is
+        written on the same 0.25 Hz grid.
+        """
+        from robolobe.cli._common import console, progress
+        from robolobe.robots import load_robot
+        from robolobe.twin.campaign import Campaign, read_postures, write_campaign
+        from robolobe.twin.hammer import HammerTestSettings, simulate_hammer_test
+        from robolobe.twin.model import Twin
+
+        if fmt not in ("csv", "uff"):
+            raise InputError(f"expected csv or uff, found {fmt!r}", source="--format")
+        want = parse_dirs(dirs)
+        settings = HammerTestSettings(
+            impacts=impacts,
+            force_noise_n=0.2 * noise,
+            accel_noise_m_per_s2=2e-3 * noise,
+            double_hit_probability=double_hits,
+        )
+        if not 0 < fmax <= settings.sample_rate_hz / 2:
+            raise InputError(
+                f"expected 0 < fmax <= {settings.sample_rate_hz / 2:g} Hz, found {fmax:g}",
+                source="--fmax",
+            )
+        if noise < 0:
+            raise InputError(f"expected noise >= 0, found {noise:g}", source="--noise")
+        if (postures is None) == (design is None):
+            raise InputError("give exactly one of --postures FILE and --design seed|random")
+
+        robot_model = load_robot(robot)
+        rng = np.random.default_rng(seed)
+        if postures is not None:
+            ids, q = read_postures(postures, robot=robot_model)
+            source = str(postures)
+        else:
+            from robolobe.twin.designs import design_arrays, load_seed_design, random_design
+
+            if design == "seed":
+                if robot.upper() not in ("A", "B", "C") or Path(robot).exists():
+                    raise InputError(
+                        "the seed design exists for robots A, B, C only; "
+                        "use --design random --n N",
+                        source="--design",
+                    )
+                frame = load_seed_design(robot)
+            elif design == "random":
+                if n is None or n < 1:
+                    raise InputError(f"expected --n >= 1 with --design random, found {n}")
+                frame = random_design(robot_model, n, rng)
+            else:
+                raise InputError(f"expected seed or random, found {design!r}", source="--design")
+            ids, q, _ = design_arrays(frame)
+            source = f"design {design}"
+
+        twin = Twin(robot_model)
+        excite = "".join(sorted({d[1] for d in want}, key=_AXES.index))
+        children = rng.spawn(len(ids))
+        if exact:
+            freq = np.arange(0.0, fmax + 1e-9, 0.25)
+        else:
+            full = settings.freq_hz
+            freq = full[full <= fmax + 1e-9]
+        H = np.empty((len(ids), freq.size, 3, 3), dtype=complex)
+        with progress() as bar:
+            task = bar.add_task("simulating" if not exact else "receptance", total=len(ids))
+            for i in range(len(ids)):
+                qi = q[i]
+                if exact:
+                    H[i] = twin.receptance(qi, freq)
+                else:
+                    res = simulate_hammer_test(
+                        lambda f, qi=qi: twin.receptance(qi, f),
+                        rng=children[i],
+                        settings=settings,
+                        excite=excite,
+                    )
+                    H[i] = res.H1[: freq.size]
+                bar.advance(task)
+
+        if exact:
+            notes = "exact nominal receptance of the twin (robolobe simulate --exact)"
+            test: dict[str, object] = {}
+        else:
+            notes = (
+                f"simulated hammer test (robolobe simulate, seed {seed}, noise x{noise:g}, "
+                f"double-hit probability {double_hits:g}, exponential window to "
+                f"{settings.window_end:g}, H1)"
+            )
+            test = {
+                "sample_rate_hz": settings.sample_rate_hz,
+                "duration_s": settings.duration_s,
+                "impacts": settings.impacts,
+                "window_end": settings.window_end,
+            }
+        robot_ref = robot.upper() if robot.upper() in ("A", "B", "C") and not Path(
+            robot
+        ).exists() else str(Path(robot).resolve())
+        campaign = Campaign.from_arrays(
+            robot_ref, ids, q, freq, H, dirs=want, notes=notes, test=test
+        )
+        out = write_campaign(output, campaign, fmt=fmt, copy_robot=True)  # type: ignore[arg-type]
+        console.print(
+            f"{'exact receptance' if exact else 'simulated test'}: {len(ids)} postures "
+            f"({source}), directions {','.join(want)}, {freq[0]:g}-{freq[-1]:g} Hz "
+            f"step {freq[1] - freq[0]:g} Hz -> {out} ({fmt})",
+            highlight=False,
+            soft_wrap=True,
+        )

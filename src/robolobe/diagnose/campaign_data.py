@@ -1,0 +1,222 @@
+"""From a campaign (FORMATS.md section 2) to :class:`Observations`.
+
+What the diagnosis takes from a campaign beyond the FRFs:
+
+- ``campaign.toml [test]``: ``window_end`` (value of the exponential window at
+  the end of the record, 1 = none) and ``duration_s`` (record length; default
+  ``1 / line spacing``), or directly ``window_decay_per_s``. Without them the
+  FRFs are taken as unwindowed (a quality note says so: a window would
+  otherwise look like extra damping).
+- ``postures.csv``: an optional column ``force_N``, the hammer's peak force of
+  the posture's records. Friction tests repeat a posture at several force
+  levels under different posture ids; records with the same joint angles
+  form one posture group for cross-validation.
+
+Postures with different frequency grids are interpolated (complex, linear)
+onto the grid of the first posture inside the band, with a quality warning.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+import os
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+from numpy.typing import NDArray
+
+from robolobe.diagnose.noise import roughness_sigma
+from robolobe.diagnose.observations import Observations
+from robolobe.errors import InputError
+from robolobe.modal.quality import QualityIssue, check_campaign_grids, check_posture_frfs
+from robolobe.twin.campaign import Campaign
+
+__all__ = [
+    "campaign_observations",
+    "read_force_levels",
+    "window_decay_from_test",
+]
+
+log = logging.getLogger(__name__)
+
+
+def window_decay_from_test(test: dict[str, Any], df_hz: float) -> float | None:
+    """Exponential-window decay rate [1/s] from a campaign's ``[test]`` table.
+
+    Parameters
+    ----------
+    test : dict
+        The ``[test]`` table.
+    df_hz : float
+        Line spacing of the FRFs [Hz] (record length ``1/df`` if
+        ``duration_s`` is not given).
+
+    Returns
+    -------
+    float or None
+        None if the table says nothing about a window.
+    """
+    if "window_decay_per_s" in test:
+        a = test["window_decay_per_s"]
+        if not isinstance(a, int | float) or not math.isfinite(a) or a < 0:
+            raise InputError(
+                f"expected a decay rate >= 0 1/s, found {a!r}",
+                source="campaign.toml[test.window_decay_per_s]",
+            )
+        return float(a)
+    if "window_end" not in test:
+        return None
+    we = test["window_end"]
+    if not isinstance(we, int | float) or not 0 < we <= 1:
+        raise InputError(
+            f"expected a window value in (0, 1], found {we!r}", source="campaign.toml[test.window_end]"
+        )
+    dur = test.get("duration_s", 1.0 / df_hz)
+    if not isinstance(dur, int | float) or not dur > 0:
+        raise InputError(
+            f"expected a record length > 0 s, found {dur!r}", source="campaign.toml[test.duration_s]"
+        )
+    return float(-math.log(we) / dur)
+
+
+def read_force_levels(folder: str | os.PathLike[str], posture_ids: tuple[str, ...]) -> NDArray[np.float64] | None:
+    """The optional ``force_N`` column of ``postures.csv``, in posture order.
+
+    Returns
+    -------
+    ndarray, shape (n,), or None
+        None if the column is absent.
+    """
+    path = Path(folder) / "postures.csv"
+    if not path.is_file():
+        return None
+    df = pd.read_csv(path, dtype={"posture_id": str})
+    if "force_N" not in df.columns:
+        return None
+    vals = pd.to_numeric(df["force_N"], errors="coerce")
+    bad = ~np.isfinite(vals.to_numpy(dtype=float)) | (vals.to_numpy(dtype=float) <= 0)
+    if bad.any():
+        i = int(np.argmax(bad))
+        raise InputError(
+            f"expected a peak force > 0 N in column force_N, found {df['force_N'].iloc[i]!r}",
+            source=f"postures.csv:{i + 2}",
+        )
+    by_id = dict(zip(df["posture_id"].astype(str), vals.to_numpy(dtype=float), strict=True))
+    return np.array([by_id[p] for p in posture_ids], dtype=float)
+
+
+def _groups(q_rad: NDArray[np.float64], ids: tuple[str, ...]) -> tuple[str, ...]:
+    """Posture id of the first record with the same joint angles (1e-6 rad)."""
+    key = np.round(q_rad / 1e-6).astype(np.int64)
+    first: dict[bytes, str] = {}
+    out = []
+    for i, pid in enumerate(ids):
+        k = key[i].tobytes()
+        out.append(first.setdefault(k, pid))
+    return tuple(out)
+
+
+def campaign_observations(
+    campaign: Campaign,
+    *,
+    band_hz: tuple[float, float] = (2.0, 40.0),
+    window_decay_per_s: float | None = None,
+    force_N: NDArray[np.float64] | None = None,
+    noise_floor: float = 0.01,
+) -> tuple[Observations, float, list[QualityIssue]]:
+    """Observations of a campaign on one grid in the band, with quality findings.
+
+    Parameters
+    ----------
+    campaign : Campaign
+    band_hz : (float, float)
+        Analysis band [Hz].
+    window_decay_per_s : float, optional
+        Exponential-window decay [1/s]; default from ``campaign.test``, else 0.
+    force_N : ndarray, shape (n,), optional
+        Hammer force level per posture [N].
+    noise_floor : float
+        Lower bound of the noise scale (:mod:`robolobe.diagnose.noise`).
+
+    Returns
+    -------
+    obs : Observations
+    window_decay_per_s : float
+        The decay used.
+    issues : list of QualityIssue
+        Data-quality findings (``error`` ones are left out of the data).
+    """
+    lo, hi = band_hz
+    if not (0 <= lo < hi):
+        raise InputError(f"band_hz: expected 0 <= low < high, found {band_hz}")
+    ids = campaign.posture_ids
+    issues: list[QualityIssue] = list(
+        check_campaign_grids(ids, [r.freq_hz for r in campaign.frfs])
+    )
+    ref = campaign.frfs[0].freq_hz
+    sel = (ref >= lo) & (ref <= hi)
+    f = ref[sel]
+    if f.size < 8:
+        raise InputError(
+            f"expected at least 8 frequency lines in {lo:g}..{hi:g} Hz, found {f.size} "
+            f"(posture {ids[0]!r}: {ref.size} lines {ref[0]:g}..{ref[-1]:g} Hz)",
+            source="frf",
+        )
+    H = np.full((len(ids), f.size, 3, 3), np.nan + 0j)
+    for k, (pid, rec) in enumerate(zip(ids, campaign.frfs, strict=True)):
+        found = check_posture_frfs(pid, rec.freq_hz, rec.H, band_hz=band_hz)
+        issues.extend(found)
+        h = np.array(rec.H)
+        for iss in found:
+            if iss.severity == "error":
+                if iss.dir == "*":
+                    h[:] = np.nan
+                else:
+                    h[:, "xyz".index(iss.dir[0]), "xyz".index(iss.dir[1])] = np.nan
+        if rec.freq_hz.shape == ref.shape and np.array_equal(rec.freq_hz, ref):
+            H[k] = h[sel]
+            continue
+        g = rec.freq_hz
+        inside = (f >= g[0]) & (f <= g[-1])
+        for i in range(3):
+            for j in range(3):
+                if np.all(np.isnan(h[:, i, j])):
+                    continue
+                re = np.interp(f, g, h[:, i, j].real)
+                im = np.interp(f, g, h[:, i, j].imag)
+                H[k, :, i, j] = np.where(inside, re + 1j * im, np.nan)
+    df = float(np.median(np.diff(f)))
+    decay = window_decay_per_s
+    if decay is None:
+        decay = window_decay_from_test(dict(campaign.test), df)
+        if decay is None:
+            decay = 0.0
+            issues.append(
+                QualityIssue(
+                    "*",
+                    "*",
+                    "window",
+                    "info",
+                    "campaign.toml [test] gives no window_end (or window_decay_per_s): the FRFs "
+                    "are taken as unwindowed; an exponential window would look like extra damping",
+                )
+            )
+    sigma = roughness_sigma(f, H, window_decay_per_s=decay, floor=noise_floor)
+    if force_N is not None and np.asarray(force_N).shape != (len(ids),):
+        raise InputError(f"force_N: expected {len(ids)} values, found {np.asarray(force_N).shape}")
+    obs = Observations(
+        record_ids=ids,
+        group=_groups(campaign.q_rad, ids),
+        q_rad=campaign.q_rad,
+        freq_hz=f,
+        H=H,
+        sigma=sigma,
+        force_N=force_N,
+        source="campaign",
+    )
+    if not obs.mask.any():
+        raise InputError("no usable FRF in the campaign after the quality checks", source="frf")
+    return obs, float(decay), issues

@@ -1,0 +1,332 @@
+"""The library of named candidate additions to the nominal robot model.
+
+Each candidate wraps one effect of :mod:`robolobe.twin.effects`, so the same
+physics that the twin simulates is what the diagnosis fits. A family with a
+discrete choice (which joint, which link and bending axis, which tool
+direction) becomes one candidate per choice (a *variant*); the selection
+sees every variant and the report names the family and the variant.
+
+=========================  =========================================  ==========================
+family                     fitted parameters (bounds)                 variants
+=========================  =========================================  ==========================
+``none``                   -                                          -
+``added_mass``             mass_kg (0.05..500, log)                   -
+``joint_stiffness``        factor (0.2..5, log)                       joints 1..6
+``joint_damping``          factor (0.05..20, log)                     joints 1..6
+``gravity_stiffening``     beta (0..20), tau_ref = 1e4 N m fixed      -
+``coupled_joint_stiffness``  k_coupling_Nm_per_rad (+-0.9 sqrt(k2 k3))  joints 2-3
+``base_compliance``        stiffness_Nm_per_rad (1e6..1e11, log)      -
+``tool_mode``              f_hz, zeta, mass_kg                        direction x, y, z, xyz
+``sensor_misalignment``    rx_rad, ry_rad, rz_rad (+-0.35)            -
+``sensor_delay``           delay_s (+-0.02)                           -
+``link_flexibility``       stiffness_Nm_per_rad (1e5..1e10, log)      link 1..5, axis x, y
+``friction_damping``       torque_Nm (0.1..1e4, log)                  -
+=========================  =========================================  ==========================
+
+Start grids are physical: factors around 1, masses from sensors to spindles,
+tool-mode frequencies spread log-evenly over the analysis band.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from robolobe.diagnose.candidate import NONE, Candidate, ParamSpec, Requirement
+from robolobe.errors import InputError
+from robolobe.robots import Robot
+from robolobe.twin.effects import (
+    AddedMass,
+    BaseCompliance,
+    CoupledJointStiffness,
+    FrictionDamping,
+    GravityStiffening,
+    JointDamping,
+    JointStiffness,
+    LinkFlexibility,
+    SensorDelay,
+    SensorMisalignment,
+    ToolMode,
+)
+
+__all__ = ["FAMILIES", "Untestable", "build_library"]
+
+#: Names of the candidate families, ``none`` first.
+FAMILIES: tuple[str, ...] = (
+    NONE,
+    "added_mass",
+    "joint_stiffness",
+    "joint_damping",
+    "gravity_stiffening",
+    "coupled_joint_stiffness",
+    "base_compliance",
+    "tool_mode",
+    "sensor_misalignment",
+    "sensor_delay",
+    "link_flexibility",
+    "friction_damping",
+)
+
+_AXES = "xyz"
+
+
+@dataclass(frozen=True)
+class Untestable:
+    """A candidate the data cannot test.
+
+    Parameters
+    ----------
+    name : str
+        Family name.
+    variant : str
+        Variant (empty for the whole family).
+    reason : str
+    """
+
+    name: str
+    variant: str
+    reason: str
+
+    @property
+    def label(self) -> str:
+        """``name`` or ``name[variant]``."""
+        return f"{self.name}[{self.variant}]" if self.variant else self.name
+
+
+def _p(x: NDArray[np.float64], i: int) -> float:
+    return float(x[i])
+
+
+def _family(robot: Robot, name: str, band_hz: tuple[float, float]) -> list[Candidate]:
+    """All variants of one family."""
+    lo_hz, hi_hz = band_hz
+    if name == NONE:
+        return [Candidate(NONE, (), lambda p: (), description="the nominal model as it is")]
+    if name == "added_mass":
+        return [
+            Candidate(
+                name,
+                (ParamSpec("mass_kg", 0.05, 500.0, (0.5, 2.0, 8.0, 30.0, 100.0), "log"),),
+                lambda p: (AddedMass(mass_kg=_p(p, 0)),),
+                description="an unmodelled point mass at the TCP (sensor, adapter, clamp)",
+            )
+        ]
+    if name == "joint_stiffness":
+        return [
+            Candidate(
+                name,
+                (ParamSpec("factor", 0.2, 5.0, (0.6, 0.85, 1.2, 1.7), "log", null=1.0),),
+                lambda p, j=j: (JointStiffness(joint=j, factor=_p(p, 0)),),
+                variant=f"joint {j}",
+                description=f"joint {j}'s stiffness off by a factor",
+                fixed={"joint": j},
+            )
+            for j in range(1, 7)
+        ]
+    if name == "joint_damping":
+        return [
+            Candidate(
+                name,
+                (ParamSpec("factor", 0.05, 20.0, (0.3, 0.7, 1.5, 4.0), "log", null=1.0),),
+                lambda p, j=j: (JointDamping(joint=j, factor=_p(p, 0)),),
+                variant=f"joint {j}",
+                description=f"joint {j}'s damping off by a factor",
+                fixed={"joint": j},
+            )
+            for j in range(1, 7)
+        ]
+    if name == "gravity_stiffening":
+        return [
+            Candidate(
+                name,
+                (ParamSpec("beta", 0.0, 20.0, (0.05, 0.3, 1.0, 3.0), "linear", null=0.0),),
+                lambda p: (GravityStiffening(beta=_p(p, 0)),),
+                description="joint stiffness rising with each joint's gravity torque "
+                "(k = k0 (1 + beta |tau_g| / 1e4 N m))",
+                fixed={"tau_ref_Nm": 1.0e4},
+            )
+        ]
+    if name == "coupled_joint_stiffness":
+        kmax = 0.9 * float(np.sqrt(robot.stiffness[1] * robot.stiffness[2]))
+        grid = tuple(kmax * g for g in (-0.6, -0.3, -0.1, 0.1, 0.3, 0.6))
+        return [
+            Candidate(
+                name,
+                (ParamSpec("k_coupling_Nm_per_rad", -kmax, kmax, grid, "linear", null=0.0),),
+                lambda p: (CoupledJointStiffness(k_coupling_Nm_per_rad=_p(p, 0), joints=(2, 3)),),
+                variant="joints 2-3",
+                description="a stiffness coupling joints 2 and 3 (parallelogram, balancer)",
+                fixed={"joints": (2, 3)},
+            )
+        ]
+    if name == "base_compliance":
+        return [
+            Candidate(
+                name,
+                (
+                    ParamSpec(
+                        "stiffness_Nm_per_rad", 1e6, 1e11, (3e6, 1e7, 3e7, 1e8, 1e9), "log"
+                    ),
+                ),
+                lambda p: (BaseCompliance(stiffness_Nm_per_rad=_p(p, 0)),),
+                description="an elastic base or floor (the robot rocks on a rotational spring)",
+                fixed={"mass_kg": BaseCompliance().mass_kg},
+            )
+        ]
+    if name == "tool_mode":
+        f_lo = max(1.0, 0.75 * lo_hz)
+        f_hi = min(5000.0, 1.5 * hi_hz)
+        f_grid = tuple(float(x) for x in np.geomspace(max(f_lo, 0.9 * lo_hz + 0.5), hi_hz, 12))
+        out = []
+        for d in ("x", "y", "z", "xyz"):
+            req = Requirement(
+                any_of_directions=tuple(r + e for r in _AXES for e in _AXES if d in (r, e))
+                if d != "xyz"
+                else (),
+                why=f"a tool mode along {d} shows only in FRFs involving {d}",
+            )
+            out.append(
+                Candidate(
+                    name,
+                    (
+                        ParamSpec("f_hz", f_lo, f_hi, f_grid, "log"),
+                        ParamSpec("zeta", 0.003, 0.2, (0.03,), "log"),
+                        ParamSpec("mass_kg", 0.1, 200.0, (1.0, 10.0), "log"),
+                    ),
+                    lambda p, d=d: (
+                        ToolMode(f_hz=_p(p, 0), zeta=_p(p, 1), mass_kg=_p(p, 2), direction=d),  # type: ignore[arg-type]
+                    ),
+                    variant=f"direction {d}",
+                    description=f"a local spindle/bracket/tool mode along {d}",
+                    requirement=req,
+                    fixed={"direction": d},
+                )
+            )
+        return out
+    if name == "sensor_misalignment":
+        g = (-0.1, 0.0, 0.1)
+        return [
+            Candidate(
+                name,
+                (
+                    ParamSpec("rx_rad", -0.35, 0.35, g, "linear", null=0.0),
+                    ParamSpec("ry_rad", -0.35, 0.35, g, "linear", null=0.0),
+                    ParamSpec("rz_rad", -0.35, 0.35, g, "linear", null=0.0),
+                ),
+                lambda p: (
+                    SensorMisalignment(rx_rad=_p(p, 0), ry_rad=_p(p, 1), rz_rad=_p(p, 2)),
+                ),
+                description="accelerometer axes rotated against the TCP frame",
+                requirement=Requirement(
+                    min_directions=2,
+                    why="a rotated sensor mixes response directions; one direction alone "
+                    "cannot tell a rotation from a level change",
+                ),
+            )
+        ]
+    if name == "sensor_delay":
+        return [
+            Candidate(
+                name,
+                (
+                    ParamSpec(
+                        "delay_s", -0.02, 0.02, (-0.004, -0.001, 0.001, 0.004), "linear", null=0.0
+                    ),
+                ),
+                lambda p: (SensorDelay(delay_s=_p(p, 0)),),
+                description="a delay of the response channel (phase error linear in frequency)",
+            )
+        ]
+    if name == "link_flexibility":
+        out = []
+        for link in range(1, 6):
+            for ax in ("x", "y"):
+                axis = tuple(float(ax == a) for a in _AXES)
+                out.append(
+                    Candidate(
+                        name,
+                        (
+                            ParamSpec(
+                                "stiffness_Nm_per_rad", 1e5, 1e10, (3e5, 3e6, 3e7, 3e8), "log"
+                            ),
+                        ),
+                        lambda p, link=link, axis=axis: (
+                            LinkFlexibility(link=link, stiffness_Nm_per_rad=_p(p, 0), axis=axis),
+                        ),
+                        variant=f"link {link} about {ax}",
+                        description=f"bending of link {link} about its DH-frame {ax} axis",
+                        fixed={"link": link, "axis": axis},
+                    )
+                )
+        return out
+    if name == "friction_damping":
+        return [
+            Candidate(
+                name,
+                (ParamSpec("torque_Nm", 0.1, 1e4, (3.0, 30.0, 300.0), "log"),),
+                lambda p: (FrictionDamping(torque_Nm=_p(p, 0)),),
+                description="Coulomb joint friction: damping that falls as the hammer force rises",
+                requirement=Requirement(
+                    min_force_levels=2,
+                    why="friction shows as damping that changes with the force level; at one "
+                    "level it cannot be told from viscous joint damping",
+                ),
+            )
+        ]
+    raise InputError(f"candidate: expected one of {', '.join(FAMILIES)}, found {name!r}")
+
+
+def build_library(
+    robot: Robot,
+    *,
+    directions: Sequence[str],
+    n_force_levels: int,
+    band_hz: tuple[float, float],
+    families: Sequence[str] | None = None,
+) -> tuple[list[Candidate], list[Untestable]]:
+    """The candidates the data can test, and those they cannot.
+
+    Parameters
+    ----------
+    robot : Robot
+        The nominal robot (sets the coupling bounds).
+    directions : sequence of str
+        Directions measured in the campaign.
+    n_force_levels : int
+        Distinct hammer force levels in the campaign (0 if unknown).
+    band_hz : (float, float)
+        Analysis band [Hz] (sets the tool-mode search range).
+    families : sequence of str, optional
+        Families to include (default all); ``none`` is always included.
+
+    Returns
+    -------
+    candidates : list of Candidate
+        ``none`` first.
+    untestable : list of Untestable
+    """
+    names = list(FAMILIES if families is None else dict.fromkeys([NONE, *families]))
+    for n in names:
+        if n not in FAMILIES:
+            raise InputError(f"candidate: expected one of {', '.join(FAMILIES)}, found {n!r}")
+    cands: list[Candidate] = []
+    skipped: list[Untestable] = []
+    for n in names:
+        for c in _family(robot, n, band_hz):
+            why = c.requirement.unmet(directions, n_force_levels)
+            if why is None:
+                cands.append(c)
+            else:
+                skipped.append(Untestable(c.name, c.variant, why))
+    # report a family once if none of its variants can be tested
+    fams_ok = {c.name for c in cands}
+    merged: list[Untestable] = []
+    for u in skipped:
+        if u.name in fams_ok:
+            merged.append(u)
+        elif not any(m.name == u.name and not m.variant for m in merged):
+            merged.append(Untestable(u.name, "", u.reason))
+    return cands, merged

@@ -1,0 +1,311 @@
+"""The diagnosis from end to end: locate, fit every candidate, select, explain.
+
+Usage::
+
+    from robolobe.diagnose import diagnose
+    result = diagnose("campaigns/B_2024_05")      # or a Campaign object
+    print(result.summary)                         # plain language
+    result.verdict                                # "added_mass", ..., or "none"
+
+Steps (each in its own module):
+
+1. read the campaign and the robot it names; quality checks; put the FRFs on
+   one grid in the analysis band (:mod:`~robolobe.diagnose.campaign_data`);
+   estimate the noise (:mod:`~robolobe.diagnose.noise`);
+2. nominal FRFs of every posture and the mismatch map and per-mode tables
+   (:mod:`~robolobe.diagnose.locate`);
+3. fit every testable candidate of the library (:mod:`~robolobe.diagnose.library`)
+   to all postures at once on a decimated grid (:mod:`~robolobe.diagnose.fitting`);
+4. rank by BIC, cross-validate the best over postures, name one or ``none``
+   (:mod:`~robolobe.diagnose.selection`);
+5. FRAC/NRMSE before (nominal) and after (held-out predictions of the
+   verdict), a plain-language summary, and the updated model.
+"""
+
+from __future__ import annotations
+
+import logging
+import os
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from robolobe.diagnose.campaign_data import campaign_observations, read_force_levels
+from robolobe.diagnose.fitting import CandidateFit, fit_candidate
+from robolobe.diagnose.library import Untestable, build_library
+from robolobe.diagnose.locate import MismatchMap, ModePair, mismatch_map, pair_modes, recorded_peaks
+from robolobe.diagnose.observations import Observations
+from robolobe.diagnose.residuals import FitMetrics, fit_metrics
+from robolobe.diagnose.selection import Selection, SelectionSettings, select
+from robolobe.diagnose.summary import summarize
+from robolobe.diagnose.twin_model import TwinModel
+from robolobe.errors import InputError
+from robolobe.modal.quality import QualityIssue
+from robolobe.robots import Robot, load_robot
+from robolobe.twin.campaign import Campaign, read_campaign
+from robolobe.twin.effects import Effect
+
+__all__ = ["DiagnoseSettings", "Diagnosis", "diagnose"]
+
+log = logging.getLogger(__name__)
+
+Progress = Callable[[str, int, int], None]
+
+
+@dataclass(frozen=True)
+class DiagnoseSettings:
+    """Settings of :func:`diagnose`.
+
+    Parameters
+    ----------
+    band_hz : (float, float)
+        Analysis band [Hz] (seed: 0-40 Hz; below ~2 Hz hammer tests carry
+        little information).
+    max_fit_lines : int
+        Frequency lines used by the fits (the band is decimated to this).
+    noise_floor : float
+        Lower bound of the relative noise (model-form tolerance).
+    families : tuple of str or None
+        Candidate families to test (None: all).
+    window_decay_per_s : float or None
+        Exponential-window decay of the recordings [1/s]; None: from the
+        campaign's ``[test]`` table.
+    n_starts : int
+        Local fits per candidate (from the best grid points).
+    max_nfev : int
+        Residual evaluations per local fit.
+    selection : SelectionSettings
+    """
+
+    band_hz: tuple[float, float] = (2.0, 40.0)
+    max_fit_lines: int = 160
+    noise_floor: float = 0.01
+    families: tuple[str, ...] | None = None
+    window_decay_per_s: float | None = None
+    n_starts: int = 2
+    max_nfev: int = 30
+    selection: SelectionSettings = field(default_factory=SelectionSettings)
+
+
+@dataclass(frozen=True, eq=False)
+class Diagnosis:
+    """Result of :func:`diagnose`.
+
+    Attributes
+    ----------
+    verdict : str
+        Family name of the named physics, or ``"none"``.
+    selection : Selection
+        Ranking with scores; ``selection.verdict`` is the named entry.
+    fits : tuple of CandidateFit
+        Every fitted candidate.
+    untestable : tuple of Untestable
+        Candidates the data cannot test, and why.
+    quality : tuple of QualityIssue
+        Data-quality findings.
+    mismatch : MismatchMap
+        Where the nominal model misses.
+    modes_before, modes_after : tuple of ModePair
+        Nominal and corrected modes paired with the recorded peaks.
+    fit_before, fit_after : FitMetrics
+        Nominal, and held-out predictions of the verdict.
+    obs : Observations
+        The recordings on the analysis grid.
+    H_nominal, H_after : ndarray, shape (n, n_freq, 3, 3)
+        Nominal and held-out corrected receptance.
+    robot : Robot
+    effects : tuple of Effect
+        The verdict's effects at the parameters fitted to all postures.
+    window_decay_per_s : float
+    summary : str
+        Plain-language conclusion.
+    campaign : str
+        Where the data came from.
+    elapsed_s : float
+        Wall time of the diagnosis.
+    """
+
+    verdict: str
+    selection: Selection
+    fits: tuple[CandidateFit, ...]
+    untestable: tuple[Untestable, ...]
+    quality: tuple[QualityIssue, ...]
+    mismatch: MismatchMap
+    modes_before: tuple[ModePair, ...]
+    modes_after: tuple[ModePair, ...]
+    fit_before: FitMetrics
+    fit_after: FitMetrics
+    obs: Observations
+    H_nominal: NDArray[np.complex128]
+    H_after: NDArray[np.complex128]
+    robot: Robot
+    effects: tuple[Effect, ...]
+    window_decay_per_s: float
+    summary: str
+    campaign: str
+    elapsed_s: float
+
+    @property
+    def winner(self) -> CandidateFit:
+        """Fit of the named candidate (the ``none`` fit if nothing was named)."""
+        return self.selection.verdict.fit
+
+
+def _mode_table(
+    model: TwinModel, effects: tuple[Effect, ...], obs: Observations, peaks: list[Any], band: tuple[float, float]
+) -> tuple[ModePair, ...]:
+    try:
+        modes = model.twin(effects).modes(obs.q_rad)
+    except (InputError, np.linalg.LinAlgError) as exc:
+        log.warning("modes not available: %s", exc)
+        return ()
+    rows: list[ModePair] = []
+    u = modes.tcp_shapes  # (n, 3, nd)
+    for k in range(obs.n):
+        f = modes.f_hz[k]
+        z = modes.zeta[k]
+        shp = np.abs(u[k]).T  # (nd, 3)
+        # visible modes: in the band and with a driving-point peak >= 2 % of the largest
+        meas = obs.dir_mask[k].diagonal()
+        peak = np.max(np.where(meas, shp**2, 0.0), axis=1) / np.maximum(2 * z * (2 * np.pi * f) ** 2, 1e-30)
+        vis = (f >= band[0]) & (f <= band[1]) & (peak >= 0.02 * peak.max(initial=0.0))
+        fm, zm, sm = peaks[k]
+        shp_n = np.where(meas, shp, np.nan)[vis]
+        rows.extend(
+            pair_modes(
+                obs.record_ids[k],
+                f[vis],
+                z[vis],
+                np.nan_to_num(shp_n),
+                fm,
+                zm,
+                np.nan_to_num(sm),
+            )
+        )
+    return tuple(rows)
+
+
+def diagnose(
+    campaign: Campaign | str | os.PathLike[str],
+    *,
+    robot: Robot | None = None,
+    settings: DiagnoseSettings | None = None,
+    force_N: NDArray[np.float64] | None = None,
+    progress: Progress | None = None,
+) -> Diagnosis:
+    """Diagnose the mismatch between a campaign and its nominal robot model.
+
+    Parameters
+    ----------
+    campaign : Campaign or path
+        A campaign folder (FORMATS.md section 2) or a campaign read already.
+    robot : Robot, optional
+        The nominal robot; default the one the campaign names.
+    settings : DiagnoseSettings, optional
+    force_N : ndarray, shape (n,), optional
+        Hammer force level of each posture [N]; default the ``force_N`` column
+        of ``postures.csv`` when reading a folder.
+    progress : callable, optional
+        ``progress(stage, done, total)`` for a progress display.
+
+    Returns
+    -------
+    Diagnosis
+
+    Raises
+    ------
+    InputError
+        Missing robot file, postures outside limits, unusable FRFs (naming
+        the file and what was expected).
+    """
+    t0 = time.perf_counter()
+    st = settings or DiagnoseSettings()
+    source = "<campaign>"
+    if not isinstance(campaign, Campaign):
+        source = os.fspath(campaign)
+        folder = Path(campaign)
+        camp = read_campaign(folder)
+        if force_N is None:
+            force_N = read_force_levels(folder, camp.posture_ids)
+    else:
+        camp = campaign
+    if robot is None:
+        try:
+            robot = load_robot(camp.robot)
+        except InputError as exc:
+            raise InputError(f"robot {camp.robot!r}: {exc}", source="campaign.toml[robot]") from None
+    obs, decay, issues = campaign_observations(
+        camp,
+        band_hz=st.band_hz,
+        window_decay_per_s=st.window_decay_per_s,
+        force_N=force_N,
+        noise_floor=st.noise_floor,
+    )
+    if len(obs.groups) < 2:
+        raise InputError(
+            f"expected at least 2 postures to cross-validate a diagnosis, found {len(obs.groups)}",
+            source="postures.csv",
+        )
+    model = TwinModel(robot, window_decay_per_s=decay)
+    obs_fit = obs.decimated(st.max_fit_lines)
+    H_nom = model((), obs)
+    mm = mismatch_map(H_nom, obs)
+
+    cands, untestable = build_library(
+        robot,
+        directions=obs.directions,
+        n_force_levels=obs.force_levels_N.size,
+        band_hz=(float(obs.freq_hz[0]), float(obs.freq_hz[-1])),
+        families=st.families,
+    )
+    fits: list[CandidateFit] = []
+    for i, c in enumerate(cands):
+        if progress is not None:
+            progress(f"fitting {c.label}", i, len(cands))
+        fits.append(
+            fit_candidate(c, model, obs_fit, n_starts=st.n_starts, max_nfev=st.max_nfev)
+        )
+        log.debug("%s: D/N=%.3f params=%s", c.label, fits[-1].deviance / fits[-1].n_resid, fits[-1].params)
+    if progress is not None:
+        progress("cross-validating", len(cands), len(cands))
+    sel = select(fits, model, obs_fit, obs, st.selection)
+    win = sel.verdict
+    assert win.cv is not None
+    H_after = win.cv.H
+    effects: tuple[Effect, ...] = (
+        tuple(win.fit.candidate.effects(win.fit.params)) if win.fit.candidate.n_params else ()
+    )
+    before = fit_metrics(H_nom, obs)
+    after = fit_metrics(H_after, obs)
+    peaks = recorded_peaks(obs, window_decay_per_s=decay)
+    band = (float(obs.freq_hz[0]), float(obs.freq_hz[-1]))
+    modes_before = _mode_table(model, (), obs, peaks, band)
+    modes_after = modes_before if not effects else _mode_table(model, effects, obs, peaks, band)
+    summary = summarize(sel, before, after, mm, untestable)
+    return Diagnosis(
+        verdict=sel.name,
+        selection=sel,
+        fits=tuple(fits),
+        untestable=tuple(untestable),
+        quality=tuple(issues),
+        mismatch=mm,
+        modes_before=modes_before,
+        modes_after=modes_after,
+        fit_before=before,
+        fit_after=after,
+        obs=obs,
+        H_nominal=H_nom,
+        H_after=H_after,
+        robot=robot,
+        effects=effects,
+        window_decay_per_s=decay,
+        summary=summary,
+        campaign=source,
+        elapsed_s=time.perf_counter() - t0,
+    )
+

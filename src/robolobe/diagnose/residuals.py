@@ -1,0 +1,190 @@
+"""The residual the diagnosis minimises, and the fit metrics it reports.
+
+Residual (decided here, used by every fit and score)::
+
+    r = log(H_model / H_meas) / sigma          (complex, per measured point)
+
+split into its real part (log-magnitude ratio: absolute level included) and
+imaginary part (phase difference, wrapped to (-pi, pi]), each scaled by the
+noise of ``log H_meas`` (:mod:`robolobe.diagnose.noise`). Why this form:
+
+- the robot's FRFs span decades between peaks, anti-resonances and cross
+  directions; a log ratio weighs every line by its relative error, and the
+  noise scale then says how much each line can be trusted;
+- the absolute level is kept (added mass and stiffness change it, a delay
+  or a rotated sensor does not), so the nominal model's level error counts;
+  a uniform level offset in one direction (sensor sensitivity) is reported
+  by the mismatch map and is not a candidate;
+- a frequency shift of a peak gives a bounded residual (a complex
+  difference grows with the peak height and makes fits start-dependent).
+
+Fits use a soft-L1 loss with scale ``F_SCALE`` (quadratic for residuals of a
+few noise deviations, linear beyond), so a model zero that sits a line
+away from the measured anti-resonance does not dominate a fit. The
+*deviance* ``D = sum f^2 rho((r/f)^2)`` equals ``chi^2`` for small residuals;
+information criteria use ``D`` as ``-2 log L``.
+"""
+
+from __future__ import annotations
+
+import warnings
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from robolobe.diagnose.observations import DRIVING, Observations, dir_index
+from robolobe.modal.metrics import frac, nrmse
+
+__all__ = [
+    "F_SCALE",
+    "FitMetrics",
+    "deviance",
+    "deviance_per_record",
+    "fit_metrics",
+    "log_ratio",
+    "residual_vector",
+]
+
+#: Scale of the soft-L1 loss, in noise deviations.
+F_SCALE = 3.0
+#: Bound on |log ratio| (a model FRF of zero or inf would give inf).
+_LOG_CAP = 20.0
+
+
+def log_ratio(H_model: NDArray[np.complexfloating], obs: Observations) -> NDArray[np.complex128]:
+    """``log(H_model / H_meas)`` on measured points, NaN elsewhere.
+
+    Parameters
+    ----------
+    H_model : ndarray of complex, shape (n, n_freq, 3, 3)
+        Model receptance of the records of ``obs``.
+    obs : Observations
+
+    Returns
+    -------
+    ndarray of complex, shape (n, n_freq, 3, 3)
+        Real part clipped to +-20; non-finite model values give the cap.
+    """
+    Hp = np.asarray(H_model, dtype=complex)
+    if Hp.shape != obs.H.shape:
+        raise ValueError(f"H_model: expected shape {obs.H.shape}, found {Hp.shape}")
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        lr = np.log(Hp / obs.H)
+    re = np.nan_to_num(lr.real, nan=_LOG_CAP, posinf=_LOG_CAP, neginf=-_LOG_CAP)
+    im = np.nan_to_num(lr.imag, nan=np.pi)
+    out = np.clip(re, -_LOG_CAP, _LOG_CAP) + 1j * im
+    return np.where(obs.mask, out, np.nan + 0j)
+
+
+def residual_vector(H_model: NDArray[np.complexfloating], obs: Observations) -> NDArray[np.float64]:
+    """Normalised residuals of all measured points, flattened.
+
+    Parameters
+    ----------
+    H_model : ndarray of complex, shape (n, n_freq, 3, 3)
+    obs : Observations
+
+    Returns
+    -------
+    ndarray, shape (2 m,)
+        Real parts then imaginary parts of ``log(H_model/H_meas)/sigma`` over
+        the ``m`` measured points (fixed order for a given ``obs``).
+    """
+    z = log_ratio(H_model, obs)[obs.mask] / obs.sigma[obs.mask]
+    return np.concatenate([z.real, z.imag])
+
+
+def _rho(r: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Soft-L1 deviance contribution of normalised residuals ``r``."""
+    z = (r / F_SCALE) ** 2
+    return np.asarray(F_SCALE**2 * 2.0 * (np.sqrt(1.0 + z) - 1.0))
+
+
+def deviance(r: NDArray[np.float64]) -> float:
+    """Deviance ``sum f^2 rho((r/f)^2)`` of a residual vector (``chi^2`` for small r)."""
+    return float(np.sum(_rho(np.asarray(r, dtype=float))))
+
+
+def deviance_per_record(
+    H_model: NDArray[np.complexfloating], obs: Observations
+) -> tuple[NDArray[np.float64], NDArray[np.int64]]:
+    """Deviance and number of real residuals of each record.
+
+    Returns
+    -------
+    dev : ndarray, shape (n,)
+    count : ndarray of int, shape (n,)
+    """
+    with np.errstate(invalid="ignore"):
+        z = log_ratio(H_model, obs) / obs.sigma
+    contrib = np.where(obs.mask, _rho(np.nan_to_num(z.real)) + _rho(np.nan_to_num(z.imag)), 0.0)
+    dev = contrib.sum(axis=(1, 2, 3))
+    count = 2 * obs.mask.sum(axis=(1, 2, 3))
+    return np.asarray(dev), np.asarray(count, dtype=np.int64)
+
+
+@dataclass(frozen=True)
+class FitMetrics:
+    """FRAC and NRMSE of model against measurement, per record.
+
+    Computed over the analysis band on the driving-point directions that were
+    measured (cross directions are too noisy for FRAC to reach its ceiling),
+    then averaged over directions.
+
+    Parameters
+    ----------
+    frac : ndarray, shape (n,)
+        Mean FRAC of each record.
+    nrmse : ndarray, shape (n,)
+        Mean NRMSE of each record.
+    """
+
+    frac: NDArray[np.float64]
+    nrmse: NDArray[np.float64]
+
+    @property
+    def frac_mean(self) -> float:
+        """Mean FRAC over records."""
+        return float(np.nanmean(self.frac))
+
+    @property
+    def frac_min(self) -> float:
+        """Smallest FRAC over records."""
+        return float(np.nanmin(self.frac))
+
+    @property
+    def nrmse_mean(self) -> float:
+        """Mean NRMSE over records."""
+        return float(np.nanmean(self.nrmse))
+
+
+def fit_metrics(H_model: NDArray[np.complexfloating], obs: Observations) -> FitMetrics:
+    """FRAC and NRMSE (seed eqs. 5, 6) per record on the driving points.
+
+    Parameters
+    ----------
+    H_model : ndarray of complex, shape (n, n_freq, 3, 3)
+    obs : Observations
+
+    Returns
+    -------
+    FitMetrics
+    """
+    Hp = np.asarray(H_model, dtype=complex)
+    fr = np.full((obs.n, 3), np.nan)
+    nr = np.full((obs.n, 3), np.nan)
+    for k, d in enumerate(DRIVING):
+        i, j = dir_index(d)
+        m = obs.mask[:, :, i, j]
+        ok = m.any(axis=1)
+        if not ok.any():
+            continue
+        hm = np.where(m, obs.H[:, :, i, j], 0.0)
+        hp = np.where(m, Hp[:, :, i, j], 0.0)
+        hp = np.nan_to_num(hp)
+        fr[ok, k] = frac(hp[ok], hm[ok], axis=1)
+        nr[ok, k] = nrmse(hp[ok], hm[ok], axis=1)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)  # records without driving points
+        return FitMetrics(frac=np.nanmean(fr, axis=1), nrmse=np.nanmean(nr, axis=1))

@@ -1,0 +1,227 @@
+"""Mode tracking across postures: consistent mode identities over a campaign.
+
+One triaxial sensor gives 3-component shapes, so MAC alone is ambiguous
+(REFERENCES.md section 4). Modes are paired on frequency, damping, shape and
+residue (shape amplitude) together, with an assignment step:
+
+1. Postures are linked by a minimum spanning tree of their joint-space
+   distances; the tree is walked breadth-first from the posture with the
+   most modes, so each posture is compared with a near neighbour.
+2. At each posture the modes are assigned to the tracks known at its parent
+   (the track's latest state along the path to the root, plus tracks
+   started elsewhere) by :func:`scipy.optimize.linear_sum_assignment` on
+
+       c = (ln(f_i / f_t) / f_scale)^2 + (ln(zeta_i / zeta_t) / zeta_scale)^2
+           + ((1 - MAC(u_i, u_t)) / mac_scale)^2 + (ln(|u_i| / |u_t|) / amp_scale)^2
+
+   with pairs above ``gate`` forbidden; unassigned modes start new tracks.
+
+The MAC uses signed shapes when both postures have them (full 3x3 FRF
+matrix) and shape magnitudes otherwise.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+from scipy.optimize import linear_sum_assignment
+from scipy.sparse.csgraph import breadth_first_order, minimum_spanning_tree
+from scipy.spatial.distance import cdist
+
+from robolobe.errors import InputError
+from robolobe.modal.metrics import mac
+
+__all__ = ["ModeTracks", "TrackingSettings", "posture_distances", "track_modes"]
+
+
+@dataclass(frozen=True, kw_only=True)
+class TrackingSettings:
+    """Cost scales of the assignment (each term costs 1 at its scale).
+
+    Parameters
+    ----------
+    f_scale : float
+        Relative frequency change between neighbouring postures.
+    zeta_scale : float
+        Change of ``ln zeta``.
+    mac_scale : float
+        ``1 - MAC``.
+    amp_scale : float
+        Change of the log shape amplitude (the residue scale).
+    gate : float
+        Largest admissible cost of a pair.
+    """
+
+    f_scale: float = 0.04
+    zeta_scale: float = 0.6
+    mac_scale: float = 0.25
+    amp_scale: float = 0.8
+    gate: float = 9.0
+
+    def __post_init__(self) -> None:
+        for name in ("f_scale", "zeta_scale", "mac_scale", "amp_scale", "gate"):
+            v = getattr(self, name)
+            if not (isinstance(v, int | float) and v > 0):
+                raise InputError(
+                    f"expected a positive number, found {v!r}", source=f"TrackingSettings.{name}"
+                )
+
+
+@dataclass(frozen=True)
+class ModeTracks:
+    """Track label of every mode of every posture.
+
+    Attributes
+    ----------
+    labels : tuple of ndarray of int
+        ``labels[p][i]`` is the track of mode ``i`` of posture ``p``.
+    n_tracks : int
+    order : ndarray of int, shape (n_postures,)
+        Breadth-first visiting order of the postures.
+    parent : ndarray of int, shape (n_postures,)
+        Parent of each posture in the spanning tree (-1 for the root).
+    """
+
+    labels: tuple[NDArray[np.int64], ...]
+    n_tracks: int
+    order: NDArray[np.int64]
+    parent: NDArray[np.int64]
+
+    def members(self, track: int) -> list[tuple[int, int]]:
+        """(posture index, mode index) pairs of a track."""
+        return [
+            (p, int(i)) for p, lab in enumerate(self.labels) for i in np.flatnonzero(lab == track)
+        ]
+
+    def mode_of(self, posture: int, track: int) -> int | None:
+        """Mode index of ``track`` at ``posture`` or None."""
+        hit = np.flatnonzero(self.labels[posture] == track)
+        return int(hit[0]) if hit.size else None
+
+
+def posture_distances(q_rad: ArrayLike) -> NDArray[np.float64]:
+    """Joint-space distances between postures (Euclidean, rad), shape (n, n)."""
+    q = np.asarray(q_rad, dtype=float)
+    return np.asarray(cdist(q, q), dtype=float)
+
+
+def _cost(
+    f: NDArray, z: NDArray, u: NDArray, signed: bool,
+    tf: NDArray, tz: NDArray, tu: NDArray, tsigned: NDArray,
+    s: TrackingSettings,
+) -> NDArray[np.float64]:
+    cf = (np.log(f[:, None] / tf[None, :]) / s.f_scale) ** 2
+    cz = (np.log(z[:, None] / tz[None, :]) / s.zeta_scale) ** 2
+    both = signed & tsigned[None, :]
+    a = u[:, None, :]
+    b = tu[None, :, :]
+    m_signed = mac(a, b)
+    m_abs = mac(np.abs(a), np.abs(b))
+    m = np.where(both, m_signed, m_abs)
+    cm = ((1.0 - np.nan_to_num(m, nan=0.0)) / s.mac_scale) ** 2
+    na = np.linalg.norm(u, axis=1)[:, None]
+    nb = np.linalg.norm(tu, axis=1)[None, :]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        ca = (np.log(na / nb) / s.amp_scale) ** 2
+    ca = np.nan_to_num(ca, nan=s.gate, posinf=s.gate)
+    return np.asarray(cf + cz + cm + ca, dtype=float)
+
+
+def track_modes(
+    f_hz: Sequence[ArrayLike],
+    zeta: Sequence[ArrayLike],
+    shapes: Sequence[ArrayLike],
+    signed: Sequence[bool],
+    q_rad: ArrayLike,
+    *,
+    settings: TrackingSettings | None = None,
+) -> ModeTracks:
+    """Assign the modes of all postures to tracks.
+
+    Parameters
+    ----------
+    f_hz, zeta : sequence (n_postures) of array_like, shape (n_modes_p,)
+        Natural frequencies (Hz) and damping ratios per posture.
+    shapes : sequence of array_like, shape (n_modes_p, 3)
+        TCP shapes per posture.
+    signed : sequence of bool
+        Whether a posture's shapes carry signs.
+    q_rad : array_like, shape (n_postures, 6)
+        Joint angles, rad.
+    settings : TrackingSettings, optional
+
+    Returns
+    -------
+    ModeTracks
+    """
+    s = settings if settings is not None else TrackingSettings()
+    n = len(f_hz)
+    q = np.asarray(q_rad, dtype=float)
+    if q.shape[0] != n or not (len(zeta) == len(shapes) == len(signed) == n):
+        raise InputError(
+            f"expected {n} postures in every argument, found q_rad {q.shape}",
+            source="track_modes",
+        )
+    F = [np.asarray(x, dtype=float).reshape(-1) for x in f_hz]
+    Z = [np.clip(np.asarray(x, dtype=float).reshape(-1), 1e-6, None) for x in zeta]
+    U = [np.asarray(x, dtype=float).reshape(-1, 3) for x in shapes]
+    labels = [np.full(x.size, -1, dtype=np.int64) for x in F]
+    parent = np.full(n, -1, dtype=np.int64)
+    if n == 0:
+        return ModeTracks((), 0, np.zeros(0, np.int64), parent)
+    d = posture_distances(q)
+    # tiny offset so that identical postures stay connected
+    tree = minimum_spanning_tree(d + 1e-9 * (1 - np.eye(n)))
+    sym = tree + tree.T
+    root = int(np.argmax([x.size for x in F]))
+    order_list: list[int] = []
+    seen = np.zeros(n, bool)
+    # walk every connected component (identical postures form one tree anyway)
+    for start in [root, *range(n)]:
+        if seen[start]:
+            continue
+        ords, preds = breadth_first_order(sym, start, directed=False, return_predecessors=True)
+        for p in ords:
+            if not seen[p]:
+                seen[p] = True
+                order_list.append(int(p))
+                parent[p] = preds[p] if preds[p] >= 0 else -1
+    order = np.asarray(order_list, dtype=np.int64)
+
+    # track state: f, zeta, u, signed; per posture a dict track -> state source (posture, mode)
+    state: dict[int, dict[int, tuple[int, int]]] = {}
+    latest: dict[int, tuple[int, int]] = {}  # global most recent occurrence of each track
+    n_tracks = 0
+    for p in order:
+        par = int(parent[p])
+        known = dict(state[par]) if par >= 0 else {}
+        for t, src in latest.items():
+            known.setdefault(t, src)
+        tracks = sorted(known)
+        if F[p].size and tracks:
+            tf = np.array([F[known[t][0]][known[t][1]] for t in tracks])
+            tz = np.array([Z[known[t][0]][known[t][1]] for t in tracks])
+            tu = np.array([U[known[t][0]][known[t][1]] for t in tracks]).reshape(-1, 3)
+            ts = np.array([bool(signed[known[t][0]]) for t in tracks])
+            # tracks seen on the path to the root are preferred over ones from elsewhere
+            local = np.array([par >= 0 and t in state[par] for t in tracks])
+            c = _cost(F[p], Z[p], U[p], bool(signed[p]), tf, tz, tu, ts, s)
+            c = c + np.where(local, 0.0, 1.0)[None, :]
+            big = 1e6
+            cc = np.where(c <= s.gate, c, big)
+            rows, cols = linear_sum_assignment(cc)
+            for r, col in zip(rows, cols, strict=True):
+                if cc[r, col] < big:
+                    labels[p][r] = tracks[col]
+        for i in np.flatnonzero(labels[p] < 0):
+            labels[p][i] = n_tracks
+            n_tracks += 1
+        st = dict(state[par]) if par >= 0 else {}
+        for i, t in enumerate(labels[p]):
+            st[int(t)] = (int(p), i)
+            latest[int(t)] = (int(p), i)
+        state[int(p)] = st
+    return ModeTracks(tuple(labels), n_tracks, order, parent)

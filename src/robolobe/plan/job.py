@@ -1,0 +1,801 @@
+"""Job files (``format = "robolobe-job/1"``): what to cut, with what, on which robot.
+
+A job file is TOML with the unit in every key name. :func:`load_job` reads
+and validates it (pydantic at the file edge) and returns a :class:`Job` in SI
+units and radians. Every problem raises :class:`~robolobe.errors.InputError`
+naming the file and the key, e.g. ``job.toml: spindle.power_kW: expected a
+positive number, found -3``. Unknown keys are allowed; those that look like a
+typo of a known key are logged as warnings. Relative file names inside a job
+(robot file, model file) are taken relative to the job file.
+
+Example (all keys; defaults shown where a key is optional)::
+
+    format = "robolobe-job/1"
+    name = "pocket in 7075"
+
+    [robot]
+    name = "A"                   # "A" | "B" | "C" | path of a robot TOML
+    model = "builtin"            # "builtin" (shipped tl model) | "twin" | path
+    tool_rotation_deg = 0.0      # rotation of the TCP x axis about the tool axis
+    tool_rotation = "fixed"      # "fixed" | "stiffest" (search the range below)
+    tool_rotation_range_deg = [-90.0, 90.0]
+    tool_rotation_step_deg = 30.0
+
+    [placement]                  # workpiece (path) frame in the robot base frame
+    xyz_m = [1.6, 0.0, 0.2]
+    zyx_deg = [0.0, 0.0, 0.0]    # R = Rz(a) Ry(b) Rx(c)
+
+    [tool]
+    diameter_mm = 20.0
+    teeth = 3
+    helix_deg = 30.0
+    stickout_mm = 60.0
+    [[tool.modes]]               # spindle/holder/tool modes, TCP frame
+    dir = "xy"                   # "x" | "y" | "xy" (both, symmetric spindle)
+    f_hz = 1900.0
+    zeta = 0.03
+    k_N_per_m = 2.5e7
+
+    [material]
+    name = "Al7075-T6"           # from the built-in table, or give the coefficients:
+    # Kt_N_per_mm2 = 767.0       # tangential cutting coefficient
+    # Kr = 0.22                  # radial / tangential (or Kn_N_per_mm2)
+
+    [cut]
+    radial_width_mm = 10.0       # or immersion = 0.5 (a_e / D)
+    milling = "down"             # "down" | "up"
+    feed_per_tooth_mm = 0.1
+    max_feed_mm_per_min = 20000  # optional cap on the feed rate (robot path speed)
+    rapid_feed_mm_per_min = 30000
+    programmed_rpm = 18000       # optional: used where the path has no S word
+
+    [spindle]
+    rpm_min = 6000
+    rpm_max = 24000
+    power_kW = 15.0
+    torque_Nm = 12.0
+
+    [plan]
+    safety_factor = 1.3          # depth <= a_lim / safety_factor
+    depth_min_mm = 0.1
+    depth_max_mm = 10.0
+    speed = "scheduled"          # "scheduled" | "constant"
+    max_rate_rpm_per_s = 2000    # or max_rate_rpm_per_mm (at most one; none: free)
+    robust = false               # plan on the lower bound of the prediction spread
+    k_sigma = 2.0
+    n_rpm = 300                  # speed grid of the lobes
+"""
+
+from __future__ import annotations
+
+import difflib
+import logging
+import math
+import os
+import re
+import tomllib
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Annotated, Any, Literal
+
+import numpy as np
+import tomli_w
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
+
+from robolobe.errors import InputError
+from robolobe.robots.transforms import pose_from_xyz_zyx, xyz_zyx_from_pose
+
+__all__ = [
+    "FORMAT",
+    "CutSpec",
+    "Job",
+    "MaterialSpec",
+    "PlanSpec",
+    "SpindleSpec",
+    "ToolMode",
+    "ToolSpec",
+    "job_from_dict",
+    "job_to_dict",
+    "job_to_toml",
+    "load_job",
+]
+
+logger = logging.getLogger(__name__)
+
+FORMAT = "robolobe-job/1"
+
+# ------------------------------------------------------------------ schema
+Num = Annotated[float, Field(allow_inf_nan=False, strict=True)]
+PosNum = Annotated[float, Field(gt=0, allow_inf_nan=False, strict=True)]
+NonNegNum = Annotated[float, Field(ge=0, allow_inf_nan=False, strict=True)]
+Vec3 = Annotated[list[Num], Field(min_length=3, max_length=3)]
+
+
+class _Spec(BaseModel):
+    model_config = ConfigDict(extra="allow", strict=True)
+
+
+class _RobotSpec(_Spec):
+    name: Annotated[str, Field(min_length=1)]
+    model: Annotated[str, Field(min_length=1)] = "builtin"
+    tool_rotation_deg: Num = 0.0
+    tool_rotation: Literal["fixed", "stiffest"] = "fixed"
+    tool_rotation_range_deg: Annotated[list[Num], Field(min_length=2, max_length=2)] = Field(
+        default_factory=lambda: [-90.0, 90.0]
+    )
+    tool_rotation_step_deg: PosNum = 30.0
+
+    @model_validator(mode="after")
+    def _range(self) -> _RobotSpec:
+        lo, hi = self.tool_rotation_range_deg
+        if hi < lo:
+            raise ValueError(
+                f"tool_rotation_range_deg: expected [low, high] with low <= high, found {[lo, hi]}"
+            )
+        return self
+
+
+class _PlacementSpec(_Spec):
+    xyz_m: Vec3 = Field(default_factory=lambda: [0.0, 0.0, 0.0])
+    zyx_deg: Vec3 = Field(default_factory=lambda: [0.0, 0.0, 0.0])
+
+
+class _ModeSpec(_Spec):
+    dir: Literal["x", "y", "xy"]
+    f_hz: PosNum
+    zeta: Annotated[float, Field(gt=0, lt=1, allow_inf_nan=False, strict=True)]
+    k_N_per_m: PosNum
+
+
+class _ToolSpec(_Spec):
+    diameter_mm: PosNum
+    teeth: Annotated[int, Field(ge=1, le=64, strict=True)]
+    helix_deg: Annotated[float, Field(ge=0, lt=90, allow_inf_nan=False, strict=True)] = 30.0
+    stickout_mm: PosNum = 50.0
+    modes: list[_ModeSpec] = Field(default_factory=list)
+
+
+class _MaterialSpec(_Spec):
+    name: Annotated[str, Field(min_length=1)] | None = None
+    Kt_N_per_mm2: PosNum | None = None
+    Kr: Annotated[float, Field(ge=0, le=5, allow_inf_nan=False, strict=True)] | None = None
+    Kn_N_per_mm2: NonNegNum | None = None
+
+    @model_validator(mode="after")
+    def _either(self) -> _MaterialSpec:
+        if self.Kr is not None and self.Kn_N_per_mm2 is not None:
+            raise ValueError("give Kr or Kn_N_per_mm2, not both")
+        if self.name is None and self.Kt_N_per_mm2 is None:
+            raise ValueError("expected name (built-in table) or Kt_N_per_mm2, found neither")
+        if self.Kt_N_per_mm2 is not None and self.Kr is None and self.Kn_N_per_mm2 is None:
+            raise ValueError("Kt_N_per_mm2 given without Kr or Kn_N_per_mm2")
+        return self
+
+
+class _CutSpec(_Spec):
+    radial_width_mm: PosNum | None = None
+    immersion: Annotated[float, Field(gt=0, le=1, allow_inf_nan=False, strict=True)] | None = None
+    milling: Literal["down", "up"] = "down"
+    feed_per_tooth_mm: PosNum
+    max_feed_mm_per_min: PosNum | None = None
+    rapid_feed_mm_per_min: PosNum = 30000.0
+    programmed_rpm: PosNum | None = None
+
+    @model_validator(mode="after")
+    def _width(self) -> _CutSpec:
+        if (self.radial_width_mm is None) == (self.immersion is None):
+            raise ValueError("expected exactly one of radial_width_mm and immersion")
+        return self
+
+
+class _SpindleSpec(_Spec):
+    rpm_min: PosNum
+    rpm_max: PosNum
+    power_kW: PosNum
+    torque_Nm: PosNum
+
+    @model_validator(mode="after")
+    def _range(self) -> _SpindleSpec:
+        if self.rpm_max <= self.rpm_min:
+            raise ValueError(
+                f"expected rpm_min < rpm_max, found rpm_min = {self.rpm_min:g}, "
+                f"rpm_max = {self.rpm_max:g}"
+            )
+        return self
+
+
+class _PlanSpec(_Spec):
+    safety_factor: Annotated[float, Field(ge=1, allow_inf_nan=False, strict=True)] = 1.3
+    depth_min_mm: PosNum = 0.1
+    depth_max_mm: PosNum = 10.0
+    speed: Literal["scheduled", "constant"] = "scheduled"
+    max_rate_rpm_per_s: PosNum | None = None
+    max_rate_rpm_per_mm: PosNum | None = None
+    robust: bool = False
+    k_sigma: NonNegNum = 2.0
+    n_rpm: Annotated[int, Field(ge=16, le=5000, strict=True)] = 300
+
+    @model_validator(mode="after")
+    def _checks(self) -> _PlanSpec:
+        if self.max_rate_rpm_per_s is not None and self.max_rate_rpm_per_mm is not None:
+            raise ValueError("give max_rate_rpm_per_s or max_rate_rpm_per_mm, not both")
+        if self.depth_max_mm < self.depth_min_mm:
+            raise ValueError(
+                f"expected depth_min_mm <= depth_max_mm, found {self.depth_min_mm:g} > "
+                f"{self.depth_max_mm:g}"
+            )
+        return self
+
+
+class _JobSpec(_Spec):
+    format: Literal["robolobe-job/1"]
+    name: str = ""
+    robot: _RobotSpec
+    placement: _PlacementSpec = Field(default_factory=_PlacementSpec)
+    tool: _ToolSpec
+    material: _MaterialSpec
+    cut: _CutSpec
+    spindle: _SpindleSpec
+    plan: _PlanSpec = Field(default_factory=_PlanSpec)
+
+
+_KNOWN_KEYS: dict[str, set[str]] = {
+    "": set(_JobSpec.model_fields),
+    "robot": set(_RobotSpec.model_fields),
+    "placement": set(_PlacementSpec.model_fields),
+    "tool": set(_ToolSpec.model_fields),
+    "tool.modes": set(_ModeSpec.model_fields),
+    "material": set(_MaterialSpec.model_fields),
+    "cut": set(_CutSpec.model_fields),
+    "spindle": set(_SpindleSpec.model_fields),
+    "plan": set(_PlanSpec.model_fields),
+}
+
+
+# ------------------------------------------------------------ SI model
+@dataclass(frozen=True)
+class ToolMode:
+    """One spindle/holder/tool mode at the tool tip, in the TCP frame.
+
+    Parameters
+    ----------
+    direction : {"x", "y"}
+        TCP axis of the driving-point FRF it adds to.
+    f_hz : float
+        Natural frequency [Hz].
+    zeta : float
+        Damping ratio (fraction).
+    k_N_per_m : float
+        Modal stiffness [N/m].
+    """
+
+    direction: Literal["x", "y"]
+    f_hz: float
+    zeta: float
+    k_N_per_m: float
+
+
+@dataclass(frozen=True)
+class ToolSpec:
+    """Cutter geometry and its modes.
+
+    Parameters
+    ----------
+    diameter_m : float
+        Cutter diameter [m].
+    teeth : int
+        Number of flutes.
+    helix_rad : float
+        Helix angle [rad].
+    stickout_m : float
+        Stick-out [m] (informative; the modes carry the dynamics).
+    modes : tuple of ToolMode
+        Spindle/holder/tool modes added to the robot's tool-point FRF.
+    """
+
+    diameter_m: float
+    teeth: int
+    helix_rad: float = math.radians(30.0)
+    stickout_m: float = 0.05
+    modes: tuple[ToolMode, ...] = ()
+
+
+@dataclass(frozen=True)
+class MaterialSpec:
+    """Work material: a name from the sld table and/or cutting coefficients.
+
+    Parameters
+    ----------
+    name : str or None
+        Name in the built-in material table of :mod:`robolobe.sld`.
+    Kt_N_per_m2, Kn_N_per_m2 : float or None
+        Tangential and normal (radial) cutting coefficients [N/m^2]; when
+        None they come from the table entry ``name``.
+    """
+
+    name: str | None = None
+    Kt_N_per_m2: float | None = None
+    Kn_N_per_m2: float | None = None
+
+
+@dataclass(frozen=True)
+class CutSpec:
+    """Cutting conditions that stay fixed along the path.
+
+    Parameters
+    ----------
+    radial_width_m : float
+        Radial width of cut a_e [m].
+    milling : {"down", "up"}
+        Down (climb) or up (conventional) milling.
+    feed_per_tooth_m : float
+        Feed per tooth f_z [m]; the feed rate is ``f_z * teeth * rpm / 60``.
+    max_feed_m_per_s : float or None
+        Cap on the feed rate [m/s] (robot path speed), or None.
+    rapid_feed_m_per_s : float
+        Speed of rapid moves [m/s], for the cycle time.
+    programmed_rpm : float or None
+        Spindle speed [rpm] used where the path programs none.
+    """
+
+    radial_width_m: float
+    milling: Literal["down", "up"] = "down"
+    feed_per_tooth_m: float = 1e-4
+    max_feed_m_per_s: float | None = None
+    rapid_feed_m_per_s: float = 0.5
+    programmed_rpm: float | None = None
+
+
+@dataclass(frozen=True)
+class SpindleSpec:
+    """Spindle limits.
+
+    Parameters
+    ----------
+    rpm_min, rpm_max : float
+        Speed range [rpm].
+    power_W : float
+        Maximum cutting power [W].
+    torque_Nm : float
+        Maximum torque [N m].
+    """
+
+    rpm_min: float
+    rpm_max: float
+    power_W: float
+    torque_Nm: float
+
+
+@dataclass(frozen=True)
+class PlanSpec:
+    """What the planner may vary and how carefully.
+
+    Parameters
+    ----------
+    safety_factor : float
+        Depth <= a_lim / safety_factor (>= 1).
+    depth_min_m, depth_max_m : float
+        Bounds on the axial depth per pass [m].
+    speed : {"scheduled", "constant"}
+        Speed scheduled along the path, or one speed for the whole path.
+    max_rate_rpm_per_s, max_rate_rpm_per_m : float or None
+        Maximum rate of change of the speed [rpm/s] or [rpm/m] (at most one).
+    robust : bool
+        Plan on the lower bound of the prediction spread.
+    k_sigma : float
+        Width of that lower bound in standard deviations.
+    n_rpm : int
+        Number of points of the speed grid.
+    """
+
+    safety_factor: float = 1.3
+    depth_min_m: float = 1e-4
+    depth_max_m: float = 0.01
+    speed: Literal["scheduled", "constant"] = "scheduled"
+    max_rate_rpm_per_s: float | None = None
+    max_rate_rpm_per_m: float | None = None
+    robust: bool = False
+    k_sigma: float = 2.0
+    n_rpm: int = 300
+
+
+@dataclass(frozen=True, eq=False)
+class Job:
+    """A milling job in SI units (see the module docstring for the file).
+
+    Parameters
+    ----------
+    robot : str
+        ``"A"``, ``"B"``, ``"C"`` or the (absolute) path of a robot file.
+    model : str
+        ``"builtin"``, ``"twin"`` or the (absolute) path of a tl model file.
+    placement : ndarray, shape (4, 4)
+        Pose of the workpiece (path) frame in the robot base frame.
+    tool, material, cut, spindle, plan : see their classes.
+    tool_rotation_rad : float
+        Rotation [rad] of the TCP x axis about the tool axis (added to the
+        orientation the path gives, or to the default reference direction).
+    tool_rotation : {"fixed", "stiffest"}
+        Keep ``tool_rotation_rad`` or search ``tool_rotation_range_rad`` in
+        steps of ``tool_rotation_step_rad`` for the stiffest choice.
+    name, source : str
+        Free text; the file the job came from.
+    """
+
+    robot: str
+    tool: ToolSpec
+    material: MaterialSpec
+    cut: CutSpec
+    spindle: SpindleSpec
+    plan: PlanSpec = field(default_factory=PlanSpec)
+    model: str = "builtin"
+    placement: np.ndarray = field(default_factory=lambda: np.eye(4))
+    tool_rotation_rad: float = 0.0
+    tool_rotation: Literal["fixed", "stiffest"] = "fixed"
+    tool_rotation_range_rad: tuple[float, float] = (-math.pi / 2, math.pi / 2)
+    tool_rotation_step_rad: float = math.radians(30.0)
+    name: str = ""
+    source: str = "<code>"
+
+    def __post_init__(self) -> None:
+        p = np.array(self.placement, dtype=np.float64)
+        if p.shape != (4, 4) or not np.all(np.isfinite(p)):
+            raise ValueError(f"placement: expected a finite 4x4 pose, found shape {p.shape}")
+        p.setflags(write=False)
+        object.__setattr__(self, "placement", p)
+
+    @property
+    def radial_immersion(self) -> float:
+        """a_e / D (dimensionless)."""
+        return self.cut.radial_width_m / self.tool.diameter_m
+
+    def replace(self, **changes: Any) -> Job:
+        """Copy with fields replaced (:func:`dataclasses.replace`)."""
+        import dataclasses
+
+        return dataclasses.replace(self, **changes)
+
+
+# ------------------------------------------------------------ key paths
+def _key_path(loc: tuple[int | str, ...]) -> str:
+    out = ""
+    for part in loc:
+        if isinstance(part, int):
+            out += f"[{part + 1}]"
+        elif part.startswith("function-") or part in ("literal", "float", "int", "str"):
+            continue  # pydantic union branch names
+        else:
+            out += ("." if out else "") + str(part)
+    return out or "<file>"
+
+
+def _found(value: Any) -> str:
+    if isinstance(value, dict):
+        return "a table"
+    if isinstance(value, list):
+        return f"an array of {len(value)}"
+    if isinstance(value, str):
+        return repr(value)
+    if isinstance(value, bool):
+        return str(value).lower()
+    if isinstance(value, float) and value.is_integer() and abs(value) < 1e15:
+        return str(int(value))
+    return str(value)
+
+
+def _describe(err: Any) -> str:
+    kind = err["type"]
+    ctx = err.get("ctx") or {}
+    inp = err.get("input")
+    if kind == "missing":
+        return "missing required key"
+    if kind in ("float_type", "float_parsing"):
+        expected = "a number"
+    elif kind in ("int_type", "int_parsing", "int_from_float"):
+        expected = "an integer"
+    elif kind in ("bool_type", "bool_parsing"):
+        expected = "true or false"
+    elif kind == "finite_number":
+        expected = "a finite number"
+    elif kind == "greater_than":
+        expected = "a positive number" if ctx.get("gt") == 0 else f"a number > {ctx.get('gt')}"
+    elif kind == "greater_than_equal":
+        ge = ctx.get("ge")
+        expected = "a non-negative number" if ge == 0 else f"a number >= {ge}"
+    elif kind in ("less_than", "less_than_equal"):
+        bound = ctx.get("lt", ctx.get("le"))
+        expected = f"a number {'<' if kind == 'less_than' else '<='} {bound}"
+    elif kind in ("too_short", "too_long"):
+        n = ctx.get("min_length") if kind == "too_short" else ctx.get("max_length")
+        if isinstance(inp, list):
+            return f"expected {n} entries, found {len(inp)}"
+        expected = f"{n} entries"
+    elif kind == "literal_error":
+        expected = f"one of {ctx.get('expected')}"
+    elif kind == "list_type":
+        expected = "an array"
+    elif kind in ("model_type", "dict_type", "model_attributes_type"):
+        expected = "a table"
+    elif kind in ("string_type", "string_too_short"):
+        expected = "a non-empty string"
+    elif kind == "value_error":
+        msg = str(err.get("msg", ""))
+        return msg.removeprefix("Value error, ")
+    else:
+        return str(err.get("msg", kind))
+    return f"expected {expected}, found {_found(inp)}"
+
+
+def _warn_typos(raw: dict[str, Any], where: str) -> None:
+    def check(table: Any, level: str, path: str) -> None:
+        if not isinstance(table, dict):
+            return
+        known = _KNOWN_KEYS[level]
+        for key in table:
+            if key in known:
+                continue
+            close = difflib.get_close_matches(key, sorted(known), n=1, cutoff=0.75)
+            if close:
+                logger.warning(
+                    "%s: unknown key %s%s ignored; did you mean %r?", where, path, key, close[0]
+                )
+
+    check(raw, "", "")
+    for sec in ("robot", "placement", "tool", "material", "cut", "spindle", "plan"):
+        check(raw.get(sec), sec, f"{sec}.")
+    tool = raw.get("tool")
+    if isinstance(tool, dict) and isinstance(tool.get("modes"), list):
+        for i, m in enumerate(tool["modes"]):
+            check(m, "tool.modes", f"tool.modes[{i + 1}].")
+
+
+# ---------------------------------------------------------------- build
+def _resolve_file(value: str, base_dir: Path | None) -> str:
+    p = Path(value)
+    if not p.is_absolute() and base_dir is not None:
+        p = base_dir / p
+    return str(p)
+
+
+def job_from_dict(d: dict[str, Any], source: str = "<dict>", base_dir: Path | None = None) -> Job:
+    """Validate a parsed job file and build a :class:`Job`.
+
+    Parameters
+    ----------
+    d : dict
+        Parsed TOML.
+    source : str
+        Name used in error messages (the file name).
+    base_dir : Path, optional
+        Directory that relative file names (robot, model) are relative to.
+
+    Raises
+    ------
+    InputError
+        Naming ``source`` and the key.
+    """
+    where = Path(source).name if source not in ("<dict>", "<code>") else source
+    try:
+        spec = _JobSpec.model_validate(d)
+    except ValidationError as exc:
+        err = exc.errors()[0]
+        key = _key_path(tuple(err["loc"]))
+        raise InputError(f"{key}: {_describe(err)}", source=where) from None
+    _warn_typos(d, where)
+
+    r = spec.robot
+    robot = r.name
+    if robot.upper() in ("A", "B", "C") and not (base_dir and (base_dir / robot).exists()):
+        robot = robot.upper()
+    else:
+        robot = _resolve_file(robot, base_dir)
+        if not Path(robot).is_file():
+            raise InputError(
+                f"robot.name: expected 'A', 'B', 'C' or a robot file, found {r.name!r} "
+                "(no such file)",
+                source=where,
+            )
+    model = r.model
+    if model not in ("builtin", "twin"):
+        model = _resolve_file(model, base_dir)
+        if not Path(model).exists():
+            raise InputError(
+                f"robot.model: expected 'builtin', 'twin' or a model file, found {r.model!r} "
+                "(no such file)",
+                source=where,
+            )
+
+    t = spec.tool
+    modes: list[ToolMode] = []
+    for m in t.modes:
+        dirs: tuple[Literal["x", "y"], ...] = ("x", "y") if m.dir == "xy" else (m.dir,)  # type: ignore[assignment]
+        modes.extend(ToolMode(di, m.f_hz, m.zeta, m.k_N_per_m) for di in dirs)
+    tool = ToolSpec(
+        diameter_m=t.diameter_mm * 1e-3,
+        teeth=t.teeth,
+        helix_rad=math.radians(t.helix_deg),
+        stickout_m=t.stickout_mm * 1e-3,
+        modes=tuple(modes),
+    )
+
+    mt = spec.material
+    kt = mt.Kt_N_per_mm2 * 1e6 if mt.Kt_N_per_mm2 is not None else None
+    kn: float | None = None
+    if kt is not None:
+        kn = mt.Kn_N_per_mm2 * 1e6 if mt.Kn_N_per_mm2 is not None else kt * float(mt.Kr or 0.0)
+    material = MaterialSpec(name=mt.name, Kt_N_per_m2=kt, Kn_N_per_m2=kn)
+
+    c = spec.cut
+    width = c.radial_width_mm * 1e-3 if c.radial_width_mm is not None else None
+    if width is None:
+        width = float(c.immersion or 0.0) * tool.diameter_m
+    if width > tool.diameter_m * (1 + 1e-9):
+        raise InputError(
+            f"cut.radial_width_mm: expected at most the tool diameter {t.diameter_mm:g}, "
+            f"found {c.radial_width_mm:g}",
+            source=where,
+        )
+    cut = CutSpec(
+        radial_width_m=min(width, tool.diameter_m),
+        milling=c.milling,
+        feed_per_tooth_m=c.feed_per_tooth_mm * 1e-3,
+        max_feed_m_per_s=c.max_feed_mm_per_min * 1e-3 / 60 if c.max_feed_mm_per_min else None,
+        rapid_feed_m_per_s=c.rapid_feed_mm_per_min * 1e-3 / 60,
+        programmed_rpm=c.programmed_rpm,
+    )
+    s = spec.spindle
+    spindle = SpindleSpec(s.rpm_min, s.rpm_max, s.power_kW * 1e3, s.torque_Nm)
+    p = spec.plan
+    plan = PlanSpec(
+        safety_factor=p.safety_factor,
+        depth_min_m=p.depth_min_mm * 1e-3,
+        depth_max_m=p.depth_max_mm * 1e-3,
+        speed=p.speed,
+        max_rate_rpm_per_s=p.max_rate_rpm_per_s,
+        max_rate_rpm_per_m=p.max_rate_rpm_per_mm * 1e3 if p.max_rate_rpm_per_mm else None,
+        robust=p.robust,
+        k_sigma=p.k_sigma,
+        n_rpm=p.n_rpm,
+    )
+    pl = spec.placement
+    placement = pose_from_xyz_zyx(pl.xyz_m, np.radians(pl.zyx_deg))
+    lo, hi = r.tool_rotation_range_deg
+    return Job(
+        robot=robot,
+        model=model,
+        placement=placement,
+        tool=tool,
+        material=material,
+        cut=cut,
+        spindle=spindle,
+        plan=plan,
+        tool_rotation_rad=math.radians(r.tool_rotation_deg),
+        tool_rotation=r.tool_rotation,
+        tool_rotation_range_rad=(math.radians(lo), math.radians(hi)),
+        tool_rotation_step_rad=math.radians(r.tool_rotation_step_deg),
+        name=spec.name,
+        source=source,
+    )
+
+
+def load_job(path: str | os.PathLike[str]) -> Job:
+    """Read and validate a job file.
+
+    Parameters
+    ----------
+    path : path-like
+        TOML file with ``format = "robolobe-job/1"``.
+
+    Returns
+    -------
+    Job
+
+    Raises
+    ------
+    InputError
+        Unreadable file, TOML syntax error (with its line) or invalid content
+        (naming the key).
+    """
+    p = Path(path)
+    where = p.name
+    if not p.is_file():
+        raise InputError("expected a job file (TOML), found no such file", source=str(p))
+    try:
+        text = p.read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError) as exc:
+        raise InputError(f"cannot read the file: {exc}", source=where) from None
+    try:
+        raw = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        msg = str(exc)
+        m = re.search(r"line (\d+)", msg)
+        raise InputError(
+            f"TOML syntax error: {msg}", source=f"{where}:{m.group(1)}" if m else where
+        ) from None
+    return job_from_dict(raw, source=str(p), base_dir=p.resolve().parent)
+
+
+# --------------------------------------------------------------- writing
+def _clean(x: float) -> float | int:
+    v = float(x)
+    r = round(v, 10)
+    return int(r) if r.is_integer() and abs(r) < 1e15 else r
+
+
+def job_to_dict(job: Job) -> dict[str, Any]:
+    """The job as a TOML-ready dict in file units (inverse of :func:`job_from_dict`)."""
+    xyz, zyx = xyz_zyx_from_pose(job.placement)
+    modes: list[dict[str, Any]] = [
+        {"dir": m.direction, "f_hz": m.f_hz, "zeta": m.zeta, "k_N_per_m": m.k_N_per_m}
+        for m in job.tool.modes
+    ]
+    mat: dict[str, Any] = {}
+    if job.material.name is not None:
+        mat["name"] = job.material.name
+    if job.material.Kt_N_per_m2 is not None:
+        mat["Kt_N_per_mm2"] = _clean(job.material.Kt_N_per_m2 * 1e-6)
+        mat["Kn_N_per_mm2"] = _clean((job.material.Kn_N_per_m2 or 0.0) * 1e-6)
+    cut: dict[str, Any] = {
+        "radial_width_mm": _clean(job.cut.radial_width_m * 1e3),
+        "milling": job.cut.milling,
+        "feed_per_tooth_mm": _clean(job.cut.feed_per_tooth_m * 1e3),
+        "rapid_feed_mm_per_min": _clean(job.cut.rapid_feed_m_per_s * 6e4),
+    }
+    if job.cut.max_feed_m_per_s is not None:
+        cut["max_feed_mm_per_min"] = _clean(job.cut.max_feed_m_per_s * 6e4)
+    if job.cut.programmed_rpm is not None:
+        cut["programmed_rpm"] = _clean(job.cut.programmed_rpm)
+    pl = job.plan
+    plan: dict[str, Any] = {
+        "safety_factor": _clean(pl.safety_factor),
+        "depth_min_mm": _clean(pl.depth_min_m * 1e3),
+        "depth_max_mm": _clean(pl.depth_max_m * 1e3),
+        "speed": pl.speed,
+        "robust": pl.robust,
+        "k_sigma": _clean(pl.k_sigma),
+        "n_rpm": pl.n_rpm,
+    }
+    if pl.max_rate_rpm_per_s is not None:
+        plan["max_rate_rpm_per_s"] = _clean(pl.max_rate_rpm_per_s)
+    if pl.max_rate_rpm_per_m is not None:
+        plan["max_rate_rpm_per_mm"] = _clean(pl.max_rate_rpm_per_m * 1e-3)
+    return {
+        "format": FORMAT,
+        "name": job.name,
+        "robot": {
+            "name": job.robot,
+            "model": job.model,
+            "tool_rotation_deg": _clean(math.degrees(job.tool_rotation_rad)),
+            "tool_rotation": job.tool_rotation,
+            "tool_rotation_range_deg": [_clean(math.degrees(v)) for v in job.tool_rotation_range_rad],
+            "tool_rotation_step_deg": _clean(math.degrees(job.tool_rotation_step_rad)),
+        },
+        "placement": {
+            "xyz_m": [_clean(v) for v in xyz],
+            "zyx_deg": [_clean(v) for v in np.degrees(zyx)],
+        },
+        "tool": {
+            "diameter_mm": _clean(job.tool.diameter_m * 1e3),
+            "teeth": job.tool.teeth,
+            "helix_deg": _clean(math.degrees(job.tool.helix_rad)),
+            "stickout_mm": _clean(job.tool.stickout_m * 1e3),
+            "modes": modes,
+        },
+        "material": mat,
+        "cut": cut,
+        "spindle": {
+            "rpm_min": _clean(job.spindle.rpm_min),
+            "rpm_max": _clean(job.spindle.rpm_max),
+            "power_kW": _clean(job.spindle.power_W * 1e-3),
+            "torque_Nm": _clean(job.spindle.torque_Nm),
+        },
+        "plan": plan,
+    }
+
+
+def job_to_toml(job: Job) -> str:
+    """The job as TOML text (reads back with :func:`load_job` to an equal job)."""
+    d = job_to_dict(job)
+    # tomli-w writes ints for whole floats where we cleaned them; that is fine for
+    # strict float fields (pydantic accepts ints for floats).
+    return tomli_w.dumps(d)

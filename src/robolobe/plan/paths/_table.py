@@ -1,0 +1,332 @@
+"""The waypoint table every toolpath reader returns.
+
+One row per waypoint (the end point of one move; arcs are linearised into
+several rows that share the source line). Columns, in this order:
+
+==================  =======  ==========================================================
+column              unit     meaning
+==================  =======  ==========================================================
+``x_m y_m z_m``     m        tool tip position in the workpiece (path) frame
+``i j k``           1        tool axis, unit vector from the tip towards the spindle
+``ox oy oz``        1        TCP x axis where the path fixes the rotation about the
+                             tool axis (KRL, RAPID, CSV); NaN where it is free
+``fx fy fz``        1        feed direction: unit vector of the move that ends here
+                             (the first waypoint takes the next move's direction)
+``feed_mm_per_min`` mm/min   programmed feed rate (NaN: none programmed)
+``rpm_programmed``  rpm      programmed spindle speed (NaN: none programmed)
+``motion``          -        ``"cut"`` or ``"rapid"`` (the move that ends here)
+``source``          -        file name the waypoint came from
+``line``            -        1-based line number in that file
+==================  =======  ==========================================================
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+import pandas as pd
+from numpy.typing import NDArray
+
+from robolobe.errors import InputError
+
+__all__ = [
+    "COLUMNS",
+    "WaypointBuilder",
+    "feed_directions",
+    "segment_lengths",
+    "validate_waypoints",
+]
+
+COLUMNS: tuple[str, ...] = (
+    "x_m",
+    "y_m",
+    "z_m",
+    "i",
+    "j",
+    "k",
+    "ox",
+    "oy",
+    "oz",
+    "fx",
+    "fy",
+    "fz",
+    "feed_mm_per_min",
+    "rpm_programmed",
+    "motion",
+    "source",
+    "line",
+)
+
+FloatArray = NDArray[np.float64]
+
+
+@dataclass
+class WaypointBuilder:
+    """Collects waypoints while a reader walks a file (positions in metres).
+
+    Parameters
+    ----------
+    source : str
+        File name written into the ``source`` column.
+    """
+
+    source: str
+    _pos: list[tuple[float, float, float]] = field(default_factory=list)
+    _axis: list[tuple[float, float, float]] = field(default_factory=list)
+    _ref: list[tuple[float, float, float]] = field(default_factory=list)
+    _feed: list[float] = field(default_factory=list)
+    _rpm: list[float] = field(default_factory=list)
+    _rapid: list[bool] = field(default_factory=list)
+    _line: list[int] = field(default_factory=list)
+
+    def add(
+        self,
+        pos_m: FloatArray | tuple[float, float, float],
+        axis: FloatArray | tuple[float, float, float],
+        *,
+        line: int,
+        rapid: bool,
+        feed_mm_per_min: float = math.nan,
+        rpm: float = math.nan,
+        ref: FloatArray | tuple[float, float, float] | None = None,
+    ) -> None:
+        """Append one waypoint (the end of a move).
+
+        Parameters
+        ----------
+        pos_m : array, shape (3,)
+            Tip position [m].
+        axis : array, shape (3,)
+            Tool axis (tip to spindle); normalised here.
+        line : int
+            1-based source line.
+        rapid : bool
+            Whether the move that ends here is a rapid.
+        feed_mm_per_min, rpm : float
+            Programmed feed [mm/min] and speed [rpm]; NaN when none.
+        ref : array, shape (3,), optional
+            TCP x axis where the path fixes it.
+        """
+        a = np.asarray(axis, dtype=np.float64)
+        n = float(np.linalg.norm(a))
+        if not math.isfinite(n) or n < 1e-9:
+            raise InputError(
+                f"expected a non-zero tool axis, found {a.tolist()}", source=f"{self.source}:{line}"
+            )
+        a = a / n
+        p = np.asarray(pos_m, dtype=np.float64)
+        if not np.all(np.isfinite(p)):
+            raise InputError(
+                f"expected a finite position, found {p.tolist()}", source=f"{self.source}:{line}"
+            )
+        self._pos.append((float(p[0]), float(p[1]), float(p[2])))
+        self._axis.append((float(a[0]), float(a[1]), float(a[2])))
+        if ref is None:
+            self._ref.append((math.nan, math.nan, math.nan))
+        else:
+            r = np.asarray(ref, dtype=np.float64)
+            r = r - (r @ a) * a
+            rn = float(np.linalg.norm(r))
+            self._ref.append(
+                (math.nan, math.nan, math.nan) if rn < 1e-9 else tuple(float(v) for v in r / rn)  # type: ignore[arg-type]
+            )
+        self._feed.append(float(feed_mm_per_min))
+        self._rpm.append(float(rpm))
+        self._rapid.append(bool(rapid))
+        self._line.append(int(line))
+
+    def __len__(self) -> int:
+        return len(self._pos)
+
+    @property
+    def last_position(self) -> FloatArray | None:
+        """The last position [m], or None."""
+        return np.array(self._pos[-1]) if self._pos else None
+
+    def table(self) -> pd.DataFrame:
+        """The waypoint table (see the module docstring).
+
+        Raises
+        ------
+        InputError
+            When the file holds no move at all.
+        """
+        if not self._pos:
+            raise InputError("expected at least one move, found none", source=self.source)
+        pos = np.array(self._pos)
+        axis = np.array(self._axis)
+        ref = np.array(self._ref)
+        f = feed_directions(pos, axis)
+        df = pd.DataFrame(
+            {
+                "x_m": pos[:, 0],
+                "y_m": pos[:, 1],
+                "z_m": pos[:, 2],
+                "i": axis[:, 0],
+                "j": axis[:, 1],
+                "k": axis[:, 2],
+                "ox": ref[:, 0],
+                "oy": ref[:, 1],
+                "oz": ref[:, 2],
+                "fx": f[:, 0],
+                "fy": f[:, 1],
+                "fz": f[:, 2],
+                "feed_mm_per_min": np.array(self._feed),
+                "rpm_programmed": np.array(self._rpm),
+                "motion": np.where(np.array(self._rapid), "rapid", "cut"),
+                "source": self.source,
+                "line": np.array(self._line, dtype=np.int64),
+            }
+        )
+        return df
+
+
+def segment_lengths(pos: FloatArray) -> FloatArray:
+    """Length [m] of the move ending at each waypoint (0 for the first); shape (n,)."""
+    d = np.zeros(len(pos))
+    if len(pos) > 1:
+        d[1:] = np.linalg.norm(np.diff(pos, axis=0), axis=1)
+    return d
+
+
+def feed_directions(pos: FloatArray, axis: FloatArray | None = None) -> FloatArray:
+    """Unit feed direction of the move ending at each waypoint.
+
+    Zero-length moves (and the first waypoint) take the direction of the
+    next move that has a length, or failing that the previous one; a path
+    that never moves gets NaN.
+
+    Parameters
+    ----------
+    pos : ndarray, shape (n, 3)
+        Positions [m].
+    axis : ndarray, shape (n, 3), optional
+        Unused; kept for symmetry with the table (directions are 3-D).
+
+    Returns
+    -------
+    ndarray, shape (n, 3)
+    """
+    n = len(pos)
+    out = np.full((n, 3), np.nan)
+    if n < 2:
+        return out
+    d = np.diff(pos, axis=0)
+    ln = np.linalg.norm(d, axis=1)
+    ok = ln > 1e-12
+    out[1:][ok] = d[ok] / ln[ok, None]
+    df = pd.DataFrame(out)
+    return df.bfill().ffill().to_numpy()
+
+
+def validate_waypoints(df: pd.DataFrame, source: str) -> pd.DataFrame:
+    """Check a waypoint table from outside (CSV/Parquet) and complete it.
+
+    Required columns: ``x_m y_m z_m``. Optional: ``i j k`` (default: +z),
+    ``ox oy oz``, ``fx fy fz`` (recomputed when absent), ``feed_mm_per_min``,
+    ``rpm_programmed``, ``motion`` (default ``"cut"``), ``source``, ``line``
+    (default: the file's data line, header = line 1).
+
+    Raises
+    ------
+    InputError
+        Missing columns, non-numeric or non-finite values (naming the line),
+        unknown ``motion`` values, zero tool axes.
+    """
+    missing = [c for c in ("x_m", "y_m", "z_m") if c not in df.columns]
+    if missing:
+        raise InputError(
+            f"expected columns x_m, y_m, z_m, found {list(df.columns)} (missing {missing})",
+            source=source,
+        )
+    if len(df) == 0:
+        raise InputError("expected at least one waypoint, found none", source=source)
+    n = len(df)
+    file_line = np.arange(n, dtype=np.int64) + 2  # header is line 1
+
+    def numeric(col: str, default: float | None) -> FloatArray:
+        if col not in df.columns:
+            return np.full(n, np.nan if default is None else default)
+        vals = pd.to_numeric(df[col], errors="coerce").to_numpy(dtype=np.float64)
+        bad = np.isnan(vals) & df[col].notna().to_numpy()
+        if np.any(bad):
+            r = int(np.argmax(bad))
+            raise InputError(
+                f"column {col}: expected a number, found {df[col].iloc[r]!r}",
+                source=f"{source}:{file_line[r]}",
+            )
+        return vals
+
+    pos = np.stack([numeric(c, None) for c in ("x_m", "y_m", "z_m")], 1)
+    bad_rows = ~np.all(np.isfinite(pos), axis=1)
+    if np.any(bad_rows):
+        r = int(np.argmax(bad_rows))
+        raise InputError(
+            f"expected finite x_m, y_m, z_m, found {pos[r].tolist()}",
+            source=f"{source}:{file_line[r]}",
+        )
+    has_axis = all(c in df.columns for c in ("i", "j", "k"))
+    if has_axis:
+        axis = np.stack([numeric(c, None) for c in ("i", "j", "k")], 1)
+    else:
+        axis = np.tile([0.0, 0.0, 1.0], (n, 1))
+    norm = np.linalg.norm(axis, axis=1)
+    bad_rows = ~(np.isfinite(norm) & (norm > 1e-9))
+    if np.any(bad_rows):
+        r = int(np.argmax(bad_rows))
+        raise InputError(
+            f"expected a non-zero tool axis i, j, k, found {axis[r].tolist()}",
+            source=f"{source}:{file_line[r]}",
+        )
+    axis = axis / norm[:, None]
+    ref = np.stack([numeric(c, np.nan) for c in ("ox", "oy", "oz")], 1)
+    ref = ref - np.sum(ref * axis, 1, keepdims=True) * axis
+    rn = np.linalg.norm(ref, axis=1)
+    ok = np.isfinite(rn) & (rn > 1e-9)
+    ref = np.where(ok[:, None], ref / np.where(ok, rn, 1.0)[:, None], np.nan)
+    if "motion" in df.columns:
+        motion = df["motion"].astype(str).str.strip().str.lower().to_numpy()
+        bad = ~np.isin(motion, ["cut", "rapid"])
+        if np.any(bad):
+            r = int(np.argmax(bad))
+            raise InputError(
+                f"column motion: expected 'cut' or 'rapid', found {df['motion'].iloc[r]!r}",
+                source=f"{source}:{file_line[r]}",
+            )
+    else:
+        motion = np.full(n, "cut")
+    f = feed_directions(pos, axis)
+    if all(c in df.columns for c in ("fx", "fy", "fz")):
+        given = np.stack([numeric(c, np.nan) for c in ("fx", "fy", "fz")], 1)
+        gn = np.linalg.norm(given, axis=1)
+        okg = np.isfinite(gn) & (gn > 1e-9)
+        f = np.where(okg[:, None], given / np.where(okg, gn, 1.0)[:, None], f)
+    src = df["source"].astype(str).to_numpy() if "source" in df.columns else np.full(n, source)
+    if "line" in df.columns:
+        line = numeric("line", None)
+        line = np.where(np.isfinite(line), line, file_line).astype(np.int64)
+    else:
+        line = file_line
+    return pd.DataFrame(
+        {
+            "x_m": pos[:, 0],
+            "y_m": pos[:, 1],
+            "z_m": pos[:, 2],
+            "i": axis[:, 0],
+            "j": axis[:, 1],
+            "k": axis[:, 2],
+            "ox": ref[:, 0],
+            "oy": ref[:, 1],
+            "oz": ref[:, 2],
+            "fx": f[:, 0],
+            "fy": f[:, 1],
+            "fz": f[:, 2],
+            "feed_mm_per_min": numeric("feed_mm_per_min", np.nan),
+            "rpm_programmed": numeric("rpm_programmed", np.nan),
+            "motion": motion,
+            "source": src,
+            "line": line,
+        }
+    )

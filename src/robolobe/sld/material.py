@@ -1,0 +1,136 @@
+"""Work materials: cutting-force coefficients and a small built-in table.
+
+The linear edge-free force model ``F_t = Kt a h``, ``F_n = Kr F_t`` is what
+the stability solvers use; ``Kr = Kn / Kt``. The built-in table ships as
+``robolobe/data/materials.csv`` with a source for every row; rows marked
+``estimated`` are engineering estimates, not published data. User values
+override table values (:func:`get_material`).
+"""
+
+from __future__ import annotations
+
+import csv
+import functools
+import io
+import math
+import re
+from dataclasses import dataclass, replace
+from importlib import resources
+
+from robolobe.errors import InputError
+
+__all__ = ["Material", "get_material", "material_table"]
+
+_TABLE = "materials.csv"
+
+
+@dataclass(frozen=True)
+class Material:
+    """Cutting-force coefficients of a work material.
+
+    Parameters
+    ----------
+    name : str
+        Material name.
+    kt : float
+        Tangential cutting coefficient Kt [N/m^2].
+    kr : float
+        Ratio ``Kn / Kt`` of the normal (radial) to the tangential
+        coefficient [-].
+    source : str
+        Where the numbers come from.
+    estimated : bool
+        True for engineering estimates (not published data).
+
+    Raises
+    ------
+    InputError
+        On a non-positive ``kt`` or a negative ``kr``.
+    """
+
+    name: str
+    kt: float
+    kr: float
+    source: str = "user"
+    estimated: bool = False
+
+    def __post_init__(self) -> None:
+        if not (math.isfinite(self.kt) and self.kt > 0.0):
+            raise InputError(f"Kt: expected a positive coefficient in N/m^2, found {self.kt!r}")
+        if not (math.isfinite(self.kr) and self.kr >= 0.0):
+            raise InputError(f"Kr: expected Kn/Kt >= 0, found {self.kr!r}")
+
+    @property
+    def kn(self) -> float:
+        """Normal (radial) cutting coefficient Kn = Kr Kt [N/m^2]."""
+        return self.kr * self.kt
+
+
+def _key(name: str) -> str:
+    return re.sub(r"[^a-z0-9]", "", name.lower())
+
+
+@functools.cache
+def _load() -> tuple[tuple[Material, ...], dict[str, Material]]:
+    text = resources.files("robolobe.data").joinpath(_TABLE).read_text(encoding="utf-8")
+    lines = [ln for ln in text.splitlines() if ln.strip() and not ln.lstrip().startswith("#")]
+    rows = list(csv.DictReader(io.StringIO("\n".join(lines))))
+    table: list[Material] = []
+    index: dict[str, Material] = {}
+    for row in rows:
+        m = Material(
+            name=row["name"],
+            kt=float(row["kt_N_per_mm2"]) * 1e6,
+            kr=float(row["kr"]),
+            source=row["source"],
+            estimated=row["estimated"].strip().lower() in ("yes", "true", "1"),
+        )
+        table.append(m)
+        for alias in [m.name, *row["aliases"].split(";")]:
+            if alias.strip():
+                index[_key(alias)] = m
+    return tuple(table), index
+
+
+def material_table() -> tuple[Material, ...]:
+    """The built-in materials, in table order."""
+    return _load()[0]
+
+
+def get_material(name: str, *, kt: float | None = None, kr: float | None = None) -> Material:
+    """A built-in material by name (case and punctuation ignored), with overrides.
+
+    Parameters
+    ----------
+    name : str
+        Table name or alias, e.g. ``"Al7075-T6"``, ``"al7075"``, ``"Ti6Al4V"``.
+    kt : float, optional
+        Tangential coefficient [N/m^2] replacing the table value.
+    kr : float, optional
+        ``Kn / Kt`` replacing the table value.
+
+    Returns
+    -------
+    Material
+        With ``source`` noting any user override.
+
+    Raises
+    ------
+    InputError
+        When the name is not in the table.
+    """
+    table, index = _load()
+    m = index.get(_key(name))
+    if m is None:
+        known = ", ".join(t.name for t in table)
+        raise InputError(f"material: expected one of {known}, found {name!r}")
+    if kt is None and kr is None:
+        return m
+    changed = [s for s, v in (("Kt", kt), ("Kr", kr)) if v is not None]
+    return replace(
+        m,
+        kt=m.kt if kt is None else float(kt),
+        kr=m.kr if kr is None else float(kr),
+        source=f"{m.source}; {' and '.join(changed)} given by the user",
+        estimated=m.estimated and not (kt is not None and kr is not None),
+    )

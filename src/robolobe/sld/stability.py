@@ -1,0 +1,102 @@
+"""One entry point for stability lobes: cutter + material + conditions + dynamics."""
+
+from __future__ import annotations
+
+from typing import Literal
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+from robolobe.errors import InputError
+from robolobe.sld.conditions import CuttingConditions
+from robolobe.sld.cutter import Cutter
+from robolobe.sld.directional import directional_factors
+from robolobe.sld.frf import ModalModel
+from robolobe.sld.lobes import LobeDiagram
+from robolobe.sld.material import Material
+from robolobe.sld.sdm import sdm_lobes
+from robolobe.sld.zoa import zoa_lobes
+
+__all__ = ["stability_lobes"]
+
+
+def stability_lobes(
+    dynamics: ModalModel | tuple[ArrayLike, ArrayLike],
+    *,
+    cutter: Cutter,
+    material: Material,
+    conditions: CuttingConditions,
+    rpm: ArrayLike,
+    method: Literal["zoa", "sdm"] = "zoa",
+    max_lobe: int | None = 30,
+    intervals: int = 40,
+) -> LobeDiagram:
+    """Stability lobes of a tool point (or a batch of them).
+
+    Parameters
+    ----------
+    dynamics : ModalModel or (omega, frf)
+        2-D feed-frame dynamics: a modal model (any batch shape; its
+        frequency grid is refined around its modes) or sampled FRFs,
+        ``omega`` [rad/s] of shape (n_freq,) or (..., n_freq) and ``frf``
+        [m/N] of shape (..., n_freq, 2, 2) (ZOA only).
+    cutter : Cutter
+        Gives the number of teeth.
+    material : Material
+        Gives Kt and Kr.
+    conditions : CuttingConditions
+        Engagement (entry/exit angles).
+    rpm : array_like, shape (n_speed,)
+        Spindle-speed grid [rpm].
+    method : {"zoa", "sdm"}, default "zoa"
+        Zero-order approximation (fast, batched) or semi-discretization
+        (reference; loops over batch entries).
+    max_lobe : int or None, default 30
+        Highest ZOA lobe number (None: automatic, see :func:`zoa_lobes`).
+    intervals : int, default 40
+        SDM intervals per tooth period.
+
+    Returns
+    -------
+    LobeDiagram
+    """
+    alpha = directional_factors(conditions.phi_entry, conditions.phi_exit, material.kr)
+    if method == "zoa":
+        if isinstance(dynamics, ModalModel):
+            if dynamics.dim != 2:
+                raise InputError(f"dynamics: expected feed-frame (2-D) modes, found dim {dynamics.dim}")
+            omega = dynamics.frequency_grid(shared=not dynamics.batch_shape)
+            frf = dynamics.frf(omega)
+        else:
+            omega, frf = dynamics
+        return zoa_lobes(
+            omega,
+            frf,
+            alpha=alpha,
+            teeth=cutter.teeth,
+            kt=material.kt,
+            rpm=rpm,
+            max_lobe=max_lobe,
+            immersion=conditions.immersion,
+        )
+    if method == "sdm":
+        if not isinstance(dynamics, ModalModel):
+            raise InputError("method 'sdm' needs modal dynamics (a ModalModel), not sampled FRFs")
+        batch = dynamics.batch_shape
+        kw = dict(teeth=cutter.teeth, kt=material.kt, kr=material.kr, conditions=conditions,
+                  rpm=rpm, intervals=intervals)
+        if not batch:
+            return sdm_lobes(dynamics, **kw)  # type: ignore[arg-type]
+        flat = ModalModel(
+            dynamics.omega.reshape(-1, dynamics.n_modes),
+            dynamics.zeta.reshape(-1, dynamics.n_modes),
+            dynamics.residues.reshape(-1, dynamics.n_modes, 2, 2),
+        )
+        # the reference solver: one entry at a time (seconds each)
+        parts = [sdm_lobes(flat.take(i), **kw) for i in range(flat.batch_shape[0])]  # type: ignore[arg-type]
+        a = np.stack([p.a_lim for p in parts]).reshape(*batch, -1)
+        first = parts[0]
+        import dataclasses
+
+        return dataclasses.replace(first, a_lim=a)
+    raise InputError(f"method: expected 'zoa' or 'sdm', found {method!r}")

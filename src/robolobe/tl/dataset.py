@@ -1,0 +1,357 @@
+"""Modal datasets: postures -> per direction ``n_modes`` x (frequency, damping, stiffness).
+
+A :class:`ModalDataset` is the array form of ``modal.csv`` (FORMATS.md
+section 3) that the learning side works on: postures ``q_rad (n, 6)`` and,
+per driving-point direction (``xx``, ``yy``, optionally ``zz``) and mode
+(1 = lowest frequency), the natural frequency, the damping ratio and the
+modal stiffness. A mode that the file does not list is NaN.
+
+Gaps are handled in one of two ways (:func:`interpolate_gaps`):
+
+* ``"interpolate"``: the seed's ``process_data()`` (section 2.3): every value
+  column is linearly interpolated along the posture order of the file
+  (pandas ``interpolate``), ends filled with the nearest value;
+* ``"mask"`` (used by the improved models): the missing values stay NaN and
+  are left out of the training loss.
+
+Postures, modes and angles that the model cannot be trusted for raise a
+:class:`TrustWarning` (see :func:`check_dataset`).
+"""
+
+from __future__ import annotations
+
+import warnings
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+import pandas as pd
+from numpy.typing import ArrayLike, NDArray
+
+from robolobe.errors import InputError
+
+__all__ = [
+    "DRIVING_DIRECTIONS",
+    "PARAMETERS",
+    "ModalDataset",
+    "TrustWarning",
+    "check_dataset",
+    "dataset_from_frame",
+    "interpolate_gaps",
+]
+
+#: Driving-point directions the learning side models, in canonical order.
+DRIVING_DIRECTIONS: tuple[str, ...] = ("xx", "yy", "zz")
+#: The three modal parameters per mode, in the order of the target arrays.
+PARAMETERS: tuple[str, ...] = ("f_hz", "zeta", "k_N_per_m")
+
+FloatArray = NDArray[np.float64]
+
+
+class TrustWarning(UserWarning):
+    """The data or the query leaves the region where a model can be trusted."""
+
+
+@dataclass(frozen=True, eq=False)
+class ModalDataset:
+    """Postures and their per-direction modal parameters.
+
+    Attributes
+    ----------
+    posture_ids : tuple of str, length n
+    q_rad : ndarray, shape (n, 6)
+        Controller joint angles [rad].
+    directions : tuple of str
+        Driving-point directions, e.g. ``("xx", "yy")``.
+    y : ndarray, shape (n, n_dir, n_modes, 3)
+        ``[..., 0]`` natural frequency [Hz], ``[..., 1]`` damping ratio
+        (fraction), ``[..., 2]`` modal stiffness [N/m]; NaN where missing.
+    """
+
+    posture_ids: tuple[str, ...]
+    q_rad: FloatArray
+    directions: tuple[str, ...]
+    y: FloatArray
+
+    def __post_init__(self) -> None:
+        q = np.array(self.q_rad, dtype=float)
+        y = np.array(self.y, dtype=float)
+        n = len(self.posture_ids)
+        if q.shape != (n, 6):
+            raise InputError(f"q_rad: expected shape ({n}, 6), found {q.shape}")
+        if y.ndim != 4 or y.shape[:2] != (n, len(self.directions)) or y.shape[3] != 3:
+            raise InputError(
+                f"y: expected shape ({n}, {len(self.directions)}, n_modes, 3), found {y.shape}"
+            )
+        if not np.all(np.isfinite(q)):
+            raise InputError("q_rad: expected finite joint angles")
+        bad = [d for d in self.directions if d not in DRIVING_DIRECTIONS]
+        if bad:
+            raise InputError(f"directions: expected some of {DRIVING_DIRECTIONS}, found {bad}")
+        q.setflags(write=False)
+        y.setflags(write=False)
+        object.__setattr__(self, "q_rad", q)
+        object.__setattr__(self, "y", y)
+        object.__setattr__(self, "posture_ids", tuple(str(p) for p in self.posture_ids))
+        object.__setattr__(self, "directions", tuple(self.directions))
+
+    @property
+    def n_postures(self) -> int:
+        """Number of postures."""
+        return len(self.posture_ids)
+
+    @property
+    def n_modes(self) -> int:
+        """Modes per direction."""
+        return int(self.y.shape[2])
+
+    @property
+    def q_deg(self) -> FloatArray:
+        """Joint angles in degrees, shape (n, 6)."""
+        return np.degrees(self.q_rad)
+
+    def subset(self, index: ArrayLike) -> ModalDataset:
+        """The postures selected by ``index`` (integer or boolean array)."""
+        idx = np.arange(self.n_postures)[np.asarray(index)]
+        return ModalDataset(
+            posture_ids=tuple(self.posture_ids[i] for i in idx),
+            q_rad=self.q_rad[idx],
+            directions=self.directions,
+            y=self.y[idx],
+        )
+
+    def select_ids(self, ids: Sequence[str]) -> ModalDataset:
+        """The postures with the given ids, in that order.
+
+        Raises
+        ------
+        InputError
+            If an id is not in the dataset.
+        """
+        where = {p: i for i, p in enumerate(self.posture_ids)}
+        missing = [p for p in ids if p not in where]
+        if missing:
+            raise InputError(f"posture ids not in the dataset: {missing[:5]}")
+        return self.subset([where[p] for p in ids])
+
+    def concat(self, other: ModalDataset) -> ModalDataset:
+        """This dataset followed by ``other`` (same directions and modes)."""
+        if other.directions != self.directions or other.n_modes != self.n_modes:
+            raise InputError("concat: expected the same directions and number of modes")
+        return ModalDataset(
+            posture_ids=self.posture_ids + other.posture_ids,
+            q_rad=np.vstack([self.q_rad, other.q_rad]),
+            directions=self.directions,
+            y=np.concatenate([self.y, other.y]),
+        )
+
+    def to_frame(self, extra: dict[str, FloatArray] | None = None) -> pd.DataFrame:
+        """The ``modal.csv`` frame (FORMATS.md section 3); missing modes are left out.
+
+        Parameters
+        ----------
+        extra : dict of str to ndarray, shape (n, n_dir, n_modes), optional
+            Extra per-value columns (e.g. spreads) to append.
+
+        Returns
+        -------
+        pandas.DataFrame
+            Columns ``posture_id, q1_deg..q6_deg, dir, mode, f_hz, zeta,
+            k_N_per_m`` (+ extras), one row per posture, direction and mode.
+        """
+        n, nd, nm, _ = self.y.shape
+        p_idx, d_idx, m_idx = np.meshgrid(np.arange(n), np.arange(nd), np.arange(nm), indexing="ij")
+        p_idx, d_idx, m_idx = p_idx.ravel(), d_idx.ravel(), m_idx.ravel()
+        vals = self.y.reshape(-1, 3)
+        keep = np.all(np.isfinite(vals), axis=1)
+        qd = self.q_deg
+        data: dict[str, object] = {"posture_id": np.asarray(self.posture_ids, dtype=object)[p_idx]}
+        for j in range(6):
+            data[f"q{j + 1}_deg"] = qd[p_idx, j]
+        data["dir"] = np.asarray(self.directions, dtype=object)[d_idx]
+        data["mode"] = m_idx + 1
+        for i, name in enumerate(PARAMETERS):
+            data[name] = vals[:, i]
+        for name, arr in (extra or {}).items():
+            data[name] = np.asarray(arr, dtype=float).reshape(-1)
+        df = pd.DataFrame(data)
+        return df.loc[keep].reset_index(drop=True)
+
+
+def dataset_from_frame(
+    df: pd.DataFrame,
+    *,
+    directions: Sequence[str] = ("xx", "yy"),
+    n_modes: int = 5,
+    source: str = "modal dataset",
+) -> ModalDataset:
+    """Build a :class:`ModalDataset` from a validated ``modal.csv`` frame.
+
+    Parameters
+    ----------
+    df : pandas.DataFrame
+        As returned by :func:`robolobe.modal.modal_csv.read_modal_csv`.
+    directions : sequence of str
+        Driving-point directions to keep (``"xx"``, ``"yy"``, ``"zz"``).
+    n_modes : int
+        Modes per direction (the seed: 5); higher modes are ignored, missing
+        ones become NaN.
+    source : str
+        Name used in messages.
+
+    Returns
+    -------
+    ModalDataset
+        Postures in order of first appearance in the file.
+
+    Raises
+    ------
+    InputError
+        If a required column is missing or a direction has no rows at all.
+    """
+    need = ["posture_id", *(f"q{i}_deg" for i in range(1, 7)), "dir", "mode", *PARAMETERS]
+    missing = [c for c in need if c not in df.columns]
+    if missing:
+        raise InputError(f"expected columns {need}; missing {missing}", source=source)
+    directions = tuple(directions)
+    if n_modes < 1:
+        raise InputError(f"n_modes: expected >= 1, found {n_modes}", source=source)
+    ids = list(dict.fromkeys(df["posture_id"].astype(str)))
+    if not ids:
+        raise InputError("expected at least one posture, found none", source=source)
+    pos = {p: i for i, p in enumerate(ids)}
+    q_deg = (
+        df.drop_duplicates("posture_id")
+        .set_index(df.drop_duplicates("posture_id")["posture_id"].astype(str))
+        .loc[ids, [f"q{i}_deg" for i in range(1, 7)]]
+        .to_numpy(dtype=float)
+    )
+    y = np.full((len(ids), len(directions), n_modes, 3), np.nan)
+    dirs = df["dir"].astype(str).str.lower().to_numpy()
+    modes = df["mode"].to_numpy(dtype=int)
+    pidx = df["posture_id"].astype(str).map(pos).to_numpy()
+    vals = df[list(PARAMETERS)].to_numpy(dtype=float)
+    for j, d in enumerate(directions):
+        if d not in DRIVING_DIRECTIONS:
+            raise InputError(
+                f"directions: expected driving points {DRIVING_DIRECTIONS}, found {d!r}",
+                source=source,
+            )
+        sel = (dirs == d) & (modes <= n_modes)
+        if not np.any(dirs == d):
+            raise InputError(
+                f"direction {d!r}: expected rows for it, found none (directions in the file: "
+                f"{sorted(set(dirs.tolist()))})",
+                source=source,
+            )
+        y[pidx[sel], j, modes[sel] - 1, :] = vals[sel]
+    return ModalDataset(posture_ids=tuple(ids), q_rad=np.radians(q_deg), directions=directions, y=y)
+
+
+def interpolate_gaps(ds: ModalDataset) -> ModalDataset:
+    """Fill missing values as the seed's ``process_data()`` does.
+
+    Each value column (direction x mode x parameter) is linearly interpolated
+    along the posture order; leading and trailing gaps take the nearest
+    value. A column with no value at all stays NaN.
+    """
+    n, nd, nm, _ = ds.y.shape
+    flat = pd.DataFrame(ds.y.reshape(n, -1))
+    filled = flat.interpolate(method="linear", axis=0, limit_direction="both")
+    return ModalDataset(
+        posture_ids=ds.posture_ids,
+        q_rad=ds.q_rad,
+        directions=ds.directions,
+        y=filled.to_numpy().reshape(n, nd, nm, 3),
+    )
+
+
+def check_dataset(
+    ds: ModalDataset,
+    *,
+    min_postures: int,
+    q_min_rad: ArrayLike | None = None,
+    q_max_rad: ArrayLike | None = None,
+    source: str = "modal dataset",
+) -> None:
+    """Raise on data a model cannot be trained on; warn on what weakens it.
+
+    Parameters
+    ----------
+    ds : ModalDataset
+    min_postures : int
+        Fewer postures than this is an error.
+    q_min_rad, q_max_rad : array_like, shape (6,), optional
+        Joint limits; postures outside them are an error.
+    source : str
+        Name used in messages.
+
+    Raises
+    ------
+    InputError
+        Too few postures, postures outside the joint limits, duplicated
+        postures, or a direction x mode with no value at all.
+
+    Warns
+    -----
+    TrustWarning
+        Missing modes (which postures, directions, modes), and fewer than
+        ``2 * min_postures`` postures.
+    """
+    n = ds.n_postures
+    if n < min_postures:
+        raise InputError(
+            f"expected at least {min_postures} postures to train on, found {n}: the model "
+            "would only repeat the few it saw",
+            source=source,
+        )
+    if q_min_rad is not None and q_max_rad is not None:
+        lo = np.asarray(q_min_rad, dtype=float)
+        hi = np.asarray(q_max_rad, dtype=float)
+        bad = np.any((ds.q_rad < lo - 1e-9) | (ds.q_rad > hi + 1e-9), axis=1)
+        if np.any(bad):
+            i = int(np.flatnonzero(bad)[0])
+            j = int(np.flatnonzero((ds.q_rad[i] < lo - 1e-9) | (ds.q_rad[i] > hi + 1e-9))[0])
+            raise InputError(
+                f"posture {ds.posture_ids[i]!r}: q{j + 1} = {np.degrees(ds.q_rad[i, j]):.6g} deg "
+                f"is outside the joint range [{np.degrees(lo[j]):.6g}, {np.degrees(hi[j]):.6g}] "
+                f"deg ({int(bad.sum())} posture(s) out of range)",
+                source=source,
+            )
+    _, first = np.unique(np.round(ds.q_rad, 9), axis=0, return_index=True)
+    if len(first) < n:
+        dup = sorted(set(range(n)) - set(first.tolist()))
+        raise InputError(
+            f"postures {[ds.posture_ids[i] for i in dup[:5]]} repeat the joint angles of "
+            "earlier postures",
+            source=source,
+        )
+    known = np.all(np.isfinite(ds.y), axis=3)  # (n, n_dir, n_modes)
+    for j, d in enumerate(ds.directions):
+        for m in range(ds.n_modes):
+            if not np.any(known[:, j, m]):
+                raise InputError(
+                    f"direction {d!r}, mode {m + 1}: no posture has a value; expected "
+                    f"{ds.n_modes} modes per direction",
+                    source=source,
+                )
+    if not np.all(known):
+        miss = np.argwhere(~known)
+        where = ", ".join(
+            f"{ds.posture_ids[p]}/{ds.directions[d]}/mode {m + 1}" for p, d, m in miss[:6]
+        )
+        more = f" and {len(miss) - 6} more" if len(miss) > 6 else ""
+        warnings.warn(
+            f"{source}: {len(miss)} missing mode value(s) ({where}{more}); those entries are "
+            "filled or left out of training, and predictions for these modes near those "
+            "postures are less reliable",
+            TrustWarning,
+            stacklevel=2,
+        )
+    if n < 2 * min_postures:
+        warnings.warn(
+            f"{source}: only {n} postures; predictions are trustworthy only near them "
+            "(check the spread columns)",
+            TrustWarning,
+            stacklevel=2,
+        )

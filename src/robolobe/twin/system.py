@@ -1,0 +1,192 @@
+"""The assembled linear model of the twin at one or more postures.
+
+:class:`SystemMatrices` is what :class:`robolobe.twin.model.Twin` builds for
+a posture and what the structural effects (:mod:`robolobe.twin.effects`)
+modify: the bodies with their Jacobians (the mass matrix follows from them),
+the stiffness and damping matrices, and the Jacobian of the measured TCP
+point. The first six DOFs are always the joint deflections on the
+controller axes q1..q6 [rad]; effects may append DOFs (their names in
+``dof_names``, units in the effect's documentation).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass
+from functools import cached_property
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from robolobe.robots import Robot, link_frames, point_jacobian
+from robolobe.robots.kinematics import TCP_FRAME
+from robolobe.twin.dynamics import BodySet, _q, robot_bodies
+
+__all__ = ["JOINT_DOFS", "SystemMatrices", "nominal_system"]
+
+FloatArray = NDArray[np.float64]
+
+JOINT_DOFS = ("q1", "q2", "q3", "q4", "q5", "q6")
+"""Names of the six joint-deflection DOFs (always first)."""
+
+
+@dataclass(frozen=True, eq=False)
+class SystemMatrices:
+    """Mass, stiffness, damping and TCP Jacobian of the model at postures q.
+
+    Attributes
+    ----------
+    robot : Robot
+        The robot after robot-level effects (added mass, joint factors).
+    q : ndarray, shape (..., 6)
+        Controller axis angles [rad].
+    frames : ndarray, shape (..., 8, 4, 4)
+        ``link_frames(robot, q)``.
+    bodies : BodySet
+        Bodies and their Jacobians over all DOFs; ``M`` follows from them.
+    K, C : ndarray, shape (..., n, n)
+        Stiffness and viscous damping matrices.
+    tcp_jv, tcp_jw : ndarray, shape (..., 3, n)
+        World-axes linear velocity of the measured TCP point and angular
+        velocity of the TCP frame, per unit DOF velocity.
+    dof_names : tuple of str
+        Names of the n DOFs (``q1``..``q6`` first).
+    """
+
+    robot: Robot
+    q: FloatArray
+    frames: FloatArray
+    bodies: BodySet
+    K: FloatArray
+    C: FloatArray
+    tcp_jv: FloatArray
+    tcp_jw: FloatArray
+    dof_names: tuple[str, ...]
+
+    @property
+    def n_dof(self) -> int:
+        """Number of DOFs."""
+        return len(self.dof_names)
+
+    @cached_property
+    def M(self) -> FloatArray:  # noqa: N802 (matrix name)
+        """Mass matrix, shape (..., n, n)."""
+        return self.bodies.mass_matrix()
+
+    @property
+    def tcp_rotation(self) -> FloatArray:
+        """World rotation of the TCP frame, shape (..., 3, 3)."""
+        return self.frames[..., TCP_FRAME, :3, :3]
+
+    @property
+    def tcp_position(self) -> FloatArray:
+        """World position of the TCP [m], shape (..., 3)."""
+        return self.frames[..., TCP_FRAME, :3, 3]
+
+    @property
+    def J(self) -> FloatArray:  # noqa: N802 (matrix name)
+        """Translational TCP Jacobian in the TCP frame, shape (..., 3, n)."""
+        return np.swapaxes(self.tcp_rotation, -1, -2) @ self.tcp_jv
+
+    @property
+    def Jw(self) -> FloatArray:  # noqa: N802 (matrix name)
+        """Angular TCP Jacobian in the TCP frame, shape (..., 3, n)."""
+        return np.swapaxes(self.tcp_rotation, -1, -2) @ self.tcp_jw
+
+    def replace(self, **changes: Any) -> SystemMatrices:
+        """Copy with fields replaced (the mass matrix is recomputed if needed)."""
+        return dataclasses.replace(self, **changes)
+
+    def add_dofs(
+        self,
+        names: tuple[str, ...],
+        body_jv: FloatArray,
+        body_jw: FloatArray,
+        tcp_jv: FloatArray,
+        tcp_jw: FloatArray,
+        stiffness: ArrayLike,
+    ) -> SystemMatrices:
+        """Append DOFs with their Jacobian columns and springs (no damping yet).
+
+        Parameters
+        ----------
+        names : tuple of str
+            Names of the new DOFs (m of them).
+        body_jv, body_jw : ndarray, shape (..., nb, 3, m)
+            New Jacobian columns of the existing bodies (world axes).
+        tcp_jv, tcp_jw : ndarray, shape (..., 3, m)
+            New columns of the TCP Jacobians (world axes).
+        stiffness : array_like, shape (..., m)
+            Spring of each new DOF (diagonal, in the DOF's units).
+
+        Returns
+        -------
+        SystemMatrices
+            The new DOFs have zero damping; see :meth:`with_dof_damping`.
+        """
+        batch = self.q.shape[:-1]
+        m = len(names)
+        n = self.n_dof
+        bodies = self.bodies.with_columns(
+            np.broadcast_to(body_jv, (*batch, *body_jv.shape[-3:])),
+            np.broadcast_to(body_jw, (*batch, *body_jw.shape[-3:])),
+        )
+        k_new = np.broadcast_to(np.asarray(stiffness, dtype=np.float64), (*batch, m))
+        big_k = np.zeros((*batch, n + m, n + m))
+        big_k[..., :n, :n] = self.K
+        big_k[..., n:, n:] = k_new[..., :, None] * np.eye(m)
+        big_c = np.zeros_like(big_k)
+        big_c[..., :n, :n] = self.C
+        return self.replace(
+            bodies=bodies,
+            K=big_k,
+            C=big_c,
+            tcp_jv=np.concatenate([self.tcp_jv, np.broadcast_to(tcp_jv, (*batch, 3, m))], -1),
+            tcp_jw=np.concatenate([self.tcp_jw, np.broadcast_to(tcp_jw, (*batch, 3, m))], -1),
+            dof_names=(*self.dof_names, *names),
+        )
+
+    def with_dof_damping(self, first: int, zeta: float) -> SystemMatrices:
+        """Dashpots ``c = 2 zeta sqrt(k_jj M_jj)`` on the diagonal of DOFs ``first..n-1``.
+
+        Each DOF's own oscillator (the others held fixed) then has damping
+        ratio ``zeta``; ``M_jj`` is taken at each posture.
+        """
+        idx = np.arange(first, self.n_dof)
+        k = self.K[..., idx, idx]
+        m = self.M[..., idx, idx]
+        big_c = self.C.copy()
+        big_c[..., idx, idx] = 2.0 * zeta * np.sqrt(k * m)
+        return self.replace(C=big_c)
+
+
+def nominal_system(robot: Robot, q: ArrayLike) -> SystemMatrices:
+    """The nominal model of FORMATS.md section 1 at postures q.
+
+    Parameters
+    ----------
+    robot : Robot
+    q : array_like, shape (..., 6)
+        Controller axis angles [rad].
+
+    Returns
+    -------
+    SystemMatrices
+        Six joint DOFs, ``K = diag(stiffness)``, ``C = diag(damping)``.
+    """
+    qq = _q(q)
+    batch = qq.shape[:-1]
+    frames = link_frames(robot, qq)
+    tcp = point_jacobian(robot, qq, TCP_FRAME)
+    return SystemMatrices(
+        robot=robot,
+        q=qq,
+        frames=frames,
+        bodies=robot_bodies(robot, qq, frames),
+        K=np.broadcast_to(np.diag(robot.stiffness), (*batch, 6, 6)).copy(),
+        C=np.broadcast_to(np.diag(robot.damping), (*batch, 6, 6)).copy(),
+        tcp_jv=tcp[..., :3, :],
+        tcp_jw=tcp[..., 3:, :],
+        dof_names=JOINT_DOFS,
+    )
