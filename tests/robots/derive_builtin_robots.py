@@ -43,7 +43,7 @@ from robolobe.robots.model import Joint, RigidBody, Robot
 
 from .urdf_chain import UrdfChain
 
-DATA = Path("/work/shared/robot-data")
+DATA = Path(__file__).resolve().parent / "data"  # copies of shared/robot-data URDFs
 D = np.radians
 
 

@@ -58,3 +58,15 @@ def test_link_bodies_match_urdf_in_world(rng: np.random.Generator) -> None:
             i_ref = tu[:3, :3] @ ine.inertia @ tu[:3, :3].T
             i_dh = td[:3, :3] @ body.inertia_kgm2 @ td[:3, :3].T
             np.testing.assert_allclose(i_dh, i_ref, atol=1e-5 * np.abs(i_ref).max())
+
+
+def test_builtin_bodies_match_their_derivation() -> None:
+    """A, B, C link bodies equal tests/robots/derive_builtin_robots.py (6 digits)."""
+    from .derive_builtin_robots import robot_a, robot_b, robot_c
+
+    for name, derive in (("A", robot_a), ("B", robot_b), ("C", robot_c)):
+        robot = load_robot(name)
+        for joint, body in zip(robot.joints, derive(), strict=True):
+            assert joint.body.mass_kg == pytest.approx(body.m, rel=1e-5)
+            np.testing.assert_allclose(joint.body.com_m, body.c, rtol=1e-5, atol=1e-9)
+            np.testing.assert_allclose(joint.body.inertia_kgm2, body.inertia, rtol=1e-5, atol=1e-8)

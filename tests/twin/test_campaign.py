@@ -309,3 +309,74 @@ def test_campaign_validation():
     h[1, 0, 0] = np.nan
     with pytest.raises(InputError, match="fully finite or fully NaN"):
         PostureFRF(np.arange(3.0), h)
+
+
+def test_posture_ids_needing_quotes_round_trip(tmp_path):
+    c = _campaign()
+    ids = ('pose, "one"', "two", "three")
+    c = Campaign(robot="B", posture_ids=ids, q_rad=c.q_rad, frfs=c.frfs)
+    r = read_campaign(write_campaign(tmp_path / "camp", c))
+    assert r.posture_ids == ids
+    np.testing.assert_array_equal(r.common_grid()[1], c.common_grid()[1])
+
+
+def test_write_over_a_file_is_an_input_error(tmp_path):
+    (tmp_path / "f").write_text("x")
+    with pytest.raises(InputError, match="found a file"):
+        write_campaign(tmp_path / "f", _campaign())
+    c = _campaign()
+    c2 = Campaign(
+        robot="B",
+        posture_ids=c.posture_ids,
+        q_rad=c.q_rad,
+        frfs=c.frfs,
+        test={"impacts": np.int64(5), "duration_s": np.float64(4.0)},
+    )
+    assert read_campaign(write_campaign(tmp_path / "c", c2)).test == {
+        "impacts": 5,
+        "duration_s": 4.0,
+    }
+
+
+def test_simulate_campaign_exact_and_tested():
+    from robolobe.twin.campaign import simulate_campaign
+
+    def receptance(q: np.ndarray, f: np.ndarray) -> np.ndarray:
+        # 1-DOF per axis whose frequency depends on q1 (a toy posture dependence).
+        fn = 10.0 * (1 + 0.2 * q[0]) * np.array([1.0, 1.3, 1.7])
+        r = np.asarray(f)[:, None] / fn
+        h = 1 / (1e6 * (1 - r**2 + 0.06j * r))
+        return np.einsum("ni,ij->nij", h, np.eye(3))
+
+    q = np.radians(Q_DEG)
+    ex = simulate_campaign(
+        receptance, "B", IDS, q, rng=np.random.default_rng(0), exact=True, dirs=["xx", "zz"]
+    )
+    f, h, has = ex.common_grid()
+    np.testing.assert_allclose(f, np.arange(161) * 0.25)
+    assert has[:, 0, 0].all()
+    assert has[:, 2, 2].all()
+    assert has.sum() == 6
+    np.testing.assert_array_equal(h[1, :, 0, 0], receptance(q[1], f)[:, 0, 0])
+    assert ex.test == {}
+    calls: list[int] = []
+    sim = simulate_campaign(
+        receptance,
+        "B",
+        IDS,
+        q,
+        rng=np.random.default_rng(0),
+        dirs=["yy"],
+        fmax_hz=20.0,
+        on_posture=calls.append,
+    )
+    assert calls == [0, 1, 2]
+    assert sim.dirs == {"yy"}
+    assert sim.test["window_end"] == 0.05
+    fs, hs, _ = sim.common_grid()
+    assert fs[-1] == 20.0
+    # Peaks where the exact receptance peaks (the window broadens but does not move them).
+    for p in range(3):
+        k_sim = np.argmax(np.abs(hs[p, 8:, 1, 1])) + 8
+        k_ex = np.argmax(np.abs(receptance(q[p], fs)[8:, 1, 1])) + 8
+        assert abs(fs[k_sim] - fs[k_ex]) <= 0.25

@@ -19,7 +19,10 @@ from robolobe.twin.dynamics import (
 
 def _bodies(robot: Robot):
     """(frame index, mass, com in frame, inertia in frame) of links 1..6 and the EE."""
-    out = [(i + 1, j.body.mass_kg, j.body.com_m, j.body.inertia_kgm2) for i, j in enumerate(robot.joints)]
+    out = [
+        (i + 1, j.body.mass_kg, j.body.com_m, j.body.inertia_kgm2)
+        for i, j in enumerate(robot.joints)
+    ]
     ee = robot.end_effector
     if ee is not None:
         out.append((7, ee.mass_kg, ee.com_m, ee.inertia_kgm2))
@@ -39,7 +42,12 @@ def _kinetic_energy_fd(robot: Robot, q: np.ndarray, qd: np.ndarray, h: float = 1
         r_dot = (fp[k, :3, :3] - fm[k, :3, :3]) / (2 * h)
         r0 = f0[k, :3, :3]
         w_hat = r_dot @ r0.T
-        w = np.array([w_hat[2, 1] - w_hat[1, 2], w_hat[0, 2] - w_hat[2, 0], w_hat[1, 0] - w_hat[0, 1]]) / 2
+        w = (
+            np.array(
+                [w_hat[2, 1] - w_hat[1, 2], w_hat[0, 2] - w_hat[2, 0], w_hat[1, 0] - w_hat[0, 1]]
+            )
+            / 2
+        )
         i_world = r0 @ inertia @ r0.T
         t += 0.5 * m * v @ v + 0.5 * w @ i_world @ w
     return float(t)
@@ -107,7 +115,10 @@ def test_gravity_torque_is_minus_potential_gradient(robot: Robot) -> None:
     def potential(qq: np.ndarray) -> float:
         f = link_frames(robot, qq)
         return float(
-            sum(m * GRAVITY_M_PER_S2 * (f[k, :3, :3] @ c + f[k, :3, 3])[2] for k, m, c, _ in _bodies(robot))
+            sum(
+                m * GRAVITY_M_PER_S2 * (f[k, :3, :3] @ c + f[k, :3, 3])[2]
+                for k, m, c, _ in _bodies(robot)
+            )
         )
 
     h = 1e-6

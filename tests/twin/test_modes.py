@@ -106,7 +106,9 @@ def test_shape_errors() -> None:
     with pytest.raises(InputError, match="J"):
         compute_modes(np.eye(2), np.eye(2), np.zeros((2, 2)), np.ones((3, 3)))
     with pytest.raises(InputError, match="broadcast"):
-        compute_modes(np.broadcast_to(np.eye(2), (3, 2, 2)), np.eye(2), np.zeros((4, 2, 2)), np.ones((3, 2)))
+        compute_modes(
+            np.broadcast_to(np.eye(2), (3, 2, 2)), np.eye(2), np.zeros((4, 2, 2)), np.ones((3, 2))
+        )
 
 
 def test_dominant_direction_and_stiffness() -> None:

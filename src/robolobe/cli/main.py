@@ -37,6 +37,13 @@ app = typer.Typer(
     rich_markup_mode="rich",
 )
 
+
+
+@app.callback()
+def _root() -> None:
+    """robolobe: chatter-free milling plans for industrial robots."""
+
+
 # Command modules, in the order they appear in --help.
 _COMMAND_MODULES = (
     "plan",

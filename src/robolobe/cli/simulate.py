@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 from pathlib import Path
 from typing import Annotated
 
@@ -38,14 +39,10 @@ def register(app: typer.Typer) -> None:
     @app.command("simulate")
     def simulate(
         robot: Annotated[str, typer.Argument(help="Robot: A, B, C or a robot .toml file.")],
-        output: Annotated[
-            Path, typer.Option("--output", "-o", help="Campaign folder to write.")
-        ],
+        output: Annotated[Path, typer.Option("--output", "-o", help="Campaign folder to write.")],
         postures: Annotated[
             Path | None,
-            typer.Option(
-                "--postures", help="postures.csv (posture_id,q1_deg,...,q6_deg) to test."
-            ),
+            typer.Option("--postures", help="postures.csv (posture_id,q1_deg,...,q6_deg) to test."),
         ] = None,
         design: Annotated[
             str | None,
@@ -77,7 +74,7 @@ def register(app: typer.Typer) -> None:
             float,
             typer.Option(
                 "--noise",
-                help="Noise level as a multiple of the default (0.2 N force, 2e-3 m/s^2 "
+                help="Noise level as a multiple of the default (0.05 N force, 5e-4 m/s^2 "
                 "acceleration, RMS); 0: noise-free test.",
             ),
         ] = 1.0,
@@ -85,6 +82,13 @@ def register(app: typer.Typer) -> None:
         double_hits: Annotated[
             float, typer.Option("--double-hits", help="Probability of a double hit per impact.")
         ] = 0.0,
+        window_end: Annotated[
+            float,
+            typer.Option(
+                "--window-end",
+                help="Exponential window value at the end of the 4 s record (1: no window).",
+            ),
+        ] = 0.05,
     ) -> None:
         """Simulate a hammer-test campaign of ROBOT and write it as a campaign folder.
 
@@ -96,29 +100,31 @@ def register(app: typer.Typer) -> None:
         """
         from robolobe.cli._common import console, progress
         from robolobe.robots import load_robot
-        from robolobe.twin.campaign import Campaign, read_postures, write_campaign
-        from robolobe.twin.hammer import HammerTestSettings, simulate_hammer_test
+        from robolobe.twin.campaign import read_postures, simulate_campaign, write_campaign
+        from robolobe.twin.hammer import HammerTestSettings
         from robolobe.twin.model import Twin
 
         if fmt not in ("csv", "uff"):
             raise InputError(f"expected csv or uff, found {fmt!r}", source="--format")
+        if noise < 0:
+            raise InputError(f"expected noise >= 0, found {noise:g}", source="--noise")
         want = parse_dirs(dirs)
         settings = HammerTestSettings(
             impacts=impacts,
-            force_noise_n=0.2 * noise,
-            accel_noise_m_per_s2=2e-3 * noise,
+            force_noise_n=HammerTestSettings.force_noise_n * noise,
+            accel_noise_m_per_s2=HammerTestSettings.accel_noise_m_per_s2 * noise,
             double_hit_probability=double_hits,
+            window_end=window_end,
         )
         if not 0 < fmax <= settings.sample_rate_hz / 2:
             raise InputError(
                 f"expected 0 < fmax <= {settings.sample_rate_hz / 2:g} Hz, found {fmax:g}",
                 source="--fmax",
             )
-        if noise < 0:
-            raise InputError(f"expected noise >= 0, found {noise:g}", source="--noise")
         if (postures is None) == (design is None):
             raise InputError("give exactly one of --postures FILE and --design seed|random")
 
+        builtin = robot.upper() in ("A", "B", "C") and not Path(robot).exists()
         robot_model = load_robot(robot)
         rng = np.random.default_rng(seed)
         if postures is not None:
@@ -128,10 +134,9 @@ def register(app: typer.Typer) -> None:
             from robolobe.twin.designs import design_arrays, load_seed_design, random_design
 
             if design == "seed":
-                if robot.upper() not in ("A", "B", "C") or Path(robot).exists():
+                if not builtin:
                     raise InputError(
-                        "the seed design exists for robots A, B, C only; "
-                        "use --design random --n N",
+                        "the seed design exists for robots A, B, C only; use --design random --n N",
                         source="--design",
                     )
                 frame = load_seed_design(robot)
@@ -145,51 +150,24 @@ def register(app: typer.Typer) -> None:
             source = f"design {design}"
 
         twin = Twin(robot_model)
-        excite = "".join(sorted({d[1] for d in want}, key=_AXES.index))
-        children = rng.spawn(len(ids))
-        if exact:
-            freq = np.arange(0.0, fmax + 1e-9, 0.25)
-        else:
-            full = settings.freq_hz
-            freq = full[full <= fmax + 1e-9]
-        H = np.empty((len(ids), freq.size, 3, 3), dtype=complex)
         with progress() as bar:
-            task = bar.add_task("simulating" if not exact else "receptance", total=len(ids))
-            for i in range(len(ids)):
-                qi = q[i]
-                if exact:
-                    H[i] = twin.receptance(qi, freq)
-                else:
-                    res = simulate_hammer_test(
-                        lambda f, qi=qi: twin.receptance(qi, f),
-                        rng=children[i],
-                        settings=settings,
-                        excite=excite,
-                    )
-                    H[i] = res.H1[: freq.size]
-                bar.advance(task)
-
-        if exact:
-            notes = "exact nominal receptance of the twin (robolobe simulate --exact)"
-            test: dict[str, object] = {}
-        else:
-            notes = (
-                f"simulated hammer test (robolobe simulate, seed {seed}, noise x{noise:g}, "
-                f"double-hit probability {double_hits:g}, exponential window to "
-                f"{settings.window_end:g}, H1)"
+            task = bar.add_task("receptance" if exact else "simulating", total=len(ids))
+            campaign = simulate_campaign(
+                twin.receptance,
+                robot.upper() if builtin else str(Path(robot).resolve()),
+                ids,
+                q,
+                rng=rng,
+                settings=settings,
+                exact=exact,
+                dirs=want,
+                fmax_hz=fmax,
+                on_posture=lambda _i: bar.advance(task),
             )
-            test = {
-                "sample_rate_hz": settings.sample_rate_hz,
-                "duration_s": settings.duration_s,
-                "impacts": settings.impacts,
-                "window_end": settings.window_end,
-            }
-        robot_ref = robot.upper() if robot.upper() in ("A", "B", "C") and not Path(
-            robot
-        ).exists() else str(Path(robot).resolve())
-        campaign = Campaign.from_arrays(
-            robot_ref, ids, q, freq, H, dirs=want, notes=notes, test=test
+        campaign = dataclasses.replace(
+            campaign, notes=f"{campaign.notes}; robolobe simulate --seed {seed} ({source})"
         )
+        freq = campaign.frfs[0].freq_hz
         out = write_campaign(output, campaign, fmt=fmt, copy_robot=True)  # type: ignore[arg-type]
         console.print(
             f"{'exact receptance' if exact else 'simulated test'}: {len(ids)} postures "

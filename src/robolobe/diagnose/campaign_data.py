@@ -216,6 +216,7 @@ def campaign_observations(
         sigma=sigma,
         force_N=force_N,
         source="campaign",
+        window_decay_per_s=float(decay),
     )
     if not obs.mask.any():
         raise InputError("no usable FRF in the campaign after the quality checks", source="frf")

@@ -8,10 +8,11 @@ first (one model evaluation per grid point) and the best few grid points
 are refined.
 
 Uncertainty: with ``J`` the Jacobian of the residual in internal
-coordinates at the optimum and ``s^2 = D / (N - p)`` (1 when the fit reaches
-the noise, larger when misfit remains)::
+coordinates at the optimum, ``s^2 = D / (N - p)`` (1 when the fit reaches
+the noise, larger when misfit remains) and ``c`` the variance inflation of
+correlated frequency lines (:func:`robolobe.diagnose.noise.variance_inflation`)::
 
-    Cov_z = s^2 (J^T J)^-1,  Cov_p = G Cov_z G,  G = diag(dp/dz)
+    Cov_z = c s^2 (J^T J)^-1,  Cov_p = G Cov_z G,  G = diag(dp/dz)
 
 Identifiability: the singular values of ``J`` with unit-norm columns give
 the condition number (1: independent parameters; 1e3 and more: a direction
@@ -74,6 +75,10 @@ class CandidateFit:
         Whether each parameter ended on a bound.
     nfev : int
         Model evaluations spent.
+    inflation : float
+        Variance inflation of the residuals from line correlation: the
+        information criteria count ``N / inflation`` independent residuals
+        and ``D / inflation`` as deviance.
     """
 
     candidate: Candidate
@@ -87,6 +92,7 @@ class CandidateFit:
     notes: tuple[str, ...]
     at_bound: tuple[bool, ...]
     nfev: int
+    inflation: float = 1.0
 
     @property
     def k(self) -> int:
@@ -95,13 +101,14 @@ class CandidateFit:
 
     @property
     def aic(self) -> float:
-        """Akaike information criterion ``D + 2 p``."""
-        return self.deviance + 2.0 * self.k
+        """Akaike information criterion ``D/c + 2 p`` (c: :attr:`inflation`)."""
+        return self.deviance / self.inflation + 2.0 * self.k
 
     @property
     def bic(self) -> float:
-        """Bayesian information criterion ``D + p ln N``."""
-        return self.deviance + self.k * float(np.log(max(self.n_resid, 1)))
+        """Bayesian information criterion ``D/c + p ln(N/c)`` (c: :attr:`inflation`)."""
+        n_eff = max(self.n_resid / self.inflation, 1.0)
+        return self.deviance / self.inflation + self.k * float(np.log(n_eff))
 
     @property
     def z(self) -> NDArray[np.float64]:
@@ -155,7 +162,12 @@ def _jacobian(
 
 
 def _uncertainty(
-    cand: Candidate, z: NDArray[np.float64], J: NDArray[np.float64], dev: float, n: int
+    cand: Candidate,
+    z: NDArray[np.float64],
+    J: NDArray[np.float64],
+    dev: float,
+    n: int,
+    inflation: float,
 ) -> tuple[NDArray[np.float64], NDArray[np.float64], float, list[str], bool]:
     p = cand.n_params
     norms = np.linalg.norm(J, axis=0)
@@ -175,7 +187,7 @@ def _uncertainty(
         cov_n = np.linalg.inv(Jn.T @ Jn)
     except np.linalg.LinAlgError:
         cov_n = np.linalg.pinv(Jn.T @ Jn)
-    cov_z = s2 * cov_n / np.outer(norms, norms)
+    cov_z = s2 * inflation * cov_n / np.outer(norms, norms)
     sd_z = np.sqrt(np.clip(np.diag(cov_z), 0.0, None))
     corr = cov_z / np.outer(sd_z, sd_z) if np.all(sd_z > 0) else np.eye(p)
     G = np.array([ps.dphys_dz(zi) for ps, zi in zip(cand.params, z, strict=True)])
@@ -245,6 +257,7 @@ def fit_candidate(
             notes=(),
             at_bound=(),
             nfev=obj.nfev,
+            inflation=obs.inflation,
         )
     lo, hi = candidate.bounds_internal
     if z0 is not None:
@@ -284,7 +297,7 @@ def fit_candidate(
     r0 = np.asarray(best.fun, dtype=float)
     J = _jacobian(obj, z, r0, lo, hi)
     dev = deviance(r0)
-    std, corr, cond, notes, ok = _uncertainty(candidate, z, J, dev, n)
+    std, corr, cond, notes, ok = _uncertainty(candidate, z, J, dev, n, obs.inflation)
     span = hi - lo
     at_bound = tuple(
         bool(min(z[i] - lo[i], hi[i] - z[i]) < 1e-3 * span[i]) for i in range(p)
@@ -306,4 +319,5 @@ def fit_candidate(
         notes=tuple(notes),
         at_bound=at_bound,
         nfev=obj.nfev,
+        inflation=obs.inflation,
     )

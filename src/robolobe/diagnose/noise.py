@@ -39,7 +39,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from robolobe.errors import InputError
 
-__all__ = ["coherence_sigma", "line_correlation_factor", "roughness_sigma"]
+__all__ = ["coherence_sigma", "line_correlation_factor", "roughness_sigma", "variance_inflation"]
 
 _MEDIAN_RAYLEIGH_D2 = float(np.sqrt(6.0) * np.sqrt(2.0 * np.log(2.0)))
 
@@ -90,6 +90,31 @@ def line_correlation_factor(df_hz: float, window_decay_per_s: float) -> float:
         return 1.0
     rho = [2 * a / (2 * a + 2j * np.pi * m * df_hz) for m in (1, 2)]
     return float(np.sqrt(6.0 / (6.0 - 8.0 * rho[0].real + 2.0 * rho[1].real)))
+
+
+def variance_inflation(df_hz: float, window_decay_per_s: float) -> float:
+    """How much line correlation inflates the variance of a fitted parameter.
+
+    With ``Re rho_m = b^2 / (b^2 + m^2)``, ``b = a / (pi df)``::
+
+        1 + 2 sum_{m>=1} Re rho_m = pi b coth(pi b)
+
+    (3.0 for a 4 s record windowed to 5 % at 0.25 Hz lines; 1 without a
+    window). Parameter standard deviations are multiplied by its square root
+    and information criteria count ``N / inflation`` independent residuals.
+
+    Parameters
+    ----------
+    df_hz : float
+        Line spacing [Hz].
+    window_decay_per_s : float
+        Exponential-window decay rate [1/s].
+    """
+    b = float(window_decay_per_s) / (np.pi * df_hz)
+    if b <= 1e-9:
+        return 1.0
+    x = np.pi * b
+    return float(x / np.tanh(x))
 
 
 def roughness_sigma(

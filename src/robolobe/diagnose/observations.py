@@ -18,6 +18,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from robolobe.diagnose.noise import variance_inflation
 from robolobe.errors import InputError
 
 __all__ = [
@@ -81,6 +82,9 @@ class Observations:
         Hammer force level of each record [N] (peak force), if known.
     source : str
         Where the data came from (for messages).
+    window_decay_per_s : float
+        Exponential-window decay of the recordings [1/s]; sets the
+        correlation of neighbouring lines (:attr:`inflation`).
     """
 
     record_ids: tuple[str, ...]
@@ -91,7 +95,10 @@ class Observations:
     sigma: FloatArray
     force_N: FloatArray | None = None
     source: str = "<observations>"
+    window_decay_per_s: float = 0.0
     _mask: BoolArray = field(init=False, repr=False)
+    _H_measured: ComplexArray = field(init=False, repr=False)
+    _inv_sigma_measured: FloatArray = field(init=False, repr=False)
 
     def __post_init__(self) -> None:
         n = len(self.record_ids)
@@ -128,6 +135,8 @@ class Observations:
         object.__setattr__(self, "sigma", _frozen(np.where(mask, s, np.nan)))
         object.__setattr__(self, "force_N", None if force is None else _frozen(force))
         object.__setattr__(self, "_mask", _frozen(mask))
+        object.__setattr__(self, "_H_measured", _frozen(H[mask]))
+        object.__setattr__(self, "_inv_sigma_measured", _frozen(1.0 / s[mask]))
 
     # ---------------------------------------------------------------- views
     @property
@@ -141,6 +150,16 @@ class Observations:
         return self._mask
 
     @property
+    def H_measured(self) -> ComplexArray:
+        """``H[mask]``: the measured points in a fixed order, shape (m,)."""
+        return self._H_measured
+
+    @property
+    def inv_sigma_measured(self) -> FloatArray:
+        """``1 / sigma[mask]``, shape (m,)."""
+        return self._inv_sigma_measured
+
+    @property
     def dir_mask(self) -> BoolArray:
         """Directions measured in each record (any frequency), shape (n, 3, 3)."""
         return np.asarray(self._mask.any(axis=1))
@@ -150,6 +169,12 @@ class Observations:
         """Directions measured in at least one record, in :data:`DIRS` order."""
         m = self.dir_mask.any(axis=0)
         return tuple(d for d in DIRS if m[dir_index(d)])
+
+    @property
+    def inflation(self) -> float:
+        """Variance inflation from line correlation (:func:`~robolobe.diagnose.noise.variance_inflation`)."""
+        df = float(np.median(np.diff(self.freq_hz)))
+        return variance_inflation(df, self.window_decay_per_s)
 
     @property
     def groups(self) -> tuple[str, ...]:
@@ -175,6 +200,7 @@ class Observations:
             sigma=self.sigma[i],
             force_N=None if self.force_N is None else self.force_N[i],
             source=self.source,
+            window_decay_per_s=self.window_decay_per_s,
         )
 
     def decimated(self, max_lines: int) -> Observations:
@@ -200,4 +226,5 @@ class Observations:
             sigma=self.sigma[:, sl],
             force_N=self.force_N,
             source=self.source,
+            window_decay_per_s=self.window_decay_per_s,
         )

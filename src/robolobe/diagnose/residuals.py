@@ -89,10 +89,17 @@ def residual_vector(H_model: NDArray[np.complexfloating], obs: Observations) -> 
     -------
     ndarray, shape (2 m,)
         Real parts then imaginary parts of ``log(H_model/H_meas)/sigma`` over
-        the ``m`` measured points (fixed order for a given ``obs``).
+        the ``m`` measured points (order of ``obs.H_measured``).
     """
-    z = log_ratio(H_model, obs)[obs.mask] / obs.sigma[obs.mask]
-    return np.concatenate([z.real, z.imag])
+    Hp = np.asarray(H_model)
+    if Hp.shape != obs.H.shape:
+        raise ValueError(f"H_model: expected shape {obs.H.shape}, found {Hp.shape}")
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        lr = np.log(Hp[obs.mask] / obs.H_measured)
+    re = np.clip(np.nan_to_num(lr.real, nan=_LOG_CAP, posinf=_LOG_CAP, neginf=-_LOG_CAP), -_LOG_CAP, _LOG_CAP)
+    im = np.nan_to_num(lr.imag, nan=np.pi)
+    w = obs.inv_sigma_measured
+    return np.concatenate([re * w, im * w])
 
 
 def _rho(r: NDArray[np.float64]) -> NDArray[np.float64]:

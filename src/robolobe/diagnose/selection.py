@@ -332,7 +332,7 @@ def select(
             delta_bic=dbic,
             gain=gain,
             posture_share=share,
-            explained=float(explained),
+            explained=float(np.clip(explained, 0.0, 1.0)),
             passed=not reasons,
             reasons=tuple(reasons),
             cv=cv,

@@ -10,11 +10,9 @@ compare a model with recorded FRFs:
   section 4). The windowed FRF of a linear structure is its transfer function
   evaluated at ``s = a + i w`` instead of ``i w`` (every pole moves left by
   ``a``): without this the window's damping would be mistaken for missing
-  physics. With ``s = a + i w``::
-
-      K + s^2 M + s C = (K + a^2 M + a C) - w^2 M + i w (C + 2 a M)
-
-  so the twin's receptance solver is used unchanged with modified K and C.
+  physics. The transfer function is evaluated by modal superposition over
+  the poles of the twin's assembled matrices
+  (:func:`pole_residue_receptance`), which takes any complex ``s``.
   The recorded receptance is the windowed *accelerance* divided by
   ``-w^2`` (an accelerometer test), so it carries the factor
   ``((a + i w) / (i w))^2 = (1 - i a / w)^2`` as well: a phase lead of about
@@ -39,12 +37,59 @@ from robolobe.diagnose.observations import Observations
 from robolobe.errors import InputError
 from robolobe.robots import Robot
 from robolobe.twin.effects import Effect, FrictionDamping
-from robolobe.twin.frf import receptance
 from robolobe.twin.model import Twin
 
-__all__ = ["TwinModel", "windowed_receptance"]
+__all__ = ["TwinModel", "pole_residue_receptance", "windowed_receptance"]
 
 ComplexArray = NDArray[np.complex128]
+
+
+def pole_residue_receptance(
+    M: NDArray[np.float64],
+    K: NDArray[np.float64],
+    C: NDArray[np.float64],
+    J: NDArray[np.float64],
+    s: NDArray[np.complex128],
+) -> ComplexArray:
+    """``J (K + s C + s^2 M)^-1 J^T`` by modal superposition over all 2n poles.
+
+    State-space eigenproblem of ``M x'' + C x' + K x = 0`` (one small
+    ``eig`` per posture), then
+
+        H(s) = sum_r (J phi_r)(J phi_r)^T / (a_r (s - lambda_r)),
+        a_r = 2 lambda_r phi_r^T M phi_r + phi_r^T C phi_r
+
+    over all 2n eigenvalues (complex pairs and, if any, overdamped real
+    poles): exact for symmetric M, C, K with distinct poles, and several times
+    faster than a linear solve per frequency line.
+
+    Parameters
+    ----------
+    M, K, C : ndarray, shape (..., n, n)
+    J : ndarray, shape (..., p, n)
+    s : ndarray of complex, shape (n_freq,)
+        Laplace variable at each line [rad/s].
+
+    Returns
+    -------
+    ndarray of complex, shape (..., n_freq, p, p)
+    """
+    n = M.shape[-1]
+    batch = M.shape[:-2]
+    Minv = np.linalg.inv(M)
+    A = np.zeros((*batch, 2 * n, 2 * n))
+    A[..., :n, n:] = np.eye(n)
+    A[..., n:, :n] = -Minv @ K
+    A[..., n:, n:] = -Minv @ C
+    lam, V = np.linalg.eig(A)  # (..., 2n), (..., 2n, 2n)
+    phi = V[..., :n, :]  # (..., n, 2n)
+    Mphi = M @ phi
+    Cphi = C @ phi
+    a = 2 * lam * np.sum(phi * Mphi, axis=-2) + np.sum(phi * Cphi, axis=-2)  # (..., 2n)
+    u = J @ phi  # (..., p, 2n)
+    g = 1.0 / (a[..., None, :] * (s[:, None] - lam[..., None, :]))  # (..., n_freq, 2n)
+    out: ComplexArray = np.einsum("...fr,...ir,...jr->...fij", g, u, u, optimize=True)
+    return out
 
 
 def windowed_receptance(
@@ -61,7 +106,7 @@ def windowed_receptance(
         Frequencies [Hz].
     decay_per_s : float
         Decay rate of the exponential window ``a = -ln(window_end) / T`` [1/s]
-        (0: no window, identical to ``twin.receptance``).
+        (0: no window; then equal to ``twin.receptance``).
 
     Returns
     -------
@@ -71,18 +116,15 @@ def windowed_receptance(
     """
     if decay_per_s < 0 or not np.isfinite(decay_per_s):
         raise InputError(f"window decay: expected a rate >= 0 1/s, found {decay_per_s!r}")
-    if decay_per_s == 0.0:
-        return np.asarray(twin.receptance(q_rad, freq_hz))
-    s = twin.system(q_rad)
+    sm = twin.system(q_rad)
     a = float(decay_per_s)
-    M = s.M
-    k = s.K + a * a * M + a * s.C
-    c = s.C + 2.0 * a * M
     f = np.asarray(freq_hz, dtype=float)
-    h = receptance(M, k, c, s.J, f)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        acc = (1.0 - 1j * a / (2.0 * np.pi * f)) ** 2  # accelerance -> receptance by -w^2
-    h = h * np.where(f > 0, acc, 1.0)[:, None, None]
+    w = 2.0 * np.pi * f
+    h = pole_residue_receptance(sm.M, sm.K, sm.C, sm.J, a + 1j * w)
+    if a > 0:
+        with np.errstate(divide="ignore", invalid="ignore"):
+            acc = (1.0 - 1j * a / w) ** 2  # accelerance -> receptance by -w^2
+        h = h * np.where(f > 0, acc, 1.0)[:, None, None]
     for e in sorted(twin.effects, key=lambda e: e.stage):
         h = e.modify_frf(h, f)
     return np.asarray(h)

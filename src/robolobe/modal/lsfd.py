@@ -42,6 +42,10 @@ class LSFDResult:
         Residual terms ``U``, ``L2`` (times ``1/s^2``) and ``L1`` (times ``1/s``).
     rel_residual : ndarray of float, shape frf_shape
         Weighted residual norm over weighted data norm per FRF.
+    residue_std : ndarray of float, shape (n_modes, *frf_shape)
+        Standard deviation of each residue (``sqrt(var Re + var Im)``), from the
+        residual variance and the normal matrix (weights taken as inverse
+        noise standard deviation up to a common factor); NaN if unknown.
     """
 
     poles: NDArray[np.complex128]
@@ -50,6 +54,7 @@ class LSFDResult:
     lower2: NDArray[np.complex128]
     lower1: NDArray[np.complex128]
     rel_residual: NDArray[np.float64]
+    residue_std: NDArray[np.float64] | None = None
 
     def synthesize(self, freq_hz: ArrayLike, *, residuals: bool = True) -> NDArray[np.complex128]:
         """FRFs of the fitted model, shape (n_freq, *frf_shape)."""
@@ -62,7 +67,7 @@ class LSFDResult:
         )
 
     def mode_peak(self) -> NDArray[np.float64]:
-        """Peak magnitude ``|R_r| / |Re lambda_r|`` of each mode's term, shape (n_modes, *frf_shape)."""
+        """Peak ``|R_r| / |Re lambda_r|`` of each mode's term, shape (n_modes, *frf_shape)."""
         sigma = np.abs(self.poles.real).reshape((-1,) + (1,) * (self.residues.ndim - 1))
         return np.asarray(np.abs(self.residues) / sigma)
 
@@ -167,12 +172,18 @@ def lsfd(
     A = np.matmul(bw.transpose(0, 2, 1), br) / (scale[:, :, None] * scale[:, None, :])
     b = np.einsum("kfp,fk->kp", bw, y) / scale
     A = A + 1e-12 * np.eye(n_p)[None]
-    x = np.linalg.solve(A, b[..., None])[..., 0] / scale  # (K, P)
+    Ainv = np.linalg.inv(A)
+    x = np.einsum("kpq,kq->kp", Ainv, b) / scale  # (K, P)
     fit = br @ x.T  # (2F, K)
+    n_eq = np.count_nonzero(w2 > 0, axis=0)
+    chi2 = np.sum(w2 * (fit - y) ** 2, axis=0)
     with np.errstate(invalid="ignore", divide="ignore"):
-        rel = np.sqrt(np.sum(w2 * (fit - y) ** 2, axis=0) / np.sum(w2 * y**2, axis=0))
+        rel = np.sqrt(chi2 / np.sum(w2 * y**2, axis=0))
+        s2 = chi2 / np.maximum(n_eq - n_p, 1)  # residual variance (weighted units)
+    var = s2[:, None] * np.einsum("kpp->kp", Ainv) / scale**2  # (K, P)
     nm = lam.size
     R = (x[:, 0 : 2 * nm : 2] + 1j * x[:, 1 : 2 * nm : 2]).T  # (n_modes, K)
+    R_std = np.sqrt(var[:, 0 : 2 * nm : 2] + var[:, 1 : 2 * nm : 2]).T
     k0 = 2 * nm
     zero = np.zeros(x.shape[0], complex)
     U = x[:, k0] + 1j * x[:, k0 + 1] if upper else zero
@@ -186,6 +197,7 @@ def lsfd(
         lower2=np.asarray(L2).reshape(rest).astype(np.complex128),
         lower1=np.asarray(L1).reshape(rest).astype(np.complex128),
         rel_residual=np.asarray(rel, dtype=float).reshape(rest),
+        residue_std=np.asarray(R_std, dtype=float).reshape(nm, *rest),
     )
 
 

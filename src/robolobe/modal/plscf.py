@@ -180,5 +180,7 @@ def plscf(
         vec = vec[order_idx]
         norms = np.linalg.norm(vec, axis=1, keepdims=True)
         vec = vec / np.where(norms > 0, norms, 1.0)
-        out.append(PoleSet(order=n, poles=lam.astype(np.complex128), vectors=vec))
+        out.append(
+            PoleSet(order=n, poles=lam.astype(np.complex128), vectors=vec.astype(np.complex128))
+        )
     return out

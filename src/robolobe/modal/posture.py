@@ -81,7 +81,10 @@ class IdentifySettings:
     visibility_min : float
         A mode counts at a driving point when the peak of its term
         ``|R_dd| / sigma`` is at least this fraction of the largest
-        measured ``|H_dd|`` in the band.
+        measured ``|H_dd|`` in the band ...
+    k_rel_std_max : float
+        ... and the relative standard deviation of its driving-point residue
+        (from the LSFD covariance) is at most this.
     window_decay_per_s : float
         Decay rate added by an exponential window, ``-ln(w_end) / T``, 1/s
         (0: no window).
@@ -101,6 +104,7 @@ class IdentifySettings:
     refine: bool = True
     n_modes: int = 5
     visibility_min: float = 0.03
+    k_rel_std_max: float = 0.25
     window_decay_per_s: float = 0.0
     record_length_s: float | None = None
     coherence_min: float = 0.9
@@ -153,6 +157,9 @@ class PostureModal:
     k_N_per_m : ndarray, shape (3, n_modes)
         Driving-point modal stiffness per direction x, y, z (NaN where the
         driving point was not measured).
+    k_rel_std : ndarray, shape (3, n_modes)
+        Relative standard deviation of the driving-point residue (LSFD
+        covariance), about that of the modal stiffness.
     visibility : ndarray, shape (3, n_modes)
         Peak of the mode's term over the largest measured ``|H_dd|`` in the band.
     shapes : ndarray, shape (n_modes, 3)
@@ -182,6 +189,7 @@ class PostureModal:
     poles_measured: NDArray[np.complex128]
     residues: NDArray[np.complex128]
     k_N_per_m: NDArray[np.float64]
+    k_rel_std: NDArray[np.float64]
     visibility: NDArray[np.float64]
     shapes: NDArray[np.float64]
     signed_shapes: bool
@@ -201,10 +209,15 @@ class PostureModal:
         return int(self.f_hz.size)
 
     def modes_for_direction(self, d: int) -> NDArray[np.intp]:
-        """Indices of the modes visible at driving point ``d`` (0, 1, 2) with ``k > 0``."""
+        """Modes visible at driving point ``d`` (0, 1, 2): ``k > 0``, visibility and precision.
+
+        Visible: ``visibility >= visibility_min`` and the residue's relative
+        standard deviation ``<= k_rel_std_max``.
+        """
         k = self.k_N_per_m[d]
         vis = self.visibility[d]
-        ok = np.isfinite(k) & (k > 0) & (vis >= self.settings.visibility_min)
+        prec = np.nan_to_num(self.k_rel_std[d], nan=0.0) <= self.settings.k_rel_std_max
+        ok = np.isfinite(k) & (k > 0) & (vis >= self.settings.visibility_min) & prec
         return np.flatnonzero(ok)
 
     def measured_zeta(self) -> NDArray[np.float64]:
@@ -212,8 +225,12 @@ class PostureModal:
         return poles_to_modal(self.poles_measured)[1]
 
     def synthesize_direction(
-        self, d: int, modes: Sequence[int] | NDArray[np.intp] | None = None,
-        freq_hz: ArrayLike | None = None, *, measured_domain: bool = True,
+        self,
+        d: int,
+        modes: Sequence[int] | NDArray[np.intp] | None = None,
+        freq_hz: ArrayLike | None = None,
+        *,
+        measured_domain: bool = True,
     ) -> NDArray[np.complex128]:
         """Driving-point FRF from modal parameters (f, zeta, k), shape (n_freq,).
 
@@ -315,17 +332,38 @@ def _shapes(
 
 
 def _empty(
-    pid: str, issues: list[QualityIssue], s: IdentifySettings, f: NDArray, h: NDArray,
-    w: NDArray, used: NDArray[np.bool_], diagram: StabilizationDiagram | None = None,
+    pid: str,
+    issues: list[QualityIssue],
+    s: IdentifySettings,
+    f: NDArray,
+    h: NDArray,
+    w: NDArray,
+    used: NDArray[np.bool_],
+    diagram: StabilizationDiagram | None = None,
     selected: SelectedPoles | None = None,
 ) -> PostureModal:
     z = np.zeros(0)
     return PostureModal(
-        posture_id=pid, f_hz=z, zeta=z, poles=z.astype(complex), poles_measured=z.astype(complex),
-        residues=np.zeros((0, 3, 3), complex), k_N_per_m=np.zeros((3, 0)),
-        visibility=np.zeros((3, 0)), shapes=np.zeros((0, 3)), signed_shapes=False, used=used,
-        issues=tuple(issues), diagram=diagram, selected=selected, lsfd=None, freq_hz=f, H=h,
-        weights=w, settings=s,
+        posture_id=pid,
+        f_hz=z,
+        zeta=z,
+        poles=z.astype(complex),
+        poles_measured=z.astype(complex),
+        residues=np.zeros((0, 3, 3), complex),
+        k_N_per_m=np.zeros((3, 0)),
+        k_rel_std=np.zeros((3, 0)),
+        visibility=np.zeros((3, 0)),
+        shapes=np.zeros((0, 3)),
+        signed_shapes=False,
+        used=used,
+        issues=tuple(issues),
+        diagram=diagram,
+        selected=selected,
+        lsfd=None,
+        freq_hz=f,
+        H=h,
+        weights=w,
+        settings=s,
     )
 
 
@@ -368,12 +406,23 @@ def identify_posture(
     h_all = np.asarray(H, dtype=complex)
     coh_all = None if coherence is None else np.asarray(coherence, dtype=float)
     issues = check_posture_frfs(
-        pid, f_all, h_all, band_hz=(s.fmin_hz, s.fmax_hz), coherence=coh_all,
+        pid,
+        f_all,
+        h_all,
+        band_hz=(s.fmin_hz, s.fmax_hz),
+        coherence=coh_all,
         coherence_min=s.coherence_min,
     )
     if any(i.severity == "error" and i.dir == "*" for i in issues):
-        return _empty(pid, issues, s, np.zeros(0), np.zeros((0, 3, 3), complex),
-                      np.zeros((0, 3, 3)), np.zeros((3, 3), bool))
+        return _empty(
+            pid,
+            issues,
+            s,
+            np.zeros(0),
+            np.zeros((0, 3, 3), complex),
+            np.zeros((0, 3, 3)),
+            np.zeros((3, 3), bool),
+        )
     f_hi = s.fmax_hz * (1.0 + s.fit_margin)
     band = (f_all >= 0.5 * s.fmin_hz) & (f_all <= f_hi) & (f_all > 0)
     f = f_all[band]
@@ -396,13 +445,11 @@ def identify_posture(
         Hp = h[:, ii, jj][:, :, None]  # common denominator, each FRF an output
         Wp = w[:, ii, jj]
     m = Hp.shape[2]
-    n_max = s.max_order if s.max_order is not None else int(math.ceil(40 / m)) + 2
+    n_max = s.max_order if s.max_order is not None else math.ceil(40 / m) + 2
     n_max = max(2, min(n_max, (2 * f.size * Hp.shape[1]) // m - 2))
     orders = list(range(1, n_max + 1)) if m > 1 else list(range(2, n_max + 1, 2))
     pole_sets = plscf(f, Hp, orders, weights=Wp)
-    diagram = stabilization_diagram(
-        pole_sets, band_hz=(s.fmin_hz, s.fmax_hz), criteria=s.criteria
-    )
+    diagram = stabilization_diagram(pole_sets, band_hz=(s.fmin_hz, s.fmax_hz), criteria=s.criteria)
     selected = select_poles(diagram, s.selection)
     lam = selected.poles
     n_extra = 0
@@ -432,8 +479,16 @@ def refit_posture(pm: PostureModal, extra_poles: ArrayLike) -> PostureModal:
     extra = np.asarray(extra_poles, dtype=complex).reshape(-1)
     lam = np.concatenate([pm.poles_measured, extra])
     return _finish(
-        pm.posture_id, pm.freq_hz, pm.H, pm.weights, pm.used, lam, extra.size,
-        [i for i in pm.issues if i.check not in ("poles", "window")], pm.diagram, pm.selected,
+        pm.posture_id,
+        pm.freq_hz,
+        pm.H,
+        pm.weights,
+        pm.used,
+        lam,
+        extra.size,
+        [i for i in pm.issues if i.check not in ("poles", "window")],
+        pm.diagram,
+        pm.selected,
         pm.settings,
     )
 
@@ -492,16 +547,28 @@ def _finish(
     if not ok.all():
         issues.append(
             QualityIssue(
-                pid, "*", "window", "warning",
+                pid,
+                "*",
+                "window",
+                "warning",
                 f"{int(np.count_nonzero(~ok))} mode(s) have less damping than the window adds; "
                 "dropped",
             )
         )
     lam, lam_true, R, f_true, z_true = lam[ok], lam_true[ok], R[ok], f_true[ok], z_true[ok]
     fit = LSFDResult(
-        poles=fit.poles[ok], residues=fit.residues[ok], upper=fit.upper, lower2=fit.lower2,
-        lower1=fit.lower1, rel_residual=fit.rel_residual,
+        poles=fit.poles[ok],
+        residues=fit.residues[ok],
+        upper=fit.upper,
+        lower2=fit.lower2,
+        lower1=fit.lower1,
+        rel_residual=fit.rel_residual,
+        residue_std=None if fit.residue_std is None else fit.residue_std[ok],
     )
+    rstd = np.full((lam.size, 3, 3), np.nan) if fit.residue_std is None else fit.residue_std
+    with np.errstate(invalid="ignore", divide="ignore"):
+        k_rel = np.stack([rstd[:, d, d] / np.abs(fit.residues[:, d, d]) for d in range(3)], axis=0)
+    k_rel = np.where(used.diagonal()[:, None], k_rel, np.nan)
     Rdd = np.stack([R[:, d, d] for d in range(3)], axis=0)  # (3, n)
     k = modal_stiffness(lam_true, Rdd.T).T  # (3, n)
     # visibility in the measured domain
@@ -520,6 +587,7 @@ def _finish(
         poles_measured=lam.astype(np.complex128),
         residues=R.astype(np.complex128),
         k_N_per_m=k,
+        k_rel_std=k_rel,
         visibility=np.where(np.isfinite(vis), vis, 0.0),
         shapes=shapes,
         signed_shapes=signed,

@@ -72,9 +72,7 @@ class QualityIssue:
         return f"posture {self.posture_id!r} {self.dir}: [{self.check}] {self.message}"
 
 
-def usable_directions(
-    H: ArrayLike, issues: Sequence[QualityIssue] = ()
-) -> NDArray[np.bool_]:
+def usable_directions(H: ArrayLike, issues: Sequence[QualityIssue] = ()) -> NDArray[np.bool_]:
     """Directions present and finite on every line and not marked ``error``, shape (3, 3)."""
     h = np.asarray(H)
     ok = np.all(np.isfinite(h), axis=0)
@@ -125,7 +123,10 @@ def check_posture_frfs(
     if h.ndim != 3 or h.shape[1:] != (3, 3) or f.ndim != 1 or h.shape[0] != f.size:
         out.append(
             QualityIssue(
-                pid, "*", "grid", "error",
+                pid,
+                "*",
+                "grid",
+                "error",
                 f"expected freq_hz (n,) and H (n, 3, 3), found {f.shape} and {h.shape}",
             )
         )
@@ -134,7 +135,10 @@ def check_posture_frfs(
     if f.size < 8 or np.any(~np.isfinite(f)) or np.any(df <= 0):
         out.append(
             QualityIssue(
-                pid, "*", "grid", "error",
+                pid,
+                "*",
+                "grid",
+                "error",
                 "expected at least 8 finite, strictly increasing frequencies",
             )
         )
@@ -142,7 +146,10 @@ def check_posture_frfs(
     if np.ptp(df) > 1e-6 * np.mean(df):
         out.append(
             QualityIssue(
-                pid, "*", "grid", "warning",
+                pid,
+                "*",
+                "grid",
+                "warning",
                 f"frequency grid is not uniform (steps {df.min():g}..{df.max():g} Hz)",
                 float(np.ptp(df)),
             )
@@ -150,7 +157,10 @@ def check_posture_frfs(
     if f[-1] < hi:
         out.append(
             QualityIssue(
-                pid, "*", "grid", "warning",
+                pid,
+                "*",
+                "grid",
+                "warning",
                 f"data end at {f[-1]:g} Hz, below the band's upper edge {hi:g} Hz",
                 float(f[-1]),
             )
@@ -159,9 +169,11 @@ def check_posture_frfs(
     if np.count_nonzero(inband) < 8:
         out.append(
             QualityIssue(
-                pid, "*", "grid", "error",
-                f"expected at least 8 lines in {lo:g}..{hi:g} Hz, found "
-                f"{np.count_nonzero(inband)}",
+                pid,
+                "*",
+                "grid",
+                "error",
+                f"expected at least 8 lines in {lo:g}..{hi:g} Hz, found {np.count_nonzero(inband)}",
             )
         )
         return out
@@ -179,7 +191,10 @@ def check_posture_frfs(
                 first = float(f[np.argmax(~finite[:, i, j])])
                 out.append(
                     QualityIssue(
-                        pid, d, "nan", "error",
+                        pid,
+                        d,
+                        "nan",
+                        "error",
                         f"{n_bad} of {f.size} lines are NaN or inf (first at {first:g} Hz); "
                         "direction not used",
                         n_bad / f.size,
@@ -199,7 +214,10 @@ def check_posture_frfs(
                     if frac_bad > 0.1:
                         out.append(
                             QualityIssue(
-                                pid, _AX[i] + _AX[j], "coherence", "warning",
+                                pid,
+                                _AX[i] + _AX[j],
+                                "coherence",
+                                "warning",
                                 f"{100 * frac_bad:.0f} % of the lines in {lo:g}..{hi:g} Hz have "
                                 f"coherence below {coherence_min:g}",
                                 frac_bad,
@@ -216,8 +234,12 @@ def check_posture_frfs(
                 if rel > reciprocity_tol:
                     out.append(
                         QualityIssue(
-                            pid, _AX[i] + _AX[j], "reciprocity", "warning",
-                            f"H_{_AX[i]}{_AX[j]} and H_{_AX[j]}{_AX[i]} differ by {100 * rel:.0f} % "
+                            pid,
+                            _AX[i] + _AX[j],
+                            "reciprocity",
+                            "warning",
+                            f"H_{_AX[i]}{_AX[j]} and H_{_AX[j]}{_AX[i]} differ by "
+                            f"{100 * rel:.0f} % "
                             f"(RMS, expected <= {100 * reciprocity_tol:.0f} %): rotated sensor "
                             "axes or mislabelled channels?",
                             rel,
@@ -233,7 +255,10 @@ def check_posture_frfs(
         if frac_pos > 0.1:
             out.append(
                 QualityIssue(
-                    pid, _AX[i] * 2, "passivity", "warning",
+                    pid,
+                    _AX[i] * 2,
+                    "passivity",
+                    "warning",
                     f"Im H_{_AX[i]}{_AX[i]} > 0 on {100 * frac_pos:.0f} % of the band lines "
                     "(a driving-point receptance has Im <= 0): sign or direction error?",
                     frac_pos,
@@ -259,8 +284,13 @@ def check_campaign_grids(
     keys = []
     for g in grids:
         a = np.asarray(g, dtype=float)
-        keys.append((a.size, round(float(a[0]), 9) if a.size else 0.0,
-                     round(float(a[-1]), 9) if a.size else 0.0))
+        keys.append(
+            (
+                a.size,
+                round(float(a[0]), 9) if a.size else 0.0,
+                round(float(a[-1]), 9) if a.size else 0.0,
+            )
+        )
     if not keys:
         return []
     common, _ = Counter(keys).most_common(1)[0]
@@ -269,7 +299,10 @@ def check_campaign_grids(
         if k != common:
             out.append(
                 QualityIssue(
-                    str(pid), "*", "grid", "warning",
+                    str(pid),
+                    "*",
+                    "grid",
+                    "warning",
                     f"frequency grid ({k[0]} lines, {k[1]:g}..{k[2]:g} Hz) differs from the "
                     f"campaign's usual grid ({common[0]} lines, {common[1]:g}..{common[2]:g} Hz)",
                 )

@@ -18,6 +18,7 @@ Each pole is parametrized by ``ln w_r`` and ``ln sigma_r`` and kept within
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -53,8 +54,12 @@ class RefineResult:
 
 
 def _projector(
-    F: NDArray[np.float64], y: NDArray, w2: NDArray, lower: bool, upper: bool
-):  # type: ignore[no-untyped-def]
+    F: NDArray[np.float64],
+    y: NDArray[np.float64],
+    w2: NDArray[np.float64],
+    lower: bool,
+    upper: bool,
+) -> Callable[[NDArray[np.complex128]], NDArray[np.float64]]:
     def resid(lam: NDArray[np.complex128]) -> NDArray[np.float64]:
         B = residue_basis(F, lam, lower=lower, upper=upper)
         br = np.concatenate([B.real, B.imag], axis=0)  # (2F, P)
@@ -131,7 +136,7 @@ def refine_poles(
 
     def to_poles(p: NDArray[np.float64]) -> NDArray[np.complex128]:
         wr = np.exp(p[:n])
-        z = np.exp(p[n:])
+        z = np.minimum(np.exp(p[n:]), 0.999)
         return np.asarray(-z * wr + 1j * wr * np.sqrt(1.0 - z**2), dtype=np.complex128)
 
     p0 = np.concatenate([np.log(wr0), np.log(z0)])
@@ -140,13 +145,16 @@ def refine_poles(
     try:
         # Levenberg-Marquardt (MINPACK): no LAPACK SVD per step, which is slow when
         # the BLAS runs many threads on a loaded machine; bounds are checked after.
+        def fun(p: NDArray[np.float64]) -> NDArray[np.float64]:
+            return resid(to_poles(p))
+
         sol = least_squares(
-            lambda p: resid(to_poles(p)),
+            fun,
             p0,
             method="lm",
             x_scale=np.concatenate([np.full(n, 1e-3), np.full(n, 0.1)]),
             max_nfev=max_nfev * (2 * n + 1),
-            diff_step=1e-6,
+            diff_step=np.full(2 * n, 1e-6),
         )
     except (ValueError, np.linalg.LinAlgError):
         return RefineResult(lam0.astype(np.complex128), cost0, cost0, np.ones(n, bool), False)

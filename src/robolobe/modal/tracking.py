@@ -109,8 +109,14 @@ def posture_distances(q_rad: ArrayLike) -> NDArray[np.float64]:
 
 
 def _cost(
-    f: NDArray, z: NDArray, u: NDArray, signed: bool,
-    tf: NDArray, tz: NDArray, tu: NDArray, tsigned: NDArray,
+    f: NDArray,
+    z: NDArray,
+    u: NDArray,
+    signed: bool,
+    tf: NDArray,
+    tz: NDArray,
+    tu: NDArray,
+    tsigned: NDArray,
     s: TrackingSettings,
 ) -> NDArray[np.float64]:
     cf = (np.log(f[:, None] / tf[None, :]) / s.f_scale) ** 2
@@ -216,12 +222,12 @@ def track_modes(
             for r, col in zip(rows, cols, strict=True):
                 if cc[r, col] < big:
                     labels[p][r] = tracks[col]
-        for i in np.flatnonzero(labels[p] < 0):
-            labels[p][i] = n_tracks
+        for j in np.flatnonzero(labels[p] < 0).tolist():
+            labels[p][j] = n_tracks
             n_tracks += 1
         st = dict(state[par]) if par >= 0 else {}
-        for i, t in enumerate(labels[p]):
-            st[int(t)] = (int(p), i)
-            latest[int(t)] = (int(p), i)
+        for i, t in enumerate(labels[p].tolist()):
+            st[int(t)] = (int(p), int(i))
+            latest[int(t)] = (int(p), int(i))
         state[int(p)] = st
     return ModeTracks(tuple(labels), n_tracks, order, parent)

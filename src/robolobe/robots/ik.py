@@ -48,8 +48,10 @@ FloatArray = NDArray[np.float64]
 BoolArray = NDArray[np.bool_]
 
 SINGULAR_TOL = 1e-3
-"""Default singularity threshold: |sin q5|-like wrist measure, elbow
-``1 - |cos|`` margin, shoulder distance [m] of the wrist centre from axis 1."""
+"""Default singularity threshold ``tol``: wrist flagged when |sin(bend)| (|sin q5| for the
+usual wrist) < tol, elbow when ``1 - |cos|`` of the elbow angle < tol**2 (about tol*sqrt(2)
+rad from stretched/folded), shoulder when the wrist centre is < tol [m] from the
+shoulder-singular set (axis 1 for arms without lateral offset)."""
 
 _POS_TOL_M = 1e-7
 _ROT_TOL_RAD = 1e-7

@@ -390,7 +390,7 @@ def load_robot(spec: str | os.PathLike[str]) -> Robot:
         (naming the key).
     """
     text_spec = os.fspath(spec)
-    if isinstance(spec, str) and spec.upper() in BUILTIN_ROBOTS and not Path(spec).exists():
+    if isinstance(spec, str) and spec.upper() in BUILTIN_ROBOTS and not Path(spec).is_file():
         key = spec.upper()
         path = builtin_path(key)
         where, source = f"{key}.toml", f"built-in {key}"

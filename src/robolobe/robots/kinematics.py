@@ -121,18 +121,23 @@ def link_frames(robot: Robot, q: ArrayLike) -> FloatArray:
         Index 0 = base, 1..6 = DH frames (6 = flange), 7 = TCP.
     """
     tj = joint_transforms(robot, dh_angles(robot, q))
-    batch = tj.shape[:-3]
-    out = np.empty((*batch, 8, 4, 4))
-    out[..., 0, :, :] = robot.base
-    for i in range(6):
-        out[..., i + 1, :, :] = out[..., i, :, :] @ tj[..., i, :, :]
-    out[..., 7, :, :] = out[..., 6, :, :] @ robot.tool
-    return out
+    frames = [np.broadcast_to(robot.base, (*tj.shape[:-3], 4, 4))]
+    cur = robot.base @ tj[..., 0, :, :]
+    frames.append(cur)
+    for i in range(1, 6):
+        cur = cur @ tj[..., i, :, :]
+        frames.append(cur)
+    frames.append(cur @ robot.tool)
+    return np.stack(frames, axis=-3)
 
 
 def tcp_pose(robot: Robot, q: ArrayLike) -> FloatArray:
     """World pose of the TCP, shape (..., 4, 4)."""
-    return link_frames(robot, q)[..., TCP_FRAME, :, :]
+    tj = joint_transforms(robot, dh_angles(robot, q))
+    cur = robot.base @ tj[..., 0, :, :]
+    for i in range(1, 6):
+        cur = cur @ tj[..., i, :, :]
+    return cur @ robot.tool
 
 
 def joint_axes(robot: Robot, frames: FloatArray) -> tuple[FloatArray, FloatArray]:

@@ -297,9 +297,13 @@ class ModalModel:
 
 
 def _mode_window(points: int, half_width: float) -> FloatArray:
-    """Offsets in units of ``zeta w_r``, dense at 0 (sinh spacing), in [-hw, hw]."""
-    u = np.linspace(-np.arcsinh(half_width), np.arcsinh(half_width), points)
-    return np.sinh(u)
+    """Offsets ``s`` in units of ``zeta w_r`` in ``[-hw, hw]``, uniform in ``atan(s)``.
+
+    The phase of a mode goes as ``atan(s)``, so this samples the phase (which
+    sets the lobe speeds) uniformly: ``pi / (points - 1)`` rad apart.
+    """
+    u = np.linspace(-np.arctan(half_width), np.arctan(half_width), points)
+    return np.tan(u)
 
 
 def frequency_grid(
@@ -318,11 +322,11 @@ def frequency_grid(
 
     A logarithmic base grid over ``[omega_min, omega_max]`` plus, for each
     mode ``(w_r, zeta_r)``, ``points_per_mode`` points
-    ``w_r exp(zeta_r s)`` with ``s`` in ``[-half_width, half_width]``
-    (sinh-spaced: about ``points_per_mode / (2 asinh(half_width))`` points
-    per ``zeta_r w_r`` at the peak; the half-power bandwidth is
-    ``2 zeta_r w_r``). The window is capped at a factor of 2 each way for
-    heavily damped modes.
+    ``w_r exp(zeta_r s)`` with ``s`` in ``[-half_width, half_width]`` spaced
+    uniformly in ``atan(s)``, i.e. in the mode's phase (``pi / points``
+    rad apart; at the peak about ``points / pi`` points per ``zeta_r w_r``,
+    the half-power bandwidth being ``2 zeta_r w_r``). The window is capped
+    at a factor of 2 each way for heavily damped modes.
 
     Parameters
     ----------

@@ -29,7 +29,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-import scipy.linalg
 from numpy.typing import ArrayLike, NDArray
 
 from robolobe.errors import ConvergenceError, InputError
@@ -39,7 +38,7 @@ from robolobe.sld.frf import ModalModel
 from robolobe.sld.lobes import LobeDiagram
 from robolobe.sld.zoa import critical_depth
 
-__all__ = ["SdmSystem", "sdm_lobes", "sdm_spectral_radius", "sdm_system"]
+__all__ = ["SdmSystem", "expm_batched", "sdm_lobes", "sdm_spectral_radius", "sdm_system"]
 
 FloatArray = NDArray[np.float64]
 
@@ -85,6 +84,60 @@ class SdmSystem:
     def n_states(self) -> int:
         """Dimension of the monodromy matrix ``2 n_s + 2 m``."""
         return 2 * self.omega.size + 2 * self.intervals
+
+
+_PADE13 = (
+    64764752532480000.0,
+    32382376266240000.0,
+    7771770303897600.0,
+    1187353796428800.0,
+    129060195264000.0,
+    10559470521600.0,
+    670442572800.0,
+    33522128640.0,
+    1323241920.0,
+    40840800.0,
+    960960.0,
+    16380.0,
+    182.0,
+    1.0,
+)
+_THETA13 = 5.371920351148152
+
+
+def expm_batched(a: FloatArray) -> FloatArray:
+    """Matrix exponential of a stack of small matrices, vectorised.
+
+    Scaling and squaring with the degree-13 Pade approximant (Higham 2005,
+    SIAM J. Matrix Anal. Appl. 26:1179), the scaling chosen per matrix from
+    its 1-norm. ``scipy.linalg.expm`` loops over a stack in Python; this
+    does not.
+
+    Parameters
+    ----------
+    a : ndarray, shape (..., n, n)
+
+    Returns
+    -------
+    ndarray, shape (..., n, n)
+    """
+    a = np.asarray(a, dtype=np.float64)
+    n = a.shape[-1]
+    norm = np.abs(a).sum(axis=-2).max(axis=-1)
+    with np.errstate(divide="ignore"):
+        s = np.maximum(0, np.ceil(np.log2(np.maximum(norm, 1e-300) / _THETA13))).astype(np.int64)
+    a = a * np.ldexp(1.0, -s)[..., None, None]
+    b = _PADE13
+    eye = np.eye(n)
+    a2 = a @ a
+    a4 = a2 @ a2
+    a6 = a4 @ a2
+    u = a @ (a6 @ (b[13] * a6 + b[11] * a4 + b[9] * a2) + b[7] * a6 + b[5] * a4 + b[3] * a2 + b[1] * eye)
+    v = a6 @ (b[12] * a6 + b[10] * a4 + b[8] * a2) + b[6] * a6 + b[4] * a4 + b[2] * a2 + b[0] * eye
+    r = np.linalg.solve(v - u, v + u)
+    for i in range(int(s.max()) if s.size else 0):  # squarings (a handful)
+        r = np.where((s > i)[..., None, None], r @ r, r)
+    return r
 
 
 def _realize(model: ModalModel) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
@@ -170,7 +223,7 @@ def _radius(sys: SdmSystem, depth: FloatArray, rpm: FloatArray) -> FloatArray:
     aug[:, :, n:nx, nx : nx + 2] = -ca[:, None, None, None] * ba
     aug[:, :, nx : nx + 2, nx + 2 : nx + 4] = np.eye(2)
     aug *= dt[:, None, None, None]
-    ex = scipy.linalg.expm(aug)
+    ex = expm_batched(aug)
     phi = ex[:, :, :nx, :nx]  # (P, m, nx, nx)
     g1 = ex[:, :, :nx, nx : nx + 2]
     g2 = ex[:, :, :nx, nx + 2 : nx + 4] / dt[:, None, None, None]

@@ -15,7 +15,7 @@ from robolobe.sld.frf import ModalModel
 from robolobe.sld.lobes import LobeDiagram
 from robolobe.sld.material import Material
 from robolobe.sld.sdm import sdm_lobes
-from robolobe.sld.zoa import zoa_lobes
+from robolobe.sld.zoa import refine_grid, zoa_lobes
 
 __all__ = ["stability_lobes"]
 
@@ -23,13 +23,15 @@ __all__ = ["stability_lobes"]
 def stability_lobes(
     dynamics: ModalModel | tuple[ArrayLike, ArrayLike],
     *,
-    cutter: Cutter,
+    cutter: Cutter | int,
     material: Material,
     conditions: CuttingConditions,
     rpm: ArrayLike,
     method: Literal["zoa", "sdm"] = "zoa",
     max_lobe: int | None = 30,
     intervals: int = 40,
+    refine: bool = True,
+    refine_tol: float = 0.05,
 ) -> LobeDiagram:
     """Stability lobes of a tool point (or a batch of them).
 
@@ -40,8 +42,8 @@ def stability_lobes(
         frequency grid is refined around its modes) or sampled FRFs,
         ``omega`` [rad/s] of shape (n_freq,) or (..., n_freq) and ``frf``
         [m/N] of shape (..., n_freq, 2, 2) (ZOA only).
-    cutter : Cutter
-        Gives the number of teeth.
+    cutter : Cutter or int
+        The cutter, or just its number of teeth (all the solvers need).
     material : Material
         Gives Kt and Kr.
     conditions : CuttingConditions
@@ -55,17 +57,29 @@ def stability_lobes(
         Highest ZOA lobe number (None: automatic, see :func:`zoa_lobes`).
     intervals : int, default 40
         SDM intervals per tooth period.
+    refine : bool, default True
+        ZOA with a modal model: refine the frequency grid along the lobe
+        curves (:func:`robolobe.sld.zoa.refine_grid`); False uses the static
+        modal grid (fewer points, faster, less accurate between samples).
+    refine_tol : float, default 0.05
+        Largest change of ``ln a`` and ``ln n`` between lobe samples.
 
     Returns
     -------
     LobeDiagram
     """
+    teeth = cutter if isinstance(cutter, int) else cutter.teeth
+    if isinstance(teeth, bool) or teeth < 1:
+        raise InputError(f"cutter: expected a Cutter or a number of teeth >= 1, found {cutter!r}")
     alpha = directional_factors(conditions.phi_entry, conditions.phi_exit, material.kr)
     if method == "zoa":
         if isinstance(dynamics, ModalModel):
             if dynamics.dim != 2:
                 raise InputError(f"dynamics: expected feed-frame (2-D) modes, found dim {dynamics.dim}")
-            omega = dynamics.frequency_grid(shared=not dynamics.batch_shape)
+            if refine:
+                omega = refine_grid(dynamics, alpha, tol=refine_tol)
+            else:
+                omega = dynamics.frequency_grid(shared=not dynamics.batch_shape)
             frf = dynamics.frf(omega)
         else:
             omega, frf = dynamics
@@ -73,7 +87,7 @@ def stability_lobes(
             omega,
             frf,
             alpha=alpha,
-            teeth=cutter.teeth,
+            teeth=teeth,
             kt=material.kt,
             rpm=rpm,
             max_lobe=max_lobe,
@@ -83,7 +97,7 @@ def stability_lobes(
         if not isinstance(dynamics, ModalModel):
             raise InputError("method 'sdm' needs modal dynamics (a ModalModel), not sampled FRFs")
         batch = dynamics.batch_shape
-        kw = dict(teeth=cutter.teeth, kt=material.kt, kr=material.kr, conditions=conditions,
+        kw = dict(teeth=teeth, kt=material.kt, kr=material.kr, conditions=conditions,
                   rpm=rpm, intervals=intervals)
         if not batch:
             return sdm_lobes(dynamics, **kw)  # type: ignore[arg-type]

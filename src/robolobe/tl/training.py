@@ -210,6 +210,37 @@ def train_ensemble(
     x = x.to(torch.float32)
     y = y.to(torch.float32)
     mask = mask.to(torch.float32)
+    # Adam's moments of weights with zero gradient (dead ReLU units) decay into
+    # denormal floats, which make every vector op ~100x slower: flush them.
+    torch.set_flush_denormal(True)
+    try:
+        return _train_loop(
+            net, x, y, mask, rows, counts, length, start, n_frozen, epochs, batch_size,
+            learning_rate, generator, x_val, y_val, mask_val,
+        )  # fmt: skip
+    finally:
+        torch.set_flush_denormal(False)
+
+
+def _train_loop(
+    net: EnsembleMLP,
+    x: torch.Tensor,
+    y: torch.Tensor,
+    mask: torch.Tensor,
+    rows: torch.Tensor,
+    counts: torch.Tensor,
+    length: int,
+    start: int,
+    n_frozen: int,
+    epochs: int,
+    batch_size: int,
+    learning_rate: float,
+    generator: torch.Generator,
+    x_val: torch.Tensor | None,
+    y_val: torch.Tensor | None,
+    mask_val: torch.Tensor | None,
+) -> TrainHistory:
+    n_models = x.shape[0]
     grad = torch.zeros_like(net.theta.detach())
     model_idx = torch.arange(n_models).unsqueeze(1)
     n_steps = -(-length // batch_size)

@@ -1,32 +1,40 @@
-"""Calibration of the built-in robots' joint stiffness and damping.
+"""Calibration of the built-in robots' joint stiffness, damping and end effector.
 
 Robots A, B and C need joint stiffness, damping and an end effector that no
 public source gives for these arms. This module holds the procedure that set
-them (reproducible from a seed) and the report that checks them against the
-seed paper's ranges (REFERENCES.md section 1):
+them (reproducible from a seed, :func:`calibrate_builtin`) and the report that
+checks them against the seed paper's ranges (REFERENCES.md section 1):
 
 1. Postures are drawn uniformly within the seed's tested joint ranges
-   (Table 2), clipped to the robot's limits and its linear constraints
-   (:func:`sample_postures`).
+   (Table 2, :data:`robolobe.twin.designs.TESTED_RANGES_DEG`), clipped to the
+   robot's limits and its linear constraints
+   (:func:`robolobe.robots.sample_postures`).
 2. The end effector (spindle, holder, tool) is chosen per robot
    (:data:`END_EFFECTORS`, engineering estimates).
 3. Stiffness: log-factors ``s_i`` on prior joint stiffnesses
    (:data:`PRIOR_STIFFNESS`, KUKA KR500 values scaled by robot class) are
    fitted so that the geometric mean over the postures of each of the five
-   lowest undamped natural frequencies matches anchor frequencies taken
-   from the seed's tables (:data:`TARGETS`), with a small ridge penalty on
-   ``s`` (:func:`fit_stiffness`).
+   lowest modes seen at the TCP matches anchor frequencies from the seed's
+   tables (:data:`TARGETS`), while the median modal stiffness of each stays
+   below a cap, with a small ridge penalty on ``s`` (:func:`fit_stiffness`).
 4. Damping: with mass-normalised undamped shapes ``phi``, modal damping is
    ``zeta_r ~ sum_i c_i phi_ir^2 / (2 w_r)``, linear in the joint damping
-   ``c``; ``c >= c_min`` is fitted by bounded least squares to anchor damping
-   ratios (:func:`fit_damping`).
+   ``c``; ``c >= c_min`` is fitted by bounded least squares to one target
+   damping ratio (:func:`fit_damping`).
 5. :func:`calibration_report` then checks the exact damped modes of the
    result: per-mode frequency, damping and modal-stiffness ranges over the
    postures and the fraction inside the target bands.
 
-``studies/calibration.py`` runs steps 1-5 for A, B and C and prints the
-table; the values written into ``src/robolobe/data/robots/{A,B,C}.toml`` come
-from it.
+"Seen at the TCP" is :func:`robolobe.twin.modes.seen_mask`: with a tool on
+the joint-6 axis, joint 6 never moves the TCP and joint 4 does not either at
+a stretched wrist (q5 = 0), so the five lowest seen modes are not always
+the five lowest modes.
+
+Limits of a six-spring model (measured by ``studies/calibration.py``): for
+these link masses a mode that swings the arm at 12-20 Hz has a modal
+stiffness of 2-5e6 N/m, so the seed's upper modal stiffness (2.7e6 N/m) and
+its upper frequencies cannot both be met; the fit trades them. The values in
+``src/robolobe/data/robots/{A,B,C}.toml`` come from ``studies/calibration.py``.
 """
 
 from __future__ import annotations
@@ -38,34 +46,28 @@ from numpy.typing import ArrayLike, NDArray
 from scipy.optimize import least_squares, lsq_linear
 
 from robolobe.errors import InputError
-from robolobe.robots import RigidBody, Robot
-from robolobe.twin.dynamics import mass_matrix
-from robolobe.twin.modes import compute_modes, undamped_modes
+from robolobe.robots import RigidBody, Robot, sample_postures
+from robolobe.twin.designs import TESTED_RANGES_DEG
+from robolobe.twin.modes import compute_modes, lowest_seen, seen_mask, undamped_modes
 from robolobe.twin.system import nominal_system
 
 __all__ = [
     "END_EFFECTORS",
+    "FIT_POSTURES",
+    "FIT_SEED",
     "PRIOR_STIFFNESS",
     "TARGETS",
-    "TESTED_RANGES_DEG",
     "CalibrationReport",
     "CalibrationTargets",
     "ModeSummary",
     "calibrate",
+    "calibrate_builtin",
     "calibration_report",
     "fit_damping",
     "fit_stiffness",
-    "sample_postures",
 ]
 
 FloatArray = NDArray[np.float64]
-
-TESTED_RANGES_DEG: dict[str, tuple[tuple[float, float], ...]] = {
-    "A": ((-50, 50), (-90, -50), (70, 150), (-300, 300), (-90, 90), (-300, 300)),
-    "B": ((-60, 87), (-28, 56), (-127, -16), (-158, 232), (-93, 124), (-283, 201)),
-    "C": ((-59, 47), (-10, 48), (-30, 79), (-184, 190), (-116, 114), (-360, 296)),
-}
-"""Tested joint ranges of the seed paper, Table 2 [deg] (REFERENCES.md section 1)."""
 
 
 @dataclass(frozen=True)
@@ -75,16 +77,20 @@ class CalibrationTargets:
     Attributes
     ----------
     f_band_hz : tuple of 2 floats
-        Band for the natural frequencies of the ``n_modes`` lowest modes [Hz].
+        Band for the natural frequencies of the lowest seen modes [Hz].
     zeta_band : tuple of 2 floats
         Band for their damping ratios (fraction).
     k_band_N_per_m : tuple of 2 floats
         Band for their modal stiffness in the dominant TCP direction [N/m].
     f_anchor_hz : tuple of floats
-        Geometric-mean frequency of each of the lowest modes over the tested
-        postures, the stiffness fit's target [Hz].
-    zeta_anchor : tuple of floats
-        Damping ratio of each of the lowest modes, the damping fit's target.
+        Geometric-mean frequency over the postures of each of the lowest
+        seen modes, the stiffness fit's target [Hz]; its length is the number
+        of calibrated modes.
+    zeta_target : float
+        Damping ratio the damping fit aims at for every calibrated mode.
+    k_cap_N_per_m : float
+        The stiffness fit penalises a per-mode median modal stiffness above
+        this [N/m].
     source : str
         Where the anchors come from.
     """
@@ -93,140 +99,116 @@ class CalibrationTargets:
     zeta_band: tuple[float, float]
     k_band_N_per_m: tuple[float, float]
     f_anchor_hz: tuple[float, ...]
-    zeta_anchor: tuple[float, ...]
+    zeta_target: float
+    k_cap_N_per_m: float = 2.5e6
     source: str = ""
 
     @property
     def n_modes(self) -> int:
-        """Number of calibrated (lowest) modes."""
+        """Number of calibrated (lowest seen) modes."""
         return len(self.f_anchor_hz)
-
-    def __post_init__(self) -> None:
-        if len(self.zeta_anchor) != len(self.f_anchor_hz):
-            raise InputError(
-                f"zeta_anchor: expected {len(self.f_anchor_hz)} values (one per anchor "
-                f"frequency), found {len(self.zeta_anchor)}"
-            )
 
 
 TARGETS: dict[str, CalibrationTargets] = {
-    # seed Table 4 (robot B, Y direction), mean over its three postures
-    "B": CalibrationTargets(
-        f_band_hz=(5.0, 40.0),
-        zeta_band=(0.002, 0.07),
-        k_band_N_per_m=(1e4, 3e6),
-        f_anchor_hz=(7.3, 11.3, 14.3, 21.4, 31.1),
-        zeta_anchor=(0.011, 0.015, 0.015, 0.030, 0.018),
-        source="seed Table 4 (B, mean of postures 1-3)",
-    ),
-    # seed Table 7 (robot C), mean over its three postures
-    "C": CalibrationTargets(
-        f_band_hz=(8.0, 32.0),
-        zeta_band=(0.002, 0.07),
-        k_band_N_per_m=(1e4, 3e6),
-        f_anchor_hz=(12.3, 14.1, 21.2, 22.5, 25.3),
-        zeta_anchor=(0.017, 0.010, 0.024, 0.006, 0.010),
-        source="seed Table 7 (C, mean of postures 1-3)",
-    ),
-    # robot A: no table in the seed; "similar to B" (REFERENCES.md section 1)
     "A": CalibrationTargets(
         f_band_hz=(5.0, 40.0),
         zeta_band=(0.002, 0.07),
         k_band_N_per_m=(1e4, 3e6),
         f_anchor_hz=(7.5, 10.5, 15.0, 22.0, 32.0),
-        zeta_anchor=(0.015, 0.020, 0.020, 0.030, 0.020),
-        source="(est.) similar to B",
+        zeta_target=0.02,
+        source="(est.) like B: the seed gives no table for A (REFERENCES.md section 1)",
+    ),
+    "B": CalibrationTargets(
+        f_band_hz=(5.0, 40.0),
+        zeta_band=(0.002, 0.07),
+        k_band_N_per_m=(1e4, 3e6),
+        f_anchor_hz=(7.3, 11.3, 14.3, 21.4, 31.1),
+        zeta_target=0.019,
+        source="seed Table 4 (B, Y direction): mean f of postures 1-3 and mean zeta",
+    ),
+    "C": CalibrationTargets(
+        f_band_hz=(8.0, 32.0),
+        zeta_band=(0.002, 0.07),
+        k_band_N_per_m=(1e4, 3e6),
+        f_anchor_hz=(12.3, 14.1, 21.2, 22.5, 25.3),
+        zeta_target=0.013,
+        source="seed Table 7 (C): mean f of postures 1-3 and mean zeta",
     ),
 }
-"""Calibration targets per built-in robot."""
+"""Calibration targets per built-in robot (bands: REFERENCES.md section 1)."""
+
+_GENERIC_TARGETS = CalibrationTargets(
+    f_band_hz=(5.0, 40.0),
+    zeta_band=(0.002, 0.07),
+    k_band_N_per_m=(1e4, 3e6),
+    f_anchor_hz=(7.5, 11.0, 15.0, 21.0, 31.0),
+    zeta_target=0.02,
+    source="REFERENCES.md section 1 (five modes in 5-40 Hz)",
+)
 
 PRIOR_STIFFNESS: dict[str, tuple[float, ...]] = {
     # KUKA KR500 joint stiffness from modal testing (REFERENCES.md section 2)
     "A": (2.3e6, 8.6e6, 2.8e6, 3.0e6, 0.2e6, 0.9e6),
-    # x1.5 on axes 1-3 (650 kg class), wrist as KR500 with joint 5 x1.5
+    # x1.5 on axes 1-3 and 5 (650 kg class)
     "B": (3.45e6, 12.9e6, 4.2e6, 3.0e6, 0.3e6, 0.9e6),
     # x0.5 (1 t class)
     "C": (1.15e6, 4.3e6, 1.4e6, 1.5e6, 0.1e6, 0.45e6),
 }
 """Prior joint stiffnesses [N m/rad] the stiffness fit starts from and is pulled towards."""
 
-END_EFFECTORS: dict[str, RigidBody] = {}
-"""End effectors chosen per robot (filled below)."""
 
+END_EFFECTORS: dict[str, RigidBody] = {
+    # 150 kg milling spindle with a side-mounted motor/clamp bracket (est.): COM 0.25 m in
+    # front of the TCP origin along -z and 0.10 m off the tool axis; radius of gyration
+    # 0.2 m across and 0.16 m about the tool axis
+    "A": RigidBody(150.0, np.array([0.10, 0.0, -0.25]), np.diag([6.0, 6.0, 4.0])),
+    "B": RigidBody(150.0, np.array([0.10, 0.0, -0.25]), np.diag([6.0, 6.0, 4.0])),
+    # 55 kg spindle and bracket for the 60 kg-payload IRB 4400 (est.), same layout, scaled
+    "C": RigidBody(55.0, np.array([0.06, 0.0, -0.17]), np.diag([1.2, 1.2, 0.8])),
+}
+"""End effectors chosen per robot (engineering estimates, TCP frame)."""
 
-# ------------------------------------------------------------- postures
-def _ranges_rad(robot: Robot, ranges_deg: ArrayLike) -> tuple[FloatArray, FloatArray]:
-    r = np.radians(np.asarray(ranges_deg, dtype=np.float64))
-    if r.shape != (6, 2) or np.any(r[:, 0] > r[:, 1]):
-        raise InputError(f"ranges_deg: expected 6 (min, max) pairs, found {np.degrees(r).tolist()}")
-    lo = np.maximum(r[:, 0], robot.q_min)
-    hi = np.minimum(r[:, 1], robot.q_max)
-    if np.any(lo > hi):
-        raise InputError("ranges_deg: a tested range does not overlap the robot's joint limits")
-    return lo, hi
+FIT_SEED = 2024
+"""Seed of the postures the built-in robots were fitted on."""
 
-
-def _feasible(robot: Robot, q: FloatArray) -> NDArray[np.bool_]:
-    ok = np.all((q >= robot.q_min) & (q <= robot.q_max), axis=-1)
-    for c in robot.constraints:
-        v = q @ c.coeffs
-        ok &= (v >= c.lo_rad) & (v <= c.hi_rad)
-    return np.asarray(ok)
-
-
-def sample_postures(
-    robot: Robot,
-    n: int,
-    rng: np.random.Generator,
-    ranges_deg: ArrayLike,
-) -> FloatArray:
-    """Uniform random postures within tested ranges, limits and constraints.
-
-    Parameters
-    ----------
-    robot : Robot
-    n : int
-        Number of postures.
-    rng : numpy.random.Generator
-    ranges_deg : array_like, shape (6, 2)
-        (min, max) per joint [deg], e.g. ``TESTED_RANGES_DEG["B"]``; clipped
-        to the robot's limits.
-
-    Returns
-    -------
-    ndarray, shape (n, 6)
-        Joint angles [rad].
-    """
-    lo, hi = _ranges_rad(robot, ranges_deg)
-    out = np.empty((0, 6))
-    for _ in range(100):
-        q = rng.uniform(lo, hi, size=(max(2 * n, 16), 6))
-        out = np.concatenate([out, q[_feasible(robot, q)]])
-        if len(out) >= n:
-            return out[:n]
-    raise InputError("ranges_deg: fewer than 1 % of the sampled postures satisfy the constraints")
+FIT_POSTURES = 80
+"""Number of postures the built-in robots were fitted on."""
 
 
 # ------------------------------------------------------------------- fit
-def _undamped_f(robot: Robot, q: FloatArray, n_modes: int) -> FloatArray:
-    m = mass_matrix(robot, q)
-    w, _ = undamped_modes(m, np.diag(robot.stiffness))
-    return w[..., :n_modes] / (2.0 * np.pi)
+def _lowest_seen_undamped(
+    m: FloatArray, k: FloatArray, j: FloatArray, n: int
+) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray, NDArray[np.bool_]]:
+    """Undamped (f [Hz], k_dominant [N/m], phi, w [rad/s]) of the n lowest seen modes."""
+    w, phi = undamped_modes(m, k)
+    u = j @ phi
+    with np.errstate(divide="ignore"):
+        kk = (w**2)[..., None, :] / u**2
+    idx, valid = lowest_seen(seen_mask(kk), n)
+    ws = np.take_along_axis(w, idx, axis=-1)
+    ks = np.take_along_axis(np.min(kk, axis=-2), idx, axis=-1)
+    ph = np.take_along_axis(phi, idx[..., None, :], axis=-1)
+    return ws / (2.0 * np.pi), ks, ph, ws, valid
 
 
 def fit_stiffness(
     robot: Robot,
     q: ArrayLike,
-    f_anchor_hz: ArrayLike,
+    targets: CalibrationTargets,
     *,
     prior: ArrayLike | None = None,
     ridge: float = 0.03,
+    k_weight: float = 0.5,
 ) -> FloatArray:
-    """Joint stiffnesses that put the lowest modes at anchor frequencies.
+    """Joint stiffnesses that put the lowest seen modes at the anchors.
 
-    Minimises ``sum_r (log gmean_q f_r - log f_anchor_r)^2 + ridge sum_i s_i^2``
-    over ``k_i = prior_i exp(s_i)`` (undamped frequencies, rank-ordered at
-    each posture).
+    Least squares over ``k_i = prior_i exp(s_i)`` of the residuals
+
+    * ``mean_q log f_r - log f_anchor_r`` for the ``n`` lowest seen modes
+      (undamped, :func:`~robolobe.twin.modes.seen_mask`),
+    * ``k_weight max(0, log median_q k_r - log k_cap)`` (modal stiffness in
+      the dominant direction),
+    * ``sqrt(ridge) s_i``.
 
     Parameters
     ----------
@@ -234,30 +216,34 @@ def fit_stiffness(
         Masses, end effector and kinematics used.
     q : array_like, shape (n, 6)
         Postures [rad].
-    f_anchor_hz : array_like, shape (n_modes,)
-        Target geometric-mean frequencies [Hz] of modes 1..n_modes.
+    targets : CalibrationTargets
     prior : array_like, shape (6,), optional
         Starting and reference stiffness [N m/rad]; the robot's if omitted.
     ridge : float
         Weight of the penalty pulling ``s`` towards 0.
+    k_weight : float
+        Weight of the modal-stiffness cap against the frequency anchors.
 
     Returns
     -------
     ndarray, shape (6,)
         Stiffness [N m/rad].
     """
-    qq = np.asarray(q, dtype=np.float64)
-    target = np.log(np.asarray(f_anchor_hz, dtype=np.float64))
+    s = nominal_system(robot, q)
+    target = np.log(np.asarray(targets.f_anchor_hz, dtype=np.float64))
     k0 = np.asarray(robot.stiffness if prior is None else prior, dtype=np.float64)
-    mm = mass_matrix(robot, qq)
     nm = target.size
+    log_cap = np.log(targets.k_cap_N_per_m)
 
-    def resid(s: FloatArray) -> FloatArray:
-        w, _ = undamped_modes(mm, np.diag(k0 * np.exp(s)))
-        logf = np.log(w[:, :nm] / (2.0 * np.pi))
-        return np.concatenate([logf.mean(axis=0) - target, np.sqrt(ridge) * s])
+    def resid(x: FloatArray) -> FloatArray:
+        f, kd, _, _, valid = _lowest_seen_undamped(s.M, np.diag(k0 * np.exp(x)), s.J, nm)
+        logf = np.where(valid, np.log(f), np.nan)
+        logk = np.where(valid, np.log(kd), np.nan)
+        r_f = np.nanmean(logf, axis=0) - target
+        r_k = k_weight * np.maximum(np.nanmedian(logk, axis=0) - log_cap, 0.0)
+        return np.concatenate([r_f, r_k, np.sqrt(ridge) * x])
 
-    sol = least_squares(resid, np.zeros(6), x_scale=1.0, bounds=(-5.0, 5.0))
+    sol = least_squares(resid, np.zeros(6), bounds=(-5.0, 5.0))
     k: FloatArray = k0 * np.exp(sol.x)
     return k
 
@@ -265,15 +251,16 @@ def fit_stiffness(
 def fit_damping(
     robot: Robot,
     q: ArrayLike,
-    zeta_anchor: ArrayLike,
+    targets: CalibrationTargets,
     *,
     c_min: float = 20.0,
 ) -> FloatArray:
-    """Joint damping that gives the lowest modes anchor damping ratios.
+    """Joint damping that gives the lowest seen modes the target damping ratio.
 
     First-order (light damping) modal damping ``zeta_r = sum_i c_i phi_ir^2 /
-    (2 w_r)`` is linear in ``c``; the relative error to ``zeta_anchor`` over
-    all postures is minimised with ``c_i >= c_min``.
+    (2 w_r)`` is linear in ``c``; its relative error to ``targets.zeta_target``
+    over all postures and the lowest seen modes is minimised with
+    ``c_i >= c_min``.
 
     Parameters
     ----------
@@ -281,8 +268,7 @@ def fit_damping(
         With the (calibrated) stiffness.
     q : array_like, shape (n, 6)
         Postures [rad].
-    zeta_anchor : array_like, shape (n_modes,)
-        Target damping ratios of modes 1..n_modes.
+    targets : CalibrationTargets
     c_min : float
         Lower bound on each joint's damping [N m s/rad].
 
@@ -291,13 +277,12 @@ def fit_damping(
     ndarray, shape (6,)
         Damping [N m s/rad].
     """
-    qq = np.asarray(q, dtype=np.float64)
-    za = np.asarray(zeta_anchor, dtype=np.float64)
-    w, phi = undamped_modes(mass_matrix(robot, qq), np.diag(robot.stiffness))
-    nm = za.size
-    # a[n, r, i] = phi_ir^2 / (2 w_r) / zeta_anchor_r
-    a = (phi[:, :, :nm] ** 2 / (2.0 * w[:, None, :nm])).transpose(0, 2, 1) / za[None, :, None]
-    res = lsq_linear(a.reshape(-1, 6), np.ones(a.shape[0] * nm), bounds=(c_min, np.inf))
+    s = nominal_system(robot, q)
+    _, _, phi, w, valid = _lowest_seen_undamped(s.M, s.K, s.J, targets.n_modes)
+    # a[n, r, i] = phi_ir^2 / (2 w_r) / zeta_target
+    a = (phi**2 / (2.0 * w[:, None, :])).transpose(0, 2, 1) / targets.zeta_target
+    rows = a[valid]
+    res = lsq_linear(rows, np.ones(len(rows)), bounds=(c_min, np.inf))
     c: FloatArray = res.x
     return c
 
@@ -316,7 +301,7 @@ def calibrate(
     ----------
     robot : Robot
     q : array_like, shape (n, 6)
-        Postures [rad] (see :func:`sample_postures`).
+        Postures [rad] (see :func:`robolobe.robots.sample_postures`).
     targets : CalibrationTargets
     end_effector : RigidBody, optional
         Replaces the robot's end effector first.
@@ -328,8 +313,28 @@ def calibrate(
     Robot
     """
     r = robot if end_effector is None else robot.replace(end_effector=end_effector)
-    r = r.with_stiffness(fit_stiffness(r, q, targets.f_anchor_hz, prior=prior))
-    return r.with_damping(fit_damping(r, q, targets.zeta_anchor))
+    r = r.with_stiffness(fit_stiffness(r, q, targets, prior=prior))
+    return r.with_damping(fit_damping(r, q, targets))
+
+
+def calibrate_builtin(name: str, robot: Robot) -> Robot:
+    """Re-run the calibration of built-in robot ``name`` ("A", "B", "C").
+
+    Uses :data:`END_EFFECTORS`, :data:`PRIOR_STIFFNESS`, :data:`TARGETS` and
+    :data:`FIT_POSTURES` postures drawn with seed :data:`FIT_SEED` within
+    :data:`TESTED_RANGES_DEG`.
+
+    Parameters
+    ----------
+    name : str
+    robot : Robot
+        The robot's kinematics and link masses (e.g. ``load_robot(name)``).
+    """
+    if name not in TARGETS:
+        raise InputError(f"name: expected one of {sorted(TARGETS)}, found {name!r}")
+    r = robot.replace(end_effector=END_EFFECTORS[name])
+    q = sample_postures(r, FIT_POSTURES, np.random.default_rng(FIT_SEED), TESTED_RANGES_DEG[name])
+    return calibrate(r, q, TARGETS[name], prior=PRIOR_STIFFNESS[name])
 
 
 # ---------------------------------------------------------------- report
@@ -346,8 +351,12 @@ class ModeSummary:
         damping ratio and modal stiffness in the dominant TCP direction [N/m].
     f_spread : float
         ``max/min - 1`` of the frequency (posture dependence).
+    seen : float
+        Fraction of postures where this many modes are seen at the TCP
+        (:func:`~robolobe.twin.modes.seen_mask`); the statistics are over those.
     in_f_band, in_zeta_band, in_k_band, in_all_bands : float
-        Fractions of postures inside each band (all three at once for the last).
+        Fractions of all postures inside each band (all three at once for the
+        last); a posture where the mode is not seen counts as outside.
     """
 
     mode: int
@@ -355,6 +364,7 @@ class ModeSummary:
     zeta: tuple[float, float, float]
     k_N_per_m: tuple[float, float, float]
     f_spread: float
+    seen: float
     in_f_band: float
     in_zeta_band: float
     in_k_band: float
@@ -373,7 +383,8 @@ class CalibrationReport:
     modes : tuple of ModeSummary
         The ``targets.n_modes`` lowest modes.
     all_modes_in_bands : float
-        Fraction of postures where every calibrated mode is inside all bands.
+        Fraction of postures where every calibrated mode is seen and inside
+        all bands.
     """
 
     robot_name: str
@@ -391,9 +402,9 @@ class CalibrationReport:
             f"k {t.k_band_N_per_m[0]:.0e}-{t.k_band_N_per_m[1]:.0e} N/m; all modes in all "
             f"bands: {100 * self.all_modes_in_bands:.0f} % of postures",
             "",
-            "| mode | f min/med/max [Hz] | spread | zeta min/med/max [%] "
+            "| mode | seen [%] | f min/med/max [Hz] | spread | zeta min/med/max [%] "
             "| k min/med/max [1e5 N/m] | in f / zeta / k band [%] |",
-            "|---|---|---|---|---|---|",
+            "|---|---|---|---|---|---|---|",
         ]
         for m in self.modes:
             f = "/".join(f"{x:.1f}" for x in m.f_hz)
@@ -401,13 +412,16 @@ class CalibrationReport:
             k = "/".join(f"{x / 1e5:.2f}" for x in m.k_N_per_m)
             frac = f"{100 * m.in_f_band:.0f} / {100 * m.in_zeta_band:.0f} / {100 * m.in_k_band:.0f}"
             lines.append(
-                f"| {m.mode} | {f} | {100 * m.f_spread:.0f} % | {z} | {k} | {frac} |"
+                f"| {m.mode} | {100 * m.seen:.0f} | {f} | {100 * m.f_spread:.0f} % | {z} | {k} "
+                f"| {frac} |"
             )
         return "\n".join(lines)
 
 
 def _mmm(x: FloatArray) -> tuple[float, float, float]:
-    return (float(np.min(x)), float(np.median(x)), float(np.max(x)))
+    if np.all(np.isnan(x)):
+        return (np.nan, np.nan, np.nan)
+    return (float(np.nanmin(x)), float(np.nanmedian(x)), float(np.nanmax(x)))
 
 
 def _inside(x: FloatArray, band: tuple[float, float]) -> NDArray[np.bool_]:
@@ -417,31 +431,40 @@ def _inside(x: FloatArray, band: tuple[float, float]) -> NDArray[np.bool_]:
 def calibration_report(
     robot: Robot, q_samples: ArrayLike, targets: CalibrationTargets | None = None
 ) -> CalibrationReport:
-    """Frequency, damping and modal-stiffness ranges of the lowest modes.
+    """Frequency, damping and modal-stiffness ranges of the lowest seen modes.
 
     Parameters
     ----------
     robot : Robot
     q_samples : array_like, shape (n, 6)
-        Postures [rad], e.g. from :func:`sample_postures`.
+        Postures [rad], e.g. from :func:`robolobe.robots.sample_postures`.
     targets : CalibrationTargets, optional
-        Bands and the number of modes; robot B's if omitted.
+        Bands and the number of modes; if omitted, those of the built-in robot
+        (``robot.source == "built-in B"`` etc.), else 5 modes in 5-40 Hz.
 
     Returns
     -------
     CalibrationReport
-        Computed from the exact damped modes of the nominal model.
+        Computed from the exact damped modes of the nominal model; mode r is
+        the r-th lowest mode seen at the TCP at each posture.
     """
-    t = TARGETS["B"] if targets is None else targets
+    if targets is None:
+        key = robot.source.removeprefix("built-in ")
+        t = TARGETS.get(key, _GENERIC_TARGETS)
+    else:
+        t = targets
     q = np.asarray(q_samples, dtype=np.float64)
     if q.ndim != 2 or q.shape[-1] != 6 or len(q) == 0:
         raise InputError(f"q_samples: expected shape (n, 6) with n >= 1, found {q.shape}")
     s = nominal_system(robot, q)
     md = compute_modes(s.M, s.K, s.C, s.J)
     nm = t.n_modes
-    f = md.f_hz[:, :nm]
-    z = md.zeta[:, :nm]
-    k = md.k_dominant_N_per_m()[:, :nm]
+    idx, valid = lowest_seen(md.seen(), nm)
+
+    def take(x: FloatArray) -> FloatArray:
+        return np.where(valid, np.take_along_axis(x, idx, axis=-1), np.nan)
+
+    f, z, k = take(md.f_hz), take(md.zeta), take(md.k_dominant_N_per_m())
     fin, zin, kin = _inside(f, t.f_band_hz), _inside(z, t.zeta_band), _inside(k, t.k_band_N_per_m)
     allin = fin & zin & kin
     modes = tuple(
@@ -450,7 +473,8 @@ def calibration_report(
             f_hz=_mmm(f[:, r]),
             zeta=_mmm(z[:, r]),
             k_N_per_m=_mmm(k[:, r]),
-            f_spread=float(np.max(f[:, r]) / np.min(f[:, r]) - 1.0),
+            f_spread=float(np.nanmax(f[:, r]) / np.nanmin(f[:, r]) - 1.0),
+            seen=float(np.mean(valid[:, r])),
             in_f_band=float(np.mean(fin[:, r])),
             in_zeta_band=float(np.mean(zin[:, r])),
             in_k_band=float(np.mean(kin[:, r])),

@@ -73,11 +73,11 @@ def _num(effect: str, field: str, value: Any, lo: float, hi: float, unit: str) -
             raise TypeError
         x = float(value)
     except (TypeError, ValueError):
-        raise InputError(
-            f"{effect}.{field}: expected a number [{unit}], found {value!r}"
-        ) from None
+        raise InputError(f"{effect}.{field}: expected a number [{unit}], found {value!r}") from None
     if not (math.isfinite(x) and lo <= x <= hi):
-        raise InputError(f"{effect}.{field}: expected {lo:g} <= value <= {hi:g} [{unit}], found {x:g}")
+        raise InputError(
+            f"{effect}.{field}: expected {lo:g} <= value <= {hi:g} [{unit}], found {x:g}"
+        )
     return x
 
 
@@ -94,11 +94,15 @@ def _joint(effect: str, field: str, value: Any, hi: int = 6) -> int:
     return int(value)
 
 
-def _vec3(effect: str, field: str, value: Any, unit: str, *, unit_norm: bool = False) -> tuple[float, float, float]:
+def _vec3(
+    effect: str, field: str, value: Any, unit: str, *, unit_norm: bool = False
+) -> tuple[float, float, float]:
     try:
         arr = np.asarray(value, dtype=np.float64)
     except (TypeError, ValueError):
-        raise InputError(f"{effect}.{field}: expected 3 numbers [{unit}], found {value!r}") from None
+        raise InputError(
+            f"{effect}.{field}: expected 3 numbers [{unit}], found {value!r}"
+        ) from None
     if arr.shape != (3,) or not np.all(np.isfinite(arr)):
         raise InputError(f"{effect}.{field}: expected 3 finite numbers [{unit}], found {value!r}")
     if unit_norm:
@@ -297,7 +301,9 @@ class GravityStiffening(Effect):
         _set(self, "beta", _num(self.name, "beta", self.beta, 0.0, 20.0, "-"))
         _set(self, "tau_ref_Nm", _pos(self.name, "tau_ref_Nm", self.tau_ref_Nm, 1e9, "N m"))
         if not isinstance(self.joints, tuple | list) or not self.joints:
-            raise InputError(f"{self.name}.joints: expected a list of joints 1..6, found {self.joints!r}")
+            raise InputError(
+                f"{self.name}.joints: expected a list of joints 1..6, found {self.joints!r}"
+            )
         js = tuple(_joint(self.name, "joints", j) for j in self.joints)
         if len(set(js)) != len(js):
             raise InputError(f"{self.name}.joints: expected distinct joints, found {js}")
@@ -335,7 +341,9 @@ class CoupledJointStiffness(Effect):
     joints: tuple[int, int] = (2, 3)
 
     def __post_init__(self) -> None:
-        k = _num(self.name, "k_coupling_Nm_per_rad", self.k_coupling_Nm_per_rad, -1e9, 1e9, "N m/rad")
+        k = _num(
+            self.name, "k_coupling_Nm_per_rad", self.k_coupling_Nm_per_rad, -1e9, 1e9, "N m/rad"
+        )
         _set(self, "k_coupling_Nm_per_rad", k)
         if not isinstance(self.joints, tuple | list) or len(self.joints) != 2:
             raise InputError(f"{self.name}.joints: expected two joints 1..6, found {self.joints!r}")
@@ -395,7 +403,9 @@ class FrictionDamping(Effect):
         _set(self, "torque_Nm", _num(self.name, "torque_Nm", self.torque_Nm, 0.0, 1e5, "N m"))
         _set(self, "force_N", _pos(self.name, "force_N", self.force_N, 1e5, "N"))
         if not isinstance(self.joints, tuple | list) or not self.joints:
-            raise InputError(f"{self.name}.joints: expected a list of joints 1..6, found {self.joints!r}")
+            raise InputError(
+                f"{self.name}.joints: expected a list of joints 1..6, found {self.joints!r}"
+            )
         js = tuple(_joint(self.name, "joints", j) for j in self.joints)
         if len(set(js)) != len(js):
             raise InputError(f"{self.name}.joints: expected distinct joints, found {js}")
@@ -412,8 +422,10 @@ class FrictionDamping(Effect):
         k_diag = np.diagonal(k6, axis1=-2, axis2=-1)
         m_diag = np.diagonal(m6, axis1=-2, axis2=-1)
         cap = self.STICK_LIMIT * 2.0 * np.sqrt(k_diag * m_diag)
+        if self.torque_Nm == 0.0:
+            return np.zeros_like(cap)
         with np.errstate(divide="ignore"):
-            dc = 4.0 * self.torque_Nm / (np.pi * w1 * amp)
+            dc = 4.0 * self.torque_Nm / (np.pi * w1 * amp)  # amp = 0: inf, capped below
         dc = np.minimum(dc, cap)
         mask = np.zeros(6, dtype=bool)
         mask[np.array(self.joints) - 1] = True
@@ -564,8 +576,10 @@ class LinkFlexibility(Effect):
         hinge = pts[..., self.link, :]  # point on joint link+1's axis, (..., 3)
         a = mats.frames[..., self.link, :3, :3] @ np.array(self.axis)  # (..., 3)
         distal = np.array(
-            [nm == "end_effector" or (nm.startswith("link") and int(nm[4:]) > self.link)
-             for nm in mats.bodies.names]
+            [
+                nm == "end_effector" or (nm.startswith("link") and int(nm[4:]) > self.link)
+                for nm in mats.bodies.names
+            ]
         )
         lever = mats.bodies.com_m - hinge[..., None, :]
         jv = np.cross(a[..., None, :], lever) * distal[:, None]  # (..., nb, 3)
@@ -623,7 +637,8 @@ class ToolMode(Effect):
         _set(self, "mass_kg", _num(self.name, "mass_kg", self.mass_kg, 0.01, 1000.0, "kg"))
         if self.direction not in _DIRECTIONS:
             raise InputError(
-                f"{self.name}.direction: expected one of {sorted(_DIRECTIONS)}, found {self.direction!r}"
+                f"{self.name}.direction: expected one of {sorted(_DIRECTIONS)}, "
+                f"found {self.direction!r}"
             )
 
     def modify(self, mats: SystemMatrices) -> SystemMatrices:

@@ -129,7 +129,9 @@ def undamped_modes(M: ArrayLike, K: ArrayLike) -> tuple[FloatArray, FloatArray]:
     try:
         low = np.linalg.cholesky(m)
     except np.linalg.LinAlgError as exc:
-        raise InputError("M: expected a positive definite mass matrix, found one that is not") from exc
+        raise InputError(
+            "M: expected a positive definite mass matrix, found one that is not"
+        ) from exc
     low_inv = np.linalg.inv(low)
     a = low_inv @ k @ np.swapaxes(low_inv, -1, -2)
     a = 0.5 * (a + np.swapaxes(a, -1, -2))

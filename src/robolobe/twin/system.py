@@ -70,7 +70,7 @@ class SystemMatrices:
         return len(self.dof_names)
 
     @cached_property
-    def M(self) -> FloatArray:  # noqa: N802 (matrix name)
+    def M(self) -> FloatArray:
         """Mass matrix, shape (..., n, n)."""
         return self.bodies.mass_matrix()
 
@@ -85,12 +85,12 @@ class SystemMatrices:
         return self.frames[..., TCP_FRAME, :3, 3]
 
     @property
-    def J(self) -> FloatArray:  # noqa: N802 (matrix name)
+    def J(self) -> FloatArray:
         """Translational TCP Jacobian in the TCP frame, shape (..., 3, n)."""
         return np.swapaxes(self.tcp_rotation, -1, -2) @ self.tcp_jv
 
     @property
-    def Jw(self) -> FloatArray:  # noqa: N802 (matrix name)
+    def Jw(self) -> FloatArray:
         """Angular TCP Jacobian in the TCP frame, shape (..., 3, n)."""
         return np.swapaxes(self.tcp_rotation, -1, -2) @ self.tcp_jw
 

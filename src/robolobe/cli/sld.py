@@ -1,0 +1,118 @@
+"""``robolobe sld``: stability lobes of a tool point from a modes file."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+from typing import Annotated
+
+import numpy as np
+import typer
+
+from robolobe.cli._common import console, err_console, status
+from robolobe.errors import InputError
+
+__all__ = ["parse_rpm", "register"]
+
+_DEFAULT_N = {"zoa": 1000, "sdm": 200}
+
+
+def parse_rpm(text: str, method: str) -> np.ndarray:
+    """``MIN:MAX`` or ``MIN:MAX:N`` -> a uniform speed grid [rpm]."""
+    parts = text.split(":")
+    if len(parts) not in (2, 3):
+        raise InputError(f"--rpm: expected MIN:MAX or MIN:MAX:N, found {text!r}")
+    try:
+        lo, hi = float(parts[0]), float(parts[1])
+        n = int(parts[2]) if len(parts) == 3 else _DEFAULT_N[method]
+    except ValueError:
+        raise InputError(f"--rpm: expected numbers MIN:MAX[:N], found {text!r}") from None
+    if not (math.isfinite(lo) and math.isfinite(hi) and 0 < lo < hi):
+        raise InputError(f"--rpm: expected 0 < MIN < MAX, found {text!r}")
+    if n < 2:
+        raise InputError(f"--rpm: expected N >= 2 speeds, found {n}")
+    return np.linspace(lo, hi, n)
+
+
+def register(app: typer.Typer) -> None:
+    """Add the ``sld`` command to ``app``."""
+
+    @app.command("sld")
+    def sld_command(
+        modes: Annotated[Path, typer.Option("--modes", help="Tool-point modes CSV: dir,mode,f_hz,zeta,k_N_per_m (dir xx = feed, yy = normal; xy cross terms allowed).")],
+        teeth: Annotated[int, typer.Option("--teeth", help="Number of teeth N.")],
+        immersion: Annotated[float, typer.Option("--immersion", help="Radial immersion a_e/D in (0, 1].")],
+        rpm: Annotated[str, typer.Option("--rpm", help="Speed grid MIN:MAX[:N] in rpm (N: 1000 for zoa, 200 for sdm).")],
+        output: Annotated[Path, typer.Option("-o", "--output", help="Output CSV with columns rpm,a_lim_mm.")],
+        kt: Annotated[float | None, typer.Option("--kt", help="Tangential cutting coefficient Kt in N/m^2.")] = None,
+        kr: Annotated[float | None, typer.Option("--kr", help="Kr = Kn/Kt (radial over tangential).")] = None,
+        material: Annotated[str | None, typer.Option("--material", help="Built-in material (e.g. Al7075-T6) for Kt/Kr; --kt/--kr override it.")] = None,
+        milling: Annotated[str, typer.Option("--milling", help="down (climb) or up (conventional).")] = "down",
+        method: Annotated[str, typer.Option("--method", help="zoa (zero-order, fast) or sdm (semi-discretization, reference).")] = "zoa",
+        plot: Annotated[Path | None, typer.Option("--plot", help="Also write a PNG lobe plot.")] = None,
+        max_lobe: Annotated[int | None, typer.Option("--max-lobe", help="Highest ZOA lobe number (default: enough for the lowest speed).")] = None,
+        intervals: Annotated[int, typer.Option("--intervals", help="SDM intervals per tooth period.")] = 40,
+        safety: Annotated[float | None, typer.Option("--safety", help="Draw a_lim/SAFETY as a safety line in the plot.")] = None,
+    ) -> None:
+        """Stability lobes (limiting axial depth vs spindle speed) of one tool point."""
+        from robolobe.sld import (
+            CuttingConditions,
+            Material,
+            get_material,
+            stability_lobes,
+        )
+        from robolobe.sld.io import read_modes_csv, write_lobes_csv
+
+        if method not in ("zoa", "sdm"):
+            raise InputError(f"--method: expected zoa or sdm, found {method!r}")
+        if milling not in ("down", "up"):
+            raise InputError(f"--milling: expected down or up, found {milling!r}")
+        if teeth < 1:
+            raise InputError(f"--teeth: expected an integer >= 1, found {teeth}")
+        if material is not None:
+            mat = get_material(material, kt=kt, kr=kr)
+        elif kt is None or kr is None:
+            raise InputError("--kt and --kr: expected both (or --material NAME), found "
+                             f"kt={kt}, kr={kr}")
+        else:
+            mat = Material(name="user", kt=kt, kr=kr)
+        grid = parse_rpm(rpm, method)
+        model = read_modes_csv(modes)
+        conditions = CuttingConditions.from_immersion(immersion, milling)
+        with status(f"computing {method.upper()} lobes on {grid.size} speeds"):
+            lobes = stability_lobes(
+                model,
+                cutter=teeth,
+                material=mat,
+                conditions=conditions,
+                rpm=grid,
+                method=method,  # type: ignore[arg-type]
+                max_lobe=max_lobe,
+                intervals=intervals,
+            )
+        write_lobes_csv(output, lobes)
+        if plot is not None:
+            from robolobe.sld.plot import save_lobe_plot
+
+            save_lobe_plot(lobes, plot, safety_factor=safety,
+                           title=f"{method.upper()}: N={teeth}, a/D={immersion:g}, {milling} milling")
+        a_min, n_min = lobes.minimum()
+        console.print(
+            f"{method.upper()} lobes: {grid.size} speeds {grid[0]:g}-{grid[-1]:g} rpm, "
+            f"Kt={mat.kt:.4g} N/m^2, Kr={mat.kr:.4g}, a/D={immersion:g} ({milling} milling)"
+        )
+        if math.isfinite(float(a_min)):
+            console.print(f"minimum a_lim = {float(a_min) * 1e3:.6g} mm at {float(n_min):.6g} rpm")
+        else:
+            console.print("no lobe crosses this speed range: a_lim = inf everywhere")
+        if not lobes.valid:
+            err_console.print(f"[yellow]warning:[/] {lobes.message}", highlight=False, soft_wrap=True)
+        if lobes.complete_above_rpm is not None and float(lobes.complete_above_rpm) > grid[0]:
+            err_console.print(
+                f"[yellow]warning:[/] lobes above k={lobes.max_lobe} are left out; the envelope "
+                f"below {float(lobes.complete_above_rpm):.6g} rpm may be too high "
+                "(raise --max-lobe)",
+                highlight=False,
+                soft_wrap=True,
+            )
+        console.print(f"wrote {output}" + (f" and {plot}" if plot is not None else ""))

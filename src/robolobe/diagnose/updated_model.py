@@ -1,0 +1,138 @@
+"""The updated model: the nominal robot plus what the diagnosis found.
+
+Written as a folder::
+
+    updated/
+      robot.toml     # robolobe-robot/1: the nominal robot with the found changes
+                     # that a robot file can hold (joint stiffness and damping
+                     # factors, an added mass merged into the end effector)
+      effects.toml   # format = "robolobe-effects/1"; [[effects]] tables for the
+                     # rest (name = "tool_mode", f_hz = ..., ...), the
+                     # robolobe.twin.effects.effect_to_dict form
+
+``Twin(robot, effects)`` rebuilt from the folder (:func:`load_updated_model`)
+gives the corrected receptance; ``effects.toml`` alone can be read with
+:func:`read_effects` by any command that builds a twin.
+"""
+
+from __future__ import annotations
+
+import os
+import tomllib
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+import tomli_w
+
+from robolobe._atomic import atomic_dir
+from robolobe.errors import InputError
+from robolobe.robots import Robot, load_robot, robot_to_toml
+from robolobe.twin.effects import Effect, effect_from_dict, effect_to_dict
+from robolobe.twin.model import Twin
+
+__all__ = [
+    "EFFECTS_FORMAT",
+    "effects_to_toml",
+    "load_updated_model",
+    "read_effects",
+    "write_updated_model",
+]
+
+EFFECTS_FORMAT = "robolobe-effects/1"
+
+
+def effects_to_toml(effects: Sequence[Effect], *, note: str = "") -> str:
+    """``effects.toml`` text for ``effects``.
+
+    Parameters
+    ----------
+    effects : sequence of Effect
+    note : str
+        Free text stored under ``notes``.
+    """
+    doc: dict[str, Any] = {"format": EFFECTS_FORMAT}
+    if note:
+        doc["notes"] = note
+    doc["effects"] = [effect_to_dict(e) for e in effects]
+    return tomli_w.dumps(doc)
+
+
+def read_effects(path: str | os.PathLike[str]) -> tuple[Effect, ...]:
+    """Read an ``effects.toml`` file.
+
+    Raises
+    ------
+    InputError
+        Missing file, bad format key, unknown effect or parameter (naming the
+        file and the table index).
+    """
+    p = Path(path)
+    where = os.fspath(path)
+    if not p.is_file():
+        raise InputError("expected an effects file (effects.toml), found no such file", where)
+    try:
+        doc = tomllib.loads(p.read_text(encoding="utf-8"))
+    except (tomllib.TOMLDecodeError, OSError, UnicodeDecodeError) as exc:
+        raise InputError(f"cannot read TOML: {exc}", where) from None
+    fmt = doc.get("format")
+    if fmt != EFFECTS_FORMAT:
+        raise InputError(f"expected format = {EFFECTS_FORMAT!r}, found {fmt!r}", f"{where}[format]")
+    tables = doc.get("effects", [])
+    if not isinstance(tables, list):
+        raise InputError("expected [[effects]] tables", f"{where}[effects]")
+    return tuple(
+        effect_from_dict(t, source=f"{where}[effects][{i}]") for i, t in enumerate(tables)
+    )
+
+
+def write_updated_model(
+    path: str | os.PathLike[str], robot: Robot, effects: Sequence[Effect], *, note: str = ""
+) -> Path:
+    """Write the updated model folder atomically.
+
+    Robot-level effects (stage 0: joint stiffness/damping factors, added mass)
+    are baked into ``robot.toml``; the others go to ``effects.toml``.
+
+    Parameters
+    ----------
+    path : path-like
+        Target folder.
+    robot : Robot
+        The nominal robot.
+    effects : sequence of Effect
+        The found effects.
+    note : str
+        What the diagnosis found (stored in ``effects.toml``).
+
+    Returns
+    -------
+    Path
+        The folder.
+    """
+    baked = [e for e in effects if e.stage == 0]
+    rest = [e for e in effects if e.stage != 0]
+    updated = Twin(robot, tuple(baked)).effective_robot
+    if baked:
+        names = ", ".join(e.name for e in baked)
+        updated = updated.replace(name=f"{robot.name} (updated by diagnosis: {names})")
+    target = Path(path)
+    with atomic_dir(target) as tmp:
+        (tmp / "robot.toml").write_text(robot_to_toml(updated), encoding="utf-8")
+        (tmp / "effects.toml").write_text(effects_to_toml(rest, note=note), encoding="utf-8")
+    return target
+
+
+def load_updated_model(path: str | os.PathLike[str]) -> Twin:
+    """The twin of an updated-model folder (:func:`write_updated_model`).
+
+    Raises
+    ------
+    InputError
+        Missing files or bad content.
+    """
+    folder = Path(path)
+    if not folder.is_dir():
+        raise InputError("expected an updated-model folder, found no such folder", os.fspath(path))
+    robot = load_robot(folder / "robot.toml")
+    return Twin(robot, read_effects(folder / "effects.toml"))

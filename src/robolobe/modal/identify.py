@@ -1,0 +1,511 @@
+"""Campaign-level identification: from a hammer-test campaign to a modal dataset.
+
+Steps (:func:`identify_frfs`, :func:`identify_campaign`):
+
+1. Each posture is identified on its own (:func:`robolobe.modal.posture.identify_posture`),
+   in parallel over postures (joblib) when ``n_jobs != 1``.
+2. Modes are tracked across postures (:func:`robolobe.modal.tracking.track_modes`).
+3. Per driving direction, the ``n_modes`` tracks visible there at the most
+   postures become modes 1..n_modes, numbered by rising median frequency
+   (the seed's five modes per direction).
+4. Neighbour recovery (the seed's practice of comparing neighbouring
+   postures): a chosen track missing at a posture is searched for again,
+   starting from the median pole of the nearest postures that have it;
+   it is kept if the refined pole stays within 5 % of that start and its
+   term is visible at the driving point.
+5. The rows of ``modal.csv`` (FORMATS.md section 3) plus FRAC / NRMSE of the
+   FRF synthesized from those rows against the measured FRF, per posture and
+   direction, on the analysis band.
+
+Extra columns of the table: ``source`` (``identified``, ``weak``: the mode
+is identified at the posture but barely visible at this driving point, or
+``recovered``), ``visibility`` (peak of the mode's term over the peak of
+the measured FRF) and ``k_rel_std`` (relative standard deviation of the
+driving-point residue from the LSFD covariance, about that of ``k``).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+import pandas as pd
+from numpy.typing import ArrayLike, NDArray
+from scipy.optimize import linear_sum_assignment
+
+from robolobe.errors import InputError
+from robolobe.modal.metrics import frac, nrmse
+from robolobe.modal.modal_csv import MODAL_COLUMNS, Q_COLUMNS, validate_modal_frame
+from robolobe.modal.posture import (
+    IdentifySettings,
+    PostureModal,
+    identify_posture,
+    refit_posture,
+)
+from robolobe.modal.quality import QualityIssue, check_campaign_grids
+from robolobe.modal.synthesis import poles_to_modal, synthesize_frf
+from robolobe.modal.tracking import (
+    ModeTracks,
+    TrackingSettings,
+    posture_distances,
+    track_modes,
+)
+
+__all__ = [
+    "EXTRA_COLUMNS",
+    "CampaignModal",
+    "identify_campaign",
+    "identify_frfs",
+    "settings_from_test",
+]
+
+_AX = "xyz"
+#: Extra columns of the modal table beyond FORMATS.md section 3.
+EXTRA_COLUMNS: tuple[str, ...] = ("source", "visibility", "k_rel_std")
+
+
+@dataclass(frozen=True, eq=False)
+class CampaignModal:
+    """Result of a campaign identification.
+
+    Attributes
+    ----------
+    table : pandas.DataFrame
+        The modal dataset (columns of ``MODAL_COLUMNS`` plus ``source`` and
+        ``visibility``), validated, sorted by posture, direction, mode.
+    postures : tuple of PostureModal
+        Per-posture results (after recovery), campaign order.
+    tracks : ModeTracks
+    direction_tracks : dict
+        ``{"xx": (track of mode 1, track of mode 2, ...), ...}``.
+    fit : pandas.DataFrame
+        ``posture_id, dir, n_modes, frac, nrmse``: the FRF synthesized from
+        the rows of ``table`` against the measured FRF on the analysis band.
+    issues : tuple of QualityIssue
+        All data-quality findings.
+    n_recovered : int
+        Rows that come from neighbour recovery.
+    settings : IdentifySettings
+    """
+
+    table: pd.DataFrame
+    postures: tuple[PostureModal, ...]
+    tracks: ModeTracks
+    direction_tracks: Mapping[str, tuple[int, ...]]
+    fit: pd.DataFrame
+    issues: tuple[QualityIssue, ...]
+    n_recovered: int
+    settings: IdentifySettings = field(repr=False)
+
+
+def settings_from_test(test: Mapping[str, Any], **overrides: Any) -> IdentifySettings:
+    """Identification settings with the window and record length of a campaign's ``[test]``.
+
+    ``window_end`` (value of the exponential window at the end of the
+    record) and ``duration_s`` (record length ``T``) give
+    ``window_decay_per_s = -ln(window_end) / T`` and enable the truncation
+    correction with ``record_length_s = T``. Keys absent: no correction.
+    ``overrides`` are passed to :class:`IdentifySettings` and win.
+    """
+    kw: dict[str, Any] = {}
+    dur = test.get("duration_s")
+    wend = test.get("window_end")
+    if dur is not None:
+        try:
+            T = float(dur)
+        except (TypeError, ValueError):
+            raise InputError(
+                f"expected a number of seconds, found {dur!r}",
+                source="campaign.toml[test.duration_s]",
+            ) from None
+        if not (math.isfinite(T) and T > 0):
+            raise InputError(
+                f"expected a positive number of seconds, found {dur!r}",
+                source="campaign.toml[test.duration_s]",
+            )
+        kw["record_length_s"] = T
+        if wend is not None:
+            try:
+                we = float(wend)
+            except (TypeError, ValueError):
+                raise InputError(
+                    f"expected a number in (0, 1], found {wend!r}",
+                    source="campaign.toml[test.window_end]",
+                ) from None
+            if not 0 < we <= 1:
+                raise InputError(
+                    f"expected a number in (0, 1], found {wend!r}",
+                    source="campaign.toml[test.window_end]",
+                )
+            kw["window_decay_per_s"] = -math.log(we) / T
+    elif wend is not None:
+        raise InputError(
+            "window_end needs duration_s (the record length) to correct the damping",
+            source="campaign.toml[test]",
+        )
+    kw.update(overrides)
+    return IdentifySettings(**kw)
+
+
+def _identify_one(
+    pid: str, f: NDArray, h: NDArray, coh: NDArray | None, s: IdentifySettings
+) -> PostureModal:
+    return identify_posture(f, h, coherence=coh, settings=s, posture_id=pid)
+
+
+def _run_postures(
+    ids: Sequence[str],
+    freqs: Sequence[NDArray],
+    Hs: Sequence[NDArray],
+    cohs: Sequence[NDArray | None],
+    s: IdentifySettings,
+    n_jobs: int,
+    progress: Callable[[int], None] | None,
+) -> list[PostureModal]:
+    n = len(ids)
+    if n_jobs == 1 or n < 4:
+        out = []
+        for i in range(n):
+            out.append(_identify_one(ids[i], freqs[i], Hs[i], cohs[i], s))
+            if progress is not None:
+                progress(1)
+        return out
+    from joblib import Parallel, delayed
+
+    chunk = 8
+    starts = list(range(0, n, chunk))
+
+    def run_chunk(a: int) -> list[PostureModal]:
+        b = min(a + chunk, n)
+        return [_identify_one(ids[i], freqs[i], Hs[i], cohs[i], s) for i in range(a, b)]
+
+    results: list[PostureModal] = []
+    gen = Parallel(n_jobs=n_jobs, return_as="generator")(delayed(run_chunk)(a) for a in starts)
+    for part in gen:
+        results.extend(part)
+        if progress is not None:
+            progress(len(part))
+    return results
+
+
+def _choose_tracks(
+    postures: Sequence[PostureModal],
+    tracks: ModeTracks,
+    d: int,
+    n_modes: int,
+    min_presence: float,
+) -> tuple[int, ...]:
+    counts = np.zeros(tracks.n_tracks, dtype=int)
+    freqs: dict[int, list[float]] = {}
+    n_d = 0
+    for p, pm in enumerate(postures):
+        if not pm.used[d, d]:
+            continue
+        n_d += 1
+        for i in pm.modes_for_direction(d):
+            t = int(tracks.labels[p][i])
+            counts[t] += 1
+            freqs.setdefault(t, []).append(float(pm.f_hz[i]))
+    if n_d == 0:
+        return ()
+    need = max(1, math.ceil(min_presence * n_d))
+    eligible = np.flatnonzero(counts >= need)
+    top = eligible[np.argsort(-counts[eligible], kind="stable")][:n_modes]
+    return tuple(sorted((int(t) for t in top), key=lambda t: float(np.median(freqs[t]))))
+
+
+def _relabel(
+    old: PostureModal,
+    new: PostureModal,
+    old_labels: NDArray,
+    extra_f: NDArray,
+    extra_t: Sequence[int],
+) -> NDArray[np.int64]:
+    """Labels of ``new``'s modes: matched to old modes or to the extra starts by frequency."""
+    ref_f = np.concatenate([old.f_hz, extra_f])
+    ref_t = np.concatenate([old_labels, np.asarray(extra_t, dtype=np.int64)])
+    if new.f_hz.size == 0 or ref_f.size == 0:
+        return np.full(new.f_hz.size, -1, dtype=np.int64)
+    c = np.abs(new.f_hz[:, None] - ref_f[None, :]) / ref_f[None, :]
+    # an extra may only claim a mode that is not one of the old ones
+    cc = np.where(c <= 0.05, c, 1e6)
+    cc[:, : old.f_hz.size] = np.where(c[:, : old.f_hz.size] <= 0.01, c[:, : old.f_hz.size], 1e6)
+    rows, cols = linear_sum_assignment(cc)
+    lab = np.full(new.f_hz.size, -1, dtype=np.int64)
+    for r, col in zip(rows, cols, strict=True):
+        if cc[r, col] < 1e6:
+            lab[r] = ref_t[col]
+    return lab
+
+
+def _recover(
+    postures: list[PostureModal],
+    labels: list[NDArray[np.int64]],
+    chosen: Mapping[str, tuple[int, ...]],
+    q_rad: NDArray,
+    n_neighbours: int,
+) -> dict[int, set[int]]:
+    """Neighbour recovery in place; returns {posture: indices of recovered modes}."""
+    recovered: dict[int, set[int]] = {}
+    all_tracks = sorted({t for ts in chosen.values() for t in ts})
+    if not all_tracks:
+        return recovered
+    dist = posture_distances(q_rad)
+    for p, pm in enumerate(postures):
+        if pm.f_hz.size == 0 and pm.lsfd is None and pm.H.size == 0:
+            continue
+        missing = [t for t in all_tracks if not np.any(labels[p] == t)]
+        starts, start_t = [], []
+        for t in missing:
+            have = [
+                (dist[p, o], o, int(np.flatnonzero(labels[o] == t)[0]))
+                for o in range(len(postures))
+                if o != p and np.any(labels[o] == t)
+            ]
+            if not have:
+                continue
+            have.sort()
+            near = have[:n_neighbours]
+            lam = np.array([postures[o].poles_measured[i] for _, o, i in near])
+            fn, zn = poles_to_modal(lam)
+            f0, z0 = float(np.median(fn)), float(np.median(zn))
+            if (
+                pm.f_hz.size
+                and np.min(np.abs(poles_to_modal(pm.poles_measured)[0] - f0)) < 0.01 * f0
+            ):
+                continue  # a mode is already there (tracked elsewhere): leave it
+            starts.append(-z0 * 2 * np.pi * f0 + 1j * 2 * np.pi * f0 * math.sqrt(1 - z0**2))
+            start_t.append(t)
+        if not starts or pm.H.size == 0:
+            continue
+        new = refit_posture(pm, np.array(starts))
+        # compare in the corrected domain: shift the starts like the poles
+        extra_f = poles_to_modal(np.array(starts) + pm.settings.window_decay_per_s)[0]
+        lab = _relabel(pm, new, labels[p], extra_f, start_t)
+        got = np.flatnonzero(np.isin(lab, start_t))
+        if got.size == 0:
+            continue
+        postures[p] = new
+        labels[p] = lab
+        recovered[p] = {int(i) for i in got}
+    return recovered
+
+
+def identify_frfs(
+    posture_ids: Sequence[str],
+    q_rad: ArrayLike,
+    freq_hz: Sequence[ArrayLike],
+    H: Sequence[ArrayLike],
+    *,
+    coherence: Sequence[ArrayLike | None] | None = None,
+    settings: IdentifySettings | None = None,
+    tracking: TrackingSettings | None = None,
+    min_presence: float = 0.2,
+    recover: bool = True,
+    n_neighbours: int = 3,
+    weak_factor: float = 1.0,
+    n_jobs: int = 1,
+    progress: Callable[[int], None] | None = None,
+) -> CampaignModal:
+    """Identify the modes of every posture and build the modal dataset.
+
+    Parameters
+    ----------
+    posture_ids : sequence of str, length n
+    q_rad : array_like, shape (n, 6)
+        Joint angles, rad.
+    freq_hz : sequence of array_like, each shape (n_freq_p,)
+        Frequency grid per posture, Hz.
+    H : sequence of array_like, each shape (n_freq_p, 3, 3)
+        Receptance per posture (m/N); NaN for absent directions.
+    coherence : sequence of array_like or None, optional
+        Coherence per posture (same shapes as ``H``).
+    settings : IdentifySettings, optional
+    tracking : TrackingSettings, optional
+    min_presence : float
+        A track becomes a mode of a direction only if it is visible there at
+        this fraction of the postures (at least one).
+    recover : bool
+        Neighbour recovery of missing modes.
+    n_neighbours : int
+        Postures whose poles start a recovery.
+    weak_factor : float
+        A tracked mode identified at a posture but with visibility below
+        ``visibility_min`` at a driving point is still written (``source =
+        weak``) when its visibility is at least ``weak_factor *
+        visibility_min`` (default 1: no weak rows; in simulated tests weak
+        rows had 90th-percentile stiffness errors of ~16 %, up to 100 %).
+    n_jobs : int
+        Parallel workers over postures (joblib; -1: all cores).
+    progress : callable, optional
+        Called with the number of postures just finished.
+
+    Returns
+    -------
+    CampaignModal
+    """
+    s = settings if settings is not None else IdentifySettings()
+    ids = [str(p) for p in posture_ids]
+    q = np.asarray(q_rad, dtype=float)
+    n = len(ids)
+    if q.shape != (n, 6) or len(freq_hz) != n or len(H) != n:
+        raise InputError(
+            f"expected {n} postures: q_rad ({n}, 6), {n} grids and {n} FRF arrays; found "
+            f"q_rad {q.shape}, {len(freq_hz)} grids, {len(H)} FRF arrays",
+            source="identify_frfs",
+        )
+    if n == 0:
+        raise InputError("expected at least one posture, found none", source="identify_frfs")
+    freqs = [np.asarray(f, dtype=float) for f in freq_hz]
+    Hs = [np.asarray(h, dtype=complex) for h in H]
+    cohs: list[NDArray | None] = (
+        [None] * n
+        if coherence is None
+        else [None if c is None else np.asarray(c, dtype=float) for c in coherence]
+    )
+    issues: list[QualityIssue] = check_campaign_grids(ids, freqs)
+    postures = _run_postures(ids, freqs, Hs, cohs, s, n_jobs, progress)
+    for pm in postures:
+        issues.extend(pm.issues)
+
+    tr = track_modes(
+        [pm.f_hz for pm in postures],
+        [pm.zeta for pm in postures],
+        [pm.shapes for pm in postures],
+        [pm.signed_shapes for pm in postures],
+        q,
+        settings=tracking,
+    )
+    labels = [lab.copy() for lab in tr.labels]
+    dirs = [d for d in range(3) if any(pm.used[d, d] for pm in postures)]
+    chosen = {_AX[d] * 2: _choose_tracks(postures, tr, d, s.n_modes, min_presence) for d in dirs}
+    recovered_modes = _recover(postures, labels, chosen, q, n_neighbours) if recover else {}
+    tracks = ModeTracks(tuple(labels), tr.n_tracks, tr.order, tr.parent)
+
+    rows = []
+    fit_rows = []
+    vis_min = s.visibility_min
+    for p, pm in enumerate(postures):
+        q_deg = np.degrees(q[p])
+        for d in dirs:
+            dname = _AX[d] * 2
+            if not pm.used[d, d]:
+                continue
+            sel_modes: list[int] = []
+            for m_no, t in enumerate(chosen[dname], start=1):
+                hit = np.flatnonzero(labels[p] == t)
+                if not hit.size:
+                    continue
+                i = int(hit[0])
+                k = float(pm.k_N_per_m[d, i])
+                vis = float(pm.visibility[d, i])
+                rel = float(pm.k_rel_std[d, i])
+                precise = not (rel > s.k_rel_std_max)  # NaN (unknown) passes
+                if not (math.isfinite(k) and k > 0) or vis < weak_factor * vis_min or not precise:
+                    continue
+                src = (
+                    "recovered"
+                    if i in recovered_modes.get(p, set())
+                    else ("identified" if vis >= vis_min else "weak")
+                )
+                rows.append(
+                    {
+                        "posture_id": pm.posture_id,
+                        **{c: float(v) for c, v in zip(Q_COLUMNS, q_deg, strict=True)},
+                        "dir": dname,
+                        "mode": m_no,
+                        "f_hz": float(pm.f_hz[i]),
+                        "zeta": float(pm.zeta[i]),
+                        "k_N_per_m": k,
+                        "source": src,
+                        "visibility": vis,
+                        "k_rel_std": rel,
+                    }
+                )
+                sel_modes.append(i)
+            fr, nr = _fit_metrics(pm, d, sel_modes)
+            fit_rows.append(
+                {
+                    "posture_id": pm.posture_id,
+                    "dir": dname,
+                    "n_modes": len(sel_modes),
+                    "frac": fr,
+                    "nrmse": nr,
+                }
+            )
+    if not rows:
+        raise InputError(
+            "no modes identified in any posture; check the band (--fmin/--fmax) and the data",
+            source="identify",
+        )
+    table = validate_modal_frame(pd.DataFrame(rows, columns=[*MODAL_COLUMNS, *EXTRA_COLUMNS]))
+    fit = pd.DataFrame(fit_rows, columns=["posture_id", "dir", "n_modes", "frac", "nrmse"])
+    return CampaignModal(
+        table=table,
+        postures=tuple(postures),
+        tracks=tracks,
+        direction_tracks=chosen,
+        fit=fit,
+        issues=tuple(issues),
+        n_recovered=int(np.count_nonzero(table["source"] == "recovered")),
+        settings=s,
+    )
+
+
+def _fit_metrics(pm: PostureModal, d: int, modes: Sequence[int]) -> tuple[float, float]:
+    """FRAC and NRMSE of the modal-parameter FRF (measured-domain damping) on the band."""
+    s = pm.settings
+    band = (pm.freq_hz >= s.fmin_hz) & (pm.freq_hz <= s.fmax_hz)
+    if not band.any():
+        return float("nan"), float("nan")
+    hm = pm.H[band, d, d]
+    idx = np.asarray(modes, dtype=int)
+    if idx.size == 0:
+        hp = np.zeros_like(hm)
+    else:
+        fn, zw = poles_to_modal(pm.poles_measured[idx])
+        hp = synthesize_frf(fn, zw, pm.k_N_per_m[d, idx], pm.freq_hz[band])
+    return float(frac(hp, hm)), float(nrmse(hp, hm))
+
+
+def identify_campaign(
+    campaign: Any,
+    *,
+    settings: IdentifySettings | None = None,
+    overrides: Mapping[str, Any] | None = None,
+    **kwargs: Any,
+) -> CampaignModal:
+    """Identify a :class:`robolobe.twin.campaign.Campaign`.
+
+    Parameters
+    ----------
+    campaign : Campaign
+        As read by :func:`robolobe.twin.campaign.read_campaign`.
+    settings : IdentifySettings, optional
+        Default: :func:`settings_from_test` of ``campaign.test`` (window and
+        record length), updated with ``overrides``.
+    overrides : mapping, optional
+        Fields of :class:`IdentifySettings` to set (ignored if ``settings``).
+    **kwargs
+        Passed to :func:`identify_frfs` (``n_jobs``, ``progress``, ...).
+
+    Returns
+    -------
+    CampaignModal
+    """
+    s = (
+        settings
+        if settings is not None
+        else settings_from_test(campaign.test, **dict(overrides or {}))
+    )
+    return identify_frfs(
+        campaign.posture_ids,
+        campaign.q_rad,
+        [f.freq_hz for f in campaign.frfs],
+        [f.H for f in campaign.frfs],
+        settings=s,
+        **kwargs,
+    )
