@@ -19,7 +19,7 @@ import argparse
 import numpy as np
 
 from robolobe.robots import RigidBody, load_robot, sample_postures
-from robolobe.twin.calibration import TARGETS, calibrate_builtin, calibration_report
+from robolobe.twin.calibration import TARGETS, TOOLS, calibrate_builtin, calibration_report
 from robolobe.twin.designs import TESTED_RANGES_DEG
 
 CHECK_SEED = 7
@@ -27,7 +27,8 @@ CHECK_POSTURES = 200
 
 
 def _toml(name: str, k: np.ndarray, c: np.ndarray, ee: RigidBody | None) -> str:
-    lines = [f"# {name}: joints 1..6"]
+    xyz, zyx = TOOLS[name]
+    lines = [f"# {name}: [tool] xyz_m = {list(xyz)}, zyx_deg = {list(zyx)}; joints 1..6"]
     for i in range(6):
         lines.append(
             f"  joint {i + 1}: stiffness_Nm_per_rad = {k[i]:.3g}   damping_Nms_per_rad = {c[i]:.3g}"

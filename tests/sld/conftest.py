@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import pytest
-from sld_reference import F_N, K_MODAL, ZETA
+from .sld_reference import F_N, K_MODAL, ZETA
 
 from robolobe.sld import ModalModel
 

@@ -64,8 +64,13 @@ def test_factors_are_integrals_of_the_matrix() -> None:
         st, ex = np.sort(rng.uniform(0, PI, 2))
         kr = rng.uniform(0, 0.6)
         want = np.array(
-            [[quad(lambda p, i=i, j=j: directional_matrix(p, kr)[i, j], st, ex)[0] for j in range(2)]
-             for i in range(2)]
+            [
+                [
+                    quad(lambda p, i=i, j=j, kr=kr: directional_matrix(p, kr)[i, j], st, ex)[0]
+                    for j in range(2)
+                ]
+                for i in range(2)
+            ]
         )
         np.testing.assert_allclose(directional_factors(st, ex, kr), want, atol=1e-12)
 
@@ -73,7 +78,9 @@ def test_factors_are_integrals_of_the_matrix() -> None:
 def test_antiderivative_derivative() -> None:
     phi = np.linspace(0.1, 3.0, 7)
     h = 1e-6
-    num = (directional_antiderivative(phi + h, 0.4) - directional_antiderivative(phi - h, 0.4)) / (2 * h)
+    num = (directional_antiderivative(phi + h, 0.4) - directional_antiderivative(phi - h, 0.4)) / (
+        2 * h
+    )
     np.testing.assert_allclose(num, directional_matrix(phi, 0.4), atol=1e-8)
 
 
@@ -90,8 +97,9 @@ def test_interval_average_sums_to_zero_order(teeth: int, m: int, immersion: floa
     st, ex = engagement_angles(immersion, "down")
     dphi = 2 * PI / (teeth * m)
     avg = interval_directional_average(np.arange(m) * dphi, dphi, st, ex, 0.3, teeth)
-    np.testing.assert_allclose(avg.mean(axis=0), teeth * directional_factors(st, ex, 0.3) / (2 * PI),
-                               atol=1e-12)
+    np.testing.assert_allclose(
+        avg.mean(axis=0), teeth * directional_factors(st, ex, 0.3) / (2 * PI), atol=1e-12
+    )
 
 
 def test_interval_average_is_zero_outside_the_cut() -> None:

@@ -6,7 +6,7 @@ import math
 
 import numpy as np
 import pytest
-from sld_reference import KR, KT, N_TEETH
+from .sld_reference import KR, KT, N_TEETH
 
 from robolobe.sld import (
     ModalModel,
@@ -73,8 +73,10 @@ def test_envelope_equals_brute_force_polyline(iso_2dof: ModalModel, immersion: f
 
 def test_envelope_equals_brute_force_with_cross_terms() -> None:
     model = ModalModel.from_directional(
-        [700.0, 1500.0, 760.0, 1400.0, 730.0], [0.03, 0.02, 0.025, 0.02, 0.03],
-        [3e7, 6e7, 4e7, 5e7, -9e7], ["xx", "xx", "yy", "yy", "xy"],
+        [700.0, 1500.0, 760.0, 1400.0, 730.0],
+        [0.03, 0.02, 0.025, 0.02, 0.03],
+        [3e7, 6e7, 4e7, 5e7, -9e7],
+        ["xx", "xx", "yy", "yy", "xy"],
     )
     w, depth, eps = _lobe_data(model, 0.4, "up")
     rpm = np.linspace(3000, 40000, 300)

@@ -6,6 +6,7 @@ import math
 
 import numpy as np
 import pytest
+from .sld_reference import KR, KT, N_TEETH
 
 from robolobe.sld import (
     CuttingConditions,
@@ -20,8 +21,6 @@ from robolobe.sld import (
     zoa_eigenvalues,
     zoa_lobes,
 )
-
-from sld_reference import KR, KT, N_TEETH
 
 MAT = Material("benchmark", KT, KR)
 
@@ -45,7 +44,9 @@ def test_one_dof_minimum_closed_form(one_dof_x: ModalModel, immersion: float) ->
     from sld_reference import K_MODAL, ZETA
 
     axx = directional_factors(*engagement_angles(immersion, "down"), KR)[0, 0]
-    re_g = 1 / (4 * K_MODAL * ZETA * (1 - ZETA)) if axx > 0 else -1 / (4 * K_MODAL * ZETA * (1 + ZETA))
+    re_g = (
+        1 / (4 * K_MODAL * ZETA * (1 - ZETA)) if axx > 0 else -1 / (4 * K_MODAL * ZETA * (1 + ZETA))
+    )
     want = 2 * math.pi / (N_TEETH * KT * axx * re_g)
     alpha = directional_factors(*engagement_angles(immersion, "down"), KR)
     got = float(critical_depth(one_dof_x, alpha, teeth=N_TEETH, kt=KT).depth)
@@ -87,7 +88,9 @@ def test_up_down_identical_for_isotropic_two_dof(iso_2dof: ModalModel) -> None:
     res = {}
     for milling in ("up", "down"):
         cond = CuttingConditions.from_immersion(0.3, milling)
-        res[milling] = stability_lobes(iso_2dof, cutter=N_TEETH, material=MAT, conditions=cond, rpm=rpm)
+        res[milling] = stability_lobes(
+            iso_2dof, cutter=N_TEETH, material=MAT, conditions=cond, rpm=rpm
+        )
     np.testing.assert_allclose(res["up"].a_lim, res["down"].a_lim, rtol=1e-9)
 
 
@@ -96,7 +99,9 @@ def test_up_down_differ_for_one_dof(one_dof_x: ModalModel) -> None:
     res = {}
     for milling in ("up", "down"):
         cond = CuttingConditions.from_immersion(0.3, milling)
-        res[milling] = stability_lobes(one_dof_x, cutter=N_TEETH, material=MAT, conditions=cond, rpm=rpm)
+        res[milling] = stability_lobes(
+            one_dof_x, cutter=N_TEETH, material=MAT, conditions=cond, rpm=rpm
+        )
     up, down = res["up"].a_lim, res["down"].a_lim
     both = np.isfinite(up) & np.isfinite(down)
     assert np.max(np.abs(up[both] / down[both] - 1)) > 0.2
@@ -128,9 +133,14 @@ def test_envelope_minimum_matches_critical_depth(iso_2dof: ModalModel) -> None:
     alpha = directional_factors(0.0, math.pi, KR)
     crit = critical_depth(iso_2dof, alpha, teeth=N_TEETH, kt=KT)
     n_bottom = float(crit.rpm(1))
-    lobes = stability_lobes(iso_2dof, cutter=N_TEETH, material=MAT,
-                            conditions=CuttingConditions.from_immersion(1.0, "down"),
-                            rpm=np.array([n_bottom]), refine_tol=0.01)
+    lobes = stability_lobes(
+        iso_2dof,
+        cutter=N_TEETH,
+        material=MAT,
+        conditions=CuttingConditions.from_immersion(1.0, "down"),
+        rpm=np.array([n_bottom]),
+        refine_tol=0.01,
+    )
     # the polyline chord lies just above the smooth lobe bottom
     assert float(lobes.a_lim[0]) == pytest.approx(float(crit.depth), rel=1e-4)
     assert float(lobes.a_lim[0]) >= float(crit.depth) * (1 - 1e-9)
@@ -178,13 +188,25 @@ def test_depth_scales_inversely_with_kt_and_teeth(iso_2dof: ModalModel) -> None:
 
 def test_low_immersion_flag(iso_2dof: ModalModel) -> None:
     rpm = np.linspace(10000, 20000, 50)
-    low = stability_lobes(iso_2dof, cutter=2, material=MAT,
-                          conditions=CuttingConditions.from_immersion(0.1, "down"), rpm=rpm)
+    low = stability_lobes(
+        iso_2dof,
+        cutter=2,
+        material=MAT,
+        conditions=CuttingConditions.from_immersion(0.1, "down"),
+        rpm=rpm,
+    )
     assert not low.valid
-    assert "a/D = 0.1" in low.message and "sdm" in low.message
-    ok = stability_lobes(iso_2dof, cutter=2, material=MAT,
-                         conditions=CuttingConditions.from_immersion(0.25, "down"), rpm=rpm)
-    assert ok.valid and ok.message == ""
+    assert "a/D = 0.1" in low.message
+    assert "sdm" in low.message
+    ok = stability_lobes(
+        iso_2dof,
+        cutter=2,
+        material=MAT,
+        conditions=CuttingConditions.from_immersion(0.25, "down"),
+        rpm=rpm,
+    )
+    assert ok.valid
+    assert ok.message == ""
 
 
 def test_modal_and_frf_inputs_agree(iso_2dof: ModalModel) -> None:

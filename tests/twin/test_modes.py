@@ -9,7 +9,7 @@ from robolobe.errors import InputError
 from robolobe.robots import load_robot
 from robolobe.twin.frf import modal_receptance, receptance
 from robolobe.twin.model import Twin
-from robolobe.twin.modes import compute_modes, undamped_modes
+from robolobe.twin.modes import SEEN_RATIO, compute_modes, undamped_modes
 
 
 def _nominal(name: str, n: int = 8, seed: int = 0):
@@ -83,8 +83,9 @@ def test_modal_stiffness_matches_driving_point_residue_for_light_damping() -> No
     md = compute_modes(m, k, 0.05 * c, j)  # light, non-proportional damping
     kd = md.k_N_per_m
     kr = md.k_from_residues()
-    # compare where the mode shows (within a factor 1e3 of the smallest k in that direction)
-    show = kd < 1e3 * kd.min(axis=-1, keepdims=True)
+    # compare where the mode is seen at the TCP (the twin's visibility rule, SEEN_RATIO);
+    # a barely visible mode's residue is dominated by damping coupling to its neighbours
+    show = kd < SEEN_RATIO * kd.min(axis=-1, keepdims=True)
     np.testing.assert_allclose(kr[show], kd[show], rtol=2e-3)
 
 

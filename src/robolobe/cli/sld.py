@@ -39,20 +39,67 @@ def register(app: typer.Typer) -> None:
 
     @app.command("sld")
     def sld_command(
-        modes: Annotated[Path, typer.Option("--modes", help="Tool-point modes CSV: dir,mode,f_hz,zeta,k_N_per_m (dir xx = feed, yy = normal; xy cross terms allowed).")],
+        modes: Annotated[
+            Path,
+            typer.Option(
+                "--modes",
+                help=(
+                    "Tool-point modes CSV: dir,mode,f_hz,zeta,k_N_per_m "
+                    "(dir xx = feed, yy = normal; xy cross terms allowed)."
+                ),
+            ),
+        ],
         teeth: Annotated[int, typer.Option("--teeth", help="Number of teeth N.")],
-        immersion: Annotated[float, typer.Option("--immersion", help="Radial immersion a_e/D in (0, 1].")],
-        rpm: Annotated[str, typer.Option("--rpm", help="Speed grid MIN:MAX[:N] in rpm (N: 1000 for zoa, 200 for sdm).")],
-        output: Annotated[Path, typer.Option("-o", "--output", help="Output CSV with columns rpm,a_lim_mm.")],
-        kt: Annotated[float | None, typer.Option("--kt", help="Tangential cutting coefficient Kt in N/m^2.")] = None,
-        kr: Annotated[float | None, typer.Option("--kr", help="Kr = Kn/Kt (radial over tangential).")] = None,
-        material: Annotated[str | None, typer.Option("--material", help="Built-in material (e.g. Al7075-T6) for Kt/Kr; --kt/--kr override it.")] = None,
-        milling: Annotated[str, typer.Option("--milling", help="down (climb) or up (conventional).")] = "down",
-        method: Annotated[str, typer.Option("--method", help="zoa (zero-order, fast) or sdm (semi-discretization, reference).")] = "zoa",
-        plot: Annotated[Path | None, typer.Option("--plot", help="Also write a PNG lobe plot.")] = None,
-        max_lobe: Annotated[int | None, typer.Option("--max-lobe", help="Highest ZOA lobe number (default: enough for the lowest speed).")] = None,
-        intervals: Annotated[int, typer.Option("--intervals", help="SDM intervals per tooth period.")] = 40,
-        safety: Annotated[float | None, typer.Option("--safety", help="Draw a_lim/SAFETY as a safety line in the plot.")] = None,
+        immersion: Annotated[
+            float, typer.Option("--immersion", help="Radial immersion a_e/D in (0, 1].")
+        ],
+        rpm: Annotated[
+            str,
+            typer.Option(
+                "--rpm", help="Speed grid MIN:MAX[:N] in rpm (N: 1000 for zoa, 200 for sdm)."
+            ),
+        ],
+        output: Annotated[
+            Path, typer.Option("-o", "--output", help="Output CSV with columns rpm,a_lim_mm.")
+        ],
+        kt: Annotated[
+            float | None, typer.Option("--kt", help="Tangential cutting coefficient Kt in N/m^2.")
+        ] = None,
+        kr: Annotated[
+            float | None, typer.Option("--kr", help="Kr = Kn/Kt (radial over tangential).")
+        ] = None,
+        material: Annotated[
+            str | None,
+            typer.Option(
+                "--material",
+                help="Built-in material (e.g. Al7075-T6) for Kt/Kr; --kt/--kr override it.",
+            ),
+        ] = None,
+        milling: Annotated[
+            str, typer.Option("--milling", help="down (climb) or up (conventional).")
+        ] = "down",
+        method: Annotated[
+            str,
+            typer.Option(
+                "--method", help="zoa (zero-order, fast) or sdm (semi-discretization, reference)."
+            ),
+        ] = "zoa",
+        plot: Annotated[
+            Path | None, typer.Option("--plot", help="Also write a PNG lobe plot.")
+        ] = None,
+        max_lobe: Annotated[
+            int | None,
+            typer.Option(
+                "--max-lobe", help="Highest ZOA lobe number (default: enough for the lowest speed)."
+            ),
+        ] = None,
+        intervals: Annotated[
+            int, typer.Option("--intervals", help="SDM intervals per tooth period.")
+        ] = 40,
+        safety: Annotated[
+            float | None,
+            typer.Option("--safety", help="Draw a_lim/SAFETY as a safety line in the plot."),
+        ] = None,
     ) -> None:
         """Stability lobes (limiting axial depth vs spindle speed) of one tool point."""
         from robolobe.sld import (
@@ -72,8 +119,9 @@ def register(app: typer.Typer) -> None:
         if material is not None:
             mat = get_material(material, kt=kt, kr=kr)
         elif kt is None or kr is None:
-            raise InputError("--kt and --kr: expected both (or --material NAME), found "
-                             f"kt={kt}, kr={kr}")
+            raise InputError(
+                f"--kt and --kr: expected both (or --material NAME), found kt={kt}, kr={kr}"
+            )
         else:
             mat = Material(name="user", kt=kt, kr=kr)
         grid = parse_rpm(rpm, method)
@@ -94,8 +142,12 @@ def register(app: typer.Typer) -> None:
         if plot is not None:
             from robolobe.sld.plot import save_lobe_plot
 
-            save_lobe_plot(lobes, plot, safety_factor=safety,
-                           title=f"{method.upper()}: N={teeth}, a/D={immersion:g}, {milling} milling")
+            save_lobe_plot(
+                lobes,
+                plot,
+                safety_factor=safety,
+                title=f"{method.upper()}: N={teeth}, a/D={immersion:g}, {milling} milling",
+            )
         a_min, n_min = lobes.minimum()
         console.print(
             f"{method.upper()} lobes: {grid.size} speeds {grid[0]:g}-{grid[-1]:g} rpm, "
@@ -106,7 +158,9 @@ def register(app: typer.Typer) -> None:
         else:
             console.print("no lobe crosses this speed range: a_lim = inf everywhere")
         if not lobes.valid:
-            err_console.print(f"[yellow]warning:[/] {lobes.message}", highlight=False, soft_wrap=True)
+            err_console.print(
+                f"[yellow]warning:[/] {lobes.message}", highlight=False, soft_wrap=True
+            )
         if lobes.complete_above_rpm is not None and float(lobes.complete_above_rpm) > grid[0]:
             err_console.print(
                 f"[yellow]warning:[/] lobes above k={lobes.max_lobe} are left out; the envelope "

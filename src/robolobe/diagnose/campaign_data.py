@@ -72,17 +72,21 @@ def window_decay_from_test(test: dict[str, Any], df_hz: float) -> float | None:
     we = test["window_end"]
     if not isinstance(we, int | float) or not 0 < we <= 1:
         raise InputError(
-            f"expected a window value in (0, 1], found {we!r}", source="campaign.toml[test.window_end]"
+            f"expected a window value in (0, 1], found {we!r}",
+            source="campaign.toml[test.window_end]",
         )
     dur = test.get("duration_s", 1.0 / df_hz)
     if not isinstance(dur, int | float) or not dur > 0:
         raise InputError(
-            f"expected a record length > 0 s, found {dur!r}", source="campaign.toml[test.duration_s]"
+            f"expected a record length > 0 s, found {dur!r}",
+            source="campaign.toml[test.duration_s]",
         )
     return float(-math.log(we) / dur)
 
 
-def read_force_levels(folder: str | os.PathLike[str], posture_ids: tuple[str, ...]) -> NDArray[np.float64] | None:
+def read_force_levels(
+    folder: str | os.PathLike[str], posture_ids: tuple[str, ...]
+) -> NDArray[np.float64] | None:
     """The optional ``force_N`` column of ``postures.csv``, in posture order.
 
     Returns
@@ -153,9 +157,7 @@ def campaign_observations(
     if not (0 <= lo < hi):
         raise InputError(f"band_hz: expected 0 <= low < high, found {band_hz}")
     ids = campaign.posture_ids
-    issues: list[QualityIssue] = list(
-        check_campaign_grids(ids, [r.freq_hz for r in campaign.frfs])
-    )
+    issues: list[QualityIssue] = list(check_campaign_grids(ids, [r.freq_hz for r in campaign.frfs]))
     ref = campaign.frfs[0].freq_hz
     sel = (ref >= lo) & (ref <= hi)
     f = ref[sel]

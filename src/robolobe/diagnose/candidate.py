@@ -55,14 +55,18 @@ class ParamSpec:
 
     def __post_init__(self) -> None:
         if not self.lower < self.upper:
-            raise ValueError(f"{self.name}: expected lower < upper, found {self.lower}, {self.upper}")
+            raise ValueError(
+                f"{self.name}: expected lower < upper, found {self.lower}, {self.upper}"
+            )
         if self.scale == "log" and self.lower <= 0:
             raise ValueError(f"{self.name}: log scale needs lower > 0, found {self.lower}")
         if not self.grid:
             raise ValueError(f"{self.name}: expected at least one grid value")
         for g in self.grid:
             if not self.lower <= g <= self.upper:
-                raise ValueError(f"{self.name}: grid value {g} outside [{self.lower}, {self.upper}]")
+                raise ValueError(
+                    f"{self.name}: grid value {g} outside [{self.lower}, {self.upper}]"
+                )
 
     def to_internal(self, p: float) -> float:
         """Physical value -> internal coordinate."""

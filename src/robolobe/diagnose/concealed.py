@@ -31,6 +31,7 @@ import pandas as pd
 
 from robolobe.diagnose.candidate import NONE
 from robolobe.diagnose.pipeline import DiagnoseSettings, Diagnosis, diagnose
+from robolobe.diagnose.twin_model import windowed_receptance
 from robolobe.errors import InputError
 from robolobe.robots import Robot, load_robot
 from robolobe.twin.campaign import Campaign, PostureFRF, write_campaign
@@ -131,8 +132,9 @@ def make_concealed_campaign(
             for e in effects
         )
         twin = Twin(robot, eff)
+        # the twin's receptance by modal superposition (exact, faster on the fine grid)
         res = simulate_hammer_test(
-            lambda f, twin=twin: twin.receptance(q0, f),
+            windowed_receptance(twin, q0, s.fine_freq_hz),
             rng=rng,
             settings=s.replace(force_peak_n=float(level)),
         )
@@ -172,7 +174,9 @@ def write_concealed_campaign(
     if force is not None:
         from robolobe.twin.campaign import write_postures
 
-        write_postures(out / "postures.csv", camp.posture_ids, camp.q_rad, extra={"force_N": force})
+        write_postures(
+            out / "postures.csv", camp.posture_ids, camp.q_rad, extra={"force_N": force.tolist()}
+        )
     return out
 
 
@@ -213,7 +217,9 @@ class CaseResult:
         return self.verdict == self.case.truth
 
 
-def run_case(case: Case, *, settings: DiagnoseSettings | None = None) -> tuple[CaseResult, Diagnosis]:
+def run_case(
+    case: Case, *, settings: DiagnoseSettings | None = None
+) -> tuple[CaseResult, Diagnosis]:
     """Simulate and diagnose one case."""
     camp, force = make_concealed_campaign(case)
     robot: Robot = load_robot(case.robot)
@@ -314,7 +320,10 @@ def standard_cases(
         "link_flexibility": {
             "small": lambda r: _e("link_flexibility", link=3, stiffness_Nm_per_rad=_klink(r, 3.0)),
             "medium": lambda r: _e(
-                "link_flexibility", link=2, axis=(0.0, 1.0, 0.0), stiffness_Nm_per_rad=_klink(r, 1.5)
+                "link_flexibility",
+                link=2,
+                axis=(0.0, 1.0, 0.0),
+                stiffness_Nm_per_rad=_klink(r, 1.5),
             ),
             "large": lambda r: _e("link_flexibility", link=3, stiffness_Nm_per_rad=_klink(r, 0.8)),
         },
@@ -421,15 +430,17 @@ def study_tables(results: Sequence[CaseResult]) -> dict[str, pd.DataFrame]:
     )
     nul = df[df["truth"] == NONE]
     nulls = (
-        nul.groupby("robot")
-        .agg(campaigns=("verdict", "size"), false_discoveries=("correct", lambda s: int((~s).sum())))
+        nul.groupby("robot").agg(
+            campaigns=("verdict", "size"), false_discoveries=("correct", lambda s: int((~s).sum()))
+        )
         if not nul.empty
         else pd.DataFrame()
     )
     ok = eff[eff["correct"]]
     fit = (
-        ok.groupby("truth")[["frac_before", "frac_after", "frac_min_after", "nrmse_before", "nrmse_after"]]
-        .mean()
+        ok.groupby("truth")[
+            ["frac_before", "frac_after", "frac_min_after", "nrmse_before", "nrmse_after"]
+        ].mean()
         if not ok.empty
         else pd.DataFrame()
     )

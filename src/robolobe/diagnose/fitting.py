@@ -116,7 +116,9 @@ class CandidateFit:
         return self.candidate.to_internal(self.params) if self.k else np.zeros(0)
 
 
-def predict(model: ModelFn, candidate: Candidate, params: NDArray[np.float64], obs: Observations) -> NDArray[np.complex128]:
+def predict(
+    model: ModelFn, candidate: Candidate, params: NDArray[np.float64], obs: Observations
+) -> NDArray[np.complex128]:
     """Model receptance of ``obs``'s records with ``candidate`` at ``params``."""
     return np.asarray(model(candidate.effects(params) if candidate.n_params else (), obs))
 
@@ -195,16 +197,17 @@ def _uncertainty(
     ok = cond < COND_MAX
     if not ok:
         notes.append(f"parameters not separable (condition number {cond:.3g})")
-    for i, ps in enumerate(cand.params):
-        rel = sd_z[i] if ps.scale == "log" else sd_z[i] / (ps.upper - ps.lower)
+    for k, ps in enumerate(cand.params):
+        rel = sd_z[k] if ps.scale == "log" else sd_z[k] / (ps.upper - ps.lower)
         if rel > REL_STD_MAX:
             ok = False
             notes.append(f"{ps.name}: poorly determined (relative std {rel:.2g})")
-    for i in range(p):
-        for j in range(i + 1, p):
-            if abs(corr[i, j]) > 0.95:
+    for a in range(p):
+        for b in range(a + 1, p):
+            if abs(corr[a, b]) > 0.95:
                 notes.append(
-                    f"{cand.params[i].name} and {cand.params[j].name} correlated ({corr[i, j]:+.3f})"
+                    f"{cand.params[a].name} and {cand.params[b].name} "
+                    f"correlated ({corr[a, b]:+.3f})"
                 )
     return std, corr, cond, notes, ok
 
@@ -287,7 +290,7 @@ def fit_candidate(
             loss="soft_l1",
             f_scale=F_SCALE,
             x_scale="jac",
-            diff_step=1e-4,
+            diff_step=np.full(x0.size, 1e-4),
             max_nfev=max_nfev,
         )
         if best is None or res.cost < best.cost:
@@ -299,9 +302,7 @@ def fit_candidate(
     dev = deviance(r0)
     std, corr, cond, notes, ok = _uncertainty(candidate, z, J, dev, n, obs.inflation)
     span = hi - lo
-    at_bound = tuple(
-        bool(min(z[i] - lo[i], hi[i] - z[i]) < 1e-3 * span[i]) for i in range(p)
-    )
+    at_bound = tuple(bool(min(z[i] - lo[i], hi[i] - z[i]) < 1e-3 * span[i]) for i in range(p))
     for i, b in enumerate(at_bound):
         if b:
             notes.append(f"{candidate.params[i].name}: on its bound")

@@ -29,8 +29,9 @@ tool-mode frequencies spread log-evenly over the analysis band.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -42,6 +43,7 @@ from robolobe.twin.effects import (
     AddedMass,
     BaseCompliance,
     CoupledJointStiffness,
+    Effect,
     FrictionDamping,
     GravityStiffening,
     JointDamping,
@@ -96,21 +98,34 @@ class Untestable:
         return f"{self.name}[{self.variant}]" if self.variant else self.name
 
 
-def _p(x: NDArray[np.float64], i: int) -> float:
-    return float(x[i])
+Builder = Callable[[NDArray[np.float64]], tuple[Effect, ...]]
+
+
+def _builder(cls: type[Effect], names: Sequence[str], **fixed: Any) -> Builder:
+    """``p -> (cls(**fixed, names[0]=p[0], ...),)``."""
+
+    def build(p: NDArray[np.float64]) -> tuple[Effect, ...]:
+        kw = {n: float(v) for n, v in zip(names, p, strict=True)}
+        return (cls(**fixed, **kw),)
+
+    return build
+
+
+def _no_effects(p: NDArray[np.float64]) -> tuple[Effect, ...]:
+    return ()
 
 
 def _family(robot: Robot, name: str, band_hz: tuple[float, float]) -> list[Candidate]:
     """All variants of one family."""
     lo_hz, hi_hz = band_hz
     if name == NONE:
-        return [Candidate(NONE, (), lambda p: (), description="the nominal model as it is")]
+        return [Candidate(NONE, (), _no_effects, description="the nominal model as it is")]
     if name == "added_mass":
         return [
             Candidate(
                 name,
                 (ParamSpec("mass_kg", 0.05, 500.0, (0.5, 2.0, 8.0, 30.0, 100.0), "log"),),
-                lambda p: (AddedMass(mass_kg=_p(p, 0)),),
+                _builder(AddedMass, ["mass_kg"]),
                 description="an unmodelled point mass at the TCP (sensor, adapter, clamp)",
             )
         ]
@@ -119,7 +134,7 @@ def _family(robot: Robot, name: str, band_hz: tuple[float, float]) -> list[Candi
             Candidate(
                 name,
                 (ParamSpec("factor", 0.2, 5.0, (0.6, 0.85, 1.2, 1.7), "log", null=1.0),),
-                lambda p, j=j: (JointStiffness(joint=j, factor=_p(p, 0)),),
+                _builder(JointStiffness, ["factor"], joint=j),
                 variant=f"joint {j}",
                 description=f"joint {j}'s stiffness off by a factor",
                 fixed={"joint": j},
@@ -131,7 +146,7 @@ def _family(robot: Robot, name: str, band_hz: tuple[float, float]) -> list[Candi
             Candidate(
                 name,
                 (ParamSpec("factor", 0.05, 20.0, (0.3, 0.7, 1.5, 4.0), "log", null=1.0),),
-                lambda p, j=j: (JointDamping(joint=j, factor=_p(p, 0)),),
+                _builder(JointDamping, ["factor"], joint=j),
                 variant=f"joint {j}",
                 description=f"joint {j}'s damping off by a factor",
                 fixed={"joint": j},
@@ -143,7 +158,7 @@ def _family(robot: Robot, name: str, band_hz: tuple[float, float]) -> list[Candi
             Candidate(
                 name,
                 (ParamSpec("beta", 0.0, 20.0, (0.05, 0.3, 1.0, 3.0), "linear", null=0.0),),
-                lambda p: (GravityStiffening(beta=_p(p, 0)),),
+                _builder(GravityStiffening, ["beta"]),
                 description="joint stiffness rising with each joint's gravity torque "
                 "(k = k0 (1 + beta |tau_g| / 1e4 N m))",
                 fixed={"tau_ref_Nm": 1.0e4},
@@ -156,7 +171,7 @@ def _family(robot: Robot, name: str, band_hz: tuple[float, float]) -> list[Candi
             Candidate(
                 name,
                 (ParamSpec("k_coupling_Nm_per_rad", -kmax, kmax, grid, "linear", null=0.0),),
-                lambda p: (CoupledJointStiffness(k_coupling_Nm_per_rad=_p(p, 0), joints=(2, 3)),),
+                _builder(CoupledJointStiffness, ["k_coupling_Nm_per_rad"], joints=(2, 3)),
                 variant="joints 2-3",
                 description="a stiffness coupling joints 2 and 3 (parallelogram, balancer)",
                 fixed={"joints": (2, 3)},
@@ -166,12 +181,8 @@ def _family(robot: Robot, name: str, band_hz: tuple[float, float]) -> list[Candi
         return [
             Candidate(
                 name,
-                (
-                    ParamSpec(
-                        "stiffness_Nm_per_rad", 1e6, 1e11, (3e6, 1e7, 3e7, 1e8, 1e9), "log"
-                    ),
-                ),
-                lambda p: (BaseCompliance(stiffness_Nm_per_rad=_p(p, 0)),),
+                (ParamSpec("stiffness_Nm_per_rad", 1e6, 1e11, (3e6, 1e7, 3e7, 1e8, 1e9), "log"),),
+                _builder(BaseCompliance, ["stiffness_Nm_per_rad"]),
                 description="an elastic base or floor (the robot rocks on a rotational spring)",
                 fixed={"mass_kg": BaseCompliance().mass_kg},
             )
@@ -196,9 +207,7 @@ def _family(robot: Robot, name: str, band_hz: tuple[float, float]) -> list[Candi
                         ParamSpec("zeta", 0.003, 0.2, (0.03,), "log"),
                         ParamSpec("mass_kg", 0.1, 200.0, (1.0, 10.0), "log"),
                     ),
-                    lambda p, d=d: (
-                        ToolMode(f_hz=_p(p, 0), zeta=_p(p, 1), mass_kg=_p(p, 2), direction=d),  # type: ignore[arg-type]
-                    ),
+                    _builder(ToolMode, ["f_hz", "zeta", "mass_kg"], direction=d),
                     variant=f"direction {d}",
                     description=f"a local spindle/bracket/tool mode along {d}",
                     requirement=req,
@@ -216,9 +225,7 @@ def _family(robot: Robot, name: str, band_hz: tuple[float, float]) -> list[Candi
                     ParamSpec("ry_rad", -0.35, 0.35, g, "linear", null=0.0),
                     ParamSpec("rz_rad", -0.35, 0.35, g, "linear", null=0.0),
                 ),
-                lambda p: (
-                    SensorMisalignment(rx_rad=_p(p, 0), ry_rad=_p(p, 1), rz_rad=_p(p, 2)),
-                ),
+                _builder(SensorMisalignment, ["rx_rad", "ry_rad", "rz_rad"]),
                 description="accelerometer axes rotated against the TCP frame",
                 requirement=Requirement(
                     min_directions=2,
@@ -236,7 +243,7 @@ def _family(robot: Robot, name: str, band_hz: tuple[float, float]) -> list[Candi
                         "delay_s", -0.02, 0.02, (-0.004, -0.001, 0.001, 0.004), "linear", null=0.0
                     ),
                 ),
-                lambda p: (SensorDelay(delay_s=_p(p, 0)),),
+                _builder(SensorDelay, ["delay_s"]),
                 description="a delay of the response channel (phase error linear in frequency)",
             )
         ]
@@ -253,9 +260,7 @@ def _family(robot: Robot, name: str, band_hz: tuple[float, float]) -> list[Candi
                                 "stiffness_Nm_per_rad", 1e5, 1e10, (3e5, 3e6, 3e7, 3e8), "log"
                             ),
                         ),
-                        lambda p, link=link, axis=axis: (
-                            LinkFlexibility(link=link, stiffness_Nm_per_rad=_p(p, 0), axis=axis),
-                        ),
+                        _builder(LinkFlexibility, ["stiffness_Nm_per_rad"], link=link, axis=axis),
                         variant=f"link {link} about {ax}",
                         description=f"bending of link {link} about its DH-frame {ax} axis",
                         fixed={"link": link, "axis": axis},
@@ -267,7 +272,7 @@ def _family(robot: Robot, name: str, band_hz: tuple[float, float]) -> list[Candi
             Candidate(
                 name,
                 (ParamSpec("torque_Nm", 0.1, 1e4, (3.0, 30.0, 300.0), "log"),),
-                lambda p: (FrictionDamping(torque_Nm=_p(p, 0)),),
+                _builder(FrictionDamping, ["torque_Nm"]),
                 description="Coulomb joint friction: damping that falls as the hammer force rises",
                 requirement=Requirement(
                     min_force_levels=2,

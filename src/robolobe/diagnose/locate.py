@@ -27,6 +27,7 @@ in the recordings (:func:`pair_modes`).
 
 from __future__ import annotations
 
+import itertools
 import warnings
 from dataclasses import dataclass
 
@@ -170,7 +171,8 @@ def mismatch_map(
     MismatchMap
     """
     lr = log_ratio(H_nom, obs)
-    z = lr / obs.sigma
+    with np.errstate(invalid="ignore"):  # NaN where not measured
+        z = lr / obs.sigma
     s = (z.real**2 + z.imag**2) / 2.0  # NaN where not measured
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", RuntimeWarning)  # absent directions
@@ -199,7 +201,7 @@ def mismatch_map(
                 delay_std_s=err,
             )
         )
-        for lo, hi in zip(edges[:-1], edges[1:], strict=True):
+        for lo, hi in itertools.pairwise(edges):
             sel = (f >= lo) & (f < hi)
             if not (m[:, sel]).any():
                 continue
@@ -333,16 +335,14 @@ def pair_modes(
                 continue
             used_n.add(int(i))
             used_m.add(int(j))
-            rows.append(
-                ModePair(record, "paired", fn[i], zn[i], fm[j], zm[j], float(macm[i, j]))
-            )
+            rows.append(ModePair(record, "paired", fn[i], zn[i], fm[j], zm[j], float(macm[i, j])))
     nan = float("nan")
-    for i in range(n1):
-        if i not in used_n:
-            rows.append(ModePair(record, "nominal only", fn[i], zn[i], nan, nan, nan))
-    for j in range(n2):
-        if j not in used_m:
-            rows.append(ModePair(record, "recorded only", nan, nan, fm[j], zm[j], nan))
+    for ia in range(n1):
+        if ia not in used_n:
+            rows.append(ModePair(record, "nominal only", fn[ia], zn[ia], nan, nan, nan))
+    for jb in range(n2):
+        if jb not in used_m:
+            rows.append(ModePair(record, "recorded only", nan, nan, fm[jb], zm[jb], nan))
     rows.sort(key=lambda r: r.f_nom_hz if np.isfinite(r.f_nom_hz) else r.f_meas_hz)
     return rows
 
@@ -353,10 +353,10 @@ def recorded_peaks(
     """Modes seen in the recordings, by peak picking (a quick estimate for pairing).
 
     The driving-point magnitudes, each scaled to its maximum, are summed per
-    record; peaks of that sum give the frequency, the half-power width the
-    damping (minus the window's ``a / w``), and ``sqrt|Im H_dd|`` at the peak
-    the shape magnitude per direction (driving-point residues go as the
-    shape squared).
+    record; peaks of that sum give the frequency, the half-power width of the
+    direction that dominates the peak gives the damping (minus the window's
+    ``a / w``), and ``sqrt|Im H_dd|`` at the peak the shape magnitude per
+    direction (driving-point residues go as the shape squared).
 
     Parameters
     ----------
@@ -392,7 +392,16 @@ def recorded_peaks(
         if pk.size == 0:
             out.append((np.zeros(0), np.zeros(0), np.zeros((0, 3))))
             continue
-        w = peak_widths(s, pk, rel_height=1 - 1 / np.sqrt(2))
+        # half-power width on the direction that dominates each peak
+        mg = np.array(mags)
+        best = np.argmax(mg[:, pk], axis=0)
+        width = np.empty(pk.size)
+        for i, (d, p) in enumerate(zip(best, pk, strict=True)):
+            lo_i = max(p - 2, 0)
+            p_d = lo_i + int(np.argmax(mg[d, lo_i : p + 3]))  # the direction's own maximum
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")  # a peak on the band edge has no width
+                width[i] = peak_widths(mg[d], [p_d], rel_height=1 - 1 / np.sqrt(2))[0][0]
         df = float(np.median(np.diff(f)))
         fp = np.interp(pk.astype(float), np.arange(f.size), f)
         # parabolic refinement of the peak line
@@ -401,7 +410,7 @@ def recorded_peaks(
         den = y0 - 2 * y1 + y2
         shift = np.where(inner & (den < 0), 0.5 * (y0 - y2) / np.where(den < 0, den, -1.0), 0.0)
         fp = fp + shift * df
-        zeta = w[0] * df / (2 * fp) - window_decay_per_s / (2 * np.pi * fp)
+        zeta = width * df / (2 * fp) - window_decay_per_s / (2 * np.pi * fp)
         zeta = np.clip(zeta, 1e-4, None)
         shape = np.full((pk.size, 3), np.nan)
         for i in dirs:

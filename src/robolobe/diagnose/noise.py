@@ -155,7 +155,7 @@ def roughness_sigma(
         raise InputError(f"freq_hz: expected at least 5 lines, found {f.size}")
     ax = Hm.ndim - 3
     df = float(np.median(np.diff(f)))
-    half = max(2, int(round(0.5 * window_hz / df)))
+    half = max(2, round(0.5 * window_hz / df))
     with np.errstate(divide="ignore", invalid="ignore"):
         lo = np.take(Hm, np.arange(0, f.size - 2), axis=ax)
         mid = np.take(Hm, np.arange(1, f.size - 1), axis=ax)
@@ -163,9 +163,7 @@ def roughness_sigma(
         d2 = np.abs(np.log(lo / mid) + np.log(hi / mid))
     d2 = np.where(np.isfinite(d2), d2, np.nan)
     # edge lines take their neighbour's value
-    d2 = np.concatenate(
-        [np.take(d2, [0], axis=ax), d2, np.take(d2, [-1], axis=ax)], axis=ax
-    )
+    d2 = np.concatenate([np.take(d2, [0], axis=ax), d2, np.take(d2, [-1], axis=ax)], axis=ax)
     pad = [(0, 0)] * d2.ndim
     pad[ax] = (half, half)
     padded = np.pad(d2, pad, mode="edge")

@@ -167,12 +167,12 @@ class Observations:
     @property
     def directions(self) -> tuple[str, ...]:
         """Directions measured in at least one record, in :data:`DIRS` order."""
-        m = self.dir_mask.any(axis=0)
-        return tuple(d for d in DIRS if m[dir_index(d)])
+        m = np.asarray(self.dir_mask.any(axis=0))
+        return tuple(d for d in DIRS if bool(m[dir_index(d)]))
 
     @property
     def inflation(self) -> float:
-        """Variance inflation from line correlation (:func:`~robolobe.diagnose.noise.variance_inflation`)."""
+        """Variance inflation from line correlation (see ``noise.variance_inflation``)."""
         df = float(np.median(np.diff(self.freq_hz)))
         return variance_inflation(df, self.window_decay_per_s)
 

@@ -157,7 +157,11 @@ class Diagnosis:
 
 
 def _mode_table(
-    model: TwinModel, effects: tuple[Effect, ...], obs: Observations, peaks: list[Any], band: tuple[float, float]
+    model: TwinModel,
+    effects: tuple[Effect, ...],
+    obs: Observations,
+    peaks: list[Any],
+    band: tuple[float, float],
 ) -> tuple[ModePair, ...]:
     try:
         modes = model.twin(effects).modes(obs.q_rad)
@@ -172,7 +176,9 @@ def _mode_table(
         shp = np.abs(u[k]).T  # (nd, 3)
         # visible modes: in the band and with a driving-point peak >= 2 % of the largest
         meas = obs.dir_mask[k].diagonal()
-        peak = np.max(np.where(meas, shp**2, 0.0), axis=1) / np.maximum(2 * z * (2 * np.pi * f) ** 2, 1e-30)
+        peak = np.max(np.where(meas, shp**2, 0.0), axis=1) / np.maximum(
+            2 * z * (2 * np.pi * f) ** 2, 1e-30
+        )
         vis = (f >= band[0]) & (f <= band[1]) & (peak >= 0.02 * peak.max(initial=0.0))
         fm, zm, sm = peaks[k]
         shp_n = np.where(meas, shp, np.nan)[vis]
@@ -238,7 +244,9 @@ def diagnose(
         try:
             robot = load_robot(camp.robot)
         except InputError as exc:
-            raise InputError(f"robot {camp.robot!r}: {exc}", source="campaign.toml[robot]") from None
+            raise InputError(
+                f"robot {camp.robot!r}: {exc}", source="campaign.toml[robot]"
+            ) from None
     obs, decay, issues = campaign_observations(
         camp,
         band_hz=st.band_hz,
@@ -267,10 +275,10 @@ def diagnose(
     for i, c in enumerate(cands):
         if progress is not None:
             progress(f"fitting {c.label}", i, len(cands))
-        fits.append(
-            fit_candidate(c, model, obs_fit, n_starts=st.n_starts, max_nfev=st.max_nfev)
+        fits.append(fit_candidate(c, model, obs_fit, n_starts=st.n_starts, max_nfev=st.max_nfev))
+        log.debug(
+            "%s: D/N=%.3f params=%s", c.label, fits[-1].deviance / fits[-1].n_resid, fits[-1].params
         )
-        log.debug("%s: D/N=%.3f params=%s", c.label, fits[-1].deviance / fits[-1].n_resid, fits[-1].params)
     if progress is not None:
         progress("cross-validating", len(cands), len(cands))
     sel = select(fits, model, obs_fit, obs, st.selection)
@@ -308,4 +316,3 @@ def diagnose(
         campaign=source,
         elapsed_s=time.perf_counter() - t0,
     )
-

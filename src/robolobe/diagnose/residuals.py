@@ -96,7 +96,9 @@ def residual_vector(H_model: NDArray[np.complexfloating], obs: Observations) -> 
         raise ValueError(f"H_model: expected shape {obs.H.shape}, found {Hp.shape}")
     with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
         lr = np.log(Hp[obs.mask] / obs.H_measured)
-    re = np.clip(np.nan_to_num(lr.real, nan=_LOG_CAP, posinf=_LOG_CAP, neginf=-_LOG_CAP), -_LOG_CAP, _LOG_CAP)
+    re = np.clip(
+        np.nan_to_num(lr.real, nan=_LOG_CAP, posinf=_LOG_CAP, neginf=-_LOG_CAP), -_LOG_CAP, _LOG_CAP
+    )
     im = np.nan_to_num(lr.imag, nan=np.pi)
     w = obs.inv_sigma_measured
     return np.concatenate([re * w, im * w])

@@ -73,7 +73,8 @@ class CandidateOut(_Model):
     aic: float
     delta_bic: float = Field(description="BIC(none) - BIC: positive is better than none")
     gain: float | None = Field(
-        description="held-out deviance drop per residual vs none (noise variances); null if not cross-validated"
+        description="held-out deviance drop per residual vs none (noise variances); "
+        "null if not cross-validated"
     )
     posture_share: float | None
     explained: float = Field(description="share of the nominal model's excess deviance removed")
@@ -267,7 +268,9 @@ def to_report(d: Diagnosis) -> DiagnosisReport:
         parameters=_params(sel.verdict.fit),
         runner_up=None if sel.runner_up is None else sel.runner_up.label,
         candidates=[_cand(r, r is sel.verdict) for r in sel.ranking],
-        untestable=[UntestableOut(name=u.name, variant=u.variant, reason=u.reason) for u in d.untestable],
+        untestable=[
+            UntestableOut(name=u.name, variant=u.variant, reason=u.reason) for u in d.untestable
+        ],
         fit_before=_fit(d.fit_before, obs.record_ids),
         fit_after=_fit(d.fit_after, obs.record_ids),
         mismatch=MismatchOut(
@@ -299,7 +302,13 @@ def to_report(d: Diagnosis) -> DiagnosisReport:
         modes_before=_modes(d.modes_before),
         modes_after=_modes(d.modes_after),
         quality=[
-            QualityOut(posture=q.posture_id, dir=q.dir, check=q.check, severity=q.severity, message=q.message)
+            QualityOut(
+                posture=q.posture_id,
+                dir=q.dir,
+                check=q.check,
+                severity=q.severity,
+                message=q.message,
+            )
             for q in d.quality
         ],
         n_postures=len(obs.groups),

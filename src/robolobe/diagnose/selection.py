@@ -106,9 +106,7 @@ def make_folds(groups: tuple[str, ...], n_folds: int) -> list[NDArray[np.int64]]
     """
     uniq = list(dict.fromkeys(groups))
     if len(uniq) < 2:
-        raise InputError(
-            f"cross-validation needs at least 2 postures, found {len(uniq)}"
-        )
+        raise InputError(f"cross-validation needs at least 2 postures, found {len(uniq)}")
     k = min(n_folds, len(uniq))
     fold_of = {g: i % k for i, g in enumerate(uniq)}
     g = np.array([fold_of[x] for x in groups])
@@ -298,9 +296,7 @@ def select(
     to_cv = [f for f in by_bic if f.identifiable][: st.top_k]
     cvs: dict[int, CrossValidation] = {}
     for f in to_cv:
-        cvs[id(f)] = cross_validate(
-            f, model, obs_fit, obs_eval, folds, max_nfev=st.cv_max_nfev
-        )
+        cvs[id(f)] = cross_validate(f, model, obs_fit, obs_eval, folds, max_nfev=st.cv_max_nfev)
     n_eval = float(cv0.count.sum())
 
     def entry(f: CandidateFit) -> Ranked:

@@ -98,12 +98,11 @@ def summarize(
     parts: list[str] = []
     v = sel.verdict
     if v.fit.candidate.name != NONE:
-        parts.append(
-            f"The recordings show {describe_fit(v.fit)} ({v.label}); {fit_txt}."
-        )
+        parts.append(f"The recordings show {describe_fit(v.fit)} ({v.label}); {fit_txt}.")
         if v.explained < 0.7:
             parts.append(
-                f"It explains {v.explained:.0%} of the mismatch beyond the noise: more may be missing."
+                f"It explains {v.explained:.0%} of the mismatch beyond the noise: "
+                "more may be missing."
             )
         if sel.runner_up is not None:
             parts.append(

@@ -120,7 +120,7 @@ def windowed_receptance(
     a = float(decay_per_s)
     f = np.asarray(freq_hz, dtype=float)
     w = 2.0 * np.pi * f
-    h = pole_residue_receptance(sm.M, sm.K, sm.C, sm.J, a + 1j * w)
+    h = pole_residue_receptance(sm.M, sm.K, sm.C, sm.J, np.asarray(a + 1j * w, dtype=complex))
     if a > 0:
         with np.errstate(divide="ignore", invalid="ignore"):
             acc = (1.0 - 1j * a / w) ** 2  # accelerance -> receptance by -w^2

@@ -81,9 +81,7 @@ def read_effects(path: str | os.PathLike[str]) -> tuple[Effect, ...]:
     tables = doc.get("effects", [])
     if not isinstance(tables, list):
         raise InputError("expected [[effects]] tables", f"{where}[effects]")
-    return tuple(
-        effect_from_dict(t, source=f"{where}[effects][{i}]") for i, t in enumerate(tables)
-    )
+    return tuple(effect_from_dict(t, source=f"{where}[effects][{i}]") for i, t in enumerate(tables))
 
 
 def write_updated_model(

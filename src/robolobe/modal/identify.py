@@ -5,9 +5,10 @@ Steps (:func:`identify_frfs`, :func:`identify_campaign`):
 1. Each posture is identified on its own (:func:`robolobe.modal.posture.identify_posture`),
    in parallel over postures (joblib) when ``n_jobs != 1``.
 2. Modes are tracked across postures (:func:`robolobe.modal.tracking.track_modes`).
-3. Per driving direction, the ``n_modes`` tracks visible there at the most
-   postures become modes 1..n_modes, numbered by rising median frequency
-   (the seed's five modes per direction).
+3. Mode numbers (``numbering``): by default the modes of a posture that are
+   visible at some driving point are numbered by rising frequency; or, per
+   driving direction, the ``n_modes`` tracks visible there at the most
+   postures become modes 1..n_modes, numbered by rising median frequency.
 4. Neighbour recovery (the seed's practice of comparing neighbouring
    postures): a chosen track missing at a posture is searched for again,
    starting from the median pole of the nearest postures that have it;
@@ -285,9 +286,15 @@ def _recover(
         # compare in the corrected domain: shift the starts like the poles
         extra_f = poles_to_modal(np.array(starts) + pm.settings.window_decay_per_s)[0]
         lab = _relabel(pm, new, labels[p], extra_f, start_t)
-        got = np.flatnonzero(np.isin(lab, start_t))
+        seen = set()
+        for d in range(3):
+            if new.used[d, d]:
+                seen |= {int(i) for i in new.modes_for_direction(d)}
+        got = np.array([i for i in np.flatnonzero(np.isin(lab, start_t)) if int(i) in seen], int)
         if got.size == 0:
             continue
+        # extras that are not visible anywhere are not modes: no track
+        lab = np.where(np.isin(lab, start_t) & ~np.isin(np.arange(lab.size), got), -1, lab)
         postures[p] = new
         labels[p] = lab
         recovered[p] = {int(i) for i in got}
@@ -307,6 +314,7 @@ def identify_frfs(
     recover: bool = True,
     n_neighbours: int = 3,
     weak_factor: float = 1.0,
+    numbering: str = "rank",
     n_jobs: int = 1,
     progress: Callable[[int], None] | None = None,
 ) -> CampaignModal:
@@ -338,6 +346,17 @@ def identify_frfs(
         weak``) when its visibility is at least ``weak_factor *
         visibility_min`` (default 1: no weak rows; in simulated tests weak
         rows had 90th-percentile stiffness errors of ~16 %, up to 100 %).
+    numbering : {"rank", "track"}
+        ``"rank"``: at each posture the modes that are visible at some
+        driving point are numbered 1, 2, ... by rising frequency (FORMATS.md
+        section 3; a mode hidden at one driving point does not shift the
+        numbers of the others, since it is still seen at another; tracking
+        and neighbour recovery find modes hidden at all of them). ``"track"``:
+        mode ``m`` of a direction is the ``m``-th of the ``n_modes`` tracks
+        visible there most often, by median frequency (consistent physical
+        identity where postures are dense; numbers need not rise with
+        frequency at every posture). With a single measured direction use
+        ``"track"``.
     n_jobs : int
         Parallel workers over postures (joblib; -1: all cores).
     progress : callable, optional
@@ -381,9 +400,34 @@ def identify_frfs(
     )
     labels = [lab.copy() for lab in tr.labels]
     dirs = [d for d in range(3) if any(pm.used[d, d] for pm in postures)]
+    if numbering not in ("rank", "track"):
+        raise InputError(
+            f"expected 'rank' or 'track', found {numbering!r}", source="identify_frfs(numbering)"
+        )
     chosen = {_AX[d] * 2: _choose_tracks(postures, tr, d, s.n_modes, min_presence) for d in dirs}
     recovered_modes = _recover(postures, labels, chosen, q, n_neighbours) if recover else {}
     tracks = ModeTracks(tuple(labels), tr.n_tracks, tr.order, tr.parent)
+    # mode numbers per posture and direction: {(p, d): [(mode number, mode index), ...]}
+    numbers: dict[tuple[int, int], list[tuple[int, int]]] = {}
+    for p, pm in enumerate(postures):
+        vis_sets = {d: set(pm.modes_for_direction(d).tolist()) for d in dirs if pm.used[d, d]}
+        if numbering == "rank":
+            phys = sorted(
+                set().union(*vis_sets.values()) if vis_sets else set(),
+                key=lambda i: float(pm.f_hz[i]),
+            )
+            for d in vis_sets:
+                numbers[(p, d)] = [
+                    (m_no, i) for m_no, i in enumerate(phys, start=1) if m_no <= s.n_modes
+                ]
+        else:
+            for d in vis_sets:
+                lst = []
+                for m_no, t in enumerate(chosen[_AX[d] * 2], start=1):
+                    hit = np.flatnonzero(labels[p] == t)
+                    if hit.size:
+                        lst.append((m_no, int(hit[0])))
+                numbers[(p, d)] = lst
 
     rows = []
     fit_rows = []
@@ -395,11 +439,7 @@ def identify_frfs(
             if not pm.used[d, d]:
                 continue
             sel_modes: list[int] = []
-            for m_no, t in enumerate(chosen[dname], start=1):
-                hit = np.flatnonzero(labels[p] == t)
-                if not hit.size:
-                    continue
-                i = int(hit[0])
+            for m_no, i in numbers.get((p, d), []):
                 k = float(pm.k_N_per_m[d, i])
                 vis = float(pm.visibility[d, i])
                 rel = float(pm.k_rel_std[d, i])

@@ -463,9 +463,9 @@ def identify_posture(
 def refit_posture(pm: PostureModal, extra_poles: ArrayLike) -> PostureModal:
     """Identify a posture again with extra starting poles (neighbour recovery).
 
-    The poles of ``pm`` (as measured) and ``extra_poles`` (measured domain,
-    rad/s) are refined together on the posture's FRFs; an extra pole that
-    drifts out of its box (5 % in frequency) is dropped.
+    The extra poles (measured domain, rad/s) are refined on the posture's
+    FRFs with the poles of ``pm`` fixed; an extra pole that drifts out of its
+    box (5 % in frequency) is dropped.
 
     Parameters
     ----------
@@ -490,6 +490,7 @@ def refit_posture(pm: PostureModal, extra_poles: ArrayLike) -> PostureModal:
         pm.diagram,
         pm.selected,
         pm.settings,
+        refine_only_extra=True,
     )
 
 
@@ -505,6 +506,7 @@ def _finish(
     diagram: StabilizationDiagram | None,
     selected: SelectedPoles | None,
     s: IdentifySettings,
+    refine_only_extra: bool = False,
 ) -> PostureModal:
     """Refinement, LSFD, corrections, stiffness and visibility for a set of poles."""
     if lam.size == 0:
@@ -512,8 +514,12 @@ def _finish(
             QualityIssue(pid, "*", "poles", "warning", "no stable poles found in the band")
         )
         return _empty(pid, issues, s, f, h, w, used, diagram, selected)
-    if s.refine:
-        ref = refine_poles(f, h, lam, weights=w, zeta_max=s.criteria.zeta_max)
+    if s.refine or n_extra:
+        free = None
+        if n_extra and refine_only_extra:
+            free = np.zeros(lam.size, bool)
+            free[-n_extra:] = True
+        ref = refine_poles(f, h, lam, weights=w, zeta_max=s.criteria.zeta_max, free=free)
         keep = np.ones(lam.size, bool)
         if n_extra:
             keep[-n_extra:] = ~ref.at_bound[-n_extra:]

@@ -86,6 +86,7 @@ def refine_poles(
     f_bound: float = 0.05,
     zeta_max: float = 0.3,
     max_nfev: int = 60,
+    free: ArrayLike | None = None,
 ) -> RefineResult:
     """Refine poles by weighted nonlinear least squares on the FRFs.
 
@@ -107,6 +108,8 @@ def refine_poles(
         Upper bound of the damping ratio.
     max_nfev : int
         Budget of function evaluations (per parameter, as scipy counts it).
+    free : array_like of bool, shape (n_modes,), optional
+        Poles to optimize; the others stay fixed (default: all).
 
     Returns
     -------
@@ -133,13 +136,22 @@ def refine_poles(
     resid = _projector(F, y, w2, lower, upper)
     wr0 = np.abs(lam0)
     z0 = np.clip(-lam0.real / wr0, 1e-5, zeta_max * 0.999)
+    fr = np.ones(n, bool) if free is None else np.asarray(free, dtype=bool).reshape(n)
+    nf = int(np.count_nonzero(fr))
+    if nf == 0:
+        r = resid(lam0)
+        c = 0.5 * float(r @ r)
+        return RefineResult(lam0.astype(np.complex128), c, c, np.zeros(n, bool), True)
 
     def to_poles(p: NDArray[np.float64]) -> NDArray[np.complex128]:
-        wr = np.exp(p[:n])
-        z = np.minimum(np.exp(p[n:]), 0.999)
-        return np.asarray(-z * wr + 1j * wr * np.sqrt(1.0 - z**2), dtype=np.complex128)
+        wr = wr0.copy()
+        z = z0.copy()
+        wr[fr] = np.exp(p[:nf])
+        z[fr] = np.minimum(np.exp(p[nf:]), 0.999)
+        lam = -z * wr + 1j * wr * np.sqrt(1.0 - z**2)
+        return np.asarray(np.where(fr, lam, lam0), dtype=np.complex128)
 
-    p0 = np.concatenate([np.log(wr0), np.log(z0)])
+    p0 = np.concatenate([np.log(wr0[fr]), np.log(z0[fr])])
     r0 = resid(to_poles(p0))
     cost0 = 0.5 * float(r0 @ r0)
     try:
@@ -152,18 +164,20 @@ def refine_poles(
             fun,
             p0,
             method="lm",
-            x_scale=np.concatenate([np.full(n, 1e-3), np.full(n, 0.1)]),
-            max_nfev=max_nfev * (2 * n + 1),
-            diff_step=np.full(2 * n, 1e-6),
+            x_scale=np.concatenate([np.full(nf, 1e-3), np.full(nf, 0.1)]),
+            max_nfev=max_nfev * (2 * nf + 1),
+            diff_step=np.full(2 * nf, 1e-6),
         )
     except (ValueError, np.linalg.LinAlgError):
-        return RefineResult(lam0.astype(np.complex128), cost0, cost0, np.ones(n, bool), False)
+        return RefineResult(lam0.astype(np.complex128), cost0, cost0, fr.copy(), False)
     if not np.all(np.isfinite(sol.x)) or not np.isfinite(sol.cost) or sol.cost > cost0:
         return RefineResult(lam0.astype(np.complex128), cost0, cost0, np.zeros(n, bool), False)
     x = sol.x
-    drift = np.abs(x[:n] - p0[:n]) > np.log1p(f_bound)
-    zeta_out = x[n:] > np.log(zeta_max)
-    at_bound = drift | zeta_out
+    drift = np.abs(x[:nf] - p0[:nf]) > np.log1p(f_bound)
+    zeta_out = x[nf:] > np.log(zeta_max)
+    bad = drift | zeta_out
     # poles that left their box keep their start value
-    x = np.where(np.concatenate([at_bound, at_bound]), p0, x)
+    x = np.where(np.concatenate([bad, bad]), p0, x)
+    at_bound = np.zeros(n, bool)
+    at_bound[fr] = bad
     return RefineResult(to_poles(x), cost0, float(sol.cost), at_bound, bool(sol.success))

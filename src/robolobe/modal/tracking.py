@@ -4,12 +4,16 @@ One triaxial sensor gives 3-component shapes, so MAC alone is ambiguous
 (REFERENCES.md section 4). Modes are paired on frequency, damping, shape and
 residue (shape amplitude) together, with an assignment step:
 
-1. Postures are linked by a minimum spanning tree of their joint-space
-   distances; the tree is walked breadth-first from the posture with the
-   most modes, so each posture is compared with a near neighbour.
+1. Postures are linked by a minimum spanning tree of their distances: the
+   distance of their sets of natural frequencies (:func:`spectral_distances`)
+   plus a small multiple of the joint-space distance; the tree is walked
+   breadth-first from the posture with the most modes, so each posture is
+   compared with a posture of similar dynamics.
 2. At each posture the modes are assigned to the tracks known at its parent
    (the track's latest state along the path to the root, plus tracks
-   started elsewhere) by :func:`scipy.optimize.linear_sum_assignment` on
+   started elsewhere) by an order-preserving alignment with gaps (a mode
+   hidden at one posture leaves a gap, modes do not swap; or, optionally,
+   by :func:`scipy.optimize.linear_sum_assignment`) on
 
        c = (ln(f_i / f_t) / f_scale)^2 + (ln(zeta_i / zeta_t) / zeta_scale)^2
            + ((1 - MAC(u_i, u_t)) / mac_scale)^2 + (ln(|u_i| / |u_t|) / amp_scale)^2
@@ -34,7 +38,13 @@ from scipy.spatial.distance import cdist
 from robolobe.errors import InputError
 from robolobe.modal.metrics import mac
 
-__all__ = ["ModeTracks", "TrackingSettings", "posture_distances", "track_modes"]
+__all__ = [
+    "ModeTracks",
+    "TrackingSettings",
+    "posture_distances",
+    "spectral_distances",
+    "track_modes",
+]
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -53,16 +63,36 @@ class TrackingSettings:
         Change of the log shape amplitude (the residue scale).
     gate : float
         Largest admissible cost of a pair.
+    joint_weight : float
+        Weight of the joint-space distance (rad) added to the spectral
+        distance when linking postures.
+    order_preserving : bool
+        Pair modes by an order-preserving alignment (modes keep their
+        frequency order between neighbouring postures, gaps allowed for
+        hidden modes) instead of a free assignment.
+    gap_cost : float
+        Cost of leaving a mode or a track unpaired in the alignment.
     """
 
-    f_scale: float = 0.04
-    zeta_scale: float = 0.6
-    mac_scale: float = 0.25
-    amp_scale: float = 0.8
-    gate: float = 9.0
+    f_scale: float = 0.15
+    zeta_scale: float = 0.7
+    mac_scale: float = 0.5
+    amp_scale: float = 1.5
+    gate: float = 16.0
+    joint_weight: float = 0.01
+    order_preserving: bool = True
+    gap_cost: float = 4.0
 
     def __post_init__(self) -> None:
-        for name in ("f_scale", "zeta_scale", "mac_scale", "amp_scale", "gate"):
+        for name in (
+            "f_scale",
+            "zeta_scale",
+            "mac_scale",
+            "amp_scale",
+            "gate",
+            "joint_weight",
+            "gap_cost",
+        ):
             v = getattr(self, name)
             if not (isinstance(v, int | float) and v > 0):
                 raise InputError(
@@ -108,6 +138,45 @@ def posture_distances(q_rad: ArrayLike) -> NDArray[np.float64]:
     return np.asarray(cdist(q, q), dtype=float)
 
 
+def spectral_distances(f_hz: Sequence[ArrayLike]) -> NDArray[np.float64]:
+    """Distances between postures' sets of natural frequencies, shape (n, n).
+
+    Symmetric Chamfer distance of the log frequencies (mean distance of each
+    mode to the nearest mode of the other posture, both ways) plus 0.05 per
+    mode of difference in count. Postures with similar spectra are near,
+    whatever their joint angles (hammer-test designs are sparse: neighbours
+    are often more than 1 rad apart in joint space).
+    """
+    n = len(f_hz)
+    m = max((np.asarray(x).size for x in f_hz), default=0)
+    if n == 0 or m == 0:
+        return np.zeros((n, n))
+    L = np.full((n, m), np.nan)
+    cnt = np.zeros(n)
+    for i, x in enumerate(f_hz):
+        a = np.log(np.asarray(x, dtype=float).reshape(-1))
+        L[i, : a.size] = a
+        cnt[i] = a.size
+    diff = np.abs(L[:, None, :, None] - L[None, :, None, :])  # (n, n, m, m)
+    diff = np.where(np.isnan(diff), np.inf, diff)
+    a_to_b = np.min(diff, axis=3)  # (n, n, m): each mode of i to nearest of j
+    b_to_a = np.min(diff, axis=2)
+    valid_a = ~np.isnan(L)[:, None, :]
+    valid_b = ~np.isnan(L)[None, :, :]
+    with np.errstate(invalid="ignore"):
+        ma = np.sum(np.where(valid_a & np.isfinite(a_to_b), a_to_b, 0.0), axis=2) / np.maximum(
+            cnt[:, None], 1
+        )
+        mb = np.sum(np.where(valid_b & np.isfinite(b_to_a), b_to_a, 0.0), axis=2) / np.maximum(
+            cnt[None, :], 1
+        )
+    d = ma + mb + 0.05 * np.abs(cnt[:, None] - cnt[None, :])
+    empty = (cnt[:, None] == 0) | (cnt[None, :] == 0)
+    d = np.where(empty, 1.0, d)
+    np.fill_diagonal(d, 0.0)
+    return np.asarray(d, dtype=float)
+
+
 def _cost(
     f: NDArray,
     z: NDArray,
@@ -134,6 +203,44 @@ def _cost(
         ca = (np.log(na / nb) / s.amp_scale) ** 2
     ca = np.nan_to_num(ca, nan=s.gate, posinf=s.gate)
     return np.asarray(cf + cz + cm + ca, dtype=float)
+
+
+def _align(cost: NDArray[np.float64], gap: float, big: float) -> list[tuple[int, int]]:
+    """Order-preserving pairing of two sorted sequences (alignment with gaps).
+
+    Minimizes the sum of the costs of the pairs plus ``gap`` for every
+    element left unpaired (Needleman-Wunsch); pairs of cost ``>= big`` are
+    not allowed.
+    """
+    n, m = cost.shape
+    D = np.zeros((n + 1, m + 1))
+    D[:, 0] = gap * np.arange(n + 1)
+    D[0, :] = gap * np.arange(m + 1)
+    move = np.zeros((n + 1, m + 1), dtype=np.int8)  # 0 pair, 1 skip mode, 2 skip track
+    move[1:, 0] = 1
+    move[0, 1:] = 2
+    for i in range(1, n + 1):
+        for j in range(1, m + 1):
+            c = cost[i - 1, j - 1]
+            best = D[i - 1, j - 1] + c if c < big else np.inf
+            mv = 0
+            if D[i - 1, j] + gap < best:
+                best, mv = D[i - 1, j] + gap, 1
+            if D[i, j - 1] + gap < best:
+                best, mv = D[i, j - 1] + gap, 2
+            D[i, j] = best
+            move[i, j] = mv
+    pairs = []
+    i, j = n, m
+    while i > 0 and j > 0:
+        if move[i, j] == 0:
+            pairs.append((i - 1, j - 1))
+            i, j = i - 1, j - 1
+        elif move[i, j] == 1:
+            i -= 1
+        else:
+            j -= 1
+    return pairs[::-1]
 
 
 def track_modes(
@@ -178,7 +285,8 @@ def track_modes(
     parent = np.full(n, -1, dtype=np.int64)
     if n == 0:
         return ModeTracks((), 0, np.zeros(0, np.int64), parent)
-    d = posture_distances(q)
+    # neighbours by spectrum, joint distance as a tie-breaker
+    d = spectral_distances(F) + s.joint_weight * posture_distances(q)
     # tiny offset so that identical postures stay connected
     tree = minimum_spanning_tree(d + 1e-9 * (1 - np.eye(n)))
     sym = tree + tree.T
@@ -218,10 +326,20 @@ def track_modes(
             c = c + np.where(local, 0.0, 1.0)[None, :]
             big = 1e6
             cc = np.where(c <= s.gate, c, big)
-            rows, cols = linear_sum_assignment(cc)
-            for r, col in zip(rows, cols, strict=True):
-                if cc[r, col] < big:
-                    labels[p][r] = tracks[col]
+            if s.order_preserving:
+                oi = np.argsort(F[p], kind="stable")
+                ot = np.argsort(tf, kind="stable")
+                pairs = _align(cc[np.ix_(oi, ot)], s.gap_cost, big)
+                pairs = [(int(oi[a]), int(ot[b])) for a, b in pairs]
+            else:
+                rows, cols = linear_sum_assignment(cc)
+                pairs = [
+                    (int(r), int(col))
+                    for r, col in zip(rows, cols, strict=True)
+                    if cc[r, col] < big
+                ]
+            for r, col in pairs:
+                labels[p][r] = tracks[col]
         for j in np.flatnonzero(labels[p] < 0).tolist():
             labels[p][j] = n_tracks
             n_tracks += 1

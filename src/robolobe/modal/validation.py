@@ -175,8 +175,8 @@ def compare_with_truth(
             n_visible += visible.size
             g = groups.get((str(pid), dname))
             if g is None or g.empty:
-                for r in visible:
-                    missed.append((str(pid), dname, int(r), float(F[p, r]), float(vis[r])))
+                for rv in visible.tolist():
+                    missed.append((str(pid), dname, int(rv), float(F[p, rv]), float(vis[rv])))
                 continue
             fe = g["f_hz"].to_numpy(float)
             c = np.abs(fe[:, None] - F[p][None, :]) / F[p][None, :]
@@ -211,9 +211,9 @@ def compare_with_truth(
                         abs(float(row["k_N_per_m"]) - kt) / kt,
                     )
                 )
-            for r in visible:
-                if r not in got:
-                    missed.append((str(pid), dname, int(r), float(F[p, r]), float(vis[r])))
+            for rv in visible.tolist():
+                if rv not in got:
+                    missed.append((str(pid), dname, int(rv), float(F[p, rv]), float(vis[rv])))
     cols_m = [
         "posture_id",
         "dir",

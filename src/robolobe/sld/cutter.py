@@ -52,7 +52,8 @@ class Cutter:
             math.isfinite(self.flute_length) and self.flute_length > 0.0
         ):
             raise InputError(
-                f"flute_length: expected a positive length in m or None, found {self.flute_length!r}"
+                "flute_length: expected a positive length in m or None, "
+                f"found {self.flute_length!r}"
             )
 
     @property

@@ -150,9 +150,7 @@ class ModalModel:
             idx.append((_AXES.index(d[0]), _AXES.index(d[1])))
         absent = ~(np.isfinite(f) & np.isfinite(z) & np.isfinite(k))
         if np.any(~absent & ((f <= 0) | (z <= 0) | (z >= 1) | (k == 0))):
-            raise InputError(
-                "modal parameters: expected f_hz > 0, 0 < zeta < 1 and k_N_per_m != 0"
-            )
+            raise InputError("modal parameters: expected f_hz > 0, 0 < zeta < 1 and k_N_per_m != 0")
         w = _TWO_PI * np.where(absent, 1.0, f)
         zz = np.where(absent, 0.05, z)
         res_val = np.where(absent, 0.0, w**2 / np.where(absent, 1.0, k))
@@ -199,7 +197,9 @@ class ModalModel:
         u = np.asarray(shapes, dtype=np.float64)
         if u.ndim < 2:
             raise InputError(f"shapes: expected shape (..., n_modes, d), found {u.shape}")
-        return cls(np.asarray(omega, float), np.asarray(zeta, float), u[..., :, None] * u[..., None, :])
+        return cls(
+            np.asarray(omega, float), np.asarray(zeta, float), u[..., :, None] * u[..., None, :]
+        )
 
     # ------------------------------------------------------------ properties
     @property
@@ -239,8 +239,20 @@ class ModalModel:
         """
         w = np.asarray(omega, dtype=np.float64)
         wr = self.omega[..., None, :]
-        inv = 1.0 / (wr**2 - w[..., :, None] ** 2 + 2j * (self.zeta * self.omega)[..., None, :] * w[..., :, None])
-        return np.einsum("...fm,...mij->...fij", inv, self.residues.astype(np.complex128))
+        ww = w[..., :, None]
+        re = wr**2 - ww**2  # (..., n_freq, n_modes)
+        im = 2.0 * (self.zeta * self.omega)[..., None, :] * ww
+        mag = re * re + im * im
+        d = self.dim
+        res = self.residues.reshape(*self.residues.shape[:-2], d * d)  # (..., n_modes, d*d)
+        # two real matrix products instead of a complex einsum
+        out = np.empty(
+            np.broadcast_shapes(re.shape[:-1] + (d * d,), res.shape[:-2] + (1, d * d)),
+            dtype=np.complex128,
+        )
+        out.real = (re / mag) @ res
+        out.imag = (-im / mag) @ res
+        return out.reshape(*out.shape[:-1], d, d)
 
     def rotated(self, rotation: ArrayLike) -> ModalModel:
         """The model seen in other coordinates: ``A_r -> R^T A_r R``.
@@ -258,9 +270,7 @@ class ModalModel:
         """
         r = np.asarray(rotation, dtype=np.float64)
         if r.ndim < 2 or r.shape[-2] != self.dim:
-            raise InputError(
-                f"rotation: expected shape (..., {self.dim}, d_out), found {r.shape}"
-            )
+            raise InputError(f"rotation: expected shape (..., {self.dim}, d_out), found {r.shape}")
         res = np.einsum("...ia,...mij,...jb->...mab", r, self.residues, r)
         return ModalModel(self.omega, self.zeta, res)
 
@@ -273,7 +283,9 @@ class ModalModel:
         """All modes of ``self`` and ``others`` (same ``d``; batch shapes broadcast)."""
         models = (self, *others)
         if len({m.dim for m in models}) != 1:
-            raise InputError(f"concat: expected models of one dimension, found {[m.dim for m in models]}")
+            raise InputError(
+                f"concat: expected models of one dimension, found {[m.dim for m in models]}"
+            )
         batch = np.broadcast_shapes(*(m.batch_shape for m in models))
         w = np.concatenate([np.broadcast_to(m.omega, (*batch, m.n_modes)) for m in models], axis=-1)
         z = np.concatenate([np.broadcast_to(m.zeta, (*batch, m.n_modes)) for m in models], axis=-1)
@@ -355,7 +367,11 @@ def frequency_grid(
     """
     w = np.asarray(omega_modes, dtype=np.float64)
     z = np.broadcast_to(np.asarray(zeta_modes, dtype=np.float64), w.shape)
-    pres = np.ones(w.shape, bool) if present is None else np.broadcast_to(np.asarray(present, bool), w.shape)
+    pres = (
+        np.ones(w.shape, bool)
+        if present is None
+        else np.broadcast_to(np.asarray(present, bool), w.shape)
+    )
     if w.ndim == 0:
         w, z, pres = w[None], z[None], pres[None]
     if not np.any(pres):

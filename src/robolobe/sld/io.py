@@ -80,11 +80,15 @@ def read_modes_csv(path: str | os.PathLike[str]) -> ModalModel:
     except (OSError, UnicodeDecodeError) as exc:
         raise InputError(f"cannot read the file: {exc}", source=name) from None
     numbered = [
-        (i + 1, ln) for i, ln in enumerate(text.splitlines()) if ln.strip() and not ln.lstrip().startswith("#")
+        (i + 1, ln)
+        for i, ln in enumerate(text.splitlines())
+        if ln.strip() and not ln.lstrip().startswith("#")
     ]
     if not numbered:
-        raise InputError(f"expected a header {','.join(MODES_COLUMNS)} and rows, found an empty file",
-                         source=name)
+        raise InputError(
+            f"expected a header {','.join(MODES_COLUMNS)} and rows, found an empty file",
+            source=name,
+        )
     header_line, header = numbered[0]
     cols = [c.strip() for c in next(csv.reader([header]))]
     missing = [c for c in MODES_COLUMNS if c not in cols]
@@ -107,13 +111,16 @@ def read_modes_csv(path: str | os.PathLike[str]) -> ModalModel:
             raise InputError(f"expected {len(cols)} columns, found {len(row)}", source=where)
         d = row[pos["dir"]].lower()
         if d not in _DIRS:
-            raise InputError(f"dir: expected one of {', '.join(_DIRS)}, found {row[pos['dir']]!r}",
-                             source=where)
+            raise InputError(
+                f"dir: expected one of {', '.join(_DIRS)}, found {row[pos['dir']]!r}", source=where
+            )
         mode_text = row[pos["mode"]]
         try:
             mode = int(mode_text)
         except ValueError:
-            raise InputError(f"mode: expected an integer >= 1, found {mode_text!r}", source=where) from None
+            raise InputError(
+                f"mode: expected an integer >= 1, found {mode_text!r}", source=where
+            ) from None
         if mode < 1:
             raise InputError(f"mode: expected an integer >= 1, found {mode_text!r}", source=where)
         f = _num(row[pos["f_hz"]], where, "f_hz")
@@ -122,14 +129,17 @@ def read_modes_csv(path: str | os.PathLike[str]) -> ModalModel:
         if f <= 0:
             raise InputError(f"f_hz: expected a frequency > 0 Hz, found {f!r}", source=where)
         if not 0 < z < 1:
-            raise InputError(f"zeta: expected a damping ratio in (0, 1) (fraction), found {z!r}",
-                             source=where)
+            raise InputError(
+                f"zeta: expected a damping ratio in (0, 1) (fraction), found {z!r}", source=where
+            )
         if d in ("xx", "yy") and kk <= 0:
-            raise InputError(f"k_N_per_m: expected a stiffness > 0 N/m for dir {d}, found {kk!r}",
-                             source=where)
+            raise InputError(
+                f"k_N_per_m: expected a stiffness > 0 N/m for dir {d}, found {kk!r}", source=where
+            )
         if kk == 0:
-            raise InputError("k_N_per_m: expected a non-zero stiffness for a cross term, found 0",
-                             source=where)
+            raise InputError(
+                "k_N_per_m: expected a non-zero stiffness for a cross term, found 0", source=where
+            )
         key = ("xy" if d in ("xy", "yx") else d, mode)
         if key in seen:
             other = seen[key]
@@ -156,7 +166,9 @@ def write_lobes_csv(path: str | os.PathLike[str], diagram: LobeDiagram) -> None:
         Unbatched lobes.
     """
     if diagram.batch_shape:
-        raise InputError(f"write_lobes_csv: expected one diagram, found a batch {diagram.batch_shape}")
+        raise InputError(
+            f"write_lobes_csv: expected one diagram, found a batch {diagram.batch_shape}"
+        )
     lines = ["rpm,a_lim_mm"]
     for n, a in zip(diagram.rpm, diagram.a_lim * 1e3, strict=True):
         lines.append(f"{n:.10g},{a:.9g}" if math.isfinite(a) else f"{n:.10g},inf")

@@ -26,7 +26,7 @@ FloatArray = NDArray[np.float64]
 
 _TWO_PI = 2.0 * np.pi
 # (segment x lobe) entries handled per chunk of batch entries
-_CHUNK = 1 << 20
+_CHUNK = 1 << 16
 
 
 def lobe_speeds(omega: ArrayLike, eps: ArrayLike, k: ArrayLike, teeth: int) -> FloatArray:
@@ -164,10 +164,11 @@ def lobe_envelope(
         a1 = ac[bb, jj, ii + 1]
         # lobes whose speeds on this segment can reach the speed range (exact bound)
         if shared:
-            smin, smax = float(s_sorted[0]), float(s_sorted[-1])
+            smin: float | FloatArray = float(s_sorted[0])
+            smax: float | FloatArray = float(s_sorted[-1])
         else:
             assert s2 is not None
-            smin, smax = s2[b0 + bb, 0], s2[b0 + bb, -1]  # type: ignore[assignment]
+            smin, smax = s2[b0 + bb, 0], s2[b0 + bb, -1]
         klo = np.ceil((c * np.minimum(w0, w1) / smax - np.maximum(e0, e1)) / _TWO_PI)
         khi = np.floor((c * np.maximum(w0, w1) / smin - np.minimum(e0, e1)) / _TWO_PI)
         klo = np.clip(klo, 0, k1).astype(np.int64)
@@ -198,9 +199,12 @@ def lobe_envelope(
             row = bb[v]
             base = row * gap
             jlo = np.searchsorted(flat_s, np.clip(np.minimum(n0, n1), -2 * sm, 2 * sm) + base)
-            jhi = np.searchsorted(
-                flat_s, np.clip(np.maximum(n0, n1), -2 * sm, 2 * sm) + base, side="right"
-            ) - 1
+            jhi = (
+                np.searchsorted(
+                    flat_s, np.clip(np.maximum(n0, n1), -2 * sm, 2 * sm) + base, side="right"
+                )
+                - 1
+            )
             jlo -= row * n_speed
             jhi -= row * n_speed
         # each entry is a straight piece a = alpha + beta * coordinate (x or rpm)
@@ -362,7 +366,10 @@ class LobeDiagram:
             a = self.a_lim.reshape(-1, self.rpm.size)
             rr = np.broadcast_to(r, (*self.batch_shape, r.shape[-1])).reshape(a.shape[0], -1)
             out = np.stack(
-                [np.interp(rr[i], self.rpm, a[i], left=np.nan, right=np.nan) for i in range(a.shape[0])]
+                [
+                    np.interp(rr[i], self.rpm, a[i], left=np.nan, right=np.nan)
+                    for i in range(a.shape[0])
+                ]
             ).reshape(*self.batch_shape, r.shape[-1])
         return out[..., 0] if scalar else out
 
@@ -376,7 +383,9 @@ class LobeDiagram:
             positive solution).
         """
         if self.depth is None or self.eps is None or self.omega is None:
-            raise InputError(f"lobe: only ZOA results carry lobe curves, this one is {self.method!r}")
+            raise InputError(
+                f"lobe: only ZOA results carry lobe curves, this one is {self.method!r}"
+            )
         w = np.asarray(self.omega)[..., None, :]
         return lobe_speeds(w, self.eps, k, self.teeth), self.depth
 

@@ -97,9 +97,18 @@ def plot_lobes(
         op_a = np.atleast_1d(np.asarray(operating_points[1], dtype=float))
         lim = d.query(op_n)
         ok = op_a < lim
-        ax.scatter(op_n[ok], op_a[ok] * 1e3, c="tab:green", edgecolors="k", zorder=5, label="stable point")
-        ax.scatter(op_n[~ok], op_a[~ok] * 1e3, c="tab:red", edgecolors="k", marker="X", zorder=5,
-                   label="unstable point")
+        ax.scatter(
+            op_n[ok], op_a[ok] * 1e3, c="tab:green", edgecolors="k", zorder=5, label="stable point"
+        )
+        ax.scatter(
+            op_n[~ok],
+            op_a[~ok] * 1e3,
+            c="tab:red",
+            edgecolors="k",
+            marker="X",
+            zorder=5,
+            label="unstable point",
+        )
     ax.set_xlim(float(rpm.min()), float(rpm.max()))
     ax.set_ylim(0.0, top)
     ax.set_xlabel("spindle speed [rpm]")
@@ -107,8 +116,15 @@ def plot_lobes(
     if title:
         ax.set_title(title)
     if not d.valid:
-        ax.text(0.01, 0.98, "ZOA unreliable at this immersion", transform=ax.transAxes,
-                va="top", fontsize=8, color="darkred")
+        ax.text(
+            0.01,
+            0.98,
+            "ZOA unreliable at this immersion",
+            transform=ax.transAxes,
+            va="top",
+            fontsize=8,
+            color="darkred",
+        )
     ax.legend(loc="upper right", fontsize=8)
     return fig
 

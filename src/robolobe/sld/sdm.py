@@ -132,12 +132,14 @@ def expm_batched(a: FloatArray) -> FloatArray:
     a2 = a @ a
     a4 = a2 @ a2
     a6 = a4 @ a2
-    u = a @ (a6 @ (b[13] * a6 + b[11] * a4 + b[9] * a2) + b[7] * a6 + b[5] * a4 + b[3] * a2 + b[1] * eye)
+    u = a @ (
+        a6 @ (b[13] * a6 + b[11] * a4 + b[9] * a2) + b[7] * a6 + b[5] * a4 + b[3] * a2 + b[1] * eye
+    )
     v = a6 @ (b[12] * a6 + b[10] * a4 + b[8] * a2) + b[6] * a6 + b[4] * a4 + b[2] * a2 + b[0] * eye
     r = np.linalg.solve(v - u, v + u)
     for i in range(int(s.max()) if s.size else 0):  # squarings (a handful)
         r = np.where((s > i)[..., None, None], r @ r, r)
-    return r
+    return np.asarray(r, dtype=np.float64)
 
 
 def _realize(model: ModalModel) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
@@ -328,19 +330,25 @@ def sdm_lobes(
     if r.ndim != 1 or r.size < 1 or not np.all(np.isfinite(r)) or np.any(r <= 0):
         raise InputError("rpm: expected a 1-D grid of positive speeds")
     if not (0 < rtol < 0.1) or not (scan_ratio > 1.0):
-        raise InputError(f"rtol/scan_ratio: expected 0 < rtol < 0.1 and ratio > 1, found {rtol}, {scan_ratio}")
+        raise InputError(
+            f"rtol/scan_ratio: expected 0 < rtol < 0.1 and ratio > 1, found {rtol}, {scan_ratio}"
+        )
     sys = sdm_system(model, teeth=teeth, kt=kt, kr=kr, conditions=conditions, intervals=intervals)
     if depth_min is None or depth_max is None:
         alpha = directional_factors(conditions.phi_entry, conditions.phi_exit, kr)
         scale = float(critical_depth(model, alpha, teeth=teeth, kt=kt).depth)
         if not np.isfinite(scale):
             # no ZOA lobe: use the static compliance as a scale
-            comp = float(np.abs(model.residues.sum(axis=0) / model.omega[:, None, None].mean() ** 2).max())
+            comp = float(
+                np.abs(model.residues.sum(axis=0) / model.omega[:, None, None].mean() ** 2).max()
+            )
             scale = _TWO_PI / (teeth * kt * comp)
         depth_min = 0.05 * scale if depth_min is None else depth_min
         depth_max = 1000.0 * scale if depth_max is None else depth_max
     if not (0 < depth_min < depth_max):
-        raise InputError(f"depth_min/depth_max: expected 0 < min < max, found {depth_min}, {depth_max}")
+        raise InputError(
+            f"depth_min/depth_max: expected 0 < min < max, found {depth_min}, {depth_max}"
+        )
     lo = np.full(r.size, float(depth_min))
     # make sure the start is stable; go lower where it is not
     for _ in range(40):

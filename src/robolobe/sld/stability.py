@@ -75,17 +75,35 @@ def stability_lobes(
     if method == "zoa":
         if isinstance(dynamics, ModalModel):
             if dynamics.dim != 2:
-                raise InputError(f"dynamics: expected feed-frame (2-D) modes, found dim {dynamics.dim}")
+                raise InputError(
+                    f"dynamics: expected feed-frame (2-D) modes, found dim {dynamics.dim}"
+                )
             if refine:
-                omega = refine_grid(dynamics, alpha, tol=refine_tol)
+                r = np.asarray(rpm, dtype=np.float64)
+                omega = refine_grid(
+                    dynamics,
+                    alpha,
+                    tol=refine_tol,
+                    teeth=teeth,
+                    rpm_range=(float(r.min()), float(r.max())) if r.size else None,
+                    max_lobe=30 if max_lobe is None else max_lobe,
+                )
             else:
                 omega = dynamics.frequency_grid(shared=not dynamics.batch_shape)
             frf = dynamics.frf(omega)
-        else:
-            omega, frf = dynamics
+            return zoa_lobes(
+                omega,
+                frf,
+                alpha=alpha,
+                teeth=teeth,
+                kt=material.kt,
+                rpm=rpm,
+                max_lobe=max_lobe,
+                immersion=conditions.immersion,
+            )
         return zoa_lobes(
-            omega,
-            frf,
+            dynamics[0],
+            dynamics[1],
             alpha=alpha,
             teeth=teeth,
             kt=material.kt,
@@ -97,8 +115,14 @@ def stability_lobes(
         if not isinstance(dynamics, ModalModel):
             raise InputError("method 'sdm' needs modal dynamics (a ModalModel), not sampled FRFs")
         batch = dynamics.batch_shape
-        kw = dict(teeth=teeth, kt=material.kt, kr=material.kr, conditions=conditions,
-                  rpm=rpm, intervals=intervals)
+        kw = dict(
+            teeth=teeth,
+            kt=material.kt,
+            kr=material.kr,
+            conditions=conditions,
+            rpm=rpm,
+            intervals=intervals,
+        )
         if not batch:
             return sdm_lobes(dynamics, **kw)  # type: ignore[arg-type]
         flat = ModalModel(

@@ -146,7 +146,8 @@ def rotate_frf(frf: ArrayLike, rotation: ArrayLike) -> ComplexArray:
     r = np.asarray(rotation, dtype=np.float64)
     if h.shape[-2:] != (3, 3) or r.shape[-2:] != (3, 3):
         raise InputError(
-            f"frf/rotation: expected shapes (..., n_freq, 3, 3) and (..., 3, 3), found {h.shape}, {r.shape}"
+            "frf/rotation: expected shapes (..., n_freq, 3, 3) and (..., 3, 3), "
+            f"found {h.shape}, {r.shape}"
         )
     r2 = r[..., None, :, :2]
     return np.einsum("...ia,...ij,...jb->...ab", r2, h, r2)

@@ -139,7 +139,12 @@ def zoa_depth(mu: ArrayLike, *, teeth: int, kt: float) -> tuple[FloatArray, Floa
 
 
 def _complete_above(
-    omega: FloatArray, depth: FloatArray, eps: FloatArray, a_lim: FloatArray, teeth: int, max_lobe: int
+    omega: FloatArray,
+    depth: FloatArray,
+    eps: FloatArray,
+    a_lim: FloatArray,
+    teeth: int,
+    max_lobe: int,
 ) -> FloatArray:
     """Speed above which lobes beyond ``max_lobe`` cannot lower the envelope."""
     amax = np.where(np.isfinite(a_lim), a_lim, -np.inf).max(axis=-1)  # (...)
@@ -246,6 +251,9 @@ def refine_grid(
     iterations: int = 3,
     max_insert: int = 16,
     depth_ratio: float = 100.0,
+    teeth: int | None = None,
+    rpm_range: tuple[float, float] | None = None,
+    max_lobe: int = 30,
 ) -> FloatArray:
     """Refine a frequency grid until the lobe curves are finely sampled.
 
@@ -279,6 +287,10 @@ def refine_grid(
     depth_ratio : float, default 100
         Only intervals with a depth below this multiple of the smallest
         depth are refined.
+    teeth, rpm_range, max_lobe : optional
+        With the number of teeth and the speed range [rpm], only intervals
+        whose lobes ``k <= max_lobe`` reach that range are refined, and the
+        speed criterion uses the fastest such lobe instead of ``k = 0``.
 
     Returns
     -------
@@ -295,16 +307,37 @@ def refine_grid(
         safe = np.where(pos, re, 1.0)
         ln_a = np.where(pos, -np.log(safe), np.inf)  # ln a up to a constant
         eps = np.pi + 2.0 * np.arctan(mu.imag / safe)
-        ln_n0 = np.log(w)[..., None, :] - np.log(eps)
         ok = pos[..., :-1] & pos[..., 1:]
-        amin = ln_a.min(axis=(-1, -2))  # (...)
-        near = np.minimum(ln_a[..., :-1], ln_a[..., 1:]) < amin[..., None, None] + np.log(depth_ratio)
+        ww = w[..., None, :]
+        if teeth is not None and rpm_range is not None:
+            c = 60.0 / teeth
+            k_lo = np.clip(np.ceil((c * ww / rpm_range[1] - eps) / _TWO_PI), 0, max_lobe + 1)
+            k_hi = np.floor((c * ww / rpm_range[0] - eps) / _TWO_PI)
+            reach = (k_lo <= np.minimum(k_hi, max_lobe)) & pos
+            k_lo = np.minimum(k_lo[..., :-1], k_lo[..., 1:])
+            k_lo = np.concatenate([k_lo, k_lo[..., -1:]], axis=-1)
+        else:
+            k_lo = np.zeros_like(eps)
+            reach = pos
+        reach_iv = reach[..., :-1] | reach[..., 1:]
+        amin = np.where(reach, ln_a, np.inf).min(axis=(-1, -2))  # (...)
+        near = np.minimum(ln_a[..., :-1], ln_a[..., 1:]) < amin[..., None, None] + np.log(
+            depth_ratio
+        )
         with np.errstate(invalid="ignore"):
-            jump = np.maximum(np.abs(np.diff(ln_a, axis=-1)), np.abs(np.diff(ln_n0, axis=-1)))
+            # the speed change of one lobe (same k at both ends of the interval)
+            dn = np.abs(
+                np.diff(np.log(ww), axis=-1)
+                - np.log(
+                    (eps[..., 1:] + _TWO_PI * k_lo[..., :-1])
+                    / (eps[..., :-1] + _TWO_PI * k_lo[..., :-1])
+                )
+            )
+            jump = np.maximum(np.abs(np.diff(ln_a, axis=-1)), dn)
         # where a branch stops (Re mu crosses 0) its lobes rise to infinity:
         # close in on the crossing so that the curve is followed up high
-        edge = (pos[..., :-1] != pos[..., 1:]) & near
-        jump = np.where(ok & near, jump, 0.0)
+        edge = (pos[..., :-1] != pos[..., 1:]) & near & reach_iv
+        jump = np.where(ok & near & reach_iv, jump, 0.0)
         jump = np.where(edge, np.inf, jump).max(axis=-2)  # (..., n-1)
         add = np.clip(np.ceil(jump / tol) - 1.0, 0, max_insert).astype(np.int64)
         total = add.sum(axis=-1)
@@ -399,7 +432,7 @@ def critical_depth(
     grid = model.frequency_grid(shared=False, points_per_mode=129)
     batch = model.batch_shape
 
-    def score(w: FloatArray) -> tuple[FloatArray, FloatArray]:
+    def score(w: FloatArray) -> tuple[FloatArray, ComplexArray]:
         mu = zoa_eigenvalues(model.frf(w), alpha, track=False)  # (..., 2, n)
         re = mu.real
         j = np.argmax(re, axis=-2)[..., None, :]

@@ -81,10 +81,13 @@ class ModalPrediction:
     kind: str
     members: FloatArray | None = field(default=None)
 
+    def _post(self, t: FloatArray) -> FloatArray:
+        return TargetTransform(self.kind, MinMax(np.zeros(1), np.ones(1))).post(t)
+
     @property
     def values(self) -> FloatArray:
         """Point prediction in physical units, shape (n, n_dir, n_modes, 3)."""
-        return np.exp(self.center) if self.kind == "log" else self.center
+        return self._post(self.center)
 
     @property
     def f_hz(self) -> FloatArray:
@@ -103,8 +106,14 @@ class ModalPrediction:
 
     @property
     def std_physical(self) -> FloatArray:
-        """Standard deviation in physical units (first order for log targets)."""
-        return self.values * self.std if self.kind == "log" else self.std
+        """Standard deviation in physical units (first order in the spread)."""
+        if self.kind == "minmax":
+            return self.std.copy()
+        out = self.values * self.std  # d exp(t) = exp(t) dt
+        if self.kind == "flex":  # k = K / c^2: dk = 2 k dc / c
+            c = np.maximum(self.center[..., 2], 1e-3)
+            out[..., 2] = 2.0 * self.values[..., 2] * self.std[..., 2] / c
+        return out
 
     def interval(self, level: float = 0.9) -> tuple[FloatArray, FloatArray]:
         """Central ``level`` interval per value, physical units.
@@ -116,17 +125,16 @@ class ModalPrediction:
         if not 0.0 < level < 1.0:
             raise InputError(f"level: expected 0 < level < 1, found {level}")
         z = float(ndtri(0.5 + level / 2.0))
-        lo = self.center - z * self.std
-        hi = self.center + z * self.std
-        if self.kind == "log":
-            return np.exp(lo), np.exp(hi)
+        lo = self._post(self.center - z * self.std)
+        hi = self._post(self.center + z * self.std)
+        if self.kind == "flex":  # stiffness falls as c rises
+            lo[..., 2], hi[..., 2] = hi[..., 2].copy(), lo[..., 2].copy()
         return lo, hi
 
     def z_scores(self, y_true: ArrayLike) -> FloatArray:
         """``(y - center) / std`` in the target space, shape (n, n_dir, n_modes, 3)."""
-        y = np.asarray(y_true, dtype=float)
+        t = TargetTransform(self.kind, MinMax(np.zeros(1), np.ones(1))).pre(y_true)
         with np.errstate(invalid="ignore", divide="ignore"):
-            t = np.log(y) if self.kind == "log" else y
             return (t - self.center) / self.std
 
 

@@ -22,6 +22,13 @@ Improvements measured against the paper (tl_accuracy study):
   periodic in the wrist angles, which raw angles over +-300 deg hide.
 * ``target_transform="log"``: log of frequency, damping and stiffness before
   min-max: these are positive and spread over decades (stiffness 3e4-3e6 N/m).
+* ``target_transform="flex"``: log frequency, log damping and the
+  sqrt-compliance ``c = sqrt(K_REF / k)`` (``K_REF`` = 1e6 N/m) of each mode
+  at the driving point, which is ``|u_d| / w`` (u = J phi): a smooth function
+  of the posture that goes to 0 where a mode stops moving the TCP along d,
+  where ``k`` and ``log k`` blow up. A missing stiffness is read as "mode not
+  seen at this driving point" (c = 0: no contribution to the FRF); missing
+  frequencies and damping are left out of the loss.
 """
 
 from __future__ import annotations
@@ -35,7 +42,9 @@ from numpy.typing import ArrayLike, NDArray
 from robolobe.errors import InputError
 
 __all__ = [
+    "C_MIN",
     "FEATURES",
+    "K_REF_N_PER_M",
     "TARGET_TRANSFORMS",
     "Features",
     "MinMax",
@@ -48,7 +57,11 @@ __all__ = [
 FloatArray = NDArray[np.float64]
 Features = Literal["angles", "trig"]
 FEATURES: tuple[str, ...] = ("angles", "trig")
-TARGET_TRANSFORMS: tuple[str, ...] = ("minmax", "log")
+TARGET_TRANSFORMS: tuple[str, ...] = ("minmax", "log", "flex")
+#: Reference stiffness of the ``"flex"`` transform [N/m].
+K_REF_N_PER_M = 1.0e6
+#: Smallest sqrt-compliance a ``"flex"`` model returns (k <= 1e12 N/m: no contribution).
+C_MIN = 1.0e-3
 
 
 @dataclass(frozen=True, eq=False)
@@ -194,12 +207,19 @@ class TargetTransform:
     @staticmethod
     def _pre(y: ArrayLike, kind: str) -> FloatArray:
         a = np.asarray(y, dtype=float)
-        if kind == "log":
-            with np.errstate(invalid="ignore", divide="ignore"):
-                return np.log(np.where(a > 0, a, np.nan))
         if kind == "minmax":
-            return a
-        raise InputError(f"target_transform: expected one of {TARGET_TRANSFORMS}, found {kind!r}")
+            return a.copy()
+        if kind not in TARGET_TRANSFORMS:
+            raise InputError(
+                f"target_transform: expected one of {TARGET_TRANSFORMS}, found {kind!r}"
+            )
+        with np.errstate(invalid="ignore", divide="ignore"):
+            out = np.log(np.where(a > 0, a, np.nan))
+            if kind == "flex":
+                k = a[..., 2]
+                c = np.sqrt(K_REF_N_PER_M / np.where(k > 0, k, np.nan))
+                out[..., 2] = np.where(np.isnan(k), 0.0, c)
+        return out
 
     @classmethod
     def fit(cls, y: ArrayLike, kind: str) -> TargetTransform:
@@ -207,13 +227,18 @@ class TargetTransform:
         return cls(kind=kind, scaler=MinMax.fit(cls._pre(y, kind), axis=0))
 
     def pre(self, y: ArrayLike) -> FloatArray:
-        """The (logged) targets before min-max: the space spreads live in."""
+        """The targets in the space spreads live in (log / sqrt-compliance)."""
         return self._pre(y, self.kind)
 
     def post(self, z: ArrayLike) -> FloatArray:
-        """Undo :meth:`pre`."""
+        """Undo :meth:`pre` (``"flex"``: c below ``C_MIN`` -> ``K_REF / C_MIN**2``)."""
         a = np.asarray(z, dtype=float)
-        return np.exp(a) if self.kind == "log" else a
+        if self.kind == "minmax":
+            return a
+        out = np.exp(a)
+        if self.kind == "flex":
+            out[..., 2] = K_REF_N_PER_M / np.maximum(a[..., 2], C_MIN) ** 2
+        return out
 
     def transform(self, y: ArrayLike) -> FloatArray:
         """Targets (..., n_dir, n_modes, 3) -> scaled outputs."""

@@ -47,8 +47,15 @@ from scipy.optimize import least_squares, lsq_linear
 
 from robolobe.errors import InputError
 from robolobe.robots import RigidBody, Robot, sample_postures
+from robolobe.robots.transforms import pose_from_xyz_zyx
 from robolobe.twin.designs import TESTED_RANGES_DEG
-from robolobe.twin.modes import compute_modes, lowest_seen, seen_mask, undamped_modes
+from robolobe.twin.modes import (
+    SEEN_RATIO,
+    compute_modes,
+    lowest_seen,
+    seen_mask,
+    undamped_modes,
+)
 from robolobe.twin.system import nominal_system
 
 __all__ = [
@@ -57,6 +64,7 @@ __all__ = [
     "FIT_SEED",
     "PRIOR_STIFFNESS",
     "TARGETS",
+    "TOOLS",
     "CalibrationReport",
     "CalibrationTargets",
     "ModeSummary",
@@ -157,16 +165,39 @@ PRIOR_STIFFNESS: dict[str, tuple[float, ...]] = {
 """Prior joint stiffnesses [N m/rad] the stiffness fit starts from and is pulled towards."""
 
 
-END_EFFECTORS: dict[str, RigidBody] = {
-    # 150 kg milling spindle with a side-mounted motor/clamp bracket (est.): COM 0.25 m in
-    # front of the TCP origin along -z and 0.10 m off the tool axis; radius of gyration
-    # 0.2 m across and 0.16 m about the tool axis
-    "A": RigidBody(150.0, np.array([0.10, 0.0, -0.25]), np.diag([6.0, 6.0, 4.0])),
-    "B": RigidBody(150.0, np.array([0.10, 0.0, -0.25]), np.diag([6.0, 6.0, 4.0])),
-    # 55 kg spindle and bracket for the 60 kg-payload IRB 4400 (est.), same layout, scaled
-    "C": RigidBody(55.0, np.array([0.06, 0.0, -0.17]), np.diag([1.2, 1.2, 0.8])),
+TOOLS: dict[str, tuple[tuple[float, float, float], tuple[float, float, float]]] = {
+    # (est.) spindle bracket: the spindle axis is parallel to the flange (joint-6) axis,
+    # 0.20 m off it, tool tip 0.45 m out from the flange (robot milling spindles commonly sit
+    # 0.10-0.25 m off-axis, 0.3-0.5 m out), so that joints 4 and 6 move the TCP
+    "A": ((0.20, 0.0, 0.45), (0.0, 0.0, 0.0)),
+    "B": ((0.20, 0.0, 0.45), (0.0, 0.0, 0.0)),
+    # (est.) smaller bracket for the 60 kg-payload IRB 4400: 0.15 m off-axis, 0.35 m out
+    "C": ((0.15, 0.0, 0.35), (0.0, 0.0, 0.0)),
 }
-"""End effectors chosen per robot (engineering estimates, TCP frame)."""
+"""TCP in the flange per robot: ``(xyz_m, zyx_deg)`` as in the robot file's ``[tool]``."""
+
+END_EFFECTORS: dict[str, RigidBody] = {
+    # (est.) 125 kg spindle (cylinder r = 0.11 m, 0.40 m long on the tool axis, ending 0.10 m
+    # behind the tool tip) plus a 25 kg bracket plate halfway between the flange centre and
+    # the spindle body; COM and inertia about the COM in the TCP frame
+    "A": RigidBody(
+        150.0,
+        np.array([-0.017, 0.0, -0.313]),
+        np.array([[2.44, 0.0, -0.16], [0.0, 2.65, 0.0], [-0.16, 0.0, 1.25]]),
+    ),
+    "B": RigidBody(
+        150.0,
+        np.array([-0.017, 0.0, -0.313]),
+        np.array([[2.44, 0.0, -0.16], [0.0, 2.65, 0.0], [-0.16, 0.0, 1.25]]),
+    ),
+    # (est.) 45 kg spindle (r = 0.08 m, 0.30 m long, 0.10 m behind the tip) and a 10 kg bracket
+    "C": RigidBody(
+        55.0,
+        np.array([-0.014, 0.0, -0.259]),
+        np.array([[0.54, 0.0, -0.03], [0.0, 0.59, 0.0], [-0.03, 0.0, 0.30]]),
+    ),
+}
+"""End effectors chosen per robot (engineering estimates, TCP frame of :data:`TOOLS`)."""
 
 FIT_SEED = 2024
 """Seed of the postures the built-in robots were fitted on."""
@@ -198,17 +229,28 @@ def fit_stiffness(
     *,
     prior: ArrayLike | None = None,
     ridge: float = 0.03,
-    k_weight: float = 0.5,
+    k_weight: float = 1.5,
+    band_weight: float = 5.0,
+    seen_weight: float = 1.0,
+    seen_margin: float = 5.0,
+    max_factor: float = 10.0,
 ) -> FloatArray:
-    """Joint stiffnesses that put the lowest seen modes at the anchors.
+    """Joint stiffnesses that put the lowest modes at the anchors, seen and in the bands.
 
-    Least squares over ``k_i = prior_i exp(s_i)`` of the residuals
+    Least squares over ``k_i = prior_i exp(s_i)``, ``|s_i| <= log max_factor``, of
+    the residuals (undamped modes; ``n = targets.n_modes``; RMS over postures)
 
     * ``mean_q log f_r - log f_anchor_r`` for the ``n`` lowest seen modes
-      (undamped, :func:`~robolobe.twin.modes.seen_mask`),
-    * ``k_weight max(0, log median_q k_r - log k_cap)`` (modal stiffness in
+      (:func:`~robolobe.twin.modes.seen_mask`),
+    * ``band_weight`` x RMS of ``log f_r`` outside ``targets.f_band_hz``,
+    * ``k_weight`` x RMS of ``max(0, log k_r - log k_cap)`` (modal stiffness in
       the dominant direction),
+    * ``seen_weight`` x RMS of ``max(0, log(k_rd / min_s k_sd) - log(SEEN_RATIO /
+      seen_margin))`` minimised over directions ``d``: pushes each of the ``n``
+      lowest modes to be seen with a margin,
     * ``sqrt(ridge) s_i``.
+
+    The last three act on the ``n`` lowest modes (seen or not) at every posture.
 
     Parameters
     ----------
@@ -221,29 +263,52 @@ def fit_stiffness(
         Starting and reference stiffness [N m/rad]; the robot's if omitted.
     ridge : float
         Weight of the penalty pulling ``s`` towards 0.
-    k_weight : float
-        Weight of the modal-stiffness cap against the frequency anchors.
+    k_weight, band_weight, seen_weight : float
+        Weights of the modal-stiffness cap, the frequency band and the
+        visibility terms against the frequency anchors.
+    seen_margin : float
+        Visibility margin (> 1) on :data:`~robolobe.twin.modes.SEEN_RATIO`.
+    max_factor : float
+        Bound on ``k_i / prior_i`` and ``prior_i / k_i`` (> 1).
 
     Returns
     -------
     ndarray, shape (6,)
         Stiffness [N m/rad].
     """
+    if not max_factor > 1.0 or not seen_margin > 1.0:
+        raise InputError(
+            f"max_factor, seen_margin: expected numbers > 1, found {max_factor!r}, {seen_margin!r}"
+        )
     s = nominal_system(robot, q)
     target = np.log(np.asarray(targets.f_anchor_hz, dtype=np.float64))
     k0 = np.asarray(robot.stiffness if prior is None else prior, dtype=np.float64)
     nm = target.size
     log_cap = np.log(targets.k_cap_N_per_m)
+    log_lo, log_hi = np.log(targets.f_band_hz)
+    log_seen = np.log(SEEN_RATIO / seen_margin)
+
+    def rms(x: FloatArray) -> FloatArray:
+        r: FloatArray = np.sqrt(np.mean(x**2, axis=0))
+        return r
 
     def resid(x: FloatArray) -> FloatArray:
-        f, kd, _, _, valid = _lowest_seen_undamped(s.M, np.diag(k0 * np.exp(x)), s.J, nm)
-        logf = np.where(valid, np.log(f), np.nan)
-        logk = np.where(valid, np.log(kd), np.nan)
+        w, phi = undamped_modes(s.M, np.diag(k0 * np.exp(x)))
+        with np.errstate(divide="ignore"):
+            logkk = np.log((w**2)[..., None, :] / (s.J @ phi) ** 2)  # (n, 3, modes)
+        idx, valid = lowest_seen(seen_mask(np.exp(logkk)), nm)
+        logf_all = np.log(w / (2.0 * np.pi))
+        logf = np.where(valid, np.take_along_axis(logf_all, idx, axis=-1), np.nan)
         r_f = np.nanmean(logf, axis=0) - target
-        r_k = k_weight * np.maximum(np.nanmedian(logk, axis=0) - log_cap, 0.0)
-        return np.concatenate([r_f, r_k, np.sqrt(ridge) * x])
+        lf = logf_all[:, :nm]
+        r_b = band_weight * rms(np.maximum(lf - log_hi, 0.0) + np.maximum(log_lo - lf, 0.0))
+        r_k = k_weight * rms(np.maximum(np.min(logkk, axis=-2)[:, :nm] - log_cap, 0.0))
+        rel = logkk - np.min(logkk, axis=-1, keepdims=True)
+        r_s = seen_weight * rms(np.maximum(np.min(rel, axis=-2)[:, :nm] - log_seen, 0.0))
+        return np.concatenate([r_f, r_b, r_k, r_s, np.sqrt(ridge) * x])
 
-    sol = least_squares(resid, np.zeros(6), bounds=(-5.0, 5.0))
+    bound = np.log(max_factor)
+    sol = least_squares(resid, np.zeros(6), bounds=(-bound, bound))
     k: FloatArray = k0 * np.exp(sol.x)
     return k
 
@@ -320,7 +385,7 @@ def calibrate(
 def calibrate_builtin(name: str, robot: Robot) -> Robot:
     """Re-run the calibration of built-in robot ``name`` ("A", "B", "C").
 
-    Uses :data:`END_EFFECTORS`, :data:`PRIOR_STIFFNESS`, :data:`TARGETS` and
+    Uses :data:`TOOLS`, :data:`END_EFFECTORS`, :data:`PRIOR_STIFFNESS`, :data:`TARGETS` and
     :data:`FIT_POSTURES` postures drawn with seed :data:`FIT_SEED` within
     :data:`TESTED_RANGES_DEG`.
 
@@ -332,7 +397,9 @@ def calibrate_builtin(name: str, robot: Robot) -> Robot:
     """
     if name not in TARGETS:
         raise InputError(f"name: expected one of {sorted(TARGETS)}, found {name!r}")
-    r = robot.replace(end_effector=END_EFFECTORS[name])
+    xyz, zyx_deg = TOOLS[name]
+    tool = pose_from_xyz_zyx(np.array(xyz), np.radians(zyx_deg))
+    r = robot.replace(tool=tool, end_effector=END_EFFECTORS[name])
     q = sample_postures(r, FIT_POSTURES, np.random.default_rng(FIT_SEED), TESTED_RANGES_DEG[name])
     return calibrate(r, q, TARGETS[name], prior=PRIOR_STIFFNESS[name])
 

@@ -1,0 +1,216 @@
+"""``robolobe identify``: modal identification of a hammer-test campaign -> modal.csv."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Annotated, Any
+
+import typer
+
+from robolobe.errors import InputError
+
+__all__ = ["register"]
+
+
+def register(app: typer.Typer) -> None:
+    """Add the ``identify`` command to ``app``."""
+
+    @app.command("identify")
+    def identify(
+        campaign: Annotated[
+            Path,
+            typer.Argument(
+                help="Campaign folder (campaign.toml, postures.csv, frf.csv or frf/*.uff)."
+            ),
+        ],
+        output: Annotated[
+            Path, typer.Option("--output", "-o", help="Modal dataset to write (modal.csv).")
+        ],
+        plots: Annotated[
+            Path | None,
+            typer.Option(
+                "--plots",
+                help="Folder for PNG stabilization diagrams and measured-vs-synthesized FRFs.",
+            ),
+        ] = None,
+        modes: Annotated[int, typer.Option("--modes", help="Modes per direction (seed: 5).")] = 5,
+        fmin: Annotated[
+            float, typer.Option("--fmin", help="Lower edge of the analysis band [Hz].")
+        ] = 4.0,
+        fmax: Annotated[
+            float, typer.Option("--fmax", help="Upper edge of the analysis band [Hz].")
+        ] = 40.0,
+        window_end: Annotated[
+            float | None,
+            typer.Option(
+                "--window-end",
+                help="Exponential window value at the record end (default: campaign.toml "
+                "[test] window_end; none: no window).",
+            ),
+        ] = None,
+        record_s: Annotated[
+            float | None,
+            typer.Option(
+                "--record-s",
+                help="Record length T [s] for the window and truncation corrections "
+                "(default: campaign.toml [test] duration_s).",
+            ),
+        ] = None,
+        numbering: Annotated[
+            str,
+            typer.Option(
+                "--numbering",
+                help="rank: visible modes numbered by rising frequency per posture; "
+                "track: by tracks across postures.",
+            ),
+        ] = "rank",
+        recover: Annotated[
+            bool,
+            typer.Option("--recover/--no-recover", help="Recover modes seen at neighbours."),
+        ] = True,
+        jobs: Annotated[int, typer.Option("--jobs", "-j", help="Parallel workers.")] = 1,
+        fit_report: Annotated[
+            Path | None,
+            typer.Option("--fit-report", help="CSV with FRAC and NRMSE per posture and direction."),
+        ] = None,
+        all_issues: Annotated[
+            bool, typer.Option("--all-issues", help="Print every data-quality finding.")
+        ] = False,
+    ) -> None:
+        """Identify the modes of every posture of CAMPAIGN and write the modal dataset.
+
+        pLSCF (PolyMAX-style) poles over a range of model orders on all
+        directions of a posture together, stabilization diagram, automatic
+        selection by clustering the stable poles, nonlinear refinement, LSFD
+        residues with residual terms, exponential-window correction, mode
+        tracking and neighbour recovery. Writes posture_id, q1_deg..q6_deg,
+        dir, mode, f_hz, zeta, k_N_per_m (plus source, visibility, k_rel_std)
+        for every driving point measured; prints the data-quality findings and
+        FRAC / NRMSE of the FRFs synthesized from the written rows.
+        """
+        import numpy as np
+        import pandas as pd
+
+        from robolobe._atomic import atomic_dir, atomic_path
+        from robolobe.cli._common import console, err_console, progress
+        from robolobe.modal.identify import identify_campaign
+        from robolobe.modal.modal_csv import write_modal_csv
+        from robolobe.twin.campaign import read_campaign
+
+        if modes < 1:
+            raise InputError(f"expected an integer >= 1, found {modes}", source="--modes")
+        if not (0 < fmin < fmax):
+            raise InputError(
+                f"expected 0 < fmin < fmax, found fmin={fmin:g}, fmax={fmax:g}", source="--fmin"
+            )
+        if numbering not in ("rank", "track"):
+            raise InputError(f"expected rank or track, found {numbering!r}", source="--numbering")
+        if window_end is not None and not 0 < window_end <= 1:
+            raise InputError(f"expected a value in (0, 1], found {window_end:g}", "--window-end")
+        if record_s is not None and not record_s > 0:
+            raise InputError(f"expected a positive number, found {record_s:g}", "--record-s")
+
+        camp = read_campaign(campaign)
+        test: dict[str, Any] = dict(camp.test)
+        if record_s is not None:
+            test["duration_s"] = record_s
+        if window_end is not None:
+            test["window_end"] = window_end
+            if "duration_s" not in test:
+                raise InputError(
+                    "--window-end needs the record length: give --record-s or [test] duration_s "
+                    "in campaign.toml",
+                    source="--window-end",
+                )
+        overrides = {"fmin_hz": fmin, "fmax_hz": fmax, "n_modes": modes}
+        from robolobe.modal.identify import settings_from_test
+
+        settings = settings_from_test(test, **overrides)
+        with progress() as bar:
+            task = bar.add_task("identifying", total=camp.n_postures)
+            result = identify_campaign(
+                camp,
+                settings=settings,
+                n_jobs=jobs,
+                numbering=numbering,
+                recover=recover,
+                progress=lambda k: bar.advance(task, k),
+            )
+        write_modal_csv(output, result.table)
+        if fit_report is not None:
+            with atomic_path(fit_report) as tmp:
+                result.fit.to_csv(tmp, index=False, lineterminator="\n", float_format="%.6g")
+        if plots is not None:
+            from robolobe.modal.plots import save_posture_plots
+
+            with atomic_dir(plots) as tmp:
+                save_posture_plots(result.postures, result.table, tmp)
+
+        # ---- summary
+        tab = result.table
+        console.print(
+            f"{camp.n_postures} postures, {len(tab)} rows "
+            f"({int((tab['source'] == 'recovered').sum())} recovered) -> {output}",
+            highlight=False,
+        )
+        corr = []
+        if settings.window_decay_per_s > 0:
+            corr.append(f"window decay {settings.window_decay_per_s:.3g} 1/s removed")
+        if settings.record_length_s is not None:
+            corr.append(f"truncation of {settings.record_length_s:g} s records corrected")
+        if corr:
+            console.print("corrections: " + ", ".join(corr), highlight=False)
+        from rich.table import Table
+
+        t = Table(title=f"fit quality, {fmin:g}-{fmax:g} Hz (synthesized from modal.csv rows)")
+        for col in (
+            "dir",
+            "postures",
+            "modes/posture",
+            "FRAC min",
+            "FRAC median",
+            "NRMSE median",
+            "NRMSE max",
+        ):
+            t.add_column(col, justify="right")
+        fit = result.fit
+        for d, g in fit.groupby("dir", sort=False):
+            t.add_row(
+                str(d),
+                str(len(g)),
+                f"{g['n_modes'].mean():.1f}",
+                f"{np.nanmin(g['frac']):.3f}",
+                f"{np.nanmedian(g['frac']):.3f}",
+                f"{np.nanmedian(g['nrmse']):.3f}",
+                f"{np.nanmax(g['nrmse']):.3f}",
+            )
+        console.print(t)
+        worst = fit.sort_values("frac").head(5)
+        if len(worst) and float(worst["frac"].iloc[0]) < 0.95:
+            console.print("worst postures (FRAC):", highlight=False)
+            for _, r in worst.iterrows():
+                console.print(
+                    f"  {r['posture_id']} {r['dir']}: FRAC {r['frac']:.3f}, NRMSE {r['nrmse']:.3f}",
+                    highlight=False,
+                )
+        issues = [i for i in result.issues if i.severity != "info"]
+        info = [i for i in result.issues if i.severity == "info"]
+        if issues:
+            counts = pd.Series([f"{i.severity} {i.check}" for i in issues]).value_counts()
+            err_console.print(
+                "data quality: " + ", ".join(f"{n} x {k}" for k, n in counts.items()),
+                highlight=False,
+            )
+            shown = issues if all_issues else issues[:20]
+            for i in shown:
+                err_console.print(f"  {i}", highlight=False, soft_wrap=True)
+            if len(shown) < len(issues):
+                err_console.print(
+                    f"  ... {len(issues) - len(shown)} more (--all-issues)", highlight=False
+                )
+        else:
+            console.print("data quality: no problems found", highlight=False)
+        if info:
+            absent = sorted({i.dir for i in info if i.check == "absent"})
+            if absent:
+                console.print(f"not measured: {', '.join(absent)}", highlight=False)

@@ -1,0 +1,275 @@
+"""``robolobe train | transfer | predict | design-tests``: the transfer-learning predictor."""
+
+from __future__ import annotations
+
+import time
+import warnings
+from collections.abc import Iterator
+from contextlib import contextmanager
+from pathlib import Path
+from typing import Annotated, Any
+
+import numpy as np
+import typer
+
+from robolobe.cli._common import console, err_console, status
+from robolobe.errors import InputError
+
+__all__ = ["register"]
+
+_MIN_TRAIN = 15
+_MIN_TRANSFER = 8
+
+
+@contextmanager
+def _shown_warnings() -> Iterator[None]:
+    """Print library warnings (TrustWarning & co.) as one line each on stderr."""
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        try:
+            yield
+        finally:
+            seen: set[str] = set()
+            for w in caught:
+                msg = str(w.message)
+                if msg not in seen:
+                    seen.add(msg)
+                    err_console.print(f"[yellow]warning:[/] {msg}", highlight=False)
+
+
+def _parse_dirs(text: str) -> tuple[str, ...]:
+    items = tuple(d.strip().lower() for d in text.split(",") if d.strip())
+    if not items or any(d not in ("xx", "yy", "zz") for d in items):
+        raise InputError(
+            f"expected driving points like xx,yy (or xx,yy,zz), found {text!r}",
+            source="--directions",
+        )
+    return items
+
+
+def _robot(spec: str | None) -> Any:
+    if spec is None:
+        return None
+    from robolobe.robots import load_robot
+
+    return load_robot(spec)
+
+
+def _load_dataset(
+    path: Path, directions: tuple[str, ...], robot_spec: str | None, min_postures: int
+) -> Any:
+    from robolobe.modal.modal_csv import read_modal_csv
+    from robolobe.tl.dataset import check_dataset, dataset_from_frame
+
+    df = read_modal_csv(path)
+    ds = dataset_from_frame(df, directions=directions, n_modes=5, source=str(path))
+    robot = _robot(robot_spec)
+    check_dataset(
+        ds,
+        min_postures=min_postures,
+        q_min_rad=None if robot is None else robot.q_min,
+        q_max_rad=None if robot is None else robot.q_max,
+        source=str(path),
+    )
+    return ds
+
+
+def _summary(model: Any, seconds: float, out: Path) -> None:
+    cal = np.asarray(model.calibration_)
+    console.print(
+        f"[bold]{out}[/]: robot {model.robot or '?'} ({' -> '.join(model.lineage_)}), "
+        f"{len(model.train_q_rad_)} training postures, {model.n_members} members x "
+        f"{len(model.directions)} directions, frozen layers {model.n_frozen_used_}, "
+        f"{seconds:.1f} s"
+    )
+    if model.calibration_coverage_ is not None:
+        for j, d in enumerate(model.directions):
+            console.print(
+                f"  {d}: spread factors f/zeta/k = {cal[j, 0]:.2f}/{cal[j, 1]:.2f}/{cal[j, 2]:.2f}"
+            )
+
+
+def register(app: typer.Typer) -> None:
+    """Add ``train``, ``transfer``, ``predict`` and ``design-tests`` to ``app``."""
+
+    @app.command("train")
+    def train(
+        modal_csv: Annotated[Path, typer.Argument(help="modal.csv of the source robot (e.g. A).")],
+        output: Annotated[Path, typer.Option("--output", "-o", help="Model file to write (.npz).")],
+        robot: Annotated[
+            str | None,
+            typer.Option("--robot", help="Robot (A, B, C or .toml): label and joint-limit check."),
+        ] = None,
+        preset: Annotated[
+            str, typer.Option("--preset", help="'improved' (default) or 'paper' (the seed as is).")
+        ] = "improved",
+        directions: Annotated[str, typer.Option("--directions", help="e.g. xx,yy")] = "xx,yy",
+        epochs: Annotated[int | None, typer.Option("--epochs", help="Default 500.")] = None,
+        members: Annotated[int | None, typer.Option("--members", help="Ensemble size.")] = None,
+        seed: Annotated[int, typer.Option("--seed", help="Random seed.")] = 0,
+    ) -> None:
+        """Pretrain the modal predictor on a well-sampled robot (the seed's robot A).
+
+        Holds out 20 % of the postures (the seed's 80:20 split) to calibrate
+        the spread and reports it.
+        """
+        from robolobe.tl.estimator import ModalPredictor
+        from robolobe.tl.presets import PRESETS
+
+        if preset not in PRESETS:
+            raise InputError(f"expected one of {sorted(PRESETS)}, found {preset!r}", "--preset")
+        dirs = _parse_dirs(directions)
+        with _shown_warnings():
+            ds = _load_dataset(modal_csv, dirs, robot, _MIN_TRAIN)
+            params = {**PRESETS[preset], "directions": dirs}
+            if epochs is not None:
+                params["epochs"] = epochs
+            if members is not None:
+                params["n_members"] = members
+            model = ModalPredictor(
+                **params, calibration="holdout", robot=robot or modal_csv.stem, random_state=seed
+            )
+            t0 = time.perf_counter()
+            with status(f"training on {ds.n_postures} postures"):
+                model.fit_dataset(ds)
+            model.save(output)
+        _summary(model, time.perf_counter() - t0, output)
+
+    @app.command("transfer")
+    def transfer_cmd(
+        modal_csv: Annotated[Path, typer.Argument(help="modal.csv of the target robot.")],
+        source: Annotated[
+            str, typer.Option("--from", help="Source model: A, B, C (shipped) or a model file.")
+        ],
+        output: Annotated[Path, typer.Option("--output", "-o", help="Model file to write (.npz).")],
+        robot: Annotated[
+            str | None,
+            typer.Option("--robot", help="Target robot (A, B, C or .toml): label and limit check."),
+        ] = None,
+        frozen: Annotated[int, typer.Option("--frozen", help="Frozen layers (seed: 3).")] = 3,
+        epochs: Annotated[
+            int | None, typer.Option("--epochs", help="Default: the source's.")
+        ] = None,
+        seed: Annotated[int, typer.Option("--seed", help="Random seed.")] = 0,
+    ) -> None:
+        """Transfer a pretrained model to a new robot from a few hammer tests."""
+        from robolobe.tl.estimator import transfer
+        from robolobe.tl.models import load_model
+
+        src = load_model(source)
+        with _shown_warnings():
+            ds = _load_dataset(modal_csv, tuple(src.directions), robot, _MIN_TRANSFER)
+            kw: dict[str, Any] = {
+                "n_frozen": frozen,
+                "random_state": seed,
+                "robot": robot or modal_csv.stem,
+            }
+            if epochs is not None:
+                kw["epochs"] = epochs
+            t0 = time.perf_counter()
+            with status(f"transferring to {ds.n_postures} postures"):
+                model = transfer(src, ds.q_rad, ds.y, **kw)
+            model.save(output)
+        _summary(model, time.perf_counter() - t0, output)
+
+    @app.command("predict")
+    def predict(
+        model_spec: Annotated[
+            str, typer.Argument(metavar="MODEL", help="A, B, C or a model file.")
+        ],
+        postures: Annotated[Path, typer.Argument(help="postures.csv (posture_id,q1_deg..q6_deg).")],
+        output: Annotated[
+            Path, typer.Option("--output", "-o", help="predicted modal.csv (+ spread columns).")
+        ],
+        frf: Annotated[
+            Path | None,
+            typer.Option("--frf", help="Also write the predicted FRFs as a campaign folder."),
+        ] = None,
+        robot: Annotated[
+            str | None,
+            typer.Option("--robot", help="Check the postures against this robot's limits."),
+        ] = None,
+        fmax: Annotated[float, typer.Option("--fmax", help="FRF band end [Hz].")] = 40.0,
+        df: Annotated[float, typer.Option("--df", help="FRF resolution [Hz].")] = 0.25,
+    ) -> None:
+        """Predict modal parameters (with spread) at postures; optionally their FRFs.
+
+        Columns: those of modal.csv, then per value its standard deviation
+        (``*_std``) and 90 % interval (``*_lo90``, ``*_hi90``).
+        """
+        from robolobe.modal.modal_csv import write_modal_csv
+        from robolobe.tl.models import load_model
+        from robolobe.tl.predict_io import prediction_frame, write_frf_campaign
+        from robolobe.twin.campaign import read_postures
+
+        model = load_model(model_spec)
+        robot_spec = robot
+        if robot_spec is None and str(model.robot).upper() in ("A", "B", "C"):
+            robot_spec = str(model.robot).upper()
+        rob = _robot(robot_spec)
+        ids, q = read_postures(postures, robot=rob)
+        if not np.isfinite(fmax) or fmax <= 0 or not np.isfinite(df) or not 0 < df < fmax:
+            raise InputError(f"expected 0 < df < fmax, found df={df}, fmax={fmax}", "--df/--fmax")
+        with _shown_warnings():
+            pred = model.predict(q)
+        table = prediction_frame(ids, q, pred)
+        write_modal_csv(output, table)
+        msg = (
+            f"[bold]{output}[/]: {len(ids)} postures x {len(pred.directions)} directions x 5 modes"
+        )
+        if frf is not None:
+            write_frf_campaign(frf, robot_spec or str(model.robot), ids, q, pred, fmax, df)
+            msg += f"; FRFs in {frf}"
+        console.print(msg)
+
+    @app.command("design-tests")
+    def design_tests(
+        robot: Annotated[str, typer.Argument(help="Robot: A, B, C or a robot .toml file.")],
+        n: Annotated[int, typer.Option("--n", help="Postures to propose.")],
+        output: Annotated[Path, typer.Option("--output", "-o", help="postures.csv to write.")],
+        augment: Annotated[
+            Path | None,
+            typer.Option("--augment", help="postures.csv already tested: propose what adds most."),
+        ] = None,
+        model_spec: Annotated[
+            str | None,
+            typer.Option("--model", help="Weight by this model's predicted spread."),
+        ] = None,
+        seed: Annotated[int, typer.Option("--seed", help="Random seed.")] = 0,
+    ) -> None:
+        """Propose hammer-test postures that cover the feasible workspace."""
+        from robolobe.tl.design import design_postures
+        from robolobe.tl.models import load_model
+        from robolobe.twin.campaign import read_postures, write_postures
+        from robolobe.twin.designs import TESTED_RANGES_DEG
+
+        rob = _robot(robot)
+        if n < 1:
+            raise InputError(f"expected a positive count, found {n}", source="--n")
+        existing = None
+        if augment is not None:
+            _, existing = read_postures(augment, robot=rob)
+        key = robot.upper()
+        ranges = TESTED_RANGES_DEG.get(key) if key in TESTED_RANGES_DEG else None
+        model = load_model(model_spec) if model_spec else None
+        with status("designing postures"):
+            design = design_postures(
+                rob,
+                n,
+                rng=np.random.default_rng(seed),
+                existing_rad=existing,
+                ranges_deg=ranges,
+                criterion="spread" if model is not None else "coverage",
+                model=model,
+            )
+        q_out = np.round(np.degrees(design.q_rad), 1)
+        ids = [f"D{i + 1:02d}" for i in range(len(q_out))]
+        write_postures(output, ids, np.radians(q_out))
+        if design.coverage_before is not None:
+            console.print(
+                f"{len(existing) if existing is not None else 0} existing postures: "
+                f"{design.coverage_before.describe()}"
+            )
+        console.print(
+            f"[bold]{output}[/]: {len(ids)} postures; with them: {design.coverage.describe()}"
+        )

@@ -1,0 +1,143 @@
+"""Plots of an identification: stabilization diagrams and measured-vs-synthesized FRFs (PNG).
+
+Matplotlib with the non-interactive Agg backend; one figure per posture.
+"""
+
+from __future__ import annotations
+
+import os
+import re
+from collections.abc import Sequence
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+from matplotlib.figure import Figure
+
+from robolobe.modal.posture import PostureModal
+from robolobe.modal.synthesis import poles_to_modal, synthesize_frf
+
+__all__ = ["plot_frf_overlay", "plot_stabilization", "save_posture_plots"]
+
+_AX = "xyz"
+_SAFE = re.compile(r"[^A-Za-z0-9_.\-]+")
+
+
+def _figure(figsize: tuple[float, float]) -> Figure:
+    return Figure(figsize=figsize, layout="constrained")
+
+
+def plot_stabilization(pm: PostureModal, path: str | os.PathLike[str]) -> Path:
+    """Stabilization diagram of one posture over the measured FRF magnitudes.
+
+    Markers: ``o`` stable in frequency, damping and shape, ``+`` stable in
+    frequency only, ``.`` other physical poles; vertical lines: selected modes.
+    """
+    fig = _figure((9.0, 5.0))
+    ax = fig.add_subplot(1, 1, 1)
+    dg = pm.diagram
+    s = pm.settings
+    if dg is not None and dg.poles.size:
+        f = dg.f_hz
+        phys = dg.physical
+        stab = dg.stable
+        fonly = phys & dg.stable_f & ~stab
+        other = phys & ~dg.stable_f
+        ax.plot(f[other], dg.order[other], ".", color="0.7", ms=3, label="pole")
+        ax.plot(f[fonly], dg.order[fonly], "+", color="tab:blue", ms=5, label="stable f")
+        ax.plot(
+            f[stab],
+            dg.order[stab],
+            "o",
+            mfc="none",
+            color="tab:green",
+            ms=5,
+            label="stable f, zeta, shape",
+        )
+    for fr in poles_to_modal(pm.poles_measured)[0]:
+        ax.axvline(fr, color="tab:red", lw=0.8, alpha=0.7)
+    ax.set_xlim(s.fmin_hz * 0.5, s.fmax_hz * (1 + s.fit_margin))
+    ax.set_xlabel("frequency [Hz]")
+    ax.set_ylabel("model order")
+    ax.set_title(f"posture {pm.posture_id}: stabilization diagram ({pm.n_modes} modes)")
+    if pm.H.size:
+        ax2 = ax.twinx()
+        for d in range(3):
+            if pm.used[d, d]:
+                ax2.semilogy(
+                    pm.freq_hz,
+                    np.abs(pm.H[:, d, d]),
+                    lw=0.8,
+                    alpha=0.6,
+                    label=f"|H_{_AX[d]}{_AX[d]}|",
+                )
+        ax2.set_ylabel("|H| [m/N]")
+        ax2.legend(loc="upper right", fontsize=7)
+    ax.legend(loc="upper left", fontsize=7)
+    out = Path(path)
+    fig.savefig(out, dpi=110)
+    return out
+
+
+def plot_frf_overlay(pm: PostureModal, rows: pd.DataFrame, path: str | os.PathLike[str]) -> Path:
+    """Measured driving-point FRFs and those synthesized from the modal-dataset rows.
+
+    Parameters
+    ----------
+    pm : PostureModal
+    rows : pandas.DataFrame
+        The modal-dataset rows of this posture (``dir, f_hz, zeta, k_N_per_m``).
+    path : path-like
+        PNG file.
+    """
+    dirs = [d for d in range(3) if pm.used[d, d]]
+    fig = _figure((9.0, 2.6 * max(1, len(dirs))))
+    f = pm.freq_hz
+    decay = pm.settings.window_decay_per_s
+    for k, d in enumerate(dirs):
+        ax = fig.add_subplot(max(1, len(dirs)), 1, k + 1)
+        ax.semilogy(f, np.abs(pm.H[:, d, d]), color="k", lw=1.0, label="measured")
+        g = rows[rows["dir"] == _AX[d] * 2]
+        if len(g):
+            fn = g["f_hz"].to_numpy(float)
+            z = g["zeta"].to_numpy(float)
+            # damping as seen through the exponential window
+            wn = 2 * np.pi * fn
+            zw = (z * wn + decay) / wn
+            hp = synthesize_frf(fn, zw, g["k_N_per_m"].to_numpy(float), f)
+            ax.semilogy(
+                f,
+                np.abs(hp),
+                color="tab:red",
+                lw=1.0,
+                ls="--",
+                label=f"synthesized ({len(g)} modes)",
+            )
+            for x in fn:
+                ax.axvline(x, color="tab:red", lw=0.5, alpha=0.4)
+        ax.set_ylabel(f"|H_{_AX[d]}{_AX[d]}| [m/N]")
+        ax.axvspan(f[0], pm.settings.fmin_hz, color="0.9")
+        ax.axvspan(pm.settings.fmax_hz, f[-1] if f.size else pm.settings.fmax_hz, color="0.9")
+        ax.legend(fontsize=7, loc="upper right")
+    if dirs:
+        fig.axes[-1].set_xlabel("frequency [Hz]")
+        fig.axes[0].set_title(f"posture {pm.posture_id}: measured vs synthesized")
+    out = Path(path)
+    fig.savefig(out, dpi=110)
+    return out
+
+
+def save_posture_plots(
+    postures: Sequence[PostureModal], table: pd.DataFrame, folder: str | os.PathLike[str]
+) -> list[Path]:
+    """Write ``stab_<posture>.png`` and ``frf_<posture>.png`` for every posture into ``folder``."""
+    out = Path(folder)
+    out.mkdir(parents=True, exist_ok=True)
+    groups = {pid: g for pid, g in table.groupby("posture_id", sort=False)}
+    paths = []
+    for pm in postures:
+        name = _SAFE.sub("_", pm.posture_id) or "posture"
+        paths.append(plot_stabilization(pm, out / f"stab_{name}.png"))
+        rows = groups.get(pm.posture_id, table.iloc[0:0])
+        paths.append(plot_frf_overlay(pm, rows, out / f"frf_{name}.png"))
+    return paths

@@ -1,0 +1,307 @@
+"""Per-waypoint stability lobes: group equal dynamics, batch the ZOA over the groups.
+
+Waypoints close together on a path have nearly the same tool-point dynamics.
+:func:`group_dynamics` puts waypoints whose feed-frame modal models agree
+within a tolerance (natural frequencies, damping, residues) into one group;
+:func:`waypoint_lobes` computes the zero-order lobes once per group (the
+group's leader, which is one of its waypoints), batched through
+:func:`robolobe.sld.zoa.zoa_lobes`, and returns a
+:class:`robolobe.plan.optimize.LobeTable` whose ``exact`` boundary is the
+lobe polylines intersected at any speed (:meth:`LobeDiagram.query`). With a
+tolerance of zero every distinct waypoint is its own group.
+
+Robust planning passes extra scenario models (lower stiffness and damping,
+frequencies shifted both ways by the prediction spread): the limit is the
+smallest over the scenarios, on the grid and in the exact queries.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from robolobe.errors import InputError
+from robolobe.plan.optimize import LobeTable
+from robolobe.sld.directional import directional_factors
+from robolobe.sld.frf import ModalModel
+from robolobe.sld.lobes import LobeDiagram
+from robolobe.sld.zoa import zoa_lobes
+
+__all__ = [
+    "DynamicsTolerance",
+    "GroupedLobes",
+    "group_dynamics",
+    "scenario_models",
+    "waypoint_lobes",
+]
+
+FloatArray = NDArray[np.float64]
+IntArray = NDArray[np.int64]
+
+
+@dataclass(frozen=True)
+class DynamicsTolerance:
+    """When two waypoints share lobes (all relative, as fractions).
+
+    Parameters
+    ----------
+    freq : float
+        Natural frequencies (0.003 = 0.3 %: the lobes shift by as much in speed).
+    damping : float
+        Damping ratios.
+    residue : float
+        Diagonal residues (``w^2 / k``) and the residue correlation.
+    """
+
+    freq: float = 0.003
+    damping: float = 0.03
+    residue: float = 0.02
+
+    @property
+    def exact(self) -> bool:
+        """True when only identical dynamics share a group."""
+        return self.freq == 0 and self.damping == 0 and self.residue == 0
+
+
+def _features(model: ModalModel, tol: DynamicsTolerance) -> FloatArray:
+    """Scaled features (n, F): a max-norm distance <= 1 means 'within tolerance'."""
+    w = model.omega.reshape(-1, model.n_modes)
+    z = model.zeta.reshape(-1, model.n_modes)
+    a = model.residues.reshape(-1, model.n_modes, model.dim, model.dim)
+    scale = np.abs(a).max(axis=(0, 2, 3)) + 1e-300  # per mode over the batch
+    floor = 1e-4 * scale
+    feats = [np.log(w) / max(tol.freq, 1e-15), np.log(z) / max(tol.damping, 1e-15)]
+    for i in range(model.dim):
+        feats.append(np.log(np.abs(a[:, :, i, i]) + floor) / max(tol.residue, 1e-15))
+    for i in range(model.dim):
+        for j in range(i + 1, model.dim):
+            den = np.sqrt(np.abs(a[:, :, i, i] * a[:, :, j, j])) + floor
+            feats.append(a[:, :, i, j] / den / max(tol.residue, 1e-15))
+    return np.concatenate(feats, axis=1)
+
+
+def group_dynamics(model: ModalModel, tol: DynamicsTolerance | None = None) -> tuple[IntArray, IntArray]:
+    """Group a batch of modal models whose parameters agree within ``tol``.
+
+    Leader clustering in the scaled feature space (max norm): the first
+    ungrouped model leads a group that takes every ungrouped model within
+    tolerance of it.
+
+    Parameters
+    ----------
+    model : ModalModel
+        Batch shape (n,).
+    tol : DynamicsTolerance, optional
+
+    Returns
+    -------
+    group : ndarray of int, shape (n,)
+        Group of each model.
+    leader : ndarray of int, shape (n_groups,)
+        Index of each group's leader (a member whose dynamics stand for it).
+    """
+    tol = tol or DynamicsTolerance()
+    n = int(np.prod(model.batch_shape)) if model.batch_shape else 1
+    f = _features(model, tol)
+    if tol.exact:
+        _, first, inv = np.unique(f, axis=0, return_index=True, return_inverse=True)
+        order = np.argsort(first)
+        remap = np.empty_like(order)
+        remap[order] = np.arange(order.size)
+        return remap[np.asarray(inv).ravel()].astype(np.int64), first[order].astype(np.int64)
+    # exact duplicates first (cheap), then leaders over the unique rows
+    q = np.round(f * 4.0)
+    _, first, inv = np.unique(q, axis=0, return_index=True, return_inverse=True)
+    inv = np.asarray(inv).ravel()
+    order = np.argsort(first)  # unique rows in path order
+    fu = f[first[order]]
+    label_u = np.full(fu.shape[0], -1, np.int64)
+    leaders: list[int] = []
+    todo = np.arange(fu.shape[0])
+    while todo.size:
+        lead = todo[0]
+        d = np.abs(fu[todo] - fu[lead]).max(axis=1)
+        members = todo[d <= 1.0]
+        label_u[members] = len(leaders)
+        leaders.append(int(first[order][lead]))
+        todo = todo[d > 1.0]
+    pos = np.empty_like(order)
+    pos[order] = np.arange(order.size)
+    group = label_u[pos[inv]]
+    return group.astype(np.int64), np.asarray(leaders, dtype=np.int64)[: group.max() + 1 if n else 0]
+
+
+@dataclass(frozen=True, eq=False)
+class GroupedLobes:
+    """Lobes of the groups and the map from waypoints to groups.
+
+    Attributes
+    ----------
+    table : LobeTable
+        For the optimizer (one row per group, plus an unbounded row for
+        waypoints without lateral chatter, e.g. plunges).
+    diagrams : tuple of LobeDiagram
+        One per scenario (nominal first), batch shape (n_groups,).
+    leader : ndarray of int, shape (n_groups,)
+        Waypoint (index into the models given) that stands for each group.
+    valid : bool
+        False when the ZOA is flagged unreliable (low immersion).
+    message : str
+        Why, when not valid.
+    """
+
+    table: LobeTable
+    diagrams: tuple[LobeDiagram, ...]
+    leader: IntArray
+    valid: bool
+    message: str
+
+    @property
+    def n_groups(self) -> int:
+        """Number of distinct dynamics (lobe computations per scenario)."""
+        return int(self.leader.size)
+
+
+def waypoint_lobes(
+    models: Sequence[ModalModel],
+    *,
+    teeth: int,
+    kt: float,
+    kr: float,
+    phi_entry: float,
+    phi_exit: float,
+    rpm: FloatArray,
+    immersion: float,
+    unbounded: NDArray[np.bool_] | None = None,
+    tol: DynamicsTolerance | None = None,
+    max_lobe_cap: int = 400,
+) -> GroupedLobes:
+    """Lobes of every waypoint, computed once per group of equal dynamics.
+
+    Parameters
+    ----------
+    models : sequence of ModalModel
+        Feed-frame (2-D) tool-point models, batch shape (n,), nominal first,
+        then robust scenarios (same batch).
+    teeth, kt, kr : int, float, float
+        Flutes, Kt [N/m^2], Kn/Kt.
+    phi_entry, phi_exit : float
+        Engagement angles [rad].
+    rpm : ndarray, shape (n_rpm,)
+        Increasing speed grid [rpm].
+    immersion : float
+        a_e / D (validity flag of the ZOA).
+    unbounded : ndarray of bool, shape (n,), optional
+        Waypoints without a lateral stability limit (plunges): they get an
+        unbounded row.
+    tol : DynamicsTolerance, optional
+        Grouping tolerance (default 0.3 % in frequency).
+    max_lobe_cap : int
+        Upper bound of the automatic lobe count.
+
+    Returns
+    -------
+    GroupedLobes
+    """
+    if not models:
+        raise InputError("waypoint_lobes: expected at least one model")
+    nominal = models[0]
+    if nominal.dim != 2 or len(nominal.batch_shape) != 1:
+        raise InputError(
+            f"models: expected feed-frame (2-D) models with one batch axis, found dim "
+            f"{nominal.dim}, batch {nominal.batch_shape}"
+        )
+    n = nominal.batch_shape[0]
+    unb = np.zeros(n, bool) if unbounded is None else np.asarray(unbounded, bool)
+    idx_b = np.flatnonzero(~unb)
+    alpha = directional_factors(phi_entry, phi_exit, kr)
+    rpm = np.asarray(rpm, dtype=np.float64)
+    if idx_b.size:
+        # group on all scenarios together so that a group is uniform in each
+        joined = nominal.take(idx_b)
+        for m in models[1:]:
+            joined = ModalModel(
+                np.concatenate([joined.omega, m.omega[idx_b]], axis=-1),
+                np.concatenate([joined.zeta, m.zeta[idx_b]], axis=-1),
+                np.concatenate([joined.residues, m.residues[idx_b]], axis=-3),
+            )
+        g_b, lead_b = group_dynamics(joined, tol)
+        leader = idx_b[lead_b]
+    else:
+        g_b = np.zeros(0, np.int64)
+        leader = np.zeros(0, np.int64)
+    n_groups = leader.size
+    diagrams = []
+    for m in models:
+        reps = m.take(leader)
+        omega = reps.frequency_grid(shared=False)
+        frf = reps.frf(omega)
+        diagrams.append(
+            zoa_lobes(
+                omega,
+                frf,
+                alpha=alpha,
+                teeth=teeth,
+                kt=kt,
+                rpm=rpm,
+                max_lobe=None,
+                immersion=immersion,
+                max_lobe_cap=max_lobe_cap,
+            )
+        )
+    a_grid = np.full((n_groups + 1, rpm.size), np.inf)
+    if n_groups:
+        a_grid[:n_groups] = np.min(np.stack([d.a_lim for d in diagrams]), axis=0)
+    group = np.full(n, n_groups, np.int64)  # last row: unbounded
+    group[idx_b] = g_b
+
+    def exact(rows: FloatArray) -> FloatArray:
+        out = np.full(rows.shape, np.inf)
+        if n_groups:
+            vals = np.stack([d.query(rows[:n_groups]) for d in diagrams])
+            out[:n_groups] = vals.min(axis=0)
+        return out
+
+    d0 = diagrams[0]
+    return GroupedLobes(
+        table=LobeTable(rpm=rpm, a_lim=a_grid, group=group, exact=exact),
+        diagrams=tuple(diagrams),
+        leader=leader,
+        valid=d0.valid,
+        message=d0.message,
+    )
+
+
+def scenario_models(
+    f_hz: FloatArray,
+    zeta: FloatArray,
+    k_N_per_m: FloatArray,
+    log_std: FloatArray | None,
+    k_sigma: float,
+) -> list[tuple[FloatArray, FloatArray, FloatArray]]:
+    """Nominal and robust parameter sets (lower k and zeta, frequencies +-k sigma).
+
+    Parameters
+    ----------
+    f_hz, zeta, k_N_per_m : ndarray, shape (n, n_dir, n_modes)
+    log_std : ndarray, shape (n, n_dir, n_modes, 3) or None
+        Standard deviation of (log f, log zeta, log k).
+    k_sigma : float
+
+    Returns
+    -------
+    list of (f, zeta, k)
+        Nominal only when ``log_std`` is None or ``k_sigma == 0``.
+    """
+    out = [(f_hz, zeta, k_N_per_m)]
+    if log_std is None or k_sigma <= 0 or not np.any(log_std > 0):
+        return out
+    s = k_sigma * log_std
+    z_lo = zeta * np.exp(-s[..., 1])
+    k_lo = k_N_per_m * np.exp(-s[..., 2])
+    for sign in (-1.0, 0.0, 1.0):
+        out.append((f_hz * np.exp(sign * s[..., 0]), z_lo, k_lo))
+    return out

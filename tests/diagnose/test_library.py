@@ -1,0 +1,67 @@
+"""The candidate library: every family builds valid twin effects; untestable candidates."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from robolobe.diagnose.library import FAMILIES, build_library
+from robolobe.errors import InputError
+from robolobe.robots import load_robot
+from robolobe.twin.effects import EFFECTS, effect_to_dict
+from robolobe.twin.model import Twin
+
+ALL = ("xx", "xy", "xz", "yx", "yy", "yz", "zx", "zy", "zz")
+
+
+def test_every_twin_effect_has_a_family() -> None:
+    assert set(FAMILIES) == {"none", *EFFECTS}
+
+
+def test_every_candidate_builds_at_its_grid_and_bounds() -> None:
+    r = load_robot("B")
+    cands, skipped = build_library(r, directions=ALL, n_force_levels=3, band_hz=(2.0, 40.0))
+    assert not skipped
+    assert cands[0].name == "none"
+    assert {c.name for c in cands} == set(FAMILIES)
+    q = np.radians([[0, 10, -60, 0, 30, 0]])
+    f = np.array([5.0, 15.0])
+    for c in cands:
+        assert 0 <= c.n_params <= 3
+        pts = [*c.start_grid(), *(c.to_physical(b) for b in c.bounds_internal)]
+        for p in pts:
+            effects = c.effects(p)
+            for e in effects:
+                assert e.name == c.name
+                d = effect_to_dict(e)
+                for spec, v in zip(c.params, p, strict=True):
+                    assert d[spec.name] == pytest.approx(v)
+            if c.name == "coupled_joint_stiffness":
+                continue  # the bounds are where K stops being definite
+            H = Twin(r, effects).receptance(q, f)
+            assert np.all(np.isfinite(H))
+
+
+def test_untestable_candidates_say_why() -> None:
+    r = load_robot("A")
+    cands, skipped = build_library(r, directions=("yy",), n_force_levels=1, band_hz=(2.0, 40.0))
+    why = {u.label: u.reason for u in skipped}
+    assert "friction_damping" in why
+    assert "force levels" in why["friction_damping"]
+    assert "sensor_misalignment" in why
+    assert "2 measured directions" in why["sensor_misalignment"]
+    assert "tool_mode[direction x]" in why
+    assert "tool_mode[direction y]" not in why
+    labels = {c.label for c in cands}
+    assert "tool_mode[direction y]" in labels
+    assert "friction_damping" not in labels
+
+
+def test_family_subset_and_unknown_name() -> None:
+    r = load_robot("C")
+    cands, _ = build_library(
+        r, directions=ALL, n_force_levels=0, band_hz=(2.0, 40.0), families=["added_mass"]
+    )
+    assert [c.name for c in cands] == ["none", "added_mass"]
+    with pytest.raises(InputError, match="expected one of"):
+        build_library(r, directions=ALL, n_force_levels=0, band_hz=(2, 40), families=["magic"])
