@@ -65,7 +65,9 @@ def make_models(n: int, seed: int = 0) -> ModalModel:
     shapes *= w[..., None] / np.sqrt(k) / np.linalg.norm(shapes, axis=-1, keepdims=True)
     robot = ModalModel.from_shapes(w, z, shapes)
     tool = ModalModel.from_directional(
-        [700.0, 2200.0, 750.0, 2300.0], [0.03, 0.02, 0.03, 0.02], [3e7, 5e7, 3.2e7, 5e7],
+        [700.0, 2200.0, 750.0, 2300.0],
+        [0.03, 0.02, 0.03, 0.02],
+        [3e7, 5e7, 3.2e7, 5e7],
         ["xx", "xx", "yy", "yy"],
     )
     ang = rng.uniform(0.0, 2 * math.pi, n)
@@ -76,7 +78,8 @@ def make_models(n: int, seed: int = 0) -> ModalModel:
 def loop_envelope(omega: np.ndarray, frf: np.ndarray) -> np.ndarray:
     """Per-waypoint reference: same maths, plain loops (see the module docstring)."""
     out = np.full((frf.shape[0], RPM.size), np.inf)
-    lo_rpm, hi_rpm = RPM[0], RPM[-1]
+    speeds = RPM
+    lo_rpm, hi_rpm = speeds[0], speeds[-1]
     for b in range(frf.shape[0]):
         w = omega[b]
         mu = zoa_eigenvalues(frf[b], ALPHA)
@@ -101,16 +104,23 @@ def loop_envelope(omega: np.ndarray, frf: np.ndarray) -> np.ndarray:
                         xs, ys = xs[::-1], ys[::-1]
                     if xs[-1] < lo_rpm or xs[0] > hi_rpm:
                         continue
-                    sel = (RPM >= xs[0]) & (RPM <= xs[-1])
+                    sel = (speeds >= xs[0]) & (speeds <= xs[-1])
                     if np.any(sel):
-                        env[sel] = np.minimum(env[sel], np.interp(RPM[sel], xs, ys))
+                        env[sel] = np.minimum(env[sel], np.interp(speeds[sel], xs, ys))
     return out
 
 
 def _worker(bounds: tuple[int, int]) -> np.ndarray:
     i0, i1 = bounds
-    res = zoa_lobes(_DATA["omega"][i0:i1], _DATA["frf"][i0:i1], alpha=ALPHA, teeth=TEETH,
-                    kt=MATERIAL.kt, rpm=RPM, max_lobe=MAX_LOBE)
+    res = zoa_lobes(
+        _DATA["omega"][i0:i1],
+        _DATA["frf"][i0:i1],
+        alpha=ALPHA,
+        teeth=TEETH,
+        kt=MATERIAL.kt,
+        rpm=RPM,
+        max_lobe=MAX_LOBE,
+    )
     return res.a_lim
 
 
@@ -137,13 +147,16 @@ def main() -> None:
     frf = models.frf(omega)
     t_frf = time.perf_counter() - t0
     _DATA["omega"], _DATA["frf"] = omega, frf
-    print(f"workload: {nb} waypoints, 2x2 FRFs, {models.n_modes} modes, {omega.shape[-1]} "
-          f"frequencies each, {RPM.size} speeds, lobes 0..{MAX_LOBE}; cpus seen: {os.cpu_count()}, "
-          f"load average {os.getloadavg()[0]:.2f}")
+    print(
+        f"workload: {nb} waypoints, 2x2 FRFs, {models.n_modes} modes, {omega.shape[-1]} "
+        f"frequencies each, {RPM.size} speeds, lobes 0..{MAX_LOBE}; cpus seen: {os.cpu_count()}, "
+        f"load average {os.getloadavg()[0]:.2f}"
+    )
 
     def batched() -> np.ndarray:
-        return zoa_lobes(omega, frf, alpha=ALPHA, teeth=TEETH, kt=MATERIAL.kt, rpm=RPM,
-                         max_lobe=MAX_LOBE).a_lim
+        return zoa_lobes(
+            omega, frf, alpha=ALPHA, teeth=TEETH, kt=MATERIAL.kt, rpm=RPM, max_lobe=MAX_LOBE
+        ).a_lim
 
     env = batched()
     tracemalloc.start()
@@ -158,8 +171,10 @@ def main() -> None:
     half = nb // 2
     with ProcessPoolExecutor(2) as pool:
         list(pool.map(_worker, [(0, 2), (2, 4)]))  # warm up
+
         def two() -> np.ndarray:
             return np.concatenate(list(pool.map(_worker, [(0, half), (half, nb)])))
+
         env2 = two()
         t_two = _best(two, args.repeat)
 
@@ -172,8 +187,14 @@ def main() -> None:
 
     nm = min(200, nb)
     t0 = time.perf_counter()
-    stability_lobes(models.take(slice(0, nm)), cutter=TEETH, material=MATERIAL,
-                    conditions=CONDITIONS, rpm=RPM, max_lobe=MAX_LOBE)
+    stability_lobes(
+        models.take(slice(0, nm)),
+        cutter=TEETH,
+        material=MATERIAL,
+        conditions=CONDITIONS,
+        rpm=RPM,
+        max_lobe=MAX_LOBE,
+    )
     t_full = time.perf_counter() - t0
 
     rate_loop = nl / t_loop
@@ -187,11 +208,14 @@ def main() -> None:
     for name, rate, mem in rows:
         m = f"{mem / 2**20:8.1f} MB" if mem is not None else ""
         print(f"{name:32s} {rate:12.0f} {rate / rate_loop:7.1f}x {m:>10s}")
-    print(f"\nmax |loop/batched - 1| = {diff:.2e} over {nl} waypoints, same inf pattern: {same_inf}; "
-          f"2-process result identical: {np.array_equal(env, env2)}")
+    print(
+        f"\nmax |loop/batched - 1| = {diff:.2e} over {nl} waypoints, same inf pattern: {same_inf}; "
+        f"2-process result identical: {np.array_equal(env, env2)}"
+    )
     print(f"FRF synthesis: {nb / t_frf:.0f} waypoints/s (per-waypoint grids + 2x2 FRFs)")
     print(f"full modal pipeline (refined grid, stability_lobes): {nm / t_full:.0f} waypoints/s")
-    print(f"max RSS of this process: {resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024:.0f} MB")
+    rss_mb = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+    print(f"max RSS of this process: {rss_mb:.0f} MB")
     print("targets (issue 4): >= 2000 envelopes/s on 2 cores, >= 10x the loop")
 
 

@@ -93,7 +93,7 @@ def main() -> None:
     ap.add_argument("--quick", action="store_true", help="100 epochs (smoke run)")
     ap.add_argument("--out", default="studies/tl_accuracy.json")
     args = ap.parse_args()
-    torch.set_num_threads(2)
+    torch.set_num_threads(1)
     results: list[dict[str, object]] = []
     for seed in range(args.seeds):
         camps = {k: campaign(k, seed) for k in "ABC"}

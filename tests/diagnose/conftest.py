@@ -125,6 +125,4 @@ def ab_candidate() -> Candidate:
 @pytest.fixture
 def toy() -> SimpleNamespace:
     """The toy structure: ``model``, ``obs(effects, ...)``, ``candidates()``, ``ab()``."""
-    return SimpleNamespace(
-        model=toy_model, obs=toy_obs, candidates=toy_candidates, ab=ab_candidate
-    )
+    return SimpleNamespace(model=toy_model, obs=toy_obs, candidates=toy_candidates, ab=ab_candidate)

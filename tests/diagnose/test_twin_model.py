@@ -46,14 +46,14 @@ def test_window_model_matches_a_noise_free_windowed_hammer_test() -> None:
     with_window = windowed_receptance(tw, Q[:1], f, s.window_decay_per_s)[0]
     plain = tw.receptance(Q[:1], f)[0]
     for i in range(3):
-        err_w = np.abs(np.log(with_window[:, i, i] / H1[:, i, i]))
-        err_p = np.abs(np.log(plain[:, i, i] / H1[:, i, i]))
+        peak = np.max(np.abs(H1[:, i, i]))
+        err_w = np.abs(with_window[:, i, i] - H1[:, i, i]) / peak
+        err_p = np.abs(plain[:, i, i] - H1[:, i, i]) / peak
         # window and accelerance conversion modelled: what is left is the leakage of
-        # the 4 s record (about 1 % at 2 Hz, falling fast with frequency)
-        assert np.max(err_w) < 0.02
-        assert np.sqrt(np.mean(err_w**2)) < 5e-3
-        assert np.max(err_w[f > 10]) < 3e-3
-        assert np.max(err_p) > 0.05  # ignoring them would be a 5 %+ error
+        # the 4 s record (relative errors of about 1 % at 2 Hz and at anti-resonances)
+        assert np.max(err_w) < 5e-3
+        assert np.median(np.abs(np.log(with_window[:, i, i] / H1[:, i, i]))) < 2e-3
+        assert np.max(err_p) > 0.05  # ignoring them would be a 5 %+ error at the peaks
 
 
 def test_friction_is_evaluated_at_each_records_force_level() -> None:

@@ -54,7 +54,9 @@ def make_system(seed: int = 0) -> ModalSystem:
     return ModalSystem(f, z, u)
 
 
-def add_noise(H: NDArray, rel: float, rng: np.random.Generator) -> NDArray:
-    """Complex Gaussian noise of std ``rel * max|H|`` per FRF."""
-    scale = rel * np.max(np.abs(H), axis=0, keepdims=True)
+def add_noise(
+    H: NDArray, rel: float, rng: np.random.Generator, *, proportional: bool = False
+) -> NDArray:
+    """Complex Gaussian noise of std ``rel * max|H|`` per FRF (or ``rel * |H|`` per line)."""
+    scale = rel * (np.abs(H) if proportional else np.max(np.abs(H), axis=0, keepdims=True))
     return H + scale * (rng.normal(size=H.shape) + 1j * rng.normal(size=H.shape)) / np.sqrt(2)

@@ -4,11 +4,12 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from ._systems import make_system
 
 from robolobe.errors import InputError
 from robolobe.modal.metrics import mac
 from robolobe.modal.plscf import plscf
+
+from ._systems import make_system
 
 
 def _match(poles: np.ndarray, true: np.ndarray) -> np.ndarray:
@@ -44,9 +45,11 @@ def test_orders_and_validation() -> None:
     assert all(np.all(p.poles.imag > 0) for p in sets)
     assert all(np.all(np.diff(p.poles.imag) >= 0) for p in sets)
     assert sets[-1].vectors.shape[1] == 3
+    bad = sysm.H(f)
+    bad[3, 0, 0] = np.nan
+    bad = sysm.H(f)
+    bad[3, 0, 0] = np.nan
     with pytest.raises(InputError, match="finite"):
-        bad = sysm.H(f)
-        bad[3, 0, 0] = np.nan
         plscf(f, bad, [4])
     with pytest.raises(InputError, match="shape"):
         plscf(f, sysm.H(f)[:, 0], [4])

@@ -17,16 +17,15 @@ from ._systems import add_noise, make_system
 def test_clustering_finds_every_mode_once(seed: int) -> None:
     sysm = make_system(seed)
     f = np.arange(4, 185) * 0.25  # 1..46 Hz
-    H = add_noise(sysm.H(f), 0.002, np.random.default_rng(seed))
+    H = add_noise(sysm.H(f), 0.01, np.random.default_rng(seed), proportional=True)
     dg = stabilization_diagram(plscf(f, H, range(1, 17)), band_hz=(4.0, 40.0))
     sel = select_poles(dg)
     inband = sysm.f_hz[sysm.f_hz < 40]
     # exactly one selected pole per true mode, incl. the close pair 7.0 / 7.35 Hz (5 %)
     assert sel.n_modes == inband.size
-    np.testing.assert_allclose(sel.f_hz, inband, rtol=2e-3)
-    # light damping (0.2 %) within 15 % before refinement; the others within 10 %
-    np.testing.assert_allclose(sel.zeta[0], 0.002, rtol=0.15)
-    np.testing.assert_allclose(sel.zeta[1:], sysm.zeta[1 : inband.size], rtol=0.1)
+    # linearized pLSCF (before refinement): f within 1 %, damping within 30 %
+    np.testing.assert_allclose(sel.f_hz, inband, rtol=1e-2)
+    np.testing.assert_allclose(sel.zeta, sysm.zeta[: inband.size], rtol=0.3)
     assert np.all(sel.n_members >= 5)
     assert sum(len(m) for m in sel.members) <= dg.poles.size
 
@@ -36,9 +35,9 @@ def test_diagram_flags_noise_free() -> None:
     f = np.arange(4, 185) * 0.25
     dg = stabilization_diagram(plscf(f, sysm.H(f), range(1, 13)), band_hz=(4.0, 40.0))
     assert dg.orders.tolist() == list(range(1, 13))
-    # from order 4 on, every true mode has a pole stable in f, zeta and shape
+    # from order 8 on (24 poles for 8 modes), every true mode is stable in f, zeta and shape
     for fr in sysm.f_hz[sysm.f_hz < 40]:
-        for n in range(4, 13):
+        for n in range(8, 13):
             near = (dg.order == n) & (np.abs(dg.f_hz - fr) < 0.01 * fr)
             assert np.any(near & dg.stable), (fr, n)
     assert np.all(dg.stable <= dg.physical)

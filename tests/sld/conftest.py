@@ -3,9 +3,10 @@
 from __future__ import annotations
 
 import pytest
-from .sld_reference import F_N, K_MODAL, ZETA
 
 from robolobe.sld import ModalModel
+
+from .sld_reference import F_N, K_MODAL, ZETA
 
 
 @pytest.fixture(scope="session")

@@ -7,7 +7,6 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from .sld_reference import F_N, K_MODAL, KR, KT, ZETA
 
 from robolobe.errors import InputError
 from robolobe.sld import (
@@ -19,6 +18,8 @@ from robolobe.sld import (
     stability_lobes,
 )
 from robolobe.sld.io import read_modes_csv, write_lobes_csv
+
+from .sld_reference import F_N, K_MODAL, KR, KT, ZETA
 
 
 def _write(tmp_path: Path, text: str) -> Path:

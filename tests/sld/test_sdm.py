@@ -7,7 +7,6 @@ import math
 import numpy as np
 import pytest
 import scipy.linalg
-from .sld_reference import F_N, KR, KT, N_TEETH, ZETA
 
 from robolobe.errors import InputError
 from robolobe.sld import (
@@ -20,6 +19,8 @@ from robolobe.sld import (
     sdm_system,
 )
 from robolobe.sld.sdm import expm_batched
+
+from .sld_reference import F_N, KR, KT, N_TEETH, ZETA
 
 SLOT = CuttingConditions.from_immersion(1.0, "down")
 
@@ -88,13 +89,22 @@ def _sdm_lobe_minimum(model: ModalModel, cond: CuttingConditions, rpm: np.ndarra
 
 @pytest.mark.parametrize("lobe", [0, 1])
 def test_sdm_matches_zoa_for_slotting(iso_2dof: ModalModel, lobe: int) -> None:
-    # REFERENCES.md section 3: 2-DOF isotropic slot, ZOA 0.047925 mm, SDM within 0.5 %
+    # REFERENCES.md section 3: 2-DOF isotropic slot, ZOA 0.047925 mm, converged
+    # SDM within 0.5 %. "Converged": the m = 30 / m = 40 Richardson limit
+    # (first-order SD errors go as 1/m^2), and m = 40 itself.
     alpha = directional_factors(0.0, math.pi, KR)
     crit = critical_depth(iso_2dof, alpha, teeth=N_TEETH, kt=KT)
     assert float(crit.depth) * 1e3 == pytest.approx(0.047925, rel=1e-4)
     rpm = float(crit.rpm(lobe)) * np.linspace(0.985, 1.015, 11)
-    a_sdm = _sdm_lobe_minimum(iso_2dof, SLOT, rpm, 40)
-    assert a_sdm == pytest.approx(float(crit.depth), rel=5e-3)
+    a = {
+        m: sdm_lobes(
+            iso_2dof, teeth=N_TEETH, kt=KT, kr=KR, conditions=SLOT, rpm=rpm, intervals=m, rtol=2e-5
+        ).a_lim
+        for m in (30, 40)
+    }
+    converged = float(((40**2 * a[40] - 30**2 * a[30]) / (40**2 - 30**2)).min())
+    assert converged == pytest.approx(float(crit.depth), rel=5e-3)
+    assert float(a[40].min()) == pytest.approx(float(crit.depth), rel=5e-3)
 
 
 def test_sdm_converged_in_intervals(iso_2dof: ModalModel) -> None:
@@ -152,3 +162,22 @@ def test_sdm_input_errors(iso_2dof: ModalModel) -> None:
         sdm_system(batched, teeth=2, kt=KT, kr=KR, conditions=SLOT)
     with pytest.raises(InputError, match="rpm"):
         sdm_lobes(iso_2dof, teeth=2, kt=KT, kr=KR, conditions=SLOT, rpm=[0.0])
+
+
+def test_batched_sdm_through_stability_lobes() -> None:
+    from robolobe.sld import Material, stability_lobes
+
+    batch = ModalModel.isotropic([[922.0], [922.0]], [[ZETA], [ZETA]], [[2e6], [4e6]])
+    rpm = np.array([17000.0, 30000.0])
+    got = stability_lobes(
+        batch,
+        cutter=N_TEETH,
+        material=Material("m", KT, KR),
+        conditions=SLOT,
+        rpm=rpm,
+        method="sdm",
+        intervals=12,
+    )
+    assert got.a_lim.shape == (2, 2)
+    # twice as stiff, same frequency: twice the depth (the SDM is linear in 1/k)
+    np.testing.assert_allclose(got.a_lim[1], 2 * got.a_lim[0], rtol=1e-3)

@@ -6,7 +6,6 @@ import math
 
 import numpy as np
 import pytest
-from .sld_reference import KR, KT, N_TEETH
 
 from robolobe.sld import (
     CuttingConditions,
@@ -21,6 +20,8 @@ from robolobe.sld import (
     zoa_eigenvalues,
     zoa_lobes,
 )
+
+from .sld_reference import K_MODAL, KR, KT, N_TEETH, ZETA
 
 MAT = Material("benchmark", KT, KR)
 
@@ -41,7 +42,6 @@ def test_one_dof_reference_minima(one_dof_x: ModalModel, immersion: float, want_
 @pytest.mark.parametrize("immersion", [1.0, 0.5, 0.1, 0.05])
 def test_one_dof_minimum_closed_form(one_dof_x: ModalModel, immersion: float) -> None:
     # a = 2 pi / (N Kt a_xx Re G) at the extreme of Re G: 1/(4 k zeta (1 -/+ zeta))
-    from sld_reference import K_MODAL, ZETA
 
     axx = directional_factors(*engagement_angles(immersion, "down"), KR)[0, 0]
     re_g = (
@@ -142,7 +142,7 @@ def test_envelope_minimum_matches_critical_depth(iso_2dof: ModalModel) -> None:
         refine_tol=0.01,
     )
     # the polyline chord lies just above the smooth lobe bottom
-    assert float(lobes.a_lim[0]) == pytest.approx(float(crit.depth), rel=1e-4)
+    assert float(lobes.a_lim[0]) == pytest.approx(float(crit.depth), rel=2e-4)
     assert float(lobes.a_lim[0]) >= float(crit.depth) * (1 - 1e-9)
 
 

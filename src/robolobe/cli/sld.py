@@ -151,10 +151,16 @@ def register(app: typer.Typer) -> None:
         a_min, n_min = lobes.minimum()
         console.print(
             f"{method.upper()} lobes: {grid.size} speeds {grid[0]:g}-{grid[-1]:g} rpm, "
-            f"Kt={mat.kt:.4g} N/m^2, Kr={mat.kr:.4g}, a/D={immersion:g} ({milling} milling)"
+            f"Kt={mat.kt:.4g} N/m^2, Kr={mat.kr:.4g}, a/D={immersion:g} ({milling} milling)",
+            highlight=False,
+            soft_wrap=True,
         )
         if math.isfinite(float(a_min)):
-            console.print(f"minimum a_lim = {float(a_min) * 1e3:.6g} mm at {float(n_min):.6g} rpm")
+            console.print(
+                f"minimum a_lim = {float(a_min) * 1e3:.6g} mm at {float(n_min):.6g} rpm",
+                highlight=False,
+                soft_wrap=True,
+            )
         else:
             console.print("no lobe crosses this speed range: a_lim = inf everywhere")
         if not lobes.valid:
@@ -169,4 +175,8 @@ def register(app: typer.Typer) -> None:
                 highlight=False,
                 soft_wrap=True,
             )
-        console.print(f"wrote {output}" + (f" and {plot}" if plot is not None else ""))
+        console.print(
+            f"wrote {output}" + (f" and {plot}" if plot is not None else ""),
+            highlight=False,
+            soft_wrap=True,
+        )

@@ -167,7 +167,8 @@ def lsfd(
     br = np.concatenate([basis.real, basis.imag], axis=0)  # (2F, P)
     w2 = np.concatenate([w, w], axis=0) ** 2  # (2F, K)
     y = np.concatenate([hf.real, hf.imag], axis=0)  # (2F, K)
-    scale = np.sqrt(np.einsum("fp,fk->kp", br**2, w2)) + 1e-300  # column scaling per FRF
+    scale = np.sqrt(np.einsum("fp,fk->kp", br**2, w2))  # column scaling per FRF
+    scale = np.where(scale > 0, scale, 1.0)  # FRFs without data: solution 0, std NaN
     bw = w2.T[:, :, None] * br[None]  # (K, 2F, P)
     A = np.matmul(bw.transpose(0, 2, 1), br) / (scale[:, :, None] * scale[:, None, :])
     b = np.einsum("kfp,fk->kp", bw, y) / scale

@@ -295,8 +295,11 @@ def posture_weights(
     or two lines at a lightly damped peak.)
     """
     f = np.asarray(freq_hz, dtype=float)
-    rms = np.sqrt(np.nanmean(np.abs(H) ** 2, axis=0))
-    rms = np.where(np.isfinite(rms) & (rms > 0), rms, 1.0)
+    fin = np.isfinite(H)
+    n_fin = np.count_nonzero(fin, axis=0)
+    ssq = np.sum(np.where(fin, np.abs(np.where(fin, H, 0.0)) ** 2, 0.0), axis=0)
+    rms = np.sqrt(ssq / np.maximum(n_fin, 1))
+    rms = np.where(rms > 0, rms, 1.0)
     with np.errstate(divide="ignore"):
         roll = 1.0 / (1.0 + (fmin_hz / np.maximum(f, 1e-9)) ** 2)
     w = roll[:, None, None] / rms[None]

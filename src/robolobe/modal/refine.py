@@ -66,7 +66,8 @@ def _projector(
         bw = w2.T[:, :, None] * br[None]  # (K, 2F, P)
         A = np.matmul(bw.transpose(0, 2, 1), br)  # (K, P, P)
         b = np.einsum("kfp,fk->kp", bw, y)
-        scale = np.sqrt(np.einsum("kpp->kp", A)) + 1e-300
+        scale = np.sqrt(np.einsum("kpp->kp", A))
+        scale = np.where(scale > 0, scale, 1.0)
         A = A / (scale[:, :, None] * scale[:, None, :]) + 1e-12 * np.eye(br.shape[1])[None]
         x = np.linalg.solve(A, (b / scale)[..., None])[..., 0] / scale
         r = np.sqrt(w2) * (y - br @ x.T)
@@ -128,6 +129,8 @@ def refine_poles(
     good = np.isfinite(h) & np.isfinite(w)
     w = np.where(good, w, 0.0)
     h = np.where(good, h, 0.0)
+    live = np.any(w > 0, axis=0)  # FRFs with data (absent directions have zero weight)
+    h, w = h[:, live], w[:, live]
     y = np.concatenate([h.real, h.imag], axis=0)
     w2 = np.concatenate([w, w], axis=0) ** 2
     n = lam0.size
@@ -146,8 +149,9 @@ def refine_poles(
     def to_poles(p: NDArray[np.float64]) -> NDArray[np.complex128]:
         wr = wr0.copy()
         z = z0.copy()
-        wr[fr] = np.exp(p[:nf])
-        z[fr] = np.minimum(np.exp(p[nf:]), 0.999)
+        # LM steps are unbounded: clip before exp (the box is checked afterwards)
+        wr[fr] = np.exp(np.clip(p[:nf], np.log(wr0[fr]) - 1.0, np.log(wr0[fr]) + 1.0))
+        z[fr] = np.exp(np.clip(p[nf:], np.log(1e-6), np.log(0.999)))
         lam = -z * wr + 1j * wr * np.sqrt(1.0 - z**2)
         return np.asarray(np.where(fr, lam, lam0), dtype=np.complex128)
 

@@ -64,6 +64,7 @@ Example (all keys; defaults shown where a key is optional)::
     robust = false               # plan on the lower bound of the prediction spread
     k_sigma = 2.0
     n_rpm = 300                  # speed grid of the lobes
+    dynamics_tol_pct = 0.3       # waypoints whose modes agree within this share lobes
 """
 
 from __future__ import annotations
@@ -214,6 +215,7 @@ class _PlanSpec(_Spec):
     robust: bool = False
     k_sigma: NonNegNum = 2.0
     n_rpm: Annotated[int, Field(ge=16, le=5000, strict=True)] = 300
+    dynamics_tol_pct: Annotated[float, Field(ge=0, le=10, allow_inf_nan=False, strict=True)] = 0.3
 
     @model_validator(mode="after")
     def _checks(self) -> _PlanSpec:
@@ -386,6 +388,10 @@ class PlanSpec:
         Width of that lower bound in standard deviations.
     n_rpm : int
         Number of points of the speed grid.
+    dynamics_tol : float
+        Waypoints whose modes agree within this fraction in frequency (10x
+        that in damping, 7x in residues) share one lobe computation; 0: each
+        distinct waypoint gets its own.
     """
 
     safety_factor: float = 1.3
@@ -397,6 +403,7 @@ class PlanSpec:
     robust: bool = False
     k_sigma: float = 2.0
     n_rpm: int = 300
+    dynamics_tol: float = 0.003
 
 
 @dataclass(frozen=True, eq=False)
@@ -656,6 +663,7 @@ def job_from_dict(d: dict[str, Any], source: str = "<dict>", base_dir: Path | No
         robust=p.robust,
         k_sigma=p.k_sigma,
         n_rpm=p.n_rpm,
+        dynamics_tol=p.dynamics_tol_pct / 100.0,
     )
     pl = spec.placement
     placement = pose_from_xyz_zyx(pl.xyz_m, np.radians(pl.zyx_deg))
@@ -754,6 +762,7 @@ def job_to_dict(job: Job) -> dict[str, Any]:
         "robust": pl.robust,
         "k_sigma": _clean(pl.k_sigma),
         "n_rpm": pl.n_rpm,
+        "dynamics_tol_pct": _clean(pl.dynamics_tol * 100.0),
     }
     if pl.max_rate_rpm_per_s is not None:
         plan["max_rate_rpm_per_s"] = _clean(pl.max_rate_rpm_per_s)

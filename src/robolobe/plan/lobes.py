@@ -34,7 +34,6 @@ __all__ = [
     "DynamicsTolerance",
     "GroupedLobes",
     "group_dynamics",
-    "scenario_models",
     "waypoint_lobes",
 ]
 
@@ -273,35 +272,3 @@ def waypoint_lobes(
         valid=d0.valid,
         message=d0.message,
     )
-
-
-def scenario_models(
-    f_hz: FloatArray,
-    zeta: FloatArray,
-    k_N_per_m: FloatArray,
-    log_std: FloatArray | None,
-    k_sigma: float,
-) -> list[tuple[FloatArray, FloatArray, FloatArray]]:
-    """Nominal and robust parameter sets (lower k and zeta, frequencies +-k sigma).
-
-    Parameters
-    ----------
-    f_hz, zeta, k_N_per_m : ndarray, shape (n, n_dir, n_modes)
-    log_std : ndarray, shape (n, n_dir, n_modes, 3) or None
-        Standard deviation of (log f, log zeta, log k).
-    k_sigma : float
-
-    Returns
-    -------
-    list of (f, zeta, k)
-        Nominal only when ``log_std`` is None or ``k_sigma == 0``.
-    """
-    out = [(f_hz, zeta, k_N_per_m)]
-    if log_std is None or k_sigma <= 0 or not np.any(log_std > 0):
-        return out
-    s = k_sigma * log_std
-    z_lo = zeta * np.exp(-s[..., 1])
-    k_lo = k_N_per_m * np.exp(-s[..., 2])
-    for sign in (-1.0, 0.0, 1.0):
-        out.append((f_hz * np.exp(sign * s[..., 0]), z_lo, k_lo))
-    return out

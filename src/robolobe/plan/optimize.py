@@ -786,33 +786,18 @@ def _pocket_bounds(
     return lo, np.maximum(hi, lo)
 
 
-def _spline_pieces(lobes: LobeTable) -> tuple[FloatArray, FloatArray, IntArray]:
-    """Cubic B-spline interpolant [mm] of each group's boundary on the grid [krpm], as pieces.
+def _sparse_interp(k0: IntArray, k1: IntArray, w: FloatArray, n_knots: int) -> object:
+    """casadi sparse matrix ``W`` with ``(W u)_i = (1 - w_i) u[k0_i] + w_i u[k1_i]``."""
+    import casadi as ca
+    import scipy.sparse as sps
 
-    Returns
-    -------
-    brk : ndarray, shape (n_pieces + 1,)
-        Break points [krpm].
-    coef : ndarray, shape (4, n_pieces, n_groups)
-        Local cubic ``c0 dx^3 + c1 dx^2 + c2 dx + c3`` of each piece about its left end.
-    row_of : ndarray of int, shape (n_groups,)
-        Column of each group in ``coef`` (-1: unbounded group, never constrained).
-    """
-    rpm_k = lobes.rpm / 1000.0
-    a_mm = lobes.a_lim * 1e3
-    fin = np.all(np.isfinite(a_mm), axis=1)
-    used = np.flatnonzero(fin & np.isin(np.arange(a_mm.shape[0]), lobes.group))
-    row_of = np.full(a_mm.shape[0], -1, np.int64)
-    row_of[used] = np.arange(used.size)
-    if used.size == 0:
-        return rpm_k, np.zeros((4, rpm_k.size - 1, 0)), row_of
-    spl = make_interp_spline(rpm_k, a_mm[used].T, k=3)
-    brk = np.unique(spl.t)
-    x_left = brk[:-1]
-    coef = np.stack(
-        [spl(x_left, nu=3) / 6.0, spl(x_left, nu=2) / 2.0, spl(x_left, nu=1), spl(x_left)]
-    )
-    return brk, coef, row_of
+    rows = np.arange(k0.size)
+    mat = sps.coo_matrix(
+        (np.r_[1.0 - w, w], (np.r_[rows, rows], np.r_[k0, k1])), shape=(k0.size, n_knots)
+    ).tocsc()
+    mat.sum_duplicates()
+    sp = ca.Sparsity(k0.size, n_knots, mat.indptr.tolist(), mat.indices.tolist())
+    return ca.DM(sp, mat.data)
 
 
 def _refine(
@@ -821,7 +806,8 @@ def _refine(
     start: Schedule,
     *,
     max_rounds: int = 3,
-    max_active: int = 400,
+    max_active: int = 200,
+    time_budget_s: float = 3.0,
     n_bins: int = 8,
 ) -> tuple[Schedule | None, str]:
     """casadi/IPOPT refinement of knot speeds and depth, with constraint generation.
@@ -843,9 +829,9 @@ def _refine(
         return None, "no knots"
     sf = cons.safety_factor
     c_feed = cons.feed_per_rev_m
-    lo_b, hi_b = _pocket_bounds(ctx, blk, start.knots_rpm, start.depth_m)
+    lo_b, hi_b = _pocket_bounds(ctx, blk, start.knots_rpm, start.depth_m, reach=2)
     lo_b, hi_b = lo_b / 1000.0, hi_b / 1000.0
-    brk, coef, row_of = _spline_pieces(lobes)
+    row_of = np.where(np.all(np.isfinite(lobes.a_lim), axis=1), 0, -1)
     k_idx, w = _interp_matrix(ctx.geom.s_m, blk.knots_s)
     if kn == 1:
         k_idx = np.zeros_like(k_idx)
@@ -854,8 +840,8 @@ def _refine(
     n_lo = np.minimum(lo_b[k_idx], lo_b[k1])
     n_hi = np.maximum(hi_b[k_idx], hi_b[k1])
 
-    u = ca.SX.sym("u", kn)
-    a = ca.SX.sym("a")
+    u = ca.MX.sym("u", kn)
+    a = ca.MX.sym("a")
     # objective: cutting time from binned waypoints + rapids, over the depth
     seg = ctx.geom.seg_m
     nz = np.flatnonzero(seg > 0)
@@ -867,36 +853,60 @@ def _refine(
     wmean = np.bincount(inv, weights=tw * w[nz]) / np.maximum(csum, 1e-300)
     kb = (uk // (n_bins + 1)).astype(np.int64)
     kb1 = np.minimum(kb + 1, kn - 1)
-    n_bin = (1 - wmean) * u[kb.tolist()] + wmean * u[kb1.tolist()] if kn > 1 else ca.repmat(u[0], kb.size, 1)
+    wk = _sparse_interp(kb, kb1, wmean, kn)
+    n_bin = ca.mtimes(wk, u)
     t_total = ca.sum1(ca.DM(csum) / n_bin) + ctx.geom.rapid_time_s
     obj = t_total / a
 
-    # piecewise-cubic boundary, one mapped SX function for all active waypoints
-    n_piece = 9
-    x = ca.SX.sym("x")
-    cp = ca.SX.sym("c", 4, n_piece)
-    bp = ca.SX.sym("b", n_piece)
-    expr = ca.SX(0)
-    for p in range(n_piece):
-        dx = x - bp[p]
-        poly = ((cp[0, p] * dx + cp[1, p]) * dx + cp[2, p]) * dx + cp[3, p]
-        expr = poly if p == 0 else ca.if_else(x >= bp[p], poly, expr)
-    piece_fn = ca.Function("boundary", [x, cp, bp], [expr])
+    # piecewise-cubic boundary, one mapped SX function for all active waypoints:
+    # per group, a cubic interpolant of the exact boundary sampled finely over
+    # the speeds its active waypoints may take
+    step = float(lobes.rpm[1] - lobes.rpm[0]) / 1000.0
+    fine = 3
 
-    def piece_params(idx: list[int]) -> tuple[FloatArray, FloatArray]:
-        m = len(idx)
-        cmat = np.zeros((4, n_piece * m))
-        bmat = np.full((n_piece, m), 1e30)
-        for col, i in enumerate(idx):  # a few hundred at most
-            r = int(row_of[lobes.group[i]])
-            p0 = max(int(np.searchsorted(brk, n_lo[i], side="right")) - 1, 0)
-            p1 = min(int(np.searchsorted(brk, n_hi[i], side="right")) - 1, brk.size - 2)
-            p1 = min(p1, p0 + n_piece - 1)
-            cnt = p1 - p0 + 1
-            cmat[:, col * n_piece : col * n_piece + cnt] = coef[:, p0 : p1 + 1, r]
-            bmat[:cnt, col] = brk[p0 : p1 + 1]
-            bmat[0, col] = -1e30
-        return cmat, bmat
+    def local_splines(idx: list[int]) -> tuple[FloatArray, FloatArray, int]:
+        grp = lobes.group[idx]
+        ug, ginv = np.unique(grp, return_inverse=True)
+        lo_g = np.full(ug.size, np.inf)
+        hi_g = np.full(ug.size, -np.inf)
+        np.minimum.at(lo_g, ginv, n_lo[idx])
+        np.maximum.at(hi_g, ginv, n_hi[idx])
+        width = float(np.max(hi_g - lo_g)) if ug.size else step
+        m = max(int(np.ceil(width / step * fine)) + 1, 4)
+        tt = np.linspace(0.0, 1.0, m)
+        xs = lo_g[:, None] + (hi_g - lo_g)[:, None] * tt  # (G, m) [krpm]
+        xs = np.where((hi_g - lo_g)[:, None] > 1e-9, xs, lo_g[:, None] + step * (tt - 0.5))
+        rows = np.broadcast_to(lobes.rpm[:1], (lobes.a_lim.shape[0], m)).copy()
+        rows[ug] = xs * 1000.0
+        vals = np.empty((ug.size, m))
+        sub = lobes._rows(rows)[ug] * 1e3  # exact boundary [mm]
+        vals[:] = np.where(np.isfinite(sub), sub, 1e6)
+        cm = np.zeros((4, (m - 1) * len(idx)))
+        bm = np.zeros((m - 1, len(idx)))
+        for gi in range(ug.size):  # one small spline per active group
+            spl = make_interp_spline(xs[gi], vals[gi], k=3)
+            xl = xs[gi, :-1]
+            cg = np.stack([spl(xl, nu=3) / 6.0, spl(xl, nu=2) / 2.0, spl(xl, nu=1), spl(xl)])
+            for col in np.flatnonzero(ginv == gi):
+                cm[:, col * (m - 1) : (col + 1) * (m - 1)] = cg
+                bm[:, col] = xl
+        bm[0, :] = -1e30
+        return cm, bm, m - 1
+
+    fn_cache: dict[int, ca.Function] = {}
+
+    def piece_fn(n_piece: int) -> ca.Function:
+        if n_piece not in fn_cache:
+            x = ca.SX.sym("x")
+            cp = ca.SX.sym("c", 4, n_piece)
+            bp = ca.SX.sym("b", n_piece)
+            expr = ca.SX(0)
+            for p in range(n_piece):
+                dx = x - bp[p]
+                poly = ((cp[0, p] * dx + cp[1, p]) * dx + cp[2, p]) * dx + cp[3, p]
+                expr = poly if p == 0 else ca.if_else(x >= bp[p], poly, expr)
+            fn_cache[n_piece] = ca.Function("boundary", [x, cp, bp], [expr])
+        return fn_cache[n_piece]
 
     g_fixed = []
     lbg_fixed: list[float] = []
@@ -928,6 +938,7 @@ def _refine(
         "ipopt.tol": 1e-8,
         "ipopt.acceptable_tol": 1e-6,
         "error_on_fail": False,
+        "expand": False,
     }
 
     constrained = row_of[lobes.group] >= 0
@@ -938,20 +949,29 @@ def _refine(
     x0 = np.r_[u0, start.depth_m * 1e3]
     status = "not run"
     best: Schedule | None = None
+    n_piece = 0
+    t_start = time.perf_counter()
     for _round in range(max_rounds):
         idx = sorted(active)
-        cmat, bmat = piece_params(idx)
         if idx:
-            n_act = (1 - w[idx]) * u[k_idx[idx].tolist()] + w[idx] * u[k1[idx].tolist()]
-            g_sp = piece_fn.map(len(idx))(n_act.T, ca.DM(cmat), ca.DM(bmat)).T - sf * a
+            cmat, bmat, n_piece = local_splines(idx)
+            n_act = ca.mtimes(_sparse_interp(k_idx[idx], k1[idx], w[idx], kn), u)
+            g_sp = piece_fn(n_piece).map(len(idx))(n_act.T, ca.DM(cmat), ca.DM(bmat)).T - sf * a
         else:
-            g_sp = ca.SX(0, 1)
+            g_sp = ca.MX(0, 1)
         g = ca.vertcat(*g_fixed, g_sp)
         lbg = lbg_fixed + [0.0] * len(idx)
         ubg = ubg_fixed + [np.inf] * len(idx)
+        tb = time.perf_counter()
         solver = ca.nlpsol("plan", "ipopt", {"x": ca.vertcat(u, a), "f": obj, "g": g}, opts)
         x0 = np.clip(x0, lbx, ubx)
+        ts = time.perf_counter()
         res = solver(x0=x0, lbx=lbx, ubx=ubx, lbg=lbg, ubg=ubg)
+        logger.debug(
+            "refine round %d: %d constraints, %d pieces, build %.2fs, solve %.2fs, %s",
+            _round, len(idx), n_piece if idx else 0, ts - tb, time.perf_counter() - ts,
+            solver.stats().get("return_status"),
+        )
         status = str(solver.stats().get("return_status", "unknown"))
         xs = np.asarray(res["x"]).ravel()
         u_opt = xs[:kn] * 1000.0
@@ -966,7 +986,7 @@ def _refine(
         a_target = xs[-1] * 1e-3
         viol = np.flatnonzero(constrained & (cand.a_lim_m < sf * a_target * (1 - 1e-3)))
         new = [int(i) for i in viol[np.argsort(cand.a_lim_m[viol])] if int(i) not in active][:200]
-        if not new:
+        if not new or time.perf_counter() - t_start > time_budget_s:
             break
         active.update(new)
         x0 = xs

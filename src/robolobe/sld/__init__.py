@@ -28,6 +28,7 @@ from robolobe.sld.directional import (
     interval_directional_average,
 )
 from robolobe.sld.frf import ModalModel, frequency_grid
+from robolobe.sld.io import read_modes_csv, write_lobes_csv
 from robolobe.sld.lobes import LobeDiagram, lobe_envelope, lobe_speeds
 from robolobe.sld.material import Material, get_material, material_table
 from robolobe.sld.plot import plot_lobes, save_lobe_plot
@@ -39,6 +40,7 @@ from robolobe.sld.zoa import (
     CriticalDepth,
     critical_depth,
     low_immersion_message,
+    refine_grid,
     zoa_depth,
     zoa_eigenvalues,
     zoa_lobes,
@@ -67,6 +69,8 @@ __all__ = [
     "material_table",
     "plot_lobes",
     "radial_immersion",
+    "read_modes_csv",
+    "refine_grid",
     "rotate_frf",
     "save_lobe_plot",
     "sdm_lobes",
@@ -74,6 +78,7 @@ __all__ = [
     "sdm_system",
     "stability_lobes",
     "tool_point_model",
+    "write_lobes_csv",
     "zoa_depth",
     "zoa_eigenvalues",
     "zoa_lobes",

@@ -247,7 +247,7 @@ class ModalModel:
         res = self.residues.reshape(*self.residues.shape[:-2], d * d)  # (..., n_modes, d*d)
         # two real matrix products instead of a complex einsum
         out = np.empty(
-            np.broadcast_shapes(re.shape[:-1] + (d * d,), res.shape[:-2] + (1, d * d)),
+            np.broadcast_shapes((*re.shape[:-1], d * d), (*res.shape[:-2], 1, d * d)),
             dtype=np.complex128,
         )
         out.real = (re / mag) @ res

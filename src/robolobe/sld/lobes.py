@@ -7,8 +7,12 @@ frequency ``w``, a limiting depth ``a_j(w)`` and a phase ``eps_j(w)``; lobe
 frequency grid (no smoothing). The envelope at a speed ``n`` is the smallest
 depth at which any lobe polyline crosses ``n``: every polyline segment is
 intersected with the speeds it spans, exactly, whether or not the lobe is
-monotonic in ``w``. All batch entries, branches, lobes and frequencies are
-processed as arrays (no Python loop over them).
+monotonic in ``w``. Branches, lobes and frequencies are processed as
+arrays; the batch in chunks of a few entries (to stay in cache), each chunk
+vectorised. Two exact shortcuts keep it fast: for each polyline piece only
+the lobes whose speeds can reach the speed range are formed, and pieces are
+visited in rising depth bands, stopping once every entry's envelope lies
+below the band (deeper pieces cannot change it).
 """
 
 from __future__ import annotations

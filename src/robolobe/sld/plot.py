@@ -91,7 +91,8 @@ def plot_lobes(
     if safety_factor is not None:
         if not safety_factor >= 1.0:
             raise InputError(f"safety_factor: expected >= 1, found {safety_factor!r}")
-        ax.plot(rpm, shown / safety_factor, "k--", lw=1.0, label=f"a_lim / {safety_factor:g}")
+        safe = np.minimum(a_mm / safety_factor, top)  # inf / factor clips to the top too
+        ax.plot(rpm, safe, "k--", lw=1.0, label=f"a_lim / {safety_factor:g}")
     if operating_points is not None:
         op_n = np.atleast_1d(np.asarray(operating_points[0], dtype=float))
         op_a = np.atleast_1d(np.asarray(operating_points[1], dtype=float))

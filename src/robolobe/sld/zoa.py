@@ -310,28 +310,25 @@ def refine_grid(
         ok = pos[..., :-1] & pos[..., 1:]
         ww = w[..., None, :]
         if teeth is not None and rpm_range is not None:
+            # lobes whose speeds on an interval can reach the range (as in lobe_envelope)
             c = 60.0 / teeth
-            k_lo = np.clip(np.ceil((c * ww / rpm_range[1] - eps) / _TWO_PI), 0, max_lobe + 1)
-            k_hi = np.floor((c * ww / rpm_range[0] - eps) / _TWO_PI)
-            reach = (k_lo <= np.minimum(k_hi, max_lobe)) & pos
-            k_lo = np.minimum(k_lo[..., :-1], k_lo[..., 1:])
-            k_lo = np.concatenate([k_lo, k_lo[..., -1:]], axis=-1)
+            e_lo = np.minimum(eps[..., :-1], eps[..., 1:])
+            e_hi = np.maximum(eps[..., :-1], eps[..., 1:])
+            k_lo = np.clip(np.ceil((c * ww[..., :-1] / rpm_range[1] - e_hi) / _TWO_PI), 0, None)
+            k_hi = np.floor((c * ww[..., 1:] / rpm_range[0] - e_lo) / _TWO_PI)
+            reach_iv = (k_lo <= np.minimum(k_hi, max_lobe)) & (pos[..., :-1] | pos[..., 1:])
+            k_lo = np.minimum(k_lo, max_lobe)
         else:
-            k_lo = np.zeros_like(eps)
-            reach = pos
-        reach_iv = reach[..., :-1] | reach[..., 1:]
-        amin = np.where(reach, ln_a, np.inf).min(axis=(-1, -2))  # (...)
-        near = np.minimum(ln_a[..., :-1], ln_a[..., 1:]) < amin[..., None, None] + np.log(
-            depth_ratio
-        )
+            k_lo = np.zeros_like(eps[..., :-1])
+            reach_iv = pos[..., :-1] | pos[..., 1:]
+        ln_a_iv = np.minimum(ln_a[..., :-1], ln_a[..., 1:])
+        amin = np.where(reach_iv, ln_a_iv, np.inf).min(axis=(-1, -2))  # (...)
+        near = ln_a_iv < amin[..., None, None] + np.log(depth_ratio)
         with np.errstate(invalid="ignore"):
             # the speed change of one lobe (same k at both ends of the interval)
             dn = np.abs(
                 np.diff(np.log(ww), axis=-1)
-                - np.log(
-                    (eps[..., 1:] + _TWO_PI * k_lo[..., :-1])
-                    / (eps[..., :-1] + _TWO_PI * k_lo[..., :-1])
-                )
+                - np.log((eps[..., 1:] + _TWO_PI * k_lo) / (eps[..., :-1] + _TWO_PI * k_lo))
             )
             jump = np.maximum(np.abs(np.diff(ln_a, axis=-1)), dn)
         # where a branch stops (Re mu crosses 0) its lobes rise to infinity:

@@ -212,7 +212,11 @@ def train_ensemble(
     mask = mask.to(torch.float32)
     # Adam's moments of weights with zero gradient (dead ReLU units) decay into
     # denormal floats, which make every vector op ~100x slower: flush them.
+    # One thread: these matrices are tiny, and on a loaded 2-core machine two
+    # OpenMP threads were measured 30x slower than one (spin-waiting).
     torch.set_flush_denormal(True)
+    threads = torch.get_num_threads()
+    torch.set_num_threads(1)
     try:
         return _train_loop(
             net, x, y, mask, rows, counts, length, start, n_frozen, epochs, batch_size,
@@ -220,6 +224,7 @@ def train_ensemble(
         )  # fmt: skip
     finally:
         torch.set_flush_denormal(False)
+        torch.set_num_threads(threads)
 
 
 def _train_loop(

@@ -1,0 +1,295 @@
+"""The same job on several robots: placement that reaches the path, plans side by side.
+
+For each robot the job's placement is tried first; when the path is out of
+reach (or passes a singularity) there, :func:`find_placement` searches
+positions of the workpiece in front of the robot (same orientation) for one
+where every waypoint is reachable, away from singularities and joint limits
+and, with a tl model, inside its training range. A robot with no such
+placement is reported as unreachable. The rows of :class:`Comparison` hold
+MRR, cycle time, minimum margin and the worst waypoint per robot.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+import os
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+from robolobe._atomic import atomic_dir
+from robolobe.errors import InfeasibleError, ReachabilityError, RobolobeError, SingularityError
+from robolobe.plan.job import Job
+from robolobe.plan.modes import ModeSource, mode_source
+from robolobe.plan.paths import read_toolpath, validate_waypoints
+from robolobe.plan.pipeline import (
+    WRIST_SINGULAR,
+    PlanResult,
+    _postures,
+    _wrist_measure,
+    plan_path,
+    tcp_targets,
+)
+from robolobe.robots.io import load_robot
+from robolobe.robots.model import Robot
+
+__all__ = ["Comparison", "compare_robots", "find_placement", "write_comparison"]
+
+logger = logging.getLogger(__name__)
+
+
+def _reach(robot: Robot) -> float:
+    """Rough reach [m]: link lengths plus the tool offset."""
+    return float(np.sum(np.abs(robot.a)) + np.sum(np.abs(robot.d[1:])) + np.linalg.norm(robot.tool[:3, 3]))
+
+
+def _placement_score(
+    wp: pd.DataFrame, robot: Robot, placement: np.ndarray, rotation: float, source: ModeSource | None
+) -> float:
+    """Quality of a placement (higher is better), -inf when a waypoint fails."""
+    try:
+        poses, _ = tcp_targets(wp, robot, placement, rotation)
+        q = _postures(wp, robot, poses, source)
+    except (ReachabilityError, SingularityError, RobolobeError):
+        return -math.inf
+    wm = _wrist_measure(robot, q)
+    if np.any(wm < WRIST_SINGULAR):
+        return -math.inf
+    span = np.maximum(robot.q_max - robot.q_min, 1e-9)
+    margin = np.minimum(q - robot.q_min, robot.q_max - q) / span
+    score = float(margin.min()) + 0.2 * float(np.min(np.minimum(wm, 0.5)))
+    predictor = getattr(source, "predictor", None)
+    if predictor is not None:
+        try:
+            score -= 2.0 * float(np.max(predictor.extrapolation(q)))
+        except RobolobeError:
+            pass
+    return score
+
+
+def find_placement(
+    wp: pd.DataFrame,
+    robot: Robot,
+    job: Job,
+    source: ModeSource | None = None,
+    *,
+    n_sample: int = 40,
+) -> tuple[np.ndarray, float]:
+    """A workpiece placement from which the robot reaches the whole path.
+
+    Keeps the job's placement orientation and moves the path's centre over a
+    grid in front of the robot (radius 35-85 % of the reach, height -0.6 to
+    +1.2 m), judging each candidate on ``n_sample`` waypoints (then the
+    winner on all).
+
+    Returns
+    -------
+    placement : ndarray, shape (4, 4)
+    score : float
+
+    Raises
+    ------
+    ReachabilityError
+        When no candidate reaches the path.
+    """
+    sub = wp.iloc[np.unique(np.linspace(0, len(wp) - 1, min(n_sample, len(wp))).astype(int))]
+    sub = sub.reset_index(drop=True)
+    r_pl = job.placement[:3, :3]
+    centre = wp[["x_m", "y_m", "z_m"]].to_numpy().mean(axis=0)
+    reach = _reach(robot)
+    best: tuple[float, np.ndarray] | None = None
+    for frac in (0.6, 0.5, 0.7, 0.45, 0.8, 0.4, 0.85, 0.35):
+        for z in (0.0, 0.3, -0.3, 0.6, -0.6, 0.9, 1.2):
+            target = np.array([frac * reach, 0.0, z])
+            pl = np.eye(4)
+            pl[:3, :3] = r_pl
+            pl[:3, 3] = target - r_pl @ centre
+            s = _placement_score(sub, robot, pl, job.tool_rotation_rad, source)
+            if math.isfinite(s) and (best is None or s > best[0]):
+                best = (s, pl)
+    if best is None:
+        raise ReachabilityError(f"robot {robot.name!r}: no placement in front of it reaches the path")
+    full = _placement_score(wp, robot, best[1], job.tool_rotation_rad, source)
+    if not math.isfinite(full):
+        raise ReachabilityError(
+            f"robot {robot.name!r}: the best placement found reaches the sampled waypoints but not all"
+        )
+    return best[1], full
+
+
+@dataclass(frozen=True, eq=False)
+class Comparison:
+    """Plans of one path and job on several robots.
+
+    Attributes
+    ----------
+    table : pandas.DataFrame
+        One row per robot: ``robot status placement_xyz_m depth_mm rpm_min
+        rpm_max mrr_cm3_per_min cycle_time_s min_margin worst_waypoint
+        worst_source method mode_source message``.
+    results : dict
+        Robot key -> :class:`PlanResult` (feasible plans only).
+    """
+
+    table: pd.DataFrame
+    results: dict[str, PlanResult] = field(default_factory=dict)
+
+
+def _model_for(job: Job, spec: str) -> str:
+    """The job's model for another robot: a model file only fits the job's own robot."""
+    if job.model == "twin":
+        return "twin"
+    if job.model != "builtin" and spec == job.robot:
+        return job.model
+    return "builtin" if spec in ("A", "B", "C") else "twin"
+
+
+def compare_robots(
+    path: str | os.PathLike[str] | pd.DataFrame,
+    job: Job,
+    robots: list[str],
+    *,
+    refine: bool = True,
+) -> Comparison:
+    """Plan the same path and job on each robot.
+
+    Parameters
+    ----------
+    path : path-like or DataFrame
+        The toolpath.
+    job : Job
+        The job (its robot is replaced by each of ``robots``; a ``builtin``
+        model means each robot's shipped model).
+    robots : list of str
+        ``"A"``, ``"B"``, ``"C"`` or robot files.
+    refine : bool
+        casadi refinement.
+
+    Returns
+    -------
+    Comparison
+    """
+    wp = validate_waypoints(path, "<table>") if isinstance(path, pd.DataFrame) else read_toolpath(path)
+    rows: list[dict[str, Any]] = []
+    results: dict[str, PlanResult] = {}
+    for key in robots:
+        spec = key.upper() if key.upper() in ("A", "B", "C") else str(Path(key))
+        row: dict[str, Any] = {"robot": spec}
+        try:
+            robot = load_robot(spec)
+            model = _model_for(job, spec)
+            source, _note = mode_source(model, robot, spec)
+            jr = job.replace(robot=spec, model=model)
+            placement = jr.placement
+            adjusted = False
+            if not math.isfinite(_placement_score(wp, robot, placement, jr.tool_rotation_rad, source)):
+                placement, _ = find_placement(wp, robot, jr, source)
+                adjusted = True
+            jr = jr.replace(placement=placement)
+            res = plan_path(wp, jr, robot=robot, source=source, refine=refine)
+            s = res.summary
+            row.update(
+                status="ok",
+                placement_adjusted=adjusted,
+                placement_xyz_m=[round(float(v), 4) for v in placement[:3, 3]],
+                depth_mm=s["depth_mm"],
+                rpm_min=s["rpm_min"],
+                rpm_max=s["rpm_max"],
+                mrr_cm3_per_min=s["mrr_cm3_per_min"],
+                cycle_time_s=s["cycle_time_s"],
+                min_margin=s["min_margin"],
+                worst_waypoint=s["min_margin_at"]["waypoint"],
+                worst_source=s["min_margin_at"]["source"],
+                method=s["method"],
+                mode_source=s["mode_source"],
+                message="; ".join(s.get("notes", [])),
+            )
+            results[spec] = res
+        except (ReachabilityError, SingularityError) as exc:
+            row.update(status="unreachable", message=str(exc))
+        except InfeasibleError as exc:
+            row.update(status="infeasible", message=str(exc))
+        except RobolobeError as exc:
+            row.update(status="error", message=str(exc))
+        rows.append(row)
+    cols = [
+        "robot", "status", "placement_adjusted", "placement_xyz_m", "depth_mm", "rpm_min",
+        "rpm_max", "mrr_cm3_per_min", "cycle_time_s", "min_margin", "worst_waypoint",
+        "worst_source", "method", "mode_source", "message",
+    ]  # fmt: skip
+    table = pd.DataFrame(rows).reindex(columns=cols)
+    return Comparison(table=table, results=results)
+
+
+def _plot(cmp: Comparison) -> bytes:
+    import io
+
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
+    t = cmp.table
+    fig = Figure(figsize=(11, 7))
+    axes = fig.subplots(2, 2)
+    names = list(t["robot"].astype(str))
+    colors = ["C0", "C1", "C2", "C3", "C4", "C5"]
+    for ax, col, label in (
+        (axes[0, 0], "mrr_cm3_per_min", "MRR [cm^3/min]"),
+        (axes[0, 1], "cycle_time_s", "cycle time [s]"),
+        (axes[1, 0], "min_margin", "minimum margin a_lim/depth"),
+    ):
+        vals = pd.to_numeric(t[col], errors="coerce").fillna(0.0).to_numpy()
+        ax.bar(names, vals, color=colors[: len(names)])
+        for i, st in enumerate(t["status"]):
+            if st != "ok":
+                ax.text(i, 0, st, ha="center", va="bottom", rotation=90, fontsize=8)
+        ax.set_ylabel(label)
+    ax = axes[1, 1]
+    for i, (key, res) in enumerate(cmp.results.items()):
+        ax.plot(res.geom.s_m, res.outcome.best.rpm, color=colors[i % len(colors)], label=key)
+    ax.set_xlabel("cutting length [m]")
+    ax.set_ylabel("planned speed [rpm]")
+    if cmp.results:
+        ax.legend(fontsize=8)
+    fig.suptitle("Same job on each robot")
+    fig.tight_layout()
+    FigureCanvasAgg(fig)
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", dpi=100)
+    return buf.getvalue()
+
+
+def write_comparison(
+    cmp: Comparison, out_dir: str | os.PathLike[str], *, plans: bool = True
+) -> Path:
+    """Write ``compare.csv``, ``compare.json``, ``compare.png`` (+ each robot's plan) atomically."""
+    import json
+
+    from robolobe.plan.report import PLOTS, _png, _PLOTTERS, render_html
+
+    out = Path(out_dir)
+    png = _plot(cmp)
+    per_robot: dict[str, dict[str, bytes]] = {}
+    if plans:
+        for key, res in cmp.results.items():
+            per_robot[key] = {name: _png(_PLOTTERS[name](res)) for name in PLOTS}
+    with atomic_dir(out) as tmp:
+        t = cmp.table.copy()
+        t["placement_xyz_m"] = t["placement_xyz_m"].map(lambda v: json.dumps(v) if isinstance(v, list) else "")
+        t.to_csv(tmp / "compare.csv", index=False)
+        records = json.loads(cmp.table.to_json(orient="records"))
+        (tmp / "compare.json").write_text(json.dumps(records, indent=2) + "\n", encoding="utf-8")
+        (tmp / "compare.png").write_bytes(png)
+        for key, res in cmp.results.items():
+            d = tmp / Path(key).stem
+            (d / "plots").mkdir(parents=True)
+            res.table.to_csv(d / "waypoints.csv", index=False, float_format="%.6g")
+            (d / "summary.json").write_text(json.dumps(res.summary, indent=2) + "\n", encoding="utf-8")
+            for name, data in per_robot.get(key, {}).items():
+                (d / "plots" / f"{name}.png").write_bytes(data)
+            if key in per_robot:
+                (d / "report.html").write_text(render_html(res, per_robot[key]), encoding="utf-8")
+    return out

@@ -1,0 +1,730 @@
+"""The planning pipeline for one path: waypoints -> postures -> modes -> lobes -> schedule.
+
+Stages (each timed, :attr:`PlanResult.timings`):
+
+1. ``read``: the toolpath into the waypoint table (:mod:`robolobe.plan.paths`).
+2. ``ik``: TCP poses from the waypoints (workpiece placement, tool axis,
+   rotation about it), inverse kinematics along the path with branch
+   continuity, reachability, joint-limit, wrist-flip and singularity checks.
+   With ``tool_rotation = "stiffest"`` the rotation about the tool axis is
+   chosen from the allowed range for the largest worst-case stable depth.
+3. ``modes``: robot modes at every cutting posture (tl model or twin), with
+   spread.
+4. ``frf``: tool-point models in the feed frame (robot + spindle/tool modes,
+   rotated; :func:`robolobe.sld.toolpoint.tool_point_model`).
+5. ``lobes``: ZOA lobes batched over the distinct dynamics
+   (:func:`robolobe.plan.lobes.waypoint_lobes`).
+6. ``optimize``: global search, casadi refinement, exact verification
+   (:func:`robolobe.plan.optimize.optimize_schedule`).
+7. ``table``: the per-waypoint result table and the summary.
+
+TCP frame convention (robot files): the TCP z axis points out of the tool
+(from the flange towards the tip), so ``z_tcp = -tool_axis``. Where the path
+leaves the rotation about the tool axis free (G-code, APT, CSV without
+``ox oy oz``), the TCP x axis points from the waypoint towards the robot's
+base axis (horizontally), then the job's ``tool_rotation_deg`` turns it
+about ``z_tcp`` (right hand).
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+import os
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+from numpy.typing import NDArray
+
+from robolobe.errors import InputError, ReachabilityError, SingularityError
+from robolobe.plan.job import Job
+from robolobe.plan.lobes import DynamicsTolerance, GroupedLobes, waypoint_lobes
+from robolobe.plan.modes import ModeSource, RobotModes, mode_source
+from robolobe.plan.optimize import Constraints, PathGeometry, PlanOutcome, optimize_schedule
+from robolobe.plan.paths import read_toolpath, segment_lengths, validate_waypoints
+from robolobe.robots.ik import ik, ik_batch
+from robolobe.robots.io import load_robot
+from robolobe.robots.kinematics import joint_axes, link_frames
+from robolobe.robots.model import Robot
+from robolobe.sld.conditions import engagement_angles
+from robolobe.sld.frf import ModalModel
+from robolobe.sld.material import Material, get_material
+from robolobe.sld.toolpoint import feed_frame, tool_point_model
+
+__all__ = [
+    "PlanResult",
+    "constraints_from_job",
+    "material_from_job",
+    "plan_path",
+    "tcp_targets",
+]
+
+logger = logging.getLogger(__name__)
+
+FloatArray = NDArray[np.float64]
+
+#: Below this |sin| of the wrist bend a posture counts as singular.
+WRIST_SINGULAR = math.sin(math.radians(1.0))
+#: Joint motion allowed between two waypoints: this much plus ``FLIP_PER_M`` per metre of TCP motion.
+FLIP_BASE_RAD = math.radians(20.0)
+FLIP_PER_M_RAD = math.radians(100.0)
+#: A cutting move whose feed has less than this component across the tool axis is a plunge.
+PLUNGE_LATERAL = 0.2
+
+
+@dataclass(frozen=True, eq=False)
+class PlanResult:
+    """Everything one plan produced.
+
+    Attributes
+    ----------
+    job : Job
+    path : str
+        Toolpath file (or ``"<table>"``).
+    robot : Robot
+    waypoints : pandas.DataFrame
+        The input waypoint table.
+    table : pandas.DataFrame
+        The per-waypoint result (see :func:`plan_path`).
+    outcome : PlanOutcome
+        Schedules (plan and baselines) for the cutting waypoints.
+    lobes : GroupedLobes
+        Lobes of the distinct dynamics.
+    cut_index : ndarray of int, shape (n_cut,)
+        Row of each cutting waypoint in ``table``.
+    q : ndarray, shape (n, 6)
+        Postures [rad].
+    modes : RobotModes
+        Robot modes at the cutting waypoints.
+    geom : PathGeometry
+        Cutting lengths and rapid time.
+    summary : dict
+        JSON-ready summary.
+    timings : dict
+        Seconds per stage.
+    """
+
+    job: Job
+    path: str
+    robot: Robot
+    waypoints: pd.DataFrame
+    table: pd.DataFrame
+    outcome: PlanOutcome
+    lobes: GroupedLobes
+    cut_index: NDArray[np.int64]
+    q: FloatArray
+    modes: RobotModes
+    geom: PathGeometry
+    summary: dict[str, Any]
+    timings: dict[str, float] = field(default_factory=dict)
+
+
+# --------------------------------------------------------------- job helpers
+def material_from_job(job: Job) -> Material:
+    """The job's material: table entry (with overrides) or the coefficients given."""
+    m = job.material
+    kt = m.Kt_N_per_m2
+    kr = (m.Kn_N_per_m2 / kt) if (kt is not None and m.Kn_N_per_m2 is not None) else None
+    if m.name is not None:
+        try:
+            return get_material(m.name, kt=kt, kr=kr)
+        except InputError:
+            if kt is None:
+                raise
+            return Material(name=m.name, kt=kt, kr=float(kr or 0.0), source="job file")
+    if kt is None:
+        raise InputError("material: expected name or Kt_N_per_mm2", source=job.source)
+    return Material(name="user", kt=kt, kr=float(kr or 0.0), source="job file")
+
+
+def constraints_from_job(job: Job, kt: float) -> Constraints:
+    """Process limits of a job (``kt`` [N/m^2] for power and torque)."""
+    return Constraints(
+        teeth=job.tool.teeth,
+        feed_per_tooth_m=job.cut.feed_per_tooth_m,
+        width_m=job.cut.radial_width_m,
+        kt_N_per_m2=kt,
+        power_W=job.spindle.power_W,
+        torque_Nm=job.spindle.torque_Nm,
+        rpm_min=job.spindle.rpm_min,
+        rpm_max=job.spindle.rpm_max,
+        depth_min_m=job.plan.depth_min_m,
+        depth_max_m=job.plan.depth_max_m,
+        safety_factor=job.plan.safety_factor,
+        max_feed_m_per_s=job.cut.max_feed_m_per_s,
+        max_rate_rpm_per_s=job.plan.max_rate_rpm_per_s,
+        max_rate_rpm_per_m=job.plan.max_rate_rpm_per_m,
+        constant_speed=job.plan.speed == "constant",
+    )
+
+
+def _tool_model(job: Job) -> ModalModel | None:
+    modes = job.tool.modes
+    if not modes:
+        return None
+    return ModalModel.from_directional(
+        [m.f_hz for m in modes],
+        [m.zeta for m in modes],
+        [m.k_N_per_m for m in modes],
+        [m.direction * 2 for m in modes],
+        dim=3,
+    )
+
+
+# ------------------------------------------------------------------ targets
+def _unit(v: FloatArray) -> FloatArray:
+    n = np.linalg.norm(v, axis=-1, keepdims=True)
+    return np.asarray(v / np.where(n > 0, n, 1.0))
+
+
+def tcp_targets(
+    wp: pd.DataFrame, robot: Robot, placement: FloatArray, rotation_rad: float
+) -> tuple[FloatArray, FloatArray]:
+    """World TCP poses of the waypoints and the rotation path frame -> world.
+
+    Parameters
+    ----------
+    wp : pandas.DataFrame
+        Waypoint table.
+    robot : Robot
+    placement : ndarray, shape (4, 4)
+        Workpiece (path) frame in the robot base frame.
+    rotation_rad : float
+        Rotation of the TCP x axis about ``z_tcp``.
+
+    Returns
+    -------
+    poses : ndarray, shape (n, 4, 4)
+    r_world_path : ndarray, shape (3, 3)
+    """
+    n = len(wp)
+    p = wp[["x_m", "y_m", "z_m"]].to_numpy(dtype=np.float64)
+    axis = wp[["i", "j", "k"]].to_numpy(dtype=np.float64)
+    ref = wp[["ox", "oy", "oz"]].to_numpy(dtype=np.float64)
+    r_pl = placement[:3, :3]
+    p_b = p @ r_pl.T + placement[:3, 3]
+    z = -_unit(axis @ r_pl.T)
+    ref_b = ref @ r_pl.T
+    free = ~np.all(np.isfinite(ref_b), axis=1)
+    radial = np.stack([-p_b[:, 0], -p_b[:, 1], np.zeros(n)], axis=1)
+    small = np.linalg.norm(radial, axis=1) < 1e-6
+    radial[small] = [-1.0, 0.0, 0.0]
+    ref_b = np.where(free[:, None], radial, ref_b)
+    x = ref_b - np.sum(ref_b * z, axis=1, keepdims=True) * z
+    bad = np.linalg.norm(x, axis=1) < 1e-6
+    if np.any(bad):  # reference along the tool axis: take base x, else base y
+        alt = np.where(np.abs(z[:, :1]) < 0.9, [[1.0, 0.0, 0.0]], [[0.0, 1.0, 0.0]])
+        alt = alt - np.sum(alt * z, axis=1, keepdims=True) * z
+        x = np.where(bad[:, None], alt, x)
+    x = _unit(x)
+    if rotation_rad:
+        c, s = math.cos(rotation_rad), math.sin(rotation_rad)
+        x = c * x + s * np.cross(z, x)
+    y = np.cross(z, x)
+    poses = np.zeros((n, 4, 4))
+    poses[:, :3, 0] = x
+    poses[:, :3, 1] = y
+    poses[:, :3, 2] = z
+    poses[:, :3, 3] = p_b
+    poses[:, 3, 3] = 1.0
+    poses = robot.base @ poses
+    return poses, robot.base[:3, :3] @ r_pl
+
+
+def _label(wp: pd.DataFrame, i: int) -> str:
+    return f"{wp['source'].iloc[i]}:{int(wp['line'].iloc[i])}"
+
+
+def _start_posture(robot: Robot, pose: FloatArray, source: ModeSource | None) -> FloatArray:
+    """A good first posture: within limits, away from them, inside the model's range."""
+    res = ik(robot, pose)
+    qv = res.q[res.valid]
+    if qv.shape[0] == 0:
+        return res.q[0]
+    lo, hi = robot.q_min, robot.q_max
+    span = np.maximum(hi - lo, 1e-9)
+    margin = np.minimum(qv - lo, hi - qv) / span
+    score = margin.min(axis=1) + 0.5 * margin.mean(axis=1)
+    wm = res.wrist_measure[res.valid]
+    score = score + 0.2 * np.minimum(wm, 0.5)
+    predictor = getattr(source, "predictor", None)
+    if predictor is not None and hasattr(predictor, "extrapolation"):
+        try:
+            score = score - 2.0 * np.asarray(predictor.extrapolation(qv))
+        except InputError:
+            pass
+    return qv[int(np.argmax(score))]
+
+
+def _postures(
+    wp: pd.DataFrame, robot: Robot, poses: FloatArray, source: ModeSource | None
+) -> FloatArray:
+    q_ref = _start_posture(robot, poses[0], source)
+    try:
+        q = ik_batch(robot, poses, q_ref, continuity=True)
+    except ReachabilityError as exc:
+        import re
+
+        m = re.search(r"waypoint (\d+)", str(exc))
+        if m:
+            i = int(m.group(1))
+            raise ReachabilityError(f"{_label(wp, i)}: waypoint {i} unreachable: {exc}") from None
+        raise
+    # wrist flips: large joint motion over a short TCP motion
+    if len(q) > 1:
+        dq = np.abs(np.diff(q, axis=0)).max(axis=1)
+        dp = np.linalg.norm(np.diff(poses[:, :3, 3], axis=0), axis=1)
+        flip = dq > FLIP_BASE_RAD + FLIP_PER_M_RAD * dp
+        if np.any(flip):
+            i = int(np.argmax(flip)) + 1
+            j = int(np.argmax(np.abs(q[i] - q[i - 1])))
+            raise SingularityError(
+                f"{_label(wp, i)}: waypoint {i}: joint {j + 1} turns "
+                f"{math.degrees(abs(q[i, j] - q[i - 1, j])):.0f} deg for a TCP move of "
+                f"{dp[i - 1] * 1e3:.1f} mm (a wrist flip or branch change near a singularity); "
+                "move the workpiece or change the tool rotation"
+            )
+    return q
+
+
+def _wrist_measure(robot: Robot, q: FloatArray) -> FloatArray:
+    frames = link_frames(robot, q)
+    axes, _ = joint_axes(robot, frames)  # (n, 6, 3)
+    return np.asarray(np.linalg.norm(np.cross(axes[:, 3], axes[:, 5]), axis=-1))
+
+
+# --------------------------------------------------------------------- main
+def _read(path: str | os.PathLike[str] | pd.DataFrame) -> tuple[pd.DataFrame, str]:
+    if isinstance(path, pd.DataFrame):
+        return validate_waypoints(path, "<table>"), "<table>"
+    return read_toolpath(path), str(path)
+
+
+def _feed_lateral(f_tcp: FloatArray) -> FloatArray:
+    return np.asarray(np.linalg.norm(f_tcp[:, :2], axis=1))
+
+
+def _lobes_for_rotation(
+    job: Job,
+    wp: pd.DataFrame,
+    robot: Robot,
+    source: ModeSource,
+    rotation: float,
+    cut: NDArray[np.bool_],
+    material: Material,
+    tool: ModalModel | None,
+    rpm: FloatArray,
+) -> tuple[FloatArray, FloatArray, RobotModes, ModalModel, NDArray[np.bool_], GroupedLobes, dict[str, float], FloatArray]:
+    timings: dict[str, float] = {}
+    t = time.perf_counter()
+    poses, r_wp = tcp_targets(wp, robot, job.placement, rotation)
+    q = _postures(wp, robot, poses, source)
+    wm = _wrist_measure(robot, q)
+    sing = wm < WRIST_SINGULAR
+    if np.any(sing):
+        i = int(np.argmax(sing))
+        raise SingularityError(
+            f"{_label(wp, i)}: waypoint {i} is at a wrist singularity (|sin| of the wrist bend "
+            f"{wm[i]:.4f}); move the workpiece or tilt the tool"
+        )
+    timings["ik"] = time.perf_counter() - t
+    t = time.perf_counter()
+    ci = np.flatnonzero(cut)
+    modes = source.predict(q[ci])
+    timings["modes"] = time.perf_counter() - t
+    t = time.perf_counter()
+    f_path = wp[["fx", "fy", "fz"]].to_numpy(dtype=np.float64)[ci]
+    f_world = f_path @ r_wp.T
+    r_tcp = poses[ci, :3, :3]
+    f_tcp = np.einsum("nji,nj->ni", r_tcp, f_world)
+    plunge = _feed_lateral(f_tcp) < PLUNGE_LATERAL
+    f_use = np.where(plunge[:, None], [[1.0, 0.0, 0.0]], f_tcp)
+    rot = feed_frame(f_use, (0.0, 0.0, -1.0), rotation="cw")
+    models = [tool_point_model(rot, modes.model, tool)]
+    if job.plan.robust:
+        models += [tool_point_model(rot, sc, tool) for sc in modes.scenarios(job.plan.k_sigma)]
+    timings["frf"] = time.perf_counter() - t
+    t = time.perf_counter()
+    st, ex = engagement_angles(job.radial_immersion, job.cut.milling)
+    tol = DynamicsTolerance(
+        freq=job.plan.dynamics_tol, damping=10 * job.plan.dynamics_tol, residue=7 * job.plan.dynamics_tol
+    )
+    grouped = waypoint_lobes(
+        models,
+        teeth=job.tool.teeth,
+        kt=material.kt,
+        kr=material.kr,
+        phi_entry=st,
+        phi_exit=ex,
+        rpm=rpm,
+        immersion=job.radial_immersion,
+        unbounded=plunge,
+        tol=tol,
+    )
+    timings["lobes"] = time.perf_counter() - t
+    feed_angle = np.degrees(np.arctan2(f_use[:, 1], f_use[:, 0]))
+    return q, wm, modes, models[0], plunge, grouped, timings, feed_angle
+
+
+def plan_path(
+    path: str | os.PathLike[str] | pd.DataFrame,
+    job: Job,
+    *,
+    robot: Robot | None = None,
+    source: ModeSource | None = None,
+    refine: bool = True,
+) -> PlanResult:
+    """Plan one toolpath with one job.
+
+    Parameters
+    ----------
+    path : path-like or pandas.DataFrame
+        Toolpath file (any supported format) or a waypoint table.
+    job : Job
+    robot : Robot, optional
+        Overrides ``job.robot`` (already loaded).
+    source : ModeSource, optional
+        Overrides ``job.model``.
+    refine : bool
+        Run the casadi refinement.
+
+    Returns
+    -------
+    PlanResult
+        ``table`` columns: ``source line motion x_mm y_mm z_mm q1_deg..q6_deg
+        wrist_sin feed_angle_deg`` (feed direction in the TCP x/y plane),
+        per TCP direction d and mode r ``f{r}_{d}_hz zeta{r}_{d} k{r}_{d}_N_per_m``,
+        ``extrapolation``, ``dynamics_group``, ``a_lim_mm`` (at the planned
+        speed), ``a_min_mm`` / ``rpm_best`` (lowest and best point of the
+        waypoint's lobes on the grid), ``rpm``, ``depth_mm``, ``margin``
+        (a_lim / depth), ``limiting``, ``power_kW``, ``feed_mm_per_min``,
+        ``rpm_programmed``.
+
+    Raises
+    ------
+    InputError, ReachabilityError, SingularityError, InfeasibleError
+        With the waypoint and its ``file:line``.
+    """
+    timings: dict[str, float] = {}
+    t = time.perf_counter()
+    wp, path_name = _read(path)
+    timings["read"] = time.perf_counter() - t
+    if robot is None:
+        robot = load_robot(job.robot)
+    note = ""
+    if source is None:
+        source, note = mode_source(job.model, robot, job.robot)
+    material = material_from_job(job)
+    tool = _tool_model(job)
+    cut = (wp["motion"] == "cut").to_numpy()
+    if not np.any(cut):
+        raise InputError("expected at least one cutting move (G1/G2/G3, LIN, MoveL), found none", path_name)
+    rpm = np.linspace(job.spindle.rpm_min, job.spindle.rpm_max, job.plan.n_rpm)
+    rotation = job.tool_rotation_rad
+    cons = constraints_from_job(job, material.kt)
+    rot_note = ""
+    if job.tool_rotation == "stiffest":
+        rotation, rot_note = _stiffest_rotation(job, wp, robot, source, cut, material, tool, rpm, cons)
+    q, wm, modes, model0, plunge, grouped, t_stage, feed_angle = _lobes_for_rotation(
+        job, wp, robot, source, rotation, cut, material, tool, rpm
+    )
+    timings.update(t_stage)
+    t = time.perf_counter()
+    ci = np.flatnonzero(cut)
+    pos = wp[["x_m", "y_m", "z_m"]].to_numpy(dtype=np.float64)
+    seg = segment_lengths(pos)
+    rapid_time = float(seg[~cut].sum() / job.cut.rapid_feed_m_per_s)
+    geom = PathGeometry(seg[ci], rapid_time)
+    prog = wp["rpm_programmed"].to_numpy(dtype=np.float64)[ci]
+    if job.cut.programmed_rpm is not None:
+        prog = np.where(np.isfinite(prog), prog, job.cut.programmed_rpm)
+    labels = [_label(wp, int(i)) for i in ci]
+    outcome = optimize_schedule(
+        grouped.table,
+        geom,
+        cons,
+        programmed_rpm=prog if np.any(np.isfinite(prog)) else None,
+        labels=labels,
+        refine=refine,
+    )
+    timings["optimize"] = time.perf_counter() - t
+    t = time.perf_counter()
+    table = _result_table(wp, q, wm, modes, grouped, outcome, ci, plunge, feed_angle, job, cons, seg)
+    summary = _summary(
+        job, path_name, robot, source, note, rot_note, rotation, wp, table, grouped, outcome, ci, modes, cons, geom
+    )
+    timings["table"] = time.perf_counter() - t
+    summary["timings_s"] = {k: round(v, 4) for k, v in timings.items()}
+    return PlanResult(
+        job=job,
+        path=path_name,
+        robot=robot,
+        waypoints=wp,
+        table=table,
+        outcome=outcome,
+        lobes=grouped,
+        cut_index=ci.astype(np.int64),
+        q=q,
+        modes=modes,
+        geom=geom,
+        summary=summary,
+        timings=timings,
+    )
+
+
+def _stiffest_rotation(
+    job: Job,
+    wp: pd.DataFrame,
+    robot: Robot,
+    source: ModeSource,
+    cut: NDArray[np.bool_],
+    material: Material,
+    tool: ModalModel | None,
+    rpm: FloatArray,
+    cons: Constraints,
+) -> tuple[float, str]:
+    """Rotation about the tool axis with the largest worst-case stable depth.
+
+    Each candidate is judged on a subsample of the cutting waypoints (at most
+    200) by ``min over waypoints of max over allowed speeds of a_lim``; an
+    unreachable or singular candidate is skipped.
+    """
+    lo, hi = job.tool_rotation_range_rad
+    step = job.tool_rotation_step_rad
+    cands = np.arange(lo, hi + 1e-9, step) if hi > lo else np.array([lo])
+    ci = np.flatnonzero(cut)
+    sub = np.unique(np.r_[ci[:: max(1, ci.size // 200)], ci[-1]])
+    keep = np.zeros(len(wp), bool)
+    keep[sub] = True
+    # keep the path continuous for IK: all waypoints, cut mask reduced to the subsample
+    allowed = (rpm >= cons.rpm_min) & (rpm <= cons.rpm_hi)
+    best, best_val, tried = None, -np.inf, []
+    for r in cands:
+        try:
+            *_, grouped, _, _ = _lobes_for_rotation(
+                job, wp, robot, source, float(r), keep, material, tool, rpm
+            )
+        except (ReachabilityError, SingularityError) as exc:
+            tried.append(f"{math.degrees(r):.0f} deg: {type(exc).__name__}")
+            continue
+        a = grouped.table.a_lim[grouped.table.group][:, allowed]
+        val = float(np.min(np.max(a, axis=1)))
+        tried.append(f"{math.degrees(r):.0f} deg: {val * 1e3:.3g} mm")
+        if val > best_val:
+            best, best_val = float(r), val
+    if best is None:
+        raise ReachabilityError(
+            "no tool rotation in the allowed range reaches the whole path: " + "; ".join(tried)
+        )
+    return best, "; ".join(tried)
+
+
+# ------------------------------------------------------------------ outputs
+def _result_table(
+    wp: pd.DataFrame,
+    q: FloatArray,
+    wm: FloatArray,
+    modes: RobotModes,
+    grouped: GroupedLobes,
+    outcome: PlanOutcome,
+    ci: NDArray[np.int64],
+    plunge: NDArray[np.bool_],
+    feed_angle: FloatArray,
+    job: Job,
+    cons: Constraints,
+    seg: FloatArray,
+) -> pd.DataFrame:
+    n = len(wp)
+    best = outcome.best
+    cols: dict[str, Any] = {
+        "source": wp["source"].to_numpy(),
+        "line": wp["line"].to_numpy(),
+        "motion": wp["motion"].to_numpy(),
+        "x_mm": wp["x_m"].to_numpy() * 1e3,
+        "y_mm": wp["y_m"].to_numpy() * 1e3,
+        "z_mm": wp["z_m"].to_numpy() * 1e3,
+    }
+    qd = np.degrees(q)
+    for j in range(6):
+        cols[f"q{j + 1}_deg"] = qd[:, j]
+    cols["wrist_sin"] = wm
+    fa = np.full(n, np.nan)
+    fa[ci] = np.where(plunge, np.nan, feed_angle)
+    cols["feed_angle_deg"] = fa
+    m = modes.f_hz.shape[-1]
+    for d, dn in enumerate("xyz"):
+        for r in range(m):
+            for name, arr in (("f", modes.f_hz), ("zeta", modes.zeta), ("k", modes.k_N_per_m)):
+                v = np.full(n, np.nan)
+                v[ci] = arr[:, d, r]
+                unit = {"f": "_hz", "zeta": "", "k": "_N_per_m"}[name]
+                cols[f"{name}{r + 1}_{dn}{unit}"] = v
+    ex = np.full(n, np.nan)
+    if modes.extrapolation is not None:
+        ex[ci] = modes.extrapolation
+    cols["extrapolation"] = ex
+    grp = np.full(n, -1, np.int64)
+    g = grouped.table.group
+    grp[ci] = np.where(plunge, -1, g)
+    cols["dynamics_group"] = grp
+    a_grid = grouped.table.a_lim[g]
+    allowed = (grouped.table.rpm >= cons.rpm_min) & (grouped.table.rpm <= cons.rpm_hi)
+    amin = np.full(n, np.nan)
+    amin[ci] = np.where(np.isfinite(a_grid[:, allowed].min(axis=1)), a_grid[:, allowed].min(axis=1), np.nan) * 1e3
+    cols["a_min_mm"] = amin
+    rb = np.full(n, np.nan)
+    jbest = np.argmax(np.where(allowed, a_grid, -np.inf), axis=1)
+    rb[ci] = np.where(plunge, np.nan, grouped.table.rpm[jbest])
+    cols["rpm_best"] = rb
+    alim = np.full(n, np.nan)
+    alim[ci] = np.where(np.isfinite(best.a_lim_m), best.a_lim_m * 1e3, np.nan)
+    cols["a_lim_mm"] = alim
+    # speed along the whole path: the schedule at each waypoint's cutting length
+    s_all = np.cumsum(np.where(wp["motion"].to_numpy() == "cut", seg, 0.0))
+    if best.knots_rpm.size >= 2:
+        rpm_all = np.interp(s_all, best.knots_s_m, best.knots_rpm)
+    else:
+        rpm_all = np.full(n, float(best.rpm[0]))
+    rpm_all[ci] = best.rpm
+    cols["rpm"] = rpm_all
+    cols["depth_mm"] = np.where(wp["motion"].to_numpy() == "cut", best.depth_m * 1e3, np.nan)
+    mg = np.full(n, np.nan)
+    mg[ci] = np.where(np.isfinite(best.margin), best.margin, np.nan)
+    cols["margin"] = mg
+    lim = np.full(n, "", dtype=object)
+    lim[ci] = np.where(plunge, "plunge", outcome.limiting)
+    lim[wp["motion"].to_numpy() == "rapid"] = "rapid"
+    cols["limiting"] = lim
+    pw = np.full(n, np.nan)
+    pw[ci] = outcome.power_W * 1e-3
+    cols["power_kW"] = pw
+    cols["feed_mm_per_min"] = np.where(
+        wp["motion"].to_numpy() == "cut", cons.feed_per_rev_m * rpm_all * 1e3, np.nan
+    )
+    cols["rpm_programmed"] = wp["rpm_programmed"].to_numpy()
+    return pd.DataFrame(cols)
+
+
+def _sched_dict(s: Any) -> dict[str, Any] | None:
+    if s is None:
+        return None
+    return {
+        "method": s.method,
+        "feasible": bool(s.feasible),
+        "reason": s.reason,
+        "depth_mm": round(s.depth_m * 1e3, 4),
+        "rpm_min": round(float(np.min(s.rpm)), 1),
+        "rpm_max": round(float(np.max(s.rpm)), 1),
+        "rpm_mean": round(float(np.mean(s.rpm)), 1),
+        "mrr_cm3_per_min": round(s.volume_rate_cm3_per_min, 3),
+        "cut_time_s": round(s.cut_time_s, 3),
+        "cycle_time_s": round(s.cycle_time_s, 3),
+    }
+
+
+def _gain(best: Any, base: Any) -> dict[str, Any] | None:
+    if base is None:
+        return None
+    d = _sched_dict(base)
+    assert d is not None
+    if base.feasible and base.mrr_m3_per_s > 0:
+        d["mrr_gain_pct"] = round(100.0 * (best.mrr_m3_per_s / base.mrr_m3_per_s - 1.0), 2)
+        # same volume: the depth ratio sets how many passes a given stock needs
+        d["cycle_time_saving_pct"] = round(
+            100.0 * (1.0 - (best.cycle_time_s / best.depth_m) / (base.cycle_time_s / base.depth_m)), 2
+        )
+    else:
+        d["mrr_gain_pct"] = None
+        d["cycle_time_saving_pct"] = None
+    return d
+
+
+def _summary(
+    job: Job,
+    path_name: str,
+    robot: Robot,
+    source: ModeSource,
+    note: str,
+    rot_note: str,
+    rotation: float,
+    wp: pd.DataFrame,
+    table: pd.DataFrame,
+    grouped: GroupedLobes,
+    outcome: PlanOutcome,
+    ci: NDArray[np.int64],
+    modes: RobotModes,
+    cons: Constraints,
+    geom: PathGeometry,
+) -> dict[str, Any]:
+    import robolobe
+
+    best = outcome.best
+    mg = best.margin
+    k = int(np.argmin(np.where(np.isfinite(mg), mg, np.inf)))
+    i = int(ci[k])
+    lim_counts = table.loc[table["motion"] == "cut", "limiting"].value_counts().to_dict()
+    ex = modes.extrapolation
+    notes = [s for s in (note, grouped.message) if s]
+    if ex is not None and np.any(ex > 0.1):
+        notes.append(
+            f"{int(np.sum(ex > 0.1))} of {ex.size} cutting postures lie beyond the model's training "
+            f"range (up to {100 * float(ex.max()):.0f} % of a joint range): predictions there are "
+            "extrapolations"
+        )
+    if job.plan.robust and modes.log_std is None:
+        notes.append("robust mode: the mode source has no spread; planned on the nominal modes")
+    return {
+        "robolobe_version": robolobe.__version__,
+        "job": job.name,
+        "job_file": job.source,
+        "path": path_name,
+        "robot": robot.name,
+        "robot_spec": job.robot,
+        "mode_source": source.name,
+        "tool_rotation_deg": round(math.degrees(rotation), 3),
+        "tool_rotation_search": rot_note or None,
+        "material": material_from_job(job).name,
+        "n_waypoints": len(wp),
+        "n_cut": int(ci.size),
+        "n_plunge": int(np.sum(table["limiting"] == "plunge")),
+        "n_dynamics_groups": grouped.n_groups,
+        "speed_mode": job.plan.speed,
+        "robust": job.plan.robust,
+        "k_sigma": job.plan.k_sigma if job.plan.robust else None,
+        "safety_factor": cons.safety_factor,
+        "method": best.method,
+        "nlp_status": outcome.nlp_status,
+        "depth_mm": round(best.depth_m * 1e3, 4),
+        "rpm_min": round(float(best.rpm.min()), 1),
+        "rpm_max": round(float(best.rpm.max()), 1),
+        "mrr_cm3_per_min": round(best.volume_rate_cm3_per_min, 3),
+        "cycle_time_s": round(best.cycle_time_s, 3),
+        "cut_time_s": round(best.cut_time_s, 3),
+        "rapid_time_s": round(geom.rapid_time_s, 3),
+        "cut_length_m": round(geom.length_m, 4),
+        "min_margin": round(float(mg[k]), 4),
+        "min_margin_at": {
+            "waypoint": i,
+            "source": f"{table['source'].iloc[i]}:{int(table['line'].iloc[i])}",
+            "x_mm": round(float(table["x_mm"].iloc[i]), 3),
+            "y_mm": round(float(table["y_mm"].iloc[i]), 3),
+            "z_mm": round(float(table["z_mm"].iloc[i]), 3),
+            "rpm": round(float(best.rpm[k]), 1),
+        },
+        "max_power_kW": round(float(np.max(outcome.power_W)) * 1e-3, 4),
+        "torque_Nm": round(cons.torque_Nm_at(best.depth_m), 4),
+        "limiting_counts": {str(a): int(b) for a, b in lim_counts.items()},
+        "vs_best_constant_speed": _gain(best, outcome.constant),
+        "vs_programmed_speed": _gain(best, outcome.programmed),
+        "candidates": {
+            "search": _sched_dict(outcome.search),
+            "nlp": _sched_dict(outcome.nlp),
+            "constant": _sched_dict(outcome.constant),
+        },
+        "notes": notes,
+    }
+

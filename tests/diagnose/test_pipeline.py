@@ -1,0 +1,83 @@
+"""End to end on small concealed campaigns (robot B), JSON schema and report."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from robolobe.diagnose import DiagnoseSettings, diagnose, to_report, write_report
+from robolobe.diagnose.concealed import Case, make_concealed_campaign
+from robolobe.robots import load_robot
+from robolobe.twin.effects import AddedMass, FrictionDamping
+
+FAMS = ("added_mass", "joint_stiffness", "sensor_delay", "tool_mode")
+
+
+@pytest.fixture(scope="module")
+def mass_diagnosis():  # type: ignore[no-untyped-def]
+    camp, _ = make_concealed_campaign(Case("B", AddedMass(mass_kg=5.0), "medium", 8, seed=3))
+    return diagnose(camp, robot=load_robot("B"), settings=DiagnoseSettings(families=FAMS))
+
+
+def test_names_added_mass_and_improves_the_fit(mass_diagnosis) -> None:  # type: ignore[no-untyped-def]
+    d = mass_diagnosis
+    assert d.verdict == "added_mass"
+    assert d.winner.params[0] == pytest.approx(5.0, rel=0.05)  # the concealed 5 kg
+    assert d.fit_after.frac_mean > d.fit_before.frac_mean
+    assert d.fit_after.frac_mean >= 0.98
+    assert d.fit_after.nrmse_mean < d.fit_before.nrmse_mean
+    assert "kg at the tool" in d.summary
+    assert "->" in d.summary
+    assert [e.name for e in d.effects] == ["added_mass"]
+    # friction cannot be tested on one force level, and the diagnosis says so
+    assert not any(u.name == "friction_damping" for u in d.untestable)  # not requested
+    assert d.window_decay_per_s == pytest.approx(-np.log(0.05) / 4.0)
+
+
+def test_json_schema_holds_the_required_keys(mass_diagnosis) -> None:  # type: ignore[no-untyped-def]
+    rep = json.loads(to_report(mass_diagnosis).model_dump_json())
+    for key in ("verdict", "candidates", "fit_before", "fit_after", "summary", "untestable"):
+        assert key in rep
+    assert rep["verdict"] == "added_mass"
+    ranks = [c["rank"] for c in rep["candidates"]]
+    assert ranks == sorted(ranks)
+    named = [c for c in rep["candidates"] if c["named"]]
+    assert len(named) == 1 and named[0]["name"] == "added_mass"
+    for k in ("frac_mean", "frac_min", "nrmse_mean"):
+        assert 0 <= rep["fit_after"][k] <= 1.5
+    assert rep["parameters"][0]["name"] == "mass_kg"
+    assert rep["parameters"][0]["std"] > 0
+
+
+def test_report_folder(mass_diagnosis, tmp_path: Path) -> None:  # type: ignore[no-untyped-def]
+    out = write_report(mass_diagnosis, tmp_path / "rep")
+    for name in ("index.html", "mismatch_map.png", "frf_overlays.png", "ranking.png", "modes.png"):
+        assert (out / name).stat().st_size > 1000
+    html = (out / "index.html").read_text(encoding="utf-8")
+    assert "added_mass" in html and "mismatch_map.png" in html
+
+
+def test_null_campaign_gives_none() -> None:
+    camp, _ = make_concealed_campaign(Case("B", None, "null", 8, seed=11))
+    d = diagnose(camp, robot=load_robot("B"), settings=DiagnoseSettings(families=FAMS))
+    assert d.verdict == "none"
+    assert d.effects == ()
+    assert "within the noise" in d.summary
+    np.testing.assert_allclose(d.fit_after.frac, d.fit_before.frac)
+
+
+def test_friction_needs_force_levels() -> None:
+    case = Case("B", FrictionDamping(torque_Nm=60.0), "medium", 6, seed=5, force_levels_N=(300.0,))
+    camp, force = make_concealed_campaign(case)
+    assert force is None
+    d = diagnose(
+        camp,
+        robot=load_robot("B"),
+        settings=DiagnoseSettings(families=("friction_damping", "added_mass")),
+    )
+    why = {u.name: u.reason for u in d.untestable}
+    assert "force levels" in why["friction_damping"]
+    assert "friction_damping" in d.summary  # "Not tested: ..."

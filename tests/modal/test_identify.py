@@ -1,0 +1,100 @@
+"""Campaign-level identification: numbering, table, fit quality, validation against truth."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from robolobe.errors import InputError
+from robolobe.modal.identify import identify_frfs, settings_from_test
+from robolobe.modal.modal_csv import MODAL_COLUMNS
+from robolobe.modal.validation import compare_with_truth, true_visibility
+
+from ._systems import ModalSystem, add_noise
+
+
+def _campaign(n: int, seed: int = 0):  # type: ignore[no-untyped-def]
+    """Postures along q2: five modes drift by up to 15 %; shapes rotate with q6."""
+    rng = np.random.default_rng(seed)
+    q = np.zeros((n, 6))
+    q[:, 1] = np.linspace(-0.5, 0.5, n)
+    q[:, 5] = np.linspace(0, 0.8, n)
+    f = np.arange(0.25, 50.01, 0.25)
+    systems, Hs = [], []
+    base_u = rng.normal(size=(5, 3)) / 25.0
+    for i in range(n):
+        fn = np.array([6.0, 9.5, 15.0, 22.0, 31.0]) * (1 + 0.15 * np.sin(q[i, 1] + np.arange(5)))
+        c, s = np.cos(q[i, 5]), np.sin(q[i, 5])
+        Rz = np.array([[c, -s, 0], [s, c, 0], [0, 0, 1]])
+        sysm = ModalSystem(fn, np.array([0.01, 0.02, 0.015, 0.03, 0.02]), base_u @ Rz.T)
+        systems.append(sysm)
+        Hs.append(add_noise(sysm.H(f), 0.005, rng, proportional=True))
+    return q, f, Hs, systems
+
+
+def test_campaign_table_numbering_and_accuracy() -> None:
+    n = 8
+    q, f, Hs, systems = _campaign(n)
+    ids = [f"p{i}" for i in range(n)]
+    cm = identify_frfs(ids, q, [f] * n, Hs)
+    tab = cm.table
+    assert list(tab.columns[: len(MODAL_COLUMNS)]) == list(MODAL_COLUMNS)
+    assert set(tab["dir"]) == {"xx", "yy", "zz"}
+    # rank numbering: modes rise with frequency at every posture and direction
+    for _, g in tab.groupby(["posture_id", "dir"]):
+        assert np.all(np.diff(g["f_hz"].to_numpy()) > 0)
+        assert np.all(np.diff(g["mode"].to_numpy()) > 0)
+    np.testing.assert_allclose(
+        np.degrees(q[3]),
+        tab[tab.posture_id == "p3"].iloc[0][[f"q{i}_deg" for i in range(1, 7)]].to_numpy(float),
+    )
+    F = np.array([s.f_hz for s in systems])
+    Z = np.array([s.zeta for s in systems])
+    K = np.array([s.k for s in systems])
+    vis = true_visibility(
+        np.array([s.poles for s in systems]),
+        np.array([s.residues for s in systems]),
+        f,
+        band_hz=(4, 40),
+    )
+    rep = compare_with_truth(tab, ids, F, Z, K, vis)
+    assert len(rep.spurious) == 0
+    assert len(rep.missed) <= 0.05 * rep.n_visible
+    p90 = rep.percentile(90)
+    assert p90["f"] < 0.005
+    assert p90["zeta"] < 0.1
+    assert p90["k"] < 0.1
+    assert cm.fit["frac"].min() > 0.95
+    assert cm.fit["nrmse"].max() < 0.15
+    # "track" numbering gives the same rows, numbered by track
+    cm2 = identify_frfs(ids, q, [f] * n, Hs, numbering="track")
+    assert len(cm2.table) >= 0.9 * len(tab)
+    with pytest.raises(InputError, match="rank"):
+        identify_frfs(ids, q, [f] * n, Hs, numbering="nope")
+
+
+def test_parallel_equals_serial() -> None:
+    n = 8
+    q, f, Hs, _ = _campaign(n, seed=3)
+    ids = [f"p{i}" for i in range(n)]
+    a = identify_frfs(ids, q, [f] * n, Hs, n_jobs=1).table
+    b = identify_frfs(ids, q, [f] * n, Hs, n_jobs=2).table
+    np.testing.assert_array_equal(a["f_hz"].to_numpy(), b["f_hz"].to_numpy())
+    np.testing.assert_array_equal(a["k_N_per_m"].to_numpy(), b["k_N_per_m"].to_numpy())
+
+
+def test_settings_from_test_and_errors() -> None:
+    s = settings_from_test({"duration_s": 4.0, "window_end": 0.05}, fmax_hz=30.0)
+    assert s.window_decay_per_s == pytest.approx(-np.log(0.05) / 4.0)
+    assert s.record_length_s == 4.0
+    assert s.fmax_hz == 30.0
+    assert settings_from_test({}).window_decay_per_s == 0.0
+    with pytest.raises(InputError, match="window_end"):
+        settings_from_test({"duration_s": 4.0, "window_end": 2.0})
+    with pytest.raises(InputError, match="duration_s"):
+        settings_from_test({"window_end": 0.05})
+    with pytest.raises(InputError, match="postures"):
+        identify_frfs(["a"], np.zeros((2, 6)), [np.arange(3.0)], [np.zeros((3, 3, 3))])
+    f = np.arange(0.25, 40.01, 0.25)
+    with pytest.raises(InputError, match="no modes"):
+        identify_frfs(["a"], np.zeros((1, 6)), [f], [np.zeros((f.size, 3, 3), complex)])
