@@ -16,7 +16,8 @@ Run (about 30 s per case on one core)::
 
 Options: ``--robots A,B,C,examples/robots/my_robot.toml``, ``--families``,
 ``--magnitudes small,medium,large``, ``--seeds 0``, ``--nulls 2``,
-``--postures 30``, ``--jobs 2`` (cases in parallel processes).
+``--postures 30``, ``--noise 1`` (test noise x the default), ``--jobs 2`` (cases in
+parallel processes).
 """
 
 from __future__ import annotations
@@ -46,8 +47,15 @@ def _plot(tables: dict[str, pd.DataFrame], out: Path) -> None:
     for i in range(len(labels)):
         for j in range(len(labels)):
             if m[i, j]:
-                ax.text(j, i, str(m[i, j]), ha="center", va="center", fontsize=8,
-                        color="white" if m[i, j] > m.max() / 2 else "black")
+                ax.text(
+                    j,
+                    i,
+                    str(m[i, j]),
+                    ha="center",
+                    va="center",
+                    fontsize=8,
+                    color="white" if m[i, j] > m.max() / 2 else "black",
+                )
     ax.set_xlabel("diagnosis")
     ax.set_ylabel("concealed effect")
     ax.set_title("Concealed-effect study: confusion matrix")
@@ -90,6 +98,7 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--seeds", default="0")
     p.add_argument("--nulls", type=int, default=2, help="null campaigns per robot and seed")
     p.add_argument("--postures", type=int, default=30)
+    p.add_argument("--noise", type=float, default=1.0, help="test noise x the default")
     p.add_argument("--jobs", type=int, default=1)
     p.add_argument("--out", type=Path, default=Path("studies/out/diagnose"))
     a = p.parse_args(argv)
@@ -105,6 +114,7 @@ def main(argv: list[str] | None = None) -> int:
         magnitudes=[m.strip() for m in a.magnitudes.split(",")],
         n_null=a.nulls,
         families=None if a.families is None else [f.strip() for f in a.families.split(",")],
+        noise=a.noise,
     )
     print(f"{len(cases)} cases on robots {', '.join(robots)}", flush=True)
     t0 = time.perf_counter()

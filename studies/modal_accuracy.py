@@ -151,6 +151,11 @@ def main(argv: list[str] | None = None) -> None:
     ap.add_argument("--jobs", type=int, default=2)
     ap.add_argument("--seed", type=int, default=2026)
     ap.add_argument("--peer", type=int, default=0, help="postures of B for the sdypy check")
+    ap.add_argument(
+        "--no-coherence",
+        action="store_true",
+        help="identify without the coherence (as robolobe identify on a frf.csv campaign)",
+    )
     args = ap.parse_args(argv)
 
     from robolobe.modal.validation import accuracy_study
@@ -172,6 +177,7 @@ def main(argv: list[str] | None = None) -> None:
                 rng=np.random.default_rng(args.seed),
                 noise=noise,
                 n_jobs=args.jobs,
+                use_coherence=not args.no_coherence,
             )
             print(_row(robot, noise, res), f"(total {time.perf_counter() - t0:.0f} s)", flush=True)
             if len(res.report.missed):

@@ -52,12 +52,20 @@ def campaign(key: str, seed: int) -> dict[str, object]:
     y_true = np.where(seen[..., None], y_true, np.nan)
     roles_a = np.asarray(roles)
     test = roles_a == "test"
-    freq, h = (None, None)
+    freq, h, decay = (None, None, 0.0)
     if test.any():
-        freq, h = measured_frfs(
+        freq, h, decay = measured_frfs(
             twin, [ids[i] for i in np.flatnonzero(test)], q[test], robot=key, rng=rng
         )
-    return {"ds": ds, "roles": roles_a, "y_true": y_true, "freq": freq, "h": h, "twin": twin}
+    return {
+        "ds": ds,
+        "roles": roles_a,
+        "y_true": y_true,
+        "freq": freq,
+        "h": h,
+        "twin": twin,
+        "decay": decay,
+    }
 
 
 def evaluate(model, camp, test) -> dict[str, object]:
@@ -71,6 +79,7 @@ def evaluate(model, camp, test) -> dict[str, object]:
         interval=pred.interval(0.9) if np.any(pred.std > 0) else None,
         freq_hz=camp["freq"],
         h_measured=camp["h"],
+        window_decay_per_s=camp["decay"],
     )
     return {
         "median_err_pct": dict(zip(PARAMS, ev.median_errors().round(3).tolist(), strict=True)),
@@ -107,10 +116,14 @@ def main() -> None:
             t_a = time.perf_counter() - t0
             val = np.asarray(src.validation_["index"])
             rA = evaluate(src, camps["A"], val)
-            results.append({"seed": seed, "preset": preset, "robot": "A", "case": "80:20",
-                            "time_s": t_a, **rA})
-            print(f"seed {seed} {preset:9s} A  80:20 {rA['median_err_pct']} "
-                  f"cov {rA['coverage90']} ({t_a:.0f} s)", flush=True)
+            results.append(
+                {"seed": seed, "preset": preset, "robot": "A", "case": "80:20", "time_s": t_a, **rA}
+            )
+            print(
+                f"seed {seed} {preset:9s} A  80:20 {rA['median_err_pct']} "
+                f"cov {rA['coverage90']} ({t_a:.0f} s)",
+                flush=True,
+            )
             cases = {
                 "B": {"20": ["train"]},
                 "C": {"20 one-sided": ["train"], "24": ["train", "added"]},
@@ -126,37 +139,63 @@ def main() -> None:
                     ).fit_dataset(camp["ds"].subset(train))
                     dt = time.perf_counter() - t0
                     r = evaluate(tgt, camp, test)
-                    results.append({"seed": seed, "preset": preset, "robot": key, "case": case,
-                                    "time_s": dt, **r})
-                    print(f"seed {seed} {preset:9s} {key} {case:13s} {r['median_err_pct']} "
-                          f"FRAC min {r['frac_min']:.3f} NRMSE max {r['nrmse_max']:.3f} "
-                          f"cov {r['coverage90']} ({dt:.1f} s)", flush=True)
+                    results.append(
+                        {
+                            "seed": seed,
+                            "preset": preset,
+                            "robot": key,
+                            "case": case,
+                            "time_s": dt,
+                            **r,
+                        }
+                    )
+                    print(
+                        f"seed {seed} {preset:9s} {key} {case:13s} {r['median_err_pct']} "
+                        f"FRAC min {r['frac_min']:.3f} NRMSE max {r['nrmse_max']:.3f} "
+                        f"cov {r['coverage90']} ({dt:.1f} s)",
+                        flush=True,
+                    )
                     if args.baselines and case in ("20", "24"):
                         for name, model in make_baselines(src, params, seed).items():
                             model.fit_dataset(camp["ds"].subset(train))
                             rb = evaluate(model, camp, test)
-                            results.append({"seed": seed, "preset": preset, "robot": key,
-                                            "case": f"{case} baseline:{name}", **rb})
-                            print(f"   baseline {name:14s} {rb['median_err_pct']} FRAC min "
-                                  f"{rb['frac_min']:.3f} NRMSE max {rb['nrmse_max']:.3f}",
-                                  flush=True)
+                            results.append(
+                                {
+                                    "seed": seed,
+                                    "preset": preset,
+                                    "robot": key,
+                                    "case": f"{case} baseline:{name}",
+                                    **rb,
+                                }
+                            )
+                            print(
+                                f"   baseline {name:14s} {rb['median_err_pct']} FRAC min "
+                                f"{rb['frac_min']:.3f} NRMSE max {rb['nrmse_max']:.3f}",
+                                flush=True,
+                            )
                 if key == "C":
                     qd = design_postures(
-                        load_robot("C"), 20, rng=np.random.default_rng(seed),
+                        load_robot("C"),
+                        20,
+                        rng=np.random.default_rng(seed),
                         ranges_deg=TESTED_RANGES_DEG["C"],
                     ).q_rad
                     ids = [f"D{i + 1:02d}" for i in range(len(qd))]
-                    dsd = twin_modal_dataset(camp["twin"], ids, qd,
-                                             rng=np.random.default_rng(2000 + seed))
+                    dsd = twin_modal_dataset(
+                        camp["twin"], ids, qd, rng=np.random.default_rng(2000 + seed)
+                    )
                     tgt = ModalPredictor(
                         **params, source=src, calibration="cv", robot=key, random_state=seed
                     ).fit_dataset(dsd)
                     r = evaluate(tgt, camp, test)
-                    results.append({"seed": seed, "preset": preset, "robot": key,
-                                    "case": "20 designed", **r})
-                    print(f"seed {seed} {preset:9s} C 20 designed  {r['median_err_pct']} "
-                          f"FRAC min {r['frac_min']:.3f} NRMSE max {r['nrmse_max']:.3f}",
-                          flush=True)
+                    results.append(
+                        {"seed": seed, "preset": preset, "robot": key, "case": "20 designed", **r}
+                    )
+                    print(
+                        f"seed {seed} {preset:9s} C 20 designed  {r['median_err_pct']} "
+                        f"FRAC min {r['frac_min']:.3f} NRMSE max {r['nrmse_max']:.3f}",
+                        flush=True,
+                    )
     Path(args.out).write_text(json.dumps(results, indent=1))
 
 

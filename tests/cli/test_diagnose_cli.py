@@ -66,7 +66,8 @@ def test_missing_robot_file_is_a_clear_error(mass_campaign: Path, tmp_path: Path
     r = _run(str(bad), "--json", str(tmp_path / "d.json"))
     assert r.returncode == 2
     assert "Traceback" not in r.stderr
-    assert "campaign.toml" in r.stderr and "my_robot.toml" in r.stderr
+    assert "campaign.toml" in r.stderr
+    assert "my_robot.toml" in r.stderr
     assert not (tmp_path / "d.json").exists()
 
 
@@ -88,11 +89,14 @@ def test_posture_outside_limits_is_a_clear_error(mass_campaign: Path, tmp_path: 
 
 def test_missing_folder_and_bad_options(tmp_path: Path, mass_campaign: Path) -> None:
     r = _run(str(tmp_path / "nope"), "--json", str(tmp_path / "d.json"))
-    assert r.returncode == 2 and "Traceback" not in r.stderr
+    assert r.returncode == 2
+    assert "Traceback" not in r.stderr
     r = _run(str(mass_campaign), "--json", str(tmp_path / "d.json"), "--candidates", "magic")
-    assert r.returncode == 2 and "--candidates" in r.stderr
+    assert r.returncode == 2
+    assert "--candidates" in r.stderr
     r = _run(str(mass_campaign), "--json", str(tmp_path / "d.json"), "--band-hz", "40,2")
-    assert r.returncode == 2 and "--band-hz" in r.stderr
+    assert r.returncode == 2
+    assert "--band-hz" in r.stderr
 
 
 def test_directions_missing_for_a_candidate_are_reported(tmp_path: Path) -> None:

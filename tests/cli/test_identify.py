@@ -59,7 +59,11 @@ def test_identify_writes_modal_csv_and_plots(
     df = read_modal_csv(out)
     assert list(df.columns[:12]) == list(MODAL_COLUMNS)
     assert set(df["posture_id"]) == {"P01", "P02", "P03", "P04"}
-    assert df["mode"].max() <= 5
+    # at most 5 modes per posture and direction, numbered by rising frequency
+    assert df.groupby(["posture_id", "dir"]).size().max() <= 5
+    for _, g in df.groupby(["posture_id", "dir"]):
+        assert (g["mode"].diff().dropna() > 0).all()
+        assert (g["f_hz"].diff().dropna() > 0).all()
     rep = pd.read_csv(fit)
     assert len(rep) == 12
     assert rep["frac"].min() > 0.95
@@ -94,7 +98,7 @@ def test_identify_options(
     )
     assert code == 0, err
     df = read_modal_csv(out)
-    assert df["mode"].max() <= 2
+    assert df.groupby(["posture_id", "dir"]).size().max() <= 2
     assert df["f_hz"].max() <= 20
     for args, needle in (
         (["--modes", "0"], "--modes"),
@@ -157,3 +161,22 @@ def test_bad_campaign_one_clear_error_no_output(
         assert n in err
     assert not out.exists()
     assert not list(tmp_path.glob(".modal.csv*"))
+
+
+def test_uff_acceleration_campaign_gives_the_same_modes(
+    campaign_dir: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """The same campaign stored as UFF 58 accelerance (converted on reading) -> same table."""
+    from robolobe.twin.campaign import read_campaign
+
+    uff = write_campaign(
+        tmp_path / "uff", read_campaign(campaign_dir), fmt="uff", uff_quantity="acceleration"
+    )
+    assert len(list((uff / "frf").glob("*.uff"))) == 4
+    a, b = tmp_path / "a.csv", tmp_path / "b.csv"
+    assert _run(["identify", str(campaign_dir), "-o", str(a)], capsys)[0] == 0
+    assert _run(["identify", str(uff), "-o", str(b)], capsys)[0] == 0
+    ta, tb = read_modal_csv(a), read_modal_csv(b)
+    assert len(ta) == len(tb)
+    np.testing.assert_allclose(tb["f_hz"], ta["f_hz"], rtol=1e-6)
+    np.testing.assert_allclose(tb["k_N_per_m"], ta["k_N_per_m"], rtol=1e-4)

@@ -10,7 +10,9 @@ import pytest
 
 from robolobe.diagnose import DiagnoseSettings, diagnose, to_report, write_report
 from robolobe.diagnose.concealed import Case, make_concealed_campaign
+from robolobe.errors import InputError
 from robolobe.robots import load_robot
+from robolobe.twin.campaign import Campaign
 from robolobe.twin.effects import AddedMass, FrictionDamping
 
 FAMS = ("added_mass", "joint_stiffness", "sensor_delay", "tool_mode")
@@ -45,7 +47,8 @@ def test_json_schema_holds_the_required_keys(mass_diagnosis) -> None:  # type: i
     ranks = [c["rank"] for c in rep["candidates"]]
     assert ranks == sorted(ranks)
     named = [c for c in rep["candidates"] if c["named"]]
-    assert len(named) == 1 and named[0]["name"] == "added_mass"
+    assert len(named) == 1
+    assert named[0]["name"] == "added_mass"
     for k in ("frac_mean", "frac_min", "nrmse_mean"):
         assert 0 <= rep["fit_after"][k] <= 1.5
     assert rep["parameters"][0]["name"] == "mass_kg"
@@ -57,7 +60,8 @@ def test_report_folder(mass_diagnosis, tmp_path: Path) -> None:  # type: ignore[
     for name in ("index.html", "mismatch_map.png", "frf_overlays.png", "ranking.png", "modes.png"):
         assert (out / name).stat().st_size > 1000
     html = (out / "index.html").read_text(encoding="utf-8")
-    assert "added_mass" in html and "mismatch_map.png" in html
+    assert "added_mass" in html
+    assert "mismatch_map.png" in html
 
 
 def test_null_campaign_gives_none() -> None:
@@ -81,3 +85,18 @@ def test_friction_needs_force_levels() -> None:
     why = {u.name: u.reason for u in d.untestable}
     assert "force levels" in why["friction_damping"]
     assert "friction_damping" in d.summary  # "Not tested: ..."
+
+
+def test_postures_outside_the_robots_limits_are_rejected() -> None:
+    camp, _ = make_concealed_campaign(Case("B", None, "null", 4, seed=1))
+    q = camp.q_rad.copy()
+    q[2, 0] = np.radians(300.0)
+    bad = Campaign(camp.robot, camp.posture_ids, q, camp.frfs, test=camp.test)
+    with pytest.raises(InputError, match=f"posture '{camp.posture_ids[2]}'.*q1"):
+        diagnose(bad, robot=load_robot("B"))
+
+
+def test_a_single_posture_cannot_be_cross_validated() -> None:
+    camp, _ = make_concealed_campaign(Case("B", None, "null", 1, seed=1))
+    with pytest.raises(InputError, match="at least 2 postures"):
+        diagnose(camp, robot=load_robot("B"))

@@ -38,7 +38,8 @@ def test_names_the_concealed_effect(toy: SimpleNamespace, effects: tuple, name: 
     sel = _select(toy, effects)
     assert sel.name == name
     assert sel.verdict.passed
-    assert sel.verdict.gain is not None and sel.verdict.gain > 1.0
+    assert sel.verdict.gain is not None
+    assert sel.verdict.gain > 1.0
     assert sel.verdict.explained > 0.9
     assert sel.ranking[0] is sel.verdict
     assert [r.rank for r in sel.ranking] == list(range(1, len(sel.ranking) + 1))

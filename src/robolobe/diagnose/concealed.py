@@ -72,6 +72,8 @@ class Case:
         Seed of the design and of the test noise.
     force_levels_N : tuple of float
         Hammer force levels (several for friction campaigns).
+    noise : float
+        Test noise as a multiple of the default (:class:`HammerTestSettings`).
     """
 
     robot: str
@@ -80,6 +82,7 @@ class Case:
     n_postures: int = 30
     seed: int = 0
     force_levels_N: tuple[float, ...] = (300.0,)
+    noise: float = 1.0
 
     @property
     def truth(self) -> str:
@@ -120,6 +123,10 @@ def make_concealed_campaign(
     ids0 = list(design["posture_id"])
     q0 = np.radians(design[[f"q{i}_deg" for i in range(1, 7)]].to_numpy(dtype=float))
     s = settings or HammerTestSettings()
+    s = s.replace(
+        force_noise_n=s.force_noise_n * case.noise,
+        accel_noise_m_per_s2=s.accel_noise_m_per_s2 * case.noise,
+    )
     effects = () if case.effect is None else (case.effect,)
     ids: list[str] = []
     qs: list[np.ndarray] = []
@@ -198,6 +205,13 @@ class CaseResult:
         Diagnosis wall time.
     params : dict
         Fitted parameters of the verdict.
+    gain : float
+        Held-out gain of the best-ranked candidate other than ``none``
+        (noise variances per residual; the margin to the threshold).
+    best_label : str
+        That candidate.
+    mismatch : float
+        Nominal deviance per residual (1: the nominal model is at the noise).
     """
 
     case: Case
@@ -210,6 +224,9 @@ class CaseResult:
     nrmse_after: float
     seconds: float
     params: dict[str, float]
+    gain: float = float("nan")
+    best_label: str = ""
+    mismatch: float = float("nan")
 
     @property
     def correct(self) -> bool:
@@ -226,6 +243,7 @@ def run_case(
     t0 = time.perf_counter()
     d = diagnose(camp, robot=robot, settings=settings, force_N=force)
     w = d.winner
+    best = next((r for r in d.selection.ranking if r.fit.candidate.name != NONE), None)
     res = CaseResult(
         case=case,
         verdict=d.verdict,
@@ -237,6 +255,9 @@ def run_case(
         nrmse_after=d.fit_after.nrmse_mean,
         seconds=time.perf_counter() - t0,
         params={p.name: float(v) for p, v in zip(w.candidate.params, w.params, strict=True)},
+        gain=float(best.gain) if best is not None and best.gain is not None else float("nan"),
+        best_label=best.label if best is not None else "",
+        mismatch=d.selection.baseline.fit.deviance / max(d.selection.baseline.fit.n_resid, 1),
     )
     return res, d
 
@@ -249,6 +270,7 @@ def standard_cases(
     magnitudes: Sequence[str] = ("small", "medium", "large"),
     n_null: int = 2,
     families: Sequence[str] | None = None,
+    noise: float = 1.0,
 ) -> list[Case]:
     """Cases for every robot: each effect at the given magnitudes plus null campaigns.
 
@@ -266,9 +288,12 @@ def standard_cases(
     magnitudes : sequence of str
         Subset of small, medium, large.
     n_null : int
-        Null campaigns per robot and seed.
+        Null campaigns per robot and seed (every second one at three hammer
+        force levels).
     families : sequence of str, optional
         Effect families to include (default all).
+    noise : float
+        Test noise as a multiple of the default.
     """
     deg = np.pi / 180.0
     table: dict[str, dict[str, Callable[[Robot], Effect]]] = {
@@ -344,9 +369,14 @@ def standard_cases(
                 for mag in magnitudes:
                     eff = table[fam][mag](robot)
                     levels = (100.0, 300.0, 900.0) if fam == "friction_damping" else (300.0,)
-                    cases.append(Case(rb, eff, mag, n_postures, seed, levels))
+                    cases.append(Case(rb, eff, mag, n_postures, seed, levels, noise))
             for k in range(n_null):
-                cases.append(Case(rb, None, "null", n_postures, 1000 * (k + 1) + seed))
+                # every second null campaign is a friction test (3 force levels), so that
+                # friction_damping is tested on nulls too
+                levels = (100.0, 300.0, 900.0) if k % 2 == 1 else (300.0,)
+                cases.append(
+                    Case(rb, None, "null", n_postures, 1000 * (k + 1) + seed, levels, noise)
+                )
     return cases
 
 
@@ -414,7 +444,11 @@ def study_tables(results: Sequence[CaseResult]) -> dict[str, pd.DataFrame]:
             "frac_min_after": r.frac_min_after,
             "nrmse_before": r.nrmse_before,
             "nrmse_after": r.nrmse_after,
+            "mismatch": r.mismatch,
+            "best_other": r.best_label,
+            "gain": r.gain,
             "seconds": r.seconds,
+            "params": ";".join(f"{k}={v:.4g}" for k, v in r.params.items()),
         }
         for r in results
     ]

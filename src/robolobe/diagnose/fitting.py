@@ -235,7 +235,8 @@ def fit_candidate(
     n_starts : int
         Grid points refined by the local fit.
     max_nfev : int
-        Model evaluations per local fit (Jacobian columns included).
+        Residual evaluations per local fit (scipy's count; the finite-
+        difference Jacobian columns come on top).
     scan_points : int
         Most grid points scanned.
 

@@ -30,7 +30,6 @@ import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -43,10 +42,11 @@ from robolobe.diagnose.observations import Observations
 from robolobe.diagnose.residuals import FitMetrics, fit_metrics
 from robolobe.diagnose.selection import Selection, SelectionSettings, select
 from robolobe.diagnose.summary import summarize
-from robolobe.diagnose.twin_model import TwinModel
+from robolobe.diagnose.twin_model import TwinModel, twin_modes
 from robolobe.errors import InputError
 from robolobe.modal.quality import QualityIssue
 from robolobe.robots import Robot, load_robot
+from robolobe.robots.limits import check_posture, within_limits
 from robolobe.twin.campaign import Campaign, read_campaign
 from robolobe.twin.effects import Effect
 
@@ -160,34 +160,28 @@ def _mode_table(
     model: TwinModel,
     effects: tuple[Effect, ...],
     obs: Observations,
-    peaks: list[Any],
+    peaks: list[tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]],
     band: tuple[float, float],
 ) -> tuple[ModePair, ...]:
-    try:
-        modes = model.twin(effects).modes(obs.q_rad)
-    except (InputError, np.linalg.LinAlgError) as exc:
-        log.warning("modes not available: %s", exc)
-        return ()
+    """Model modes of each posture paired with the recorded peaks."""
+    f_all, z_all, sh_all = twin_modes(model.twin(effects), obs.q_rad)
     rows: list[ModePair] = []
-    u = modes.tcp_shapes  # (n, 3, nd)
     for k in range(obs.n):
-        f = modes.f_hz[k]
-        z = modes.zeta[k]
-        shp = np.abs(u[k]).T  # (nd, 3)
-        # visible modes: in the band and with a driving-point peak >= 2 % of the largest
+        ok = np.isfinite(f_all[k])
+        f, z, shp = f_all[k, ok], z_all[k, ok], sh_all[k, ok]
+        # visible modes: in the band, with a driving-point peak >= 2 % of the largest
         meas = obs.dir_mask[k].diagonal()
         peak = np.max(np.where(meas, shp**2, 0.0), axis=1) / np.maximum(
             2 * z * (2 * np.pi * f) ** 2, 1e-30
         )
         vis = (f >= band[0]) & (f <= band[1]) & (peak >= 0.02 * peak.max(initial=0.0))
         fm, zm, sm = peaks[k]
-        shp_n = np.where(meas, shp, np.nan)[vis]
         rows.extend(
             pair_modes(
                 obs.record_ids[k],
                 f[vis],
                 z[vis],
-                np.nan_to_num(shp_n),
+                np.where(meas, shp, 0.0)[vis],
                 fm,
                 zm,
                 np.nan_to_num(sm),
@@ -247,6 +241,9 @@ def diagnose(
             raise InputError(
                 f"robot {camp.robot!r}: {exc}", source="campaign.toml[robot]"
             ) from None
+    bad = ~np.asarray(within_limits(robot, camp.q_rad), dtype=bool).reshape(-1)
+    for b in np.flatnonzero(bad):
+        check_posture(robot, camp.q_rad[b], posture_id=camp.posture_ids[b], source="postures.csv")
     obs, decay, issues = campaign_observations(
         camp,
         band_hz=st.band_hz,

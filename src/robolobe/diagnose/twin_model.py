@@ -39,9 +39,50 @@ from robolobe.robots import Robot
 from robolobe.twin.effects import Effect, FrictionDamping
 from robolobe.twin.model import Twin
 
-__all__ = ["TwinModel", "pole_residue_receptance", "windowed_receptance"]
+__all__ = [
+    "TwinModel",
+    "pole_residue_receptance",
+    "state_space_poles",
+    "twin_modes",
+    "windowed_receptance",
+]
 
 ComplexArray = NDArray[np.complex128]
+
+
+def state_space_poles(
+    M: NDArray[np.float64],
+    K: NDArray[np.float64],
+    C: NDArray[np.float64],
+    J: NDArray[np.float64],
+) -> tuple[ComplexArray, ComplexArray, ComplexArray]:
+    """All 2n poles of ``M x'' + C x' + K x = 0`` with their TCP shapes.
+
+    Parameters
+    ----------
+    M, K, C : ndarray, shape (..., n, n)
+    J : ndarray, shape (..., p, n)
+
+    Returns
+    -------
+    lam : ndarray of complex, shape (..., 2n)
+        Poles [rad/s] (complex pairs and, if any, overdamped real poles).
+    u : ndarray of complex, shape (..., p, 2n)
+        ``J phi_r``.
+    a : ndarray of complex, shape (..., 2n)
+        Modal normalisation ``2 lambda_r phi_r^T M phi_r + phi_r^T C phi_r``.
+    """
+    n = M.shape[-1]
+    batch = M.shape[:-2]
+    Minv = np.linalg.inv(M)
+    A = np.zeros((*batch, 2 * n, 2 * n))
+    A[..., :n, n:] = np.eye(n)
+    A[..., n:, :n] = -Minv @ K
+    A[..., n:, n:] = -Minv @ C
+    lam, V = np.linalg.eig(A)  # (..., 2n), (..., 2n, 2n)
+    phi = V[..., :n, :]  # (..., n, 2n)
+    a = 2 * lam * np.sum(phi * (M @ phi), axis=-2) + np.sum(phi * (C @ phi), axis=-2)
+    return lam, J @ phi, a
 
 
 def pole_residue_receptance(
@@ -54,7 +95,7 @@ def pole_residue_receptance(
     """``J (K + s C + s^2 M)^-1 J^T`` by modal superposition over all 2n poles.
 
     State-space eigenproblem of ``M x'' + C x' + K x = 0`` (one small
-    ``eig`` per posture), then
+    ``eig`` per posture, :func:`state_space_poles`), then
 
         H(s) = sum_r (J phi_r)(J phi_r)^T / (a_r (s - lambda_r)),
         a_r = 2 lambda_r phi_r^T M phi_r + phi_r^T C phi_r
@@ -74,22 +115,49 @@ def pole_residue_receptance(
     -------
     ndarray of complex, shape (..., n_freq, p, p)
     """
-    n = M.shape[-1]
-    batch = M.shape[:-2]
-    Minv = np.linalg.inv(M)
-    A = np.zeros((*batch, 2 * n, 2 * n))
-    A[..., :n, n:] = np.eye(n)
-    A[..., n:, :n] = -Minv @ K
-    A[..., n:, n:] = -Minv @ C
-    lam, V = np.linalg.eig(A)  # (..., 2n), (..., 2n, 2n)
-    phi = V[..., :n, :]  # (..., n, 2n)
-    Mphi = M @ phi
-    Cphi = C @ phi
-    a = 2 * lam * np.sum(phi * Mphi, axis=-2) + np.sum(phi * Cphi, axis=-2)  # (..., 2n)
-    u = J @ phi  # (..., p, 2n)
+    lam, u, a = state_space_poles(M, K, C, J)
     g = 1.0 / (a[..., None, :] * (s[:, None] - lam[..., None, :]))  # (..., n_freq, 2n)
     out: ComplexArray = np.einsum("...fr,...ir,...jr->...fij", g, u, u, optimize=True)
     return out
+
+
+def twin_modes(
+    twin: Twin, q_rad: NDArray[np.float64]
+) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+    """Underdamped modes of ``twin`` at postures ``q`` (overdamped poles left out).
+
+    Parameters
+    ----------
+    twin : Twin
+    q_rad : ndarray, shape (n, 6)
+
+    Returns
+    -------
+    f_hz : ndarray, shape (n, m)
+        Natural frequencies ``|lambda| / 2 pi`` [Hz], rising; NaN-padded
+        where a posture has fewer underdamped modes.
+    zeta : ndarray, shape (n, m)
+        Damping ratios ``-Re(lambda) / |lambda|``.
+    shape : ndarray, shape (n, m, 3)
+        Magnitude of the TCP shape ``|J phi|`` (scaled to unit norm).
+    """
+    sm = twin.system(q_rad)
+    lam, u, _ = state_space_poles(sm.M, sm.K, sm.C, sm.J)
+    keep = lam.imag > 1e-9 * np.abs(lam)
+    m = int(keep.sum(axis=-1).max(initial=0))
+    n = lam.shape[0]
+    f = np.full((n, m), np.nan)
+    z = np.full((n, m), np.nan)
+    sh = np.full((n, m, 3), np.nan)
+    for k in range(n):
+        idx = np.flatnonzero(keep[k])
+        idx = idx[np.argsort(np.abs(lam[k, idx]))]
+        w = np.abs(lam[k, idx])
+        f[k, : idx.size] = w / (2 * np.pi)
+        z[k, : idx.size] = -lam[k, idx].real / w
+        v = np.abs(u[k][:, idx]).T
+        sh[k, : idx.size] = v / np.maximum(np.linalg.norm(v, axis=1, keepdims=True), 1e-300)
+    return f, z, sh
 
 
 def windowed_receptance(

@@ -1,1 +1,44 @@
-"""robolobe.modal (see DESIGN.md)."""
+"""robolobe.modal: modal identification from hammer-test campaigns (DESIGN.md).
+
+From a campaign (FORMATS.md section 2) to a modal dataset (section 3), what a
+modal test engineer does with PolyMAX, done automatically and checked:
+
+- :mod:`~robolobe.modal.quality`: FRF checks per posture and direction;
+- :mod:`~robolobe.modal.plscf`: poly-reference least-squares complex frequency poles;
+- :mod:`~robolobe.modal.stabilization`, :mod:`~robolobe.modal.selection`:
+  stabilization diagram and automatic selection by clustering;
+- :mod:`~robolobe.modal.refine`, :mod:`~robolobe.modal.lsfd`: pole refinement,
+  residues with residual terms, modal stiffness;
+- :mod:`~robolobe.modal.posture`: one posture end to end (window and
+  truncation corrections);
+- :mod:`~robolobe.modal.tracking`, :mod:`~robolobe.modal.identify`: tracking
+  across postures, neighbour recovery, the modal table;
+- :mod:`~robolobe.modal.synthesis`, :mod:`~robolobe.modal.metrics`: FRF
+  synthesis, FRAC, NRMSE, MAC;
+- :mod:`~robolobe.modal.modal_csv`: reading and writing ``modal.csv``;
+- :mod:`~robolobe.modal.validation`: accuracy against known modes;
+- :mod:`~robolobe.modal.plots`: stabilization diagrams and FRF overlays.
+"""
+
+from robolobe.modal.identify import CampaignModal, identify_campaign, identify_frfs
+from robolobe.modal.metrics import frac, mac, mac_matrix, nrmse
+from robolobe.modal.modal_csv import MODAL_COLUMNS, read_modal_csv, write_modal_csv
+from robolobe.modal.posture import IdentifySettings, PostureModal, identify_posture
+from robolobe.modal.synthesis import synthesize_frf
+
+__all__ = [
+    "MODAL_COLUMNS",
+    "CampaignModal",
+    "IdentifySettings",
+    "PostureModal",
+    "frac",
+    "identify_campaign",
+    "identify_frfs",
+    "identify_posture",
+    "mac",
+    "mac_matrix",
+    "nrmse",
+    "read_modal_csv",
+    "synthesize_frf",
+    "write_modal_csv",
+]

@@ -351,7 +351,9 @@ def identify_frfs(
         driving point are numbered 1, 2, ... by rising frequency (FORMATS.md
         section 3; a mode hidden at one driving point does not shift the
         numbers of the others, since it is still seen at another; tracking
-        and neighbour recovery find modes hidden at all of them). ``"track"``:
+        and neighbour recovery find modes hidden at all of them); each
+        direction gets its first ``n_modes`` visible modes, so with more
+        modes in the band than ``n_modes`` a number can exceed ``n_modes``. ``"track"``:
         mode ``m`` of a direction is the ``m``-th of the ``n_modes`` tracks
         visible there most often, by median frequency (consistent physical
         identity where postures are dense; numbers need not rise with
@@ -417,9 +419,11 @@ def identify_frfs(
                 key=lambda i: float(pm.f_hz[i]),
             )
             for d in vis_sets:
+                # the first n_modes modes visible at this driving point, numbered by their
+                # rank among all the posture's modes
                 numbers[(p, d)] = [
-                    (m_no, i) for m_no, i in enumerate(phys, start=1) if m_no <= s.n_modes
-                ]
+                    (m_no, i) for m_no, i in enumerate(phys, start=1) if i in vis_sets[d]
+                ][: s.n_modes]
         else:
             for d in vis_sets:
                 lst = []

@@ -44,8 +44,10 @@ class LSFDResult:
         Weighted residual norm over weighted data norm per FRF.
     residue_std : ndarray of float, shape (n_modes, *frf_shape)
         Standard deviation of each residue (``sqrt(var Re + var Im)``), from the
-        residual variance and the normal matrix (weights taken as inverse
-        noise standard deviation up to a common factor); NaN if unknown.
+        normal matrix and the residual variance (weights taken as inverse noise
+        standard deviation up to a common factor), the latter taken as the
+        larger of the band average and the average over the lines within 10 %
+        of the mode's frequency; NaN if unknown.
     """
 
     poles: NDArray[np.complex128]
@@ -184,7 +186,21 @@ def lsfd(
     var = s2[:, None] * np.einsum("kpp->kp", Ainv) / scale**2  # (K, P)
     nm = lam.size
     R = (x[:, 0 : 2 * nm : 2] + 1j * x[:, 1 : 2 * nm : 2]).T  # (n_modes, K)
-    R_std = np.sqrt(var[:, 0 : 2 * nm : 2] + var[:, 1 : 2 * nm : 2]).T
+    R_std = np.sqrt(var[:, 0 : 2 * nm : 2] + var[:, 1 : 2 * nm : 2]).T  # (n_modes, K)
+    if nm:
+        # Noise is rarely white over the band (hammer receptance: ~1/w^2 at low
+        # frequency): scale each mode's variance by the residual variance of the
+        # lines near it (within 10 % of its frequency) over the band average.
+        fr = np.abs(lam) / (2 * np.pi)
+        near = np.abs(f[:, None] - fr[None, :]) <= 0.1 * fr[None, :]  # (F, n_modes)
+        near2 = np.concatenate([near, near], axis=0).astype(float)  # (2F, n_modes)
+        res2 = w2 * (fit - y) ** 2  # (2F, K)
+        live = (w2 > 0).astype(float)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            local = (near2.T @ res2) / (near2.T @ live)  # (n_modes, K)
+            ratio = local / (chi2 / np.maximum(n_eq, 1))[None, :]
+        ratio = np.where(np.isfinite(ratio), np.maximum(ratio, 1.0), 1.0)
+        R_std = R_std * np.sqrt(ratio)
     k0 = 2 * nm
     zero = np.zeros(x.shape[0], complex)
     U = x[:, k0] + 1j * x[:, k0 + 1] if upper else zero

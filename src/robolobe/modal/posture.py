@@ -147,6 +147,9 @@ class PostureModal:
     posture_id : str
     f_hz, zeta : ndarray, shape (n_modes,)
         Natural frequencies (Hz) and damping ratios, window-corrected, rising.
+        Modes between ``fmax_hz`` and the top of the fit band are included
+        (fitted so that they do not distort the in-band residues) but are
+        never "visible" (:meth:`modes_for_direction`).
     poles : ndarray of complex, shape (n_modes,)
         Corrected poles, rad/s.
     poles_measured : ndarray of complex, shape (n_modes,)
@@ -211,13 +214,14 @@ class PostureModal:
     def modes_for_direction(self, d: int) -> NDArray[np.intp]:
         """Modes visible at driving point ``d`` (0, 1, 2): ``k > 0``, visibility and precision.
 
-        Visible: ``visibility >= visibility_min`` and the residue's relative
-        standard deviation ``<= k_rel_std_max``.
+        Visible: in the analysis band, ``visibility >= visibility_min`` and the
+        residue's relative standard deviation ``<= k_rel_std_max``.
         """
         k = self.k_N_per_m[d]
         vis = self.visibility[d]
         prec = np.nan_to_num(self.k_rel_std[d], nan=0.0) <= self.settings.k_rel_std_max
-        ok = np.isfinite(k) & (k > 0) & (vis >= self.settings.visibility_min) & prec
+        in_band = (self.f_hz >= self.settings.fmin_hz) & (self.f_hz <= self.settings.fmax_hz)
+        ok = np.isfinite(k) & (k > 0) & (vis >= self.settings.visibility_min) & prec & in_band
         return np.flatnonzero(ok)
 
     def measured_zeta(self) -> NDArray[np.float64]:
@@ -370,6 +374,12 @@ def _empty(
     )
 
 
+def _fit_top(s: IdentifySettings, f: NDArray[np.float64]) -> float:
+    """Highest frequency of a fitted pole: 2 % inside the fit band's upper edge."""
+    top = min(s.fmax_hz * (1.0 + s.fit_margin), float(f[-1]) if f.size else s.fmax_hz)
+    return max(s.fmax_hz, 0.98 * top)
+
+
 def identify_posture(
     freq_hz: ArrayLike,
     H: ArrayLike,
@@ -452,7 +462,11 @@ def identify_posture(
     n_max = max(2, min(n_max, (2 * f.size * Hp.shape[1]) // m - 2))
     orders = list(range(1, n_max + 1)) if m > 1 else list(range(2, n_max + 1, 2))
     pole_sets = plscf(f, Hp, orders, weights=Wp)
-    diagram = stabilization_diagram(pole_sets, band_hz=(s.fmin_hz, s.fmax_hz), criteria=s.criteria)
+    # poles up to near the fit band's edge: modes just above fmax are fitted (so that
+    # they do not leak into the in-band residues) but not reported
+    diagram = stabilization_diagram(
+        pole_sets, band_hz=(s.fmin_hz, _fit_top(s, f)), criteria=s.criteria
+    )
     selected = select_poles(diagram, s.selection)
     lam = selected.poles
     n_extra = 0
@@ -528,7 +542,7 @@ def _finish(
             keep[-n_extra:] = ~ref.at_bound[-n_extra:]
         lam = ref.poles[keep]
     fm, zm = poles_to_modal(lam)
-    inb = (fm >= s.fmin_hz) & (fm <= s.fmax_hz) & (zm > 0) & (zm < s.criteria.zeta_max)
+    inb = (fm >= s.fmin_hz) & (fm <= _fit_top(s, f)) & (zm > 0) & (zm < s.criteria.zeta_max)
     lam = lam[inb]
     lam = lam[np.argsort(np.abs(lam))]
     # drop duplicates (two poles within 0.2 % in frequency and damping)

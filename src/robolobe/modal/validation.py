@@ -275,6 +275,7 @@ def accuracy_study(
     noise: float = 1.0,
     n_jobs: int = 1,
     excite: str = "xyz",
+    use_coherence: bool = True,
 ) -> StudyResult:
     """Simulate a hammer-test campaign of a built-in robot and identify it.
 
@@ -297,6 +298,9 @@ def accuracy_study(
         Workers of the identification.
     excite : str
         Directions hit.
+    use_coherence : bool
+        Give the coherence to the identification (a campaign read from
+        ``frf.csv`` has none; ``robolobe identify`` then weights without it).
 
     Returns
     -------
@@ -325,7 +329,13 @@ def accuracy_study(
     s = settings_from_test({"duration_s": hs.duration_s, "window_end": hs.window_end})
     t0 = time.perf_counter()
     cm = identify_frfs(
-        ids, q, [freq] * len(ids), list(H), coherence=list(coh), settings=s, n_jobs=n_jobs
+        ids,
+        q,
+        [freq] * len(ids),
+        list(H),
+        coherence=list(coh) if use_coherence else None,
+        settings=s,
+        n_jobs=n_jobs,
     )
     seconds = time.perf_counter() - t0
     modes = twin.modes(q)

@@ -66,20 +66,32 @@ class DynamicsTolerance:
 
 
 def _features(model: ModalModel, tol: DynamicsTolerance) -> FloatArray:
-    """Scaled features (n, F): a max-norm distance <= 1 means 'within tolerance'."""
+    """Scaled features (n, F): a max-norm distance <= 1 means 'within tolerance'.
+
+    Per mode: log natural frequency, log damping, log of the residue trace
+    (the mode's size at the tool) and the residue matrix over its trace (its
+    direction). Each mode's features are weighted by the square root of its
+    share of the peak compliance at that waypoint, so that modes that barely
+    move the tool do not split groups.
+    """
     w = model.omega.reshape(-1, model.n_modes)
     z = model.zeta.reshape(-1, model.n_modes)
     a = model.residues.reshape(-1, model.n_modes, model.dim, model.dim)
-    scale = np.abs(a).max(axis=(0, 2, 3)) + 1e-300  # per mode over the batch
-    floor = 1e-4 * scale
-    feats = [np.log(w) / max(tol.freq, 1e-15), np.log(z) / max(tol.damping, 1e-15)]
+    tr = np.abs(np.trace(a, axis1=-2, axis2=-1))
+    peak = tr / (2.0 * z * w**2)  # compliance at resonance, per mode
+    weight = np.sqrt(peak / np.maximum(peak.max(axis=1, keepdims=True), 1e-300))
+    trs = np.maximum(tr, 1e-300)
+    feats = [
+        np.log(w) / max(tol.freq, 1e-15),
+        np.log(z) / max(tol.damping, 1e-15),
+        np.log(trs) / max(tol.residue, 1e-15),
+    ]
     for i in range(model.dim):
-        feats.append(np.log(np.abs(a[:, :, i, i]) + floor) / max(tol.residue, 1e-15))
-    for i in range(model.dim):
-        for j in range(i + 1, model.dim):
-            den = np.sqrt(np.abs(a[:, :, i, i] * a[:, :, j, j])) + floor
-            feats.append(a[:, :, i, j] / den / max(tol.residue, 1e-15))
-    return np.concatenate(feats, axis=1)
+        for j in range(i, model.dim):
+            if i == j and i == model.dim - 1:
+                continue  # the last diagonal share follows from the others
+            feats.append(a[:, :, i, j] / trs / max(tol.residue, 1e-15))
+    return np.concatenate([f * weight for f in feats], axis=1)
 
 
 def group_dynamics(model: ModalModel, tol: DynamicsTolerance | None = None) -> tuple[IntArray, IntArray]:
@@ -111,7 +123,8 @@ def group_dynamics(model: ModalModel, tol: DynamicsTolerance | None = None) -> t
         remap = np.empty_like(order)
         remap[order] = np.arange(order.size)
         return remap[np.asarray(inv).ravel()].astype(np.int64), first[order].astype(np.int64)
-    # exact duplicates first (cheap), then leaders over the unique rows
+    # near-duplicates first: cells 0.25 wide; leaders then take cells within 0.75 of
+    # them, so every member lies within 0.25 + 0.75 = 1 of its leader
     q = np.round(f * 4.0)
     _, first, inv = np.unique(q, axis=0, return_index=True, return_inverse=True)
     inv = np.asarray(inv).ravel()
@@ -123,10 +136,10 @@ def group_dynamics(model: ModalModel, tol: DynamicsTolerance | None = None) -> t
     while todo.size:
         lead = todo[0]
         d = np.abs(fu[todo] - fu[lead]).max(axis=1)
-        members = todo[d <= 1.0]
+        members = todo[d <= 0.75]
         label_u[members] = len(leaders)
         leaders.append(int(first[order][lead]))
-        todo = todo[d > 1.0]
+        todo = todo[d > 0.75]
     pos = np.empty_like(order)
     pos[order] = np.arange(order.size)
     group = label_u[pos[inv]]

@@ -229,7 +229,7 @@ def mode_source(model: str, robot: Robot, robot_key: str) -> tuple[ModeSource, s
             pred = load_model(robot_key)
         except InputError as exc:
             note = f"shipped tl model of {robot_key} unavailable ({exc}); using the twin"
-            logger.warning(note)
+            logger.info(note)
             return TwinSource(robot), note
         return PredictorSource(pred, f"tl model {robot_key} (shipped)"), ""
     pred = load_model(Path(model))

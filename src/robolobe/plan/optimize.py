@@ -665,9 +665,11 @@ def _constant(ctx: _Ctx) -> Schedule | None:
 @dataclass
 class _Blocks:
     start: IntArray  # first cutting waypoint of each block
-    knots_s: FloatArray  # knot position [m]
+    knots_s: FloatArray  # block centres [m] (knots of ramped schedules)
     length: FloatArray  # cutting length per block [m]
     a_blk: FloatArray  # (K, J) block minimum of a_lim [m]
+    edge_s: FloatArray  # knots at the first and last waypoint of each block [m]
+    edge_block: IntArray  # block of each edge knot
 
 
 def _blocks(ctx: _Ctx, n_blocks: int) -> _Blocks:
@@ -689,7 +691,12 @@ def _blocks(ctx: _Ctx, n_blocks: int) -> _Blocks:
     # strictly increasing knots (blocks of zero length share a position)
     knots = np.maximum.accumulate(knots)
     bump = np.arange(knots.size) * 1e-12 * max(total, 1.0)
-    return _Blocks(start, knots + bump, length, a_blk)
+    # edge knots: a block holds its speed from its first to its last waypoint;
+    # the speed may change over the move into the next block's first waypoint
+    pos = np.stack([s[start], s[end]], axis=1).ravel()
+    blk_of = np.repeat(np.arange(start.size), 2)
+    edge_s, first = np.unique(pos, return_index=True)
+    return _Blocks(start, knots + bump, length, a_blk, edge_s, blk_of[first].astype(np.int64))
 
 
 def _search(ctx: _Ctx, max_blocks: int, n_depth: int) -> tuple[Schedule | None, _Blocks, str]:
@@ -731,6 +738,25 @@ def _search(ctx: _Ctx, max_blocks: int, n_depth: int) -> tuple[Schedule | None, 
     if not np.any(np.isfinite(score)):
         return None, blk, "the rate limit keeps the speed from reaching a stable pocket"
     d_best = int(np.argmax(score))
+    # refine the depth between the neighbouring rungs of the ladder
+    lo_d = depths[max(d_best - 1, 0)]
+    hi_d = depths[min(d_best + 1, depths.size - 1)]
+    if hi_d > lo_d:
+        fine = np.linspace(lo_d, hi_d, 17)
+        sf_f = cons.safety_factor * fine[:, None]
+        ok_f = ctx.allowed[None, :] & (fine[:, None] * rpm[None, :] <= cons.power_product * (1 + 1e-12))
+        vf = np.where((blk.a_blk[0][None, :] >= sf_f) & ok_f, blk.length[0] * inv_n[None, :], np.inf)
+        for b in range(1, kb):
+            lo, hi = windows[b - 1]
+            cb = np.where((blk.a_blk[b][None, :] >= sf_f) & ok_f, blk.length[b] * inv_n[None, :], np.inf)
+            vf = cb + _window_min(vf, lo, hi)
+        tf = vf.min(axis=1) + ctx.geom.rapid_time_s
+        sc_f = np.where(np.isfinite(tf), fine / tf, -np.inf)
+        if np.max(sc_f) > score[d_best]:
+            depths = np.r_[depths, fine]
+            sf_d = cons.safety_factor * depths[:, None]
+            base_ok = ctx.allowed[None, :] & (depths[:, None] * rpm[None, :] <= cons.power_product * (1 + 1e-12))
+            d_best = depths.size - fine.size + int(np.argmax(sc_f))
     # second pass at the chosen depth, keeping the values for backtracking
     vals = np.empty((kb, rpm.size))
     vb = cost(0, slice(d_best, d_best + 1))[0]
@@ -746,9 +772,13 @@ def _search(ctx: _Ctx, max_blocks: int, n_depth: int) -> tuple[Schedule | None, 
         l0, h0 = int(lo[j[b + 1]]), int(hi[j[b + 1]])
         j[b] = l0 + int(np.argmin(vals[b, l0 : h0 + 1]))
     u = rpm[j].astype(np.float64)
-    u = _rate_fix(u, dist, cons)
-    n_wp = _knot_speeds(ctx, blk.knots_s, u)
-    sch = _verify(ctx, "search", n_wp, float(depths[d_best]), blk.knots_s, u)
+    if cons.max_rate_rpm_per_m is None and cons.max_rate_rpm_per_s is None:
+        # free changes: hold each block's speed, change between blocks
+        ks, uk = blk.edge_s, u[blk.edge_block]
+    else:
+        ks, uk = blk.knots_s, _rate_fix(u, dist, cons)
+    n_wp = _knot_speeds(ctx, ks, uk)
+    sch = _verify(ctx, "search", n_wp, float(depths[d_best]), ks, uk)
     return sch, blk, "ok"
 
 
@@ -760,12 +790,15 @@ def _knot_speeds(ctx: _Ctx, knots_s: FloatArray, u: FloatArray) -> FloatArray:
 
 
 def _pocket_bounds(
-    ctx: _Ctx, blk: _Blocks, u: FloatArray, depth: float, reach: int = 3
+    ctx: _Ctx, a_rows: FloatArray, u: FloatArray, depth: float, reach: int = 3
 ) -> tuple[FloatArray, FloatArray]:
-    """Per knot: the connected speed interval around ``u`` where the block stays near-stable."""
+    """Per knot: the connected speed interval around ``u`` where its block stays near-stable.
+
+    ``a_rows`` (n_knots, n_rpm) is the block minimum of ``a_lim`` for each knot.
+    """
     cons = ctx.cons
     rpm = ctx.lobes.rpm
-    ok = (blk.a_blk >= 0.6 * cons.safety_factor * depth) & ctx.allowed[None, :]
+    ok = (a_rows >= 0.6 * cons.safety_factor * depth) & ctx.allowed[None, :]
     j0 = np.clip(np.searchsorted(rpm, u), 0, rpm.size - 1)
     lo = np.empty(u.size)
     hi = np.empty(u.size)
@@ -823,16 +856,21 @@ def _refine(
     import casadi as ca
 
     cons, lobes = ctx.cons, ctx.lobes
-    u0 = start.knots_rpm / 1000.0
+    knots_s = blk.edge_s
+    if start.knots_rpm.size >= 2:
+        u_start = np.interp(knots_s, start.knots_s_m, start.knots_rpm)
+    else:
+        u_start = np.full(knots_s.size, float(start.rpm[0]))
+    u0 = u_start / 1000.0
     kn = u0.size
     if kn == 0:
         return None, "no knots"
     sf = cons.safety_factor
     c_feed = cons.feed_per_rev_m
-    lo_b, hi_b = _pocket_bounds(ctx, blk, start.knots_rpm, start.depth_m, reach=2)
+    lo_b, hi_b = _pocket_bounds(ctx, blk.a_blk[blk.edge_block], u_start, start.depth_m, reach=2)
     lo_b, hi_b = lo_b / 1000.0, hi_b / 1000.0
     row_of = np.where(np.all(np.isfinite(lobes.a_lim), axis=1), 0, -1)
-    k_idx, w = _interp_matrix(ctx.geom.s_m, blk.knots_s)
+    k_idx, w = _interp_matrix(ctx.geom.s_m, knots_s)
     if kn == 1:
         k_idx = np.zeros_like(k_idx)
         w = np.zeros_like(w)
@@ -912,7 +950,7 @@ def _refine(
     lbg_fixed: list[float] = []
     ubg_fixed: list[float] = []
     if not cons.constant_speed and kn > 1:
-        dist = np.diff(blk.knots_s)
+        dist = np.diff(knots_s)
         du = u[1:] - u[:-1]
         if cons.max_rate_rpm_per_m is not None:
             lim = cons.max_rate_rpm_per_m * dist / 1000.0
@@ -946,7 +984,7 @@ def _refine(
     order = np.argsort(margin)
     active = {int(i) for i in order[:max_active] if np.isfinite(margin[i]) and margin[i] <= 1.5}
     active.update(int(i) for i in order[:16] if np.isfinite(margin[i]))
-    x0 = np.r_[u0, start.depth_m * 1e3]
+    x0 = np.r_[u0, 0.97 * start.depth_m * 1e3]  # a little inside: splines sample the boundary
     status = "not run"
     best: Schedule | None = None
     n_piece = 0
@@ -977,9 +1015,9 @@ def _refine(
         u_opt = xs[:kn] * 1000.0
         if cons.constant_speed:
             u_opt = np.full(kn, u_opt.min())
-        u_opt = _rate_fix(np.clip(u_opt, cons.rpm_min, cons.rpm_hi), np.diff(blk.knots_s), cons)
-        n_opt = _knot_speeds(ctx, blk.knots_s, u_opt)
-        cand = _verify(ctx, "nlp", n_opt, xs[-1] * 1e-3, blk.knots_s, u_opt)
+        u_opt = _rate_fix(np.clip(u_opt, cons.rpm_min, cons.rpm_hi), np.diff(knots_s), cons)
+        n_opt = _knot_speeds(ctx, knots_s, u_opt)
+        cand = _verify(ctx, "nlp", n_opt, xs[-1] * 1e-3, knots_s, u_opt)
         if cand.feasible and _score(cand) > _score(best):
             best = cand
         # constraint generation: waypoints outside the NLP that limit its answer
@@ -1082,8 +1120,11 @@ def optimize_schedule(
             status = f"not run: {why}"
         elif refine and search.feasible:
             t = time.perf_counter()
+            start = search
+            if constant is not None and _score(constant) > _score(search):
+                start = constant
             try:
-                nlp, status = _refine(ctx, blk, search)
+                nlp, status = _refine(ctx, blk, start)
             except RuntimeError as exc:  # casadi/IPOPT failures
                 nlp, status = None, f"failed: {exc}"
             timings["refine"] = time.perf_counter() - t

@@ -263,7 +263,10 @@ def _start_posture(robot: Robot, pose: FloatArray, source: ModeSource | None) ->
 def _postures(
     wp: pd.DataFrame, robot: Robot, poses: FloatArray, source: ModeSource | None
 ) -> FloatArray:
-    q_ref = _start_posture(robot, poses[0], source)
+    try:
+        q_ref = _start_posture(robot, poses[0], source)
+    except ReachabilityError as exc:
+        raise ReachabilityError(f"{_label(wp, 0)}: waypoint 0 unreachable: {exc}") from None
     try:
         q = ik_batch(robot, poses, q_ref, continuity=True)
     except ReachabilityError as exc:
@@ -274,6 +277,14 @@ def _postures(
             i = int(m.group(1))
             raise ReachabilityError(f"{_label(wp, i)}: waypoint {i} unreachable: {exc}") from None
         raise
+    wm = _wrist_measure(robot, q)
+    sing = wm < WRIST_SINGULAR
+    if np.any(sing):
+        i = int(np.argmax(sing))
+        raise SingularityError(
+            f"{_label(wp, i)}: waypoint {i} is at a wrist singularity (|sin| of the wrist bend "
+            f"{wm[i]:.4f}); move the workpiece or tilt the tool"
+        )
     # wrist flips: large joint motion over a short TCP motion
     if len(q) > 1:
         dq = np.abs(np.diff(q, axis=0)).max(axis=1)
@@ -324,13 +335,6 @@ def _lobes_for_rotation(
     poses, r_wp = tcp_targets(wp, robot, job.placement, rotation)
     q = _postures(wp, robot, poses, source)
     wm = _wrist_measure(robot, q)
-    sing = wm < WRIST_SINGULAR
-    if np.any(sing):
-        i = int(np.argmax(sing))
-        raise SingularityError(
-            f"{_label(wp, i)}: waypoint {i} is at a wrist singularity (|sin| of the wrist bend "
-            f"{wm[i]:.4f}); move the workpiece or tilt the tool"
-        )
     timings["ik"] = time.perf_counter() - t
     t = time.perf_counter()
     ci = np.flatnonzero(cut)

@@ -160,8 +160,10 @@ class ModalPredictor:
         Modes per direction (the seed: 5).
     hidden : sequence of int, default (32, 32, 32, 32, 32)
         Hidden layer widths (the seed: 5 x 32 ReLU).
-    features : {"angles", "trig"}, default "angles"
-        Network inputs: min-max-scaled angles (seed) or sin/cos of each joint.
+    features : {"angles", "trig", "trig5", "dh5"}, default "angles"
+        Network inputs: min-max-scaled angles (seed), sin/cos of each joint,
+        of joints 2-6, or of the DH angles 2-6 (see
+        :func:`robolobe.tl.preprocess.features`).
     target_transform : {"minmax", "log"}, default "minmax"
         Targets min-max-scaled (seed) or logged first.
     epochs, batch_size, learning_rate : int, int, float
@@ -189,6 +191,11 @@ class ModalPredictor:
         are not trained on.
     robot : str, optional
         Label of the robot (stored with the model).
+    coupling : array_like, shape (6, 6), optional
+        The robot's joint coupling (DH angle = coupling q + offset); needed
+        for ``features="dh5"``, stored with the model.
+    theta_offset_rad : array_like, shape (6,), optional
+        The robot's DH angle offsets [rad]; with ``coupling``.
     random_state : int, default 0
         Seed of every random draw (initial weights, augmentation, shuffles,
         folds).
@@ -234,6 +241,8 @@ class ModalPredictor:
         calibration_folds: int = 5,
         validation_fraction: float = 0.2,
         robot: str | None = None,
+        coupling: Any = None,
+        theta_offset_rad: Any = None,
         random_state: int = 0,
     ) -> None:
         self.directions = directions
@@ -254,6 +263,8 @@ class ModalPredictor:
         self.calibration_folds = calibration_folds
         self.validation_fraction = validation_fraction
         self.robot = robot
+        self.coupling = coupling
+        self.theta_offset_rad = theta_offset_rad
         self.random_state = random_state
 
     # ------------------------------------------------------------ parameters
@@ -261,7 +272,7 @@ class ModalPredictor:
         "directions", "n_modes", "hidden", "features", "target_transform", "epochs",
         "batch_size", "learning_rate", "augment_delta", "augment_copies", "missing",
         "n_members", "n_frozen", "calibration", "calibration_folds",
-        "validation_fraction", "robot", "random_state",
+        "validation_fraction", "robot", "coupling", "theta_offset_rad", "random_state",
     )  # fmt: skip
 
     def get_params(self) -> dict[str, Any]:
@@ -316,6 +327,14 @@ class ModalPredictor:
         for ok, msg in checks:
             if not ok:
                 raise InputError(msg)
+        if self.features == "dh5":
+            if self.coupling is None or self.theta_offset_rad is None:
+                raise InputError(
+                    "features 'dh5': expected the robot's coupling and theta_offset_rad "
+                    "(give the robot, e.g. --robot B)"
+                )
+            if np.shape(self.coupling) != (6, 6) or np.shape(self.theta_offset_rad) != (6,):
+                raise InputError("coupling: expected (6, 6) and theta_offset_rad (6,)")
         if self.source is not None:
             src = self.source
             if not hasattr(src, "net_"):
@@ -332,6 +351,11 @@ class ModalPredictor:
                 raise InputError(f"source: has no network for direction(s) {miss}")
             if not 0 <= int(self.n_frozen) <= len(self.hidden):
                 raise InputError(f"n_frozen: expected 0..{len(self.hidden)}, found {self.n_frozen}")
+
+    def _dh(self) -> tuple[Any, Any] | None:
+        if self.coupling is None or self.theta_offset_rad is None:
+            return None
+        return (np.asarray(self.coupling, float), np.asarray(self.theta_offset_rad, float))
 
     # ------------------------------------------------------------------- fit
     def fit(self, q_rad: ArrayLike, y: ArrayLike) -> ModalPredictor:
@@ -398,7 +422,7 @@ class ModalPredictor:
             qa = augment_angles(
                 q, self.angle_scaler_, delta=float(self.augment_delta), copies=copies, rng=rng
             )
-            x_all[m] = features(qa, self.features, self.angle_scaler_)
+            x_all[m] = features(qa, self.features, self.angle_scaler_, self._dh())
         ys = self.target_transform_.transform(yy)  # (n, nd, nm, 3)
         ys = ys.reshape(n, nd, nm * 3)
         model_dir = (np.arange(n_models) // e) % nd
@@ -448,7 +472,7 @@ class ModalPredictor:
         # ---- calibration of the spread
         if e > 1 and self.calibration != "none":
             t_true = self.target_transform_.pre(yy)  # (n, nd, nm, 3)
-            x_plain = features(q, self.features, self.angle_scaler_)
+            x_plain = features(q, self.features, self.angle_scaler_, self._dh())
             out = net.predict_numpy(x_plain)  # (M, n, nm*3)
             out = out.reshape(n_groups, nd, e, n, nm, 3).transpose(0, 2, 3, 1, 4, 5)
             scale = self.target_transform_.scaler
@@ -543,7 +567,7 @@ class ModalPredictor:
                 )
         dirs = tuple(self.directions)
         nd, nm, e = len(dirs), int(self.n_modes), int(self.n_members)
-        x = features(q, self.features, self.angle_scaler_)
+        x = features(q, self.features, self.angle_scaler_, self._dh())
         out = self.net_.predict_numpy(x)  # (nd*e, n, nm*3)
         out = out.reshape(nd, e, len(q), nm, 3).transpose(1, 2, 0, 3, 4)  # (e, n, nd, nm, 3)
         sc = self.target_transform_.scaler
@@ -576,6 +600,9 @@ class ModalPredictor:
         params = {k: getattr(self, k) for k in self._PARAM_NAMES}
         params["directions"] = list(params["directions"])
         params["hidden"] = [int(h) for h in params["hidden"]]
+        if params["coupling"] is not None:
+            params["coupling"] = np.asarray(params["coupling"], float).tolist()
+            params["theta_offset_rad"] = np.asarray(params["theta_offset_rad"], float).tolist()
         return {
             "format": MODEL_FORMAT,
             "params": params,
@@ -698,7 +725,7 @@ def transfer(
         Fitted on the target, first ``n_frozen`` layers equal to the source's.
     """
     base = {k: v for k, v in source.get_params().items() if k != "source"}
-    base.update(calibration="cv", n_frozen=3, robot=None)
+    base.update(calibration="cv", n_frozen=3, robot=None, coupling=None, theta_offset_rad=None)
     base.update(params)
     base["source"] = source
     return ModalPredictor(**base).fit(q_rad, y)

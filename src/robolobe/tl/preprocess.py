@@ -55,8 +55,8 @@ __all__ = [
 ]
 
 FloatArray = NDArray[np.float64]
-Features = Literal["angles", "trig"]
-FEATURES: tuple[str, ...] = ("angles", "trig")
+Features = Literal["angles", "trig", "trig5", "dh5"]
+FEATURES: tuple[str, ...] = ("angles", "trig", "trig5", "dh5")
 TARGET_TRANSFORMS: tuple[str, ...] = ("minmax", "log", "flex")
 #: Reference stiffness of the ``"flex"`` transform [N/m].
 K_REF_N_PER_M = 1.0e6
@@ -127,21 +127,35 @@ def n_features(kind: str) -> int:
         return 6
     if kind == "trig":
         return 12
+    if kind in ("trig5", "dh5"):
+        return 10
     raise InputError(f"features: expected one of {FEATURES}, found {kind!r}")
 
 
-def features(q_rad: ArrayLike, kind: str, scaler: MinMax) -> FloatArray:
+def features(
+    q_rad: ArrayLike,
+    kind: str,
+    scaler: MinMax,
+    dh_map: tuple[ArrayLike, ArrayLike] | None = None,
+) -> FloatArray:
     """Network inputs from joint angles.
 
     Parameters
     ----------
     q_rad : array_like, shape (..., 6)
         Joint angles [rad].
-    kind : {"angles", "trig"}
+    kind : {"angles", "trig", "trig5", "dh5"}
         ``"angles"``: min-max-scaled angles (the seed); ``"trig"``: ``sin q``
-        and ``cos q`` of the six joints (already in [-1, 1]; not scaled).
+        and ``cos q`` of the six joints; ``"trig5"``: the same for joints 2-6
+        (joint 1 turns the whole arm about the vertical: without gravity
+        effects it changes no mode); ``"dh5"``: sin and cos of the DH angles
+        2-6, ``theta = coupling q + offset`` (relative link angles: the same
+        meaning on a serial arm and on a parallelogram arm, whose axis 3 is
+        absolute).
     scaler : MinMax
         The joint-angle scaler fitted on the training postures.
+    dh_map : (coupling (6, 6), theta_offset_rad (6,)), optional
+        Needed for ``"dh5"`` (from the robot file).
 
     Returns
     -------
@@ -152,6 +166,15 @@ def features(q_rad: ArrayLike, kind: str, scaler: MinMax) -> FloatArray:
         return scaler.transform(q)
     if kind == "trig":
         return np.concatenate([np.sin(q), np.cos(q)], axis=-1)
+    if kind == "trig5":
+        return np.concatenate([np.sin(q[..., 1:]), np.cos(q[..., 1:])], axis=-1)
+    if kind == "dh5":
+        if dh_map is None:
+            raise InputError("features 'dh5' need the robot's coupling and theta offsets")
+        coupling = np.asarray(dh_map[0], dtype=float)
+        offset = np.asarray(dh_map[1], dtype=float)
+        th = q @ coupling.T + offset
+        return np.concatenate([np.sin(th[..., 1:]), np.cos(th[..., 1:])], axis=-1)
     raise InputError(f"features: expected one of {FEATURES}, found {kind!r}")
 
 

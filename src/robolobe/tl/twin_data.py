@@ -153,7 +153,7 @@ def measured_frfs(
     rng: np.random.Generator,
     directions: Sequence[str] = ("xx", "yy"),
     fmax_hz: float = 40.0,
-) -> tuple[FloatArray, NDArray[np.complex128]]:
+) -> tuple[FloatArray, NDArray[np.complex128], float]:
     """Driving-point FRFs of simulated hammer tests (the seed's test settings).
 
     Returns
@@ -161,6 +161,8 @@ def measured_frfs(
     freq_hz : ndarray, shape (n_freq,)
     H : ndarray, shape (n, n_dir, n_freq), complex
         H1 receptance [m/N].
+    window_decay_per_s : float
+        ``-ln(window_end) / duration_s`` of the test's exponential window.
     """
     from robolobe.twin.campaign import simulate_campaign
 
@@ -179,4 +181,8 @@ def measured_frfs(
         for j, d in enumerate(directions):
             a = _AXIS[d]
             out[i, j] = pf.H[:, a, a]
-    return freq, out
+    test = camp.test
+    decay = 0.0
+    if test.get("window_end") and test.get("duration_s"):
+        decay = -float(np.log(float(test["window_end"]))) / float(test["duration_s"])
+    return freq, out, decay

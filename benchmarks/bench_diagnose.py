@@ -1,0 +1,88 @@
+"""Benchmark: one 30-posture campaign diagnosed end to end (issue 7).
+
+Workload: robot B, 30 space-filling postures, the seed's simulated hammer
+test (1024 Hz, 4 s, 5 impacts, x/y/z hits, triaxial response: 9 FRFs per
+posture), an added 5 kg concealed at the tool; band 2-40 Hz (153 lines).
+The simulation is not timed. Measured, side by side:
+
+- ``full library``: :func:`robolobe.diagnose.diagnose` with every candidate
+  (34 variants), cross-validation over 5 folds, mode tables;
+- ``one family``: the same with only ``added_mass`` (the cost floor: data
+  preparation, the nominal model, the mismatch map, the mode tables);
+- ``model eval``: one evaluation of the twin on all postures and lines
+  (modal superposition at s = a + i w) against the twin's direct solve
+  (``Twin.receptance``), the reference of the hot path.
+
+Target (issue 7): under 2 minutes on 2 cores; printed as a ratio to 120 s.
+
+Run: ``python benchmarks/bench_diagnose.py [--robot B] [--postures 30]``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+
+from robolobe.diagnose import DiagnoseSettings, diagnose
+from robolobe.diagnose.concealed import Case, make_concealed_campaign
+from robolobe.diagnose.twin_model import windowed_receptance
+from robolobe.robots import load_robot
+from robolobe.twin.effects import AddedMass
+from robolobe.twin.model import Twin
+
+TARGET_S = 120.0
+
+
+def main(argv: list[str] | None = None) -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--robot", default="B")
+    ap.add_argument("--postures", type=int, default=30)
+    args = ap.parse_args(argv)
+
+    robot = load_robot(args.robot)
+    case = Case(args.robot, AddedMass(mass_kg=5.0), "medium", args.postures, seed=0)
+    camp, _ = make_concealed_campaign(case)
+
+    rows = []
+    t0 = time.perf_counter()
+    d = diagnose(camp, robot=robot)
+    t_full = time.perf_counter() - t0
+    n_eval = sum(f.nfev for f in d.fits)
+    rows.append(
+        (
+            "full library",
+            t_full,
+            f"verdict {d.winner.candidate.label}, {len(d.fits)} candidates, "
+            f"{n_eval} fit evaluations",
+        )
+    )
+    t0 = time.perf_counter()
+    d1 = diagnose(camp, robot=robot, settings=DiagnoseSettings(families=("added_mass",)))
+    rows.append(("one family", time.perf_counter() - t0, f"verdict {d1.verdict}"))
+
+    q = camp.q_rad
+    f = d.obs.freq_hz
+    twin = Twin(robot)
+    reps = 20
+    t0 = time.perf_counter()
+    for _ in range(reps):
+        windowed_receptance(twin, q, f, d.window_decay_per_s)
+    t_modal = (time.perf_counter() - t0) / reps
+    t0 = time.perf_counter()
+    for _ in range(reps):
+        twin.receptance(q, f)
+    t_solve = (time.perf_counter() - t0) / reps
+
+    print(f"robot {args.robot}, {args.postures} postures, {f.size} lines, 9 directions")
+    print(f"{'case':<14} {'time [s]':>9} {'vs 120 s':>9}  notes")
+    for name, t, note in rows:
+        print(f"{name:<14} {t:9.2f} {t / TARGET_S:9.2f}  {note}")
+    print(
+        f"{'model eval':<14} {t_modal * 1e3:8.1f}m {'':>9}  modal superposition (ms); "
+        f"direct solve {t_solve * 1e3:.1f} ms: x{t_solve / t_modal:.1f}"
+    )
+    print(f"summary: {d.summary}")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,242 @@
+"""``robolobe plan``, ``robolobe compare``, ``robolobe batch``: chatter-free toolpath plans."""
+
+from __future__ import annotations
+
+from importlib import resources
+from pathlib import Path
+from typing import Annotated, Any
+
+import typer
+from rich.table import Table
+
+from robolobe.cli._common import console, err_console, progress, status
+from robolobe.errors import EXIT_INPUT, InputError
+
+__all__ = ["EXAMPLE_JOB", "EXAMPLE_PATH", "example_files", "register"]
+
+#: The bundled example that ``robolobe plan`` runs without arguments.
+EXAMPLE_PATH = "pocket.nc"
+EXAMPLE_JOB = "job_A_pocket.toml"
+
+
+def example_files() -> tuple[Path, Path]:
+    """Paths of the bundled example toolpath and job."""
+    base = resources.files("robolobe.data").joinpath("examples")
+    return Path(str(base.joinpath(EXAMPLE_PATH))), Path(str(base.joinpath(EXAMPLE_JOB)))
+
+
+def _print_summary(s: dict[str, Any], out: Path) -> None:
+    t = Table(title=f"robolobe plan: {Path(str(s['path'])).name}", show_header=False)
+    t.add_column("", style="bold")
+    t.add_column("")
+    t.add_row("robot / modes", f"{s['robot']} / {s['mode_source']}")
+    t.add_row("waypoints (cutting)", f"{s['n_waypoints']} ({s['n_cut']})")
+    t.add_row("depth per pass", f"{s['depth_mm']:.3f} mm")
+    t.add_row("speed", f"{s['rpm_min']:.0f} - {s['rpm_max']:.0f} rpm ({s['speed_mode']}, {s['method']})")
+    t.add_row("MRR", f"{s['mrr_cm3_per_min']:.1f} cm^3/min")
+    t.add_row("cycle time", f"{s['cycle_time_s']:.2f} s")
+    at = s["min_margin_at"]
+    t.add_row("minimum margin", f"{s['min_margin']:.3f} at {at['source']} (waypoint {at['waypoint']})")
+    for key, name in (("vs_best_constant_speed", "vs best constant speed"), ("vs_programmed_speed", "vs programmed speed")):
+        g = s.get(key)
+        if g:
+            gain = g.get("mrr_gain_pct")
+            txt = f"MRR {gain:+.1f} %" if gain is not None else "baseline infeasible"
+            t.add_row(name, f"{txt} ({g['depth_mm']:.3f} mm at {g['rpm_mean']:.0f} rpm)")
+    console.print(t)
+    for note in s.get("notes", []):
+        err_console.print(f"[yellow]note:[/] {note}", highlight=False)
+    console.print(f"outputs in {out}/ (waypoints.csv, summary.json, plots/, report.html)")
+
+
+def _cell(v: Any) -> str:
+    if v is None or (isinstance(v, float) and v != v):
+        return ""
+    return str(v)
+
+
+def register(app: typer.Typer) -> None:
+    """Add the ``plan``, ``compare`` and ``batch`` commands to ``app``."""
+
+    @app.command("plan")
+    def plan_command(
+        path: Annotated[
+            Path | None,
+            typer.Argument(
+                help="Toolpath: G-code (.nc, .ngc, .tap, ...), APT/CL (.apt, .cl), KUKA KRL "
+                "(.src), ABB RAPID (.mod), or a waypoint table (.csv, .parquet). Without "
+                "PATH and --job: the bundled example (pocket on robot A).",
+            ),
+        ] = None,
+        job: Annotated[
+            Path | None,
+            typer.Option("--job", "-j", help="Job file (TOML, robolobe-job/1; units in the keys)."),
+        ] = None,
+        output: Annotated[
+            Path, typer.Option("-o", "--output", help="Output directory (created; files replaced).")
+        ] = Path("robolobe-out"),
+        plots: Annotated[bool, typer.Option("--plots/--no-plots", help="Write the PNG plots.")] = True,
+        html: Annotated[bool, typer.Option("--html/--no-html", help="Write report.html.")] = True,
+        robust: Annotated[
+            bool | None,
+            typer.Option(
+                "--robust/--nominal",
+                help="Plan on the lower bound of the prediction spread (overrides the job).",
+            ),
+        ] = None,
+        refine: Annotated[
+            bool, typer.Option("--refine/--no-refine", help="casadi/IPOPT refinement of the search.")
+        ] = True,
+    ) -> None:
+        """Plan spindle speed and depth along a toolpath (chatter-free, per waypoint).
+
+        Reads the path and the job, solves the robot's posture at every waypoint,
+        predicts its modes, builds stability lobes per waypoint and picks one depth
+        per pass and a speed schedule with the best material removal rate that
+        stays stable (depth <= a_lim / safety factor) within the spindle's speed,
+        power and torque limits. Writes waypoints.csv, summary.json, plots and
+        report.html. Exit code 3 when no feasible plan exists.
+        """
+        from robolobe.plan.job import load_job
+        from robolobe.plan.pipeline import plan_path
+        from robolobe.plan.report import write_outputs
+
+        if path is None and job is None:
+            path, job = example_files()
+            err_console.print(f"running the bundled example: {path.name} with {job.name}")
+        elif path is None or job is None:
+            raise InputError("give both PATH and --job (or neither, for the bundled example)")
+        j = load_job(job)
+        if robust is not None:
+            import dataclasses
+
+            j = j.replace(plan=dataclasses.replace(j.plan, robust=robust))
+        with status("planning ..."):
+            res = plan_path(path, j, refine=refine)
+        with status("writing outputs ..."):
+            write_outputs(res, output, plots=plots, html_report=html)
+        _print_summary(res.summary, output)
+
+    @app.command(
+        "compare",
+        context_settings={"allow_extra_args": False},
+    )
+    def compare_command(
+        path: Annotated[Path, typer.Argument(help="Toolpath (any supported format).")],
+        more_robots: Annotated[
+            list[str] | None,
+            typer.Argument(help="More robots after --robots (--robots A B C).", show_default=False),
+        ] = None,
+        job: Annotated[Path, typer.Option("--job", "-j", help="Job file (TOML).")] = Path(),
+        robots: Annotated[
+            list[str] | None,
+            typer.Option(
+                "--robots",
+                help="Robots: A, B, C or robot files; --robots A B C, --robots A,B,C or repeated. "
+                "Default: A B C.",
+            ),
+        ] = None,
+        output: Annotated[
+            Path, typer.Option("-o", "--output", help="Output directory.")
+        ] = Path("robolobe-compare"),
+        refine: Annotated[bool, typer.Option("--refine/--no-refine")] = True,
+    ) -> None:
+        """Plan the same job on several robots, side by side.
+
+        Where the job's placement does not reach the path on a robot, a placement
+        in front of that robot that reaches it is searched (or the robot is
+        reported unreachable). Writes compare.csv/json/png and each robot's plan.
+        """
+        from robolobe.plan.compare import compare_robots, write_comparison
+        from robolobe.plan.job import load_job
+
+        if job == Path():
+            raise InputError("--job: expected a job file, found none")
+        names: list[str] = []
+        for item in [*(robots or []), *(more_robots or [])]:
+            names += [p for p in item.replace(",", " ").split() if p]
+        if more_robots and not robots:
+            raise InputError(f"unexpected arguments {more_robots}; robots go after --robots")
+        names = names or ["A", "B", "C"]
+        j = load_job(job)
+        with status(f"planning on {', '.join(names)} ..."):
+            cmp = compare_robots(path, j, names, refine=refine)
+            write_comparison(cmp, output)
+        cols = (
+            "robot", "status", "depth_mm", "rpm_min", "rpm_max", "mrr_cm3_per_min",
+            "cycle_time_s", "min_margin", "worst_source",
+        )  # fmt: skip
+        t = Table(title=f"robolobe compare: {path.name}")
+        for col in cols:
+            t.add_column(col)
+        for r in cmp.table.to_dict(orient="records"):
+            t.add_row(*[_cell(r.get(c)) for c in cols])
+        console.print(t)
+        for r in cmp.table.to_dict(orient="records"):
+            if r.get("status") != "ok":
+                err_console.print(f"[yellow]{r['robot']}:[/] {r.get('message', '')}", highlight=False)
+        console.print(f"outputs in {output}/ (compare.csv, compare.json, compare.png, one folder per robot)")
+
+    @app.command("batch")
+    def batch_command(
+        paths: Annotated[list[Path], typer.Argument(help="Toolpaths (any supported format).")],
+        job: Annotated[Path, typer.Option("--job", "-j", help="Job file (TOML).")] = Path(),
+        output: Annotated[
+            Path, typer.Option("-o", "--output", help="Output directory.")
+        ] = Path("robolobe-batch"),
+        scheduler: Annotated[
+            str | None,
+            typer.Option(
+                "--scheduler",
+                help="Dask scheduler address (tcp://host:8786); default: a local process pool.",
+            ),
+        ] = None,
+        workers: Annotated[
+            int | None,
+            typer.Option("--workers", "-w", min=1, help="Local worker processes (default: CPUs)."),
+        ] = None,
+        per_path: Annotated[
+            bool,
+            typer.Option("--per-path/--table-only", help="Also write each path's plan outputs."),
+        ] = False,
+        fmt: Annotated[
+            str, typer.Option("--format", help="auto (Parquet if pyarrow is installed), parquet or csv.")
+        ] = "auto",
+        refine: Annotated[bool, typer.Option("--refine/--no-refine")] = True,
+    ) -> None:
+        """Plan many toolpaths with one job, in parallel; one results table.
+
+        A failing path (bad file, unreachable, infeasible) is reported in the table
+        and does not stop the others; the exit code is 2 when any path failed.
+        """
+        from robolobe.plan.batch import batch_plan, write_batch
+        from robolobe.plan.job import load_job
+
+        if job == Path():
+            raise InputError("--job: expected a job file, found none")
+        if fmt not in ("auto", "parquet", "csv"):
+            raise InputError(f"--format: expected auto, parquet or csv, found {fmt!r}")
+        j = load_job(job)
+        rows = []
+        with progress() as bar:
+            task = bar.add_task("planning", total=len(paths))
+            for row in batch_plan(
+                [str(p) for p in paths],
+                j,
+                scheduler=scheduler,
+                workers=workers,
+                out_dir=str(output) if per_path else None,
+                refine=refine,
+            ):
+                rows.append(row)
+                bar.advance(task)
+                if row["status"] != "ok":
+                    err_console.print(
+                        f"[yellow]{row['status']}:[/] {row['path']}: {row['message']}", highlight=False
+                    )
+        table = write_batch(rows, output, fmt=fmt)
+        ok = sum(r["status"] == "ok" for r in rows)
+        console.print(f"{ok} of {len(rows)} paths planned; table: {table}")
+        if ok < len(rows):
+            raise typer.Exit(code=EXIT_INPUT)
+

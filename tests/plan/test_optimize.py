@@ -1,0 +1,227 @@
+"""The schedule optimizer on analytic lobe boundaries whose optimum is known."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from robolobe.errors import InfeasibleError
+from robolobe.plan.optimize import (
+    Constraints,
+    LobeTable,
+    PathGeometry,
+    _rate_fix,
+    _rate_ok,
+    _window_min,
+    optimize_schedule,
+)
+
+RPM = np.linspace(6000.0, 24000.0, 181)  # 100 rpm steps
+KT = 800e6
+
+
+def bump(centre: float, height: float, base: float = 1e-3, width: float = 600.0):
+    def a(n: np.ndarray) -> np.ndarray:
+        return base * (1.0 + height * np.exp(-(((np.asarray(n) - centre) / width) ** 2)))
+
+    return a
+
+
+def table(funcs, group, *, dent: float = 0.0) -> LobeTable:
+    """Grid and exact boundary from analytic functions; ``dent`` lowers the exact
+    boundary between grid points (it equals the grid at the grid points)."""
+    grid = np.stack([f(RPM) for f in funcs])
+    step = RPM[1] - RPM[0]
+
+    def exact(rows: np.ndarray) -> np.ndarray:
+        out = np.stack([funcs[g](rows[g]) for g in range(len(funcs))])
+        return out * (1.0 - dent * np.abs(np.sin(np.pi * (rows - RPM[0]) / step)))
+
+    return LobeTable(RPM, grid, np.asarray(group), exact)
+
+
+def cons(**kw) -> Constraints:
+    base = dict(
+        teeth=3,
+        feed_per_tooth_m=1e-4,
+        width_m=0.01,
+        kt_N_per_m2=KT,
+        power_W=1e9,
+        torque_Nm=1e9,
+        rpm_min=6000.0,
+        rpm_max=24000.0,
+        depth_min_m=1e-4,
+        depth_max_m=0.05,
+        safety_factor=1.0,
+    )
+    base.update(kw)
+    return Constraints(**base)
+
+
+def test_single_pocket_matches_the_analytic_optimum():
+    # objective a/T with T ~ 1/n: maximise a(n) n; brute force on a fine grid is the reference
+    f = bump(15000.0, 2.0)
+    n = 200
+    out = optimize_schedule(table([f], np.zeros(n, int)), PathGeometry(np.full(n, 0.005)), cons())
+    fine = np.linspace(6000, 24000, 400001)
+    n_star = fine[np.argmax(f(fine) * fine)]
+    best = out.best
+    assert best.feasible
+    assert np.allclose(best.rpm, n_star, atol=3.0)
+    assert best.depth_m == pytest.approx(float(f(n_star)), rel=2e-4)
+    assert best.depth_m <= float(np.min(f(best.rpm))) * (1 + 1e-12)
+    assert out.constant is not None
+    assert out.constant.depth_m == pytest.approx(best.depth_m, rel=1e-3)
+
+
+def test_schedule_switches_pockets_and_beats_constant_speed():
+    f0, f1 = bump(10000.0, 2.0), bump(18000.0, 2.0)
+    n = 200
+    group = np.r_[np.zeros(n // 2, int), np.ones(n // 2, int)]
+    out = optimize_schedule(table([f0, f1], group), PathGeometry(np.full(n, 0.005)), cons())
+    best = out.best
+    assert best.feasible
+    # each half sits in its own pocket at (nearly) the full pocket depth 3 mm
+    assert best.depth_m > 2.9e-3
+    assert np.all(np.abs(best.rpm[: n // 2] - 10000) < 800)
+    assert np.all(np.abs(best.rpm[n // 2 :] - 18000) < 800)
+    assert out.constant is not None
+    assert out.constant.depth_m < 1.6e-3
+    assert best.mrr_m3_per_s > 1.5 * out.constant.mrr_m3_per_s
+    # verified: depth x SF below the exact limit everywhere
+    assert np.all(best.a_lim_m >= best.depth_m * (1 - 1e-12))
+
+
+def test_rate_limit_holds_between_knots_and_waypoints():
+    f0, f1 = bump(10000.0, 2.0), bump(18000.0, 2.0)
+    n = 400
+    seg = np.full(n, 0.0025)  # 1 m of cutting
+    group = np.r_[np.zeros(n // 2, int), np.ones(n // 2, int)]
+    r = 40000.0  # rpm per metre: 8000 rpm take 0.2 m
+    c = cons(max_rate_rpm_per_m=r)
+    out = optimize_schedule(table([f0, f1], group), PathGeometry(seg), c)
+    best = out.best
+    assert best.feasible
+    dn = np.abs(np.diff(best.rpm))
+    assert np.all(dn <= r * seg[1:] * (1 + 1e-6) + 1e-6)
+    k = best.knots_rpm
+    assert np.all(np.abs(np.diff(k)) <= r * np.diff(best.knots_s_m) * (1 + 1e-6) + 1e-6)
+    # the ramp costs depth against the free schedule but still beats constant speed
+    assert out.constant is not None
+    assert best.mrr_m3_per_s >= out.constant.mrr_m3_per_s * (1 - 1e-9)
+
+
+def test_rate_limit_per_second():
+    f0, f1 = bump(10000.0, 2.0), bump(18000.0, 2.0)
+    n = 300
+    seg = np.full(n, 0.004)
+    group = np.r_[np.zeros(n // 2, int), np.ones(n // 2, int)]
+    r = 3000.0  # rpm/s
+    c = cons(max_rate_rpm_per_s=r)
+    out = optimize_schedule(table([f0, f1], group), PathGeometry(seg), c)
+    best = out.best
+    # |dn/dt| = |dn/ds| * v, v = fz N n / 60, worst at the faster end of each knot interval
+    k, s = best.knots_rpm, best.knots_s_m
+    rate = np.abs(np.diff(k)) / np.diff(s) * c.feed_per_rev_m * np.maximum(k[1:], k[:-1]) / 60.0
+    assert np.all(rate <= r * (1 + 1e-6))
+
+
+def test_power_limit_and_limiting_constraint():
+    f = bump(18000.0, 2.0)
+    n = 100
+    c0 = cons()
+    # power allows a * n <= 3 mm * 12000 rpm: the pocket at 18000 cannot be used at full depth
+    power = 3e-3 * 12000.0 * KT * c0.width_m * c0.feed_per_rev_m / 60.0
+    c = cons(power_W=power)
+    out = optimize_schedule(table([f], np.zeros(n, int)), PathGeometry(np.full(n, 0.01)), c)
+    best = out.best
+    assert np.all(out.power_W <= power * (1 + 1e-9))
+    assert "power" in set(out.limiting)
+    assert best.depth_m * best.rpm.max() <= c.power_product * (1 + 1e-9)
+
+
+def test_verification_uses_the_exact_boundary_not_the_grid():
+    f = bump(15000.0, 2.0, width=250.0)
+    n = 50
+    tab = table([f], np.zeros(n, int), dent=0.3)
+    out = optimize_schedule(tab, PathGeometry(np.full(n, 0.01)), cons(safety_factor=1.25))
+    best = out.best
+    exact = tab.query(best.rpm)
+    assert np.all(exact >= 1.25 * best.depth_m * (1 - 1e-12))
+    assert best.margin.min() == pytest.approx(1.25, rel=1e-9)
+
+
+def test_programmed_baseline():
+    f = bump(15000.0, 2.0)
+    n = 40
+    out = optimize_schedule(
+        table([f], np.zeros(n, int)),
+        PathGeometry(np.full(n, 0.01)),
+        cons(safety_factor=1.5),
+        programmed_rpm=np.r_[np.full(n // 2, np.nan), np.full(n // 2, 9000.0)],
+    )
+    assert out.programmed is not None
+    assert np.all(out.programmed.rpm == 9000.0)  # gaps filled from the next programmed value
+    assert out.programmed.depth_m == pytest.approx(float(f(9000.0)) / 1.5, rel=1e-9)
+    assert out.best.mrr_m3_per_s > out.programmed.mrr_m3_per_s
+
+
+def test_constant_speed_mode():
+    f0, f1 = bump(10000.0, 2.0), bump(18000.0, 2.0)
+    n = 60
+    group = np.r_[np.zeros(n // 2, int), np.ones(n // 2, int)]
+    out = optimize_schedule(table([f0, f1], group), PathGeometry(np.full(n, 0.01)), cons(constant_speed=True))
+    assert np.ptp(out.best.rpm) == 0.0
+    assert out.nlp is None and out.search is None
+
+
+def test_infeasible_torque():
+    f = bump(15000.0, 2.0)
+    with pytest.raises(InfeasibleError, match="torque"):
+        optimize_schedule(table([f], np.zeros(5, int)), PathGeometry(np.full(5, 0.01)), cons(torque_Nm=1e-3))
+
+
+def test_infeasible_stability_names_the_waypoint():
+    f0, f1 = bump(15000.0, 2.0), bump(15000.0, 0.1, base=0.2e-3)
+    group = np.array([0, 0, 1, 0])
+    labels = ["p.nc:10", "p.nc:11", "p.nc:12", "p.nc:13"]
+    with pytest.raises(InfeasibleError, match=r"waypoint 2 \(p\.nc:12\)") as ei:
+        optimize_schedule(
+            table([f0, f1], group), PathGeometry(np.full(4, 0.01)), cons(depth_min_m=0.5e-3), labels=labels
+        )
+    assert ei.value.exit_code == 3
+
+
+def test_infeasible_constant_speed_conflict():
+    # each group alone is fine, but no single speed serves both at depth_min
+    f0, f1 = bump(10000.0, 2.0, base=0.2e-3), bump(18000.0, 2.0, base=0.2e-3)
+    group = np.r_[np.zeros(10, int), np.ones(10, int)]
+    with pytest.raises(InfeasibleError, match="no single speed"):
+        optimize_schedule(
+            table([f0, f1], group),
+            PathGeometry(np.full(20, 0.01)),
+            cons(depth_min_m=0.5e-3, constant_speed=True),
+        )
+
+
+def test_window_min_matches_brute_force():
+    rng = np.random.default_rng(7)
+    for _ in range(20):
+        nj = int(rng.integers(1, 40))
+        v = rng.normal(size=(3, nj))
+        lo = rng.integers(0, nj, nj)
+        hi = np.maximum(lo, rng.integers(0, nj, nj))
+        got = _window_min(v, lo, hi)
+        ref = np.stack([[v[d, lo[j] : hi[j] + 1].min() for j in range(nj)] for d in range(3)])
+        assert np.array_equal(got, ref)
+
+
+def test_rate_fix_gives_feasible_lower_speeds():
+    rng = np.random.default_rng(3)
+    for kw in ({"max_rate_rpm_per_m": 5000.0}, {"max_rate_rpm_per_s": 2000.0}):
+        c = cons(**kw)
+        u = rng.uniform(6000, 24000, 50)
+        dist = rng.uniform(0.01, 0.1, 49)
+        fixed = _rate_fix(u, dist, c)
+        assert np.all(fixed <= u + 1e-9)
+        assert _rate_ok(fixed, dist, c)

@@ -1,0 +1,152 @@
+"""The pipeline end to end on the bundled examples (twin modes: exact and fast)."""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+import pytest
+
+from robolobe.errors import InfeasibleError, ReachabilityError, SingularityError
+from robolobe.plan.job import load_job
+from robolobe.plan.modes import PredictorSource, TwinSource
+from robolobe.plan.paths import read_toolpath
+from robolobe.plan.pipeline import _wrist_measure, plan_path, tcp_targets
+from robolobe.robots.io import load_robot
+from robolobe.robots.kinematics import tcp_pose
+from robolobe.tl.estimator import ModalPrediction
+
+from .conftest import example
+
+
+@pytest.fixture(scope="module")
+def pocket_job():
+    return load_job(example("job_A_pocket.toml")).replace(model="twin")
+
+
+@pytest.fixture(scope="module")
+def pocket(pocket_job):
+    return plan_path(example("pocket.nc"), pocket_job, refine=False)
+
+
+def test_plan_respects_every_constraint(pocket, pocket_job):
+    t = pocket.table
+    job = pocket_job
+    cut = (t["motion"] == "cut") & (t["limiting"] != "plunge")
+    depth = t.loc[cut, "depth_mm"].to_numpy()
+    assert np.ptp(depth) == 0.0  # one depth per pass
+    # stable with the safety factor at every cutting waypoint (a_lim: exact, at the planned speed)
+    assert np.all(t.loc[cut, "a_lim_mm"] >= job.plan.safety_factor * depth * (1 - 1e-9))
+    assert t.loc[cut, "margin"].min() == pytest.approx(job.plan.safety_factor, rel=1e-6)
+    rpm = t.loc[t["motion"] == "cut", "rpm"].to_numpy()
+    assert np.all((rpm >= job.spindle.rpm_min - 1e-6) & (rpm <= job.spindle.rpm_max + 1e-6))
+    assert t["power_kW"].max() <= job.spindle.power_W * 1e-3 * (1 + 1e-9)
+    # speed changes within the rate limit (rpm/s at the feed each move runs at)
+    s = t[t["motion"] == "cut"]
+    seg = np.linalg.norm(np.diff(s[["x_mm", "y_mm", "z_mm"]].to_numpy(), axis=0), axis=1) * 1e-3
+    v = s["feed_mm_per_min"].to_numpy() / 6e4
+    dt = seg / np.maximum(v[1:], v[:-1])
+    dn = np.abs(np.diff(s["rpm"].to_numpy()))
+    ok = dt > 0
+    assert np.all(dn[ok] <= job.plan.max_rate_rpm_per_s * dt[ok] * (1 + 1e-6) + 1e-6)
+    # feed follows the speed: fz N n
+    assert np.allclose(s["feed_mm_per_min"], job.cut.feed_per_tooth_m * 1e3 * job.tool.teeth * s["rpm"])
+
+
+def test_postures_reach_the_targets(pocket, pocket_job):
+    robot = load_robot("A")
+    wp = read_toolpath(example("pocket.nc"))
+    poses, _ = tcp_targets(wp, robot, pocket_job.placement, 0.0)
+    got = tcp_pose(robot, pocket.q)
+    assert np.allclose(got[:, :3, 3], poses[:, :3, 3], atol=1e-6)
+    assert np.allclose(got[:, :3, :3], poses[:, :3, :3], atol=1e-6)
+    # tool axis of the pocket (+z of the path) is -z_tcp
+    assert np.allclose(got[:, :3, 2], [0, 0, -1], atol=1e-9)
+    assert np.max(np.abs(np.diff(pocket.q, axis=0))) < np.radians(20)  # no wrist flip
+
+
+def test_summary_contents(pocket):
+    s = pocket.summary
+    for key in (
+        "mrr_cm3_per_min", "cycle_time_s", "min_margin", "min_margin_at", "depth_mm",
+        "vs_best_constant_speed", "vs_programmed_speed", "limiting_counts", "timings_s",
+    ):  # fmt: skip
+        assert key in s
+    assert s["min_margin_at"]["source"].startswith("pocket.nc:")
+    assert s["n_plunge"] == 2  # the two plunges at the slot start
+    assert s["vs_programmed_speed"]["mrr_gain_pct"] >= 0.0
+    assert s["vs_best_constant_speed"]["mrr_gain_pct"] >= -1e-9
+    assert s["cycle_time_s"] == pytest.approx(s["cut_time_s"] + s["rapid_time_s"])
+    assert 1 <= s["n_dynamics_groups"] <= s["n_cut"]
+    assert set(pocket.timings) >= {"read", "ik", "modes", "frf", "lobes", "optimize", "table"}
+
+
+def test_unreachable_placement_names_the_line(pocket_job):
+    far = pocket_job.placement.copy()
+    far[:3, 3] = [3.5, 0.0, 0.3]
+    with pytest.raises(ReachabilityError, match=r"pocket\.nc:\d+: waypoint \d+"):
+        plan_path(example("pocket.nc"), pocket_job.replace(placement=far), refine=False)
+
+
+def test_singular_path_is_reported(tmp_path, pocket_job):
+    # A at q = (0, -90, 90, 0, 0, 0) has its wrist straight (q5 = 0) with the TCP at
+    # (2.24, 0, 1.91) pointing +x: a cut across that spot passes the wrist singularity
+    p = tmp_path / "sing.csv"
+    p.write_text("x_m,y_m,z_m,i,j,k\n0,0,0,-1,0,0\n0,0.01,0,-1,0,0\n", encoding="utf-8")
+    pl = np.eye(4)
+    pl[:3, 3] = [2.24, -0.005, 1.91]
+    with pytest.raises(SingularityError, match=r"sing\.csv:3: waypoint 1: joint 4 turns 180 deg"):
+        plan_path(p, pocket_job.replace(placement=pl), refine=False)
+
+
+def test_wrist_measure_vanishes_with_a_straight_wrist():
+    robot = load_robot("A")
+    q = np.radians([[0, -90, 90, 0, 0, 0], [0, -90, 90, 0, 30, 0]])
+    wm = _wrist_measure(robot, q)
+    assert wm[0] == pytest.approx(0.0, abs=1e-12)
+    assert wm[1] == pytest.approx(0.5, rel=1e-9)  # |sin 30 deg|
+
+
+def test_impossible_limits_are_infeasible(pocket_job):
+    job = pocket_job.replace(plan=dataclasses.replace(pocket_job.plan, depth_min_m=0.014))
+    with pytest.raises(InfeasibleError) as ei:
+        plan_path(example("pocket.nc"), job, refine=False)
+    assert ei.value.exit_code == 3
+    assert "pocket.nc:" in str(ei.value)
+
+
+def test_stiffest_rotation_picks_from_the_range(pocket_job):
+    job = pocket_job.replace(
+        tool_rotation="stiffest", tool_rotation_range_rad=(-np.pi / 2, np.pi / 2),
+        tool_rotation_step_rad=np.pi / 2,
+    )  # fmt: skip
+    res = plan_path(example("pocket.nc"), job, refine=False)
+    s = res.summary
+    assert s["tool_rotation_deg"] in (-90.0, 0.0, 90.0)
+    assert s["tool_rotation_search"].count("deg:") == 3
+
+
+class _FakePredictor:
+    """Twin modes as the centre with a 5 % log spread (a stand-in for a tl ensemble)."""
+
+    def __init__(self, twin: TwinSource) -> None:
+        self.twin = twin
+
+    def predict(self, q, warn=True):
+        m = self.twin.predict(q)
+        vals = np.stack([m.f_hz, m.zeta, np.where(np.isfinite(m.k_N_per_m), m.k_N_per_m, 1e12)], -1)
+        vals = vals[..., :4, :]  # four modes per direction
+        return ModalPrediction(("xx", "yy", "zz"), np.log(vals), np.full(vals.shape, 0.05), "log")
+
+    def extrapolation(self, q):
+        return np.zeros(len(np.atleast_2d(q)))
+
+
+def test_robust_mode_plans_on_the_lower_bound(pocket_job):
+    src = PredictorSource(_FakePredictor(TwinSource(load_robot("A"))), "fake ensemble")
+    nominal = plan_path(example("pocket.nc"), pocket_job, source=src, refine=False)
+    job = pocket_job.replace(plan=dataclasses.replace(pocket_job.plan, robust=True, k_sigma=2.0))
+    robust = plan_path(example("pocket.nc"), job, source=src, refine=False)
+    assert robust.summary["robust"] is True
+    assert robust.outcome.best.depth_m < nominal.outcome.best.depth_m
+    assert len(robust.lobes.diagrams) == 4  # nominal + three scenarios
