@@ -22,8 +22,7 @@ OUT = Path(__file__).resolve().parents[1] / "src" / "robolobe" / "data" / "examp
 
 
 def _f(v: float) -> str:
-    s = f"{v:.3f}".rstrip("0")
-    return s if not s.endswith(".") else s  # keep "10." (Fanuc style)
+    return f"{v:.3f}".rstrip("0")  # "10." stays (Fanuc style)
 
 
 def pocket() -> str:
@@ -105,9 +104,7 @@ FEDRAT/  4800.0000,MMPM
         body.append(f"GOTO  / {x:10.5f}, {y:10.5f},  -8.00000,  0.000000,  0.000000,  1.000000")
 
     def circle(cx: float, cy: float, r: float) -> None:
-        body.append(
-            f"CIRCLE/ {cx:10.5f}, {cy:10.5f},  -8.00000,  0.000000,  0.000000,  1.000000,$"
-        )
+        body.append(f"CIRCLE/ {cx:10.5f}, {cy:10.5f},  -8.00000,  0.000000,  0.000000,  1.000000,$")
         body.append(f"  {r:9.5f},   0.05000,   0.50000,  20.00000,   0.00000")
 
     goto(-10.0, -10.0)
@@ -132,8 +129,8 @@ def face() -> str:
     width, length, step = 150.0, 200.0, 15.0
     passes = int(width // step) + 1
     decl = [
-        "    CONST robtarget pStart:=[[0,0,-1.5],[0,0,1,0],[0,0,0,0],[9E+09,9E+09,9E+09,9E+09,9E+09,9E+09]];",
-        "    CONST robtarget pAbove:=[[0,0,40],[0,0,1,0],[0,0,0,0],[9E+09,9E+09,9E+09,9E+09,9E+09,9E+09]];",
+        "    CONST robtarget pStart:=[[0,0,-1.5],[0,0,1,0],[0,0,0,0],[9E+09,9E+09,9E+09,9E+09,9E+09,9E+09]];",  # noqa: E501
+        "    CONST robtarget pAbove:=[[0,0,40],[0,0,1,0],[0,0,0,0],[9E+09,9E+09,9E+09,9E+09,9E+09,9E+09]];",  # noqa: E501
     ]
     moves = [
         "        MoveJ pAbove, v500, z20, tSpindle\\WObj:=wPart;",
@@ -146,10 +143,10 @@ def face() -> str:
         moves.append(f"        MoveL Offs(pStart,{x:g},{y:g},0), vFace, z1, tSpindle\\WObj:=wPart;")
         if i + 1 < passes:
             moves.append(
-                f"        MoveL Offs(pStart,{x:g},{y + step:g},0), vFace, z1, tSpindle\\WObj:=wPart;"
+                f"        MoveL Offs(pStart,{x:g},{y + step:g},0), vFace, z1, tSpindle\\WObj:=wPart;"  # noqa: E501
             )
     moves.append(
-        f"        MoveL Offs(pStart,{x:g},{(passes - 1) * step:g},40), v200, z10, tSpindle\\WObj:=wPart;"
+        f"        MoveL Offs(pStart,{x:g},{(passes - 1) * step:g},40), v200, z10, tSpindle\\WObj:=wPart;"  # noqa: E501
     )
     return "\n".join(
         [
@@ -159,8 +156,8 @@ def face() -> str:
             "%%%",
             "MODULE FaceMill",
             "    ! Face milling 200 x 150 mm, zig-zag, 15 mm stepover (robolobe example)",
-            "    PERS tooldata tSpindle:=[TRUE,[[0,0,380],[1,0,0,0]],[55,[0,0,-180],[1,0,0,0],0,0,0]];",
-            '    TASK PERS wobjdata wPart:=[FALSE,TRUE,"",[[0,0,0],[1,0,0,0]],[[0,0,0],[1,0,0,0]]];',
+            "    PERS tooldata tSpindle:=[TRUE,[[0,0,380],[1,0,0,0]],[55,[0,0,-180],[1,0,0,0],0,0,0]];",  # noqa: E501
+            '    TASK PERS wobjdata wPart:=[FALSE,TRUE,"",[[0,0,0],[1,0,0,0]],[[0,0,0],[1,0,0,0]]];',  # noqa: E501
             "    CONST speeddata vFace:=[25,500,5000,1000];",
             *decl,
             "",
@@ -205,13 +202,13 @@ END
 
 
 def slot_dat() -> str:
-    return """&ACCESS RVP
-&REL 1
-DEFDAT  slot
-DECL E6POS XP1={X 170.0,Y 150.0,Z -3.0,A 0.0,B 90.0,C 0.0,S 6,T 27,E1 0.0,E2 0.0,E3 0.0,E4 0.0,E5 0.0,E6 0.0}
-DECL E6POS XP2={X 60.0,Y 150.0,Z -3.0,A 0.0,B 90.0,C 0.0,S 6,T 27,E1 0.0,E2 0.0,E3 0.0,E4 0.0,E5 0.0,E6 0.0}
-ENDDAT
-"""
+    tail = "S 6,T 27,E1 0.0,E2 0.0,E3 0.0,E4 0.0,E5 0.0,E6 0.0"
+    return (
+        "&ACCESS RVP\n&REL 1\nDEFDAT  slot\n"
+        f"DECL E6POS XP1={{X 170.0,Y 150.0,Z -3.0,A 0.0,B 90.0,C 0.0,{tail}}}\n"
+        f"DECL E6POS XP2={{X 60.0,Y 150.0,Z -3.0,A 0.0,B 90.0,C 0.0,{tail}}}\n"
+        "ENDDAT\n"
+    )
 
 
 def main() -> None:

@@ -101,9 +101,22 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--noise", type=float, default=1.0, help="test noise x the default")
     p.add_argument("--jobs", type=int, default=1)
     p.add_argument("--out", type=Path, default=Path("studies/out/diagnose"))
+    p.add_argument(
+        "--from-csv",
+        type=Path,
+        nargs="+",
+        default=None,
+        help="only tabulate and plot these cases.csv files (no new runs)",
+    )
     a = p.parse_args(argv)
 
-    from robolobe.diagnose.concealed import standard_cases, study_tables
+    from robolobe.diagnose.concealed import results_frame, standard_cases, study_tables
+
+    a.out.mkdir(parents=True, exist_ok=True)
+    if a.from_csv:
+        frame = pd.concat([pd.read_csv(f) for f in a.from_csv], ignore_index=True)
+        _report(study_tables(frame), a.out, time.perf_counter())
+        return 0
 
     robots = [r.strip() for r in a.robots.split(",") if r.strip()]
     robots = [r for r in robots if r in ("A", "B", "C") or Path(r).is_file()]
@@ -128,6 +141,7 @@ def main(argv: list[str] | None = None) -> int:
         for i, w in enumerate(work):
             r = _one(w)
             results.append(r)
+            results_frame(results).to_csv(a.out / "cases.csv", index=False)  # progress survives
             c = w[0]
             print(
                 f"[{i + 1}/{len(cases)}] {c.robot_label} {c.truth}/{c.magnitude}: "
@@ -136,8 +150,12 @@ def main(argv: list[str] | None = None) -> int:
                 flush=True,
             )
     tables = study_tables(results)  # type: ignore[arg-type]
-    a.out.mkdir(parents=True, exist_ok=True)
     tables["cases"].to_csv(a.out / "cases.csv", index=False)
+    _report(tables, a.out, t0)
+    return 0
+
+
+def _report(tables: dict[str, pd.DataFrame], out: Path, t0: float) -> None:
     pd.set_option("display.width", 200)
     pd.set_option("display.max_columns", 30)
     cases_df = tables["cases"]
@@ -158,9 +176,8 @@ def main(argv: list[str] | None = None) -> int:
         f"of correctly named; median time {cases_df['seconds'].median():.0f} s per case; "
         f"total {time.perf_counter() - t0:.0f} s"
     )
-    _plot(tables, a.out)
-    print(f"wrote {a.out}/cases.csv, confusion.png, frac_before_after.png")
-    return 0
+    _plot(tables, out)
+    print(f"wrote {out}/cases.csv, confusion.png, frac_before_after.png")
 
 
 if __name__ == "__main__":

@@ -94,14 +94,108 @@ def evaluate(model, camp, test) -> dict[str, object]:
     }
 
 
+def summarize(results: list[dict], png: str | None = None) -> str:
+    """Markdown table (mean +- std over seeds) and an optional figure."""
+    import pandas as pd
+
+    rows = []
+    for r in results:
+        e, c = r["median_err_pct"], r["coverage90"]
+        rows.append(
+            {
+                "robot": r["robot"],
+                "case": r["case"],
+                "preset": r["preset"],
+                "seed": r["seed"],
+                "f": e["f"],
+                "zeta": e["zeta"],
+                "k": e["k"],
+                "cov_f": c["f"],
+                "cov_zeta": c["zeta"],
+                "cov_k": c["k"],
+                "frac_min": r["frac_min"],
+                "frac_med": r["frac_median"],
+                "nrmse_max": r["nrmse_max"],
+                "nrmse_med": r["nrmse_median"],
+            }
+        )
+    df = pd.DataFrame(rows)
+    keys = ["robot", "case", "preset"]
+    cols = [
+        "f",
+        "zeta",
+        "k",
+        "frac_min",
+        "frac_med",
+        "nrmse_max",
+        "nrmse_med",
+        "cov_f",
+        "cov_zeta",
+        "cov_k",
+    ]
+    g = df.groupby(keys, sort=False)[cols]
+    mean, std, n = g.mean(), g.std(ddof=1).fillna(0.0), g.size()
+    head = (
+        "| robot | case | preset | seeds | f % | zeta % | k % | FRAC min | FRAC med "
+        "| NRMSE max | NRMSE med | 90 % cover f/zeta/k |"
+    )
+    lines = [head, "|" + "---|" * 12]
+    for idx in mean.index:
+        m, sd = mean.loc[idx], std.loc[idx]
+
+        def pm(c: str, fmt: str = ".1f", m=m, sd=sd) -> str:
+            if not np.isfinite(m[c]):
+                return "-"
+            return f"{m[c]:{fmt}} ± {sd[c]:{fmt}}"
+
+        cov = (
+            "-"
+            if not np.isfinite(m["cov_f"])
+            else (f"{m['cov_f']:.2f}/{m['cov_zeta']:.2f}/{m['cov_k']:.2f}")
+        )
+        lines.append(
+            f"| {idx[0]} | {idx[1]} | {idx[2]} | {n.loc[idx]} | {pm('f')} | {pm('zeta')} | "
+            f"{pm('k', '.0f')} | {pm('frac_min', '.2f')} | {pm('frac_med', '.2f')} | "
+            f"{pm('nrmse_max', '.2f')} | {pm('nrmse_med', '.2f')} | {cov} |"
+        )
+    if png:
+        import matplotlib
+
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+
+        main_cases = df[~df["case"].str.contains("baseline")]
+        fig, axes = plt.subplots(1, 3, figsize=(13, 3.8), sharey=False)
+        for ax, par, goal in zip(axes, ("f", "zeta", "k"), (1.0, 10.0, 5.0), strict=True):
+            lab = main_cases["robot"] + " " + main_cases["case"]
+            for j, (preset, sub) in enumerate(main_cases.groupby("preset", sort=False)):
+                gg = sub.groupby(lab[sub.index], sort=False)[par]
+                x = np.arange(len(gg)) + 0.38 * j
+                ax.bar(x, gg.mean(), 0.38, yerr=gg.std(ddof=1).fillna(0), label=preset)
+                ax.set_xticks(
+                    np.arange(len(gg)) + 0.19, list(gg.groups), rotation=35, ha="right", fontsize=8
+                )
+            ax.axhline(goal, color="k", lw=0.8, ls="--")
+            ax.set_title(f"median {par} error [%] (dashed: goal)")
+        axes[0].legend()
+        fig.tight_layout()
+        fig.savefig(png, dpi=110)
+    return "\n".join(lines)
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--summarize", help="Only print the table of a results JSON file.")
+    ap.add_argument("--png", default=None, help="With --summarize: write the figure here.")
     ap.add_argument("--seeds", type=int, default=3)
     ap.add_argument("--presets", default="paper,improved")
     ap.add_argument("--baselines", action="store_true")
     ap.add_argument("--quick", action="store_true", help="100 epochs (smoke run)")
     ap.add_argument("--out", default="studies/tl_accuracy.json")
     args = ap.parse_args()
+    if args.summarize:
+        print(summarize(json.loads(Path(args.summarize).read_text()), args.png))
+        return
     torch.set_num_threads(1)
     results: list[dict[str, object]] = []
     for seed in range(args.seeds):
@@ -197,6 +291,7 @@ def main() -> None:
                         flush=True,
                     )
     Path(args.out).write_text(json.dumps(results, indent=1))
+    print(summarize(results))
 
 
 if __name__ == "__main__":

@@ -48,8 +48,10 @@ def test_plan_without_arguments_runs_the_bundled_example(tmp_path):
     out = tmp_path / "robolobe-out"
     s = json.loads((out / "summary.json").read_text())
     assert s["path"].endswith("pocket.nc")
-    assert (out / "report.html").exists() and (out / "plots" / "lobes.png").exists()
-    assert "MRR" in r.stdout and "minimum margin" in r.stdout
+    assert (out / "report.html").exists()
+    assert (out / "plots" / "lobes.png").exists()
+    assert "MRR" in r.stdout
+    assert "minimum margin" in r.stdout
 
 
 def test_bad_path_exit_2_one_line_nothing_written(tmp_path):
@@ -59,7 +61,9 @@ def test_bad_path_exit_2_one_line_nothing_written(tmp_path):
     assert r.returncode == 2
     assert "Traceback" not in r.stderr
     err = [ln for ln in r.stderr.splitlines() if ln.strip()]
-    assert len(err) == 1 and "bad.nc:3" in err[0] and "canned cycle" in err[0]
+    assert len(err) == 1
+    assert "bad.nc:3" in err[0]
+    assert "canned cycle" in err[0]
     assert not (tmp_path / "out").exists()
 
 
@@ -67,21 +71,41 @@ def test_infeasible_job_exit_3(tmp_path):
     job = twin_job(tmp_path, depth_min_mm="14.0")
     r = run(["plan", str(EX / "pocket.nc"), "--job", str(job), "-o", "out"], tmp_path)
     assert r.returncode == 3, r.stderr
-    assert "Traceback" not in r.stderr and "pocket.nc:" in r.stderr
+    assert "Traceback" not in r.stderr
+    assert "pocket.nc:" in r.stderr
     assert not (tmp_path / "out").exists()
 
 
 def test_compare_and_batch(tmp_path):
     job = twin_job(tmp_path)
-    r = run(["compare", str(EX / "pocket.nc"), "--job", str(job), "--robots", "A", "C", "-o", "cmp", "--no-refine"], tmp_path)
+    r = run(
+        [
+            "compare",
+            str(EX / "pocket.nc"),
+            "--job",
+            str(job),
+            "--robots",
+            "A",
+            "C",
+            "-o",
+            "cmp",
+            "--no-refine",
+        ],
+        tmp_path,
+    )
     assert r.returncode == 0, r.stderr
     t = pd.read_csv(tmp_path / "cmp" / "compare.csv")
-    assert list(t["robot"]) == ["A", "C"] and (t["status"] == "ok").all()
+    assert list(t["robot"]) == ["A", "C"]
+    assert (t["status"] == "ok").all()
     shutil.copy(EX / "pocket.nc", tmp_path / "p1.nc")
     (tmp_path / "p2.nc").write_text("G0 X0\nG41 G1 X5\n", encoding="utf-8")
-    r = run(["batch", "p1.nc", "p2.nc", "--job", str(job), "-o", "b", "--workers", "1", "--no-refine"], tmp_path)
+    r = run(
+        ["batch", "p1.nc", "p2.nc", "--job", str(job), "-o", "b", "--workers", "1", "--no-refine"],
+        tmp_path,
+    )
     assert r.returncode == 2  # one path failed; the table is still written
-    assert "p2.nc:2" in r.stderr and "Traceback" not in r.stderr
+    assert "p2.nc:2" in r.stderr
+    assert "Traceback" not in r.stderr
     t = pd.read_parquet(tmp_path / "b" / "batch.parquet")
     assert dict(zip(t["path"], t["status"], strict=True)) == {"p1.nc": "ok", "p2.nc": "error"}
 
@@ -89,12 +113,14 @@ def test_compare_and_batch(tmp_path):
 def test_help_lists_units():
     res = CliRunner().invoke(app, ["plan", "--help"])
     assert res.exit_code == 0
-    assert "--job" in res.output and "Exit code 3" in res.output
+    assert "--job" in res.output
+    assert "Exit code 3" in res.output
 
 
 def test_plan_needs_both_path_and_job(tmp_path):
     r = run(["plan", str(EX / "pocket.nc")], tmp_path)
-    assert r.returncode == 2 and "give both PATH and --job" in r.stderr
+    assert r.returncode == 2
+    assert "give both PATH and --job" in r.stderr
 
 
 @pytest.mark.parametrize("robots", [["--robots", "A,C"], ["--robots", "A", "--robots", "C"]])
@@ -105,10 +131,23 @@ def test_compare_robot_list_forms(tmp_path, robots, monkeypatch):
 
     def fake(path, job, names, refine=True):
         seen["names"] = names
-        return cmp_mod.Comparison(table=pd.DataFrame({"robot": names, "status": ["ok"] * len(names), "message": ""}))
+        return cmp_mod.Comparison(
+            table=pd.DataFrame({"robot": names, "status": ["ok"] * len(names), "message": ""})
+        )
 
     monkeypatch.setattr(cmp_mod, "compare_robots", fake)
     monkeypatch.setattr(cmp_mod, "write_comparison", lambda c, o: o)
-    res = CliRunner().invoke(app, ["compare", str(EX / "pocket.nc"), "--job", str(twin_job(tmp_path)), *robots, "-o", str(tmp_path / "c")])
+    res = CliRunner().invoke(
+        app,
+        [
+            "compare",
+            str(EX / "pocket.nc"),
+            "--job",
+            str(twin_job(tmp_path)),
+            *robots,
+            "-o",
+            str(tmp_path / "c"),
+        ],
+    )
     assert res.exit_code == 0, res.output
     assert seen["names"] == ["A", "C"]

@@ -5,9 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 import pytest
-from typer.testing import CliRunner
 
-from robolobe.cli.main import app
+from robolobe.cli import main as cli_main
 from robolobe.modal.modal_csv import read_modal_csv, write_modal_csv
 from robolobe.robots import load_robot
 from robolobe.tl.twin_data import twin_modal_dataset
@@ -15,7 +14,11 @@ from robolobe.twin.campaign import read_campaign, write_postures
 from robolobe.twin.designs import B_TEST_DEG, design_arrays, seed_design
 from robolobe.twin.model import Twin
 
-runner = CliRunner()
+
+class _Result:
+    def __init__(self, code: int, output: str) -> None:
+        self.exit_code = code
+        self.output = output
 
 
 @pytest.fixture(scope="module")
@@ -33,16 +36,25 @@ def b_modal(tmp_path_factory):
     return path
 
 
-def _run(args):
-    res = runner.invoke(app, args, catch_exceptions=True)
-    if res.exception is not None and not isinstance(res.exception, SystemExit):
-        raise res.exception
-    return res
+@pytest.fixture
+def run(capsys):
+    """Run the robolobe CLI in-process like the console script (errors -> exit code)."""
+
+    def _run(args):
+        code = 0
+        try:
+            cli_main.main([str(a) for a in args])
+        except SystemExit as exc:
+            code = int(exc.code or 0)
+        out = capsys.readouterr()
+        return _Result(code, out.out + out.err)
+
+    return _run
 
 
-def test_transfer_then_predict_with_spread_and_frf(tmp_path, b_modal):
+def test_transfer_then_predict_with_spread_and_frf(tmp_path, b_modal, run):
     model = tmp_path / "B.npz"
-    res = _run(
+    res = run(
         [
             "transfer",
             str(b_modal),
@@ -61,7 +73,7 @@ def test_transfer_then_predict_with_spread_and_frf(tmp_path, b_modal):
     post = tmp_path / "postures.csv"
     write_postures(post, [f"T{i}" for i in range(1, 6)], np.radians(B_TEST_DEG))
     out = tmp_path / "pred.csv"
-    res = _run(["predict", str(model), str(post), "-o", str(out), "--frf", str(tmp_path / "frf")])
+    res = run(["predict", str(model), str(post), "-o", str(out), "--frf", str(tmp_path / "frf")])
     assert res.exit_code == 0, res.output
     df = read_modal_csv(out)
     assert len(df) == 5 * 2 * 5
@@ -74,70 +86,68 @@ def test_transfer_then_predict_with_spread_and_frf(tmp_path, b_modal):
     assert camp.dirs == frozenset({"xx", "yy"})
 
 
-def test_predict_with_shipped_model(tmp_path):
+def test_predict_with_shipped_model(tmp_path, run):
     post = tmp_path / "p.csv"
     write_postures(
         post, ["a", "b"], np.radians([[0, 10, -40, 0, 30, 0], [20, 30, -60, 90, -40, 10]])
     )
-    res = _run(["predict", "B", str(post), "-o", str(tmp_path / "o.csv")])
+    res = run(["predict", "B", str(post), "-o", str(tmp_path / "o.csv")])
     assert res.exit_code == 0, res.output
     assert len(pd.read_csv(tmp_path / "o.csv")) == 20
 
 
-def test_too_few_postures_is_a_clear_error(tmp_path, b_modal):
+def test_too_few_postures_is_a_clear_error(tmp_path, b_modal, run):
     df = read_modal_csv(b_modal)
     few = df[df["posture_id"].isin(df["posture_id"].unique()[:4])]
     path = tmp_path / "few.csv"
     write_modal_csv(path, few)
-    res = _run(["transfer", str(path), "--from", "A", "-o", str(tmp_path / "m.npz")])
+    res = run(["transfer", str(path), "--from", "A", "-o", str(tmp_path / "m.npz")])
     assert res.exit_code == 2
     assert "at least 8 postures" in res.output
     assert "Traceback" not in res.output
 
 
-def test_out_of_range_angles_are_rejected(tmp_path, b_modal):
+def test_out_of_range_angles_are_rejected(tmp_path, b_modal, run):
     df = read_modal_csv(b_modal)
     df.loc[df["posture_id"] == df["posture_id"].iloc[0], "q2_deg"] = 170.0
     path = tmp_path / "bad.csv"
     write_modal_csv(path, df)
-    res = _run(
-        ["transfer", str(path), "--from", "A", "-o", str(tmp_path / "m.npz"), "--robot", "B"]
-    )
+    res = run(["transfer", str(path), "--from", "A", "-o", str(tmp_path / "m.npz"), "--robot", "B"])
     assert res.exit_code == 2
     assert "q2" in res.output
     post = tmp_path / "p.csv"
     write_postures(post, ["x"], np.radians([[0, 170, -40, 0, 30, 0]]))
-    res = _run(["predict", "B", str(post), "-o", str(tmp_path / "o.csv")])
+    res = run(["predict", "B", str(post), "-o", str(tmp_path / "o.csv")])
     assert res.exit_code == 2
     assert not (tmp_path / "o.csv").exists()
 
 
-def test_missing_modes_warn_and_extrapolation_warns(tmp_path, b_modal):
+def test_missing_modes_warn_and_extrapolation_warns(tmp_path, b_modal, run):
     df = read_modal_csv(b_modal)
     path = tmp_path / "gaps.csv"
     write_modal_csv(path, df.iloc[3:])
-    res = _run(
+    res = run(
         ["transfer", str(path), "--from", "A", "-o", str(tmp_path / "m.npz"), "--epochs", "5"]
     )
     assert res.exit_code == 0, res.output
     assert "missing mode value" in res.output
     post = tmp_path / "p.csv"
     write_postures(post, ["far"], np.radians([[0, 74, -30, 0, 30, 0]]))
-    res = _run(["predict", str(tmp_path / "m.npz"), str(post), "-o", str(tmp_path / "o.csv")])
+    res = run(["predict", str(tmp_path / "m.npz"), str(post), "-o", str(tmp_path / "o.csv")])
     assert res.exit_code == 0, res.output
     assert "outside the training range" in res.output
 
 
-def test_design_tests_and_augment(tmp_path):
+def test_design_tests_and_augment(tmp_path, run):
     out = tmp_path / "d.csv"
-    res = _run(["design-tests", "C", "--n", "6", "-o", str(out)])
+    res = run(["design-tests", "C", "--n", "6", "-o", str(out)])
     assert res.exit_code == 0, res.output
     assert "fill distance" in res.output
     assert len(pd.read_csv(out)) == 6
-    res = _run(
+    res = run(
         ["design-tests", "C", "--n", "3", "--augment", str(out), "-o", str(tmp_path / "more.csv")]
     )
     assert res.exit_code == 0, res.output
     assert "6 existing postures" in res.output
-    res = _run(["design-tests", "C", "--n", "0", "-o", str(tmp_path / "x.csv")])
+    res = run(["design-tests", "C", "--n", "0", "-o", str(tmp_path / "x.csv")])
     assert res.exit_code == 2

@@ -16,9 +16,15 @@ from robolobe.modal.validation import accuracy_study
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize(("robot", "n"), [("A", 100), ("B", 25), ("C", 29)])
-def test_accuracy_on_simulated_campaign(robot: str, n: int) -> None:
-    res = accuracy_study(robot, n_postures=n, rng=np.random.default_rng(2026), n_jobs=1)
+@pytest.mark.parametrize(
+    ("robot", "n", "coherence"),
+    [("A", 100, True), ("B", 25, True), ("C", 29, True), ("B", 25, False), ("C", 29, False)],
+)
+def test_accuracy_on_simulated_campaign(robot: str, n: int, coherence: bool) -> None:
+    """``coherence=False`` is what ``robolobe identify`` does on a frf.csv campaign."""
+    res = accuracy_study(
+        robot, n_postures=n, rng=np.random.default_rng(2026), n_jobs=1, use_coherence=coherence
+    )
     rep = res.report
     p90 = rep.percentile(90)
     assert p90["f"] < 0.005, p90

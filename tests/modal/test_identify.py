@@ -98,3 +98,33 @@ def test_settings_from_test_and_errors() -> None:
     f = np.arange(0.25, 40.01, 0.25)
     with pytest.raises(InputError, match="no modes"):
         identify_frfs(["a"], np.zeros((1, 6)), [f], [np.zeros((f.size, 3, 3), complex)])
+
+
+def test_neighbour_recovery_finds_a_mode_one_posture_missed() -> None:
+    """The seed's practice: a mode missing at one posture is found from its neighbours' pole."""
+    from dataclasses import replace
+
+    from robolobe.modal.identify import _recover
+    from robolobe.modal.posture import refit_posture
+
+    n = 8
+    q, f, Hs, systems = _campaign(n, seed=5)
+    ids = [f"p{i}" for i in range(n)]
+    cm = identify_frfs(ids, q, [f] * n, Hs, recover=False)
+    postures = list(cm.postures)
+    labels = [lab.copy() for lab in cm.tracks.labels]
+    p = 4
+    pm = postures[p]
+    j = int(np.argmin(np.abs(pm.f_hz - systems[p].f_hz[2])))  # drop the third mode
+    keep = np.arange(pm.n_modes) != j
+    postures[p] = refit_posture(replace(pm, poles_measured=pm.poles_measured[keep]), [])
+    lost = int(labels[p][j])
+    labels[p] = labels[p][keep]
+    assert postures[p].n_modes == pm.n_modes - 1
+    chosen = {"xx": (lost,), "yy": (lost,), "zz": (lost,)}
+    got = _recover(postures, labels, chosen, q, 3, None)
+    assert set(got) == {p}
+    (i,) = got[p]
+    assert labels[p][i] == lost
+    assert postures[p].f_hz[i] == pytest.approx(pm.f_hz[j], rel=1e-3)
+    assert postures[p].zeta[i] == pytest.approx(pm.zeta[j], rel=0.05)

@@ -30,22 +30,30 @@ def test_compare_adjusts_placement_and_writes(tmp_path, job):
     # a placement out of everyone's reach is moved in front of each robot
     far = job.placement.copy()
     far[:3, 3] = [3.5, 0.0, 0.3]
-    cmp_far = compare_robots(example("pocket.nc"), job.replace(placement=far), ["A", "C"], refine=False)
+    cmp_far = compare_robots(
+        example("pocket.nc"), job.replace(placement=far), ["A", "C"], refine=False
+    )
     tf = cmp_far.table.set_index("robot")
-    assert (tf["status"] == "ok").all() and tf["placement_adjusted"].all()
+    assert (tf["status"] == "ok").all()
+    assert tf["placement_adjusted"].all()
     assert all(np.hypot(*xyz[:2]) < 3.0 for xyz in tf["placement_xyz_m"])
     assert np.all(t["min_margin"] >= job.plan.safety_factor - 1e-6)
     out = write_comparison(cmp, tmp_path / "cmp")
     rows = json.loads((out / "compare.json").read_text())
     assert [r["robot"] for r in rows] == ["A", "C"]
     assert (out / "compare.png").read_bytes()[:4] == b"\x89PNG"
-    assert (out / "C" / "waypoints.csv").exists() and (out / "A" / "report.html").exists()
+    assert (out / "C" / "waypoints.csv").exists()
+    assert (out / "A" / "report.html").exists()
 
 
 def test_unreachable_robot_is_reported(tmp_path, job):
     # a toy arm far too small for the pocket: every placement fails
     src = load_robot("A")
-    small = src.replace(joints=tuple(j.__class__(**{**vars(j), "a_m": j.a_m * 0.02, "d_m": j.d_m * 0.02}) for j in src.joints))
+    small = src.replace(
+        joints=tuple(
+            j.__class__(**{**vars(j), "a_m": j.a_m * 0.02, "d_m": j.d_m * 0.02}) for j in src.joints
+        )
+    )
     from robolobe.robots.io import save_robot
 
     path = tmp_path / "tiny.toml"

@@ -72,7 +72,11 @@ def _base() -> dict:
         (lambda d: d.update(format="robolobe-job/9"), "format", "one of"),
         (lambda d: d["robot"].update(name="nonexistent.toml"), "robot.name", "no such file"),
         (lambda d: d["cut"].update(radial_width_mm=25.0), "cut.radial_width_mm", "at most"),
-        (lambda d: d["material"].update(name=None) or d["material"].pop("name"), "material", "neither"),
+        (
+            lambda d: d["material"].update(name=None) or d["material"].pop("name"),
+            "material",
+            "neither",
+        ),
     ],
 )
 def test_errors_name_file_and_key(edit, key, what):
@@ -116,4 +120,5 @@ def test_material_coefficients_without_name():
     d["material"] = {"Kt_N_per_mm2": 2000.0, "Kr": 0.4}
     job = job_from_dict(d, source="job.toml")
     mat = material_from_job(job)
-    assert mat.kt == pytest.approx(2e9) and mat.kr == pytest.approx(0.4)
+    assert mat.kt == pytest.approx(2e9)
+    assert mat.kr == pytest.approx(0.4)

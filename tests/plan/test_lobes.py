@@ -30,7 +30,8 @@ def test_exact_grouping_only_merges_identical_models():
     )
     group, leader = group_dynamics(rep, DynamicsTolerance(0.0, 0.0, 0.0))
     assert leader.size == 6
-    assert group[6] == group[0] and group[7] == group[1]
+    assert group[6] == group[0]
+    assert group[7] == group[1]
     assert len(set(group[:6])) == 6
 
 
@@ -58,7 +59,9 @@ def test_waypoint_lobes_equal_direct_zoa_per_waypoint():
     for i in range(5):
         mi = m.take(np.array([i]))
         w = grids[i : i + 1]
-        ref = zoa_lobes(w, mi.frf(w), alpha=alpha, teeth=3, kt=767e6, rpm=RPM, max_lobe=None, immersion=0.5)
+        ref = zoa_lobes(
+            w, mi.frf(w), alpha=alpha, teeth=3, kt=767e6, rpm=RPM, max_lobe=None, immersion=0.5
+        )
         row = gl.table.a_lim[gl.table.group[i]]
         assert np.allclose(row, ref.a_lim[0], rtol=1e-12)
         speeds = np.array([7123.0, 15555.5, 23001.0])
@@ -81,9 +84,11 @@ def test_plunges_are_unbounded_and_robust_takes_the_minimum():
         a_r = robust.table.a_lim[robust.table.group[i]]
         assert np.all(a_r <= a_n * (1 + 1e-12))
         assert np.any(a_r < a_n * 0.99)
-    assert nominal.valid and nominal.message == ""
+    assert nominal.valid
+    assert nominal.message == ""
     low = waypoint_lobes([m], **{**kw, "immersion": 0.1})
-    assert not low.valid and "unreliable" in low.message
+    assert not low.valid
+    assert "unreliable" in low.message
 
 
 def test_query_padding_with_uneven_groups():

@@ -33,8 +33,8 @@ def table(funcs, group, *, dent: float = 0.0) -> LobeTable:
     grid = np.stack([f(RPM) for f in funcs])
     step = RPM[1] - RPM[0]
 
-    def exact(rows: np.ndarray) -> np.ndarray:
-        out = np.stack([funcs[g](rows[g]) for g in range(len(funcs))])
+    def exact(rows: np.ndarray, groups: np.ndarray) -> np.ndarray:
+        out = np.stack([funcs[g](rows[k]) for k, g in enumerate(groups)])
         return out * (1.0 - dent * np.abs(np.sin(np.pi * (rows - RPM[0]) / step)))
 
     return LobeTable(RPM, grid, np.asarray(group), exact)
@@ -170,15 +170,20 @@ def test_constant_speed_mode():
     f0, f1 = bump(10000.0, 2.0), bump(18000.0, 2.0)
     n = 60
     group = np.r_[np.zeros(n // 2, int), np.ones(n // 2, int)]
-    out = optimize_schedule(table([f0, f1], group), PathGeometry(np.full(n, 0.01)), cons(constant_speed=True))
+    out = optimize_schedule(
+        table([f0, f1], group), PathGeometry(np.full(n, 0.01)), cons(constant_speed=True)
+    )
     assert np.ptp(out.best.rpm) == 0.0
-    assert out.nlp is None and out.search is None
+    assert out.nlp is None
+    assert out.search is None
 
 
 def test_infeasible_torque():
     f = bump(15000.0, 2.0)
     with pytest.raises(InfeasibleError, match="torque"):
-        optimize_schedule(table([f], np.zeros(5, int)), PathGeometry(np.full(5, 0.01)), cons(torque_Nm=1e-3))
+        optimize_schedule(
+            table([f], np.zeros(5, int)), PathGeometry(np.full(5, 0.01)), cons(torque_Nm=1e-3)
+        )
 
 
 def test_infeasible_stability_names_the_waypoint():
@@ -187,7 +192,10 @@ def test_infeasible_stability_names_the_waypoint():
     labels = ["p.nc:10", "p.nc:11", "p.nc:12", "p.nc:13"]
     with pytest.raises(InfeasibleError, match=r"waypoint 2 \(p\.nc:12\)") as ei:
         optimize_schedule(
-            table([f0, f1], group), PathGeometry(np.full(4, 0.01)), cons(depth_min_m=0.5e-3), labels=labels
+            table([f0, f1], group),
+            PathGeometry(np.full(4, 0.01)),
+            cons(depth_min_m=0.5e-3),
+            labels=labels,
         )
     assert ei.value.exit_code == 3
 

@@ -31,7 +31,8 @@ def test_fanuc_pocket_fixture(data_dir):
     r = np.hypot(arc[:, 0] - 35.0, arc[:, 1] - 5.0)
     assert np.allclose(r, 10.0, atol=1e-9)
     ang = np.unwrap(np.arctan2(arc[:, 1] - 5.0, arc[:, 0] - 35.0))
-    assert np.all(np.diff(ang) > 0) and ang[-1] == pytest.approx(math.pi / 2)
+    assert np.all(np.diff(ang) > 0)
+    assert ang[-1] == pytest.approx(math.pi / 2)
     # chord error within the default 0.01 mm tolerance
     pts = np.vstack([[45.0, 5.0], arc])
     mid = 0.5 * (pts[1:] + pts[:-1])
@@ -51,7 +52,8 @@ def test_block_delete_switch_off(data_dir):
     text = "G0 X0 Y0 Z5\n/G1 X10. F100\nG1 Y10.\n"
     on = parse_gcode(text, "a.nc")
     off = parse_gcode(text, "a.nc", block_delete=False)
-    assert len(on) == 2 and len(off) == 3
+    assert len(on) == 2
+    assert len(off) == 3
     assert off["x_m"].iloc[1] == pytest.approx(0.01)
 
 
@@ -116,7 +118,9 @@ def test_five_axis_tool_vectors_and_rotary_words(data_dir):
     abc = read_toolpath(data_dir / "head_abc.nc")
     # documented convention: axis = Rz(C) Ry(B) Rx(A) ez
     assert abc[["i", "j", "k"]].iloc[2].tolist() == pytest.approx([0.5, 0.0, math.sqrt(3) / 2])
-    assert abc[["i", "j", "k"]].iloc[3].tolist() == pytest.approx([0.0, 0.5, math.sqrt(3) / 2], abs=1e-12)
+    assert abc[["i", "j", "k"]].iloc[3].tolist() == pytest.approx(
+        [0.0, 0.5, math.sqrt(3) / 2], abs=1e-12
+    )
 
 
 @pytest.mark.parametrize(

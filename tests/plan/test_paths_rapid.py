@@ -43,7 +43,11 @@ def test_quaternion_rotation_is_scalar_first():
         ("MoveL RelTool(p1, 0, 0, 10), v100, z1, tool0;", 4, "RelTool"),
         ("IF x > 1 THEN", 4, "control flow"),
         ("MoveL pNope, v100, z1, tool0;", 4, "unknown robtarget"),
-        ("MoveL [[1,2,3],[1,1,0,0],[0,0,0,0],[9E9,9E9,9E9,9E9,9E9,9E9]], v100, z1, tool0;", 4, "normalised"),
+        (
+            "MoveL [[1,2,3],[1,1,0,0],[0,0,0,0],[9E9,9E9,9E9,9E9,9E9,9E9]], v100, z1, tool0;",
+            4,
+            "normalised",
+        ),
         ("MoveL p1, v100, z1, tool0", 4, "not terminated"),
     ],
 )

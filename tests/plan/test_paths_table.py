@@ -49,7 +49,11 @@ def test_table_errors(tmp_path, body, what):
 
 
 def test_detect_format_by_content(tmp_path, data_dir):
-    for src, fmt in (("pocket_fanuc.nc", "gcode"), ("contour_catia_ok.apt", "apt"), ("face.mod", "rapid")):
+    for src, fmt in (
+        ("pocket_fanuc.nc", "gcode"),
+        ("contour_catia_ok.apt", "apt"),
+        ("face.mod", "rapid"),
+    ):
         q = tmp_path / (src.split(".")[0] + ".txt")
         q.write_text((data_dir / src).read_text(encoding="utf-8"), encoding="utf-8")
         assert detect_format(q) == fmt

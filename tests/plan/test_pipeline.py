@@ -50,7 +50,9 @@ def test_plan_respects_every_constraint(pocket, pocket_job):
     ok = dt > 0
     assert np.all(dn[ok] <= job.plan.max_rate_rpm_per_s * dt[ok] * (1 + 1e-6) + 1e-6)
     # feed follows the speed: fz N n
-    assert np.allclose(s["feed_mm_per_min"], job.cut.feed_per_tooth_m * 1e3 * job.tool.teeth * s["rpm"])
+    assert np.allclose(
+        s["feed_mm_per_min"], job.cut.feed_per_tooth_m * 1e3 * job.tool.teeth * s["rpm"]
+    )
 
 
 def test_postures_reach_the_targets(pocket, pocket_job):

@@ -31,7 +31,16 @@ def test_write_outputs(tmp_path, result):
     ]  # fmt: skip
     table = pd.read_csv(out / "waypoints.csv")
     assert len(table) == len(result.table)
-    for col in ("q1_deg", "f1_x_hz", "a_lim_mm", "rpm", "depth_mm", "margin", "limiting", "power_kW"):
+    for col in (
+        "q1_deg",
+        "f1_x_hz",
+        "a_lim_mm",
+        "rpm",
+        "depth_mm",
+        "margin",
+        "limiting",
+        "power_kW",
+    ):
         assert col in table.columns
     s = json.loads((out / "summary.json").read_text())
     assert s["mrr_cm3_per_min"] == result.summary["mrr_cm3_per_min"]

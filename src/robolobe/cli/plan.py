@@ -32,12 +32,19 @@ def _print_summary(s: dict[str, Any], out: Path) -> None:
     t.add_row("robot / modes", f"{s['robot']} / {s['mode_source']}")
     t.add_row("waypoints (cutting)", f"{s['n_waypoints']} ({s['n_cut']})")
     t.add_row("depth per pass", f"{s['depth_mm']:.3f} mm")
-    t.add_row("speed", f"{s['rpm_min']:.0f} - {s['rpm_max']:.0f} rpm ({s['speed_mode']}, {s['method']})")
+    t.add_row(
+        "speed", f"{s['rpm_min']:.0f} - {s['rpm_max']:.0f} rpm ({s['speed_mode']}, {s['method']})"
+    )
     t.add_row("MRR", f"{s['mrr_cm3_per_min']:.1f} cm^3/min")
     t.add_row("cycle time", f"{s['cycle_time_s']:.2f} s")
     at = s["min_margin_at"]
-    t.add_row("minimum margin", f"{s['min_margin']:.3f} at {at['source']} (waypoint {at['waypoint']})")
-    for key, name in (("vs_best_constant_speed", "vs best constant speed"), ("vs_programmed_speed", "vs programmed speed")):
+    t.add_row(
+        "minimum margin", f"{s['min_margin']:.3f} at {at['source']} (waypoint {at['waypoint']})"
+    )
+    for key, name in (
+        ("vs_best_constant_speed", "vs best constant speed"),
+        ("vs_programmed_speed", "vs programmed speed"),
+    ):
         g = s.get(key)
         if g:
             gain = g.get("mrr_gain_pct")
@@ -75,7 +82,9 @@ def register(app: typer.Typer) -> None:
         output: Annotated[
             Path, typer.Option("-o", "--output", help="Output directory (created; files replaced).")
         ] = Path("robolobe-out"),
-        plots: Annotated[bool, typer.Option("--plots/--no-plots", help="Write the PNG plots.")] = True,
+        plots: Annotated[
+            bool, typer.Option("--plots/--no-plots", help="Write the PNG plots.")
+        ] = True,
         html: Annotated[bool, typer.Option("--html/--no-html", help="Write report.html.")] = True,
         robust: Annotated[
             bool | None,
@@ -85,7 +94,8 @@ def register(app: typer.Typer) -> None:
             ),
         ] = None,
         refine: Annotated[
-            bool, typer.Option("--refine/--no-refine", help="casadi/IPOPT refinement of the search.")
+            bool,
+            typer.Option("--refine/--no-refine", help="casadi/IPOPT refinement of the search."),
         ] = True,
     ) -> None:
         """Plan spindle speed and depth along a toolpath (chatter-free, per waypoint).
@@ -136,9 +146,9 @@ def register(app: typer.Typer) -> None:
                 "Default: A B C.",
             ),
         ] = None,
-        output: Annotated[
-            Path, typer.Option("-o", "--output", help="Output directory.")
-        ] = Path("robolobe-compare"),
+        output: Annotated[Path, typer.Option("-o", "--output", help="Output directory.")] = Path(
+            "robolobe-compare"
+        ),
         refine: Annotated[bool, typer.Option("--refine/--no-refine")] = True,
     ) -> None:
         """Plan the same job on several robots, side by side.
@@ -174,16 +184,20 @@ def register(app: typer.Typer) -> None:
         console.print(t)
         for r in cmp.table.to_dict(orient="records"):
             if r.get("status") != "ok":
-                err_console.print(f"[yellow]{r['robot']}:[/] {r.get('message', '')}", highlight=False)
-        console.print(f"outputs in {output}/ (compare.csv, compare.json, compare.png, one folder per robot)")
+                err_console.print(
+                    f"[yellow]{r['robot']}:[/] {r.get('message', '')}", highlight=False
+                )
+        console.print(
+            f"outputs in {output}/ (compare.csv, compare.json, compare.png, one folder per robot)"
+        )
 
     @app.command("batch")
     def batch_command(
         paths: Annotated[list[Path], typer.Argument(help="Toolpaths (any supported format).")],
         job: Annotated[Path, typer.Option("--job", "-j", help="Job file (TOML).")] = Path(),
-        output: Annotated[
-            Path, typer.Option("-o", "--output", help="Output directory.")
-        ] = Path("robolobe-batch"),
+        output: Annotated[Path, typer.Option("-o", "--output", help="Output directory.")] = Path(
+            "robolobe-batch"
+        ),
         scheduler: Annotated[
             str | None,
             typer.Option(
@@ -200,7 +214,10 @@ def register(app: typer.Typer) -> None:
             typer.Option("--per-path/--table-only", help="Also write each path's plan outputs."),
         ] = False,
         fmt: Annotated[
-            str, typer.Option("--format", help="auto (Parquet if pyarrow is installed), parquet or csv.")
+            str,
+            typer.Option(
+                "--format", help="auto (Parquet if pyarrow is installed), parquet or csv."
+            ),
         ] = "auto",
         refine: Annotated[bool, typer.Option("--refine/--no-refine")] = True,
     ) -> None:
@@ -232,11 +249,11 @@ def register(app: typer.Typer) -> None:
                 bar.advance(task)
                 if row["status"] != "ok":
                     err_console.print(
-                        f"[yellow]{row['status']}:[/] {row['path']}: {row['message']}", highlight=False
+                        f"[yellow]{row['status']}:[/] {row['path']}: {row['message']}",
+                        highlight=False,
                     )
         table = write_batch(rows, output, fmt=fmt)
         ok = sum(r["status"] == "ok" for r in rows)
         console.print(f"{ok} of {len(rows)} paths planned; table: {table}")
         if ok < len(rows):
             raise typer.Exit(code=EXIT_INPUT)
-

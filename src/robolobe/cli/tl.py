@@ -34,7 +34,7 @@ def _shown_warnings() -> Iterator[None]:
                 msg = str(w.message)
                 if msg not in seen:
                     seen.add(msg)
-                    err_console.print(f"[yellow]warning:[/] {msg}", highlight=False)
+                    err_console.print(f"[yellow]warning:[/] {msg}", highlight=False, soft_wrap=True)
 
 
 def _parse_dirs(text: str) -> tuple[str, ...]:

@@ -44,6 +44,7 @@ __all__ = [
     "Case",
     "CaseResult",
     "make_concealed_campaign",
+    "results_frame",
     "run_case",
     "run_study",
     "standard_cases",
@@ -419,8 +420,41 @@ def run_study(
     return out
 
 
-def study_tables(results: Sequence[CaseResult]) -> dict[str, pd.DataFrame]:
+def results_frame(results: Sequence[CaseResult]) -> pd.DataFrame:
+    """One row per case (what ``studies/diagnose_concealed.py`` writes to ``cases.csv``)."""
+    return pd.DataFrame(
+        [
+            {
+                "robot": r.case.robot_label,
+                "truth": r.case.truth,
+                "magnitude": r.case.magnitude,
+                "seed": r.case.seed,
+                "noise": r.case.noise,
+                "verdict": r.verdict,
+                "verdict_label": r.verdict_label,
+                "correct": r.correct,
+                "frac_before": r.frac_before,
+                "frac_after": r.frac_after,
+                "frac_min_after": r.frac_min_after,
+                "nrmse_before": r.nrmse_before,
+                "nrmse_after": r.nrmse_after,
+                "mismatch": r.mismatch,
+                "best_other": r.best_label,
+                "gain": r.gain,
+                "seconds": r.seconds,
+                "params": ";".join(f"{k}={v:.4g}" for k, v in r.params.items()),
+            }
+            for r in results
+        ]
+    )
+
+
+def study_tables(results: Sequence[CaseResult] | pd.DataFrame) -> dict[str, pd.DataFrame]:
     """Summary tables of a study.
+
+    Parameters
+    ----------
+    results : sequence of CaseResult, or the frame of :func:`results_frame`
 
     Returns
     -------
@@ -430,31 +464,10 @@ def study_tables(results: Sequence[CaseResult]) -> dict[str, pd.DataFrame]:
         discoveries per robot), ``fit`` (FRAC/NRMSE before and after per
         effect, effect campaigns named correctly).
     """
-    rows = [
-        {
-            "robot": r.case.robot_label,
-            "truth": r.case.truth,
-            "magnitude": r.case.magnitude,
-            "seed": r.case.seed,
-            "verdict": r.verdict,
-            "verdict_label": r.verdict_label,
-            "correct": r.correct,
-            "frac_before": r.frac_before,
-            "frac_after": r.frac_after,
-            "frac_min_after": r.frac_min_after,
-            "nrmse_before": r.nrmse_before,
-            "nrmse_after": r.nrmse_after,
-            "mismatch": r.mismatch,
-            "best_other": r.best_label,
-            "gain": r.gain,
-            "seconds": r.seconds,
-            "params": ";".join(f"{k}={v:.4g}" for k, v in r.params.items()),
-        }
-        for r in results
-    ]
-    df = pd.DataFrame(rows)
+    df = results if isinstance(results, pd.DataFrame) else results_frame(results)
     if df.empty:
         return {"cases": df}
+    df = df.assign(correct=df["correct"].astype(bool))
     confusion = pd.crosstab(df["truth"], df["verdict"])
     eff = df[df["truth"] != NONE]
     detection = (

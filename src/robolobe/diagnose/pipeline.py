@@ -128,6 +128,8 @@ class Diagnosis:
         Where the data came from.
     elapsed_s : float
         Wall time of the diagnosis.
+    settings : DiagnoseSettings
+        The settings used.
     """
 
     verdict: str
@@ -149,6 +151,7 @@ class Diagnosis:
     summary: str
     campaign: str
     elapsed_s: float
+    settings: DiagnoseSettings = field(default_factory=DiagnoseSettings)
 
     @property
     def winner(self) -> CandidateFit:
@@ -312,4 +315,5 @@ def diagnose(
         summary=summary,
         campaign=source,
         elapsed_s=time.perf_counter() - t0,
+        settings=st,
     )

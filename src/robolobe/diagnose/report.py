@@ -110,6 +110,13 @@ def _ranking(rep: DiagnosisReport, path: Path, top: int = 14) -> None:
     ax1.set_yticklabels(labels, fontsize=8)
     ax1.set_xlabel("held-out gain [noise variances / residual]")
     ax1.axvline(0, color="k", lw=0.5)
+    thr = rep.thresholds["min_gain"]
+    ax1.axvline(thr, color="tab:red", ls="--", lw=0.8, label=f"threshold {thr:g}")
+    ax1.set_xlim(
+        min(0.0, float(np.nanmin(gains))) - 0.05 * thr,
+        max(2.0 * thr, float(np.nanmax(gains))) * 1.05,
+    )
+    ax1.legend(fontsize=7, loc="lower right")
     dbic = np.array([c.delta_bic for c in cands])
     ax2.barh(y, np.sign(dbic) * np.log10(1 + np.abs(dbic)), color=colors)
     ax2.set_xlabel("sign x log10(1 + |BIC(none) - BIC|)")

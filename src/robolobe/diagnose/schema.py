@@ -182,6 +182,9 @@ class DiagnosisReport(_Model):
     band_hz: tuple[float, float]
     window_decay_per_s: float
     noise: dict[str, float]
+    thresholds: dict[str, float] = Field(
+        description="conditions for naming a candidate (robolobe.diagnose.selection)"
+    )
     elapsed_s: float
 
 
@@ -320,6 +323,13 @@ def to_report(d: Diagnosis) -> DiagnosisReport:
             "median_relative": float(np.median(sig)),
             "p90_relative": float(np.percentile(sig, 90)),
             "line_correlation_inflation": obs.inflation,
+        },
+        thresholds={
+            "min_delta_bic": d.settings.selection.min_delta_bic,
+            "min_gain": d.settings.selection.min_gain,
+            "min_posture_share": d.settings.selection.min_posture_share,
+            "n_folds": float(d.settings.selection.n_folds),
+            "noise_floor": d.settings.noise_floor,
         },
         elapsed_s=d.elapsed_s,
     )

@@ -21,7 +21,7 @@ def _pm(fit: CandidateFit, name: str, fmt: str = ".3g", scale: float = 1.0) -> s
     v = fit.params[i] * scale
     s = fit.std[i] * scale
     if np.isfinite(s):
-        return f"{v:{fmt}} ± {s:{fmt}}"
+        return f"{v:{fmt}} ± {s:.2g}"
     return f"{v:{fmt}}"
 
 

@@ -52,6 +52,7 @@ from robolobe.modal.tracking import (
     ModeTracks,
     TrackingSettings,
     posture_distances,
+    spectral_distances,
     track_modes,
 )
 
@@ -248,31 +249,46 @@ def _recover(
     chosen: Mapping[str, tuple[int, ...]],
     q_rad: NDArray,
     n_neighbours: int,
+    tracking: TrackingSettings | None,
 ) -> dict[int, set[int]]:
-    """Neighbour recovery in place; returns {posture: indices of recovered modes}."""
+    """Neighbour recovery in place; returns {posture: indices of recovered modes}.
+
+    A track is looked for at posture ``p`` only when most of ``p``'s
+    ``n_neighbours`` nearest postures (spectral + joint-space distance, as in
+    the tracking) have it and it is missing at ``p``.
+    """
     recovered: dict[int, set[int]] = {}
     all_tracks = sorted({t for ts in chosen.values() for t in ts})
-    if not all_tracks:
+    n = len(postures)
+    if not all_tracks or n < 3:
         return recovered
-    dist = posture_distances(q_rad)
+    ts = tracking if tracking is not None else TrackingSettings()
+    dist = spectral_distances([pm.f_hz for pm in postures]) + ts.joint_weight * (
+        posture_distances(q_rad)
+    )
+    np.fill_diagonal(dist, np.inf)
+    k_nb = min(n_neighbours, n - 1)
+    nearest = np.argsort(dist, axis=1)[:, :k_nb]
     for p, pm in enumerate(postures):
-        if pm.f_hz.size == 0 and pm.lsfd is None and pm.H.size == 0:
+        if pm.H.size == 0:
             continue
-        missing = [t for t in all_tracks if not np.any(labels[p] == t)]
+        nb = nearest[p]
         starts, start_t = [], []
-        for t in missing:
-            have = [
-                (dist[p, o], o, int(np.flatnonzero(labels[o] == t)[0]))
-                for o in range(len(postures))
-                if o != p and np.any(labels[o] == t)
-            ]
-            if not have:
+        for t in all_tracks:
+            if np.any(labels[p] == t):
                 continue
-            have.sort()
-            near = have[:n_neighbours]
-            lam = np.array([postures[o].poles_measured[i] for _, o, i in near])
+            near = [
+                (int(o), int(np.flatnonzero(labels[o] == t)[0]))
+                for o in nb
+                if np.any(labels[o] == t)
+            ]
+            if 2 * len(near) <= k_nb:
+                continue  # the neighbours do not agree that the mode should be here
+            lam = np.array([postures[o].poles_measured[i] for o, i in near])
             fn, zn = poles_to_modal(lam)
             f0, z0 = float(np.median(fn)), float(np.median(zn))
+            if not pm.settings.fmin_hz <= f0 <= pm.settings.fmax_hz:
+                continue
             if (
                 pm.f_hz.size
                 and np.min(np.abs(poles_to_modal(pm.poles_measured)[0] - f0)) < 0.01 * f0
@@ -407,7 +423,9 @@ def identify_frfs(
             f"expected 'rank' or 'track', found {numbering!r}", source="identify_frfs(numbering)"
         )
     chosen = {_AX[d] * 2: _choose_tracks(postures, tr, d, s.n_modes, min_presence) for d in dirs}
-    recovered_modes = _recover(postures, labels, chosen, q, n_neighbours) if recover else {}
+    recovered_modes = (
+        _recover(postures, labels, chosen, q, n_neighbours, tracking) if recover else {}
+    )
     tracks = ModeTracks(tuple(labels), tr.n_tracks, tr.order, tr.parent)
     # mode numbers per posture and direction: {(p, d): [(mode number, mode index), ...]}
     numbers: dict[tuple[int, int], list[tuple[int, int]]] = {}

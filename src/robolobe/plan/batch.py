@@ -164,7 +164,9 @@ def plan_one(
         row.update(status="error", exit_code=exc.exit_code, message=str(exc))
     except Exception as exc:  # a bug in one path must not stop the batch
         logger.exception("unexpected error planning %s", path)
-        row.update(status="error", exit_code=1, message=f"internal error: {type(exc).__name__}: {exc}")
+        row.update(
+            status="error", exit_code=1, message=f"internal error: {type(exc).__name__}: {exc}"
+        )
     row["elapsed_s"] = round(time.perf_counter() - t0, 4)
     row["finished_utc"] = _dt.datetime.now(_dt.UTC).isoformat(timespec="seconds")
     return row
@@ -229,7 +231,12 @@ def batch_plan(
 
 
 def _dask(
-    items: list[str], job: Job, scheduler: str | None, client: Any, out_dir: str | None, refine: bool
+    items: list[str],
+    job: Job,
+    scheduler: str | None,
+    client: Any,
+    out_dir: str | None,
+    refine: bool,
 ) -> Iterator[dict[str, Any]]:
     try:
         from distributed import Client, as_completed
@@ -242,7 +249,9 @@ def _dask(
         try:
             client = Client(scheduler, timeout="20s")
         except (OSError, TimeoutError) as exc:
-            raise InputError(f"cannot connect to the Dask scheduler: {exc}", source=str(scheduler)) from None
+            raise InputError(
+                f"cannot connect to the Dask scheduler: {exc}", source=str(scheduler)
+            ) from None
     try:
         futures = [client.submit(plan_one, p, job, out_dir, refine, pure=False) for p in items]
         for fut in as_completed(futures):
@@ -293,4 +302,3 @@ def write_batch(
         else:
             df.to_csv(tmp / name, index=False)
     return out / name
-

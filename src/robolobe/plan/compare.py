@@ -11,6 +11,7 @@ MRR, cycle time, minimum margin and the worst waypoint per robot.
 
 from __future__ import annotations
 
+import contextlib
 import logging
 import math
 import os
@@ -44,11 +45,17 @@ logger = logging.getLogger(__name__)
 
 def _reach(robot: Robot) -> float:
     """Rough reach [m]: link lengths plus the tool offset."""
-    return float(np.sum(np.abs(robot.a)) + np.sum(np.abs(robot.d[1:])) + np.linalg.norm(robot.tool[:3, 3]))
+    return float(
+        np.sum(np.abs(robot.a)) + np.sum(np.abs(robot.d[1:])) + np.linalg.norm(robot.tool[:3, 3])
+    )
 
 
 def _placement_score(
-    wp: pd.DataFrame, robot: Robot, placement: np.ndarray, rotation: float, source: ModeSource | None
+    wp: pd.DataFrame,
+    robot: Robot,
+    placement: np.ndarray,
+    rotation: float,
+    source: ModeSource | None,
 ) -> float:
     """Quality of a placement (higher is better), -inf when a waypoint fails."""
     try:
@@ -64,10 +71,8 @@ def _placement_score(
     score = float(margin.min()) + 0.2 * float(np.min(np.minimum(wm, 0.5)))
     predictor = getattr(source, "predictor", None)
     if predictor is not None:
-        try:
+        with contextlib.suppress(RobolobeError):
             score -= 2.0 * float(np.max(predictor.extrapolation(q)))
-        except RobolobeError:
-            pass
     return score
 
 
@@ -112,11 +117,14 @@ def find_placement(
             if math.isfinite(s) and (best is None or s > best[0]):
                 best = (s, pl)
     if best is None:
-        raise ReachabilityError(f"robot {robot.name!r}: no placement in front of it reaches the path")
+        raise ReachabilityError(
+            f"robot {robot.name!r}: no placement in front of it reaches the path"
+        )
     full = _placement_score(wp, robot, best[1], job.tool_rotation_rad, source)
     if not math.isfinite(full):
         raise ReachabilityError(
-            f"robot {robot.name!r}: the best placement found reaches the sampled waypoints but not all"
+            f"robot {robot.name!r}: the best placement found reaches the sampled waypoints "
+            "but not all"
         )
     return best[1], full
 
@@ -173,7 +181,11 @@ def compare_robots(
     -------
     Comparison
     """
-    wp = validate_waypoints(path, "<table>") if isinstance(path, pd.DataFrame) else read_toolpath(path)
+    wp = (
+        validate_waypoints(path, "<table>")
+        if isinstance(path, pd.DataFrame)
+        else read_toolpath(path)
+    )
     rows: list[dict[str, Any]] = []
     results: dict[str, PlanResult] = {}
     for key in robots:
@@ -186,7 +198,9 @@ def compare_robots(
             jr = job.replace(robot=spec, model=model)
             placement = jr.placement
             adjusted = False
-            if not math.isfinite(_placement_score(wp, robot, placement, jr.tool_rotation_rad, source)):
+            if not math.isfinite(
+                _placement_score(wp, robot, placement, jr.tool_rotation_rad, source)
+            ):
                 placement, _ = find_placement(wp, robot, jr, source)
                 adjusted = True
             jr = jr.replace(placement=placement)
@@ -268,7 +282,7 @@ def write_comparison(
     """Write ``compare.csv``, ``compare.json``, ``compare.png`` (+ each robot's plan) atomically."""
     import json
 
-    from robolobe.plan.report import PLOTS, _png, _PLOTTERS, render_html
+    from robolobe.plan.report import _PLOTTERS, PLOTS, _png, render_html, write_csv
 
     out = Path(out_dir)
     png = _plot(cmp)
@@ -278,7 +292,9 @@ def write_comparison(
             per_robot[key] = {name: _png(_PLOTTERS[name](res)) for name in PLOTS}
     with atomic_dir(out) as tmp:
         t = cmp.table.copy()
-        t["placement_xyz_m"] = t["placement_xyz_m"].map(lambda v: json.dumps(v) if isinstance(v, list) else "")
+        t["placement_xyz_m"] = t["placement_xyz_m"].map(
+            lambda v: json.dumps(v) if isinstance(v, list) else ""
+        )
         t.to_csv(tmp / "compare.csv", index=False)
         records = json.loads(cmp.table.to_json(orient="records"))
         (tmp / "compare.json").write_text(json.dumps(records, indent=2) + "\n", encoding="utf-8")
@@ -286,8 +302,10 @@ def write_comparison(
         for key, res in cmp.results.items():
             d = tmp / Path(key).stem
             (d / "plots").mkdir(parents=True)
-            res.table.to_csv(d / "waypoints.csv", index=False, float_format="%.6g")
-            (d / "summary.json").write_text(json.dumps(res.summary, indent=2) + "\n", encoding="utf-8")
+            write_csv(res.table, d / "waypoints.csv")
+            (d / "summary.json").write_text(
+                json.dumps(res.summary, indent=2) + "\n", encoding="utf-8"
+            )
             for name, data in per_robot.get(key, {}).items():
                 (d / "plots" / f"{name}.png").write_bytes(data)
             if key in per_robot:

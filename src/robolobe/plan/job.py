@@ -390,8 +390,9 @@ class PlanSpec:
         Number of points of the speed grid.
     dynamics_tol : float
         Waypoints whose modes agree within this fraction in frequency (10x
-        that in damping, 7x in residues) share one lobe computation; 0: each
-        distinct waypoint gets its own.
+        that in damping, 7x in residues, 3.3x in the frequency of modes below
+        half the lowest tooth-passing frequency) share one lobe computation;
+        0: each distinct waypoint gets its own.
     """
 
     safety_factor: float = 1.3
@@ -615,7 +616,7 @@ def job_from_dict(d: dict[str, Any], source: str = "<dict>", base_dir: Path | No
     t = spec.tool
     modes: list[ToolMode] = []
     for m in t.modes:
-        dirs: tuple[Literal["x", "y"], ...] = ("x", "y") if m.dir == "xy" else (m.dir,)  # type: ignore[assignment]
+        dirs: tuple[Literal["x", "y"], ...] = ("x", "y") if m.dir == "xy" else (m.dir,)
         modes.extend(ToolMode(di, m.f_hz, m.zeta, m.k_N_per_m) for di in dirs)
     tool = ToolSpec(
         diameter_m=t.diameter_mm * 1e-3,
@@ -776,7 +777,9 @@ def job_to_dict(job: Job) -> dict[str, Any]:
             "model": job.model,
             "tool_rotation_deg": _clean(math.degrees(job.tool_rotation_rad)),
             "tool_rotation": job.tool_rotation,
-            "tool_rotation_range_deg": [_clean(math.degrees(v)) for v in job.tool_rotation_range_rad],
+            "tool_rotation_range_deg": [
+                _clean(math.degrees(v)) for v in job.tool_rotation_range_rad
+            ],
             "tool_rotation_step_deg": _clean(math.degrees(job.tool_rotation_step_rad)),
         },
         "placement": {

@@ -17,17 +17,19 @@ smallest over the scenarios, on the grid and in the exact queries.
 
 from __future__ import annotations
 
+import time
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 from numpy.typing import NDArray
+from scipy.spatial import cKDTree
 
 from robolobe.errors import InputError
 from robolobe.plan.optimize import LobeTable
 from robolobe.sld.directional import directional_factors
 from robolobe.sld.frf import ModalModel
-from robolobe.sld.lobes import LobeDiagram
+from robolobe.sld.lobes import LobeDiagram, lobe_envelope
 from robolobe.sld.zoa import zoa_lobes
 
 __all__ = [
@@ -39,6 +41,8 @@ __all__ = [
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
+
+_RADIUS = 0.75  # leader radius in tolerance units (plus the 0.25 cells: at most 1)
 
 
 @dataclass(frozen=True)
@@ -52,17 +56,33 @@ class DynamicsTolerance:
     damping : float
         Damping ratios.
     residue : float
-        Diagonal residues (``w^2 / k``) and the residue correlation.
+        Residue size (trace, ~ 1/k) and direction (entries over the trace).
+    freq_low : float
+        Frequencies of modes below ``f_low_hz``: such modes (the robot's,
+        well below the tooth-passing frequency) only reach the speed range
+        through the tail of their k = 0 lobe, where the limit varies smoothly
+        with the frequency (about 1 % for 1 %), not through pockets that
+        shift sideways.
+    f_low_hz : float
+        Where ``freq_low`` applies (e.g. half the lowest tooth-passing
+        frequency); 0: nowhere.
     """
 
     freq: float = 0.003
     damping: float = 0.03
     residue: float = 0.02
+    freq_low: float = 0.01
+    f_low_hz: float = 0.0
 
     @property
     def exact(self) -> bool:
         """True when only identical dynamics share a group."""
-        return self.freq == 0 and self.damping == 0 and self.residue == 0
+        return (
+            self.freq == 0
+            and self.damping == 0
+            and self.residue == 0
+            and (self.freq_low == 0 or self.f_low_hz == 0)
+        )
 
 
 def _features(model: ModalModel, tol: DynamicsTolerance) -> FloatArray:
@@ -81,8 +101,9 @@ def _features(model: ModalModel, tol: DynamicsTolerance) -> FloatArray:
     peak = tr / (2.0 * z * w**2)  # compliance at resonance, per mode
     weight = np.sqrt(peak / np.maximum(peak.max(axis=1, keepdims=True), 1e-300))
     trs = np.maximum(tr, 1e-300)
+    tol_f = np.where(w < 2 * np.pi * tol.f_low_hz, max(tol.freq_low, tol.freq), tol.freq)
     feats = [
-        np.log(w) / max(tol.freq, 1e-15),
+        np.log(w) / np.maximum(tol_f, 1e-15),
         np.log(z) / max(tol.damping, 1e-15),
         np.log(trs) / max(tol.residue, 1e-15),
     ]
@@ -94,7 +115,9 @@ def _features(model: ModalModel, tol: DynamicsTolerance) -> FloatArray:
     return np.concatenate([f * weight for f in feats], axis=1)
 
 
-def group_dynamics(model: ModalModel, tol: DynamicsTolerance | None = None) -> tuple[IntArray, IntArray]:
+def group_dynamics(
+    model: ModalModel, tol: DynamicsTolerance | None = None
+) -> tuple[IntArray, IntArray]:
     """Group a batch of modal models whose parameters agree within ``tol``.
 
     Leader clustering in the scaled feature space (max norm): the first
@@ -123,6 +146,11 @@ def group_dynamics(model: ModalModel, tol: DynamicsTolerance | None = None) -> t
         remap = np.empty_like(order)
         remap[order] = np.arange(order.size)
         return remap[np.asarray(inv).ravel()].astype(np.int64), first[order].astype(np.int64)
+    # a feature whose range over the batch is within the radius can never split a group
+    # (max norm): leave it out
+    f = f[:, np.ptp(f, axis=0) > _RADIUS] if n else f
+    if f.shape[1] == 0:
+        return np.zeros(n, np.int64), np.zeros(min(n, 1), np.int64)
     # near-duplicates first: cells 0.25 wide; leaders then take cells within 0.75 of
     # them, so every member lies within 0.25 + 0.75 = 1 of its leader
     q = np.round(f * 4.0)
@@ -132,18 +160,18 @@ def group_dynamics(model: ModalModel, tol: DynamicsTolerance | None = None) -> t
     fu = f[first[order]]
     label_u = np.full(fu.shape[0], -1, np.int64)
     leaders: list[int] = []
-    todo = np.arange(fu.shape[0])
-    while todo.size:
-        lead = todo[0]
-        d = np.abs(fu[todo] - fu[lead]).max(axis=1)
-        members = todo[d <= 0.75]
-        label_u[members] = len(leaders)
+    tree = cKDTree(fu)
+    for lead in range(fu.shape[0]):  # in path order; most rows are taken by earlier leaders
+        if label_u[lead] >= 0:
+            continue
+        near = np.asarray(tree.query_ball_point(fu[lead], _RADIUS, p=np.inf), dtype=np.int64)
+        near = near[label_u[near] < 0]
+        label_u[near] = len(leaders)
         leaders.append(int(first[order][lead]))
-        todo = todo[d > 0.75]
     pos = np.empty_like(order)
     pos[order] = np.arange(order.size)
     group = label_u[pos[inv]]
-    return group.astype(np.int64), np.asarray(leaders, dtype=np.int64)[: group.max() + 1 if n else 0]
+    return group.astype(np.int64), np.asarray(leaders, dtype=np.int64)
 
 
 @dataclass(frozen=True, eq=False)
@@ -163,6 +191,8 @@ class GroupedLobes:
         False when the ZOA is flagged unreliable (low immersion).
     message : str
         Why, when not valid.
+    timings : dict
+        Seconds spent grouping and computing lobes.
     """
 
     table: LobeTable
@@ -170,6 +200,7 @@ class GroupedLobes:
     leader: IntArray
     valid: bool
     message: str
+    timings: dict[str, float] = field(default_factory=dict)
 
     @property
     def n_groups(self) -> int:
@@ -229,6 +260,7 @@ def waypoint_lobes(
     n = nominal.batch_shape[0]
     unb = np.zeros(n, bool) if unbounded is None else np.asarray(unbounded, bool)
     idx_b = np.flatnonzero(~unb)
+    t0 = time.perf_counter()
     alpha = directional_factors(phi_entry, phi_exit, kr)
     rpm = np.asarray(rpm, dtype=np.float64)
     if idx_b.size:
@@ -246,6 +278,7 @@ def waypoint_lobes(
         g_b = np.zeros(0, np.int64)
         leader = np.zeros(0, np.int64)
     n_groups = leader.size
+    t1 = time.perf_counter()
     diagrams = []
     for m in models:
         reps = m.take(leader)
@@ -270,18 +303,32 @@ def waypoint_lobes(
     group = np.full(n, n_groups, np.int64)  # last row: unbounded
     group[idx_b] = g_b
 
-    def exact(rows: FloatArray) -> FloatArray:
+    def exact(rows: FloatArray, groups: IntArray) -> FloatArray:
         out = np.full(rows.shape, np.inf)
-        if n_groups:
-            vals = np.stack([d.query(rows[:n_groups]) for d in diagrams])
-            out[:n_groups] = vals.min(axis=0)
+        sel = groups < n_groups  # the last row is the unbounded one
+        if np.any(sel):
+            g = groups[sel]
+            vals = []
+            for d in diagrams:
+                assert d.depth is not None
+                assert d.eps is not None
+                assert d.omega is not None
+                om = d.omega[g] if np.ndim(d.omega) > 1 else d.omega
+                vals.append(
+                    lobe_envelope(
+                        om, d.depth[g], d.eps[g], teeth=d.teeth, rpm=rows[sel], max_lobe=d.max_lobe
+                    )
+                )
+            out[sel] = np.min(np.stack(vals), axis=0)
         return out
 
     d0 = diagrams[0]
+    t2 = time.perf_counter()
     return GroupedLobes(
         table=LobeTable(rpm=rpm, a_lim=a_grid, group=group, exact=exact),
         diagrams=tuple(diagrams),
         leader=leader,
         valid=d0.valid,
         message=d0.message,
+        timings={"grouping": t1 - t0, "zoa": t2 - t1},
     )

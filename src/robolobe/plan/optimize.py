@@ -43,6 +43,7 @@ import math
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
+from typing import Any, cast
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -120,7 +121,9 @@ class Constraints:
             if not (math.isfinite(v) and v > 0):
                 raise InputError(f"{name}: expected a positive number, found {v!r}")
         if not 0 < self.rpm_min < self.rpm_max:
-            raise InputError(f"expected 0 < rpm_min < rpm_max, found {self.rpm_min}, {self.rpm_max}")
+            raise InputError(
+                f"expected 0 < rpm_min < rpm_max, found {self.rpm_min}, {self.rpm_max}"
+            )
         if not 0 < self.depth_min_m <= self.depth_max_m:
             raise InputError(
                 f"expected 0 < depth_min <= depth_max, found {self.depth_min_m}, {self.depth_max_m}"
@@ -185,16 +188,16 @@ class LobeTable:
     group : ndarray of int, shape (n_cut,)
         Row of each cutting waypoint.
     exact : callable, optional
-        ``exact(rpm_rows) -> a_lim`` with ``rpm_rows`` of shape
-        (n_groups, m) and the result of the same shape [m]: the exact
-        boundary (e.g. :meth:`robolobe.sld.lobes.LobeDiagram.query`). Without
+        ``exact(rpm_rows, groups) -> a_lim``: the exact boundary [m] of the
+        groups ``groups`` (g,) at the speeds ``rpm_rows`` (g, m) [rpm], shape
+        (g, m) (e.g. the lobe polylines of :mod:`robolobe.sld.lobes`). Without
         it the grid is interpolated linearly (then "exact" means "on the grid").
     """
 
     rpm: FloatArray
     a_lim: FloatArray
     group: IntArray
-    exact: Callable[[FloatArray], FloatArray] | None = None
+    exact: Callable[[FloatArray, IntArray], FloatArray] | None = None
 
     def __post_init__(self) -> None:
         r = np.asarray(self.rpm, dtype=np.float64)
@@ -217,17 +220,37 @@ class LobeTable:
         """Number of cutting waypoints."""
         return int(self.group.size)
 
-    def _rows(self, rows: FloatArray) -> FloatArray:
+    def rows(self, rows: ArrayLike, groups: ArrayLike) -> FloatArray:
+        """Exact limits [m] of ``groups`` (g,) at speeds ``rows`` (g, m) [rpm]."""
+        r = np.asarray(rows, dtype=np.float64)
+        g = np.asarray(groups, dtype=np.int64)
+        if g.size == 0:
+            return np.zeros(r.shape)
         if self.exact is not None:
-            out = np.asarray(self.exact(rows), dtype=np.float64)
-            if out.shape != rows.shape:
-                raise InputError(f"exact: expected shape {rows.shape}, found {out.shape}")
+            out = np.asarray(self.exact(r, g), dtype=np.float64)
+            if out.shape != r.shape:
+                raise InputError(f"exact: expected shape {r.shape}, found {out.shape}")
             return out
-        a = self.a_lim
-        out = np.empty_like(rows)
-        for g in range(a.shape[0]):  # fallback only (tests, tables without lobes)
-            out[g] = np.interp(rows[g], self.rpm, a[g])
+        out = np.empty_like(r)
+        for k, gi in enumerate(g):  # fallback only (tests, tables without lobes)
+            out[k] = np.interp(r[k], self.rpm, self.a_lim[gi])
         return out
+
+    def query_groups(self, rpm: ArrayLike, groups: ArrayLike) -> FloatArray:
+        """Exact limits of some groups at shared speeds.
+
+        Parameters
+        ----------
+        rpm : array_like, shape (m,)
+        groups : array_like of int, shape (g,)
+
+        Returns
+        -------
+        ndarray, shape (g, m) [m]
+        """
+        r = np.atleast_1d(np.asarray(rpm, dtype=np.float64))
+        g = np.asarray(groups, dtype=np.int64)
+        return self.rows(np.broadcast_to(r, (g.size, r.size)).copy(), g)
 
     def query_shared(self, rpm: ArrayLike) -> FloatArray:
         """Exact limits of every cutting waypoint at shared speeds.
@@ -242,16 +265,9 @@ class LobeTable:
         """
         r = np.atleast_1d(np.asarray(rpm, dtype=np.float64))
         used = np.unique(self.group)
-        rows = np.broadcast_to(r, (self.a_lim.shape[0], r.size)).copy()
-        vals = np.full(rows.shape, np.inf)
-        vals[used] = self._rows(rows[used]) if used.size == rows.shape[0] else self._sub(used, rows[used])
+        vals = np.full((self.a_lim.shape[0], r.size), np.inf)
+        vals[used] = self.query_groups(r, used)
         return vals[self.group]
-
-    def _sub(self, used: IntArray, rows: FloatArray) -> FloatArray:
-        """Query a subset of groups (the callable takes all groups: pad the rest)."""
-        full = np.broadcast_to(rows[:1], (self.a_lim.shape[0], rows.shape[1])).copy()
-        full[used] = rows
-        return self._rows(full)[used]
 
     def query(self, rpm: ArrayLike) -> FloatArray:
         """Exact limit of each cutting waypoint at its own speed.
@@ -269,25 +285,21 @@ class LobeTable:
             raise InputError(f"rpm: expected shape {self.group.shape}, found {r.shape}")
         if r.size == 0:
             return np.zeros(0)
-        # unique (group, speed) pairs, padded per group
+        # unique (group, speed) pairs, one padded row per group
         key = np.stack([self.group.astype(np.float64), r], axis=1)
         uniq, inv = np.unique(key, axis=0, return_inverse=True)
         inv = np.asarray(inv).ravel()
         g = uniq[:, 0].astype(np.int64)
-        counts = np.bincount(g, minlength=self.a_lim.shape[0])
+        used, slot = np.unique(g, return_inverse=True)
+        counts = np.bincount(slot)
         m = int(counts.max())
         start = np.concatenate([[0], np.cumsum(counts)[:-1]])
-        pos = np.arange(len(uniq)) - start[g]
-        rows = np.empty((self.a_lim.shape[0], m))
-        # pad each row with its own first speed (or the grid start for unused groups)
-        first = np.full(self.a_lim.shape[0], self.rpm[0])
-        first[g[::-1]] = uniq[::-1, 1]
-        rows[:] = first[:, None]
-        rows[g, pos] = uniq[:, 1]
-        used = np.flatnonzero(counts)
-        vals = np.full(rows.shape, np.inf)
-        vals[used] = self._rows(rows[used]) if used.size == rows.shape[0] else self._sub(used, rows[used])
-        return vals[g, pos][inv]
+        pos = np.arange(len(uniq)) - start[slot]
+        rows = np.empty((used.size, m))
+        rows[:] = uniq[start, 1][:, None]  # pad with the group's first speed
+        rows[slot, pos] = uniq[:, 1]
+        vals = self.rows(rows, used)
+        return vals[slot, pos][inv]
 
 
 @dataclass(frozen=True, eq=False)
@@ -364,7 +376,11 @@ class Schedule:
     @property
     def margin(self) -> FloatArray:
         """Stability margin ``a_lim / depth`` at each waypoint (>= safety factor)."""
-        return np.asarray(self.a_lim_m / self.depth_m) if self.depth_m > 0 else np.full_like(self.rpm, np.inf)
+        return (
+            np.asarray(self.a_lim_m / self.depth_m)
+            if self.depth_m > 0
+            else np.full_like(self.rpm, np.inf)
+        )
 
     @property
     def volume_rate_cm3_per_min(self) -> float:
@@ -432,9 +448,7 @@ def _window_min(v: FloatArray, lo: IntArray, hi: IntArray) -> FloatArray:
     return np.moveaxis(out, 0, -1)
 
 
-def _rate_windows(
-    rpm: FloatArray, dist_m: float, cons: Constraints
-) -> tuple[IntArray, IntArray]:
+def _rate_windows(rpm: FloatArray, dist_m: float, cons: Constraints) -> tuple[IntArray, IntArray]:
     """Grid index range of speeds that may precede each speed over ``dist_m`` of cutting."""
     nj = rpm.size
     if cons.constant_speed:
@@ -546,9 +560,13 @@ def _verify(
         reasons.append(f"speed below rpm_min at {ctx.where(int(np.argmin(rpm)))}")
     if not hi_ok:
         reasons.append(f"speed above the usable maximum at {ctx.where(int(np.argmax(rpm)))}")
-    if check_rate and knots_rpm is not None and knots_s is not None:
-        if not _rate_ok(knots_rpm, np.diff(knots_s), cons):
-            reasons.append("speed changes faster than the rate limit")
+    if (
+        check_rate
+        and knots_rpm is not None
+        and knots_s is not None
+        and not _rate_ok(knots_rpm, np.diff(knots_s), cons)
+    ):
+        reasons.append("speed changes faster than the rate limit")
     if depth < cons.depth_min_m * (1 - 1e-9):
         i = int(np.argmin(a_ex))
         what = "stability" if np.min(a_ex) / sf <= min(caps) else "power/torque"
@@ -587,7 +605,8 @@ def _prechecks(ctx: _Ctx) -> None:
     if cons.torque_depth_m < cons.depth_min_m:
         raise InfeasibleError(
             f"torque: depth_min {cons.depth_min_m * 1e3:.3g} mm needs "
-            f"{cons.torque_Nm_at(cons.depth_min_m):.3g} N m > torque limit {cons.torque_Nm:.3g} N m "
+            f"{cons.torque_Nm_at(cons.depth_min_m):.3g} N m > torque limit "
+            f"{cons.torque_Nm:.3g} N m "
             "(lower the width, the feed per tooth or depth_min)"
         )
     if cons.rpm_hi < cons.rpm_min:
@@ -625,11 +644,23 @@ def _constant(ctx: _Ctx) -> Schedule | None:
     env = lobes.a_lim[used].min(axis=0) / cons.safety_factor
     a = np.minimum(np.minimum(env, cons.depth_cap_m), cons.power_product / rpm)
     cut = ctx.geom.length_m * 60.0 / (cons.feed_per_rev_m * rpm)
-    score = np.where(ctx.allowed & (a >= cons.depth_min_m), a / (cut + ctx.geom.rapid_time_s), -np.inf)
+    score = np.where(
+        ctx.allowed & (a >= cons.depth_min_m), a / (cut + ctx.geom.rapid_time_s), -np.inf
+    )
     if not np.any(np.isfinite(score)):
         return None
     order = np.argsort(-score)
     cands = [int(j) for j in order[:3] if np.isfinite(score[j])]
+
+    def envelope(trial: FloatArray) -> FloatArray:
+        # exact minimum over the groups that could be the minimum near these speeds
+        # (within 1.5x of the grid minimum at the neighbouring grid speeds); the
+        # final verification checks every waypoint anyway
+        j0 = np.clip(np.searchsorted(rpm, trial) - 1, 0, rpm.size - 2)
+        near = np.minimum(lobes.a_lim[used][:, j0], lobes.a_lim[used][:, j0 + 1])
+        cand = used[np.any(near <= 1.5 * near.min(axis=0, keepdims=True), axis=1)]
+        return lobes.query_groups(trial, cand).min(axis=0)
+
     lo_all, hi_all = cons.rpm_min, cons.rpm_hi
     speeds = []
     for j in cands:
@@ -638,7 +669,7 @@ def _constant(ctx: _Ctx) -> Schedule | None:
         speeds.append(np.linspace(max(lo, lo_all), min(hi, hi_all), 17))
     trial = np.unique(np.concatenate(speeds))
     for _ in range(2):  # zoom twice on the best exact speed
-        vals = lobes.query_shared(trial).min(axis=0) / cons.safety_factor
+        vals = envelope(trial) / cons.safety_factor
         a_t = np.minimum(np.minimum(vals, cons.depth_cap_m), cons.power_product / trial)
         t_t = ctx.geom.length_m * 60.0 / (cons.feed_per_rev_m * trial) + ctx.geom.rapid_time_s
         s_t = np.where(a_t >= cons.depth_min_m, a_t / t_t, -np.inf)
@@ -646,9 +677,11 @@ def _constant(ctx: _Ctx) -> Schedule | None:
         step = (trial[min(k + 1, trial.size - 1)] - trial[max(k - 1, 0)]) / 2
         centre = trial[k]
         trial = np.unique(
-            np.concatenate([[centre], np.linspace(max(centre - step, lo_all), min(centre + step, hi_all), 9)])
+            np.concatenate(
+                [[centre], np.linspace(max(centre - step, lo_all), min(centre + step, hi_all), 9)]
+            )
         )
-    vals = lobes.query_shared(trial).min(axis=0) / cons.safety_factor
+    vals = envelope(trial) / cons.safety_factor
     a_t = np.minimum(np.minimum(vals, cons.depth_cap_m), cons.power_product / trial)
     t_t = ctx.geom.length_m * 60.0 / (cons.feed_per_rev_m * trial) + ctx.geom.rapid_time_s
     s_t = np.where(a_t >= cons.depth_min_m, a_t / t_t, -np.inf)
@@ -716,7 +749,11 @@ def _search(ctx: _Ctx, max_blocks: int, n_depth: int) -> tuple[Schedule | None, 
     if depth_hi < cons.depth_min_m:
         b = int(np.argmin(best_blk))
         return None, blk, f"no single speed is stable over block {b}"
-    depths = np.geomspace(cons.depth_min_m, depth_hi, n_depth) if depth_hi > cons.depth_min_m else np.array([depth_hi])
+    depths = (
+        np.geomspace(cons.depth_min_m, depth_hi, n_depth)
+        if depth_hi > cons.depth_min_m
+        else np.array([depth_hi])
+    )
     c = cons.feed_per_rev_m
     inv_n = 60.0 / (c * rpm)
     dist = np.diff(blk.knots_s)
@@ -744,18 +781,26 @@ def _search(ctx: _Ctx, max_blocks: int, n_depth: int) -> tuple[Schedule | None, 
     if hi_d > lo_d:
         fine = np.linspace(lo_d, hi_d, 17)
         sf_f = cons.safety_factor * fine[:, None]
-        ok_f = ctx.allowed[None, :] & (fine[:, None] * rpm[None, :] <= cons.power_product * (1 + 1e-12))
-        vf = np.where((blk.a_blk[0][None, :] >= sf_f) & ok_f, blk.length[0] * inv_n[None, :], np.inf)
+        ok_f = ctx.allowed[None, :] & (
+            fine[:, None] * rpm[None, :] <= cons.power_product * (1 + 1e-12)
+        )
+        vf = np.where(
+            (blk.a_blk[0][None, :] >= sf_f) & ok_f, blk.length[0] * inv_n[None, :], np.inf
+        )
         for b in range(1, kb):
             lo, hi = windows[b - 1]
-            cb = np.where((blk.a_blk[b][None, :] >= sf_f) & ok_f, blk.length[b] * inv_n[None, :], np.inf)
+            cb = np.where(
+                (blk.a_blk[b][None, :] >= sf_f) & ok_f, blk.length[b] * inv_n[None, :], np.inf
+            )
             vf = cb + _window_min(vf, lo, hi)
         tf = vf.min(axis=1) + ctx.geom.rapid_time_s
         sc_f = np.where(np.isfinite(tf), fine / tf, -np.inf)
         if np.max(sc_f) > score[d_best]:
             depths = np.r_[depths, fine]
             sf_d = cons.safety_factor * depths[:, None]
-            base_ok = ctx.allowed[None, :] & (depths[:, None] * rpm[None, :] <= cons.power_product * (1 + 1e-12))
+            base_ok = ctx.allowed[None, :] & (
+                depths[:, None] * rpm[None, :] <= cons.power_product * (1 + 1e-12)
+            )
             d_best = depths.size - fine.size + int(np.argmax(sc_f))
     # second pass at the chosen depth, keeping the values for backtracking
     vals = np.empty((kb, rpm.size))
@@ -819,7 +864,7 @@ def _pocket_bounds(
     return lo, np.maximum(hi, lo)
 
 
-def _sparse_interp(k0: IntArray, k1: IntArray, w: FloatArray, n_knots: int) -> object:
+def _sparse_interp(k0: IntArray, k1: IntArray, w: FloatArray, n_knots: int) -> Any:
     """casadi sparse matrix ``W`` with ``(W u)_i = (1 - w_i) u[k0_i] + w_i u[k1_i]``."""
     import casadi as ca
     import scipy.sparse as sps
@@ -914,10 +959,8 @@ def _refine(
         tt = np.linspace(0.0, 1.0, m)
         xs = lo_g[:, None] + (hi_g - lo_g)[:, None] * tt  # (G, m) [krpm]
         xs = np.where((hi_g - lo_g)[:, None] > 1e-9, xs, lo_g[:, None] + step * (tt - 0.5))
-        rows = np.broadcast_to(lobes.rpm[:1], (lobes.a_lim.shape[0], m)).copy()
-        rows[ug] = xs * 1000.0
         vals = np.empty((ug.size, m))
-        sub = lobes._rows(rows)[ug] * 1e3  # exact boundary [mm]
+        sub = lobes.rows(xs * 1000.0, ug) * 1e3  # exact boundary [mm]
         vals[:] = np.where(np.isfinite(sub), sub, 1e6)
         cm = np.zeros((4, (m - 1) * len(idx)))
         bm = np.zeros((m - 1, len(idx)))
@@ -1001,13 +1044,18 @@ def _refine(
         lbg = lbg_fixed + [0.0] * len(idx)
         ubg = ubg_fixed + [np.inf] * len(idx)
         tb = time.perf_counter()
-        solver = ca.nlpsol("plan", "ipopt", {"x": ca.vertcat(u, a), "f": obj, "g": g}, opts)
+        nlp: dict[str, Any] = {"x": ca.vertcat(u, a), "f": obj, "g": g}
+        solver = ca.nlpsol("plan", "ipopt", nlp, cast(Any, opts))
         x0 = np.clip(x0, lbx, ubx)
         ts = time.perf_counter()
         res = solver(x0=x0, lbx=lbx, ubx=ubx, lbg=lbg, ubg=ubg)
         logger.debug(
             "refine round %d: %d constraints, %d pieces, build %.2fs, solve %.2fs, %s",
-            _round, len(idx), n_piece if idx else 0, ts - tb, time.perf_counter() - ts,
+            _round,
+            len(idx),
+            n_piece if idx else 0,
+            ts - tb,
+            time.perf_counter() - ts,
             solver.stats().get("return_status"),
         )
         status = str(solver.stats().get("return_status", "unknown"))
@@ -1138,7 +1186,8 @@ def optimize_schedule(
             worst = int(np.argmin(lobes.a_lim[lobes.group, j]))
             reasons.append(
                 f"no single speed is stable everywhere: at the best one, {lobes.rpm[j]:.0f} rpm, "
-                f"{ctx.where(worst)} allows only {lobes.a_lim[lobes.group[worst], j] / cons.safety_factor * 1e3:.3g} mm"
+                f"{ctx.where(worst)} allows only "
+                f"{lobes.a_lim[lobes.group[worst], j] / cons.safety_factor * 1e3:.3g} mm"
             )
         raise InfeasibleError("no feasible plan: " + "; ".join(reasons or ["unknown"]))
     best = max(cands, key=_score)

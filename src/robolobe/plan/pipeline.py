@@ -28,12 +28,12 @@ about ``z_tcp`` (right hand).
 
 from __future__ import annotations
 
+import contextlib
 import logging
 import math
 import os
 import time
 from dataclasses import dataclass, field
-from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -69,7 +69,8 @@ FloatArray = NDArray[np.float64]
 
 #: Below this |sin| of the wrist bend a posture counts as singular.
 WRIST_SINGULAR = math.sin(math.radians(1.0))
-#: Joint motion allowed between two waypoints: this much plus ``FLIP_PER_M`` per metre of TCP motion.
+#: Joint motion allowed between two waypoints: this much plus ``FLIP_PER_M_RAD`` per metre
+#: of TCP motion.
 FLIP_BASE_RAD = math.radians(20.0)
 FLIP_PER_M_RAD = math.radians(100.0)
 #: A cutting move whose feed has less than this component across the tool axis is a plunge.
@@ -253,10 +254,8 @@ def _start_posture(robot: Robot, pose: FloatArray, source: ModeSource | None) ->
     score = score + 0.2 * np.minimum(wm, 0.5)
     predictor = getattr(source, "predictor", None)
     if predictor is not None and hasattr(predictor, "extrapolation"):
-        try:
+        with contextlib.suppress(InputError):
             score = score - 2.0 * np.asarray(predictor.extrapolation(qv))
-        except InputError:
-            pass
     return qv[int(np.argmax(score))]
 
 
@@ -329,7 +328,16 @@ def _lobes_for_rotation(
     material: Material,
     tool: ModalModel | None,
     rpm: FloatArray,
-) -> tuple[FloatArray, FloatArray, RobotModes, ModalModel, NDArray[np.bool_], GroupedLobes, dict[str, float], FloatArray]:
+) -> tuple[
+    FloatArray,
+    FloatArray,
+    RobotModes,
+    ModalModel,
+    NDArray[np.bool_],
+    GroupedLobes,
+    dict[str, float],
+    FloatArray,
+]:
     timings: dict[str, float] = {}
     t = time.perf_counter()
     poses, r_wp = tcp_targets(wp, robot, job.placement, rotation)
@@ -354,8 +362,13 @@ def _lobes_for_rotation(
     timings["frf"] = time.perf_counter() - t
     t = time.perf_counter()
     st, ex = engagement_angles(job.radial_immersion, job.cut.milling)
+    dt = job.plan.dynamics_tol
     tol = DynamicsTolerance(
-        freq=job.plan.dynamics_tol, damping=10 * job.plan.dynamics_tol, residue=7 * job.plan.dynamics_tol
+        freq=dt,
+        damping=10 * dt,
+        residue=7 * dt,
+        freq_low=10 * dt / 3,
+        f_low_hz=0.5 * job.spindle.rpm_min * job.tool.teeth / 60.0,
     )
     grouped = waypoint_lobes(
         models,
@@ -426,14 +439,18 @@ def plan_path(
     tool = _tool_model(job)
     cut = (wp["motion"] == "cut").to_numpy()
     if not np.any(cut):
-        raise InputError("expected at least one cutting move (G1/G2/G3, LIN, MoveL), found none", path_name)
+        raise InputError(
+            "expected at least one cutting move (G1/G2/G3, LIN, MoveL), found none", path_name
+        )
     rpm = np.linspace(job.spindle.rpm_min, job.spindle.rpm_max, job.plan.n_rpm)
     rotation = job.tool_rotation_rad
     cons = constraints_from_job(job, material.kt)
     rot_note = ""
     if job.tool_rotation == "stiffest":
-        rotation, rot_note = _stiffest_rotation(job, wp, robot, source, cut, material, tool, rpm, cons)
-    q, wm, modes, model0, plunge, grouped, t_stage, feed_angle = _lobes_for_rotation(
+        rotation, rot_note = _stiffest_rotation(
+            job, wp, robot, source, cut, material, tool, rpm, cons
+        )
+    q, wm, modes, _model0, plunge, grouped, t_stage, feed_angle = _lobes_for_rotation(
         job, wp, robot, source, rotation, cut, material, tool, rpm
     )
     timings.update(t_stage)
@@ -446,7 +463,9 @@ def plan_path(
     prog = wp["rpm_programmed"].to_numpy(dtype=np.float64)[ci]
     if job.cut.programmed_rpm is not None:
         prog = np.where(np.isfinite(prog), prog, job.cut.programmed_rpm)
-    labels = [_label(wp, int(i)) for i in ci]
+    src_col = wp["source"].to_numpy()[ci]
+    line_col = wp["line"].to_numpy()[ci]
+    labels = [f"{a}:{int(b)}" for a, b in zip(src_col, line_col, strict=True)]
     outcome = optimize_schedule(
         grouped.table,
         geom,
@@ -457,9 +476,25 @@ def plan_path(
     )
     timings["optimize"] = time.perf_counter() - t
     t = time.perf_counter()
-    table = _result_table(wp, q, wm, modes, grouped, outcome, ci, plunge, feed_angle, job, cons, seg)
+    table = _result_table(
+        wp, q, wm, modes, grouped, outcome, ci, plunge, feed_angle, job, cons, seg
+    )
     summary = _summary(
-        job, path_name, robot, source, note, rot_note, rotation, wp, table, grouped, outcome, ci, modes, cons, geom
+        job,
+        path_name,
+        robot,
+        source,
+        note,
+        rot_note,
+        rotation,
+        wp,
+        table,
+        grouped,
+        outcome,
+        ci,
+        modes,
+        cons,
+        geom,
     )
     timings["table"] = time.perf_counter() - t
     summary["timings_s"] = {k: round(v, 4) for k, v in timings.items()}
@@ -578,7 +613,12 @@ def _result_table(
     a_grid = grouped.table.a_lim[g]
     allowed = (grouped.table.rpm >= cons.rpm_min) & (grouped.table.rpm <= cons.rpm_hi)
     amin = np.full(n, np.nan)
-    amin[ci] = np.where(np.isfinite(a_grid[:, allowed].min(axis=1)), a_grid[:, allowed].min(axis=1), np.nan) * 1e3
+    amin[ci] = (
+        np.where(
+            np.isfinite(a_grid[:, allowed].min(axis=1)), a_grid[:, allowed].min(axis=1), np.nan
+        )
+        * 1e3
+    )
     cols["a_min_mm"] = amin
     rb = np.full(n, np.nan)
     jbest = np.argmax(np.where(allowed, a_grid, -np.inf), axis=1)
@@ -639,7 +679,8 @@ def _gain(best: Any, base: Any) -> dict[str, Any] | None:
         d["mrr_gain_pct"] = round(100.0 * (best.mrr_m3_per_s / base.mrr_m3_per_s - 1.0), 2)
         # same volume: the depth ratio sets how many passes a given stock needs
         d["cycle_time_saving_pct"] = round(
-            100.0 * (1.0 - (best.cycle_time_s / best.depth_m) / (base.cycle_time_s / base.depth_m)), 2
+            100.0 * (1.0 - (best.cycle_time_s / best.depth_m) / (base.cycle_time_s / base.depth_m)),
+            2,
         )
     else:
         d["mrr_gain_pct"] = None
@@ -675,9 +716,9 @@ def _summary(
     notes = [s for s in (note, grouped.message) if s]
     if ex is not None and np.any(ex > 0.1):
         notes.append(
-            f"{int(np.sum(ex > 0.1))} of {ex.size} cutting postures lie beyond the model's training "
-            f"range (up to {100 * float(ex.max()):.0f} % of a joint range): predictions there are "
-            "extrapolations"
+            f"{int(np.sum(ex > 0.1))} of {ex.size} cutting postures lie beyond the model's "
+            f"training range (up to {100 * float(ex.max()):.0f} % of a joint range): "
+            "predictions there are extrapolations"
         )
     if job.plan.robust and modes.log_std is None:
         notes.append("robust mode: the mode source has no spread; planned on the nominal modes")
@@ -731,4 +772,3 @@ def _summary(
         },
         "notes": notes,
     }
-

@@ -28,6 +28,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+import pandas as pd
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.colors import TwoSlopeNorm
 from matplotlib.figure import Figure
@@ -42,10 +43,23 @@ __all__ = [
     "plot_speed_map",
     "plot_speed_power",
     "render_html",
+    "write_csv",
     "write_outputs",
 ]
 
 PLOTS: tuple[str, ...] = ("lobes", "speed_map", "path_margin", "speed_power")
+
+
+def write_csv(df: pd.DataFrame, path: Path) -> None:
+    """Write a table as CSV (pyarrow's writer when installed: ~6x faster, full precision)."""
+    try:
+        import pyarrow as pa
+        import pyarrow.csv as pacsv
+    except ImportError:  # pragma: no cover - pyarrow is an extra
+        df.to_csv(path, index=False, float_format="%.9g")
+        return
+    table = pa.Table.from_pandas(df, preserve_index=False)
+    pacsv.write_csv(table, path, write_options=pacsv.WriteOptions(quoting_style="needed"))
 
 
 def _png(fig: Figure) -> bytes:
@@ -124,7 +138,9 @@ def plot_speed_map(res: PlanResult, max_rows: int = 1500) -> Figure:
     )
     ax.plot(np.arange(n), best.rpm, color="k", lw=1.2, label="planned speed")
     if res.outcome.constant is not None:
-        ax.axhline(float(res.outcome.constant.rpm[0]), color="b", lw=0.8, ls="--", label="best constant")
+        ax.axhline(
+            float(res.outcome.constant.rpm[0]), color="b", lw=0.8, ls="--", label="best constant"
+        )
     cb = fig.colorbar(im, ax=ax)
     cb.set_label("log2( a_lim / (SF x depth) ): > 0 stable")
     ax.set_xlabel("cutting waypoint")
@@ -207,21 +223,36 @@ def render_html(res: PlanResult, images: dict[str, bytes]) -> str:
         ("Minimum margin", f"{s['min_margin']:.3f} at {s['min_margin_at']['source']}"),
         ("Method", f"{s['method']} (IPOPT: {s['nlp_status']})"),
     ]
-    for key, name in (("vs_best_constant_speed", "best constant speed"), ("vs_programmed_speed", "programmed speed")):
+    for key, name in (
+        ("vs_best_constant_speed", "best constant speed"),
+        ("vs_programmed_speed", "programmed speed"),
+    ):
         g = s.get(key)
         if g:
             rows.append(
                 (
                     f"Gain vs {name}",
                     f"MRR {_fmt(g.get('mrr_gain_pct'))} % (that plan: {g['depth_mm']} mm at "
-                    f"{g['rpm_mean']:.0f} rpm, {'feasible' if g['feasible'] else 'infeasible: ' + g['reason']})",
+                    f"{g['rpm_mean']:.0f} rpm, "
+                    f"{'feasible' if g['feasible'] else 'infeasible: ' + g['reason']})",
                 )
             )
     table = "\n".join(f"<tr><th>{html.escape(k)}</th><td>{_fmt(v)}</td></tr>" for k, v in rows)
     t = res.table
     cut = t[np.isfinite(t["margin"].to_numpy())]
     tight = cut.nsmallest(10, "margin")[
-        ["source", "line", "x_mm", "y_mm", "z_mm", "rpm", "a_lim_mm", "margin", "limiting", "power_kW"]
+        [
+            "source",
+            "line",
+            "x_mm",
+            "y_mm",
+            "z_mm",
+            "rpm",
+            "a_lim_mm",
+            "margin",
+            "limiting",
+            "power_kW",
+        ]
     ]
     tight_html = tight.to_html(index=True, float_format=lambda v: f"{v:.4g}", border=0)
     imgs = "\n".join(
@@ -233,7 +264,7 @@ def render_html(res: PlanResult, images: dict[str, bytes]) -> str:
     timing = ", ".join(f"{k} {v:.3g} s" for k, v in s.get("timings_s", {}).items())
     return f"""<!DOCTYPE html>
 <html lang="en"><head><meta charset="utf-8">
-<title>robolobe plan: {html.escape(str(s['path']))}</title>
+<title>robolobe plan: {html.escape(str(s["path"]))}</title>
 <style>
 body {{ font-family: sans-serif; max-width: 1000px; margin: 2em auto; color: #222; }}
 table {{ border-collapse: collapse; margin: 1em 0; }}
@@ -242,12 +273,13 @@ figure {{ margin: 1em 0; }} img {{ max-width: 100%; }}
 </style></head><body>
 <h1>robolobe plan</h1>
 <table>{table}</table>
-<h2>Notes</h2><ul>{notes or '<li>none</li>'}</ul>
+<h2>Notes</h2><ul>{notes or "<li>none</li>"}</ul>
 <h2>Plots</h2>
 {imgs}
 <h2>Tightest waypoints</h2>
 {tight_html}
-<p><small>robolobe {html.escape(str(s['robolobe_version']))}; timings: {html.escape(timing)}</small></p>
+<p><small>robolobe {html.escape(str(s["robolobe_version"]))};
+timings: {html.escape(timing)}</small></p>
 </body></html>
 """
 
@@ -281,8 +313,10 @@ def write_outputs(
         for name in PLOTS:
             images[name] = _png(_PLOTTERS[name](res))
     with atomic_dir(out) as tmp:
-        res.table.to_csv(tmp / "waypoints.csv", index=False, float_format="%.6g")
-        (tmp / "summary.json").write_text(json.dumps(res.summary, indent=2) + "\n", encoding="utf-8")
+        write_csv(res.table, tmp / "waypoints.csv")
+        (tmp / "summary.json").write_text(
+            json.dumps(res.summary, indent=2) + "\n", encoding="utf-8"
+        )
         if plots:
             (tmp / "plots").mkdir()
             for name, data in images.items():

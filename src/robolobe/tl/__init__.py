@@ -1,1 +1,32 @@
-"""robolobe.tl (see DESIGN.md)."""
+"""robolobe.tl: posture -> modal parameters by transfer learning (DESIGN.md).
+
+The seed paper's method (a 6 -> 5 x 32 ReLU -> 15 network per TCP direction,
+pretrained on robot A and transferred to B and C with the first three layers
+frozen), as a vectorized deep ensemble with calibrated spread, plus posture
+design, baselines and the seed's evaluation protocol.
+
+Modules: :mod:`~robolobe.tl.dataset` (modal datasets), :mod:`~robolobe.tl.preprocess`
+(features, scaling, augmentation), :mod:`~robolobe.tl.network`,
+:mod:`~robolobe.tl.training`, :mod:`~robolobe.tl.estimator` (``ModalPredictor``),
+:mod:`~robolobe.tl.presets`, :mod:`~robolobe.tl.models` (shipped A/B/C),
+:mod:`~robolobe.tl.baselines`, :mod:`~robolobe.tl.design`,
+:mod:`~robolobe.tl.evaluate`, :mod:`~robolobe.tl.schedule`,
+:mod:`~robolobe.tl.twin_data`, :mod:`~robolobe.tl.predict_io`.
+"""
+
+from robolobe.tl.dataset import ModalDataset, TrustWarning, dataset_from_frame
+from robolobe.tl.estimator import ModalPrediction, ModalPredictor, transfer
+from robolobe.tl.models import load_model
+from robolobe.tl.presets import DEFAULT_PRESET, PRESETS
+
+__all__ = [
+    "DEFAULT_PRESET",
+    "PRESETS",
+    "ModalDataset",
+    "ModalPrediction",
+    "ModalPredictor",
+    "TrustWarning",
+    "dataset_from_frame",
+    "load_model",
+    "transfer",
+]

@@ -160,8 +160,8 @@ class ModalDataset:
             k_N_per_m`` (+ extras), one row per posture, direction and mode.
         """
         n, nd, nm, _ = self.y.shape
-        p_idx, d_idx, m_idx = np.meshgrid(np.arange(n), np.arange(nd), np.arange(nm), indexing="ij")
-        p_idx, d_idx, m_idx = p_idx.ravel(), d_idx.ravel(), m_idx.ravel()
+        grids = np.meshgrid(np.arange(n), np.arange(nd), np.arange(nm), indexing="ij")
+        p_idx, d_idx, m_idx = (g.ravel() for g in grids)
         vals = self.y.reshape(-1, 3)
         keep = np.all(np.isfinite(vals), axis=1)
         qd = self.q_deg

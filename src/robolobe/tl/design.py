@@ -32,6 +32,7 @@ Distances are Euclidean in the scaled joint space (a unit = one full range).
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -53,10 +54,10 @@ FloatArray = NDArray[np.float64]
 COVERAGE_RADIUS = 0.5
 
 
-def design_box_deg(robot: object, ranges_deg: ArrayLike | None = None) -> FloatArray:
+def design_box_deg(robot: Any, ranges_deg: ArrayLike | None = None) -> FloatArray:
     """Test range per joint [deg], shape (6, 2): ``ranges_deg`` within the limits, or the limits."""
-    lo = np.degrees(np.asarray(robot.q_min, dtype=float))  # type: ignore[attr-defined]
-    hi = np.degrees(np.asarray(robot.q_max, dtype=float))  # type: ignore[attr-defined]
+    lo = np.degrees(np.asarray(robot.q_min, dtype=float))
+    hi = np.degrees(np.asarray(robot.q_max, dtype=float))
     if ranges_deg is None:
         return np.stack([lo, hi], axis=1)
     r = np.asarray(ranges_deg, dtype=float)
@@ -66,7 +67,7 @@ def design_box_deg(robot: object, ranges_deg: ArrayLike | None = None) -> FloatA
 
 
 def feasible_postures(
-    robot: object,
+    robot: Any,
     n: int,
     rng: np.random.Generator,
     *,
@@ -86,9 +87,9 @@ def feasible_postures(
     out = np.empty((0, 6))
     reach = _reach(robot)
     for _ in range(50):
-        q = sample_postures(robot, max(2 * n, 256), rng, np.asarray(box_deg))  # type: ignore[arg-type]
-        ok = tcp_pose(robot, q)[:, 2, 3] > floor_z_m  # type: ignore[arg-type]
-        jac = tcp_jacobian(robot, q, expressed_in="world")  # type: ignore[arg-type]
+        q = sample_postures(robot, max(2 * n, 256), rng, np.asarray(box_deg))
+        ok = tcp_pose(robot, q)[:, 2, 3] > floor_z_m
+        jac = tcp_jacobian(robot, q, expressed_in="world")
         jac[:, :3, :] /= reach
         s = np.linalg.svd(jac, compute_uv=False)
         ok &= s[:, -1] / s[:, 0] >= min_inv_condition
@@ -101,7 +102,7 @@ def feasible_postures(
     )
 
 
-def _reach(robot: object) -> float:
+def _reach(robot: Any) -> float:
     joints = getattr(robot, "joints", ())
     total = sum(abs(float(j.a_m)) + abs(float(j.d_m)) for j in joints)
     return max(total, 1e-3)
@@ -189,14 +190,14 @@ class PostureDesign:
 
 
 def design_postures(
-    robot: object,
+    robot: Any,
     n: int,
     *,
     rng: np.random.Generator,
     existing_rad: ArrayLike | None = None,
     ranges_deg: ArrayLike | None = None,
     criterion: str = "coverage",
-    model: object | None = None,
+    model: Any = None,
     n_candidates: int = 1500,
     n_reference: int = 3000,
     floor_z_m: float = 0.1,
@@ -230,9 +231,13 @@ def design_postures(
     if criterion == "spread" and model is None:
         raise InputError("criterion 'spread' needs a fitted model (--model)")
     box = design_box_deg(robot, ranges_deg)
-    kw = {"box_deg": box, "floor_z_m": floor_z_m, "min_inv_condition": min_inv_condition}
-    cand = feasible_postures(robot, n_candidates, rng, **kw)  # type: ignore[arg-type]
-    ref = feasible_postures(robot, n_reference, np.random.default_rng(12345), **kw)  # type: ignore[arg-type]
+    kw: dict[str, Any] = {
+        "box_deg": box,
+        "floor_z_m": floor_z_m,
+        "min_inv_condition": min_inv_condition,
+    }
+    cand = feasible_postures(robot, n_candidates, rng, **kw)
+    ref = feasible_postures(robot, n_reference, np.random.default_rng(12345), **kw)
     ex = (
         np.zeros((0, 6))
         if existing_rad is None
@@ -249,7 +254,7 @@ def design_postures(
 
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", TrustWarning)
-            sd = model.predict(ref).std  # type: ignore[union-attr]
+            sd = model.predict(ref).std
         weight = np.nanmean(sd / np.maximum(np.nanmean(sd, axis=0), 1e-12), axis=(1, 2, 3))
     dist = np.sqrt(((cs[:, None, :] - rs[None, :, :]) ** 2).sum(-1))  # (n_cand, n_ref)
     picked: list[int] = []

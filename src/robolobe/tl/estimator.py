@@ -220,6 +220,17 @@ class ModalPredictor:
         Robots this model was trained on, source first.
     """
 
+    net_: EnsembleMLP
+    angle_scaler_: MinMax
+    target_transform_: TargetTransform
+    calibration_: FloatArray
+    calibration_coverage_: FloatArray | None
+    train_q_rad_: FloatArray
+    validation_: dict[str, Any] | None
+    history_: TrainHistory
+    lineage_: list[str]
+    n_frozen_used_: int
+
     def __init__(
         self,
         *,
@@ -449,7 +460,7 @@ class ModalPredictor:
             net = src.net_.select(pick)
             n_frozen = int(self.n_frozen)
             lineage = list(src.lineage_)
-        self.history_: TrainHistory = train_ensemble(
+        self.history_ = train_ensemble(
             net,
             torch.from_numpy(x_all),
             torch.from_numpy(y_all.astype(np.float32)),
@@ -466,8 +477,8 @@ class ModalPredictor:
         self.train_q_rad_ = q[train].copy()
         self.lineage_ = [*lineage, self.robot or "unnamed"]
         self.calibration_ = np.ones((nd, 3))
-        self.calibration_coverage_: FloatArray | None = None
-        self.validation_: dict[str, Any] | None = None
+        self.calibration_coverage_ = None
+        self.validation_ = None
 
         # ---- calibration of the spread
         if e > 1 and self.calibration != "none":

@@ -23,6 +23,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -51,7 +52,7 @@ class IdentificationNoise:
 
 
 def twin_modal_values(
-    twin: object,
+    twin: Any,
     q_rad: ArrayLike,
     *,
     directions: Sequence[str] = ("xx", "yy"),
@@ -76,13 +77,13 @@ def twin_modal_values(
     seen : ndarray of bool, shape (n, n_dir, n_modes)
     """
     q = np.asarray(q_rad, dtype=float)
-    modes = twin.modes(q)  # type: ignore[attr-defined]
+    modes = twin.modes(q)
     if modes.n_modes < n_modes:
         raise InputError(f"n_modes: the twin has only {modes.n_modes} modes, asked {n_modes}")
     f = modes.f_hz[:, :n_modes]
     z = modes.zeta[:, :n_modes]
     freq = np.arange(band_hz[0], band_hz[1] + 1e-9, 0.25)
-    h = twin.receptance(q, freq, method="modal")  # type: ignore[attr-defined]
+    h = twin.receptance(q, freq, method="modal")
     nd = len(directions)
     y = np.empty((len(q), nd, n_modes, 3))
     seen = np.empty((len(q), nd, n_modes), dtype=bool)
@@ -103,7 +104,7 @@ def twin_modal_values(
 
 
 def twin_modal_dataset(
-    twin: object,
+    twin: Any,
     posture_ids: Sequence[str],
     q_rad: ArrayLike,
     *,
@@ -145,7 +146,7 @@ def twin_modal_dataset(
 
 
 def measured_frfs(
-    twin: object,
+    twin: Any,
     posture_ids: Sequence[str],
     q_rad: ArrayLike,
     *,
@@ -167,7 +168,7 @@ def measured_frfs(
     from robolobe.twin.campaign import simulate_campaign
 
     camp = simulate_campaign(
-        twin.receptance,  # type: ignore[attr-defined]
+        twin.receptance,
         robot,
         list(posture_ids),
         np.asarray(q_rad, dtype=float),

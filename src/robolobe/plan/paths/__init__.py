@@ -20,6 +20,7 @@ from __future__ import annotations
 import inspect
 import os
 import re
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -159,10 +160,20 @@ def read_toolpath(
         if options:
             raise InputError(f"the table reader takes no options, found {sorted(options)}")
         return read_table(p)
-    readers = {"gcode": read_gcode, "apt": read_apt, "krl": read_krl, "rapid": read_rapid}
+    readers: dict[str, Callable[..., pd.DataFrame]] = {
+        "gcode": read_gcode,
+        "apt": read_apt,
+        "krl": read_krl,
+        "rapid": read_rapid,
+    }
     if fmt not in readers:
         raise InputError(f"expected a format in {sorted([*readers, 'table'])}, found {fmt!r}")
-    parsers = {"gcode": parse_gcode, "apt": parse_apt, "krl": parse_krl, "rapid": parse_rapid}
+    parsers: dict[str, Callable[..., pd.DataFrame]] = {
+        "gcode": parse_gcode,
+        "apt": parse_apt,
+        "krl": parse_krl,
+        "rapid": parse_rapid,
+    }
     known = {
         name
         for name, par in inspect.signature(parsers[fmt]).parameters.items()

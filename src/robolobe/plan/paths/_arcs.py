@@ -78,10 +78,7 @@ def arc_points(
     u = rs_p / r0
     v = np.cross(nrm, u)
     ang = math.atan2(float(re_p @ v), float(re_p @ u))  # (-pi, pi], CCW from start
-    if clockwise:
-        sweep = -((-ang) % (2 * math.pi))
-    else:
-        sweep = ang % (2 * math.pi)
+    sweep = -(-ang % (2 * math.pi)) if clockwise else ang % (2 * math.pi)
     if abs(sweep) < 1e-12 and full_circle:
         sweep = -2 * math.pi if clockwise else 2 * math.pi
     n = _n_segments(r0, sweep, tol)

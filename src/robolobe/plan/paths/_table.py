@@ -305,8 +305,8 @@ def validate_waypoints(df: pd.DataFrame, source: str) -> pd.DataFrame:
         f = np.where(okg[:, None], given / np.where(okg, gn, 1.0)[:, None], f)
     src = df["source"].astype(str).to_numpy() if "source" in df.columns else np.full(n, source)
     if "line" in df.columns:
-        line = numeric("line", None)
-        line = np.where(np.isfinite(line), line, file_line).astype(np.int64)
+        given_line = numeric("line", None)
+        line = np.where(np.isfinite(given_line), given_line, file_line).astype(np.int64)
     else:
         line = file_line
     return pd.DataFrame(

@@ -178,18 +178,20 @@ def parse_apt(
             rpm = nums[0]
             spindle_on = True
         elif word == "TLAXIS":
-            v = np.array(_numbers(args, where, "TLAXIS")[:3])
-            if v.size != 3 or np.linalg.norm(v) < 1e-9:
+            tv = np.array(_numbers(args, where, "TLAXIS")[:3])
+            if tv.size != 3 or np.linalg.norm(tv) < 1e-9:
                 raise InputError(f"TLAXIS: expected i,j,k, found {args}", source=where)
-            axis = msys_r @ (v / np.linalg.norm(v))
+            axis = msys_r @ (tv / np.linalg.norm(tv))
         elif word == "MSYS":
             v = _numbers(args, where, "MSYS")
             if len(v) != 9:
                 raise InputError(f"MSYS: expected 9 numbers, found {len(v)}", source=where)
             xa, ya = np.array(v[3:6]), np.array(v[6:9])
-            if abs(np.linalg.norm(xa) - 1) > 1e-3 or abs(np.linalg.norm(ya) - 1) > 1e-3 or abs(
-                xa @ ya
-            ) > 1e-3:
+            if (
+                abs(np.linalg.norm(xa) - 1) > 1e-3
+                or abs(np.linalg.norm(ya) - 1) > 1e-3
+                or abs(xa @ ya) > 1e-3
+            ):
                 raise InputError("MSYS: expected unit, orthogonal x and y axes", source=where)
             msys_r = np.column_stack([xa, ya, np.cross(xa, ya)])
             msys_o = np.array(v[:3])
@@ -220,7 +222,9 @@ def parse_apt(
                 new_axis = axis
             else:
                 if len(v) not in (3, 6):
-                    raise InputError(f"{word}: expected x,y,z[,i,j,k], found {len(v)} numbers", where)
+                    raise InputError(
+                        f"{word}: expected x,y,z[,i,j,k], found {len(v)} numbers", where
+                    )
                 target = (msys_r @ np.array(v[:3]) + msys_o) * scale
                 new_axis = axis
                 if len(v) == 6:
@@ -240,11 +244,23 @@ def parse_apt(
                 for p in pts:
                     out.add(p * 1e-3, new_axis, line=lineno, rapid=False, feed_mm_per_min=f, rpm=s)
             else:
-                out.add(target * 1e-3, new_axis, line=lineno, rapid=is_rapid, feed_mm_per_min=f, rpm=s)
+                out.add(
+                    target * 1e-3, new_axis, line=lineno, rapid=is_rapid, feed_mm_per_min=f, rpm=s
+                )
             circle = None
             pos = target
             axis = new_axis
-        elif word in ("INDIRV", "TLON", "GOFWD", "GOLFT", "GORGT", "GOBACK", "GOUP", "GODOWN", "PSIS"):
+        elif word in (
+            "INDIRV",
+            "TLON",
+            "GOFWD",
+            "GOLFT",
+            "GORGT",
+            "GOBACK",
+            "GOUP",
+            "GODOWN",
+            "PSIS",
+        ):
             raise InputError(
                 f"unsupported construct: surface motion {word} (output CL points with GOTO)", where
             )

@@ -206,7 +206,14 @@ def parse_gcode(
 
 def _axis_from_abc(abc_deg: np.ndarray) -> np.ndarray:
     a, b, c = np.radians(abc_deg)
-    ca, sa, cb, sb, cc, sc = math.cos(a), math.sin(a), math.cos(b), math.sin(b), math.cos(c), math.sin(c)
+    ca, sa, cb, sb, cc, sc = (
+        math.cos(a),
+        math.sin(a),
+        math.cos(b),
+        math.sin(b),
+        math.cos(c),
+        math.sin(c),
+    )
     # Rz(c) Ry(b) Rx(a) @ ez
     v = np.array([sb * ca * cc + sa * sc, sb * ca * sc - sa * cc, cb * ca])
     return v
@@ -423,7 +430,9 @@ def _emit_arc(
             raise InputError("arc without I/J/K or R", source=where)
         full = True
     centre[ic] = start[ic]
-    pts = arc_points(start, target, centre, normal, clockwise=cw, tol=tol, full_circle=full, where=where)
+    pts = arc_points(
+        start, target, centre, normal, clockwise=cw, tol=tol, full_circle=full, where=where
+    )
     feed = _feed_mm_per_min(st)
     rpm = st.rpm if st.spindle_on else math.nan
     for p in pts:

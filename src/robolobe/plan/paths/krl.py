@@ -85,7 +85,9 @@ def _aggregate(text: str, where: str) -> dict[str, float | None]:
     for part in body.split(","):
         m = re.match(r"^\s*([A-Z_][A-Z0-9_]*)\s+(.+?)\s*$", part.strip().upper())
         if not m:
-            raise InputError(f"expected 'KEY value' in the aggregate, found {part.strip()!r}", where)
+            raise InputError(
+                f"expected 'KEY value' in the aggregate, found {part.strip()!r}", where
+            )
         key, val = m.group(1), m.group(2)
         try:
             out[key] = float(val)
@@ -215,7 +217,9 @@ class _Reader:
             return
         m = re.match(r"^([A-Z_][A-Z0-9_]*)\s*\(.*\)$", s)
         if m:
-            logger.warning("%s: call to %s ignored (its motions are not followed)", where, m.group(1))
+            logger.warning(
+                "%s: call to %s ignored (its motions are not followed)", where, m.group(1)
+            )
             return
         if re.match(r"^[A-Z_][A-Z0-9_.\[\]]*\s*=", s):
             return  # assignment to a plain variable (LDAT_ACT=..., counters)
@@ -259,7 +263,9 @@ class _Reader:
             self.emit(end, lineno, rapid=False)
             return
         if "#TOOL" in rest:
-            raise InputError("unsupported construct: relative move in the tool frame (#TOOL)", where)
+            raise InputError(
+                "unsupported construct: relative move in the tool frame (#TOOL)", where
+            )
         rest = re.sub(r",?\s*#BASE\s*$", "", rest).strip()
         tgt = self.target(rest, where, relative=word.endswith("_REL"))
         if tgt is None:
@@ -272,7 +278,9 @@ class _Reader:
 
 def _split_top(text: str) -> list[str]:
     """Split at commas outside braces."""
-    parts, depth, cur = [], 0, []
+    parts: list[str] = []
+    cur: list[str] = []
+    depth = 0
     for ch in text:
         if ch == "{":
             depth += 1
@@ -363,8 +371,6 @@ def read_krl(path: str | Path, **options: float | str) -> pd.DataFrame:
         if not src.exists():
             raise InputError("a .dat file holds no motions; give the .src program", str(p))
         p = src
-    dat_path = next(
-        (q for q in (p.with_suffix(".dat"), p.with_suffix(".DAT")) if q.exists()), None
-    )
+    dat_path = next((q for q in (p.with_suffix(".dat"), p.with_suffix(".DAT")) if q.exists()), None)
     dat = text_of(dat_path) if dat_path is not None else None
     return parse_krl(text_of(p), p.name, dat=dat, **options)  # type: ignore[arg-type]

@@ -33,6 +33,7 @@ import logging
 import math
 import re
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pandas as pd
@@ -142,7 +143,9 @@ def _no_strings(s: str) -> str:
 
 def _split_args(text: str) -> list[str]:
     """Split at commas outside brackets/parentheses/strings."""
-    parts, depth, cur, in_str = [], 0, [], False
+    parts: list[str] = []
+    cur: list[str] = []
+    depth, in_str = 0, False
     for ch in text:
         if ch == '"':
             in_str = not in_str
@@ -161,13 +164,13 @@ def _split_args(text: str) -> list[str]:
     return parts
 
 
-def _nested(text: str, where: str) -> list:  # type: ignore[type-arg]
+def _nested(text: str, where: str) -> list[Any]:
     """Parse a RAPID aggregate literal ``[[1,2,3],[...]]`` into nested lists of floats."""
     t = text.strip()
     if not (t.startswith("[") and t.endswith("]")):
         raise InputError(f"expected a literal [...], found {text.strip()!r}", source=where)
     items = _split_args(t[1:-1])
-    out: list = []  # type: ignore[type-arg]
+    out: list[Any] = []
     for it in items:
         if it.startswith("["):
             out.append(_nested(it, where))
@@ -198,12 +201,15 @@ class _Reader:
                 pos = np.array(lit[0], dtype=np.float64)
                 quat = np.array(lit[1], dtype=np.float64)
             except (IndexError, TypeError, ValueError):
-                raise InputError("expected a robtarget [[x,y,z],[q1,q2,q3,q4],...]", where) from None
+                raise InputError(
+                    "expected a robtarget [[x,y,z],[q1,q2,q3,q4],...]", where
+                ) from None
             if pos.shape != (3,) or quat.shape != (4,):
                 raise InputError("expected a robtarget [[x,y,z],[q1,q2,q3,q4],...]", where)
             if abs(np.linalg.norm(quat) - 1) > 1e-3:
                 raise InputError(
-                    f"quaternion {quat.tolist()} is not normalised (|q| = {np.linalg.norm(quat):.5f})",
+                    f"quaternion {quat.tolist()} is not normalised "
+                    f"(|q| = {np.linalg.norm(quat):.5f})",
                     where,
                 )
             return pos, quat
@@ -211,7 +217,9 @@ class _Reader:
         if m:
             args = _split_args(m.group(1))
             if len(args) != 4:
-                raise InputError(f"Offs: expected (point, dx, dy, dz), found {len(args)} args", where)
+                raise InputError(
+                    f"Offs: expected (point, dx, dy, dz), found {len(args)} args", where
+                )
             base = self.robtarget(args[0], where)
             if base is None:
                 raise InputError("Offs of an unknown point", source=where)
@@ -272,7 +280,9 @@ class _Reader:
                 lit = _nested(value, where)
                 self.speeds[name.upper()] = float(lit[0])
             elif typ in ("tooldata", "wobjdata"):
-                logger.info("%s: %s %s not applied (path taken in the work object)", where, typ, name)
+                logger.info(
+                    "%s: %s %s not applied (path taken in the work object)", where, typ, name
+                )
             return
         head = re.match(r"^([A-Za-z_]\w*)\s*(.*)$", s, re.DOTALL)
         if not head:
@@ -315,9 +325,13 @@ class _Reader:
                 raise InputError("MoveC before any position", source=where)
             arc = arc_through(self.pos, pts[0][0], end_pos, tol=self.tol, where=where)
             for p in arc:
-                self.out.add(p * 1e-3, axis, line=lineno, rapid=False, feed_mm_per_min=feed, ref=ref)
+                self.out.add(
+                    p * 1e-3, axis, line=lineno, rapid=False, feed_mm_per_min=feed, ref=ref
+                )
         else:
-            self.out.add(end_pos * 1e-3, axis, line=lineno, rapid=rapid, feed_mm_per_min=feed, ref=ref)
+            self.out.add(
+                end_pos * 1e-3, axis, line=lineno, rapid=rapid, feed_mm_per_min=feed, ref=ref
+            )
         self.pos = end_pos
 
 
