@@ -62,8 +62,10 @@ def main() -> None:
         _ = pred.interval(0.9)
         best = min(best, time.perf_counter() - t)
     rows.append(("predict 10,000 postures with spread", best, 1.0))
-    print(f"preset {args.preset}, torch threads {args.threads} (training: 1), "
-          f"{os.cpu_count()} CPUs, load {os.getloadavg()[0]:.1f}")
+    print(
+        f"preset {args.preset}, torch threads {args.threads} (training: 1), "
+        f"{os.cpu_count()} CPUs, load {os.getloadavg()[0]:.1f}"
+    )
     print(f"{'task':42s} {'time [s]':>9s} {'budget':>7s} {'ratio':>6s}")
     for name, sec, budget in rows:
         print(f"{name:42s} {sec:9.2f} {budget:7.0f} {sec / budget:6.2f}")

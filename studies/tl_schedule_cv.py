@@ -37,15 +37,20 @@ def main() -> None:
     batches = tuple(int(b) for b in args.batches.split(","))
     t0 = time.perf_counter()
     res = schedule_cv(
-        ds, dict(PRESETS[args.preset]), batch_sizes=batches, epochs=args.epochs,
+        ds,
+        dict(PRESETS[args.preset]),
+        batch_sizes=batches,
+        epochs=args.epochs,
         n_repeats=args.repeats,
     )
     print(f"preset {args.preset}, {args.repeats} x 5-fold CV, {time.perf_counter() - t0:.0f} s")
     for b, loss, best, cur in zip(
         res.batch_sizes, res.final_loss(), res.best_epochs(), res.curves, strict=True
     ):
-        print(f"batch {b:3d}: val loss after {args.epochs} epochs {loss:.5f}, "
-              f"at 500 {cur[min(499, len(cur) - 1)]:.5f}, minimum {cur.min():.5f} at epoch {best}")
+        print(
+            f"batch {b:3d}: val loss after {args.epochs} epochs {loss:.5f}, "
+            f"at 500 {cur[min(499, len(cur) - 1)]:.5f}, minimum {cur.min():.5f} at epoch {best}"
+        )
     fig, ax = plt.subplots(1, 2, figsize=(10, 3.5))
     ax[0].plot(res.batch_sizes, res.final_loss(), "o-")
     ax[0].set_xscale("log", base=2)

@@ -86,6 +86,19 @@ def test_transfer_then_predict_with_spread_and_frf(tmp_path, b_modal, run):
     assert camp.dirs == frozenset({"xx", "yy"})
 
 
+def test_train_writes_a_model_with_holdout_calibration(tmp_path, b_modal, run):
+    model = tmp_path / "src.npz"
+    res = run(["train", b_modal, "-o", model, "--robot", "B", "--epochs", "5", "--members", "2"])
+    assert res.exit_code == 0, res.output
+    assert "spread factors" in res.output
+    from robolobe.tl.estimator import ModalPredictor
+
+    m = ModalPredictor.load(model)
+    assert m.n_members == 2
+    assert m.calibration == "holdout"
+    assert len(m.train_q_rad_) == 16  # the seed's 80:20 split of 20 postures
+
+
 def test_predict_with_shipped_model(tmp_path, run):
     post = tmp_path / "p.csv"
     write_postures(

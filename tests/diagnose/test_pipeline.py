@@ -15,7 +15,7 @@ from robolobe.robots import load_robot
 from robolobe.twin.campaign import Campaign
 from robolobe.twin.effects import AddedMass, FrictionDamping
 
-FAMS = ("added_mass", "joint_stiffness", "sensor_delay", "tool_mode")
+FAMS = ("added_mass", "joint_stiffness", "sensor_delay", "gravity_stiffening")
 
 
 @pytest.fixture(scope="module")
@@ -80,7 +80,7 @@ def test_friction_needs_force_levels() -> None:
     d = diagnose(
         camp,
         robot=load_robot("B"),
-        settings=DiagnoseSettings(families=("friction_damping", "added_mass")),
+        settings=DiagnoseSettings(families=("friction_damping",)),
     )
     why = {u.name: u.reason for u in d.untestable}
     assert "force levels" in why["friction_damping"]

@@ -61,3 +61,28 @@ def test_held_out_predictions_cover_every_record(toy: SimpleNamespace) -> None:
     assert np.isfinite(cv.H[:, :, 0, 0]).all()
     assert cv.fold_params.shape == (4, 1)
     assert np.allclose(cv.fold_params[:, 0], 25.0, rtol=0.05)
+
+
+def _mass_kx(p: np.ndarray) -> tuple:  # type: ignore[type-arg]
+    return (("mass", float(p[0])), ("kx", float(p[1])))
+
+
+def test_simplest_of_equally_good_candidates_is_named(toy: SimpleNamespace) -> None:
+    from robolobe.diagnose.candidate import Candidate, ParamSpec
+
+    # a two-parameter candidate that contains the one-parameter truth
+    both = Candidate(
+        name="mass_and_stiffness",
+        params=(
+            ParamSpec("mass_kg", 0.1, 200.0, (5.0, 50.0), "log"),
+            ParamSpec("factor", 0.3, 3.0, (0.8, 1.2), "log"),
+        ),
+        build=_mass_kx,
+    )
+    obs = toy.obs((("mass", 25.0),), seed=4)
+    fits = [fit_candidate(c, toy.model, obs) for c in [*toy.candidates(), both]]
+    sel = select(fits, toy.model, obs, obs, SelectionSettings(n_folds=4))
+    assert sel.name == "added_mass"
+    assert sel.ranking[0] is sel.verdict
+    assert sel.runner_up is not None
+    assert sel.runner_up.fit.candidate.name == "mass_and_stiffness"

@@ -7,7 +7,7 @@ import dataclasses
 import numpy as np
 import pytest
 
-from robolobe.errors import InfeasibleError, ReachabilityError, SingularityError
+from robolobe.errors import InfeasibleError, InputError, ReachabilityError, SingularityError
 from robolobe.plan.job import load_job
 from robolobe.plan.modes import PredictorSource, TwinSource
 from robolobe.plan.paths import read_toolpath
@@ -152,3 +152,20 @@ def test_robust_mode_plans_on_the_lower_bound(pocket_job):
     assert robust.summary["robust"] is True
     assert robust.outcome.best.depth_m < nominal.outcome.best.depth_m
     assert len(robust.lobes.diagrams) == 4  # nominal + three scenarios
+
+
+def test_degenerate_paths(tmp_path, pocket_job):
+    still = tmp_path / "still.csv"
+    still.write_text("x_m,y_m,z_m\n0,0,0\n0,0,0\n", encoding="utf-8")
+    with pytest.raises(InputError, match=r"^still\.csv: expected a path that moves"):
+        plan_path(still, pocket_job, refine=False)
+    rapid = tmp_path / "rapid.csv"
+    rapid.write_text("x_m,y_m,z_m,motion\n0,0,0,rapid\n0.01,0,0,rapid\n", encoding="utf-8")
+    with pytest.raises(InputError, match="at least one cutting move"):
+        plan_path(rapid, pocket_job, refine=False)
+    plunge = tmp_path / "plunge.csv"
+    plunge.write_text("x_m,y_m,z_m\n0,0,0\n0,0,-0.005\n", encoding="utf-8")
+    res = plan_path(plunge, pocket_job, refine=False)
+    assert res.summary["n_plunge"] == 2
+    assert any("plunges" in n for n in res.summary["notes"])
+    assert res.lobes.n_groups == 0

@@ -58,3 +58,18 @@ def test_bad_requests(robot_c):
         design_postures(robot_c, 0, rng=np.random.default_rng(0))
     with pytest.raises(InputError, match="needs a fitted model"):
         design_postures(robot_c, 3, rng=np.random.default_rng(0), criterion="spread")
+
+
+def test_spread_criterion_uses_the_model(robot_c):
+    from robolobe.tl.models import load_model
+
+    model = load_model("C")
+    kw = {"rng": np.random.default_rng(3), "ranges_deg": TESTED_RANGES_DEG["C"]}
+    by_cov = design_postures(robot_c, 5, **kw)
+    kw["rng"] = np.random.default_rng(3)
+    by_spread = design_postures(robot_c, 5, criterion="spread", model=model, **kw)
+    assert by_spread.q_rad.shape == (5, 6)
+    assert not np.allclose(by_cov.q_rad, by_spread.q_rad)
+    # the picks sit where the model is less sure than at the coverage picks
+    sd = lambda q: np.mean(model.predict(q, warn=False).std)  # noqa: E731
+    assert sd(by_spread.q_rad) > sd(by_cov.q_rad)

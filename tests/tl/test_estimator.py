@@ -123,3 +123,29 @@ def test_interval_levels_and_cv_calibration_factor(source):
     assert np.all(lo90 <= lo50)
     assert np.all(hi50 <= hi90)
     assert np.all((p.values >= lo90) & (p.values <= hi90))
+
+
+def test_single_member_has_no_spread_and_cv_needs_enough_postures():
+    rng = np.random.default_rng(6)
+    q = rng.uniform(LO, HI, size=(8, 6))
+    y = smooth_modal(q)
+    m = ModalPredictor(**{**FAST, "n_members": 1}).fit(q, y)
+    p = m.predict(q, warn=False)
+    assert np.all(p.std == 0)
+    np.testing.assert_array_equal(m.calibration_, 1.0)
+    with pytest.raises(InputError, match="at least 5 postures"):
+        ModalPredictor(**FAST).fit(q[:4], y[:4])
+
+
+@pytest.mark.parametrize("kind", ["minmax", "log", "flex"])
+def test_log_std_is_the_relative_spread(kind):
+    from robolobe.tl.estimator import ModalPrediction
+    from robolobe.tl.preprocess import MinMax, TargetTransform
+
+    y = np.array([[[[10.0, 0.02, 2e6]]]])
+    tt = TargetTransform(kind, MinMax(np.zeros(1), np.ones(1)))
+    center = tt.pre(y)
+    eps = 1e-4
+    p = ModalPrediction(("xx",), center, np.full(center.shape, eps), kind)
+    bumped = tt.post(center + eps)
+    np.testing.assert_allclose(p.log_std, np.abs(np.log(bumped / y)), rtol=5e-3)

@@ -240,7 +240,7 @@ def register(app: typer.Typer) -> None:
         """Propose hammer-test postures that cover the feasible workspace."""
         from robolobe.tl.design import design_postures
         from robolobe.tl.models import load_model
-        from robolobe.twin.campaign import read_postures, write_postures
+        from robolobe.twin.campaign import read_postures
         from robolobe.twin.designs import TESTED_RANGES_DEG
 
         rob = _robot(robot)
@@ -262,9 +262,16 @@ def register(app: typer.Typer) -> None:
                 criterion="spread" if model is not None else "coverage",
                 model=model,
             )
+        import pandas as pd
+
+        from robolobe._atomic import atomic_path
+
         q_out = np.round(np.degrees(design.q_rad), 1)
         ids = [f"D{i + 1:02d}" for i in range(len(q_out))]
-        write_postures(output, ids, np.radians(q_out))
+        table = pd.DataFrame(q_out, columns=[f"q{i}_deg" for i in range(1, 7)])
+        table.insert(0, "posture_id", ids)
+        with atomic_path(output) as tmp:
+            table.to_csv(tmp, index=False, lineterminator="\n")
         if design.coverage_before is not None:
             console.print(
                 f"{len(existing) if existing is not None else 0} existing postures: "

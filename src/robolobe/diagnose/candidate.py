@@ -188,9 +188,10 @@ class Candidate:
         return tuple(self.build(np.atleast_1d(np.asarray(p, dtype=float))))
 
     def start_grid(self, max_points: int = 64) -> NDArray[np.float64]:
-        """Start points in physical units, shape (m, n_params), m <= ``max_points``.
+        """Start points in physical units, shape (m, n_params).
 
-        The Cartesian product of the parameter grids, thinned evenly if larger.
+        The Cartesian product of the parameter grids, thinned evenly to
+        ``max_points`` if larger.
         """
         if not self.params:
             return np.zeros((1, 0))

@@ -16,7 +16,7 @@ family                     fitted parameters (bounds)                 variants
 ``gravity_stiffening``     beta (0..20), tau_ref = 1e4 N m fixed      -
 ``coupled_joint_stiffness``  k_coupling_Nm_per_rad (+-0.9 sqrt(k2 k3))  joints 2-3
 ``base_compliance``        stiffness_Nm_per_rad (1e6..1e11, log)      -
-``tool_mode``              f_hz, zeta, mass_kg                        direction x, y, z, xyz
+``tool_mode``              f_hz (to 1.5 f_max), zeta, mass_kg         direction x, y, z, xyz
 ``sensor_misalignment``    rx_rad, ry_rad, rz_rad (+-0.35)            -
 ``sensor_delay``           delay_s (+-0.02)                           -
 ``link_flexibility``       stiffness_Nm_per_rad (1e5..1e10, log)      link 1..5, axis x, y
@@ -205,7 +205,7 @@ def _family(robot: Robot, name: str, band_hz: tuple[float, float]) -> list[Candi
                     (
                         ParamSpec("f_hz", f_lo, f_hi, f_grid, "log"),
                         ParamSpec("zeta", 0.003, 0.2, (0.03,), "log"),
-                        ParamSpec("mass_kg", 0.1, 200.0, (1.0, 10.0), "log"),
+                        ParamSpec("mass_kg", 0.1, 200.0, (0.3, 3.0, 15.0), "log"),
                     ),
                     _builder(ToolMode, ["f_hz", "zeta", "mass_kg"], direction=d),
                     variant=f"direction {d}",

@@ -14,14 +14,20 @@ A candidate is named only if all of these hold (otherwise ``none``):
 1. its parameters are identifiable (:mod:`robolobe.diagnose.fitting`);
 2. it beats ``none`` by ``Delta BIC >= min_delta_bic``;
 3. it lowers the held-out deviance per residual by at least ``min_gain``
-   noise variances: ``(D_cv(none) - D_cv) / N >= min_gain``. The nominal
-   model is at the noise when ``D / N`` is about 1; a gain below
-   ``min_gain`` is within what an imperfect noise model and FRF estimation
-   bias produce on data without any effect;
+   noise variances: ``(D_cv(none) - D_cv) / N >= min_gain`` (0.05: 5 % of
+   the noise variance, on postures the fit did not see). On campaigns
+   without an effect the best candidate gains 1e-4..1e-3 (the concealed-data
+   study): the threshold leaves a wide margin for imperfect noise models
+   and FRF estimation bias while keeping small real effects (a joint's
+   damping 1.6 times too high gains ~0.25);
 4. it lowers the held-out deviance in most postures (``min_posture_share``).
 
-Among the candidates that pass, the one with the lowest held-out deviance
-wins; a runner-up within ``ambiguity`` of the winner's gain is reported.
+Among the candidates that pass, the simplest (fewest parameters) whose
+held-out gain is within ``ambiguity`` (10 %) of the best gain wins, then the
+one with the larger gain: a three-parameter tool mode far above the band
+can imitate an added mass, and should not be named when one parameter
+explains the data as well. The other near-best candidate is reported as a
+close alternative.
 """
 
 from __future__ import annotations
@@ -69,7 +75,8 @@ class SelectionSettings:
     min_posture_share : float
         Least share of postures whose held-out deviance drops.
     ambiguity : float
-        Relative gain difference under which the runner-up is reported as close.
+        Relative held-out gain difference under which candidates count as
+        equally good (the simplest is named, the other reported as close).
     cv_max_nfev : int
         Local-fit evaluations per fold (warm-started).
     """
@@ -77,7 +84,7 @@ class SelectionSettings:
     n_folds: int = 5
     top_k: int = 3
     min_delta_bic: float = 10.0
-    min_gain: float = 0.25
+    min_gain: float = 0.05
     min_posture_share: float = 0.6
     ambiguity: float = 0.1
     cv_max_nfev: int = 15
@@ -197,8 +204,9 @@ class Ranked:
     posture_share : float or None
         Share of postures whose held-out deviance dropped.
     explained : float
-        Share of the nominal model's excess deviance ``D(none) - N`` that the
-        candidate removes (in-sample; 1: down to the noise).
+        Share of the nominal model's excess deviance ``D(none) - min(N, D_best)``
+        that the candidate removes (in-sample; 1: down to the noise or to the
+        best candidate, whichever is lower).
     passed : bool
         Whether it meets every condition for being named.
     reasons : tuple of str
@@ -290,7 +298,10 @@ def select(
     folds = make_folds(obs_fit.group, st.n_folds)
     cv0 = cross_validate(f0, model, obs_fit, obs_eval, folds)
     n0 = float(f0.n_resid)
-    excess0 = f0.deviance - n0
+    # the nominal model's excess over the noise (or over the best fit, if that goes
+    # below the noise level: the noise floor makes D/N < 1 for a good fit)
+    d_best = min([f.deviance for f in fits], default=f0.deviance)
+    excess0 = f0.deviance - min(n0, d_best)
 
     by_bic = sorted(others, key=lambda f: f.bic)
     to_cv = [f for f in by_bic if f.identifiable][: st.top_k]
@@ -356,10 +367,16 @@ def select(
     base_r = next(e for e in ranking if e.fit.candidate.name == NONE)
     if not passing:
         return Selection(ranking=ranking, verdict=base_r, runner_up=None, baseline=base_r)
-    win = passing[0]
-    runner = None
-    if len(passing) > 1:
-        g1, g2 = win.gain or 0.0, passing[1].gain or 0.0
-        if g1 - g2 <= st.ambiguity * abs(g1):
-            runner = passing[1]
+    # Occam: the simplest candidate whose held-out gain is within `ambiguity` of the best
+    g_best = passing[0].gain or 0.0
+    near = [e for e in passing if (e.gain or 0.0) >= (1.0 - st.ambiguity) * g_best]
+    win = min(near, key=lambda e: (e.fit.candidate.n_params, -(e.gain or 0.0)))
+    close = [e for e in near if e is not win]
+    runner = close[0] if close else None
+    if win is not ranking[0]:
+        order = [win, *(e for e in ranking if e is not win)]
+        ranking = tuple(dataclasses.replace(e, rank=i + 1) for i, e in enumerate(order))
+        win = ranking[0]
+        if runner is not None:
+            runner = next(e for e in ranking if e.fit is runner.fit)
     return Selection(ranking=ranking, verdict=win, runner_up=runner, baseline=base_r)

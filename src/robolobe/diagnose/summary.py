@@ -120,6 +120,11 @@ def summarize(
                 f"(mismatch {score:.2f} noise variances per point; FRAC {before.frac_mean:.2f}); "
                 "no candidate is needed."
             )
+            if best is not None and best.delta_bic > 0 and best.gain is not None and best.gain > 0:
+                parts.append(
+                    f"The closest candidate, {best.label}, improves the held-out fit by only "
+                    f"{best.gain:.3g} noise variances per point ({'; '.join(best.reasons)})."
+                )
         else:
             parts.append(
                 f"The nominal model misses the recordings ({score:.1f} noise variances per point, "

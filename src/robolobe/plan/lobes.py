@@ -280,7 +280,7 @@ def waypoint_lobes(
     n_groups = leader.size
     t1 = time.perf_counter()
     diagrams = []
-    for m in models:
+    for m in models if n_groups else ():
         reps = m.take(leader)
         omega = reps.frequency_grid(shared=False)
         frf = reps.frf(omega)
@@ -322,13 +322,12 @@ def waypoint_lobes(
             out[sel] = np.min(np.stack(vals), axis=0)
         return out
 
-    d0 = diagrams[0]
     t2 = time.perf_counter()
     return GroupedLobes(
         table=LobeTable(rpm=rpm, a_lim=a_grid, group=group, exact=exact),
         diagrams=tuple(diagrams),
         leader=leader,
-        valid=d0.valid,
-        message=d0.message,
+        valid=diagrams[0].valid if diagrams else True,
+        message=diagrams[0].message if diagrams else "",
         timings={"grouping": t1 - t0, "zoa": t2 - t1},
     )

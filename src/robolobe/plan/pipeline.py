@@ -34,6 +34,7 @@ import math
 import os
 import time
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -437,10 +438,16 @@ def plan_path(
         source, note = mode_source(job.model, robot, job.robot)
     material = material_from_job(job)
     tool = _tool_model(job)
+    if not np.all(np.isfinite(wp[["fx", "fy", "fz"]].to_numpy(dtype=np.float64))):
+        raise InputError(
+            "expected a path that moves, found all waypoints at one point",
+            source=Path(path_name).name,
+        )
     cut = (wp["motion"] == "cut").to_numpy()
     if not np.any(cut):
         raise InputError(
-            "expected at least one cutting move (G1/G2/G3, LIN, MoveL), found none", path_name
+            "expected at least one cutting move (G1/G2/G3, LIN, MoveL), found none",
+            Path(path_name).name,
         )
     rpm = np.linspace(job.spindle.rpm_min, job.spindle.rpm_max, job.plan.n_rpm)
     rotation = job.tool_rotation_rad
@@ -719,6 +726,12 @@ def _summary(
             f"{int(np.sum(ex > 0.1))} of {ex.size} cutting postures lie beyond the model's "
             f"training range (up to {100 * float(ex.max()):.0f} % of a joint range): "
             "predictions there are extrapolations"
+        )
+    n_plunge = int(np.sum(table["limiting"] == "plunge"))
+    if n_plunge:
+        notes.append(
+            f"{n_plunge} cutting moves run along the tool axis (plunges): the lateral (ZOA) "
+            "stability model does not apply to them and they do not limit the depth"
         )
     if job.plan.robust and modes.log_std is None:
         notes.append("robust mode: the mode source has no spread; planned on the nominal modes")

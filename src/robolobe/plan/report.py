@@ -100,7 +100,7 @@ def plot_lobes(res: PlanResult) -> Figure:
     for c in chosen:
         row = tab.a_lim[tab.group[c]] * 1e3
         i = int(res.cut_index[c])
-        label = f"{res.table['source'].iloc[i]}:{int(res.table['line'].iloc[i])}"
+        label = f"{res.table['source'].iloc[i]}:{int(res.table['line'].iloc[i])} (waypoint {i})"
         (line,) = ax.plot(tab.rpm, np.minimum(row, 10 * top), lw=1.2, label=f"a_lim at {label}")
         ax.plot([best.rpm[c]], [depth], "o", color=line.get_color(), ms=6)
     ax.axhline(depth, color="k", lw=0.8, ls="--", label=f"depth {depth:.3g} mm")

@@ -115,6 +115,23 @@ class ModalPrediction:
             out[..., 2] = 2.0 * self.values[..., 2] * self.std[..., 2] / c
         return out
 
+    @property
+    def log_std(self) -> FloatArray:
+        """Relative spread: standard deviation of ``log(value)`` (first order), any kind.
+
+        ``"log"``: the spread itself; ``"flex"``: f and zeta as is, stiffness
+        ``2 std_c / c`` (``k = K / c^2``); ``"minmax"``: ``std / value``.
+        """
+        if self.kind == "log":
+            return self.std.copy()
+        if self.kind == "flex":
+            out = self.std.copy()
+            c = np.maximum(self.center[..., 2], 1e-3)
+            out[..., 2] = 2.0 * self.std[..., 2] / c
+            return out
+        with np.errstate(divide="ignore", invalid="ignore"):
+            return np.where(self.values > 0, self.std / self.values, np.inf)
+
     def interval(self, level: float = 0.9) -> tuple[FloatArray, FloatArray]:
         """Central ``level`` interval per value, physical units.
 
