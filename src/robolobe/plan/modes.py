@@ -129,10 +129,8 @@ class PredictorSource:
         pred = self.predictor.predict(q, warn=False)  # type: ignore[attr-defined]
         dirs = tuple(pred.directions)
         vals = np.asarray(pred.values)  # (n, n_dir, m, 3)
-        std = np.asarray(pred.std)
-        if pred.kind != "log":
-            with np.errstate(divide="ignore", invalid="ignore"):
-                std = np.where(vals > 0, std / vals, 0.0)
+        # relative spread (std of log value) whatever the model's output kind
+        std = np.nan_to_num(np.asarray(pred.log_std), nan=0.0, posinf=0.0)
         n, _, m, _ = vals.shape
         full = np.full((n, 3, m, 3), np.nan)
         full_std = np.zeros((n, 3, m, 3))
