@@ -59,6 +59,8 @@ def _print_summary(s: dict[str, Any], out: Path) -> None:
 def _cell(v: Any) -> str:
     if v is None or (isinstance(v, float) and v != v):
         return ""
+    if isinstance(v, float):
+        return f"{v:.4g}" if abs(v) < 1e4 else f"{v:.0f}"
     return str(v)
 
 
@@ -172,13 +174,15 @@ def register(app: typer.Typer) -> None:
         with status(f"planning on {', '.join(names)} ..."):
             cmp = compare_robots(path, j, names, refine=refine)
             write_comparison(cmp, output)
-        cols = (
-            "robot", "status", "depth_mm", "rpm_min", "rpm_max", "mrr_cm3_per_min",
-            "cycle_time_s", "min_margin", "worst_source",
-        )  # fmt: skip
+        cols = {
+            "robot": "robot", "status": "status", "depth_mm": "depth\nmm",
+            "rpm_min": "rpm\nmin", "rpm_max": "rpm\nmax", "mrr_cm3_per_min": "MRR\ncm3/min",
+            "cycle_time_s": "cycle\ns", "min_margin": "min\nmargin",
+            "worst_source": "worst\nwaypoint",
+        }  # fmt: skip
         t = Table(title=f"robolobe compare: {path.name}")
-        for col in cols:
-            t.add_column(col)
+        for label in cols.values():
+            t.add_column(label, overflow="fold")
         for r in cmp.table.to_dict(orient="records"):
             t.add_row(*[_cell(r.get(c)) for c in cols])
         console.print(t)
