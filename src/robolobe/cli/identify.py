@@ -6,6 +6,7 @@ from pathlib import Path
 from typing import Annotated, Any
 
 import typer
+from rich.markup import escape
 
 from robolobe.errors import InputError
 
@@ -203,7 +204,7 @@ def register(app: typer.Typer) -> None:
             )
             shown = issues if all_issues else issues[:20]
             for i in shown:
-                err_console.print(f"  {i}", highlight=False, soft_wrap=True)
+                err_console.print(f"  {escape(str(i))}", highlight=False, soft_wrap=True)
             if len(shown) < len(issues):
                 err_console.print(
                     f"  ... {len(issues) - len(shown)} more (--all-issues)", highlight=False

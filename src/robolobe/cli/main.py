@@ -38,7 +38,6 @@ app = typer.Typer(
 )
 
 
-
 @app.callback()
 def _root() -> None:
     """robolobe: chatter-free milling plans for industrial robots."""
@@ -66,12 +65,16 @@ for _name in _COMMAND_MODULES:
 
 def main(argv: list[str] | None = None) -> None:
     """Run the CLI; turn robolobe errors into one line and an exit code."""
+    from rich.markup import escape
+
     from robolobe.cli._common import err_console
 
     try:
         app(args=argv, standalone_mode=True)
     except RobolobeError as exc:
-        err_console.print(f"[bold red]error:[/] {exc}", highlight=False, soft_wrap=True)
+        err_console.print(
+            f"[bold red]error:[/] {escape(str(exc))}", highlight=False, soft_wrap=True
+        )
         sys.exit(exc.exit_code)
     except KeyboardInterrupt:
         err_console.print("[bold red]interrupted[/]")

@@ -7,6 +7,7 @@ from pathlib import Path
 from typing import Annotated, Any
 
 import typer
+from rich.markup import escape
 from rich.table import Table
 
 from robolobe.cli._common import console, err_console, progress, status
@@ -52,7 +53,7 @@ def _print_summary(s: dict[str, Any], out: Path) -> None:
             t.add_row(name, f"{txt} ({g['depth_mm']:.3f} mm at {g['rpm_mean']:.0f} rpm)")
     console.print(t)
     for note in s.get("notes", []):
-        err_console.print(f"[yellow]note:[/] {note}", highlight=False)
+        err_console.print(f"[yellow]note:[/] {escape(note)}", highlight=False)
     console.print(f"outputs in {out}/ (waypoints.csv, summary.json, plots/, report.html)")
 
 
@@ -189,7 +190,7 @@ def register(app: typer.Typer) -> None:
         for r in cmp.table.to_dict(orient="records"):
             if r.get("status") != "ok":
                 err_console.print(
-                    f"[yellow]{r['robot']}:[/] {r.get('message', '')}", highlight=False
+                    f"[yellow]{r['robot']}:[/] {escape(str(r.get('message', '')))}", highlight=False
                 )
         console.print(
             f"outputs in {output}/ (compare.csv, compare.json, compare.png, one folder per robot)"
@@ -253,7 +254,8 @@ def register(app: typer.Typer) -> None:
                 bar.advance(task)
                 if row["status"] != "ok":
                     err_console.print(
-                        f"[yellow]{row['status']}:[/] {row['path']}: {row['message']}",
+                        f"[yellow]{row['status']}:[/] "
+                        f"{escape(str(row['path']))}: {escape(str(row['message']))}",
                         highlight=False,
                     )
         table = write_batch(rows, output, fmt=fmt)

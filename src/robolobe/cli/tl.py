@@ -11,6 +11,7 @@ from typing import Annotated, Any
 
 import numpy as np
 import typer
+from rich.markup import escape
 
 from robolobe.cli._common import console, err_console, status
 from robolobe.errors import InputError
@@ -34,7 +35,9 @@ def _shown_warnings() -> Iterator[None]:
                 msg = str(w.message)
                 if msg not in seen:
                     seen.add(msg)
-                    err_console.print(f"[yellow]warning:[/] {msg}", highlight=False, soft_wrap=True)
+                    err_console.print(
+                        f"[yellow]warning:[/] {escape(msg)}", highlight=False, soft_wrap=True
+                    )
 
 
 def _parse_dirs(text: str) -> tuple[str, ...]:
