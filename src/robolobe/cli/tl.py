@@ -141,14 +141,35 @@ def register(app: typer.Typer) -> None:
     @app.command("transfer")
     def transfer_cmd(
         modal_csv: Annotated[Path, typer.Argument(help="modal.csv of the target robot.")],
-        source: Annotated[
-            str, typer.Option("--from", help="Source model: A, B, C (shipped) or a model file.")
+        output: Annotated[
+            Path,
+            typer.Option(
+                "--output",
+                "-o",
+                help="Model file to write (.npz); with twin-calibration the calibrated robot "
+                "(.toml).",
+            ),
         ],
-        output: Annotated[Path, typer.Option("--output", "-o", help="Model file to write (.npz).")],
+        source: Annotated[
+            str | None,
+            typer.Option("--from", help="Source model: A, B, C (shipped) or a model file."),
+        ] = None,
         robot: Annotated[
             str | None,
-            typer.Option("--robot", help="Target robot (A, B, C or .toml): label and limit check."),
+            typer.Option(
+                "--robot",
+                help="Target robot (A, B, C or .toml): label and limit check; with "
+                "twin-calibration the robot file to calibrate.",
+            ),
         ] = None,
+        method: Annotated[
+            str,
+            typer.Option(
+                "--method",
+                help="'network' (the seed's transfer of --from) or 'twin-calibration' "
+                "(fit stiffness, damping and end-effector-mass factors of --robot).",
+            ),
+        ] = "network",
         frozen: Annotated[int, typer.Option("--frozen", help="Frozen layers (seed: 3).")] = 3,
         epochs: Annotated[
             int | None, typer.Option("--epochs", help="Default: the source's.")
@@ -159,6 +180,34 @@ def register(app: typer.Typer) -> None:
         from robolobe.tl.estimator import transfer
         from robolobe.tl.models import load_model
 
+        if method not in ("network", "twin-calibration"):
+            raise InputError(
+                f"expected 'network' or 'twin-calibration', found {method!r}", source="--method"
+            )
+        if method == "twin-calibration":
+            from robolobe.modal.modal_csv import read_modal_csv
+            from robolobe.tl.graybox import TwinCalibration
+
+            if robot is None:
+                raise InputError(
+                    "expected the robot file to calibrate (A, B, C or a .toml)", source="--robot"
+                )
+            df = read_modal_csv(modal_csv)
+            t0 = time.perf_counter()
+            with status("calibrating the twin"):
+                cal = TwinCalibration(robot=robot, random_state=seed).fit(df)
+            cal.save(output)
+            console.print(
+                f"[bold]{output}[/]: {cal.n_postures_} postures, {cal.n_matched_} modes matched "
+                f"({cal.n_unmatched_} not), residual RMS f/zeta/k = "
+                f"{cal.residual_rms_['f']:.4f}/{cal.residual_rms_['zeta']:.3f}/"
+                f"{cal.residual_rms_['k']:.3f}, {time.perf_counter() - t0:.1f} s"
+            )
+            for _, row in cal.summary().iterrows():
+                console.print(f"  {row['param']}: x{row['factor']:.3f} (+- {row['log_std']:.3f})")
+            return
+        if source is None:
+            raise InputError("expected a source model with --method network", source="--from")
         src = load_model(source)
         with _shown_warnings():
             ds = _load_dataset(modal_csv, tuple(src.directions), robot, _MIN_TRANSFER)

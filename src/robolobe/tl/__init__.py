@@ -11,11 +11,13 @@ Modules: :mod:`~robolobe.tl.dataset` (modal datasets), :mod:`~robolobe.tl.prepro
 :mod:`~robolobe.tl.presets`, :mod:`~robolobe.tl.models` (shipped A/B/C),
 :mod:`~robolobe.tl.baselines`, :mod:`~robolobe.tl.design`,
 :mod:`~robolobe.tl.evaluate`, :mod:`~robolobe.tl.schedule`,
-:mod:`~robolobe.tl.twin_data`, :mod:`~robolobe.tl.predict_io`.
+:mod:`~robolobe.tl.twin_data`, :mod:`~robolobe.tl.predict_io`,
+:mod:`~robolobe.tl.graybox` (``TwinCalibration``: the physics-informed transfer).
 """
 
 from robolobe.tl.dataset import ModalDataset, TrustWarning, dataset_from_frame
 from robolobe.tl.estimator import ModalPrediction, ModalPredictor, transfer
+from robolobe.tl.graybox import TwinCalibration
 from robolobe.tl.models import load_model
 from robolobe.tl.presets import DEFAULT_PRESET, PRESETS
 
@@ -26,6 +28,7 @@ __all__ = [
     "ModalPrediction",
     "ModalPredictor",
     "TrustWarning",
+    "TwinCalibration",
     "dataset_from_frame",
     "load_model",
     "transfer",

@@ -133,6 +133,9 @@ class TwinCalibration:
     n_starts : int
         Starts of the robust first round (the robot file's values and
         ``n_starts - 1`` random factors in [0.75, 1.35]); the best is kept.
+    accept_rms_f : float
+        A start whose RMS log-frequency residual is at most this (0.002: twice
+        the identification scatter of frequencies) ends the search.
     random_state : int or None
         Seed of the random starts.
 
@@ -171,9 +174,11 @@ class TwinCalibration:
         n_rematch: int = 4,
         min_postures: int = 5,
         robot_name: str | None = None,
-        n_starts: int = 6,
+        n_starts: int = 8,
+        accept_rms_f: float = 0.002,
         random_state: int | None = 0,
     ) -> None:
+        self.accept_rms_f = accept_rms_f
         self.n_starts = n_starts
         self.random_state = random_state
         self.robot = robot
@@ -204,7 +209,12 @@ class TwinCalibration:
         lo, hi = (float(b) for b in self.bounds)
         if not 0 < lo < 1 < hi:
             raise InputError(f"bounds: expected 0 < lo < 1 < hi, found {self.bounds}")
-        if self.regularization < 0 or self.match_tol <= 0 or self.n_rematch < 1 or self.n_starts < 1:
+        if (
+            self.regularization < 0
+            or self.match_tol <= 0
+            or self.n_rematch < 1
+            or self.n_starts < 1
+        ):
             raise InputError(
                 "expected regularization >= 0, match_tol > 0 and n_rematch >= 1, found "
                 f"{self.regularization}, {self.match_tol}, {self.n_rematch}"
@@ -357,7 +367,9 @@ class TwinCalibration:
         # (frequency matching has local minima where modes cross) -> best one
         n_res0 = int(np.isfinite(y).sum())
         if n_res0 < p:
-            raise InputError(f"expected at least {p} modal values to fit {p} factors, found {n_res0}")
+            raise InputError(
+                f"expected at least {p} modal values to fit {p} factors, found {n_res0}"
+            )
         rng = np.random.default_rng(self.random_state)
         starts = [np.zeros(p)] + [
             rng.uniform(np.log(0.75), np.log(1.35), p) for _ in range(int(self.n_starts) - 1)
@@ -370,11 +382,16 @@ class TwinCalibration:
                 bounds=(np.full(p, lo), np.full(p, hi)),
                 loss="soft_l1",
                 f_scale=0.02,
-                diff_step=1e-6,
-                max_nfev=30 * (p + 1),
+                diff_step=np.full(p, 1e-6),
+                max_nfev=6 * (p + 1),
             )
             if sol is None or s0.cost < sol.cost:
                 sol = s0
+            idx0, _ = self._match(ds, model(np.asarray(sol.x)), tol=np.inf)
+            mod0 = model(np.asarray(sol.x))
+            f_res = np.log(y[idx0[0], idx0[1], idx0[2], 0] / mod0[idx0[0], idx0[1], idx0[3], 0])
+            if np.sqrt(np.mean(f_res**2)) <= self.accept_rms_f:
+                break  # frequencies fit to the noise level: no other start needed
         theta = np.asarray(sol.x)
         # rounds 2+: matching fixed (pairs within match_tol), plain least squares
         idx, unmatched = self._match(ds, model(theta))
@@ -391,7 +408,7 @@ class TwinCalibration:
                 theta,
                 bounds=(np.full(p, lo), np.full(p, hi)),
                 args=(idx,),
-                diff_step=1e-6,
+                diff_step=np.full(p, 1e-6),
                 max_nfev=10 * (p + 1),
             )
             if not np.all(np.isfinite(sol.x)):
@@ -416,7 +433,8 @@ class TwinCalibration:
         mod = model(theta)[i, j, t]
         raw = np.log(y[i, j, m] / mod)
         rms = {
-            name: float(np.sqrt(np.nanmean(raw[:, c] ** 2))) if np.isfinite(raw[:, c]).any()
+            name: float(np.sqrt(np.nanmean(raw[:, c] ** 2)))
+            if np.isfinite(raw[:, c]).any()
             else float("nan")
             for c, name in enumerate(("f", "zeta", "k"))
         }
@@ -511,8 +529,10 @@ class TwinCalibration:
     ) -> ModalDataset:
         """Point predictions as a :class:`ModalDataset` (``.to_frame()`` gives modal.csv rows)."""
         q = np.asarray(q_rad, dtype=float)
-        ids = tuple(posture_ids) if posture_ids is not None else tuple(
-            f"p{i + 1}" for i in range(len(q))
+        ids = (
+            tuple(posture_ids)
+            if posture_ids is not None
+            else tuple(f"p{i + 1}" for i in range(len(q)))
         )
         pred = self.predict(q, spread=False)
         return ModalDataset(ids, q, pred.directions, pred.values)
