@@ -30,6 +30,7 @@ from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
+from threadpoolctl import threadpool_limits
 
 from robolobe.errors import ConvergenceError, InputError
 from robolobe.sld.conditions import CuttingConditions
@@ -241,7 +242,10 @@ def _radius(sys: SdmSystem, depth: FloatArray, rpm: FloatArray) -> FloatArray:
         xn = phi[:, i] @ x + wa[:, i] @ q_old + wb[:, i] @ q_next
         qi = cq @ x
         y = np.concatenate([xn, qi, y[:, nx : dim - 2]], axis=1)
-    ev = np.linalg.eigvals(y)
+    # Many small dense eigenproblems: BLAS threads only contend here (50-100x slower on a
+    # loaded 2-core machine for 100x100 matrices), so run them single-threaded.
+    with threadpool_limits(limits=1, user_api="blas"):
+        ev = np.linalg.eigvals(y)
     return np.asarray(np.abs(ev).max(axis=-1))
 
 
