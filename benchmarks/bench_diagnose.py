@@ -78,8 +78,8 @@ def main(argv: list[str] | None = None) -> None:
     for name, t, note in rows:
         print(f"{name:<14} {t:9.2f} {t / TARGET_S:9.2f}  {note}")
     print(
-        f"{'model eval':<14} {t_modal * 1e3:8.1f}m {'':>9}  modal superposition (ms); "
-        f"direct solve {t_solve * 1e3:.1f} ms: x{t_solve / t_modal:.1f}"
+        f"{'model eval':<14} {t_modal:9.4f} {'':>9}  modal superposition at s = a + iw, "
+        f"all postures; the twin's direct solve: {t_solve:.4f} s (x{t_solve / t_modal:.1f})"
     )
     print(f"summary: {d.summary}")
 
