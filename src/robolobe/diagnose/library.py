@@ -129,26 +129,27 @@ def _family(robot: Robot, name: str, band_hz: tuple[float, float]) -> list[Candi
                 description="an unmodelled point mass at the TCP (sensor, adapter, clamp)",
             )
         ]
-    if name == "joint_stiffness":
-        return [
-            Candidate(
-                name,
-                (ParamSpec("factor", 0.2, 5.0, (0.6, 0.85, 1.2, 1.7), "log", null=1.0),),
-                _builder(JointStiffness, ["factor"], joint=j),
-                variant=f"joint {j}",
-                description=f"joint {j}'s stiffness off by a factor",
-                fixed={"joint": j},
+    if name in ("joint_stiffness", "joint_damping"):
+        cls, spec, what = (
+            (
+                JointStiffness,
+                ParamSpec("factor", 0.2, 5.0, (0.6, 0.85, 1.2, 1.7), "log", null=1.0),
+                "stiffness",
             )
-            for j in range(1, 7)
-        ]
-    if name == "joint_damping":
+            if name == "joint_stiffness"
+            else (
+                JointDamping,
+                ParamSpec("factor", 0.05, 20.0, (0.3, 0.7, 1.5, 4.0), "log", null=1.0),
+                "damping",
+            )
+        )
         return [
             Candidate(
                 name,
-                (ParamSpec("factor", 0.05, 20.0, (0.3, 0.7, 1.5, 4.0), "log", null=1.0),),
-                _builder(JointDamping, ["factor"], joint=j),
+                (spec,),
+                _builder(cls, ["factor"], joint=j),
                 variant=f"joint {j}",
-                description=f"joint {j}'s damping off by a factor",
+                description=f"joint {j}'s {what} off by a factor",
                 fixed={"joint": j},
             )
             for j in range(1, 7)

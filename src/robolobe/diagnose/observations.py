@@ -20,6 +20,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from robolobe.diagnose.noise import variance_inflation
 from robolobe.errors import InputError
+from robolobe.twin.campaign import ALL_DIRS
 
 __all__ = [
     "DIRS",
@@ -30,7 +31,7 @@ __all__ = [
 ]
 
 #: Direction names in (response, excitation) order, row-major over TCP axes.
-DIRS: tuple[str, ...] = ("xx", "xy", "xz", "yx", "yy", "yz", "zx", "zy", "zz")
+DIRS: tuple[str, ...] = ALL_DIRS
 #: Driving-point directions.
 DRIVING: tuple[str, ...] = ("xx", "yy", "zz")
 _AXES = "xyz"
