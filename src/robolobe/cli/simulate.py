@@ -89,6 +89,15 @@ def register(app: typer.Typer) -> None:
                 help="Exponential window value at the end of the 4 s record (1: no window).",
             ),
         ] = 0.05,
+        effects: Annotated[
+            Path | None,
+            typer.Option(
+                "--effects",
+                help="effects.toml (robolobe-effects/1): physics effects added to the robot's "
+                "nominal model, e.g. the updated model written by `robolobe diagnose "
+                "--updated-model DIR` (use DIR/robot.toml as ROBOT and DIR/effects.toml here).",
+            ),
+        ] = None,
     ) -> None:
         """Simulate a hammer-test campaign of ROBOT and write it as a campaign folder.
 
@@ -149,7 +158,9 @@ def register(app: typer.Typer) -> None:
             ids, q, _ = design_arrays(frame)
             source = f"design {design}"
 
-        twin = Twin(robot_model)
+        from robolobe.twin.effects_file import read_effects
+
+        twin = Twin(robot_model, read_effects(effects) if effects is not None else ())
         with progress() as bar:
             task = bar.add_task("receptance" if exact else "simulating", total=len(ids))
             campaign = simulate_campaign(

@@ -18,17 +18,14 @@ gives the corrected receptance; ``effects.toml`` alone can be read with
 from __future__ import annotations
 
 import os
-import tomllib
 from collections.abc import Sequence
 from pathlib import Path
-from typing import Any
-
-import tomli_w
 
 from robolobe._atomic import atomic_dir
 from robolobe.errors import InputError
 from robolobe.robots import Robot, load_robot, robot_to_toml
-from robolobe.twin.effects import Effect, effect_from_dict, effect_to_dict
+from robolobe.twin.effects import Effect
+from robolobe.twin.effects_file import EFFECTS_FORMAT, effects_to_toml, read_effects
 from robolobe.twin.model import Twin
 
 __all__ = [
@@ -38,50 +35,6 @@ __all__ = [
     "read_effects",
     "write_updated_model",
 ]
-
-EFFECTS_FORMAT = "robolobe-effects/1"
-
-
-def effects_to_toml(effects: Sequence[Effect], *, note: str = "") -> str:
-    """``effects.toml`` text for ``effects``.
-
-    Parameters
-    ----------
-    effects : sequence of Effect
-    note : str
-        Free text stored under ``notes``.
-    """
-    doc: dict[str, Any] = {"format": EFFECTS_FORMAT}
-    if note:
-        doc["notes"] = note
-    doc["effects"] = [effect_to_dict(e) for e in effects]
-    return tomli_w.dumps(doc)
-
-
-def read_effects(path: str | os.PathLike[str]) -> tuple[Effect, ...]:
-    """Read an ``effects.toml`` file.
-
-    Raises
-    ------
-    InputError
-        Missing file, bad format key, unknown effect or parameter (naming the
-        file and the table index).
-    """
-    p = Path(path)
-    where = os.fspath(path)
-    if not p.is_file():
-        raise InputError("expected an effects file (effects.toml), found no such file", where)
-    try:
-        doc = tomllib.loads(p.read_text(encoding="utf-8"))
-    except (tomllib.TOMLDecodeError, OSError, UnicodeDecodeError) as exc:
-        raise InputError(f"cannot read TOML: {exc}", where) from None
-    fmt = doc.get("format")
-    if fmt != EFFECTS_FORMAT:
-        raise InputError(f"expected format = {EFFECTS_FORMAT!r}, found {fmt!r}", f"{where}[format]")
-    tables = doc.get("effects", [])
-    if not isinstance(tables, list):
-        raise InputError("expected [[effects]] tables", f"{where}[effects]")
-    return tuple(effect_from_dict(t, source=f"{where}[effects][{i}]") for i, t in enumerate(tables))
 
 
 def write_updated_model(

@@ -194,8 +194,10 @@ def compare_robots(
         try:
             robot = load_robot(spec)
             model = _model_for(job, spec)
-            source, _note = mode_source(model, robot, spec)
-            jr = job.replace(robot=spec, model=model)
+            # the job's physics effects belong to the job's own robot only
+            effects = job.effects if spec == job.robot else ()
+            source, _note = mode_source(model, robot, spec, effects)
+            jr = job.replace(robot=spec, model=model, effects=effects)
             placement = jr.placement
             adjusted = False
             if not math.isfinite(

@@ -85,6 +85,8 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_valida
 
 from robolobe.errors import InputError
 from robolobe.robots.transforms import pose_from_xyz_zyx, xyz_zyx_from_pose
+from robolobe.twin.effects import Effect
+from robolobe.twin.effects_file import read_effects
 
 __all__ = [
     "FORMAT",
@@ -119,6 +121,7 @@ class _Spec(BaseModel):
 class _RobotSpec(_Spec):
     name: Annotated[str, Field(min_length=1)]
     model: Annotated[str, Field(min_length=1)] = "builtin"
+    effects: Annotated[str, Field(min_length=1)] | None = None
     tool_rotation_deg: Num = 0.0
     tool_rotation: Literal["fixed", "stiffest"] = "fixed"
     tool_rotation_range_deg: Annotated[list[Num], Field(min_length=2, max_length=2)] = Field(
@@ -417,6 +420,10 @@ class Job:
         ``"A"``, ``"B"``, ``"C"`` or the (absolute) path of a robot file.
     model : str
         ``"builtin"``, ``"twin"`` or the (absolute) path of a tl model file.
+    effects : tuple of Effect
+        Physics effects added to the twin (job key ``robot.effects``: an
+        ``effects.toml`` file, e.g. from ``robolobe diagnose --updated-model``;
+        only with ``model = "twin"``); ``effects_file`` is its path.
     placement : ndarray, shape (4, 4)
         Pose of the workpiece (path) frame in the robot base frame.
     tool, material, cut, spindle, plan : see their classes.
@@ -437,6 +444,8 @@ class Job:
     spindle: SpindleSpec
     plan: PlanSpec = field(default_factory=PlanSpec)
     model: str = "builtin"
+    effects: tuple[Effect, ...] = ()
+    effects_file: str | None = None
     placement: np.ndarray = field(default_factory=lambda: np.eye(4))
     tool_rotation_rad: float = 0.0
     tool_rotation: Literal["fixed", "stiffest"] = "fixed"
@@ -613,6 +622,18 @@ def job_from_dict(d: dict[str, Any], source: str = "<dict>", base_dir: Path | No
                 source=where,
             )
 
+    effects: tuple[Effect, ...] = ()
+    effects_file: str | None = None
+    if r.effects is not None:
+        if model != "twin":
+            raise InputError(
+                f"robot.effects: physics effects act on the twin; expected robot.model = 'twin', "
+                f"found {r.model!r}",
+                source=where,
+            )
+        effects_file = _resolve_file(r.effects, base_dir)
+        effects = read_effects(effects_file)
+
     t = spec.tool
     modes: list[ToolMode] = []
     for m in t.modes:
@@ -672,6 +693,8 @@ def job_from_dict(d: dict[str, Any], source: str = "<dict>", base_dir: Path | No
     return Job(
         robot=robot,
         model=model,
+        effects=effects,
+        effects_file=effects_file,
         placement=placement,
         tool=tool,
         material=material,
@@ -769,12 +792,14 @@ def job_to_dict(job: Job) -> dict[str, Any]:
         plan["max_rate_rpm_per_s"] = _clean(pl.max_rate_rpm_per_s)
     if pl.max_rate_rpm_per_m is not None:
         plan["max_rate_rpm_per_mm"] = _clean(pl.max_rate_rpm_per_m * 1e-3)
+    robot: dict[str, Any] = {"name": job.robot, "model": job.model}
+    if job.effects_file is not None:
+        robot["effects"] = job.effects_file
     return {
         "format": FORMAT,
         "name": job.name,
         "robot": {
-            "name": job.robot,
-            "model": job.model,
+            **robot,
             "tool_rotation_deg": _clean(math.degrees(job.tool_rotation_rad)),
             "tool_rotation": job.tool_rotation,
             "tool_rotation_range_deg": [

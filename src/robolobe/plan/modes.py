@@ -19,6 +19,7 @@ receptance for the tool-point FRF.
 from __future__ import annotations
 
 import logging
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Protocol
@@ -29,6 +30,7 @@ from numpy.typing import ArrayLike, NDArray
 from robolobe.errors import InputError
 from robolobe.robots.model import Robot
 from robolobe.sld.frf import ModalModel
+from robolobe.twin.effects import Effect
 
 __all__ = [
     "ModeSource",
@@ -160,11 +162,12 @@ class TwinSource:
     robot : Robot
     """
 
-    def __init__(self, robot: Robot) -> None:
+    def __init__(self, robot: Robot, effects: Sequence[Effect] = ()) -> None:
         from robolobe.twin.model import Twin
 
-        self.twin = Twin(robot)
-        self.name = f"twin of {robot.name}"
+        self.twin = Twin(robot, tuple(effects))
+        names = ", ".join(e.name for e in effects)
+        self.name = f"twin of {robot.name}" + (f" + {names}" if names else "")
 
     def predict(self, q_rad: ArrayLike) -> RobotModes:
         q = np.asarray(q_rad, dtype=np.float64).reshape(-1, 6)
@@ -191,7 +194,9 @@ class TwinSource:
         )
 
 
-def mode_source(model: str, robot: Robot, robot_key: str) -> tuple[ModeSource, str]:
+def mode_source(
+    model: str, robot: Robot, robot_key: str, effects: Sequence[Effect] = ()
+) -> tuple[ModeSource, str]:
     """The mode source a job asks for.
 
     Parameters
@@ -202,6 +207,8 @@ def mode_source(model: str, robot: Robot, robot_key: str) -> tuple[ModeSource, s
     robot : Robot
     robot_key : str
         ``"A"``, ``"B"``, ``"C"`` or the robot file.
+    effects : sequence of Effect
+        Physics effects added to the twin (``model = "twin"`` only).
 
     Returns
     -------
@@ -214,7 +221,12 @@ def mode_source(model: str, robot: Robot, robot_key: str) -> tuple[ModeSource, s
         A model file that cannot be read, or ``builtin`` for a robot file.
     """
     if model == "twin":
-        return TwinSource(robot), ""
+        return TwinSource(robot, effects), ""
+    if effects:
+        raise InputError(
+            f"robot.effects: physics effects act on the twin; expected robot.model = 'twin', "
+            f"found {model!r}"
+        )
     from robolobe.tl.models import load_model
 
     if model == "builtin":

@@ -435,7 +435,7 @@ def plan_path(
         robot = load_robot(job.robot)
     note = ""
     if source is None:
-        source, note = mode_source(job.model, robot, job.robot)
+        source, note = mode_source(job.model, robot, job.robot, job.effects)
     material = material_from_job(job)
     tool = _tool_model(job)
     if not np.all(np.isfinite(wp[["fx", "fy", "fz"]].to_numpy(dtype=np.float64))):
