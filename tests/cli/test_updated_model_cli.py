@@ -11,6 +11,7 @@ import pytest
 from typer.testing import CliRunner
 
 from robolobe.cli.main import app
+from robolobe.errors import InputError
 from robolobe.plan.job import load_job
 from robolobe.robots import load_robot
 from robolobe.twin import Twin
@@ -78,7 +79,7 @@ def test_job_effects_need_the_twin_and_change_the_plan(tmp_path: Path) -> None:
     eff.write_text(effects_to_toml([AddedMass(mass_kg=40.0)]))
     bad = tmp_path / "bad_job.toml"
     bad.write_text(job_text.replace("[robot]", '[robot]\neffects = "effects.toml"', 1))
-    with pytest.raises(Exception, match="robot.effects"):
+    with pytest.raises(InputError, match=r"robot\.effects"):
         load_job(bad)
     good_text = job_text.replace("[robot]", '[robot]\neffects = "effects.toml"', 1)
     lines = [ln for ln in good_text.splitlines() if not ln.strip().startswith("model")]
