@@ -83,6 +83,7 @@ import numpy as np
 import tomli_w
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
 
+from robolobe._toml_errors import describe_error, key_path
 from robolobe.errors import InputError
 from robolobe.robots.transforms import pose_from_xyz_zyx, xyz_zyx_from_pose
 from robolobe.twin.effects import Effect
@@ -474,73 +475,6 @@ class Job:
 
 
 # ------------------------------------------------------------ key paths
-def _key_path(loc: tuple[int | str, ...]) -> str:
-    out = ""
-    for part in loc:
-        if isinstance(part, int):
-            out += f"[{part + 1}]"
-        elif part.startswith("function-") or part in ("literal", "float", "int", "str"):
-            continue  # pydantic union branch names
-        else:
-            out += ("." if out else "") + str(part)
-    return out or "<file>"
-
-
-def _found(value: Any) -> str:
-    if isinstance(value, dict):
-        return "a table"
-    if isinstance(value, list):
-        return f"an array of {len(value)}"
-    if isinstance(value, str):
-        return repr(value)
-    if isinstance(value, bool):
-        return str(value).lower()
-    if isinstance(value, float) and value.is_integer() and abs(value) < 1e15:
-        return str(int(value))
-    return str(value)
-
-
-def _describe(err: Any) -> str:
-    kind = err["type"]
-    ctx = err.get("ctx") or {}
-    inp = err.get("input")
-    if kind == "missing":
-        return "missing required key"
-    if kind in ("float_type", "float_parsing"):
-        expected = "a number"
-    elif kind in ("int_type", "int_parsing", "int_from_float"):
-        expected = "an integer"
-    elif kind in ("bool_type", "bool_parsing"):
-        expected = "true or false"
-    elif kind == "finite_number":
-        expected = "a finite number"
-    elif kind == "greater_than":
-        expected = "a positive number" if ctx.get("gt") == 0 else f"a number > {ctx.get('gt')}"
-    elif kind == "greater_than_equal":
-        ge = ctx.get("ge")
-        expected = "a non-negative number" if ge == 0 else f"a number >= {ge}"
-    elif kind in ("less_than", "less_than_equal"):
-        bound = ctx.get("lt", ctx.get("le"))
-        expected = f"a number {'<' if kind == 'less_than' else '<='} {bound}"
-    elif kind in ("too_short", "too_long"):
-        n = ctx.get("min_length") if kind == "too_short" else ctx.get("max_length")
-        if isinstance(inp, list):
-            return f"expected {n} entries, found {len(inp)}"
-        expected = f"{n} entries"
-    elif kind == "literal_error":
-        expected = f"one of {ctx.get('expected')}"
-    elif kind == "list_type":
-        expected = "an array"
-    elif kind in ("model_type", "dict_type", "model_attributes_type"):
-        expected = "a table"
-    elif kind in ("string_type", "string_too_short"):
-        expected = "a non-empty string"
-    elif kind == "value_error":
-        msg = str(err.get("msg", ""))
-        return msg.removeprefix("Value error, ")
-    else:
-        return str(err.get("msg", kind))
-    return f"expected {expected}, found {_found(inp)}"
 
 
 def _warn_typos(raw: dict[str, Any], where: str) -> None:
@@ -596,8 +530,8 @@ def job_from_dict(d: dict[str, Any], source: str = "<dict>", base_dir: Path | No
         spec = _JobSpec.model_validate(d)
     except ValidationError as exc:
         err = exc.errors()[0]
-        key = _key_path(tuple(err["loc"]))
-        raise InputError(f"{key}: {_describe(err)}", source=where) from None
+        key = key_path(tuple(err["loc"]))
+        raise InputError(f"{key}: {describe_error(err)}", source=where) from None
     _warn_typos(d, where)
 
     r = spec.robot

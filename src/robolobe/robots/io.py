@@ -29,6 +29,7 @@ import numpy as np
 import tomli_w
 from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
+from robolobe._toml_errors import describe_error, found, key_path
 from robolobe.errors import InputError
 from robolobe.robots.model import Joint, LinearConstraint, RigidBody, Robot
 from robolobe.robots.transforms import pose_from_xyz_zyx, xyz_zyx_from_pose
@@ -122,66 +123,6 @@ _KNOWN_KEYS: dict[str, set[str]] = {
 
 
 # ------------------------------------------------------------ key paths
-def _key_path(loc: tuple[int | str, ...]) -> str:
-    """Format a pydantic location as a TOML-ish key path (indices from 1)."""
-    out = ""
-    for i, part in enumerate(loc):
-        if isinstance(part, int):
-            out += f"[{part + 1}]"
-        elif i == 0 and part == "joints":
-            out += "[[joints]]"
-        else:
-            out += ("." if out else "") + str(part)
-    return out or "<file>"
-
-
-def _found(value: Any) -> str:
-    if isinstance(value, dict):
-        return "a table"
-    if isinstance(value, list):
-        return f"an array of {len(value)}"
-    if isinstance(value, str):
-        return repr(value)
-    if isinstance(value, bool):
-        return str(value).lower()
-    if isinstance(value, float) and value.is_integer() and abs(value) < 1e15:
-        return str(int(value))
-    return str(value)
-
-
-def _describe(err: Any) -> str:
-    kind = err["type"]
-    ctx = err.get("ctx") or {}
-    inp = err.get("input")
-    if kind == "missing":
-        return "missing required key"
-    if kind in ("float_type", "float_parsing", "int_type"):
-        expected = "a number"
-    elif kind == "finite_number":
-        expected = "a finite number"
-    elif kind == "greater_than":
-        expected = "a positive number" if ctx.get("gt") == 0 else f"a number > {ctx.get('gt')}"
-    elif kind == "greater_than_equal":
-        ge = ctx.get("ge")
-        expected = "a non-negative number" if ge == 0 else f"a number >= {ge}"
-    elif kind in ("too_short", "too_long"):
-        n = ctx.get("min_length") if kind == "too_short" else ctx.get("max_length")
-        expected = f"{n} entries"
-        if isinstance(inp, list):
-            return f"expected {expected}, found {len(inp)}"
-    elif kind == "literal_error":
-        expected = f"one of {ctx.get('expected')}"
-    elif kind == "list_type":
-        expected = "an array"
-    elif kind in ("model_type", "dict_type", "model_attributes_type"):
-        expected = "a table"
-    elif kind in ("string_type", "string_too_short"):
-        expected = "a non-empty string"
-    else:
-        return str(err.get("msg", kind))
-    return f"expected {expected}, found {_found(inp)}"
-
-
 def _warn_typos(raw: dict[str, Any], where: str) -> None:
     def check(table: Any, level: str, path: str) -> None:
         if not isinstance(table, dict):
@@ -258,7 +199,7 @@ def _pose(spec: _PoseSpec | None) -> np.ndarray:
 # --------------------------------------------------------------- loading
 def _build(d: dict[str, Any], source: str, where: str) -> Robot:
     if not isinstance(d, dict):
-        raise InputError(f"expected a table at the top level, found {_found(d)}", source=where)
+        raise InputError(f"expected a table at the top level, found {found(d)}", source=where)
     _warn_typos(d, where)
     try:
         spec = _RobotSpec.model_validate(d)
@@ -270,7 +211,7 @@ def _build(d: dict[str, Any], source: str, where: str) -> Robot:
             n = len(first["input"]) if isinstance(first["input"], list) else "?"
             msg = f"[[joints]]: expected exactly 6 joints, found {n}"
         else:
-            msg = f"{_key_path(loc)}: {_describe(first)}"
+            msg = f"{key_path(loc, table_arrays=('joints',))}: {describe_error(first)}"
         if len(errs) > 1:
             msg += f" (and {len(errs) - 1} more problem{'s' if len(errs) > 2 else ''})"
         raise InputError(msg, source=where) from None

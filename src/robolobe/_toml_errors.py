@@ -1,0 +1,94 @@
+"""Readable messages for pydantic validation errors of TOML files.
+
+Shared by the robot-file and job-file readers: a pydantic error becomes
+``key.path[2].name: expected a positive number, found -5``.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import Any
+
+__all__ = ["describe_error", "found", "key_path"]
+
+
+def key_path(loc: Sequence[int | str], table_arrays: Sequence[str] = ()) -> str:
+    """A pydantic location as a TOML key path, array indices counted from 1.
+
+    Parameters
+    ----------
+    loc : sequence of int or str
+        ``err["loc"]`` of a pydantic error.
+    table_arrays : sequence of str
+        Top-level keys that are TOML arrays of tables, written ``[[name]]``.
+    """
+    out = ""
+    for i, part in enumerate(loc):
+        if isinstance(part, int):
+            out += f"[{part + 1}]"
+        elif i == 0 and part in table_arrays:
+            out += f"[[{part}]]"
+        elif part.startswith("function-") or part in ("literal", "float", "int", "str"):
+            continue  # pydantic union branch names
+        else:
+            out += ("." if out else "") + str(part)
+    return out or "<file>"
+
+
+def found(value: Any) -> str:
+    """How a found value reads in a message."""
+    if isinstance(value, dict):
+        return "a table"
+    if isinstance(value, list):
+        return f"an array of {len(value)}"
+    if isinstance(value, str):
+        return repr(value)
+    if isinstance(value, bool):
+        return str(value).lower()
+    if isinstance(value, float) and value.is_integer() and abs(value) < 1e15:
+        return str(int(value))
+    return str(value)
+
+
+def describe_error(err: Any) -> str:
+    """``expected ..., found ...`` for one pydantic error (a dict of ``exc.errors()``)."""
+    kind = err["type"]
+    ctx = err.get("ctx") or {}
+    inp = err.get("input")
+    if kind == "missing":
+        return "missing required key"
+    if kind in ("float_type", "float_parsing"):
+        expected = "a number"
+    elif kind in ("int_type", "int_parsing", "int_from_float"):
+        expected = "an integer"
+    elif kind in ("bool_type", "bool_parsing"):
+        expected = "true or false"
+    elif kind == "finite_number":
+        expected = "a finite number"
+    elif kind == "greater_than":
+        expected = "a positive number" if ctx.get("gt") == 0 else f"a number > {ctx.get('gt')}"
+    elif kind == "greater_than_equal":
+        ge = ctx.get("ge")
+        expected = "a non-negative number" if ge == 0 else f"a number >= {ge}"
+    elif kind in ("less_than", "less_than_equal"):
+        bound = ctx.get("lt", ctx.get("le"))
+        expected = f"a number {'<' if kind == 'less_than' else '<='} {bound}"
+    elif kind in ("too_short", "too_long"):
+        n = ctx.get("min_length") if kind == "too_short" else ctx.get("max_length")
+        if isinstance(inp, list):
+            return f"expected {n} entries, found {len(inp)}"
+        expected = f"{n} entries"
+    elif kind == "literal_error":
+        expected = f"one of {ctx.get('expected')}"
+    elif kind == "list_type":
+        expected = "an array"
+    elif kind in ("model_type", "dict_type", "model_attributes_type"):
+        expected = "a table"
+    elif kind in ("string_type", "string_too_short"):
+        expected = "a non-empty string"
+    elif kind == "value_error":
+        msg = str(err.get("msg", ""))
+        return msg.removeprefix("Value error, ")
+    else:
+        return str(err.get("msg", kind))
+    return f"expected {expected}, found {found(inp)}"
