@@ -15,12 +15,14 @@ from typing import Literal
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from robolobe.errors import InputError
 from robolobe.robots.model import Robot
 
 __all__ = [
     "TCP_FRAME",
     "dh_angles",
     "frame_jacobians",
+    "joint_angles",
     "joint_axes",
     "joint_transforms",
     "link_frames",
@@ -35,10 +37,17 @@ TCP_FRAME = 7
 """Index of the TCP frame in :func:`link_frames`."""
 
 
-def _q(q: ArrayLike) -> FloatArray:
+def joint_angles(q: ArrayLike) -> FloatArray:
+    """``q`` as a float array of joint angles, shape (..., 6) [rad].
+
+    Raises
+    ------
+    InputError
+        When the last axis does not hold six angles.
+    """
     arr = np.asarray(q, dtype=np.float64)
     if arr.ndim == 0 or arr.shape[-1] != 6:
-        raise ValueError(f"q: expected shape (..., 6), found {arr.shape}")
+        raise InputError(f"q: expected shape (..., 6) of joint angles [rad], found {arr.shape}")
     return arr
 
 
@@ -55,7 +64,7 @@ def dh_angles(robot: Robot, q: ArrayLike) -> FloatArray:
     -------
     ndarray, shape (..., 6)
     """
-    return _q(q) @ robot.coupling.T + robot.theta_offset
+    return joint_angles(q) @ robot.coupling.T + robot.theta_offset
 
 
 def joint_transforms(robot: Robot, theta: ArrayLike) -> FloatArray:

@@ -26,6 +26,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from robolobe.errors import InputError
 from robolobe.robots import Robot, frame_jacobians, link_frames
+from robolobe.robots.kinematics import joint_angles
 
 __all__ = [
     "GRAVITY_M_PER_S2",
@@ -44,9 +45,7 @@ GRAVITY_M_PER_S2 = 9.81
 
 
 def _q(q: ArrayLike) -> FloatArray:
-    arr = np.asarray(q, dtype=np.float64)
-    if arr.ndim == 0 or arr.shape[-1] != 6:
-        raise InputError(f"q: expected joint angles of shape (..., 6) in rad, found {arr.shape}")
+    arr = joint_angles(q)
     if not np.all(np.isfinite(arr)):
         raise InputError("q: expected finite joint angles, found inf or nan")
     return arr
