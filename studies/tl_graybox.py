@@ -44,6 +44,7 @@ from robolobe.tl.evaluate import evaluate_prediction
 from robolobe.tl.graybox import TwinCalibration, twin_values
 from robolobe.tl.models import load_model
 from robolobe.tl.twin_data import twin_modal_dataset, twin_modal_values
+from robolobe.tl.twin_params import apply_parameters
 from robolobe.twin import Twin
 from robolobe.twin.designs import design_arrays, seed_design
 
@@ -55,7 +56,7 @@ def concealed_truth(key: str, rep: int, model_error: float = 0.0):
     base = load_robot(key)
     rng = np.random.default_rng(100 * rep + ord(key))
     fac = np.r_[rng.uniform(0.75, 1.3, 6), rng.uniform(0.6, 1.6, 6), rng.uniform(0.85, 1.15)]
-    truth = TwinCalibration._apply(base, GROUPS, fac)
+    truth = apply_parameters(base, GROUPS, np.log(fac))
     if model_error > 0:  # what the calibration cannot fit: link masses and inertias
         g = rng.uniform(1 - model_error, 1 + model_error, 6)
         joints = tuple(

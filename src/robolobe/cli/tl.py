@@ -204,7 +204,18 @@ def register(app: typer.Typer) -> None:
                 f"{cal.residual_rms_['k']:.3f}, {time.perf_counter() - t0:.1f} s"
             )
             for _, row in cal.summary().iterrows():
-                console.print(f"  {row['param']}: x{row['factor']:.3f} (+- {row['log_std']:.3f})")
+                if row["unit"] == "m":
+                    console.print(
+                        f"  {row['param']}: {1000 * row['value']:+.1f} mm "
+                        f"(+- {1000 * row['std']:.1f} mm)"
+                    )
+                else:
+                    console.print(f"  {row['param']}: x{row['value']:.3f} (+- {row['std']:.3f})")
+            if cal.at_bounds_:
+                console.print(
+                    f"[yellow]warning:[/] at their bounds: {', '.join(cal.at_bounds_)} (the data "
+                    "want more change than allowed: check the robot file and the tests)"
+                )
             return
         if source is None:
             raise InputError("expected a source model with --method network", source="--from")

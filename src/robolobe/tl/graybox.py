@@ -35,6 +35,9 @@ error of the twin's structure (a model-form error is not in the spread).
 
 from __future__ import annotations
 
+import functools
+import itertools
+import math
 import os
 from collections.abc import Sequence
 from pathlib import Path
@@ -43,20 +46,28 @@ from typing import Any
 import numpy as np
 import pandas as pd
 from numpy.typing import ArrayLike, NDArray
-from scipy.optimize import least_squares, linear_sum_assignment
+from scipy.optimize import least_squares
 
 from robolobe.errors import ConvergenceError, InputError
-from robolobe.robots.model import RigidBody, Robot
+from robolobe.robots.model import Robot
 from robolobe.tl.dataset import DRIVING_DIRECTIONS, ModalDataset, dataset_from_frame
 from robolobe.tl.estimator import ModalPrediction
+from robolobe.tl.twin_params import (
+    COM_UNIT_M,
+    PARAMETER_GROUPS,
+    ParametrizedTwin,
+    apply_parameters,
+    modal_values,
+    parameter_names,
+)
 
-__all__ = ["PARAMETER_GROUPS", "TwinCalibration", "twin_values"]
+__all__ = ["DEFAULT_PARAMS", "PARAMETER_GROUPS", "TwinCalibration", "twin_values"]
 
 FloatArray = NDArray[np.float64]
 _AXIS = {"xx": 0, "yy": 1, "zz": 2}
-#: Parameter groups that can be calibrated and their number of factors.
-PARAMETER_GROUPS: dict[str, int] = {"stiffness": 6, "damping": 6, "ee_mass": 1}
-_K_MAX = 1e15  # N/m: modal stiffness of a mode that does not move the TCP at d
+#: Default calibrated groups: every group of :data:`PARAMETER_GROUPS`.
+DEFAULT_PARAMS = ("stiffness", "damping", "ee_mass", "link_mass", "link_com")
+_FIRST_STAGE = ("stiffness", "damping", "ee_mass", "link_mass")
 
 
 def _as_robot(robot: Robot | str | os.PathLike[str]) -> Robot:
@@ -91,32 +102,42 @@ def twin_values(
     from robolobe.twin import Twin
 
     q = np.asarray(q_rad, dtype=float)
-    m = Twin(robot).modes(q)
-    if m.f_hz.shape[-1] < n_modes:
-        raise InputError(f"n_modes: the twin has {m.f_hz.shape[-1]} modes, asked {n_modes}")
-    out = np.empty((len(q), len(directions), n_modes, 3))
-    for j, d in enumerate(directions):
-        out[:, j, :, 0] = m.f_hz[:, :n_modes]
-        out[:, j, :, 1] = m.zeta[:, :n_modes]
-        k = np.abs(m.k_N_per_m[:, _AXIS[d], :n_modes])
-        out[:, j, :, 2] = np.where(np.isfinite(k), np.minimum(k, _K_MAX), _K_MAX)
-    return out
+    return modal_values(Twin(robot).modes(q), directions, n_modes)
+
+
+@functools.lru_cache(maxsize=8)
+def _injective_maps(n_from: int, n_to: int) -> NDArray[np.intp]:
+    """Every injective map of ``n_from`` items onto ``n_to``, shape (n_maps, n_from)."""
+    if n_from > n_to:
+        raise InputError(
+            f"expected at most {n_to} measured modes per direction (the twin's modes), "
+            f"found {n_from}"
+        )
+    if math.perm(n_to, n_from) > 50_000:
+        raise InputError(f"too many modes to match: {n_from} measured onto {n_to}")
+    return np.array(list(itertools.permutations(range(n_to), n_from)), dtype=np.intp).reshape(
+        -1, n_from
+    )
 
 
 class TwinCalibration:
-    """Fit stiffness, damping and end-effector-mass factors of a robot file to measured modes.
+    """Fit the uncertain parameters of a robot file to measured modes.
 
     Parameters
     ----------
     robot : Robot or str
         The robot file's model (``"B"``, a ``.toml`` path or a Robot): the prior.
     params : sequence of str
-        Groups to calibrate, some of ``"stiffness"``, ``"damping"``, ``"ee_mass"``.
+        Groups to calibrate (:data:`robolobe.tl.twin_params.PARAMETER_GROUPS`):
+        ``"stiffness"``, ``"damping"``, ``"ee_mass"``, ``"link_mass"``,
+        ``"link_com"``; default all (37 parameters).
     bounds : (float, float)
-        Bounds of every factor.
+        Bounds of every factor (stiffness, damping, masses).
+    com_bound_m : float
+        Largest centre-of-mass offset per axis [m].
     regularization : float
-        Weight of ``log(factor)`` residuals pulling each factor toward 1
-        (a parameter the data do not see stays at 1).
+        Weight of the ``theta`` residuals pulling each parameter toward the
+        robot file (a parameter the data do not see stays there).
     weights : (float, float, float)
         Residual weights of log frequency, log damping and log stiffness.
     match_tol : float
@@ -131,7 +152,7 @@ class TwinCalibration:
     robot_name : str or None
         Name of the calibrated robot (default ``<name>-calibrated``).
     n_starts : int
-        Starts of the robust first round (the robot file's values and
+        Starts of the robust first stage (the robot file's values and
         ``n_starts - 1`` random factors in [0.75, 1.35]); the best is kept.
     accept_rms_f : float
         A start whose RMS log-frequency residual is at most this (0.002: twice
@@ -142,20 +163,26 @@ class TwinCalibration:
     Attributes
     ----------
     factors_ : dict of str to ndarray
-        Fitted factors per group (shape (6,) or (1,)).
+        Fitted values per group: factors (shape (6,) or (1,)); for
+        ``link_com`` the offsets [m], shape (6, 3).
     robot_ : Robot
         The calibrated robot.
     param_names_ : tuple of str
-        ``k1..k6``, ``c1..c6``, ``m_ee`` for the calibrated groups.
+        ``k1..k6``, ``d1..d6``, ``m_ee``, ``m1..m6``, ``c1x..c6z`` for the
+        calibrated groups.
+    theta_ : ndarray, shape (n_params,)
+        Fitted parameters (log factors; COM offsets in units of 0.1 m).
     param_std_ : ndarray, shape (n_params,)
-        Standard deviation of ``log(factor)`` (~ relative std of the factor).
+        Standard deviation of ``theta_`` (~ relative std of a factor).
     covariance_ : ndarray, shape (n_params, n_params)
-        Covariance of the log factors.
+        Covariance of ``theta_``.
     residual_rms_ : dict of str to float
         RMS of the unweighted log residuals ``f``, ``zeta``, ``k`` at the fit.
     n_matched_ : int
         Matched (posture, direction, mode) pairs; ``n_unmatched_`` measured
         modes left without a partner.
+    at_bounds_ : tuple of str
+        Parameters that ended at a bound (the data want more than allowed).
     directions_ : tuple of str
     n_modes_ : int
         Modes per direction in the training data (predictions use the same).
@@ -165,8 +192,9 @@ class TwinCalibration:
         self,
         *,
         robot: Robot | str | os.PathLike[str],
-        params: Sequence[str] = ("stiffness", "damping", "ee_mass"),
+        params: Sequence[str] = DEFAULT_PARAMS,
         bounds: tuple[float, float] = (0.3, 3.0),
+        com_bound_m: float = 0.15,
         regularization: float = 1e-3,
         weights: tuple[float, float, float] = (1.0, 0.2, 0.3),
         match_tol: float = 0.3,
@@ -178,12 +206,10 @@ class TwinCalibration:
         accept_rms_f: float = 0.002,
         random_state: int | None = 0,
     ) -> None:
-        self.accept_rms_f = accept_rms_f
-        self.n_starts = n_starts
-        self.random_state = random_state
         self.robot = robot
         self.params = params
         self.bounds = bounds
+        self.com_bound_m = com_bound_m
         self.regularization = regularization
         self.weights = weights
         self.match_tol = match_tol
@@ -191,6 +217,9 @@ class TwinCalibration:
         self.n_rematch = n_rematch
         self.min_postures = min_postures
         self.robot_name = robot_name
+        self.n_starts = n_starts
+        self.accept_rms_f = accept_rms_f
+        self.random_state = random_state
 
     # ------------------------------------------------------------ helpers
     def _validate(self) -> tuple[Robot, tuple[str, ...]]:
@@ -209,6 +238,8 @@ class TwinCalibration:
         lo, hi = (float(b) for b in self.bounds)
         if not 0 < lo < 1 < hi:
             raise InputError(f"bounds: expected 0 < lo < 1 < hi, found {self.bounds}")
+        if not self.com_bound_m > 0:
+            raise InputError(f"com_bound_m: expected > 0 m, found {self.com_bound_m}")
         if (
             self.regularization < 0
             or self.match_tol <= 0
@@ -216,74 +247,54 @@ class TwinCalibration:
             or self.n_starts < 1
         ):
             raise InputError(
-                "expected regularization >= 0, match_tol > 0 and n_rematch >= 1, found "
-                f"{self.regularization}, {self.match_tol}, {self.n_rematch}"
+                "expected regularization >= 0, match_tol > 0, n_rematch >= 1 and n_starts >= 1, "
+                f"found {self.regularization}, {self.match_tol}, {self.n_rematch}, {self.n_starts}"
             )
         if len(self.weights) != 3 or any(w < 0 for w in self.weights):
             raise InputError(f"weights: expected 3 non-negative numbers, found {self.weights}")
         return robot, groups
 
-    @staticmethod
-    def _names(groups: tuple[str, ...]) -> tuple[str, ...]:
-        names: list[str] = []
-        for g in groups:
-            if g == "stiffness":
-                names += [f"k{i}" for i in range(1, 7)]
-            elif g == "damping":
-                names += [f"c{i}" for i in range(1, 7)]
-            else:
-                names.append("m_ee")
-        return tuple(names)
-
-    @staticmethod
-    def _apply(base: Robot, groups: tuple[str, ...], factors: FloatArray) -> Robot:
-        robot, i = base, 0
+    def _theta_bounds(self, groups: tuple[str, ...]) -> tuple[FloatArray, FloatArray]:
+        lo, hi = (float(np.log(b)) for b in self.bounds)
+        c = float(self.com_bound_m) / COM_UNIT_M
+        los: list[float] = []
+        his: list[float] = []
         for g in groups:
             n = PARAMETER_GROUPS[g]
-            f = factors[i : i + n]
-            i += n
-            if g == "stiffness":
-                robot = robot.with_stiffness(base.stiffness * f)
-            elif g == "damping":
-                robot = robot.with_damping(base.damping * f)
-            else:
-                ee = base.end_effector
-                assert ee is not None  # checked in _validate
-                robot = robot.replace(
-                    end_effector=RigidBody(ee.mass_kg * f[0], ee.com_m, ee.inertia_kgm2 * f[0])
-                )
-        return robot
+            los += [-c if g == "link_com" else lo] * n
+            his += [c if g == "link_com" else hi] * n
+        return np.asarray(los), np.asarray(his)
 
     def _match(
         self, ds: ModalDataset, model: FloatArray, tol: float | None = None
     ) -> tuple[tuple[NDArray[np.intp], ...], int]:
-        """Assign measured modes to twin modes; returns index arrays and unmatched count."""
+        """Assign measured modes to twin modes; returns index arrays and unmatched count.
+
+        Per posture and direction the assignment of least total cost
+        ``|log f_meas / f_twin| + match_k_weight * min(|log k_meas / k_twin|, 3)``
+        (a linear sum assignment), found for all of them at once by trying
+        every injective map of the measured modes onto the twin's (720 for
+        5 onto 6). Returns ``(posture, direction, measured mode, twin mode)``
+        index arrays of the pairs within ``tol`` in log frequency.
+        """
         tol = self.match_tol if tol is None else tol
-        ii: list[int] = []
-        jj: list[int] = []
-        mm: list[int] = []
-        tt: list[int] = []
-        unmatched = 0
-        for i in range(ds.n_postures):
-            for j in range(len(ds.directions)):
-                y = ds.y[i, j]
-                meas = np.flatnonzero(np.isfinite(y[:, 0]))
-                if meas.size == 0:
-                    continue
-                df = np.abs(np.log(y[meas, 0][:, None] / model[i, j, :, 0][None, :]))
-                with np.errstate(invalid="ignore", divide="ignore"):
-                    dk = np.abs(np.log(y[meas, 2][:, None] / model[i, j, :, 2][None, :]))
-                dk = np.where(np.isfinite(dk), np.minimum(dk, 3.0), 0.0)
-                cost = df + self.match_k_weight * dk
-                r, c = linear_sum_assignment(cost)
-                ok = df[r, c] <= tol
-                unmatched += int(meas.size - ok.sum())
-                ii += [i] * int(ok.sum())
-                jj += [j] * int(ok.sum())
-                mm += meas[r[ok]].tolist()
-                tt += c[ok].tolist()
-        idx = tuple(np.asarray(a, dtype=np.intp) for a in (ii, jj, mm, tt))
-        return idx, unmatched
+        y = np.asarray(ds.y)
+        nm, nt = y.shape[2], model.shape[2]
+        perms = _injective_maps(nm, nt)
+        present = np.isfinite(y[..., 0])  # (n, nd, nm)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            df = np.abs(np.log(y[..., :, None, 0] / model[..., None, :, 0]))  # (n, nd, nm, nt)
+            dk = np.abs(np.log(y[..., :, None, 2] / model[..., None, :, 2]))
+        dk = np.where(np.isfinite(dk), np.minimum(dk, 3.0), 0.0)
+        cost = np.where(present[..., None], df + self.match_k_weight * dk, 0.0)
+        rows = np.arange(perms.shape[1])
+        total = cost[..., rows, perms].sum(axis=-1)  # (n, nd, n_maps)
+        best = perms[np.argmin(total, axis=-1)]  # (n, nd, nm) twin mode per measured mode
+        df_best = np.take_along_axis(df, best[..., None], axis=-1)[..., 0]
+        ok = present & (df_best <= tol)
+        ii, jj, mm = np.nonzero(ok)
+        idx = (ii, jj, mm, best[ii, jj, mm])
+        return tuple(np.asarray(a, dtype=np.intp) for a in idx), int(present.sum() - ok.sum())
 
     # --------------------------------------------------------------- fit
     def fit(self, modal_df: pd.DataFrame) -> TwinCalibration:
@@ -318,8 +329,6 @@ class TwinCalibration:
 
     def fit_dataset(self, ds: ModalDataset) -> TwinCalibration:
         """Calibrate on a :class:`~robolobe.tl.dataset.ModalDataset` (NaN = not seen)."""
-        from robolobe.twin import Twin
-
         base, groups = self._validate()
         if ds.n_postures < self.min_postures:
             raise InputError(
@@ -330,18 +339,25 @@ class TwinCalibration:
         fin = np.isfinite(y)
         if np.any(fin & (y <= 0)):
             raise InputError("expected positive frequencies, damping ratios and stiffnesses")
-        names = self._names(groups)
+        names = parameter_names(groups)
         p = len(names)
-        lo, hi = np.log(float(self.bounds[0])), np.log(float(self.bounds[1]))
+        lo, hi = self._theta_bounds(groups)
         q = ds.q_rad
-        nd, nm = len(ds.directions), ds.n_modes
-        n_twin = Twin(base).modes(q[:1]).f_hz.shape[-1]
+        nm = ds.n_modes
+        twin = ParametrizedTwin(base, q, groups, directions=ds.directions, n_modes=6)
+        n_twin = twin.modes(np.zeros(p)).f_hz.shape[-1]
+        twin.n_modes = n_twin
         wf, wz, wk = (float(w) for w in self.weights)
         reg = float(self.regularization)
+        cache: dict[bytes, FloatArray] = {}
 
         def model(theta: FloatArray) -> FloatArray:
-            rob = self._apply(base, groups, np.exp(theta))
-            return twin_values(rob, q, directions=ds.directions, n_modes=n_twin)
+            key = np.asarray(theta, dtype=float).tobytes()
+            if key not in cache:
+                if len(cache) > 64:
+                    cache.clear()
+                cache[key] = twin.values(theta)
+            return cache[key]
 
         def data_res(theta: FloatArray, idx: tuple[NDArray[np.intp], ...]) -> FloatArray:
             i, j, m, t = idx
@@ -356,57 +372,85 @@ class TwinCalibration:
         def residuals(theta: FloatArray, idx: tuple[NDArray[np.intp], ...]) -> FloatArray:
             return np.concatenate([data_res(theta, idx), reg * theta])
 
-        meas_idx = np.argwhere(np.isfinite(y[..., 0]))  # (n_meas, 3): posture, dir, mode
-
         def dyn_res(theta: FloatArray) -> FloatArray:
             # every measured mode matched afresh (continuous where modes cross)
             idx, _ = self._match(ds, model(theta), tol=np.inf)
             return residuals(theta, idx)
 
-        # round 1: robust loss, matching inside the residuals, several starts
-        # (frequency matching has local minima where modes cross) -> best one
+        def rms_f(theta: FloatArray) -> float:
+            idx0, _ = self._match(ds, model(theta), tol=np.inf)
+            mod0 = model(theta)
+            f_res = np.log(y[idx0[0], idx0[1], idx0[2], 0] / mod0[idx0[0], idx0[1], idx0[3], 0])
+            return float(np.sqrt(np.mean(f_res**2)))
+
         n_res0 = int(np.isfinite(y).sum())
         if n_res0 < p:
             raise InputError(
                 f"expected at least {p} modal values to fit {p} factors, found {n_res0}"
             )
+        # stage 1: the factor groups, robust loss, matching inside the residuals,
+        # several starts (frequency matching has local minima where modes cross)
+        first = np.concatenate(
+            [np.full(PARAMETER_GROUPS[g], g in _FIRST_STAGE) for g in groups]
+        ).astype(bool)
+        if not first.any():
+            first[:] = True
+        theta = np.zeros(p)
+
+        def sub_res(x: FloatArray) -> FloatArray:
+            th = theta.copy()
+            th[first] = x
+            return dyn_res(th)
+
         rng = np.random.default_rng(self.random_state)
-        starts = [np.zeros(p)] + [
-            rng.uniform(np.log(0.75), np.log(1.35), p) for _ in range(int(self.n_starts) - 1)
+        n1 = int(first.sum())
+        starts = [np.zeros(n1)] + [
+            rng.uniform(np.log(0.75), np.log(1.35), n1) for _ in range(int(self.n_starts) - 1)
         ]
         sol: Any = None
         for x0 in starts:
             s0 = least_squares(
+                sub_res,
+                np.clip(x0, lo[first] + 1e-9, hi[first] - 1e-9),
+                bounds=(lo[first], hi[first]),
+                loss="soft_l1",
+                f_scale=0.02,
+                diff_step=np.full(n1, 1e-6),
+                max_nfev=6 * (n1 + 1),
+            )
+            if sol is None or s0.cost < sol.cost:
+                sol = s0
+            th1 = theta.copy()
+            th1[first] = sol.x
+            if rms_f(th1) <= self.accept_rms_f:
+                break  # frequencies fit to the noise level: no other start needed
+        theta[first] = sol.x
+        # stage 2: every group from there (centres of mass start at the file's)
+        if not first.all():
+            sol = least_squares(
                 dyn_res,
-                np.clip(x0, lo + 1e-9, hi - 1e-9),
-                bounds=(np.full(p, lo), np.full(p, hi)),
+                np.clip(theta, lo + 1e-9, hi - 1e-9),
+                bounds=(lo, hi),
                 loss="soft_l1",
                 f_scale=0.02,
                 diff_step=np.full(p, 1e-6),
                 max_nfev=6 * (p + 1),
             )
-            if sol is None or s0.cost < sol.cost:
-                sol = s0
-            idx0, _ = self._match(ds, model(np.asarray(sol.x)), tol=np.inf)
-            mod0 = model(np.asarray(sol.x))
-            f_res = np.log(y[idx0[0], idx0[1], idx0[2], 0] / mod0[idx0[0], idx0[1], idx0[3], 0])
-            if np.sqrt(np.mean(f_res**2)) <= self.accept_rms_f:
-                break  # frequencies fit to the noise level: no other start needed
-        theta = np.asarray(sol.x)
-        # rounds 2+: matching fixed (pairs within match_tol), plain least squares
+            theta = np.asarray(sol.x)
+        # then: matching fixed (pairs within match_tol), plain least squares
         idx, unmatched = self._match(ds, model(theta))
         for _ in range(int(self.n_rematch)):
             n_res = int(np.isfinite(y[idx[0], idx[1], idx[2]]).sum())
             if n_res < p:
                 raise InputError(
                     f"expected at least {p} matched modal values to fit {p} factors, found "
-                    f"{n_res} ({unmatched} of {len(meas_idx)} measured modes had no twin mode "
-                    f"within {100 * (np.exp(self.match_tol) - 1):.0f} %)"
+                    f"{n_res} ({unmatched} of {int(np.isfinite(y[..., 0]).sum())} measured modes "
+                    f"had no twin mode within {100 * (np.exp(self.match_tol) - 1):.0f} %)"
                 )
             sol = least_squares(
                 residuals,
                 theta,
-                bounds=(np.full(p, lo), np.full(p, hi)),
+                bounds=(lo, hi),
                 args=(idx,),
                 diff_step=np.full(p, 1e-6),
                 max_nfev=10 * (p + 1),
@@ -422,33 +466,30 @@ class TwinCalibration:
             if same:
                 break
         assert sol is not None
-        # covariance of the log factors: s^2 (J^T J)^-1 with the data residual variance
+        # covariance of theta: s^2 (J^T J)^-1 with the data residual variance
         jac = np.asarray(sol.jac)
         r_data = data_res(theta, idx)
         dof = max(r_data.size - p, 1)
         s2 = float(r_data @ r_data) / dof
-        jtj = jac.T @ jac
-        cov = s2 * np.linalg.pinv(jtj)
+        cov = s2 * np.linalg.pinv(jac.T @ jac)
         i, j, m, t = idx
-        mod = model(theta)[i, j, t]
-        raw = np.log(y[i, j, m] / mod)
+        raw = np.log(y[i, j, m] / model(theta)[i, j, t])
         rms = {
             name: float(np.sqrt(np.nanmean(raw[:, c] ** 2)))
             if np.isfinite(raw[:, c]).any()
             else float("nan")
             for c, name in enumerate(("f", "zeta", "k"))
         }
-        factors = np.exp(theta)
         out: dict[str, FloatArray] = {}
         k = 0
         for g in groups:
-            out[g] = factors[k : k + PARAMETER_GROUPS[g]]
+            v = theta[k : k + PARAMETER_GROUPS[g]]
+            out[g] = COM_UNIT_M * v.reshape(6, 3) if g == "link_com" else np.exp(v)
             k += PARAMETER_GROUPS[g]
-        rob = self._apply(base, groups, factors)
-        name = self.robot_name or f"{base.name}-calibrated"
+        rob = apply_parameters(base, groups, theta)
         self.theta_ = theta
         self.factors_ = out
-        self.robot_ = rob.replace(name=name)
+        self.robot_ = rob.replace(name=self.robot_name or f"{base.name}-calibrated")
         self.base_robot_ = base
         self.groups_ = groups
         self.param_names_ = names
@@ -461,10 +502,11 @@ class TwinCalibration:
         self.n_modes_ = nm
         self.n_postures_ = ds.n_postures
         self.at_bounds_ = tuple(
-            n for n, th in zip(names, theta, strict=True) if min(th - lo, hi - th) < 1e-3
+            n
+            for n, th, a, b in zip(names, theta, lo, hi, strict=True)
+            if min(th - a, b - th) < 1e-3
         )
         self.train_q_rad_ = np.array(q)
-        self.nd_ = nd
         return self
 
     # ------------------------------------------------------------ predict
@@ -492,7 +534,7 @@ class TwinCalibration:
             Lowest modes per direction; default: as in the training data.
         spread : bool
             Propagate the parameter covariance (one twin evaluation per
-            factor); False gives zero spread.
+            parameter); False gives zero spread.
 
         Returns
         -------
@@ -505,11 +547,9 @@ class TwinCalibration:
         if q.ndim != 2 or q.shape[1] != 6 or not np.all(np.isfinite(q)):
             raise InputError(f"q_rad: expected finite angles of shape (n, 6), found {q.shape}")
         dirs = tuple(directions) if directions is not None else self.directions_
-        bad = [d for d in dirs if d not in _AXIS]
-        if bad:
-            raise InputError(f"directions: expected xx, yy or zz, found {bad}")
         nm = int(n_modes) if n_modes is not None else self.n_modes_
-        center = np.log(twin_values(self.robot_, q, directions=dirs, n_modes=nm))
+        twin = ParametrizedTwin(self.base_robot_, q, self.groups_, directions=dirs, n_modes=nm)
+        center = np.log(twin.values(self.theta_))
         std = np.zeros_like(center)
         if spread:
             h = 1e-4
@@ -517,8 +557,7 @@ class TwinCalibration:
             for a in range(len(self.theta_)):
                 th = self.theta_.copy()
                 th[a] += h
-                rob = self._apply(self.base_robot_, self.groups_, np.exp(th))
-                jac[a] = (np.log(twin_values(rob, q, directions=dirs, n_modes=nm)) - center) / h
+                jac[a] = (np.log(twin.values(th)) - center) / h
             jf = jac.reshape(len(self.theta_), -1)
             var = np.einsum("ak,ab,bk->k", jf, self.covariance_, jf)
             std = np.sqrt(np.clip(var, 0.0, None)).reshape(center.shape)
@@ -538,13 +577,20 @@ class TwinCalibration:
         return ModalDataset(ids, q, pred.directions, pred.values)
 
     def summary(self) -> pd.DataFrame:
-        """Fitted factors with their 1-sigma relative spread, one row per parameter."""
+        """Fitted parameters, one row each.
+
+        Columns: ``param``, ``value`` (a factor on the robot file's value, or
+        a centre-of-mass offset [m]), ``unit`` (``"x"`` or ``"m"``) and ``std``
+        (1 sigma: relative for factors, [m] for offsets).
+        """
         self._check_fitted()
+        com = np.array([n[0] == "c" and len(n) == 3 for n in self.param_names_])
         return pd.DataFrame(
             {
                 "param": self.param_names_,
-                "factor": np.exp(self.theta_),
-                "log_std": self.param_std_,
+                "value": np.where(com, COM_UNIT_M * self.theta_, np.exp(self.theta_)),
+                "unit": np.where(com, "m", "x"),
+                "std": np.where(com, COM_UNIT_M * self.param_std_, self.param_std_),
             }
         )
 
