@@ -3,27 +3,32 @@
 The black-box network of :mod:`robolobe.tl.estimator` has to learn how the
 modes move with five joint angles from ~20 postures. The twin
 (:class:`robolobe.twin.Twin`) already knows that dependence; what a robot
-file gets wrong are mostly a few scalar parameters. :class:`TwinCalibration`
-fits multiplicative factors on
+file gets wrong are a few dozen physical parameters. :class:`TwinCalibration`
+fits them (:mod:`robolobe.tl.twin_params`, 37 by default):
 
-* the 6 joint stiffnesses (``"stiffness"``),
-* the 6 joint dampings (``"damping"``),
-* the end-effector mass, its inertia scaled alike (``"ee_mass"``)
+* the 6 joint stiffnesses and the 6 joint dampings (factors),
+* the end-effector mass, its inertia scaled alike (a factor),
+* each link's mass and inertia (6 factors) and centre of mass (18 offsets)
 
-by nonlinear least squares (:func:`scipy.optimize.least_squares`, factors
-log-parametrised, bounded, regularised toward 1) on the misfit between
-measured and twin modes:
+by bounded nonlinear least squares (:func:`scipy.optimize.least_squares`,
+factors log-parametrised, every parameter regularised toward the robot file)
+on the misfit between measured and twin modes:
 
 * per posture and driving-point direction the measured modes are matched to
-  the twin's modes (:func:`scipy.optimize.linear_sum_assignment` on
-  ``|log f_meas / f_twin|`` plus a small driving-point-stiffness term, pairs
-  farther apart than ``match_tol`` in log frequency are dropped), re-matched
-  after each solve until the assignment stops changing;
+  the twin's modes (the linear sum assignment of ``|log f_meas / f_twin|``
+  plus a small driving-point-stiffness term; pairs farther apart than
+  ``match_tol`` in log frequency are dropped);
 * residuals ``log(f_meas / f_twin)`` (weight 1), ``log(zeta_meas / zeta_twin)``
   (weight ``weights[1]``) and ``log(k_meas / k_twin)`` at the measured
-  direction (weight ``weights[2]``, only where the measured stiffness is
-  known, i.e. the mode was seen there);
-* ``regularization * log(factor)`` per factor.
+  direction (weight ``weights[2]``, only where the mode was seen there);
+* ``regularization * theta`` per parameter.
+
+The search is staged because mode matching makes the misfit multimodal:
+stage 1 fits the factor groups from several starts with the matching redone
+at every evaluation and a robust loss; stage 2 adds the centres of mass from
+the stage-1 result (and random offsets, while the frequencies do not fit to
+``accept_rms_f``); last, plain least squares with the matching fixed,
+re-matched until it stops changing.
 
 The calibrated robot (``robot_``) is an ordinary robot: :meth:`TwinCalibration.save`
 writes it as a robot TOML that planning and simulation accept as is.
@@ -152,11 +157,14 @@ class TwinCalibration:
     robot_name : str or None
         Name of the calibrated robot (default ``<name>-calibrated``).
     n_starts : int
-        Starts of the robust first stage (the robot file's values and
-        ``n_starts - 1`` random factors in [0.75, 1.35]); the best is kept.
+        Starts of the first stage (the factor groups; the robot file's values
+        and ``n_starts - 1`` random factors in [0.75, 1.35]); the best is kept.
+    n_starts_com : int
+        Starts of the second stage (all groups, from the first stage's factors;
+        centres of mass at the file's, then ``N(0, 5 cm)`` per axis).
     accept_rms_f : float
         A start whose RMS log-frequency residual is at most this (0.002: twice
-        the identification scatter of frequencies) ends the search.
+        the identification scatter of frequencies) ends a stage's search.
     random_state : int or None
         Seed of the random starts.
 
@@ -202,7 +210,8 @@ class TwinCalibration:
         n_rematch: int = 4,
         min_postures: int = 5,
         robot_name: str | None = None,
-        n_starts: int = 8,
+        n_starts: int = 4,
+        n_starts_com: int = 6,
         accept_rms_f: float = 0.002,
         random_state: int | None = 0,
     ) -> None:
@@ -218,6 +227,7 @@ class TwinCalibration:
         self.min_postures = min_postures
         self.robot_name = robot_name
         self.n_starts = n_starts
+        self.n_starts_com = n_starts_com
         self.accept_rms_f = accept_rms_f
         self.random_state = random_state
 
@@ -245,6 +255,7 @@ class TwinCalibration:
             or self.match_tol <= 0
             or self.n_rematch < 1
             or self.n_starts < 1
+            or self.n_starts_com < 1
         ):
             raise InputError(
                 "expected regularization >= 0, match_tol > 0, n_rematch >= 1 and n_starts >= 1, "
@@ -372,6 +383,23 @@ class TwinCalibration:
         def residuals(theta: FloatArray, idx: tuple[NDArray[np.intp], ...]) -> FloatArray:
             return np.concatenate([data_res(theta, idx), reg * theta])
 
+        wvec = np.array([wf, wz, wk])
+        jcache: dict[bytes, FloatArray] = {}
+
+        def jacobian(theta: FloatArray, idx: tuple[NDArray[np.intp], ...]) -> FloatArray:
+            key = np.asarray(theta, dtype=float).tobytes()
+            if key not in jcache:
+                jcache.clear()
+                jcache[key] = twin.log_jacobian(theta)
+            i, j, m, t = idx
+            d = -jcache[key][i, j, t] * wvec[None, :, None]  # (n_pairs, 3, p)
+            rows = d[np.isfinite(y[i, j, m])]
+            return np.vstack([rows, reg * np.eye(p)])
+
+        def dyn_jac(theta: FloatArray) -> FloatArray:
+            idx, _ = self._match(ds, model(theta), tol=np.inf)
+            return jacobian(theta, idx)
+
         def dyn_res(theta: FloatArray) -> FloatArray:
             # every measured mode matched afresh (continuous where modes cross)
             idx, _ = self._match(ds, model(theta), tol=np.inf)
@@ -402,6 +430,11 @@ class TwinCalibration:
             th[first] = x
             return dyn_res(th)
 
+        def sub_jac(x: FloatArray) -> FloatArray:
+            th = theta.copy()
+            th[first] = x
+            return dyn_jac(th)[:, first]
+
         rng = np.random.default_rng(self.random_state)
         n1 = int(first.sum())
         starts = [np.zeros(n1)] + [
@@ -412,11 +445,11 @@ class TwinCalibration:
             s0 = least_squares(
                 sub_res,
                 np.clip(x0, lo[first] + 1e-9, hi[first] - 1e-9),
+                jac=sub_jac,
                 bounds=(lo[first], hi[first]),
                 loss="soft_l1",
                 f_scale=0.02,
-                diff_step=np.full(n1, 1e-6),
-                max_nfev=6 * (n1 + 1),
+                max_nfev=20 * (n1 + 1),
             )
             if sol is None or s0.cost < sol.cost:
                 sol = s0
@@ -425,18 +458,29 @@ class TwinCalibration:
             if rms_f(th1) <= self.accept_rms_f:
                 break  # frequencies fit to the noise level: no other start needed
         theta[first] = sol.x
-        # stage 2: every group from there (centres of mass start at the file's)
+        # stage 2: every group from there (centres of mass start at the file's,
+        # then at random offsets while that does not reach the acceptance level)
         if not first.all():
-            sol = least_squares(
-                dyn_res,
-                np.clip(theta, lo + 1e-9, hi - 1e-9),
-                bounds=(lo, hi),
-                loss="soft_l1",
-                f_scale=0.02,
-                diff_step=np.full(p, 1e-6),
-                max_nfev=6 * (p + 1),
-            )
-            theta = np.asarray(sol.x)
+            theta1 = theta.copy()
+            best: Any = None
+            for k_start in range(int(self.n_starts_com)):
+                x0 = theta1.copy()
+                if k_start:
+                    x0[~first] = rng.normal(0.0, 0.5, int((~first).sum()))
+                res2 = least_squares(
+                    dyn_res,
+                    np.clip(x0, lo + 1e-9, hi - 1e-9),
+                    jac=dyn_jac,
+                    bounds=(lo, hi),
+                    loss="soft_l1",
+                    f_scale=0.02,
+                    max_nfev=20 * (p + 1),
+                )
+                if best is None or res2.cost < best.cost:
+                    best = res2
+                if rms_f(np.asarray(best.x)) <= self.accept_rms_f:
+                    break
+            theta = np.asarray(best.x)
         # then: matching fixed (pairs within match_tol), plain least squares
         idx, unmatched = self._match(ds, model(theta))
         for _ in range(int(self.n_rematch)):
@@ -450,10 +494,10 @@ class TwinCalibration:
             sol = least_squares(
                 residuals,
                 theta,
+                jac=jacobian,
                 bounds=(lo, hi),
                 args=(idx,),
-                diff_step=np.full(p, 1e-6),
-                max_nfev=10 * (p + 1),
+                max_nfev=20 * (p + 1),
             )
             if not np.all(np.isfinite(sol.x)):
                 raise ConvergenceError(f"twin calibration failed: {sol.message}")

@@ -36,7 +36,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from robolobe.errors import InputError
 from robolobe.robots.model import RigidBody, Robot
-from robolobe.twin.modes import Modes, compute_modes
+from robolobe.twin.modes import Modes, compute_modes, undamped_modes
 
 __all__ = [
     "COM_UNIT_M",
@@ -175,6 +175,18 @@ def modal_values(modes: Modes, directions: Sequence[str], n_modes: int) -> Float
     return out
 
 
+def _cross(r: FloatArray, jw: FloatArray) -> FloatArray:
+    """Columns ``r x jw[:, k]``; r (..., 3), jw (..., 3, m) -> (..., 3, m)."""
+    return np.stack(
+        [
+            r[..., 1, None] * jw[..., 2, :] - r[..., 2, None] * jw[..., 1, :],
+            r[..., 2, None] * jw[..., 0, :] - r[..., 0, None] * jw[..., 2, :],
+            r[..., 0, None] * jw[..., 1, :] - r[..., 1, None] * jw[..., 0, :],
+        ],
+        axis=-2,
+    )
+
+
 class ParametrizedTwin:
     """Modes of a robot file's twin at fixed postures as a function of ``theta``.
 
@@ -234,38 +246,149 @@ class ParametrizedTwin:
 
     def modes(self, theta: ArrayLike) -> Modes:
         """Modes at every posture for parameters ``theta`` (shape (n_params,))."""
-        parts = _split(self.groups, theta)
-        nb = len(self._m0)
-        s = np.ones(nb)
+        m, k, c = self._matrices(theta)
+        return compute_modes(m, k, c, self._J)
+
+    def _mass_parts(
+        self, parts: dict[str, FloatArray]
+    ) -> tuple[FloatArray, FloatArray, FloatArray]:
+        """Mass scales (nb,), links' COM Jacobians (n, 6, 3, 6) and ``Jv^T Jv`` (n, nb, 6, 6)."""
+        s = np.ones(len(self._m0))
         if "link_mass" in parts:
             s[:6] = np.exp(parts["link_mass"])
         if "ee_mass" in parts:
             s[6] = np.exp(parts["ee_mass"][0])
+        jv = self._jv[:, :6]
+        mv = self._mv
         if "link_com" in parts and np.any(parts["link_com"]):
             d = COM_UNIT_M * parts["link_com"].reshape(6, 3)
             r = np.einsum("nbij,bj->nbi", self._rot[:, :6], d)  # world offsets (n, 6, 3)
-            jw = self._jw[:, :6]
-            # v = v0 + w x r = v0 - r x w
-            cross = np.stack(
-                [
-                    r[..., 1, None] * jw[..., 2, :] - r[..., 2, None] * jw[..., 1, :],
-                    r[..., 2, None] * jw[..., 0, :] - r[..., 0, None] * jw[..., 2, :],
-                    r[..., 0, None] * jw[..., 1, :] - r[..., 1, None] * jw[..., 0, :],
-                ],
-                axis=-2,
-            )
-            jv = self._jv[:, :6] - cross
-            mv_links = np.einsum("nbki,nbkj->nbij", jv, jv)
-            mv = np.concatenate([mv_links, self._mv[:, 6:]], axis=1)
-        else:
-            mv = self._mv
-        w = self._m0 * s
-        m = np.einsum("b,nbij->nij", w, mv) + np.einsum("b,nbij->nij", s, self._mw)
+            jv = jv - _cross(r, self._jw[:, :6])  # v = v0 + w x r
+            mv = np.concatenate([np.einsum("nbki,nbkj->nbij", jv, jv), self._mv[:, 6:]], axis=1)
+        return s, jv, mv
+
+    def _matrices(self, theta: ArrayLike) -> tuple[FloatArray, FloatArray, FloatArray]:
+        """M (n, 6, 6), K and C (6, 6) for ``theta``."""
+        parts = _split(self.groups, theta)
+        s, _, mv = self._mass_parts(parts)
+        m = np.einsum("b,nbij->nij", self._m0 * s, mv) + np.einsum("b,nbij->nij", s, self._mw)
         m = 0.5 * (m + np.swapaxes(m, -1, -2))
         k = self._k0 * np.exp(parts["stiffness"]) if "stiffness" in parts else self._k0
         c = self._c0 * np.exp(parts["damping"]) if "damping" in parts else self._c0
-        return compute_modes(m, self._eye * k, self._eye * c, self._J)
+        return m, self._eye * k, self._eye * c
+
+    def log_jacobian(self, theta: ArrayLike) -> FloatArray:
+        """Derivatives of the log of :meth:`values` with respect to ``theta``.
+
+        From first-order eigen-sensitivities of the undamped problem
+        (``d omega^2 = phi^T (dK - omega^2 dM) phi``, shape derivatives by
+        modal expansion over all modes); the damping ratio as
+        ``phi^T C phi / (2 omega)``. Exact for the undamped quantities; for the
+        damped frequency and damping ratio accurate to the order of the
+        damping (enough for Gauss-Newton steps; the residuals stay exact).
+
+        Returns
+        -------
+        ndarray, shape (n, n_dir, n_modes, 3, n_params)
+            ``d log(f, zeta, k) / d theta``; 0 where a stiffness is capped
+            (a mode that does not move the TCP along the direction).
+        """
+        parts = _split(self.groups, theta)
+        s, jv, mv = self._mass_parts(parts)
+        w = self._m0 * s
+        n, p, nd = self._jv.shape[0], self.n_params, 6
+        m, kmat, cmat = self._matrices(theta)
+        k, c = np.diag(kmat), np.diag(cmat)
+        dm = np.zeros((n, p, nd, nd))
+        dk = np.zeros((p, nd))
+        dc = np.zeros((p, nd))
+        i0 = 0
+        for g in self.groups:
+            size = PARAMETER_GROUPS[g]
+            if g == "stiffness":
+                dk[i0 : i0 + 6] = np.diag(k)
+            elif g == "damping":
+                dc[i0 : i0 + 6] = np.diag(c)
+            elif g == "ee_mass":
+                dm[:, i0] = w[6] * mv[:, 6] + s[6] * self._mw[:, 6]
+            elif g == "link_mass":
+                dm[:, i0 : i0 + 6] = (
+                    w[:6, None, None] * mv[:, :6] + s[:6, None, None] * self._mw[:, :6]
+                )
+            else:  # link_com: d jv_b / d theta_ba = -unit * (R_b e_a) x w_b
+                axes = np.swapaxes(self._rot[:, :6], -1, -2)  # (n, 6, a, 3): R_b e_a
+                djv = -COM_UNIT_M * _cross(axes, self._jw[:, :6, None])  # (n, 6, a, 3, 6)
+                t = np.einsum("nbakj,nbki->nbaij", djv, jv)  # jv^T djv, symmetrised below
+                t = w[None, :6, None, None, None] * (t + np.swapaxes(t, -1, -2))
+                dm[:, i0 : i0 + 18] = t.reshape(n, 18, nd, nd)
+            i0 += size
+        w0, phi = undamped_modes(m, kmat)
+        lam = w0**2  # (n, r)
+        gk = np.einsum("nir,pi,nis->nprs", phi, dk, phi)
+        hm = np.einsum("nir,npij,njs->nprs", phi, dm, phi)
+        a = gk - lam[:, None, None, :] * hm  # (n, p, s, r): phi_s^T (dK - lam_r dM) phi_r
+        dlam = np.diagonal(a, axis1=-2, axis2=-1)  # (n, p, r)
+        gap = lam[:, None, :] - lam[:, :, None]  # (n, s, r): lam_r - lam_s
+        off = ~np.eye(nd, dtype=bool)
+        safe = np.where(off & (np.abs(gap) > 1e-12 * lam[:, None, :]), gap, np.inf)
+        coef = a / safe[:, None]
+        coef[..., ~off] = -0.5 * np.diagonal(hm, axis1=-2, axis2=-1).reshape(n, p, nd)
+        u = self._J @ phi  # (n, 3, r)
+        du = np.einsum("nds,npsr->npdr", u, coef)
+        dlog_w = 0.5 * dlam / lam[:, None, :]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            dlog_k = 2.0 * dlog_w[:, :, None, :] - 2.0 * du / u[:, None]  # (n, p, 3, r)
+        cm = np.einsum("nir,i,nis->nrs", phi, c, phi)
+        cr = np.diagonal(cm, axis1=-2, axis2=-1)  # (n, r)
+        dcr = np.einsum("nir,pi,nir->npr", phi, dc, phi) + 2.0 * np.einsum(
+            "nrs,npsr->npr", cm, coef
+        )
+        dlog_z = dcr / cr[:, None, :] - dlog_w
+        nm = self.n_modes
+        vals = self.values(theta)
+        out = np.zeros((n, len(self.directions), nm, 3, p))
+        out[:, :, :, 0] = np.swapaxes(dlog_w[..., :nm], 1, 2)[:, None]
+        out[:, :, :, 1] = np.swapaxes(dlog_z[..., :nm], 1, 2)[:, None]
+        for j, d in enumerate(self.directions):
+            dk_d = np.swapaxes(dlog_k[:, :, _AXIS[d], :nm], 1, 2)  # (n, r, p)
+            capped = vals[:, j, :, 2] >= K_MAX
+            out[:, j, :, 2] = np.where(capped[..., None] | ~np.isfinite(dk_d), 0.0, dk_d)
+        return out
 
     def values(self, theta: ArrayLike) -> FloatArray:
-        """:func:`modal_values` of :meth:`modes`, shape (n, n_dir, n_modes, 3)."""
-        return modal_values(self.modes(theta), self.directions, self.n_modes)
+        """:func:`modal_values` of :meth:`modes`, shape (n, n_dir, n_modes, 3).
+
+        Computes only what the values need (pole frequencies and damping from
+        the eigenvalues of the state matrix, modal stiffness from the
+        undamped shapes), as :func:`robolobe.twin.modes.compute_modes` does.
+        """
+        m, k, c = self._matrices(theta)
+        w0, phi = undamped_modes(m, k)
+        u = self._J @ phi  # (n, 3, nm)
+        with np.errstate(divide="ignore"):
+            k_modal = (w0**2)[:, None, :] / u**2
+        nd = m.shape[-1]
+        m_inv = np.linalg.inv(m)
+        st = np.zeros((m.shape[0], 2 * nd, 2 * nd))
+        st[:, :nd, nd:] = np.eye(nd)
+        st[:, nd:, :nd] = -m_inv @ k
+        st[:, nd:, nd:] = -m_inv @ c
+        lam_all = np.linalg.eigvals(st)
+        lam = np.take_along_axis(lam_all, np.argsort(-lam_all.imag, axis=-1)[:, :nd], axis=-1)
+        if np.any(lam.imag <= 0.0):
+            raise InputError(
+                "damping: expected an underdamped system (complex pole pairs), found an "
+                "overdamped mode (real poles); reduce the damping"
+            )
+        w = np.sort(np.abs(lam), axis=-1)
+        lam = np.take_along_axis(lam, np.argsort(np.abs(lam), axis=-1), axis=-1)
+        nm = self.n_modes
+        if nd < nm:
+            raise InputError(f"n_modes: the twin has {nd} modes, asked {nm}")
+        out = np.empty((m.shape[0], len(self.directions), nm, 3))
+        out[..., 0] = w[:, None, :nm] / (2.0 * np.pi)
+        out[..., 1] = (-lam.real / w)[:, None, :nm]
+        for j, d in enumerate(self.directions):
+            kk = np.abs(k_modal[:, _AXIS[d], :nm])
+            out[:, j, :, 2] = np.where(np.isfinite(kk), np.minimum(kk, K_MAX), K_MAX)
+        return out
