@@ -152,3 +152,20 @@ def test_cli_transfer_twin_calibration(setup, tmp_path):
     assert bad.returncode == 2
     assert "--robot" in bad.stderr + bad.stdout
     assert "Traceback" not in bad.stderr
+
+
+def test_cli_bad_params_group(setup, tmp_path):
+    from robolobe.modal.modal_csv import write_modal_csv
+
+    ids, q, _ = design_arrays(seed_design("B"))
+    csv = tmp_path / "modal.csv"
+    ds = twin_modal_dataset(Twin(setup["truth"]), ids[:8], q[:8], noise=None)
+    write_modal_csv(csv, ds.to_frame())
+    out = tmp_path / "B_cal.toml"
+    cmd = [sys.executable, "-m", "robolobe.cli.main", "transfer", str(csv), "-o", str(out)]
+    cmd += ["--method", "twin-calibration", "--robot", "B", "--params", "stiffness,masses"]
+    res = subprocess.run(cmd, capture_output=True, text=True, check=False)
+    assert res.returncode == 2
+    assert "masses" in res.stderr + res.stdout
+    assert "Traceback" not in res.stderr
+    assert not out.exists()

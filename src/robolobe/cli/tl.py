@@ -167,9 +167,18 @@ def register(app: typer.Typer) -> None:
             typer.Option(
                 "--method",
                 help="'network' (the seed's transfer of --from) or 'twin-calibration' "
-                "(fit stiffness, damping and end-effector-mass factors of --robot).",
+                "(fit joint stiffness and damping, spindle and link masses and link centres "
+                "of mass of --robot).",
             ),
         ] = "network",
+        params: Annotated[
+            str,
+            typer.Option(
+                "--params",
+                help="twin-calibration: comma-separated groups out of stiffness, damping, "
+                "ee_mass, link_mass, link_com.",
+            ),
+        ] = "stiffness,damping,ee_mass,link_mass,link_com",
         frozen: Annotated[int, typer.Option("--frozen", help="Frozen layers (seed: 3).")] = 3,
         epochs: Annotated[
             int | None, typer.Option("--epochs", help="Default: the source's.")
@@ -195,7 +204,8 @@ def register(app: typer.Typer) -> None:
             df = read_modal_csv(modal_csv)
             t0 = time.perf_counter()
             with status("calibrating the twin"):
-                cal = TwinCalibration(robot=robot, random_state=seed).fit(df)
+                groups = tuple(g.strip() for g in params.split(",") if g.strip())
+                cal = TwinCalibration(robot=robot, params=groups, random_state=seed).fit(df)
             cal.save(output)
             console.print(
                 f"[bold]{output}[/]: {cal.n_postures_} postures, {cal.n_matched_} modes matched "
