@@ -449,7 +449,7 @@ class TwinCalibration:
                 bounds=(lo[first], hi[first]),
                 loss="soft_l1",
                 f_scale=0.02,
-                max_nfev=20 * (n1 + 1),
+                max_nfev=8 * (n1 + 1),
             )
             if sol is None or s0.cost < sol.cost:
                 sol = s0
@@ -474,7 +474,7 @@ class TwinCalibration:
                     bounds=(lo, hi),
                     loss="soft_l1",
                     f_scale=0.02,
-                    max_nfev=20 * (p + 1),
+                    max_nfev=8 * (p + 1),
                 )
                 if best is None or res2.cost < best.cost:
                     best = res2
@@ -497,7 +497,7 @@ class TwinCalibration:
                 jac=jacobian,
                 bounds=(lo, hi),
                 args=(idx,),
-                max_nfev=20 * (p + 1),
+                max_nfev=10 * (p + 1),
             )
             if not np.all(np.isfinite(sol.x)):
                 raise ConvergenceError(f"twin calibration failed: {sol.message}")
