@@ -32,10 +32,11 @@ re-matched until it stops changing.
 
 The calibrated robot (``robot_``) is an ordinary robot: :meth:`TwinCalibration.save`
 writes it as a robot TOML that planning and simulation accept as is.
-Predictions are the calibrated twin's modes with a spread propagated from the
-parameter covariance (Gauss-Newton, residual variance from the fit) by
-finite differences: they state the uncertainty of the *parameters*, not the
-error of the twin's structure (a model-form error is not in the spread).
+Predictions are the calibrated twin's modes with a spread: the parameter
+covariance (Gauss-Newton, residual variance from the fit) propagated by
+finite differences, plus the RMS log residual of each quantity at the
+training postures (what the calibrated twin still misses there: model-form
+error and measurement scatter).
 """
 
 from __future__ import annotations
@@ -578,7 +579,8 @@ class TwinCalibration:
             Lowest modes per direction; default: as in the training data.
         spread : bool
             Propagate the parameter covariance (one twin evaluation per
-            parameter); False gives zero spread.
+            parameter) and add the training residual scatter; False gives
+            zero spread.
 
         Returns
         -------
@@ -603,8 +605,11 @@ class TwinCalibration:
                 th[a] += h
                 jac[a] = (np.log(twin.values(th)) - center) / h
             jf = jac.reshape(len(self.theta_), -1)
-            var = np.einsum("ak,ab,bk->k", jf, self.covariance_, jf)
-            std = np.sqrt(np.clip(var, 0.0, None)).reshape(center.shape)
+            var = np.einsum("ak,ab,bk->k", jf, self.covariance_, jf).reshape(center.shape)
+            # plus what the calibrated twin still misses at the training postures
+            # (model-form error and measurement scatter), per quantity
+            rms = np.array([self.residual_rms_[c] for c in ("f", "zeta", "k")])
+            std = np.sqrt(np.clip(var, 0.0, None) + np.nan_to_num(rms) ** 2)
         return ModalPrediction(directions=dirs, center=center, std=std, kind="log")
 
     def predict_dataset(
