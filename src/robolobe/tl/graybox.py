@@ -70,7 +70,6 @@ from robolobe.tl.twin_params import (
 __all__ = ["DEFAULT_PARAMS", "PARAMETER_GROUPS", "TwinCalibration", "twin_values"]
 
 FloatArray = NDArray[np.float64]
-_AXIS = {"xx": 0, "yy": 1, "zz": 2}
 #: Default calibrated groups: every group of :data:`PARAMETER_GROUPS`.
 DEFAULT_PARAMS = ("stiffness", "damping", "ee_mass", "link_mass", "link_com")
 _FIRST_STAGE = ("stiffness", "damping", "ee_mass", "link_mass")

@@ -36,7 +36,8 @@ from numpy.typing import ArrayLike, NDArray
 
 from robolobe.errors import InputError
 from robolobe.robots.model import RigidBody, Robot
-from robolobe.twin.modes import Modes, compute_modes, undamped_modes
+from robolobe.robots.transforms import skew
+from robolobe.twin.modes import Modes, compute_modes, damped_poles, undamped_modes
 
 __all__ = [
     "COM_UNIT_M",
@@ -175,18 +176,6 @@ def modal_values(modes: Modes, directions: Sequence[str], n_modes: int) -> Float
     return out
 
 
-def _cross(r: FloatArray, jw: FloatArray) -> FloatArray:
-    """Columns ``r x jw[:, k]``; r (..., 3), jw (..., 3, m) -> (..., 3, m)."""
-    return np.stack(
-        [
-            r[..., 1, None] * jw[..., 2, :] - r[..., 2, None] * jw[..., 1, :],
-            r[..., 2, None] * jw[..., 0, :] - r[..., 0, None] * jw[..., 2, :],
-            r[..., 0, None] * jw[..., 1, :] - r[..., 1, None] * jw[..., 0, :],
-        ],
-        axis=-2,
-    )
-
-
 class ParametrizedTwin:
     """Modes of a robot file's twin at fixed postures as a function of ``theta``.
 
@@ -263,7 +252,7 @@ class ParametrizedTwin:
         if "link_com" in parts and np.any(parts["link_com"]):
             d = COM_UNIT_M * parts["link_com"].reshape(6, 3)
             r = np.einsum("nbij,bj->nbi", self._rot[:, :6], d)  # world offsets (n, 6, 3)
-            jv = jv - _cross(r, self._jw[:, :6])  # v = v0 + w x r
+            jv = jv - skew(r) @ self._jw[:, :6]  # v = v0 + w x r
             mv = np.concatenate([np.einsum("nbki,nbkj->nbij", jv, jv), self._mv[:, 6:]], axis=1)
         return s, jv, mv
 
@@ -317,7 +306,7 @@ class ParametrizedTwin:
                 )
             else:  # link_com: d jv_b / d theta_ba = -unit * (R_b e_a) x w_b
                 axes = np.swapaxes(self._rot[:, :6], -1, -2)  # (n, 6, a, 3): R_b e_a
-                djv = -COM_UNIT_M * _cross(axes, self._jw[:, :6, None])  # (n, 6, a, 3, 6)
+                djv = -COM_UNIT_M * skew(axes) @ self._jw[:, :6, None]  # (n, 6, a, 3, 6)
                 t = np.einsum("nbakj,nbki->nbaij", djv, jv)  # jv^T djv, symmetrised below
                 t = w[None, :6, None, None, None] * (t + np.swapaxes(t, -1, -2))
                 dm[:, i0 : i0 + 18] = t.reshape(n, 18, nd, nd)
@@ -368,20 +357,8 @@ class ParametrizedTwin:
         with np.errstate(divide="ignore"):
             k_modal = (w0**2)[:, None, :] / u**2
         nd = m.shape[-1]
-        m_inv = np.linalg.inv(m)
-        st = np.zeros((m.shape[0], 2 * nd, 2 * nd))
-        st[:, :nd, nd:] = np.eye(nd)
-        st[:, nd:, :nd] = -m_inv @ k
-        st[:, nd:, nd:] = -m_inv @ c
-        lam_all = np.linalg.eigvals(st)
-        lam = np.take_along_axis(lam_all, np.argsort(-lam_all.imag, axis=-1)[:, :nd], axis=-1)
-        if np.any(lam.imag <= 0.0):
-            raise InputError(
-                "damping: expected an underdamped system (complex pole pairs), found an "
-                "overdamped mode (real poles); reduce the damping"
-            )
-        w = np.sort(np.abs(lam), axis=-1)
-        lam = np.take_along_axis(lam, np.argsort(np.abs(lam), axis=-1), axis=-1)
+        lam, _ = damped_poles(m, k, c)
+        w = np.abs(lam)
         nm = self.n_modes
         if nd < nm:
             raise InputError(f"n_modes: the twin has {nd} modes, asked {nm}")

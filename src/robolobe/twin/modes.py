@@ -40,7 +40,15 @@ from numpy.typing import ArrayLike, NDArray
 
 from robolobe.errors import InputError
 
-__all__ = ["SEEN_RATIO", "Modes", "compute_modes", "lowest_seen", "seen_mask", "undamped_modes"]
+__all__ = [
+    "SEEN_RATIO",
+    "Modes",
+    "compute_modes",
+    "damped_poles",
+    "lowest_seen",
+    "seen_mask",
+    "undamped_modes",
+]
 
 FloatArray = NDArray[np.float64]
 ComplexArray = NDArray[np.complex128]
@@ -307,6 +315,50 @@ class Modes:
         return np.min(self.k_N_per_m, axis=-2)
 
 
+def damped_poles(
+    M: FloatArray, K: FloatArray, C: FloatArray, *, vectors: bool = False
+) -> tuple[ComplexArray, ComplexArray | None]:
+    """Upper-half-plane poles of ``(M, C, K)`` by rising ``|lambda|``.
+
+    Parameters
+    ----------
+    M, K, C : ndarray, shape (..., n, n)
+    vectors : bool
+        Also return the displacement part of the state-space eigenvectors
+        (shape (..., n, n), column r for pole r); without them only the
+        eigenvalues are computed (faster).
+
+    Raises
+    ------
+    InputError
+        On an overdamped mode (real poles).
+    """
+    n = M.shape[-1]
+    m_inv = np.linalg.inv(M)
+    s = np.zeros((*M.shape[:-2], 2 * n, 2 * n))
+    s[..., :n, n:] = np.eye(n)
+    s[..., n:, :n] = -m_inv @ K
+    s[..., n:, n:] = -m_inv @ C
+    if vectors:
+        lam_all, vec_all = np.linalg.eig(s)
+    else:
+        lam_all, vec_all = np.linalg.eigvals(s), None
+    # upper-half-plane poles: the n with largest imaginary part
+    order = np.argsort(-lam_all.imag, axis=-1, kind="stable")[..., :n]
+    lam = np.take_along_axis(lam_all, order, axis=-1)
+    if np.any(lam.imag <= 0.0):
+        raise InputError(
+            "damping: expected an underdamped system (complex pole pairs), found an "
+            "overdamped mode (real poles); reduce the damping"
+        )
+    by_w = np.argsort(np.abs(lam), axis=-1, kind="stable")
+    lam = np.take_along_axis(lam, by_w, axis=-1)
+    if vec_all is None:
+        return lam, None
+    psi = np.take_along_axis(vec_all[..., :n, :], order[..., None, :], axis=-1)
+    return lam, np.take_along_axis(psi, by_w[..., None, :], axis=-1)
+
+
 def compute_modes(M: ArrayLike, K: ArrayLike, C: ArrayLike, J: ArrayLike) -> Modes:
     """Damped and undamped modes of ``(M, C, K)`` seen through ``J``.
 
@@ -334,8 +386,6 @@ def compute_modes(M: ArrayLike, K: ArrayLike, C: ArrayLike, J: ArrayLike) -> Mod
         not positive definite, or an overdamped mode (real poles).
     """
     m, k, c, j = _system_arrays(M, K, C, J)
-    n = m.shape[-1]
-    batch = m.shape[:-2]
     _symmetric("C", c)
 
     # -- undamped problem: real mass-normalised shapes, modal stiffness
@@ -346,25 +396,8 @@ def compute_modes(M: ArrayLike, K: ArrayLike, C: ArrayLike, J: ArrayLike) -> Mod
         k_modal = (w0**2)[..., None, :] / u**2
 
     # -- damped problem: first-order (state-space) eigenvalues
-    m_inv = np.linalg.inv(m)
-    s = np.zeros((*batch, 2 * n, 2 * n))
-    s[..., :n, n:] = np.eye(n)
-    s[..., n:, :n] = -m_inv @ k
-    s[..., n:, n:] = -m_inv @ c
-    lam_all, vec_all = np.linalg.eig(s)
-    # upper-half-plane poles: the n with largest imaginary part
-    order = np.argsort(-lam_all.imag, axis=-1, kind="stable")[..., :n]
-    lam = np.take_along_axis(lam_all, order, axis=-1)
-    if np.any(lam.imag <= 0.0):
-        raise InputError(
-            "damping: expected an underdamped system (complex pole pairs), found an "
-            "overdamped mode (real poles); reduce the damping"
-        )
-    psi = np.take_along_axis(vec_all[..., :n, :], order[..., None, :], axis=-1)  # (..., n, n)
-    # sort by natural frequency |lambda|
-    by_w = np.argsort(np.abs(lam), axis=-1, kind="stable")
-    lam = np.take_along_axis(lam, by_w, axis=-1)
-    psi = np.take_along_axis(psi, by_w[..., None, :], axis=-1)
+    lam, psi = damped_poles(m, k, c, vectors=True)
+    assert psi is not None
     # a_r = psi^T (2 lambda M + C) psi (plain transpose, not Hermitian)
     a = 2.0 * lam * np.einsum("...ir,...ij,...jr->...r", psi, m, psi) + np.einsum(
         "...ir,...ij,...jr->...r", psi, c, psi
