@@ -102,6 +102,7 @@ def register(app: typer.Typer) -> None:
         ] = None,
     ) -> None:
         """Stability lobes (limiting axial depth vs spindle speed) of one tool point."""
+        from robolobe._atomic import check_output_file
         from robolobe.sld import (
             CuttingConditions,
             Material,
@@ -109,6 +110,10 @@ def register(app: typer.Typer) -> None:
             stability_lobes,
         )
         from robolobe.sld.io import read_modes_csv, write_lobes_csv
+
+        check_output_file(output, "--output")
+        if plot is not None:
+            check_output_file(plot, "--plot")
 
         if method not in ("zoa", "sdm"):
             raise InputError(f"--method: expected zoa or sdm, found {method!r}")
