@@ -17,8 +17,11 @@ from rich.progress import (
 
 __all__ = ["console", "err_console", "progress", "status"]
 
-console = Console()
-err_console = Console(stderr=True)
+# User text (file names, file contents quoted in messages) must print as
+# written: no ":x:" emoji codes, no colour guessing. Markup in messages is
+# escaped where they are printed.
+console = Console(emoji=False, highlight=False)
+err_console = Console(stderr=True, emoji=False, highlight=False)
 
 
 def progress() -> Progress:

@@ -38,8 +38,24 @@ app = typer.Typer(
 )
 
 
+def _print_version(value: bool) -> None:
+    if value:
+        from robolobe import __version__
+
+        typer.echo(f"robolobe {__version__}")
+        raise typer.Exit()
+
+
 @app.callback()
-def _root() -> None:
+def _root(
+    version: bool = typer.Option(
+        False,
+        "--version",
+        help="Print the robolobe version and exit.",
+        callback=_print_version,
+        is_eager=True,
+    ),
+) -> None:
     """robolobe: chatter-free milling plans for industrial robots."""
 
 
