@@ -67,6 +67,7 @@ _COMMAND_MODULES = (
     "tl",
     "sld",
     "diagnose",
+    "examples",
 )
 
 for _name in _COMMAND_MODULES:
