@@ -104,7 +104,7 @@ def test_bad_files(tmp_path):
         read_uff_frf(tmp_path / "u.uff")
     d.update(ordinate_spec_data_type=8)
     pyuff.UFF(str(tmp_path / "dup.uff")).write_sets([d, dict(d)], mode="overwrite")
-    with pytest.raises(InputError, match="more than once"):
+    with pytest.raises(InputError, match="already in record 1"):
         read_uff_frf(tmp_path / "dup.uff")
     (tmp_path / "junk.uff").write_text("not a universal file\n")
     with pytest.raises(InputError, match=r"junk\.uff"):

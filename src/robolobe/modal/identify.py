@@ -27,10 +27,11 @@ driving-point residue from the LSFD covariance, about that of ``k``).
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, ParamSpec, TypeVar
 
 import numpy as np
 import pandas as pd
@@ -65,6 +66,8 @@ __all__ = [
 ]
 
 _AX = "xyz"
+P = ParamSpec("P")
+T = TypeVar("T")
 #: Extra columns of the modal table beyond FORMATS.md section 3.
 EXTRA_COLUMNS: tuple[str, ...] = ("source", "visibility", "k_rel_std")
 
@@ -90,6 +93,12 @@ class CampaignModal:
         All data-quality findings.
     n_recovered : int
         Rows that come from neighbour recovery.
+    negative : pandas.DataFrame
+        Modes identified and numbered at a driving point with a negative
+        residue (``k_N_per_m < 0``, see :mod:`robolobe.modal.posture` for the
+        sign convention): columns of ``table`` without the extras. They are
+        not in ``table`` (a driving-point stiffness is positive in
+        ``modal.csv``); the ``sign`` issues say why.
     settings : IdentifySettings
     """
 
@@ -100,6 +109,7 @@ class CampaignModal:
     fit: pd.DataFrame
     issues: tuple[QualityIssue, ...]
     n_recovered: int
+    negative: pd.DataFrame = field(repr=False)
     settings: IdentifySettings = field(repr=False)
 
 
@@ -158,6 +168,19 @@ def _identify_one(
     return identify_posture(f, h, coherence=coh, settings=s, posture_id=pid)
 
 
+def one_blas_thread() -> Any:
+    """Context limiting BLAS to one thread.
+
+    The identification's linear algebra is many small solves: a multi-threaded
+    BLAS only adds synchronisation, and on a loaded machine (or beside other
+    workers) its spinning threads made one refinement residual 50x slower
+    (0.17 s vs 3 ms measured under a load average of 10).
+    """
+    from threadpoolctl import threadpool_limits
+
+    return threadpool_limits(limits=1, user_api="blas")
+
+
 def _run_postures(
     ids: Sequence[str],
     freqs: Sequence[NDArray],
@@ -182,7 +205,8 @@ def _run_postures(
 
     def run_chunk(a: int) -> list[PostureModal]:
         b = min(a + chunk, n)
-        return [_identify_one(ids[i], freqs[i], Hs[i], cohs[i], s) for i in range(a, b)]
+        with one_blas_thread():
+            return [_identify_one(ids[i], freqs[i], Hs[i], cohs[i], s) for i in range(a, b)]
 
     results: list[PostureModal] = []
     gen = Parallel(n_jobs=n_jobs, return_as="generator")(delayed(run_chunk)(a) for a in starts)
@@ -317,6 +341,18 @@ def _recover(
     return recovered
 
 
+def with_one_blas_thread(fn: Callable[P, T]) -> Callable[P, T]:
+    """Decorator: run ``fn`` with BLAS limited to one thread (:func:`one_blas_thread`)."""
+
+    @functools.wraps(fn)
+    def inner(*args: P.args, **kwargs: P.kwargs) -> T:
+        with one_blas_thread():
+            return fn(*args, **kwargs)
+
+    return inner
+
+
+@with_one_blas_thread
 def identify_frfs(
     posture_ids: Sequence[str],
     q_rad: ArrayLike,
@@ -452,6 +488,7 @@ def identify_frfs(
                 numbers[(p, d)] = lst
 
     rows = []
+    neg_rows = []
     fit_rows = []
     vis_min = s.visibility_min
     for p, pm in enumerate(postures):
@@ -466,6 +503,19 @@ def identify_frfs(
                 vis = float(pm.visibility[d, i])
                 rel = float(pm.k_rel_std[d, i])
                 precise = not (rel > s.k_rel_std_max)  # NaN (unknown) passes
+                if math.isfinite(k) and k < 0 and vis >= vis_min and precise:
+                    neg_rows.append(
+                        {
+                            "posture_id": pm.posture_id,
+                            **{c: float(v) for c, v in zip(Q_COLUMNS, q_deg, strict=True)},
+                            "dir": dname,
+                            "mode": m_no,
+                            "f_hz": float(pm.f_hz[i]),
+                            "zeta": float(pm.zeta[i]),
+                            "k_N_per_m": k,
+                        }
+                    )
+                    continue
                 if not (math.isfinite(k) and k > 0) or vis < weak_factor * vis_min or not precise:
                     continue
                 src = (
@@ -499,8 +549,14 @@ def identify_frfs(
                 }
             )
     if not rows:
+        why = (
+            f"; {len(neg_rows)} mode(s) have a negative driving-point residue (reversed "
+            "polarity or transfer FRFs: see the sign convention)"
+            if neg_rows
+            else ""
+        )
         raise InputError(
-            "no modes identified in any posture; check the band (--fmin/--fmax) and the data",
+            "no modes identified in any posture; check the band (--fmin/--fmax) and the data" + why,
             source="identify",
         )
     table = validate_modal_frame(pd.DataFrame(rows, columns=[*MODAL_COLUMNS, *EXTRA_COLUMNS]))
@@ -513,6 +569,7 @@ def identify_frfs(
         fit=fit,
         issues=tuple(issues),
         n_recovered=int(np.count_nonzero(table["source"] == "recovered")),
+        negative=pd.DataFrame(neg_rows, columns=list(MODAL_COLUMNS)),
         settings=s,
     )
 
