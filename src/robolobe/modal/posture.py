@@ -59,6 +59,7 @@ from robolobe.modal.stabilization import (
 from robolobe.modal.synthesis import poles_to_modal, synthesize_frf
 
 __all__ = [
+    "SIGN_CONVENTION",
     "IdentifySettings",
     "PostureModal",
     "clean_poles",
@@ -69,6 +70,11 @@ __all__ = [
 ]
 
 _AX = "xyz"
+#: One line stating the residue sign convention (printed by ``robolobe identify``).
+SIGN_CONVENTION = (
+    "sign convention: H(w) = sum_r (w_r^2/k_r) / (w_r^2 - w^2 + 2i zeta_r w_r w); k > 0 for "
+    "every mode of a driving point; k < 0: transfer FRF (shape signs differ) or reversed polarity"
+)
 
 
 @dataclass(frozen=True, kw_only=True)
