@@ -410,7 +410,7 @@ def _check_text_file(path: Path, display: str) -> None:
     try:
         body.decode("utf-8")
     except UnicodeDecodeError as exc:
-        if exc.start < len(body) - 4:  # not just a character cut by the 64 KiB window
+        if len(head) < 65536 or exc.start < len(body) - 4:  # not a character cut by the window
             line = body[: exc.start].count(b"\n") + 1
             raise InputError(
                 f"not UTF-8 text (byte 0x{body[exc.start]:02x}); expected a UTF-8 CSV file "
@@ -800,7 +800,15 @@ def read_campaign(path: str | os.PathLike[str], *, check_limits: bool = True) ->
             "found both frf.csv and frf/*.uff; expected one of them", source=os.fspath(folder)
         )
     if csv_path.is_file():
-        frfs = _read_frf_csv(csv_path, "frf.csv", ids, post_lines)
+        try:
+            frfs = _read_frf_csv(csv_path, "frf.csv", ids, post_lines)
+        except InputError as exc:
+            if not _ends_with_newline(csv_path):
+                raise InputError(
+                    f"{exc.detail} (frf.csv does not end with a line break: was it cut short?)",
+                    source=exc.source,
+                ) from None
+            raise
     elif has_uff:
         frfs = _read_uff_dir(uff_dir, ids, post_lines)
     else:
@@ -810,6 +818,18 @@ def read_campaign(path: str | os.PathLike[str], *, check_limits: bool = True) ->
     return Campaign(
         robot=robot, posture_ids=ids, q_rad=q_rad, frfs=tuple(frfs), notes=notes, test=test
     )
+
+
+def _ends_with_newline(path: Path) -> bool:
+    try:
+        with open(path, "rb") as fh:
+            fh.seek(0, os.SEEK_END)
+            if fh.tell() == 0:
+                return True
+            fh.seek(-1, os.SEEK_END)
+            return fh.read(1) in (b"\n", b"\r")
+    except OSError:
+        return True
 
 
 def _read_uff_dir(
