@@ -280,7 +280,7 @@ def identify_measurement(
             pid,
             [labels[j] for j in dp],
             f_r,
-            np.where(visible_r[dp], k_r[dp], np.nan).reshape(dp.size, -1),
+            np.where(visible_r[dp], k_r[dp], np.nan).reshape(dp.size, f_r.size),
         )
     )
     unseen = [lab for j, lab in enumerate(labels) if not visible_r[j].any()]

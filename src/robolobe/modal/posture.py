@@ -408,6 +408,25 @@ def _fit_top(s: IdentifySettings, f: NDArray[np.float64]) -> float:
     return max(s.fmax_hz, 0.98 * top)
 
 
+def _refuse_absurd(pid: str, h: NDArray[np.complex128]) -> None:
+    """InputError for a value no measurement gives (one ruins every fit of the posture)."""
+    from robolobe.twin.uff import frf_value_problem
+
+    if h.ndim != 3 or h.shape[1:] != (3, 3):
+        return
+    for r in range(3):
+        for e in range(3):
+            col = h[:, r, e]
+            fin = np.isfinite(col)
+            if not fin.any():
+                continue
+            prob = frf_value_problem(np.where(fin, col, 0.0))
+            if prob is not None:
+                raise InputError(
+                    f"line {prob[0] + 1}: {prob[1]}", source=f"posture {pid!r} {_AX[r]}{_AX[e]}"
+                )
+
+
 def identify_posture(
     freq_hz: ArrayLike,
     H: ArrayLike,
@@ -446,6 +465,7 @@ def identify_posture(
     f_all = np.asarray(freq_hz, dtype=float)
     h_all = np.asarray(H, dtype=complex)
     coh_all = None if coherence is None else np.asarray(coherence, dtype=float)
+    _refuse_absurd(pid, h_all)
     issues = check_posture_frfs(
         pid,
         f_all,
@@ -703,7 +723,7 @@ def _finish(
             [_AX[d] * 2 for d in dpts],
             f_true,
             np.array([np.where(vis_ok[d] & in_band, k[d], np.nan) for d in dpts]).reshape(
-                len(dpts), -1
+                len(dpts), f_true.size
             ),
         )
     )
