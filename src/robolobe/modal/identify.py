@@ -181,6 +181,39 @@ def one_blas_thread() -> Any:
     return threadpool_limits(limits=1, user_api="blas")
 
 
+def _map_chunks(
+    fn: Callable[[Any], PostureModal],
+    items: Sequence[Any],
+    n_jobs: int,
+    progress: Callable[[int], None] | None = None,
+    chunk: int = 8,
+) -> list[PostureModal]:
+    """``[fn(x) for x in items]``, in chunks over joblib workers (one BLAS thread each)."""
+    n = len(items)
+    if n_jobs == 1 or n < 4:
+        out = []
+        for x in items:
+            out.append(fn(x))
+            if progress is not None:
+                progress(1)
+        return out
+    from joblib import Parallel, delayed
+
+    def run_chunk(a: int) -> list[PostureModal]:
+        with one_blas_thread():
+            return [fn(x) for x in items[a : a + chunk]]
+
+    results: list[PostureModal] = []
+    gen = Parallel(n_jobs=n_jobs, return_as="generator")(
+        delayed(run_chunk)(a) for a in range(0, n, chunk)
+    )
+    for part in gen:
+        results.extend(part)
+        if progress is not None:
+            progress(len(part))
+    return results
+
+
 def _run_postures(
     ids: Sequence[str],
     freqs: Sequence[NDArray],
@@ -190,31 +223,16 @@ def _run_postures(
     n_jobs: int,
     progress: Callable[[int], None] | None,
 ) -> list[PostureModal]:
-    n = len(ids)
-    if n_jobs == 1 or n < 4:
-        out = []
-        for i in range(n):
-            out.append(_identify_one(ids[i], freqs[i], Hs[i], cohs[i], s))
-            if progress is not None:
-                progress(1)
-        return out
-    from joblib import Parallel, delayed
+    items = [(ids[i], freqs[i], Hs[i], cohs[i], s) for i in range(len(ids))]
+    return _map_chunks(_identify_args, items, n_jobs, progress)
 
-    chunk = 8
-    starts = list(range(0, n, chunk))
 
-    def run_chunk(a: int) -> list[PostureModal]:
-        b = min(a + chunk, n)
-        with one_blas_thread():
-            return [_identify_one(ids[i], freqs[i], Hs[i], cohs[i], s) for i in range(a, b)]
+def _identify_args(a: tuple[Any, ...]) -> PostureModal:
+    return _identify_one(*a)
 
-    results: list[PostureModal] = []
-    gen = Parallel(n_jobs=n_jobs, return_as="generator")(delayed(run_chunk)(a) for a in starts)
-    for part in gen:
-        results.extend(part)
-        if progress is not None:
-            progress(len(part))
-    return results
+
+def _refit_one(a: tuple[PostureModal, NDArray[np.complex128]]) -> PostureModal:
+    return refit_posture(a[0], a[1])
 
 
 def _choose_tracks(
@@ -274,6 +292,7 @@ def _recover(
     q_rad: NDArray,
     n_neighbours: int,
     tracking: TrackingSettings | None,
+    n_jobs: int = 1,
 ) -> dict[int, set[int]]:
     """Neighbour recovery in place; returns {posture: indices of recovered modes}.
 
@@ -293,6 +312,10 @@ def _recover(
     np.fill_diagonal(dist, np.inf)
     k_nb = min(n_neighbours, n - 1)
     nearest = np.argsort(dist, axis=1)[:, :k_nb]
+    # every posture's starts come from the identification before recovery (not from
+    # neighbours recovered a moment earlier): the result does not depend on the order
+    # or on the number of workers, and the refits can run in parallel
+    jobs: list[tuple[int, NDArray[np.complex128], list[int]]] = []
     for p, pm in enumerate(postures):
         if pm.H.size == 0:
             continue
@@ -320,11 +343,13 @@ def _recover(
                 continue  # a mode is already there (tracked elsewhere): leave it
             starts.append(-z0 * 2 * np.pi * f0 + 1j * 2 * np.pi * f0 * math.sqrt(1 - z0**2))
             start_t.append(t)
-        if not starts or pm.H.size == 0:
-            continue
-        new = refit_posture(pm, np.array(starts))
+        if starts:
+            jobs.append((p, np.array(starts), start_t))
+    refits = _map_chunks(_refit_one, [(postures[p], st) for p, st, _ in jobs], n_jobs)
+    for (p, starts_a, start_t), new in zip(jobs, refits, strict=True):
+        pm = postures[p]
         # compare in the corrected domain: shift the starts like the poles
-        extra_f = poles_to_modal(np.array(starts) + pm.settings.window_decay_per_s)[0]
+        extra_f = poles_to_modal(starts_a + pm.settings.window_decay_per_s)[0]
         lab = _relabel(pm, new, labels[p], extra_f, start_t)
         seen = set()
         for d in range(3):
@@ -460,7 +485,7 @@ def identify_frfs(
         )
     chosen = {_AX[d] * 2: _choose_tracks(postures, tr, d, s.n_modes, min_presence) for d in dirs}
     recovered_modes = (
-        _recover(postures, labels, chosen, q, n_neighbours, tracking) if recover else {}
+        _recover(postures, labels, chosen, q, n_neighbours, tracking, n_jobs) if recover else {}
     )
     tracks = ModeTracks(tuple(labels), tr.n_tracks, tr.order, tr.parent)
     # mode numbers per posture and direction: {(p, d): [(mode number, mode index), ...]}

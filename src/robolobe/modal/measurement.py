@@ -198,7 +198,9 @@ def identify_measurement(
     selected = select_poles(diagram, s.selection)
     lam = selected.poles
     if lam.size and s.refine:
-        lam = refine_poles(f, h, lam, weights=w, zeta_max=s.criteria.zeta_max).poles
+        lam = refine_poles(
+            f, h, lam, weights=w, zeta_max=s.criteria.zeta_max, jacobian=s.refine_jacobian
+        ).poles
     lam = clean_poles(lam, s, f)
     if lam.size == 0:
         raise InputError(

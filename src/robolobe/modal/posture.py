@@ -97,6 +97,9 @@ class IdentifySettings:
     selection : SelectionSettings
     refine : bool
         Nonlinear refinement of the selected poles.
+    refine_jacobian : {"analytic", "fd"}
+        Jacobian of the refinement (:func:`robolobe.modal.refine.refine_poles`);
+        ``"fd"`` (finite differences) is the slower reference.
     n_modes : int
         Modes per direction written to the modal dataset (seed: 5).
     visibility_min : float
@@ -123,6 +126,7 @@ class IdentifySettings:
     criteria: StabilizationCriteria = field(default_factory=StabilizationCriteria)
     selection: SelectionSettings = field(default_factory=SelectionSettings)
     refine: bool = True
+    refine_jacobian: str = "analytic"
     n_modes: int = 5
     visibility_min: float = 0.03
     k_rel_std_max: float = 0.25
@@ -147,6 +151,8 @@ class IdentifySettings:
             isinstance(self.max_order, int) and self.max_order >= 2
         ):
             raise bad("max_order", "an integer >= 2 or None")
+        if self.refine_jacobian not in ("analytic", "fd"):
+            raise bad("refine_jacobian", "'analytic' or 'fd'")
         if not (isinstance(self.n_modes, int) and self.n_modes >= 1):
             raise bad("n_modes", "an integer >= 1")
         if not 0 <= self.visibility_min < 1:
@@ -656,7 +662,15 @@ def _finish(
         if n_extra and refine_only_extra:
             free = np.zeros(lam.size, bool)
             free[-n_extra:] = True
-        ref = refine_poles(f, h, lam, weights=w, zeta_max=s.criteria.zeta_max, free=free)
+        ref = refine_poles(
+            f,
+            h,
+            lam,
+            weights=w,
+            zeta_max=s.criteria.zeta_max,
+            free=free,
+            jacobian=s.refine_jacobian,
+        )
         keep = np.ones(lam.size, bool)
         if n_extra:
             keep[-n_extra:] = ~ref.at_bound[-n_extra:]
