@@ -85,8 +85,8 @@ class _Projection:
         br = np.concatenate([B.real, B.imag], axis=0)  # (2F, P)
         bw = self.w2.T[:, :, None] * br[None]  # (K, 2F, P)
         A = np.matmul(bw.transpose(0, 2, 1), br)  # (K, P, P)
-        b = np.einsum("kfp,fk->kp", bw, self.y)
-        scale = np.sqrt(np.einsum("kpp->kp", A))
+        b = np.matmul(bw.transpose(0, 2, 1), self.y.T[:, :, None])[..., 0]
+        scale = np.sqrt(np.diagonal(A, axis1=1, axis2=2))
         scale = np.where(scale > 0, scale, 1.0)
         An = A / (scale[:, :, None] * scale[:, None, :]) + 1e-12 * np.eye(br.shape[1])[None]
         x = np.linalg.solve(An, (b / scale)[..., None])[..., 0] / scale
