@@ -41,7 +41,9 @@ def register(app: typer.Typer) -> None:
                 help="Folder for PNG stabilization diagrams and measured-vs-synthesized FRFs.",
             ),
         ] = None,
-        modes: Annotated[int, typer.Option("--modes", help="Modes per direction (seed: 5).")] = 5,
+        modes: Annotated[
+            int, typer.Option("--modes", help="Modes per direction (seed: 5; campaigns).")
+        ] = 5,
         fmin: Annotated[
             float | None,
             typer.Option(
@@ -124,6 +126,11 @@ def register(app: typer.Typer) -> None:
         if modes < 1:
             raise InputError(f"expected an integer >= 1, found {modes}", source="--modes")
         if campaign.is_file():
+            if fit_report is not None:
+                raise InputError(
+                    "applies to a campaign folder; a UFF file's fit is in its table",
+                    source="--fit-report",
+                )
             _identify_measurement(campaign, output, plots, fmin, fmax, window_end, record_s)
             return
         fmin = 4.0 if fmin is None else fmin
