@@ -152,7 +152,7 @@ def test_multi_reference_file_keyed_by_node_and_direction(tmp_path):
         assert text[r.line - 1].strip() == "-1"
         assert text[r.line].strip().startswith("58")
     # a campaign posture file is one node: the multi-point file is refused by name
-    with pytest.raises(InputError, match=r"record 2: FRF 1\+X/2\+X joins nodes \[1, 2, 3\]"):
+    with pytest.raises(InputError, match=r"record 2: FRF 1\+X/2\+X; the file has FRFs at nodes \[1, 2, 3\]"):
         read_uff_frf(tmp_path / "m.uff")
     # the same pair twice is refused with both record numbers, and the line
     pyuff.UFF(str(tmp_path / "d.uff")).write_sets([sets[1], sets[0], sets[1]], mode="overwrite")

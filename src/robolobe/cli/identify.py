@@ -281,7 +281,7 @@ def _identify_measurement(
     from robolobe.modal.identify import settings_from_test
     from robolobe.modal.measurement import identify_measurement
     from robolobe.modal.posture import SIGN_CONVENTION
-    from robolobe.twin.uff import read_uff_frfs
+    from robolobe.twin.uff import common_grid, read_uff_frfs
 
     if path.suffix.lower() not in (".uff", ".unv"):
         raise InputError(
@@ -290,15 +290,7 @@ def _identify_measurement(
             source=str(path),
         )
     recs = read_uff_frfs(path)
-    grid = recs[0].freq_hz
-    for r in recs[1:]:
-        if r.freq_hz.shape != grid.shape or not np.allclose(r.freq_hz, grid, rtol=1e-9, atol=0):
-            raise InputError(
-                f"record {r.record}: expected one frequency grid for all FRFs, found "
-                f"{r.freq_hz.size} points {r.freq_hz[0]:g}..{r.freq_hz[-1]:g} Hz vs {grid.size} "
-                f"points {grid[0]:g}..{grid[-1]:g} Hz",
-                source=f"{path}:{r.line}",
-            )
+    grid = common_grid(recs, str(path))
     top = float(grid[-1])
     lo = float(grid[grid > 0][0]) if np.any(grid > 0) else top
     fmax = top if fmax is None else fmax

@@ -528,18 +528,17 @@ def identify_frfs(
                 vis = float(pm.visibility[d, i])
                 rel = float(pm.k_rel_std[d, i])
                 precise = not (rel > s.k_rel_std_max)  # NaN (unknown) passes
+                row = {
+                    "posture_id": pm.posture_id,
+                    **{c: float(v) for c, v in zip(Q_COLUMNS, q_deg, strict=True)},
+                    "dir": dname,
+                    "mode": m_no,
+                    "f_hz": float(pm.f_hz[i]),
+                    "zeta": float(pm.zeta[i]),
+                    "k_N_per_m": k,
+                }
                 if math.isfinite(k) and k < 0 and vis >= vis_min and precise:
-                    neg_rows.append(
-                        {
-                            "posture_id": pm.posture_id,
-                            **{c: float(v) for c, v in zip(Q_COLUMNS, q_deg, strict=True)},
-                            "dir": dname,
-                            "mode": m_no,
-                            "f_hz": float(pm.f_hz[i]),
-                            "zeta": float(pm.zeta[i]),
-                            "k_N_per_m": k,
-                        }
-                    )
+                    neg_rows.append(row)
                     continue
                 if not (math.isfinite(k) and k > 0) or vis < weak_factor * vis_min or not precise:
                     continue
@@ -548,20 +547,7 @@ def identify_frfs(
                     if i in recovered_modes.get(p, set())
                     else ("identified" if vis >= vis_min else "weak")
                 )
-                rows.append(
-                    {
-                        "posture_id": pm.posture_id,
-                        **{c: float(v) for c, v in zip(Q_COLUMNS, q_deg, strict=True)},
-                        "dir": dname,
-                        "mode": m_no,
-                        "f_hz": float(pm.f_hz[i]),
-                        "zeta": float(pm.zeta[i]),
-                        "k_N_per_m": k,
-                        "source": src,
-                        "visibility": vis,
-                        "k_rel_std": rel,
-                    }
-                )
+                rows.append({**row, "source": src, "visibility": vis, "k_rel_std": rel})
                 sel_modes.append(i)
             fr, nr = _fit_metrics(pm, d, sel_modes)
             fit_rows.append(

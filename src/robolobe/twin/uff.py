@@ -63,6 +63,7 @@ __all__ = [
     "UFF_QUANTITIES",
     "UffFrf",
     "UffQuantity",
+    "common_grid",
     "frf_value_problem",
     "interpret_frf_units",
     "read_uff_frf",
@@ -632,6 +633,26 @@ def _record(d: dict[str, Any], rec_no: int, line: int, src: str, head: list[str]
     )
 
 
+def common_grid(recs: tuple[UffFrf, ...] | list[UffFrf], where: str) -> NDArray[np.float64]:
+    """The frequency grid shared by all records, shape (n_freq,) [Hz].
+
+    Raises
+    ------
+    InputError
+        Naming the first record (and its line) whose grid differs from the first's.
+    """
+    grid = recs[0].freq_hz
+    for r in recs[1:]:
+        if r.freq_hz.shape != grid.shape or not np.allclose(r.freq_hz, grid, rtol=1e-9, atol=0):
+            raise InputError(
+                f"record {r.record}: expected one frequency grid for all records of the file, "
+                f"found {r.freq_hz.size} points {r.freq_hz[0]:g}..{r.freq_hz[-1]:g} Hz vs "
+                f"{grid.size} points {grid[0]:g}..{grid[-1]:g} Hz",
+                source=f"{where}:{r.line}",
+            )
+    return grid
+
+
 def read_uff_frf(
     path: str | os.PathLike[str], *, source: str | None = None
 ) -> tuple[NDArray[np.float64], NDArray[np.complex128]]:
@@ -663,29 +684,18 @@ def read_uff_frf(
     recs = read_uff_frfs(path, source=where)
     nodes = sorted({r.rsp_node for r in recs} | {r.ref_node for r in recs})
     if len(nodes) > 1:
-        r = next(r for r in recs if r.rsp_node != recs[0].rsp_node or r.ref_node != r.rsp_node)
-        r = r if r.rsp_node != r.ref_node else recs[0]
+        r = next((x for x in recs if x.rsp_node != x.ref_node), None) or next(
+            x for x in recs if x.rsp_node != recs[0].rsp_node
+        )
         raise InputError(
-            f"record {r.record}: FRF {r.label} joins nodes {nodes}; a campaign posture file holds "
+            f"record {r.record}: FRF {r.label}; the file has FRFs at nodes {nodes}, a campaign "
+            "posture file holds "
             "the FRFs of one node (the TCP: response node = reference node). A multi-point "
             "measurement is identified on its own: robolobe identify FILE.uff",
             source=f"{where}:{r.line}",
         )
-    grid: NDArray[np.float64] | None = None
-    h: NDArray[np.complex128] | None = None
+    grid = common_grid(recs, where)
+    h = np.full((grid.size, 3, 3), np.nan + 0j)
     for r in recs:
-        if grid is None:
-            grid = r.freq_hz
-            h = np.full((grid.size, 3, 3), np.nan + 0j)
-        elif r.freq_hz.shape != grid.shape or not np.allclose(r.freq_hz, grid, rtol=1e-9, atol=0):
-            raise InputError(
-                f"record {r.record}: expected one frequency grid for all records of the file, "
-                f"found {r.freq_hz.size} points {r.freq_hz[0]:g}..{r.freq_hz[-1]:g} Hz vs "
-                f"{grid.size} points {grid[0]:g}..{grid[-1]:g} Hz",
-                source=f"{where}:{r.line}",
-            )
-        assert h is not None
         h[:, r.rsp_dir - 1, r.ref_dir - 1] = r.H
-    assert grid is not None
-    assert h is not None
     return grid, h
