@@ -14,7 +14,7 @@ import pytest
 
 from robolobe.errors import InputError
 from robolobe.modal.identify import identify_frfs
-from robolobe.modal.measurement import identify_measurement
+from robolobe.modal.measurement import MEASUREMENT_COLUMNS, identify_measurement
 from robolobe.modal.posture import IdentifySettings
 
 from ._systems import ModalSystem, add_noise
@@ -68,6 +68,12 @@ def test_transfer_frf_declared_as_driving_point_keeps_all_modes() -> None:
     assert "2 of 4 negative" in iss.message
     assert sorted(cm.table["f_hz"].round(0)) == [7.0, 21.0]
     assert sorted(cm.negative["f_hz"].round(0)) == [13.0, 30.0]
+    # the stabilization diagram says the same: two written, two with a negative residue
+    from robolobe.modal.plots import not_written
+
+    nw = not_written(pm, cm.table)
+    assert sorted(round(f) for f, why in nw if why.startswith("negative")) == [13, 30]
+    assert pm.n_modes - len(nw) == len(cm.table)
 
 
 def test_measurement_roving_hammer_signs_and_transfer_flag() -> None:
@@ -109,14 +115,7 @@ def test_measurement_roving_hammer_signs_and_transfer_flag() -> None:
     assert "transfer" in checks
     assert "3 of 4 FRFs are transfer FRFs" in checks["transfer"].message
     assert "sign" not in checks  # the driving point has only positive residues
-    assert list(mm.table.columns)[:6] == [
-        "frf",
-        "rsp_node",
-        "rsp_dir",
-        "ref_node",
-        "ref_dir",
-        "driving_point",
-    ]
+    assert tuple(mm.table.columns) == MEASUREMENT_COLUMNS
     # no driving point: said so
     mm2 = identify_measurement(f, np.stack(cols[1:], 1), nodes[1:], settings=s)
     assert "no driving point" in {i.check: i for i in mm2.issues}["transfer"].message

@@ -22,6 +22,7 @@ from robolobe.modal.stabilization import StabilizationDiagram
 from robolobe.modal.synthesis import poles_to_modal, synthesize_frf
 
 __all__ = [
+    "not_written",
     "plot_frf_overlay",
     "plot_measurement",
     "plot_stabilization",
@@ -74,6 +75,47 @@ def _diagram_axes(
         kinds.add(why)
 
 
+def not_written(pm: PostureModal, rows: pd.DataFrame) -> list[tuple[float, str]]:
+    """Fitted modes of a posture that are not in its modal-dataset rows, with the reason.
+
+    Parameters
+    ----------
+    pm : PostureModal
+    rows : pandas.DataFrame
+        This posture's rows of the modal dataset (``f_hz`` corrected, as written).
+
+    Returns
+    -------
+    list of (f_hz, reason)
+        ``f_hz`` as seen in the measured (windowed) data, the abscissa of the
+        stabilization diagram; reasons: a negative driving-point residue,
+        outside the band, beyond ``n_modes`` per direction, not visible or
+        imprecise.
+    """
+    s = pm.settings
+    fm = poles_to_modal(pm.poles_measured)[0]
+    wf = rows["f_hz"].to_numpy(float)
+    is_w = np.array([bool(np.any(np.isclose(wf, x, rtol=1e-9))) for x in pm.f_hz], bool)
+    neg = np.zeros(pm.n_modes, bool)
+    seen = np.zeros(pm.n_modes, bool)
+    for d in range(3):
+        if pm.used[d, d]:
+            neg[pm.negative_modes(d)] = True
+            seen[pm.modes_for_direction(d)] = True
+    in_band = (pm.f_hz >= s.fmin_hz) & (pm.f_hz <= s.fmax_hz)
+
+    def why(i: int) -> str:
+        if neg[i]:
+            return "negative driving-point residue"
+        if not in_band[i]:
+            return "outside the band"
+        if seen[i]:
+            return f"beyond {s.n_modes} modes per direction"
+        return "not visible or imprecise"
+
+    return [(float(fm[i]), why(int(i))) for i in np.flatnonzero(~is_w)]
+
+
 def plot_stabilization(
     pm: PostureModal, path: str | os.PathLike[str], rows: pd.DataFrame | None = None
 ) -> Path:
@@ -86,51 +128,47 @@ def plot_stabilization(
     (orange: a negative driving-point residue; grey: outside the band or not
     visible). Without ``rows`` every fitted pole is drawn solid.
     """
-    fig = _figure((9.0, 5.0))
-    ax = fig.add_subplot(1, 1, 1)
-    s = pm.settings
     fm = poles_to_modal(pm.poles_measured)[0]
     if rows is None:
         written = fm
         others: list[tuple[float, str]] = []
     else:
-        # rows hold corrected frequencies; match them to the posture's modes
-        wf = rows["f_hz"].to_numpy(float)
-        is_w = np.array([bool(np.any(np.isclose(wf, x, rtol=1e-9))) for x in pm.f_hz], bool)
-        neg = np.zeros(pm.n_modes, bool)
-        for d in range(3):
-            if pm.used[d, d]:
-                neg[pm.negative_modes(d)] = True
-        in_band = (pm.f_hz >= s.fmin_hz) & (pm.f_hz <= s.fmax_hz)
-        written = fm[is_w]
-        others = [
-            (
-                float(fm[i]),
-                "negative driving-point residue"
-                if neg[i]
-                else ("outside the band" if not in_band[i] else "not visible or imprecise"),
-            )
-            for i in np.flatnonzero(~is_w)
-        ]
-    _diagram_axes(ax, pm.diagram, written, others)
-    ax.set_xlim(s.fmin_hz * 0.5, s.fmax_hz * (1 + s.fit_margin))
+        others = not_written(pm, rows)
+        written = np.array([x for x in fm if not any(x == o[0] for o in others)])
+    s = pm.settings
+    title = f"posture {pm.posture_id}: stabilization diagram ({written.size} modes written" + (
+        f", {len(others)} fitted, not written)" if others else ")"
+    )
+    curves = [
+        (pm.freq_hz, np.abs(pm.H[:, d, d]), f"|H_{_AX[d]}{_AX[d]}|")
+        for d in range(3)
+        if pm.H.size and pm.used[d, d]
+    ]
+    xlim = (s.fmin_hz * 0.5, s.fmax_hz * (1 + s.fit_margin))
+    return _diagram_figure(pm.diagram, written, others, xlim, title, curves, path)
+
+
+def _diagram_figure(
+    dg: StabilizationDiagram | None,
+    written: NDArray[np.float64],
+    others: Sequence[tuple[float, str]],
+    xlim: tuple[float, float],
+    title: str,
+    curves: Sequence[tuple[NDArray[np.float64], NDArray[np.float64], str]],
+    path: str | os.PathLike[str],
+) -> Path:
+    """One stabilization-diagram PNG: markers, mode lines, |H| curves on a second axis."""
+    fig = _figure((9.0, 5.0))
+    ax = fig.add_subplot(1, 1, 1)
+    _diagram_axes(ax, dg, written, others)
+    ax.set_xlim(*xlim)
     ax.set_xlabel("frequency [Hz]")
     ax.set_ylabel("model order")
-    ax.set_title(
-        f"posture {pm.posture_id}: stabilization diagram ({written.size} modes written"
-        + (f", {len(others)} fitted, not written)" if others else ")")
-    )
-    if pm.H.size:
+    ax.set_title(title)
+    if curves:
         ax2 = ax.twinx()
-        for d in range(3):
-            if pm.used[d, d]:
-                ax2.semilogy(
-                    pm.freq_hz,
-                    np.abs(pm.H[:, d, d]),
-                    lw=0.8,
-                    alpha=0.6,
-                    label=f"|H_{_AX[d]}{_AX[d]}|",
-                )
+        for f, mag, lab in curves:
+            ax2.semilogy(f, mag, lw=0.8, alpha=0.6, label=lab)
         ax2.set_ylabel("|H| [m/N]")
         ax2.legend(loc="upper right", fontsize=7)
     ax.legend(loc="upper left", fontsize=7)
@@ -145,25 +183,12 @@ def plot_measurement(mm: MeasurementModal, path: str | os.PathLike[str]) -> Path
     Solid red lines: the modes in the written table (every mode visible in
     some FRF, whatever the sign of its residues).
     """
-    fig = _figure((9.0, 5.0))
-    ax = fig.add_subplot(1, 1, 1)
     s = mm.settings
-    decay = s.window_decay_per_s
-    written = poles_to_modal(mm.poles - decay)[0]
-    _diagram_axes(ax, mm.diagram, written, [])
-    ax.set_xlim(s.fmin_hz * 0.5, min(s.fmax_hz * (1 + s.fit_margin), float(mm.freq_hz[-1])))
-    ax.set_xlabel("frequency [Hz]")
-    ax.set_ylabel("model order")
-    ax.set_title(f"{mm.name}: stabilization diagram ({mm.n_modes} modes written)")
-    ax2 = ax.twinx()
-    for j, lab in enumerate(mm.labels[:8]):
-        ax2.semilogy(mm.freq_hz, np.abs(mm.H[:, j]), lw=0.8, alpha=0.6, label=f"|H {lab}|")
-    ax2.set_ylabel("|H| [m/N]")
-    ax2.legend(loc="upper right", fontsize=7)
-    ax.legend(loc="upper left", fontsize=7)
-    out = Path(path)
-    fig.savefig(out, dpi=110)
-    return out
+    written = poles_to_modal(mm.poles - s.window_decay_per_s)[0]
+    xlim = (s.fmin_hz * 0.5, min(s.fmax_hz * (1 + s.fit_margin), float(mm.freq_hz[-1])))
+    title = f"{mm.name}: stabilization diagram ({mm.n_modes} modes written)"
+    curves = [(mm.freq_hz, np.abs(mm.H[:, j]), f"|H {lab}|") for j, lab in enumerate(mm.labels[:8])]
+    return _diagram_figure(mm.diagram, written, [], xlim, title, curves, path)
 
 
 def plot_frf_overlay(pm: PostureModal, rows: pd.DataFrame, path: str | os.PathLike[str]) -> Path:
