@@ -152,7 +152,9 @@ def test_multi_reference_file_keyed_by_node_and_direction(tmp_path):
         assert text[r.line - 1].strip() == "-1"
         assert text[r.line].strip().startswith("58")
     # a campaign posture file is one node: the multi-point file is refused by name
-    with pytest.raises(InputError, match=r"record 2: FRF 1\+X/2\+X; the file has FRFs at nodes \[1, 2, 3\]"):
+    with pytest.raises(
+        InputError, match=r"record 2: FRF 1\+X/2\+X; the file has FRFs at nodes \[1, 2, 3\]"
+    ):
         read_uff_frf(tmp_path / "m.uff")
     # the same pair twice is refused with both record numbers, and the line
     pyuff.UFF(str(tmp_path / "d.uff")).write_sets([sets[1], sets[0], sets[1]], mode="overwrite")
@@ -281,3 +283,19 @@ def test_absurd_values_are_refused_naming_record_and_line(tmp_path, value, match
         read_uff_frf(tmp_path / "a.uff")
     with pytest.raises(InputError, match=match):
         read_uff_frf(tmp_path / "a.uff")
+
+
+def test_binary_58b_records_and_a_cut_binary_file(tmp_path):
+    f = np.arange(1, 200) * 0.5
+    u = pyuff.UFF(str(tmp_path / "b.uff"))
+    for ref in (1, 2):
+        u.write_sets(_set(1, 1, ref, 1, _h(f) * ref, f, binary=1), mode="add")
+    recs = read_uff_frfs(tmp_path / "b.uff")
+    assert [r.label for r in recs] == ["1+X/1+X", "1+X/2+X"]
+    assert recs[0].line == 1
+    assert recs[1].line > 1
+    np.testing.assert_allclose(recs[1].H, 2 * _h(f), rtol=1e-12)
+    raw = (tmp_path / "b.uff").read_bytes()
+    (tmp_path / "cut.uff").write_bytes(raw[: int(len(raw) * 0.8)])
+    with pytest.raises(InputError, match=rf"cut\.uff:{recs[1].line}: truncated file"):
+        read_uff_frfs(tmp_path / "cut.uff")
