@@ -285,6 +285,9 @@ def test_absurd_values_are_refused_naming_record_and_line(tmp_path, value, match
         read_uff_frf(tmp_path / "a.uff")
 
 
+# pyuff's binary writer leaves its file handle to the garbage collector
+@pytest.mark.filterwarnings("ignore::pytest.PytestUnraisableExceptionWarning")
+@pytest.mark.filterwarnings("ignore::ResourceWarning")
 def test_binary_58b_records_and_a_cut_binary_file(tmp_path):
     f = np.arange(1, 200) * 0.5
     u = pyuff.UFF(str(tmp_path / "b.uff"))
