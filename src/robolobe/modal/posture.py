@@ -185,8 +185,9 @@ class PostureModal:
         Residues (corrected for truncation when the record length is known);
         NaN for directions not used.
     k_N_per_m : ndarray, shape (3, n_modes)
-        Driving-point modal stiffness per direction x, y, z (NaN where the
-        driving point was not measured).
+        Driving-point modal stiffness per direction x, y, z, N/m, signed like
+        the residue (module docstring: negative means a transfer FRF or a
+        reversed polarity); NaN where the driving point was not measured.
     k_rel_std : ndarray, shape (3, n_modes)
         Relative standard deviation of the driving-point residue (LSFD
         covariance), about that of the modal stiffness.
