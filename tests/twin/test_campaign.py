@@ -380,3 +380,86 @@ def test_simulate_campaign_exact_and_tested():
         k_sim = np.argmax(np.abs(hs[p, 8:, 1, 1])) + 8
         k_ex = np.argmax(np.abs(receptance(q[p], fs)[8:, 1, 1])) + 8
         assert abs(fs[k_sim] - fs[k_ex]) <= 0.25
+
+
+# ---------------------------------------------------------------- bad input (issue 14)
+@pytest.mark.parametrize("variant", ["bom", "crlf", "mixed"])
+def test_bom_and_line_endings_read_the_same(tmp_path, variant):
+    out = _write(tmp_path)
+    ref = read_campaign(out)
+    for name in ("frf.csv", "postures.csv"):
+        raw = (out / name).read_bytes()
+        data = {
+            "bom": b"\xef\xbb\xbf" + raw,
+            "crlf": raw.replace(b"\n", b"\r\n"),
+            "mixed": raw.replace(b"\n", b"\r\n", 7),
+        }[variant]
+        (out / name).write_bytes(data)
+    got = read_campaign(out)
+    assert got.posture_ids == ref.posture_ids
+    for a, b in zip(got.frfs, ref.frfs, strict=True):
+        np.testing.assert_array_equal(a.freq_hz, b.freq_hz)
+        np.testing.assert_array_equal(a.H, b.H)
+
+
+def test_line_numbers_survive_mixed_line_endings(tmp_path):
+    out = _write(tmp_path)
+    lines = _lines(out / "frf.csv")
+    lines[9] = lines[9].rsplit(",", 1)[0] + ",abc"
+    (out / "frf.csv").write_bytes(
+        ("\r\n".join(lines[:5]) + "\n" + "\n".join(lines[5:]) + "\n").encode()
+    )
+    with pytest.raises(InputError, match=r"frf\.csv:10: expected a number in column im"):
+        read_campaign(out)
+
+
+@pytest.mark.parametrize(
+    ("data", "match"),
+    [
+        (b"", r"frf\.csv:1: empty file"),
+        (b"posture_id,dir,freq_hz,re,im\n\x00\x01\x02\x03" * 3, r"frf\.csv:2: binary data"),
+        (b"posture_id,dir,freq_hz,re,im\nT1,xx,0,1e-6,\xe9\n", r"frf\.csv:2: not UTF-8"),
+    ],
+)
+def test_empty_binary_and_non_utf8_frf_files(tmp_path, data, match):
+    out = _write(tmp_path)
+    (out / "frf.csv").write_bytes(data)
+    with pytest.raises(InputError, match=match):
+        read_campaign(out)
+
+
+def test_truncated_frf_csv_names_the_cut_line(tmp_path):
+    out = _write(tmp_path)
+    raw = (out / "frf.csv").read_bytes()
+    cut = raw[: int(len(raw) * 0.6)]
+    cut = cut[: cut.rindex(b",") + 4]  # inside the last line's value
+    (out / "frf.csv").write_bytes(cut)
+    # the last line parses (a number cut short is still a number): the rows missing after
+    # it are reported, with the hint that the file lacks its final line break
+    with pytest.raises(InputError, match=r"has no rows in frf\.csv .*was it cut short"):
+        read_campaign(out)
+    (out / "frf.csv").write_bytes(cut[: cut.rindex(b",") + 1])  # cut after a comma
+    last = cut.count(b"\n") + 1
+    with pytest.raises(InputError, match=rf"frf\.csv:{last}: missing value"):
+        read_campaign(out)
+
+
+@pytest.mark.parametrize(
+    ("text", "match"),
+    [
+        ("1e300", r"frf\.csv:12: posture 'T1', dir 'xx': implausible receptance"),
+        ("2e3", r"frf\.csv:12: posture 'T1', dir 'xx': implausible receptance"),
+        ("5e2", r"frf\.csv:12: posture 'T1', dir 'xx': implausible value .* times the median"),
+        ("inf", r"frf\.csv:12: expected a finite number in column re"),
+        ("nan", r"frf\.csv:12: expected a finite number in column re"),
+    ],
+)
+def test_non_finite_and_absurd_values(tmp_path, text, match):
+    out = _write(tmp_path)
+    lines = _lines(out / "frf.csv")
+    pid, d, f, _re, im = lines[11].split(",")
+    assert (pid, d) == ("T1", "xx")
+    lines[11] = ",".join([pid, d, f, text, im])
+    _put(out / "frf.csv", lines)
+    with pytest.raises(InputError, match=match):
+        read_campaign(out)

@@ -21,11 +21,18 @@ def register(app: typer.Typer) -> None:
         campaign: Annotated[
             Path,
             typer.Argument(
-                help="Campaign folder (campaign.toml, postures.csv, frf.csv or frf/*.uff)."
+                help="Campaign folder (campaign.toml, postures.csv, frf.csv or frf/*.uff), "
+                "or one UFF file of FRFs between numbered points (a measurement)."
             ),
         ],
         output: Annotated[
-            Path, typer.Option("--output", "-o", help="Modal dataset to write (modal.csv).")
+            Path,
+            typer.Option(
+                "--output",
+                "-o",
+                help="Modal dataset to write (modal.csv; for a UFF file: one row per FRF "
+                "and mode).",
+            ),
         ],
         plots: Annotated[
             Path | None,
@@ -34,13 +41,24 @@ def register(app: typer.Typer) -> None:
                 help="Folder for PNG stabilization diagrams and measured-vs-synthesized FRFs.",
             ),
         ] = None,
-        modes: Annotated[int, typer.Option("--modes", help="Modes per direction (seed: 5).")] = 5,
+        modes: Annotated[
+            int, typer.Option("--modes", help="Modes per direction (seed: 5; campaigns).")
+        ] = 5,
         fmin: Annotated[
-            float, typer.Option("--fmin", help="Lower edge of the analysis band [Hz].")
-        ] = 4.0,
+            float | None,
+            typer.Option(
+                "--fmin",
+                help="Lower edge of the analysis band [Hz] (campaign: 4; UFF file: 2 % of "
+                "the top line).",
+            ),
+        ] = None,
         fmax: Annotated[
-            float, typer.Option("--fmax", help="Upper edge of the analysis band [Hz].")
-        ] = 40.0,
+            float | None,
+            typer.Option(
+                "--fmax",
+                help="Upper edge of the analysis band [Hz] (campaign: 40; UFF file: the top line).",
+            ),
+        ] = None,
         window_end: Annotated[
             float | None,
             typer.Option(
@@ -78,7 +96,7 @@ def register(app: typer.Typer) -> None:
             bool, typer.Option("--all-issues", help="Print every data-quality finding.")
         ] = False,
     ) -> None:
-        """Identify the modes of every posture of CAMPAIGN and write the modal dataset.
+        """Identify the modes of every posture of CAMPAIGN (or of one UFF file) and write them.
 
         pLSCF (PolyMAX-style) poles over a range of model orders on all
         directions of a posture together, stabilization diagram, automatic
@@ -88,6 +106,13 @@ def register(app: typer.Typer) -> None:
         dir, mode, f_hz, zeta, k_N_per_m (plus source, visibility, k_rel_std)
         for every driving point measured; prints the data-quality findings and
         FRAC / NRMSE of the FRFs synthesized from the written rows.
+
+        Sign convention: H(w) = sum_r (w_r^2/k_r) / (w_r^2 - w^2 + 2 i zeta_r w_r w);
+        k > 0 at every mode of a driving point. Modes are identified whatever
+        the sign of their residue; a negative driving-point residue (transfer
+        FRF or reversed polarity) is reported and the mode left out of
+        modal.csv. A UFF file (e.g. a roving-hammer test, FRFs keyed by node
+        and direction) gives every mode with its signed k in every FRF.
         """
         import numpy as np
         import pandas as pd
@@ -100,6 +125,16 @@ def register(app: typer.Typer) -> None:
 
         if modes < 1:
             raise InputError(f"expected an integer >= 1, found {modes}", source="--modes")
+        if campaign.is_file():
+            if fit_report is not None:
+                raise InputError(
+                    "applies to a campaign folder; a UFF file's fit is in its table",
+                    source="--fit-report",
+                )
+            _identify_measurement(campaign, output, plots, fmin, fmax, window_end, record_s)
+            return
+        fmin = 4.0 if fmin is None else fmin
+        fmax = 40.0 if fmax is None else fmax
         if not (0 < fmin < fmax):
             raise InputError(
                 f"expected 0 < fmin < fmax, found fmin={fmin:g}, fmax={fmax:g}", source="--fmin"
@@ -112,6 +147,8 @@ def register(app: typer.Typer) -> None:
             raise InputError(f"expected a positive number, found {record_s:g}", "--record-s")
 
         camp = read_campaign(campaign)
+        from robolobe.modal.posture import SIGN_CONVENTION
+
         test: dict[str, Any] = dict(camp.test)
         if record_s is not None:
             test["duration_s"] = record_s
@@ -137,15 +174,15 @@ def register(app: typer.Typer) -> None:
                 recover=recover,
                 progress=lambda k: bar.advance(task, k),
             )
-        write_modal_csv(output, result.table)
-        if fit_report is not None:
-            with atomic_path(fit_report) as tmp:
-                result.fit.to_csv(tmp, index=False, lineterminator="\n", float_format="%.6g")
         if plots is not None:
             from robolobe.modal.plots import save_posture_plots
 
             with atomic_dir(plots) as tmp:
                 save_posture_plots(result.postures, result.table, tmp)
+        if fit_report is not None:
+            with atomic_path(fit_report) as tmp:
+                result.fit.to_csv(tmp, index=False, lineterminator="\n", float_format="%.6g")
+        write_modal_csv(output, result.table)
 
         # ---- summary
         tab = result.table
@@ -161,6 +198,16 @@ def register(app: typer.Typer) -> None:
             corr.append(f"truncation of {settings.record_length_s:g} s records corrected")
         if corr:
             console.print("corrections: " + ", ".join(corr), highlight=False)
+        console.print(SIGN_CONVENTION, highlight=False)
+        neg = result.negative
+        if len(neg):
+            err_console.print(
+                f"{len(neg)} mode(s) at {neg['posture_id'].nunique()} posture(s) have a negative "
+                "driving-point residue and are not in modal.csv (dirs "
+                f"{', '.join(sorted(neg['dir'].unique()))}): transfer FRFs or reversed polarity, "
+                "see the sign findings below",
+                highlight=False,
+            )
         from rich.table import Table
 
         t = Table(title=f"fit quality, {fmin:g}-{fmax:g} Hz (synthesized from modal.csv rows)")
@@ -215,3 +262,87 @@ def register(app: typer.Typer) -> None:
             absent = sorted({i.dir for i in info if i.check == "absent"})
             if absent:
                 console.print(f"not measured: {', '.join(absent)}", highlight=False)
+
+
+def _identify_measurement(
+    path: Path,
+    output: Path,
+    plots: Path | None,
+    fmin: float | None,
+    fmax: float | None,
+    window_end: float | None,
+    record_s: float | None,
+) -> None:
+    """``robolobe identify FILE.uff``: the modes of one measurement (FRFs between nodes)."""
+    import numpy as np
+
+    from robolobe._atomic import atomic_dir, atomic_path
+    from robolobe.cli._common import console, err_console
+    from robolobe.modal.identify import settings_from_test
+    from robolobe.modal.measurement import identify_measurement
+    from robolobe.modal.posture import SIGN_CONVENTION
+    from robolobe.twin.uff import common_grid, read_uff_frfs
+
+    if path.suffix.lower() not in (".uff", ".unv"):
+        raise InputError(
+            "expected a campaign folder or a UFF file (.uff, .unv), found a "
+            f"{path.suffix or 'plain'} file",
+            source=str(path),
+        )
+    recs = read_uff_frfs(path)
+    grid = common_grid(recs, str(path))
+    top = float(grid[-1])
+    lo = float(grid[grid > 0][0]) if np.any(grid > 0) else top
+    fmax = top if fmax is None else fmax
+    fmin = max(lo, 0.02 * fmax) if fmin is None else fmin
+    if not (0 < fmin < fmax):
+        raise InputError(
+            f"expected 0 < fmin < fmax, found fmin={fmin:g}, fmax={fmax:g}", source="--fmin"
+        )
+    test: dict[str, float] = {}
+    if record_s is not None:
+        test["duration_s"] = record_s
+    if window_end is not None:
+        if record_s is None:
+            raise InputError("--window-end needs the record length --record-s", "--window-end")
+        test["window_end"] = window_end
+    settings = settings_from_test(test, fmin_hz=fmin, fmax_hz=fmax)
+    mm = identify_measurement(
+        grid,
+        np.stack([r.H for r in recs], axis=1),
+        [r.key for r in recs],
+        settings=settings,
+        name=path.name,
+    )
+    if plots is not None:
+        from robolobe.modal.plots import plot_measurement
+
+        with atomic_dir(plots) as tmp:
+            plot_measurement(mm, tmp / "stab_measurement.png")
+    with atomic_path(output) as tmp:
+        mm.table.to_csv(tmp, index=False, lineterminator="\n", float_format="%.10g")
+    n_dp = sum(r.driving_point for r in recs)
+    console.print(
+        f"{path.name}: {len(recs)} FRFs ({n_dp} driving point(s), {len(recs) - n_dp} transfer), "
+        f"{fmin:g}-{fmax:g} Hz: {mm.n_modes} modes -> {output}",
+        highlight=False,
+    )
+    console.print(SIGN_CONVENTION, highlight=False)
+    from rich.table import Table
+
+    t = Table(title="modes (k sign per FRF: + / -; . not visible)")
+    for col in ("mode", "f_hz", "zeta %", *(r.label for r in recs[:8])):
+        t.add_column(col, justify="right")
+    for m in range(mm.n_modes):
+        signs = [
+            ("+" if mm.k_N_per_m[j, m] > 0 else "-") if mm.visible[j, m] else "."
+            for j in range(min(len(recs), 8))
+        ]
+        t.add_row(str(m + 1), f"{mm.f_hz[m]:.4g}", f"{100 * mm.zeta[m]:.3g}", *signs)
+    console.print(t)
+    if mm.issues:
+        err_console.print("data quality:", highlight=False)
+        for i in mm.issues:
+            err_console.print(escape(f"  [{i.check}] {i.message}"), highlight=False, soft_wrap=True)
+    else:
+        console.print("data quality: no problems found", highlight=False)

@@ -27,10 +27,11 @@ driving-point residue from the LSFD covariance, about that of ``k``).
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, ParamSpec, TypeVar
 
 import numpy as np
 import pandas as pd
@@ -65,6 +66,8 @@ __all__ = [
 ]
 
 _AX = "xyz"
+P = ParamSpec("P")
+T = TypeVar("T")
 #: Extra columns of the modal table beyond FORMATS.md section 3.
 EXTRA_COLUMNS: tuple[str, ...] = ("source", "visibility", "k_rel_std")
 
@@ -90,6 +93,12 @@ class CampaignModal:
         All data-quality findings.
     n_recovered : int
         Rows that come from neighbour recovery.
+    negative : pandas.DataFrame
+        Modes identified and numbered at a driving point with a negative
+        residue (``k_N_per_m < 0``, see :mod:`robolobe.modal.posture` for the
+        sign convention): columns of ``table`` without the extras. They are
+        not in ``table`` (a driving-point stiffness is positive in
+        ``modal.csv``); the ``sign`` issues say why.
     settings : IdentifySettings
     """
 
@@ -100,6 +109,7 @@ class CampaignModal:
     fit: pd.DataFrame
     issues: tuple[QualityIssue, ...]
     n_recovered: int
+    negative: pd.DataFrame = field(repr=False)
     settings: IdentifySettings = field(repr=False)
 
 
@@ -158,6 +168,52 @@ def _identify_one(
     return identify_posture(f, h, coherence=coh, settings=s, posture_id=pid)
 
 
+def one_blas_thread() -> Any:
+    """Context limiting BLAS to one thread.
+
+    The identification's linear algebra is many small solves: a multi-threaded
+    BLAS only adds synchronisation, and on a loaded machine (or beside other
+    workers) its spinning threads made one refinement residual 50x slower
+    (0.17 s vs 3 ms measured under a load average of 10).
+    """
+    from threadpoolctl import threadpool_limits
+
+    return threadpool_limits(limits=1, user_api="blas")
+
+
+def _map_chunks(
+    fn: Callable[[Any], PostureModal],
+    items: Sequence[Any],
+    n_jobs: int,
+    progress: Callable[[int], None] | None = None,
+    chunk: int = 8,
+) -> list[PostureModal]:
+    """``[fn(x) for x in items]``, in chunks over joblib workers (one BLAS thread each)."""
+    n = len(items)
+    if n_jobs == 1 or n < 4:
+        out = []
+        for x in items:
+            out.append(fn(x))
+            if progress is not None:
+                progress(1)
+        return out
+    from joblib import Parallel, delayed
+
+    def run_chunk(a: int) -> list[PostureModal]:
+        with one_blas_thread():
+            return [fn(x) for x in items[a : a + chunk]]
+
+    results: list[PostureModal] = []
+    gen = Parallel(n_jobs=n_jobs, return_as="generator")(
+        delayed(run_chunk)(a) for a in range(0, n, chunk)
+    )
+    for part in gen:
+        results.extend(part)
+        if progress is not None:
+            progress(len(part))
+    return results
+
+
 def _run_postures(
     ids: Sequence[str],
     freqs: Sequence[NDArray],
@@ -167,30 +223,16 @@ def _run_postures(
     n_jobs: int,
     progress: Callable[[int], None] | None,
 ) -> list[PostureModal]:
-    n = len(ids)
-    if n_jobs == 1 or n < 4:
-        out = []
-        for i in range(n):
-            out.append(_identify_one(ids[i], freqs[i], Hs[i], cohs[i], s))
-            if progress is not None:
-                progress(1)
-        return out
-    from joblib import Parallel, delayed
+    items = [(ids[i], freqs[i], Hs[i], cohs[i], s) for i in range(len(ids))]
+    return _map_chunks(_identify_args, items, n_jobs, progress)
 
-    chunk = 8
-    starts = list(range(0, n, chunk))
 
-    def run_chunk(a: int) -> list[PostureModal]:
-        b = min(a + chunk, n)
-        return [_identify_one(ids[i], freqs[i], Hs[i], cohs[i], s) for i in range(a, b)]
+def _identify_args(a: tuple[Any, ...]) -> PostureModal:
+    return _identify_one(*a)
 
-    results: list[PostureModal] = []
-    gen = Parallel(n_jobs=n_jobs, return_as="generator")(delayed(run_chunk)(a) for a in starts)
-    for part in gen:
-        results.extend(part)
-        if progress is not None:
-            progress(len(part))
-    return results
+
+def _refit_one(a: tuple[PostureModal, NDArray[np.complex128]]) -> PostureModal:
+    return refit_posture(a[0], a[1])
 
 
 def _choose_tracks(
@@ -250,6 +292,7 @@ def _recover(
     q_rad: NDArray,
     n_neighbours: int,
     tracking: TrackingSettings | None,
+    n_jobs: int = 1,
 ) -> dict[int, set[int]]:
     """Neighbour recovery in place; returns {posture: indices of recovered modes}.
 
@@ -269,6 +312,10 @@ def _recover(
     np.fill_diagonal(dist, np.inf)
     k_nb = min(n_neighbours, n - 1)
     nearest = np.argsort(dist, axis=1)[:, :k_nb]
+    # every posture's starts come from the identification before recovery (not from
+    # neighbours recovered a moment earlier): the result does not depend on the order
+    # or on the number of workers, and the refits can run in parallel
+    jobs: list[tuple[int, NDArray[np.complex128], list[int]]] = []
     for p, pm in enumerate(postures):
         if pm.H.size == 0:
             continue
@@ -296,11 +343,13 @@ def _recover(
                 continue  # a mode is already there (tracked elsewhere): leave it
             starts.append(-z0 * 2 * np.pi * f0 + 1j * 2 * np.pi * f0 * math.sqrt(1 - z0**2))
             start_t.append(t)
-        if not starts or pm.H.size == 0:
-            continue
-        new = refit_posture(pm, np.array(starts))
+        if starts:
+            jobs.append((p, np.array(starts), start_t))
+    refits = _map_chunks(_refit_one, [(postures[p], st) for p, st, _ in jobs], n_jobs)
+    for (p, starts_a, start_t), new in zip(jobs, refits, strict=True):
+        pm = postures[p]
         # compare in the corrected domain: shift the starts like the poles
-        extra_f = poles_to_modal(np.array(starts) + pm.settings.window_decay_per_s)[0]
+        extra_f = poles_to_modal(starts_a + pm.settings.window_decay_per_s)[0]
         lab = _relabel(pm, new, labels[p], extra_f, start_t)
         seen = set()
         for d in range(3):
@@ -317,6 +366,18 @@ def _recover(
     return recovered
 
 
+def with_one_blas_thread(fn: Callable[P, T]) -> Callable[P, T]:
+    """Decorator: run ``fn`` with BLAS limited to one thread (:func:`one_blas_thread`)."""
+
+    @functools.wraps(fn)
+    def inner(*args: P.args, **kwargs: P.kwargs) -> T:
+        with one_blas_thread():
+            return fn(*args, **kwargs)
+
+    return inner
+
+
+@with_one_blas_thread
 def identify_frfs(
     posture_ids: Sequence[str],
     q_rad: ArrayLike,
@@ -424,7 +485,7 @@ def identify_frfs(
         )
     chosen = {_AX[d] * 2: _choose_tracks(postures, tr, d, s.n_modes, min_presence) for d in dirs}
     recovered_modes = (
-        _recover(postures, labels, chosen, q, n_neighbours, tracking) if recover else {}
+        _recover(postures, labels, chosen, q, n_neighbours, tracking, n_jobs) if recover else {}
     )
     tracks = ModeTracks(tuple(labels), tr.n_tracks, tr.order, tr.parent)
     # mode numbers per posture and direction: {(p, d): [(mode number, mode index), ...]}
@@ -452,6 +513,7 @@ def identify_frfs(
                 numbers[(p, d)] = lst
 
     rows = []
+    neg_rows = []
     fit_rows = []
     vis_min = s.visibility_min
     for p, pm in enumerate(postures):
@@ -466,6 +528,18 @@ def identify_frfs(
                 vis = float(pm.visibility[d, i])
                 rel = float(pm.k_rel_std[d, i])
                 precise = not (rel > s.k_rel_std_max)  # NaN (unknown) passes
+                row = {
+                    "posture_id": pm.posture_id,
+                    **{c: float(v) for c, v in zip(Q_COLUMNS, q_deg, strict=True)},
+                    "dir": dname,
+                    "mode": m_no,
+                    "f_hz": float(pm.f_hz[i]),
+                    "zeta": float(pm.zeta[i]),
+                    "k_N_per_m": k,
+                }
+                if math.isfinite(k) and k < 0 and vis >= vis_min and precise:
+                    neg_rows.append(row)
+                    continue
                 if not (math.isfinite(k) and k > 0) or vis < weak_factor * vis_min or not precise:
                     continue
                 src = (
@@ -473,20 +547,7 @@ def identify_frfs(
                     if i in recovered_modes.get(p, set())
                     else ("identified" if vis >= vis_min else "weak")
                 )
-                rows.append(
-                    {
-                        "posture_id": pm.posture_id,
-                        **{c: float(v) for c, v in zip(Q_COLUMNS, q_deg, strict=True)},
-                        "dir": dname,
-                        "mode": m_no,
-                        "f_hz": float(pm.f_hz[i]),
-                        "zeta": float(pm.zeta[i]),
-                        "k_N_per_m": k,
-                        "source": src,
-                        "visibility": vis,
-                        "k_rel_std": rel,
-                    }
-                )
+                rows.append({**row, "source": src, "visibility": vis, "k_rel_std": rel})
                 sel_modes.append(i)
             fr, nr = _fit_metrics(pm, d, sel_modes)
             fit_rows.append(
@@ -499,8 +560,14 @@ def identify_frfs(
                 }
             )
     if not rows:
+        why = (
+            f"; {len(neg_rows)} mode(s) have a negative driving-point residue (reversed "
+            "polarity or transfer FRFs: see the sign convention)"
+            if neg_rows
+            else ""
+        )
         raise InputError(
-            "no modes identified in any posture; check the band (--fmin/--fmax) and the data",
+            "no modes identified in any posture; check the band (--fmin/--fmax) and the data" + why,
             source="identify",
         )
     table = validate_modal_frame(pd.DataFrame(rows, columns=[*MODAL_COLUMNS, *EXTRA_COLUMNS]))
@@ -513,6 +580,7 @@ def identify_frfs(
         fit=fit,
         issues=tuple(issues),
         n_recovered=int(np.count_nonzero(table["source"] == "recovered")),
+        negative=pd.DataFrame(neg_rows, columns=list(MODAL_COLUMNS)),
         settings=s,
     )
 

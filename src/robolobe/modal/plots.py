@@ -9,15 +9,25 @@ import os
 import re
 from collections.abc import Sequence
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pandas as pd
 from matplotlib.figure import Figure
+from numpy.typing import NDArray
 
+from robolobe.modal.measurement import MeasurementModal
 from robolobe.modal.posture import PostureModal
+from robolobe.modal.stabilization import StabilizationDiagram
 from robolobe.modal.synthesis import poles_to_modal, synthesize_frf
 
-__all__ = ["plot_frf_overlay", "plot_stabilization", "save_posture_plots"]
+__all__ = [
+    "not_written",
+    "plot_frf_overlay",
+    "plot_measurement",
+    "plot_stabilization",
+    "save_posture_plots",
+]
 
 _AX = "xyz"
 _SAFE = re.compile(r"[^A-Za-z0-9_.\-]+")
@@ -27,16 +37,13 @@ def _figure(figsize: tuple[float, float]) -> Figure:
     return Figure(figsize=figsize, layout="constrained")
 
 
-def plot_stabilization(pm: PostureModal, path: str | os.PathLike[str]) -> Path:
-    """Stabilization diagram of one posture over the measured FRF magnitudes.
-
-    Markers: ``o`` stable in frequency, damping and shape, ``+`` stable in
-    frequency only, ``.`` other physical poles; vertical lines: selected modes.
-    """
-    fig = _figure((9.0, 5.0))
-    ax = fig.add_subplot(1, 1, 1)
-    dg = pm.diagram
-    s = pm.settings
+def _diagram_axes(
+    ax: Any,
+    dg: StabilizationDiagram | None,
+    written_hz: NDArray[np.float64],
+    others: Sequence[tuple[float, str]],
+) -> None:
+    """Stabilization diagram markers, solid lines at ``written_hz``, dotted ones at ``others``."""
     if dg is not None and dg.poles.size:
         f = dg.f_hz
         phys = dg.physical
@@ -54,29 +61,134 @@ def plot_stabilization(pm: PostureModal, path: str | os.PathLike[str]) -> Path:
             ms=5,
             label="stable f, zeta, shape",
         )
-    for fr in poles_to_modal(pm.poles_measured)[0]:
-        ax.axvline(fr, color="tab:red", lw=0.8, alpha=0.7)
-    ax.set_xlim(s.fmin_hz * 0.5, s.fmax_hz * (1 + s.fit_margin))
+    for i, fr in enumerate(written_hz):
+        ax.axvline(fr, color="tab:red", lw=0.9, alpha=0.8, label="written" if i == 0 else None)
+    kinds: set[str] = set()
+    for fr, why in others:
+        ax.axvline(
+            fr,
+            color="tab:orange" if why.startswith("negative") else "0.5",
+            lw=0.9,
+            ls=":",
+            label=None if why in kinds else f"not written: {why}",
+        )
+        kinds.add(why)
+
+
+def not_written(pm: PostureModal, rows: pd.DataFrame) -> list[tuple[float, str]]:
+    """Fitted modes of a posture that are not in its modal-dataset rows, with the reason.
+
+    Parameters
+    ----------
+    pm : PostureModal
+    rows : pandas.DataFrame
+        This posture's rows of the modal dataset (``f_hz`` corrected, as written).
+
+    Returns
+    -------
+    list of (f_hz, reason)
+        ``f_hz`` as seen in the measured (windowed) data, the abscissa of the
+        stabilization diagram; reasons: a negative driving-point residue,
+        outside the band, beyond ``n_modes`` per direction, not visible or
+        imprecise.
+    """
+    s = pm.settings
+    fm = poles_to_modal(pm.poles_measured)[0]
+    wf = rows["f_hz"].to_numpy(float)
+    is_w = np.array([bool(np.any(np.isclose(wf, x, rtol=1e-9))) for x in pm.f_hz], bool)
+    neg = np.zeros(pm.n_modes, bool)
+    seen = np.zeros(pm.n_modes, bool)
+    for d in range(3):
+        if pm.used[d, d]:
+            neg[pm.negative_modes(d)] = True
+            seen[pm.modes_for_direction(d)] = True
+    in_band = (pm.f_hz >= s.fmin_hz) & (pm.f_hz <= s.fmax_hz)
+
+    def why(i: int) -> str:
+        if neg[i]:
+            return "negative driving-point residue"
+        if not in_band[i]:
+            return "outside the band"
+        if seen[i]:
+            return f"beyond {s.n_modes} modes per direction"
+        return "not visible or imprecise"
+
+    return [(float(fm[i]), why(int(i))) for i in np.flatnonzero(~is_w)]
+
+
+def plot_stabilization(
+    pm: PostureModal, path: str | os.PathLike[str], rows: pd.DataFrame | None = None
+) -> Path:
+    """Stabilization diagram of one posture over the measured FRF magnitudes.
+
+    Markers: ``o`` stable in frequency, damping and shape, ``+`` stable in
+    frequency only, ``.`` other physical poles. Solid red lines: the modes
+    written to the modal dataset (``rows``, this posture's rows of it);
+    dotted lines: the other fitted poles with the reason they are not written
+    (orange: a negative driving-point residue; grey: outside the band or not
+    visible). Without ``rows`` every fitted pole is drawn solid.
+    """
+    fm = poles_to_modal(pm.poles_measured)[0]
+    if rows is None:
+        written = fm
+        others: list[tuple[float, str]] = []
+    else:
+        others = not_written(pm, rows)
+        written = np.array([x for x in fm if not any(x == o[0] for o in others)])
+    s = pm.settings
+    title = f"posture {pm.posture_id}: stabilization diagram ({written.size} modes written" + (
+        f", {len(others)} fitted, not written)" if others else ")"
+    )
+    curves = [
+        (pm.freq_hz, np.abs(pm.H[:, d, d]), f"|H_{_AX[d]}{_AX[d]}|")
+        for d in range(3)
+        if pm.H.size and pm.used[d, d]
+    ]
+    xlim = (s.fmin_hz * 0.5, s.fmax_hz * (1 + s.fit_margin))
+    return _diagram_figure(pm.diagram, written, others, xlim, title, curves, path)
+
+
+def _diagram_figure(
+    dg: StabilizationDiagram | None,
+    written: NDArray[np.float64],
+    others: Sequence[tuple[float, str]],
+    xlim: tuple[float, float],
+    title: str,
+    curves: Sequence[tuple[NDArray[np.float64], NDArray[np.float64], str]],
+    path: str | os.PathLike[str],
+) -> Path:
+    """One stabilization-diagram PNG: markers, mode lines, |H| curves on a second axis."""
+    fig = _figure((9.0, 5.0))
+    ax = fig.add_subplot(1, 1, 1)
+    _diagram_axes(ax, dg, written, others)
+    ax.set_xlim(*xlim)
     ax.set_xlabel("frequency [Hz]")
     ax.set_ylabel("model order")
-    ax.set_title(f"posture {pm.posture_id}: stabilization diagram ({pm.n_modes} modes)")
-    if pm.H.size:
+    ax.set_title(title)
+    if curves:
         ax2 = ax.twinx()
-        for d in range(3):
-            if pm.used[d, d]:
-                ax2.semilogy(
-                    pm.freq_hz,
-                    np.abs(pm.H[:, d, d]),
-                    lw=0.8,
-                    alpha=0.6,
-                    label=f"|H_{_AX[d]}{_AX[d]}|",
-                )
+        for f, mag, lab in curves:
+            ax2.semilogy(f, mag, lw=0.8, alpha=0.6, label=lab)
         ax2.set_ylabel("|H| [m/N]")
         ax2.legend(loc="upper right", fontsize=7)
     ax.legend(loc="upper left", fontsize=7)
     out = Path(path)
     fig.savefig(out, dpi=110)
     return out
+
+
+def plot_measurement(mm: MeasurementModal, path: str | os.PathLike[str]) -> Path:
+    """Stabilization diagram of a measurement over its FRF magnitudes (PNG).
+
+    Solid red lines: the modes in the written table (every mode visible in
+    some FRF, whatever the sign of its residues).
+    """
+    s = mm.settings
+    written = poles_to_modal(mm.poles - s.window_decay_per_s)[0]
+    xlim = (s.fmin_hz * 0.5, min(s.fmax_hz * (1 + s.fit_margin), float(mm.freq_hz[-1])))
+    title = f"{mm.name}: stabilization diagram ({mm.n_modes} modes written)"
+    curves = [(mm.freq_hz, np.abs(mm.H[:, j]), f"|H {lab}|") for j, lab in enumerate(mm.labels[:8])]
+    return _diagram_figure(mm.diagram, written, [], xlim, title, curves, path)
 
 
 def plot_frf_overlay(pm: PostureModal, rows: pd.DataFrame, path: str | os.PathLike[str]) -> Path:
@@ -137,7 +249,7 @@ def save_posture_plots(
     paths = []
     for pm in postures:
         name = _SAFE.sub("_", pm.posture_id) or "posture"
-        paths.append(plot_stabilization(pm, out / f"stab_{name}.png"))
         rows = groups.get(pm.posture_id, table.iloc[0:0])
+        paths.append(plot_stabilization(pm, out / f"stab_{name}.png", rows))
         paths.append(plot_frf_overlay(pm, rows, out / f"frf_{name}.png"))
     return paths

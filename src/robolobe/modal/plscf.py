@@ -137,9 +137,11 @@ def plscf(
     Y = -(X[:, :, :, None] * np.transpose(h, (1, 0, 2))[:, :, None, :]).reshape(
         n_out, n_freq, (n_max + 1) * m
     )
-    R = np.einsum("ofa,ofb->oab", X.conj(), X).real  # (O, n+1, n+1)
-    S = np.einsum("ofa,ofb->oab", X.conj(), Y).real  # (O, n+1, (n+1)m)
-    T = np.einsum("ofa,ofb->ab", Y.conj(), Y).real  # ((n+1)m, (n+1)m), summed over outputs
+    Xh = X.conj().transpose(0, 2, 1)
+    R = np.matmul(Xh, X).real  # (O, n+1, n+1)
+    S = np.matmul(Xh, Y).real  # (O, n+1, (n+1)m)
+    Y2 = Y.reshape(n_out * n_freq, -1)
+    T = (Y2.conj().T @ Y2).real  # ((n+1)m, (n+1)m), summed over outputs
 
     out: list[PoleSet] = []
     for n in orders:
@@ -147,7 +149,7 @@ def plscf(
         Rn = R[:, :na, :na]
         Sn = S[:, :na, :nb]
         RinvS = np.linalg.solve(Rn, Sn)  # (O, na, nb)
-        M = T[:nb, :nb] - np.einsum("oab,oac->bc", Sn, RinvS)
+        M = T[:nb, :nb] - Sn.reshape(-1, nb).T @ RinvS.reshape(-1, nb)
         M = 0.5 * (M + M.T)
         k = n * m
         try:

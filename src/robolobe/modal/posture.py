@@ -20,6 +20,19 @@ Pipeline (:func:`identify_posture`):
    transient record).
 8. Modal stiffness per driving point ``k = Re(w^2 / (2 i w_d R_dd))`` and
    visibility (peak of the mode's term over the peak of the measured FRF).
+9. Residue signs (check ``sign``): a mode is kept whatever the sign of its
+   residue, and ``k`` carries that sign.
+
+Sign convention: with ``H(w) = sum_r (w_r^2 / k_r) / (w_r^2 - w^2 + 2 i
+zeta_r w_r w)``, ``k_r > 0`` means that at resonance the response lags the
+force by 90 deg (``Im H < 0``), as it does for every mode of a driving point
+measured with consistent sensor and hammer polarity. ``k_r < 0`` at a
+driving point is impossible physically: it shows a transfer FRF (response
+and excitation at different points, where shape components of opposite sign
+give residues of both signs) or a reversed polarity (all residues negative).
+Both are reported; the modal dataset cannot hold a negative driving-point
+stiffness, so such modes are identified, tracked, numbered and plotted but
+left out of ``modal.csv`` with the finding repeated in the summary.
 """
 
 from __future__ import annotations
@@ -46,14 +59,22 @@ from robolobe.modal.stabilization import (
 from robolobe.modal.synthesis import poles_to_modal, synthesize_frf
 
 __all__ = [
+    "SIGN_CONVENTION",
     "IdentifySettings",
     "PostureModal",
+    "clean_poles",
     "identify_posture",
     "posture_weights",
     "refit_posture",
+    "sign_issues",
 ]
 
 _AX = "xyz"
+#: One line stating the residue sign convention (printed by ``robolobe identify``).
+SIGN_CONVENTION = (
+    "sign convention: H(w) = sum_r (w_r^2/k_r) / (w_r^2 - w^2 + 2i zeta_r w_r w); k > 0 for "
+    "every mode of a driving point; k < 0: transfer FRF (shape signs differ) or reversed polarity"
+)
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -76,6 +97,9 @@ class IdentifySettings:
     selection : SelectionSettings
     refine : bool
         Nonlinear refinement of the selected poles.
+    refine_jacobian : {"analytic", "fd"}
+        Jacobian of the refinement (:func:`robolobe.modal.refine.refine_poles`);
+        ``"fd"`` (finite differences) is the slower reference.
     n_modes : int
         Modes per direction written to the modal dataset (seed: 5).
     visibility_min : float
@@ -102,6 +126,7 @@ class IdentifySettings:
     criteria: StabilizationCriteria = field(default_factory=StabilizationCriteria)
     selection: SelectionSettings = field(default_factory=SelectionSettings)
     refine: bool = True
+    refine_jacobian: str = "analytic"
     n_modes: int = 5
     visibility_min: float = 0.03
     k_rel_std_max: float = 0.25
@@ -126,6 +151,8 @@ class IdentifySettings:
             isinstance(self.max_order, int) and self.max_order >= 2
         ):
             raise bad("max_order", "an integer >= 2 or None")
+        if self.refine_jacobian not in ("analytic", "fd"):
+            raise bad("refine_jacobian", "'analytic' or 'fd'")
         if not (isinstance(self.n_modes, int) and self.n_modes >= 1):
             raise bad("n_modes", "an integer >= 1")
         if not 0 <= self.visibility_min < 1:
@@ -158,8 +185,9 @@ class PostureModal:
         Residues (corrected for truncation when the record length is known);
         NaN for directions not used.
     k_N_per_m : ndarray, shape (3, n_modes)
-        Driving-point modal stiffness per direction x, y, z (NaN where the
-        driving point was not measured).
+        Driving-point modal stiffness per direction x, y, z, N/m, signed like
+        the residue (module docstring: negative means a transfer FRF or a
+        reversed polarity); NaN where the driving point was not measured.
     k_rel_std : ndarray, shape (3, n_modes)
         Relative standard deviation of the driving-point residue (LSFD
         covariance), about that of the modal stiffness.
@@ -212,17 +240,24 @@ class PostureModal:
         return int(self.f_hz.size)
 
     def modes_for_direction(self, d: int) -> NDArray[np.intp]:
-        """Modes visible at driving point ``d`` (0, 1, 2): ``k > 0``, visibility and precision.
+        """Modes visible at driving point ``d`` (0, 1, 2), whatever the sign of their residue.
 
-        Visible: in the analysis band, ``visibility >= visibility_min`` and the
-        residue's relative standard deviation ``<= k_rel_std_max``.
+        Visible: in the analysis band, ``k`` finite and non-zero,
+        ``visibility >= visibility_min`` and the residue's relative standard
+        deviation ``<= k_rel_std_max``. ``k < 0`` (see the module's sign
+        convention) is kept here and reported by the ``sign`` check.
         """
         k = self.k_N_per_m[d]
         vis = self.visibility[d]
         prec = np.nan_to_num(self.k_rel_std[d], nan=0.0) <= self.settings.k_rel_std_max
         in_band = (self.f_hz >= self.settings.fmin_hz) & (self.f_hz <= self.settings.fmax_hz)
-        ok = np.isfinite(k) & (k > 0) & (vis >= self.settings.visibility_min) & prec & in_band
+        ok = np.isfinite(k) & (k != 0) & (vis >= self.settings.visibility_min) & prec & in_band
         return np.flatnonzero(ok)
+
+    def negative_modes(self, d: int) -> NDArray[np.intp]:
+        """Visible modes of driving point ``d`` with a negative residue (``k < 0``)."""
+        idx = self.modes_for_direction(d)
+        return idx[self.k_N_per_m[d, idx] < 0]
 
     def measured_zeta(self) -> NDArray[np.float64]:
         """Damping ratios as seen in the windowed data, shape (n_modes,)."""
@@ -380,6 +415,25 @@ def _fit_top(s: IdentifySettings, f: NDArray[np.float64]) -> float:
     return max(s.fmax_hz, 0.98 * top)
 
 
+def _refuse_absurd(pid: str, h: NDArray[np.complex128]) -> None:
+    """InputError for a value no measurement gives (one ruins every fit of the posture)."""
+    from robolobe.twin.uff import frf_value_problem
+
+    if h.ndim != 3 or h.shape[1:] != (3, 3):
+        return
+    for r in range(3):
+        for e in range(3):
+            col = h[:, r, e]
+            fin = np.isfinite(col)
+            if not fin.any():
+                continue
+            prob = frf_value_problem(np.where(fin, col, 0.0))
+            if prob is not None:
+                raise InputError(
+                    f"line {prob[0] + 1}: {prob[1]}", source=f"posture {pid!r} {_AX[r]}{_AX[e]}"
+                )
+
+
 def identify_posture(
     freq_hz: ArrayLike,
     H: ArrayLike,
@@ -418,6 +472,7 @@ def identify_posture(
     f_all = np.asarray(freq_hz, dtype=float)
     h_all = np.asarray(H, dtype=complex)
     coh_all = None if coherence is None else np.asarray(coherence, dtype=float)
+    _refuse_absurd(pid, h_all)
     issues = check_posture_frfs(
         pid,
         f_all,
@@ -461,7 +516,13 @@ def identify_posture(
     n_max = s.max_order if s.max_order is not None else math.ceil(40 / m) + 2
     n_max = max(2, min(n_max, (2 * f.size * Hp.shape[1]) // m - 2))
     orders = list(range(1, n_max + 1)) if m > 1 else list(range(2, n_max + 1, 2))
-    pole_sets = plscf(f, Hp, orders, weights=Wp)
+    try:
+        pole_sets = plscf(f, Hp, orders, weights=Wp)
+    except np.linalg.LinAlgError as exc:
+        raise InputError(
+            f"the pole estimation failed ({exc}): check the FRF values for outliers or wrong units",
+            source=f"posture {pid!r}",
+        ) from None
     # poles up to near the fit band's edge: modes just above fmax are fitted (so that
     # they do not leak into the in-band residues) but not reported
     diagram = stabilization_diagram(
@@ -511,6 +572,72 @@ def refit_posture(pm: PostureModal, extra_poles: ArrayLike) -> PostureModal:
     )
 
 
+def clean_poles(
+    lam: NDArray[np.complex128], s: IdentifySettings, f: NDArray[np.float64]
+) -> NDArray[np.complex128]:
+    """Poles in the fit band with damping in range, rising, duplicates dropped.
+
+    Two poles within 0.2 % in frequency and 10 % in damping are one.
+
+    Parameters
+    ----------
+    lam : ndarray of complex, shape (n,)
+        Poles, rad/s.
+    s : IdentifySettings
+    f : ndarray, shape (n_freq,)
+        Fitting band lines, Hz.
+    """
+    fm, zm = poles_to_modal(lam)
+    inb = (fm >= s.fmin_hz) & (fm <= _fit_top(s, f)) & (zm > 0) & (zm < s.criteria.zeta_max)
+    lam = lam[inb]
+    lam = lam[np.argsort(np.abs(lam))]
+    if lam.size > 1:
+        fm, zm = poles_to_modal(lam)
+        dup = np.zeros(lam.size, bool)
+        for i in range(1, lam.size):
+            if abs(fm[i] - fm[i - 1]) < 0.002 * fm[i] and abs(zm[i] - zm[i - 1]) < 0.1 * zm[i]:
+                dup[i] = True
+        lam = lam[~dup]
+    return lam
+
+
+def sign_issues(
+    pid: str, labels: Sequence[str], f_hz: NDArray[np.float64], k: NDArray[np.float64]
+) -> list[QualityIssue]:
+    """``sign`` findings for driving-point FRFs: residues of both signs, or all negative.
+
+    Parameters
+    ----------
+    pid : str
+        Posture (or measurement) name.
+    labels : sequence of str, length n_frf
+        Name of each driving-point FRF (e.g. ``"xx"``).
+    f_hz : ndarray, shape (n_modes,)
+    k : ndarray, shape (n_frf, n_modes)
+        Signed modal stiffness of the visible modes, NaN where not visible.
+    """
+    out = []
+    for lab, kd in zip(labels, k, strict=True):
+        vis = np.isfinite(kd) & (kd != 0)
+        neg = vis & (kd < 0)
+        if not neg.any():
+            continue
+        fs = ", ".join(f"{x:.4g}" for x in f_hz[neg])
+        if neg.sum() == vis.sum():
+            msg = (
+                f"all {int(neg.sum())} residues negative (modes at {fs} Hz): reversed polarity "
+                "(sensor or hammer the other way round, or a direction code without its sign)"
+            )
+        else:
+            msg = (
+                f"residues of both signs ({int(neg.sum())} of {int(vis.sum())} negative, at "
+                f"{fs} Hz): not a driving-point FRF (a transfer FRF between two points) or "
+                "a sign flip"
+            )
+        out.append(QualityIssue(pid, lab, "sign", "warning", msg, float(neg.sum())))
+    return out
+
+
 def _finish(
     pid: str,
     f: NDArray[np.float64],
@@ -536,23 +663,20 @@ def _finish(
         if n_extra and refine_only_extra:
             free = np.zeros(lam.size, bool)
             free[-n_extra:] = True
-        ref = refine_poles(f, h, lam, weights=w, zeta_max=s.criteria.zeta_max, free=free)
+        ref = refine_poles(
+            f,
+            h,
+            lam,
+            weights=w,
+            zeta_max=s.criteria.zeta_max,
+            free=free,
+            jacobian=s.refine_jacobian,
+        )
         keep = np.ones(lam.size, bool)
         if n_extra:
             keep[-n_extra:] = ~ref.at_bound[-n_extra:]
         lam = ref.poles[keep]
-    fm, zm = poles_to_modal(lam)
-    inb = (fm >= s.fmin_hz) & (fm <= _fit_top(s, f)) & (zm > 0) & (zm < s.criteria.zeta_max)
-    lam = lam[inb]
-    lam = lam[np.argsort(np.abs(lam))]
-    # drop duplicates (two poles within 0.2 % in frequency and damping)
-    if lam.size > 1:
-        fm, zm = poles_to_modal(lam)
-        dup = np.zeros(lam.size, bool)
-        for i in range(1, lam.size):
-            if abs(fm[i] - fm[i - 1]) < 0.002 * fm[i] and abs(zm[i] - zm[i - 1]) < 0.1 * zm[i]:
-                dup[i] = True
-        lam = lam[~dup]
+    lam = clean_poles(lam, s, f)
     if lam.size == 0:
         issues.append(QualityIssue(pid, "*", "poles", "warning", "no poles left in the band"))
         return _empty(pid, issues, s, f, h, w, used, diagram, selected)
@@ -602,6 +726,22 @@ def _finish(
     )
     vis = peak / hmax[:, None]
     shapes, signed = _shapes(lam_true, R, used)
+    vis_ok = (np.where(np.isfinite(vis), vis, 0.0) >= s.visibility_min) & (
+        np.nan_to_num(k_rel, nan=0.0) <= s.k_rel_std_max
+    )
+    in_band = (f_true >= s.fmin_hz) & (f_true <= s.fmax_hz)
+    dpts = [d for d in range(3) if used[d, d]]
+    issues = [i for i in issues if i.check != "sign"]
+    issues.extend(
+        sign_issues(
+            pid,
+            [_AX[d] * 2 for d in dpts],
+            f_true,
+            np.array([np.where(vis_ok[d] & in_band, k[d], np.nan) for d in dpts]).reshape(
+                len(dpts), f_true.size
+            ),
+        )
+    )
     return PostureModal(
         posture_id=pid,
         f_hz=f_true,

@@ -37,7 +37,7 @@ from numpy.typing import ArrayLike, NDArray
 from robolobe._atomic import atomic_dir
 from robolobe.errors import InputError
 from robolobe.twin.hammer import HammerTestSettings, simulate_hammer_test
-from robolobe.twin.uff import UffQuantity, read_uff_frf, write_uff_frf
+from robolobe.twin.uff import UffQuantity, frf_value_problem, read_uff_frf, write_uff_frf
 
 __all__ = [
     "ALL_DIRS",
@@ -347,10 +347,12 @@ def _read_csv(
     """Read a CSV; check the header; return the frame (blank lines dropped) and line numbers."""
     if not path.is_file():
         raise InputError("file not found", source=display)
+    _check_text_file(path, display)
     num_cols = [c for c in required if c not in str_cols]
     try:
         df = pd.read_csv(
             path,
+            encoding="utf-8-sig",
             dtype={c: str for c in str_cols},
             keep_default_na=False,
             na_values={c: [""] for c in num_cols},
@@ -390,6 +392,31 @@ def _read_csv(
         df = df.loc[~blank].reset_index(drop=True)
         lines = lines[~blank]
     return df, lines
+
+
+def _check_text_file(path: Path, display: str) -> None:
+    """Refuse binary files (NUL bytes or invalid UTF-8 in the first 64 KiB) by name."""
+    try:
+        with open(path, "rb") as fh:
+            head = fh.read(65536)
+    except OSError as exc:
+        raise InputError(f"cannot read the file: {exc.strerror}", source=display) from None
+    body = head[3:] if head.startswith(b"\xef\xbb\xbf") else head
+    if b"\0" in body:
+        line = body[: body.index(b"\0")].count(b"\n") + 1
+        raise InputError(
+            "binary data (a NUL byte); expected a UTF-8 text CSV file", source=f"{display}:{line}"
+        )
+    try:
+        body.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        if len(head) < 65536 or exc.start < len(body) - 4:  # not a character cut by the window
+            line = body[: exc.start].count(b"\n") + 1
+            raise InputError(
+                f"not UTF-8 text (byte 0x{body[exc.start]:02x}); expected a UTF-8 CSV file "
+                "(save it as UTF-8)",
+                source=f"{display}:{line}",
+            ) from None
 
 
 def _numeric(df: pd.DataFrame, col: str, lines: NDArray[np.int64], display: str) -> FloatArray:
@@ -661,6 +688,15 @@ def _read_frf_csv(
             source=f"{display}:{lines[i]}",
         )
     values = (re_ + 1j * im_)[order]
+    starts0 = np.flatnonzero(np.r_[True, ~same])
+    for a, b in zip(starts0, np.r_[starts0[1:], g_s.size], strict=True):
+        prob = frf_value_problem(values[a:b])
+        if prob is not None:
+            row = order[a + prob[0]]
+            raise InputError(
+                f"posture {pid.iloc[row]!r}, dir {dirs.iloc[row]!r}: {prob[1]}",
+                source=f"{display}:{lines[row]}",
+            )
     starts = np.flatnonzero(np.r_[True, ~same])
     ends = np.r_[starts[1:], g_s.size]
     # Groups are sorted by posture then dir; collect them per posture.
@@ -764,7 +800,15 @@ def read_campaign(path: str | os.PathLike[str], *, check_limits: bool = True) ->
             "found both frf.csv and frf/*.uff; expected one of them", source=os.fspath(folder)
         )
     if csv_path.is_file():
-        frfs = _read_frf_csv(csv_path, "frf.csv", ids, post_lines)
+        try:
+            frfs = _read_frf_csv(csv_path, "frf.csv", ids, post_lines)
+        except InputError as exc:
+            if not _ends_with_newline(csv_path):
+                raise InputError(
+                    f"{exc.detail} (frf.csv does not end with a line break: was it cut short?)",
+                    source=exc.source,
+                ) from None
+            raise
     elif has_uff:
         frfs = _read_uff_dir(uff_dir, ids, post_lines)
     else:
@@ -774,6 +818,18 @@ def read_campaign(path: str | os.PathLike[str], *, check_limits: bool = True) ->
     return Campaign(
         robot=robot, posture_ids=ids, q_rad=q_rad, frfs=tuple(frfs), notes=notes, test=test
     )
+
+
+def _ends_with_newline(path: Path) -> bool:
+    try:
+        with open(path, "rb") as fh:
+            fh.seek(0, os.SEEK_END)
+            if fh.tell() == 0:
+                return True
+            fh.seek(-1, os.SEEK_END)
+            return fh.read(1) in (b"\n", b"\r")
+    except OSError:
+        return True
 
 
 def _read_uff_dir(
