@@ -417,7 +417,7 @@ def _fit_top(s: IdentifySettings, f: NDArray[np.float64]) -> float:
 
 def _refuse_absurd(pid: str, h: NDArray[np.complex128]) -> None:
     """InputError for a value no measurement gives (one ruins every fit of the posture)."""
-    from robolobe.twin.uff import frf_value_problem
+    from robolobe._frf_checks import frf_value_problem
 
     if h.ndim != 3 or h.shape[1:] != (3, 3):
         return

@@ -35,9 +35,10 @@ import tomli_w
 from numpy.typing import ArrayLike, NDArray
 
 from robolobe._atomic import atomic_dir
+from robolobe._frf_checks import frf_value_problem
 from robolobe.errors import InputError
 from robolobe.twin.hammer import HammerTestSettings, simulate_hammer_test
-from robolobe.twin.uff import UffQuantity, frf_value_problem, read_uff_frf, write_uff_frf
+from robolobe.twin.uff import UffQuantity, read_uff_frf, write_uff_frf
 
 __all__ = [
     "ALL_DIRS",

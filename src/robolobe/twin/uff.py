@@ -56,15 +56,14 @@ from typing import Any, Literal
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from robolobe._frf_checks import frf_value_problem
 from robolobe.errors import InputError
 
 __all__ = [
-    "RECEPTANCE_MAX",
     "UFF_QUANTITIES",
     "UffFrf",
     "UffQuantity",
     "common_grid",
-    "frf_value_problem",
     "interpret_frf_units",
     "read_uff_frf",
     "read_uff_frfs",
@@ -173,10 +172,6 @@ def write_uff_frf(
 
 
 # ------------------------------------------------------------------ reading
-#: Largest plausible receptance magnitude [m/N]: 1 N moving a point by a kilometre.
-RECEPTANCE_MAX = 1e3
-#: A line this many times the FRF's median magnitude is a corrupted value, not a peak.
-SPIKE_RATIO = 1e8
 
 _DIR_NAMES = {1: "+X", 2: "+Y", 3: "+Z", -1: "-X", -2: "-Y", -3: "-Z"}
 _QUANTITY_NAMES = {8: "displacement", 11: "velocity", 12: "acceleration"}
@@ -255,46 +250,6 @@ class UffFrf:
         return (
             f"{self.rsp_node}{_DIR_NAMES[self.rsp_dir]}/{self.ref_node}{_DIR_NAMES[self.ref_dir]}"
         )
-
-
-def frf_value_problem(values: ArrayLike) -> tuple[int, str] | None:
-    """First implausible value of one FRF (receptance, m/N), or None.
-
-    Non-finite values, magnitudes above :data:`RECEPTANCE_MAX` and spikes more
-    than :data:`SPIKE_RATIO` times the FRF's median magnitude (a corrupted
-    number: one such value ruins every fit of the posture).
-
-    Parameters
-    ----------
-    values : array_like of complex, shape (n,)
-
-    Returns
-    -------
-    (index, reason) or None
-    """
-    v = np.asarray(values, dtype=complex).reshape(-1)
-    bad = ~np.isfinite(v)
-    if bad.any():
-        i = int(np.argmax(bad))
-        return i, f"expected a finite value, found {v[i]}"
-    mag = np.abs(v)
-    if v.size and float(mag.max()) > RECEPTANCE_MAX:
-        i = int(np.argmax(mag))
-        return i, (
-            f"implausible receptance |H| = {mag[i]:.3g} m/N (above {RECEPTANCE_MAX:g} m/N); "
-            "a corrupted number or wrong units"
-        )
-    nz = mag[mag > 0]
-    if nz.size >= 8:
-        med = float(np.median(nz))
-        ratio = mag / med
-        if float(ratio.max()) > SPIKE_RATIO:
-            i = int(np.argmax(ratio))
-            return i, (
-                f"implausible value |H| = {mag[i]:.3g}, {ratio[i]:.2g} times the median "
-                f"{med:.3g} of this FRF; a corrupted number"
-            )
-    return None
 
 
 def _parse_unit_factor(text: str) -> tuple[float, int, int, int] | None:
