@@ -21,7 +21,9 @@ never jumps from one branch to the other.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
+from types import ModuleType
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -60,6 +62,17 @@ def low_immersion_message(immersion: float) -> str:
         "overestimate the stable depth by 20-70 %); use method='sdm' "
         "(semi-discretization) to check"
     )
+
+
+def _kernels() -> ModuleType | None:
+    """The compiled kernel module, or None (no numba, or ``ROBOLOBE_NO_JIT`` set)."""
+    from robolobe import _jit
+
+    if not _jit.available():
+        return None
+    from robolobe.sld import _kernels
+
+    return _kernels
 
 
 def _alpha(alpha: ArrayLike) -> FloatArray:
@@ -166,6 +179,7 @@ def zoa_lobes(
     max_lobe: int | None = 30,
     immersion: float = 1.0,
     max_lobe_cap: int = 400,
+    jit: bool | None = None,
 ) -> LobeDiagram:
     """Batched zero-order stability lobes and their envelope on a speed grid.
 
@@ -191,6 +205,13 @@ def zoa_lobes(
         Radial immersion ``a_e / D`` for the validity flag.
     max_lobe_cap : int, default 400
         Upper bound of the automatic K.
+    jit : bool or None, default None
+        True: the compiled kernel (:mod:`robolobe.sld._kernels`, fused per
+        waypoint, parallel over waypoints); False: the numpy reference path
+        (:func:`zoa_eigenvalues`, :func:`zoa_depth`,
+        :func:`robolobe.sld.lobes.lobe_envelope`); None: the kernel where
+        numba is available and ``ROBOLOBE_NO_JIT`` is unset. Both give the
+        same envelopes to rounding.
 
     Returns
     -------
@@ -210,21 +231,57 @@ def zoa_lobes(
     r = np.asarray(rpm, dtype=np.float64)
     if r.ndim != 1 or r.size < 1 or not np.all(np.isfinite(r)) or np.any(r <= 0):
         raise InputError("rpm: expected a 1-D grid of positive speeds")
-    mu = zoa_eigenvalues(g, alpha)
-    depth, eps = zoa_depth(mu, teeth=int(teeth), kt=float(kt))
     k = 30 if max_lobe is None else int(max_lobe)
     if k < 0:
         raise InputError(f"max_lobe: expected an integer >= 0, found {max_lobe!r}")
-    a_lim = lobe_envelope(w, depth, eps, teeth=int(teeth), rpm=r, max_lobe=k)
-    complete = _complete_above(w, depth, eps, a_lim, int(teeth), k)
+    a = _alpha(alpha)
+    kern = _kernels() if jit is None or jit else None
+    if jit and kern is None:
+        raise InputError("jit=True: the compiled kernel needs numba (and ROBOLOBE_NO_JIT unset)")
+    if kern is not None:
+        batch = np.broadcast_shapes(g.shape[:-3], a.shape[:-2], w.shape[:-1])
+        nb = math.prod(batch)
+        nf = w.shape[-1]
+        depth2, eps2, env2, comp2 = kern.zoa_fused(
+            np.broadcast_to(w, (*batch, nf)).reshape(nb, nf),
+            np.broadcast_to(g, (*batch, nf, 2, 2)).reshape(nb, nf, 2, 2),
+            np.broadcast_to(a, (*batch, 2, 2)).reshape(nb, 2, 2),
+            teeth=int(teeth),
+            kt=float(kt),
+            rpm=r,
+            max_lobe=k,
+        )
+        depth = depth2.reshape(*batch, 2, nf)
+        eps = eps2.reshape(*batch, 2, nf)
+        a_lim = env2.reshape(*batch, r.size)
+        complete = comp2.reshape(batch)
+    else:
+        mu = zoa_eigenvalues(g, a)
+        depth, eps = zoa_depth(mu, teeth=int(teeth), kt=float(kt))
+        a_lim = lobe_envelope(w, depth, eps, teeth=int(teeth), rpm=r, max_lobe=k)
+        complete = _complete_above(w, depth, eps, a_lim, int(teeth), k)
     if max_lobe is None and np.any(complete > r.min()):
         # lobes beyond k could still cut the envelope at the low speeds: add them
         rel = np.isfinite(depth)
         wmax = np.where(rel, np.asarray(w)[..., None, :], 0.0)
         need = np.ceil(wmax.max() * 60.0 / (teeth * r.min() * _TWO_PI))
         k = int(min(max(need, k), max_lobe_cap))
-        a_lim = lobe_envelope(w, depth, eps, teeth=int(teeth), rpm=r, max_lobe=k)
-        complete = _complete_above(w, depth, eps, a_lim, int(teeth), k)
+        if kern is not None:
+            nb = math.prod(depth.shape[:-2])
+            nf = w.shape[-1]
+            env2, comp2 = kern.envelope(
+                np.broadcast_to(w, (*depth.shape[:-2], nf)).reshape(nb, nf),
+                depth.reshape(nb, 2, nf),
+                eps.reshape(nb, 2, nf),
+                teeth=int(teeth),
+                rpm=r,
+                max_lobe=k,
+            )
+            a_lim = env2.reshape(*depth.shape[:-2], r.size)
+            complete = comp2.reshape(depth.shape[:-2])
+        else:
+            a_lim = lobe_envelope(w, depth, eps, teeth=int(teeth), rpm=r, max_lobe=k)
+            complete = _complete_above(w, depth, eps, a_lim, int(teeth), k)
     msg = low_immersion_message(immersion)
     return LobeDiagram(
         rpm=r,

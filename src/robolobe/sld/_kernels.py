@@ -1,0 +1,376 @@
+"""Compiled (numba) zero-order lobe kernel: eigenvalues, depth, phase and envelope.
+
+One waypoint at a time, fused: the eigenvalues of ``alpha G(w)`` are formed,
+branch-tracked, turned into depth and phase, and the lobe polylines of that
+waypoint are intersected with the speed grid while its ``(2, n_freq)`` rows
+are still in cache; waypoints run in parallel (``prange``). The arithmetic is
+that of the numpy reference (:func:`robolobe.sld.zoa.zoa_eigenvalues`,
+:func:`robolobe.sld.zoa.zoa_depth`, :func:`robolobe.sld.lobes.lobe_envelope`)
+operation for operation, so the envelopes agree to rounding (tested to 1e-12).
+
+This module imports numba: import it only through
+:func:`robolobe.sld.zoa.zoa_lobes` (which checks :func:`robolobe._jit.available`).
+Compilation and the on-disk cache: :mod:`robolobe._jit`.
+"""
+
+from __future__ import annotations
+
+import math
+import threading
+
+import numba
+import numpy as np
+from numpy.typing import NDArray
+
+from robolobe._jit import njit
+
+FloatArray = NDArray[np.float64]
+ComplexArray = NDArray[np.complex128]
+
+_TWO_PI = 2.0 * math.pi
+# numba's default threading layer (workqueue) must not be entered from two
+# Python threads at once; the kernels are called under this lock.
+_LOCK = threading.Lock()
+
+
+@njit()
+def _cabs(z: complex) -> float:
+    """``|z|`` without hypot's overflow guard (moduli here are far from 1e154)."""
+    return math.sqrt(z.real * z.real + z.imag * z.imag)
+
+
+@njit()
+def _csqrt(z: complex) -> complex:
+    """Principal square root (as ``np.sqrt``: cut on the negative real axis, sign of -0)."""
+    x, y = z.real, z.imag
+    if x == 0.0 and y == 0.0:
+        return complex(0.0, y)
+    t = math.sqrt(0.5 * (_cabs(z) + abs(x)))
+    if x >= 0.0:
+        return complex(t, 0.5 * y / t)
+    return complex(0.5 * abs(y) / t, math.copysign(t, y))
+
+
+@njit()
+def _eig_row(
+    w: FloatArray,
+    g: ComplexArray,
+    al: FloatArray,
+    teeth: int,
+    kt: float,
+    depth: FloatArray,
+    eps: FloatArray,
+) -> None:
+    """Branch-tracked ZOA depth and phase of one waypoint (rows of ``depth``/``eps``)."""
+    nf = w.shape[0]
+    a00, a01, a10, a11 = al[0, 0], al[0, 1], al[1, 0], al[1, 1]
+    da = a00 * a11 - a01 * a10
+    p1 = 0j
+    p2 = 0j
+    parity = False
+    nkt = teeth * kt
+    for i in range(nf):
+        g00, g01, g10, g11 = g[i, 0, 0], g[i, 0, 1], g[i, 1, 0], g[i, 1, 1]
+        tr = a00 * g00 + a01 * g10 + a10 * g01 + a11 * g11
+        det = da * (g00 * g11 - g01 * g10)
+        h = 0.5 * tr
+        root = _csqrt(h * h - det)
+        m1 = h + root
+        m2 = h - root
+        if i > 0:
+            same = _cabs(m1 - p1) + _cabs(m2 - p2)
+            cross = _cabs(m1 - p2) + _cabs(m2 - p1)
+            if cross < same:
+                parity = not parity
+        p1 = m1
+        p2 = m2
+        if parity:
+            m1, m2 = m2, m1
+        for j in range(2):
+            m = m1 if j == 0 else m2
+            re = m.real
+            if re > 0.0:
+                depth[j, i] = _TWO_PI / (nkt * re)
+                eps[j, i] = math.pi + 2.0 * math.atan(m.imag / re)
+            else:
+                depth[j, i] = np.inf
+                eps[j, i] = np.nan
+
+
+@njit()
+def _piece(
+    w0: float,
+    w1: float,
+    e0: float,
+    e1: float,
+    a0: float,
+    a1: float,
+    c: float,
+    s: FloatArray,
+    uniform: bool,
+    k1: int,
+    env: FloatArray,
+) -> None:
+    """Intersect the lobes ``k < k1`` of one polyline segment with the speeds ``s``."""
+    ns = s.shape[0]
+    smin, smax = s[0], s[ns - 1]
+    klo_f = np.ceil((c * min(w0, w1) / smax - max(e0, e1)) / _TWO_PI)
+    khi_f = np.floor((c * max(w0, w1) / smin - min(e0, e1)) / _TWO_PI)
+    klo = int(min(max(klo_f, 0.0), float(k1)))
+    khi = int(min(max(khi_f, -1.0), float(k1 - 1)))
+    ds = (smax - smin) / (ns - 1) if ns > 1 else 1.0
+    for k in range(klo, khi + 1):
+        twopik = _TWO_PI * k
+        n0 = c * w0 / (e0 + twopik)
+        n1 = c * w1 / (e1 + twopik)
+        if uniform:
+            p0 = (n0 - smin) / ds
+            p1 = (n1 - smin) / ds
+            jlo = int(np.ceil(min(max(min(p0, p1), -1.0), float(ns))))
+            jhi = int(np.floor(min(max(max(p0, p1), -1.0), float(ns))))
+            jlo = max(jlo, 0)
+            jhi = min(jhi, ns - 1)
+        else:
+            p0, p1 = n0, n1
+            jlo = np.searchsorted(s, min(n0, n1), side="left")
+            jhi = np.searchsorted(s, max(n0, n1), side="right") - 1
+        if jhi < jlo:
+            continue
+        den = p1 - p0
+        if den == 0.0:
+            beta = 0.0
+            alpha = min(a0, a1)
+        else:
+            beta = (a1 - a0) / den
+            alpha = a0 - beta * p0
+        for jj in range(jlo, jhi + 1):
+            coord = float(jj) if uniform else s[jj]
+            v = alpha + beta * coord
+            if v < env[jj]:
+                env[jj] = v
+
+
+@njit()
+def _env_row(
+    w: FloatArray,
+    depth: FloatArray,
+    eps: FloatArray,
+    teeth: int,
+    s: FloatArray,
+    uniform: bool,
+    k1: int,
+    env: FloatArray,
+) -> float:
+    """Envelope of one waypoint's lobes on the sorted speeds ``s`` (into ``env``).
+
+    Returns the speed above which lobes ``k >= k1`` cannot lower the
+    envelope (as :func:`robolobe.sld.zoa._complete_above`).
+
+    Pieces are visited in rising depth bands (the first below twice the
+    smallest depth, each next one twice as high) until the band's lower edge
+    reaches the highest envelope value so far: deeper pieces cannot lower the
+    envelope anywhere, so the result is that of visiting every piece.
+    """
+    nf = w.shape[0]
+    ns = s.shape[0]
+    for jj in range(ns):
+        env[jj] = np.inf
+    if nf < 2 or ns == 0:
+        return _complete(w, depth, eps, teeth, k1, env)
+    c = 60.0 / teeth
+    amin = np.empty((2, nf - 1))
+    rowmin = np.inf
+    rowmax = -np.inf
+    for j in range(2):
+        for i in range(nf - 1):
+            a0, a1 = depth[j, i], depth[j, i + 1]
+            if np.isfinite(a0) and np.isfinite(a1):
+                m = min(a0, a1)
+                amin[j, i] = m
+                rowmin = min(rowmin, m)
+                rowmax = max(rowmax, m)
+            else:
+                amin[j, i] = np.inf
+    if not np.isfinite(rowmin):
+        return _complete(w, depth, eps, teeth, k1, env)
+    lo = -np.inf
+    hi = 2.0 * rowmin
+    top = np.inf
+    while lo <= rowmax and lo < top:
+        for j in range(2):
+            for i in range(nf - 1):
+                m = amin[j, i]
+                if lo <= m < hi and m < top:
+                    a0, a1 = depth[j, i], depth[j, i + 1]
+                    _piece(w[i], w[i + 1], eps[j, i], eps[j, i + 1], a0, a1, c, s, uniform, k1, env)
+        top = -np.inf
+        for jj in range(ns):
+            top = max(top, env[jj])
+        lo = hi
+        hi = 2.0 * hi
+    return _complete(w, depth, eps, teeth, k1, env)
+
+
+@njit()
+def _complete(
+    w: FloatArray, depth: FloatArray, eps: FloatArray, teeth: int, k1: int, env: FloatArray
+) -> float:
+    """Highest speed of lobe ``k1`` over the points below the envelope's top."""
+    amax = -np.inf
+    for jj in range(env.shape[0]):
+        if np.isfinite(env[jj]):
+            amax = max(amax, env[jj])
+    if not np.isfinite(amax):
+        amax = np.inf
+    out = 0.0
+    twopik = _TWO_PI * float(k1)
+    for j in range(2):
+        for i in range(w.shape[0]):
+            d = depth[j, i]
+            if np.isfinite(d) and d < amax:
+                out = max(out, 60.0 * w[i] / (teeth * (eps[j, i] + twopik)))
+    return out
+
+
+@njit(parallel=True)
+def _zoa_batch(
+    w: FloatArray,
+    g: ComplexArray,
+    al: FloatArray,
+    teeth: int,
+    kt: float,
+    s: FloatArray,
+    uniform: bool,
+    k1: int,
+    depth: FloatArray,
+    eps: FloatArray,
+    env: FloatArray,
+    complete: FloatArray,
+) -> None:
+    """Fused ZOA per waypoint, parallel over waypoints (see the module docstring)."""
+    for b in numba.prange(w.shape[0]):
+        _eig_row(w[b], g[b], al[b], teeth, kt, depth[b], eps[b])
+        complete[b] = _env_row(w[b], depth[b], eps[b], teeth, s, uniform, k1, env[b])
+
+
+@njit(parallel=True)
+def _env_batch(
+    w: FloatArray,
+    depth: FloatArray,
+    eps: FloatArray,
+    teeth: int,
+    s: FloatArray,
+    uniform: bool,
+    k1: int,
+    env: FloatArray,
+    complete: FloatArray,
+) -> None:
+    """Envelope only (depth and phase given), parallel over waypoints."""
+    for b in numba.prange(w.shape[0]):
+        complete[b] = _env_row(w[b], depth[b], eps[b], teeth, s, uniform, k1, env[b])
+
+
+def _sorted_speeds(rpm: FloatArray) -> tuple[FloatArray, NDArray[np.intp], bool]:
+    order = np.argsort(rpm, kind="stable")
+    s = np.ascontiguousarray(rpm[order])
+    uniform = False
+    if s.size >= 3:
+        d = np.diff(s)
+        uniform = bool(d[0] > 0 and np.all(np.abs(d - d[0]) <= 1e-9 * d[0]))
+    return s, order, uniform
+
+
+def _unsort(env: FloatArray, order: NDArray[np.intp]) -> FloatArray:
+    if np.array_equal(order, np.arange(order.size)):
+        return env
+    out = np.empty_like(env)
+    out[:, order] = env
+    return out
+
+
+def zoa_fused(
+    omega: FloatArray,
+    frf: ComplexArray,
+    alpha: FloatArray,
+    *,
+    teeth: int,
+    kt: float,
+    rpm: FloatArray,
+    max_lobe: int,
+) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
+    """Depth, phase and envelope of a flat batch with the compiled kernel.
+
+    Parameters
+    ----------
+    omega : ndarray, shape (nb, n_freq)
+        Sorted frequency grid per waypoint [rad/s].
+    frf : ndarray, shape (nb, n_freq, 2, 2), complex
+        Feed-frame receptance [m/N].
+    alpha : ndarray, shape (nb, 2, 2)
+        Directional factors.
+    teeth, kt, max_lobe
+        As in :func:`robolobe.sld.zoa.zoa_lobes`.
+    rpm : ndarray, shape (n_speed,)
+        Speeds [rpm], any order.
+
+    Returns
+    -------
+    depth, eps : ndarray, shape (nb, 2, n_freq)
+        Limiting depth [m] (``inf`` off-branch) and phase [rad] (NaN there).
+    a_lim : ndarray, shape (nb, n_speed)
+        Envelope [m] at ``rpm``.
+    complete : ndarray, shape (nb,)
+        Speed [rpm] above which lobes beyond ``max_lobe`` cannot lower the
+        envelope (0 where none can).
+    """
+    nb, nf = omega.shape
+    s, order, uniform = _sorted_speeds(rpm)
+    depth = np.empty((nb, 2, nf))
+    eps = np.empty((nb, 2, nf))
+    env = np.empty((nb, s.size))
+    complete = np.empty(nb)
+    with _LOCK:
+        _zoa_batch(
+            np.ascontiguousarray(omega, dtype=np.float64),
+            np.ascontiguousarray(frf, dtype=np.complex128),
+            np.ascontiguousarray(alpha, dtype=np.float64),
+            int(teeth),
+            float(kt),
+            s,
+            uniform,
+            int(max_lobe) + 1,
+            depth,
+            eps,
+            env,
+            complete,
+        )
+    return depth, eps, _unsort(env, order), complete
+
+
+def envelope(
+    omega: FloatArray,
+    depth: FloatArray,
+    eps: FloatArray,
+    *,
+    teeth: int,
+    rpm: FloatArray,
+    max_lobe: int,
+) -> tuple[FloatArray, FloatArray]:
+    """Envelope and ``complete`` of a flat batch from depth and phase (as :func:`zoa_fused`)."""
+    nb = depth.shape[0]
+    s, order, uniform = _sorted_speeds(rpm)
+    env = np.empty((nb, s.size))
+    complete = np.empty(nb)
+    with _LOCK:
+        _env_batch(
+            np.ascontiguousarray(omega, dtype=np.float64),
+            np.ascontiguousarray(depth, dtype=np.float64),
+            np.ascontiguousarray(eps, dtype=np.float64),
+            int(teeth),
+            s,
+            uniform,
+            int(max_lobe) + 1,
+            env,
+            complete,
+        )
+    return _unsort(env, order), complete
