@@ -220,3 +220,51 @@ def test_lateral_offset_stays_closed_form(rng: np.random.Generator) -> None:
     q = sample_postures(r, 100, rng)
     q8, ok = ik_branches(r, tcp_pose(r, q))
     assert np.all(np.any(_same_angles(q8, q[:, None]) & ok, axis=1))
+
+
+def _random_path(robot: Robot, rng: np.random.Generator, n: int) -> np.ndarray:
+    """Random walk through the joint space (within the limits), crossing branches."""
+    knots = sample_postures(robot, 6, rng)
+    t = np.linspace(0, 1, n)
+    path = np.stack([np.interp(t, np.linspace(0, 1, 6), knots[:, j]) for j in range(6)], -1)
+    path += rng.normal(scale=0.01, size=path.shape)
+    return path[within_limits(robot, path)]
+
+
+@pytest.mark.parametrize("name", ["A", "B", "C"])
+def test_compiled_continuity_equals_numpy_loop(
+    name: str, rng: np.random.Generator, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    from robolobe import _jit
+    import importlib
+
+    ik_mod = importlib.import_module("robolobe.robots.ik")
+
+    r = load_robot(name)
+    path = _random_path(r, rng, 1500)
+    poses = tcp_pose(r, path)
+    monkeypatch.setattr(ik_mod, "_IK_CHUNK", 257)  # several chunks, carried across
+    got = ik_batch(r, poses, path[0], continuity=True)
+    alone = ik_batch(r, poses, path[0], continuity=False)
+    monkeypatch.setattr(_jit, "_STATE", {"ok": False})
+    monkeypatch.setattr(ik_mod, "_IK_CHUNK", 10**9)
+    ref = ik_batch(r, poses, path[0], continuity=True)
+    ref_alone = ik_batch(r, poses, path[0], continuity=False)
+    np.testing.assert_allclose(got, ref, rtol=0, atol=1e-9)
+    np.testing.assert_allclose(alone, ref_alone, rtol=0, atol=1e-9)
+    # same branch choice: the chosen postures reproduce the poses and follow the path
+    dp, da = pose_error(tcp_pose(r, got), poses)
+    assert dp.max() < 1e-9 and da.max() < 1e-9
+
+
+def test_unreachable_count_and_first_indices() -> None:
+    r = load_robot("B")
+    good = tcp_pose(r, np.radians([0, 0, -90, 0, 30, 0]))
+    far = np.eye(4)
+    far[:3, 3] = [8.0, 0.0, 1.0]
+    poses = np.stack([good, far, good, far, far, good, far, far, far, far, far])
+    with pytest.raises(ReachabilityError) as exc:
+        ik_batch(r, poses, np.zeros(6))
+    msg = str(exc.value)
+    assert msg.startswith("waypoint 1:") and "out of reach" in msg
+    assert "8 of 11 waypoints" in msg and "the first: 1, 3, 4, 6, 7, ..." in msg

@@ -619,7 +619,9 @@ def ik_batch(
     ------
     ReachabilityError
         Naming the first pose (index and position) that is out of reach or
-        has no valid solution.
+        has no valid solution, how many poses failed and the first few
+        indices (a failing pose along a path is skipped: the next one is
+        taken nearest the last valid solution).
     """
     P = np.asarray(poses, dtype=np.float64)
     if P.ndim != 3 or P.shape[1:] != (4, 4):
@@ -640,39 +642,121 @@ def ik_batch(
                 raise ReachabilityError(f"waypoint {i}: {exc}") from None
             out[i] = prev
         return out
-    q8, ok = ik_branches(robot, P, ref)
-    base, count = _turn_base(robot, q8, ok)  # (n, 8, 6) each
-    exists = ok & np.all(count >= 1, axis=-1)  # (n, 8)
-
-    def pick(target: FloatArray, idx: NDArray[np.int_]) -> tuple[FloatArray, BoolArray]:
-        # per joint the in-limit 2*pi turn nearest the target (the distance is separable)
-        b, cnt = base[idx], count[idx]
-        k = np.clip(np.round((target[:, None, :] - b) / _TWO_PI), 0, np.maximum(cnt - 1, 0))
-        cand = b + _TWO_PI * k
-        valid = exists[idx] & within_constraints(robot, cand)
-        d = np.where(valid, np.sum(wts * (cand - target[:, None, :]) ** 2, axis=-1), np.inf)
-        best = np.argmin(d, axis=1)
-        return cand[np.arange(len(idx)), best], valid.any(axis=1)
-
-    def fail(i: int) -> ReachabilityError:
-        why = "out of reach" if not ok[i].any() else "no solution within the limits/constraints"
-        return ReachabilityError(
-            f"waypoint {i}: {_describe_pose(P[i])}: {why} of robot {robot.name!r}"
+    fails: list[tuple[int, str]] = []  # first few failing waypoints and why
+    n_fail = 0
+    prev = ref.copy()
+    for c0 in range(0, n, _IK_CHUNK):  # chunks bound the memory (~1 kB per pose)
+        c1 = min(n, c0 + _IK_CHUNK)
+        q8, ok = ik_branches(robot, P[c0:c1], ref)
+        base, count = _turn_base(robot, q8, ok)  # (m, 8, 6) each
+        exists = ok & np.all(count >= 1, axis=-1)  # (m, 8)
+        if continuity:
+            q, good = _continuity(robot, base, count, exists, wts, prev)
+        else:
+            q, good = _pick(robot, base, count, exists, wts, np.broadcast_to(ref, (c1 - c0, 6)))
+        out[c0:c1] = q
+        bad = np.flatnonzero(~good)
+        n_fail += bad.size
+        for i in bad[: max(0, _N_REPORT - len(fails))]:
+            why = "out of reach" if not ok[i].any() else "no solution within the limits/constraints"
+            fails.append((c0 + int(i), why))
+    if n_fail:
+        i, why = fails[0]
+        more = ", ".join(str(j) for j, _ in fails)
+        raise ReachabilityError(
+            f"waypoint {i}: {_describe_pose(P[i])}: {why} of robot {robot.name!r} "
+            f"({n_fail} of {n} waypoints have no valid solution; the first: {more}"
+            f"{', ...' if n_fail > len(fails) else ''})"
         )
-
-    if not continuity:
-        q, good = pick(np.broadcast_to(ref, (n, 6)), np.arange(n))
-        if not good.all():
-            raise fail(int(np.flatnonzero(~good)[0]))
-        return q
-    prev = ref
-    for i in range(n):  # sequential by nature; each step is an (8, 6) vector op
-        qi, good = pick(prev[None], np.array([i]))
-        if not good[0]:
-            raise fail(i)
-        prev = qi[0]
-        out[i] = prev
     return out
+
+
+_IK_CHUNK = 8192
+_N_REPORT = 5
+
+
+def _pick(
+    robot: Robot,
+    base: FloatArray,
+    count: NDArray[np.int_],
+    exists: BoolArray,
+    wts: FloatArray,
+    target: FloatArray,
+) -> tuple[FloatArray, BoolArray]:
+    """Per pose the valid branch (and in-limit 2*pi turn) nearest ``target`` (m, 6).
+
+    Per joint the turn nearest the target is taken (the distance is separable).
+    Returns the postures (m, 6) [rad] and whether any branch was valid (m,).
+    """
+    k = np.clip(np.round((target[:, None, :] - base) / _TWO_PI), 0, np.maximum(count - 1, 0))
+    cand = base + _TWO_PI * k
+    valid = exists & within_constraints(robot, cand)
+    d = np.where(valid, np.sum(wts * (cand - target[:, None, :]) ** 2, axis=-1), np.inf)
+    best = np.argmin(d, axis=1)
+    q = cand[np.arange(len(cand)), best]
+    good = valid.any(axis=1)
+    return np.where(good[:, None], q, np.nan), good
+
+
+def _continuity_numpy(
+    robot: Robot,
+    base: FloatArray,
+    count: NDArray[np.int_],
+    exists: BoolArray,
+    wts: FloatArray,
+    prev: FloatArray,
+) -> tuple[FloatArray, BoolArray]:
+    """Reference of :func:`_continuity`: a Python loop of :func:`_pick` (``prev`` updated)."""
+    m = base.shape[0]
+    out = np.empty((m, 6))
+    good = np.zeros(m, dtype=bool)
+    for i in range(m):  # sequential by nature; each step is an (8, 6) vector op
+        qi, gi = _pick(robot, base[i : i + 1], count[i : i + 1], exists[i : i + 1], wts, prev[None])
+        out[i], good[i] = qi[0], gi[0]
+        if gi[0]:
+            prev[:] = qi[0]
+    return out, good
+
+
+def _continuity(
+    robot: Robot,
+    base: FloatArray,
+    count: NDArray[np.int_],
+    exists: BoolArray,
+    wts: FloatArray,
+    prev: FloatArray,
+) -> tuple[FloatArray, BoolArray]:
+    """Along a path, each pose's valid solution nearest the previous one (``prev`` updated).
+
+    Returns the postures (m, 6) [rad] (NaN where none is valid; such a pose
+    leaves ``prev`` as it was) and whether each pose had a valid solution.
+    Compiled where numba is available, else :func:`_continuity_numpy`.
+    """
+    from robolobe import _jit
+
+    if not _jit.available():
+        return _continuity_numpy(robot, base, count, exists, wts, prev)
+    from robolobe.robots import _ik_kernels
+    from robolobe.robots.limits import TOL_RAD
+
+    cons = robot.constraints
+    m = base.shape[0]
+    out = np.empty((m, 6))
+    good = np.zeros(m, dtype=bool)
+    _ik_kernels.continuity(
+        np.ascontiguousarray(base, dtype=np.float64),
+        np.ascontiguousarray(count, dtype=np.int64),
+        np.ascontiguousarray(exists),
+        np.ascontiguousarray(wts, dtype=np.float64),
+        np.array([c.coeffs for c in cons], dtype=np.float64).reshape(len(cons), 6),
+        np.array([c.lo_rad for c in cons], dtype=np.float64),
+        np.array([c.hi_rad for c in cons], dtype=np.float64),
+        TOL_RAD,
+        prev,
+        out,
+        good,
+    )
+    return out, good
 
 
 def _turn_base(robot: Robot, q8: FloatArray, ok: BoolArray) -> tuple[FloatArray, NDArray[np.int_]]:
