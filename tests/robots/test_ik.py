@@ -235,8 +235,9 @@ def _random_path(robot: Robot, rng: np.random.Generator, n: int) -> np.ndarray:
 def test_compiled_continuity_equals_numpy_loop(
     name: str, rng: np.random.Generator, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    from robolobe import _jit
     import importlib
+
+    from robolobe import _jit
 
     ik_mod = importlib.import_module("robolobe.robots.ik")
 
@@ -244,6 +245,7 @@ def test_compiled_continuity_equals_numpy_loop(
     path = _random_path(r, rng, 1500)
     poses = tcp_pose(r, path)
     monkeypatch.setattr(ik_mod, "_IK_CHUNK", 257)  # several chunks, carried across
+    monkeypatch.setattr(ik_mod, "JIT_MIN_POSES", 0)  # compiled even for a short path
     got = ik_batch(r, poses, path[0], continuity=True)
     alone = ik_batch(r, poses, path[0], continuity=False)
     monkeypatch.setattr(_jit, "_STATE", {"ok": False})
@@ -254,7 +256,8 @@ def test_compiled_continuity_equals_numpy_loop(
     np.testing.assert_allclose(alone, ref_alone, rtol=0, atol=1e-9)
     # same branch choice: the chosen postures reproduce the poses and follow the path
     dp, da = pose_error(tcp_pose(r, got), poses)
-    assert dp.max() < 1e-9 and da.max() < 1e-9
+    assert dp.max() < 1e-9
+    assert da.max() < 1e-9
 
 
 def test_unreachable_count_and_first_indices() -> None:
@@ -266,5 +269,7 @@ def test_unreachable_count_and_first_indices() -> None:
     with pytest.raises(ReachabilityError) as exc:
         ik_batch(r, poses, np.zeros(6))
     msg = str(exc.value)
-    assert msg.startswith("waypoint 1:") and "out of reach" in msg
-    assert "8 of 11 waypoints" in msg and "the first: 1, 3, 4, 6, 7, ..." in msg
+    assert msg.startswith("waypoint 1:")
+    assert "out of reach" in msg
+    assert "8 of 11 waypoints" in msg
+    assert "the first: 1, 3, 4, 6, 7, ..." in msg

@@ -99,10 +99,7 @@ def test_kernel_shared_grid_batch_shapes_and_alpha_batch() -> None:
 
 
 def test_no_jit_env_takes_numpy_path() -> None:
-    code = (
-        "from robolobe import _jit; import sys; "
-        "sys.exit(0 if not _jit.available() else 1)"
-    )
+    code = "from robolobe import _jit; import sys; sys.exit(0 if not _jit.available() else 1)"
     env = dict(os.environ, ROBOLOBE_NO_JIT="1")
     assert subprocess.run([sys.executable, "-c", code], env=env).returncode == 0
 

@@ -645,13 +645,14 @@ def ik_batch(
     fails: list[tuple[int, str]] = []  # first few failing waypoints and why
     n_fail = 0
     prev = ref.copy()
+    compiled = n >= JIT_MIN_POSES
     for c0 in range(0, n, _IK_CHUNK):  # chunks bound the memory (~1 kB per pose)
         c1 = min(n, c0 + _IK_CHUNK)
         q8, ok = ik_branches(robot, P[c0:c1], ref)
         base, count = _turn_base(robot, q8, ok)  # (m, 8, 6) each
         exists = ok & np.all(count >= 1, axis=-1)  # (m, 8)
         if continuity:
-            q, good = _continuity(robot, base, count, exists, wts, prev)
+            q, good = _continuity(robot, base, count, exists, wts, prev, compiled=compiled)
         else:
             q, good = _pick(robot, base, count, exists, wts, np.broadcast_to(ref, (c1 - c0, 6)))
         out[c0:c1] = q
@@ -673,6 +674,10 @@ def ik_batch(
 
 _IK_CHUNK = 8192
 _N_REPORT = 5
+#: Path length from which :func:`ik_batch` takes the compiled continuity: below,
+#: numba's start-up in a fresh process (~0.5 s) costs more than the Python
+#: loop it replaces (~35 us per pose).
+JIT_MIN_POSES = 15_000
 
 
 def _pick(
@@ -694,7 +699,7 @@ def _pick(
     d = np.where(valid, np.sum(wts * (cand - target[:, None, :]) ** 2, axis=-1), np.inf)
     best = np.argmin(d, axis=1)
     q = cand[np.arange(len(cand)), best]
-    good = valid.any(axis=1)
+    good = np.asarray(valid.any(axis=1), dtype=bool)
     return np.where(good[:, None], q, np.nan), good
 
 
@@ -725,16 +730,18 @@ def _continuity(
     exists: BoolArray,
     wts: FloatArray,
     prev: FloatArray,
+    *,
+    compiled: bool = True,
 ) -> tuple[FloatArray, BoolArray]:
     """Along a path, each pose's valid solution nearest the previous one (``prev`` updated).
 
     Returns the postures (m, 6) [rad] (NaN where none is valid; such a pose
     leaves ``prev`` as it was) and whether each pose had a valid solution.
-    Compiled where numba is available, else :func:`_continuity_numpy`.
+    Compiled (``compiled`` and numba available), else :func:`_continuity_numpy`.
     """
     from robolobe import _jit
 
-    if not _jit.available():
+    if not (compiled and _jit.available()):
         return _continuity_numpy(robot, base, count, exists, wts, prev)
     from robolobe.robots import _ik_kernels
     from robolobe.robots.limits import TOL_RAD

@@ -132,8 +132,8 @@ def _piece(
             jhi = min(jhi, ns - 1)
         else:
             p0, p1 = n0, n1
-            jlo = np.searchsorted(s, min(n0, n1), side="left")
-            jhi = np.searchsorted(s, max(n0, n1), side="right") - 1
+            jlo = int(np.searchsorted(s, min(n0, n1), side="left"))
+            jhi = int(np.searchsorted(s, max(n0, n1), side="right")) - 1
         if jhi < jlo:
             continue
         den = p1 - p0

@@ -48,6 +48,12 @@ ComplexArray = NDArray[np.complex128]
 
 _TWO_PI = 2.0 * np.pi
 
+#: Frequency samples (waypoints x frequencies) from which :func:`zoa_lobes`
+#: uses the compiled kernel by default: below, numba's start-up in a fresh
+#: process (~0.5 s import and code loading) costs more than the kernel saves
+#: over the numpy path (~0.2 ms per waypoint of 460 frequencies).
+JIT_MIN_SAMPLES = 1_000_000
+
 #: Radial immersion below which the ZOA is flagged as unreliable.
 LOW_IMMERSION = 0.2
 
@@ -207,11 +213,12 @@ def zoa_lobes(
         Upper bound of the automatic K.
     jit : bool or None, default None
         True: the compiled kernel (:mod:`robolobe.sld._kernels`, fused per
-        waypoint, parallel over waypoints); False: the numpy reference path
+        waypoint, parallel over waypoints) where numba is available and
+        ``ROBOLOBE_NO_JIT`` is unset; False: the numpy reference path
         (:func:`zoa_eigenvalues`, :func:`zoa_depth`,
-        :func:`robolobe.sld.lobes.lobe_envelope`); None: the kernel where
-        numba is available and ``ROBOLOBE_NO_JIT`` is unset. Both give the
-        same envelopes to rounding.
+        :func:`robolobe.sld.lobes.lobe_envelope`); None: the kernel from
+        :data:`JIT_MIN_SAMPLES` waypoints x frequencies on. Both give the
+        same envelopes to rounding (1e-12).
 
     Returns
     -------
@@ -235,13 +242,13 @@ def zoa_lobes(
     if k < 0:
         raise InputError(f"max_lobe: expected an integer >= 0, found {max_lobe!r}")
     a = _alpha(alpha)
-    kern = _kernels() if jit is None or jit else None
-    if jit and kern is None:
-        raise InputError("jit=True: the compiled kernel needs numba (and ROBOLOBE_NO_JIT unset)")
+    batch = np.broadcast_shapes(g.shape[:-3], a.shape[:-2], w.shape[:-1])
+    nb = math.prod(batch)
+    nf = w.shape[-1]
+    if jit is None:  # numba's start-up (~0.5 s per process) pays only on large batches
+        jit = nb * nf >= JIT_MIN_SAMPLES
+    kern = _kernels() if jit else None
     if kern is not None:
-        batch = np.broadcast_shapes(g.shape[:-3], a.shape[:-2], w.shape[:-1])
-        nb = math.prod(batch)
-        nf = w.shape[-1]
         depth2, eps2, env2, comp2 = kern.zoa_fused(
             np.broadcast_to(w, (*batch, nf)).reshape(nb, nf),
             np.broadcast_to(g, (*batch, nf, 2, 2)).reshape(nb, nf, 2, 2),
@@ -267,8 +274,6 @@ def zoa_lobes(
         need = np.ceil(wmax.max() * 60.0 / (teeth * r.min() * _TWO_PI))
         k = int(min(max(need, k), max_lobe_cap))
         if kern is not None:
-            nb = math.prod(depth.shape[:-2])
-            nf = w.shape[-1]
             env2, comp2 = kern.envelope(
                 np.broadcast_to(w, (*depth.shape[:-2], nf)).reshape(nb, nf),
                 depth.reshape(nb, 2, nf),

@@ -25,7 +25,6 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-import torch
 from numpy.typing import ArrayLike, NDArray
 from scipy.special import ndtri
 
@@ -37,7 +36,7 @@ from robolobe.tl.dataset import (
     TrustWarning,
     interpolate_gaps,
 )
-from robolobe.tl.network import EnsembleMLP
+from robolobe.tl.forward import ArrayMLP
 from robolobe.tl.preprocess import (
     FEATURES,
     TARGET_TRANSFORMS,
@@ -219,7 +218,7 @@ class ModalPredictor:
 
     Attributes
     ----------
-    net_ : EnsembleMLP
+    net_ : ArrayMLP
         ``n_dir * n_members`` networks; model ``d * n_members + e``.
     angle_scaler_ : MinMax
         Joint-angle range of the training postures [rad].
@@ -237,7 +236,7 @@ class ModalPredictor:
         Robots this model was trained on, source first.
     """
 
-    net_: EnsembleMLP
+    net_: ArrayMLP
     angle_scaler_: MinMax
     target_transform_: TargetTransform
     calibration_: FloatArray
@@ -424,6 +423,10 @@ class ModalPredictor:
         if not np.all(np.any(np.isfinite(yy), axis=0)):
             raise InputError("y: a direction x mode x parameter has no value at all")
 
+        import torch  # training only: loading and predicting never import torch
+
+        from robolobe.tl.network import EnsembleMLP
+
         rng = np.random.default_rng(self.random_state)
         gen = torch.Generator().manual_seed(int(self.random_state))
 
@@ -474,7 +477,7 @@ class ModalPredictor:
                 src_dirs.index(dirs[int(model_dir[m])]) * e_src + (m % e) % e_src
                 for m in range(n_models)
             ]
-            net = src.net_.select(pick)
+            net = EnsembleMLP.from_arrays(src.net_.select(pick).to_arrays())
             n_frozen = int(self.n_frozen)
             lineage = list(src.lineage_)
         self.history_ = train_ensemble(
@@ -490,7 +493,7 @@ class ModalPredictor:
             generator=gen,
         )
         self.n_frozen_used_ = n_frozen
-        self.net_ = net.select(np.flatnonzero(model_group == 0))
+        self.net_ = ArrayMLP.from_arrays(net.select(np.flatnonzero(model_group == 0)).to_arrays())
         self.train_q_rad_ = q[train].copy()
         self.lineage_ = [*lineage, self.robot or "unnamed"]
         self.calibration_ = np.ones((nd, 3))
@@ -695,7 +698,7 @@ class ModalPredictor:
             params["directions"] = tuple(params["directions"])
             params["hidden"] = tuple(params["hidden"])
             model = cls(**params)
-            model.net_ = EnsembleMLP.from_arrays({k: v for k, v in arrays.items() if k[0] in "Wb"})
+            model.net_ = ArrayMLP.from_arrays({k: v for k, v in arrays.items() if k[0] in "Wb"})
             model.angle_scaler_ = MinMax.from_dict(meta["angle_scaler"])
             model.target_transform_ = TargetTransform.from_dict(meta["target_transform"])
             model.calibration_ = np.asarray(meta["calibration"], dtype=float)

@@ -119,7 +119,10 @@ class EnsembleMLP(torch.nn.Module):
         return h
 
     def predict_numpy(self, x: NDArray[np.floating]) -> NDArray[np.float64]:
-        """Forward pass without autograd.
+        """Forward pass without autograd (float32, torch).
+
+        Prediction from a trained model uses the numpy pass of the same
+        weights instead (:class:`robolobe.tl.forward.ArrayMLP`, no torch).
 
         Parameters
         ----------
@@ -154,26 +157,11 @@ class EnsembleMLP(torch.nn.Module):
         ValueError
             If layers are missing or their shapes do not chain.
         """
-        n_layers = sum(1 for k in arrays if k.startswith("W") and k[1:].isdigit())
-        if n_layers < 1:
-            raise ValueError("weights: expected arrays W0, b0, ..., found none")
-        ws = []
-        bs = []
-        for i in range(n_layers):
-            if f"W{i}" not in arrays or f"b{i}" not in arrays:
-                raise ValueError(f"weights: layer {i}: expected W{i} and b{i}")
-            ws.append(np.asarray(arrays[f"W{i}"], dtype=np.float32))
-            bs.append(np.asarray(arrays[f"b{i}"], dtype=np.float32))
-        n_models = ws[0].shape[0]
-        sizes = [ws[0].shape[1]] + [w.shape[2] if w.ndim == 3 else -1 for w in ws]
-        net = cls(n_models, sizes)
-        for i in range(n_layers):
-            want_w = (n_models, sizes[i], sizes[i + 1])
-            if ws[i].shape != want_w or bs[i].shape != (n_models, sizes[i + 1]):
-                raise ValueError(
-                    f"weights: layer {i}: expected shapes {want_w} and "
-                    f"{(n_models, sizes[i + 1])}, found {ws[i].shape} and {bs[i].shape}"
-                )
+        from robolobe.tl.forward import ArrayMLP
+
+        plain = ArrayMLP.from_arrays(arrays)  # checks the layers chain
+        ws, bs = plain.weights, plain.biases
+        net = cls(plain.n_models, plain.sizes)
         with torch.no_grad():
             for w_view, b_view, w, b in zip(
                 net.weight_views(net.theta), net.bias_views(net.theta), ws, bs, strict=True

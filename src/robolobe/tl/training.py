@@ -21,12 +21,15 @@ vector is left out of the update.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
-import torch
 from numpy.typing import NDArray
 
-from robolobe.tl.network import EnsembleMLP
+if TYPE_CHECKING:  # torch is imported by the functions that train (not on load)
+    import torch
+
+    from robolobe.tl.network import EnsembleMLP
 
 __all__ = ["TrainHistory", "masked_mse", "masked_mse_grad", "train_ensemble"]
 
@@ -113,6 +116,8 @@ class _Backprop:
         self.last = net.n_layers - 1
 
     def __call__(self, x: torch.Tensor, target: torch.Tensor, mask: torch.Tensor) -> torch.Tensor:
+        import torch
+
         last = self.last
         hs = [x]
         h = x
@@ -141,6 +146,8 @@ def _epoch_indices(
     rows: (n_models, n) bool; counts: (n_models,) rows per model.
     Returns (n_models, length) int64 indices into the n rows.
     """
+    import torch
+
     n_models, n = rows.shape
     keys = torch.rand((n_models, n), generator=generator) + (~rows).to(torch.float32) * 2.0
     perm = torch.argsort(keys, dim=1)  # the model's own rows first, shuffled
@@ -191,6 +198,8 @@ def train_ensemble(
     -------
     TrainHistory
     """
+    import torch
+
     n_models, n, _ = x.shape
     if x_val is not None and (y_val is None or mask_val is None):
         raise ValueError("x_val: expected y_val and mask_val with it")
@@ -245,6 +254,8 @@ def _train_loop(
     y_val: torch.Tensor | None,
     mask_val: torch.Tensor | None,
 ) -> TrainHistory:
+    import torch
+
     n_models = x.shape[0]
     grad = torch.zeros_like(net.theta.detach())
     model_idx = torch.arange(n_models).unsqueeze(1)
