@@ -110,30 +110,47 @@ def _piece(
     uniform: bool,
     k1: int,
     env: FloatArray,
+    q0: FloatArray,
+    q1: FloatArray,
 ) -> None:
-    """Intersect the lobes ``k < k1`` of one polyline segment with the speeds ``s``."""
+    """Intersect the lobes ``k < k1`` of one polyline segment with the speeds ``s``.
+
+    ``q0``, ``q1`` (length >= ``k1``) are scratch: the lobes' end coordinates
+    are formed in one loop over ``k`` first (divisions, vectorised by LLVM),
+    then scattered.
+    """
     ns = s.shape[0]
     smin, smax = s[0], s[ns - 1]
     klo_f = np.ceil((c * min(w0, w1) / smax - max(e0, e1)) / _TWO_PI)
     khi_f = np.floor((c * max(w0, w1) / smin - min(e0, e1)) / _TWO_PI)
     klo = int(min(max(klo_f, 0.0), float(k1)))
     khi = int(min(max(khi_f, -1.0), float(k1 - 1)))
-    ds = (smax - smin) / (ns - 1) if ns > 1 else 1.0
-    for k in range(klo, khi + 1):
-        twopik = _TWO_PI * k
-        n0 = c * w0 / (e0 + twopik)
-        n1 = c * w1 / (e1 + twopik)
+    nk = khi - klo + 1
+    if nk <= 0:
+        return
+    cw0 = c * w0
+    cw1 = c * w1
+    if uniform:
+        ds = (smax - smin) / (ns - 1)
+        for i in range(nk):
+            twopik = _TWO_PI * (klo + i)
+            q0[i] = (cw0 / (e0 + twopik) - smin) / ds
+            q1[i] = (cw1 / (e1 + twopik) - smin) / ds
+    else:
+        for i in range(nk):
+            twopik = _TWO_PI * (klo + i)
+            q0[i] = cw0 / (e0 + twopik)
+            q1[i] = cw1 / (e1 + twopik)
+    top = float(ns)
+    for i in range(nk):
+        p0 = q0[i]
+        p1 = q1[i]
         if uniform:
-            p0 = (n0 - smin) / ds
-            p1 = (n1 - smin) / ds
-            jlo = int(np.ceil(min(max(min(p0, p1), -1.0), float(ns))))
-            jhi = int(np.floor(min(max(max(p0, p1), -1.0), float(ns))))
-            jlo = max(jlo, 0)
-            jhi = min(jhi, ns - 1)
+            jlo = max(int(np.ceil(min(max(min(p0, p1), -1.0), top))), 0)
+            jhi = min(int(np.floor(min(max(max(p0, p1), -1.0), top))), ns - 1)
         else:
-            p0, p1 = n0, n1
-            jlo = int(np.searchsorted(s, min(n0, n1), side="left"))
-            jhi = int(np.searchsorted(s, max(n0, n1), side="right")) - 1
+            jlo = int(np.searchsorted(s, min(p0, p1), side="left"))
+            jhi = int(np.searchsorted(s, max(p0, p1), side="right")) - 1
         if jhi < jlo:
             continue
         den = p1 - p0
@@ -143,11 +160,12 @@ def _piece(
         else:
             beta = (a1 - a0) / den
             alpha = a0 - beta * p0
-        for jj in range(jlo, jhi + 1):
-            coord = float(jj) if uniform else s[jj]
-            v = alpha + beta * coord
-            if v < env[jj]:
-                env[jj] = v
+        if uniform:
+            for jj in range(jlo, jhi + 1):
+                env[jj] = min(env[jj], alpha + beta * jj)
+        else:
+            for jj in range(jlo, jhi + 1):
+                env[jj] = min(env[jj], alpha + beta * s[jj])
 
 
 @njit()
@@ -179,6 +197,8 @@ def _env_row(
         return _complete(w, depth, eps, teeth, k1, env)
     c = 60.0 / teeth
     amin = np.empty((2, nf - 1))
+    q0 = np.empty(k1)
+    q1 = np.empty(k1)
     rowmin = np.inf
     rowmax = -np.inf
     for j in range(2):
@@ -202,7 +222,10 @@ def _env_row(
                 m = amin[j, i]
                 if lo <= m < hi and m < top:
                     a0, a1 = depth[j, i], depth[j, i + 1]
-                    _piece(w[i], w[i + 1], eps[j, i], eps[j, i + 1], a0, a1, c, s, uniform, k1, env)
+                    _piece(
+                        w[i], w[i + 1], eps[j, i], eps[j, i + 1], a0, a1, c, s, uniform, k1,
+                        env, q0, q1,
+                    )  # fmt: skip
         top = -np.inf
         for jj in range(ns):
             top = max(top, env[jj])

@@ -24,6 +24,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 from types import ModuleType
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -79,6 +80,17 @@ def _kernels() -> ModuleType | None:
     from robolobe.sld import _kernels
 
     return _kernels
+
+
+def _flat(x: NDArray[np.generic], batch: tuple[int, ...], tail: tuple[int, ...]) -> NDArray[Any]:
+    """``x`` broadcast to ``batch + tail``, batch axes merged: C-contiguous and writable.
+
+    (A read-only broadcast view would make numba compile a second specialisation.)
+    """
+    shape = (*batch, *tail)
+    out = x if x.shape == shape else np.broadcast_to(x, shape)
+    out = np.ascontiguousarray(out.reshape(-1, *tail))
+    return out if out.flags.writeable else out.copy()
 
 
 def _alpha(alpha: ArrayLike) -> FloatArray:
@@ -250,9 +262,9 @@ def zoa_lobes(
     kern = _kernels() if jit else None
     if kern is not None:
         depth2, eps2, env2, comp2 = kern.zoa_fused(
-            np.broadcast_to(w, (*batch, nf)).reshape(nb, nf),
-            np.broadcast_to(g, (*batch, nf, 2, 2)).reshape(nb, nf, 2, 2),
-            np.broadcast_to(a, (*batch, 2, 2)).reshape(nb, 2, 2),
+            _flat(w, batch, (nf,)),
+            _flat(g, batch, (nf, 2, 2)),
+            _flat(a, batch, (2, 2)),
             teeth=int(teeth),
             kt=float(kt),
             rpm=r,
@@ -275,7 +287,7 @@ def zoa_lobes(
         k = int(min(max(need, k), max_lobe_cap))
         if kern is not None:
             env2, comp2 = kern.envelope(
-                np.broadcast_to(w, (*depth.shape[:-2], nf)).reshape(nb, nf),
+                _flat(w, batch, (nf,)),
                 depth.reshape(nb, 2, nf),
                 eps.reshape(nb, 2, nf),
                 teeth=int(teeth),
