@@ -67,11 +67,11 @@ def test_kernel_equals_numpy_path(immersion: float) -> None:
     ref, got = _both(omega, m.frf(omega), alpha, np.linspace(2000.0, 24000.0, 700), 30)
     _compare(got.a_lim, ref.a_lim, 1e-12)
     _compare(got.complete_above_rpm, ref.complete_above_rpm, 1e-12)
-    # depth and phase: equal where the eigenvalue is not a near-cancellation
+    # depth and phase too (the kernel rounds the complex products as numpy does,
+    # so even the depths near a branch edge, where Re mu cancels, agree)
+    _compare(got.depth, ref.depth, 1e-12)
     fin = np.isfinite(ref.depth)
-    np.testing.assert_array_equal(fin, np.isfinite(got.depth))
-    np.testing.assert_allclose(got.eps[fin], ref.eps[fin], rtol=0, atol=1e-11)
-    assert float(np.median(np.abs(got.depth[fin] / ref.depth[fin] - 1))) < 1e-14
+    np.testing.assert_allclose(got.eps[fin], ref.eps[fin], rtol=0, atol=1e-12)
 
 
 def test_kernel_unsorted_nonuniform_speeds_and_auto_lobes() -> None:
