@@ -163,11 +163,11 @@ def _piece(
     cw0 = c * w0
     cw1 = c * w1
     if uniform:
-        ds = (smax - smin) / (ns - 1)
+        inv_ds = (ns - 1) / (smax - smin)
         for i in range(nk):
             twopik = _TWO_PI * (klo + i)
-            q0[i] = (cw0 / (e0 + twopik) - smin) / ds
-            q1[i] = (cw1 / (e1 + twopik) - smin) / ds
+            q0[i] = (cw0 / (e0 + twopik) - smin) * inv_ds
+            q1[i] = (cw1 / (e1 + twopik) - smin) * inv_ds
     else:
         for i in range(nk):
             twopik = _TWO_PI * (klo + i)
@@ -228,40 +228,44 @@ def _env_row(
     if nf < 2 or ns == 0:
         return _complete(w, depth, eps, teeth, k1, env)
     c = 60.0 / teeth
-    amin = np.empty((2, nf - 1))
+    # the finite segments (branch j, interval i) and their lower depth, compacted
+    seg = np.empty(2 * (nf - 1), dtype=np.int64)
+    amin = np.empty(2 * (nf - 1))
     q0 = np.empty(k1)
     q1 = np.empty(k1)
+    n_seg = 0
     rowmin = np.inf
-    rowmax = -np.inf
     for j in range(2):
         for i in range(nf - 1):
             a0, a1 = depth[j, i], depth[j, i + 1]
             if np.isfinite(a0) and np.isfinite(a1):
                 m = min(a0, a1)
-                amin[j, i] = m
+                seg[n_seg] = j * nf + i
+                amin[n_seg] = m
+                n_seg += 1
                 rowmin = min(rowmin, m)
-                rowmax = max(rowmax, m)
-            else:
-                amin[j, i] = np.inf
-    if not np.isfinite(rowmin):
-        return _complete(w, depth, eps, teeth, k1, env)
-    lo = -np.inf
     hi = 2.0 * rowmin
     top = np.inf
-    while lo <= rowmax and lo < top:
-        for j in range(2):
-            for i in range(nf - 1):
-                m = amin[j, i]
-                if lo <= m < hi and m < top:
-                    a0, a1 = depth[j, i], depth[j, i + 1]
-                    _piece(
-                        w[i], w[i + 1], eps[j, i], eps[j, i + 1], a0, a1, c, s, uniform, k1,
-                        env, q0, q1,
-                    )  # fmt: skip
+    while n_seg > 0:
+        keep = 0
+        for r in range(n_seg):
+            m = amin[r]
+            if m >= top:
+                continue  # above the envelope everywhere: cannot lower it
+            if m >= hi:
+                seg[keep] = seg[r]  # a later band
+                amin[keep] = m
+                keep += 1
+                continue
+            j, i = divmod(seg[r], nf)
+            _piece(
+                w[i], w[i + 1], eps[j, i], eps[j, i + 1], depth[j, i], depth[j, i + 1], c, s,
+                uniform, k1, env, q0, q1,
+            )  # fmt: skip
+        n_seg = keep
         top = -np.inf
         for jj in range(ns):
             top = max(top, env[jj])
-        lo = hi
         hi = 2.0 * hi
     return _complete(w, depth, eps, teeth, k1, env)
 
@@ -277,13 +281,19 @@ def _complete(
             amax = max(amax, env[jj])
     if not np.isfinite(amax):
         amax = np.inf
-    out = 0.0
+    # the largest w / (eps + 2 pi k1), compared by cross-multiplication (one division)
     twopik = _TWO_PI * float(k1)
+    wb = 0.0
+    db = 1.0
     for j in range(2):
         for i in range(w.shape[0]):
             d = depth[j, i]
             if np.isfinite(d) and d < amax:
-                out = max(out, 60.0 * w[i] / (teeth * (eps[j, i] + twopik)))
+                den = eps[j, i] + twopik
+                if w[i] * db > wb * den:
+                    wb = w[i]
+                    db = den
+    out = 60.0 * wb / (teeth * db) if wb > 0.0 else 0.0
     return out
 
 

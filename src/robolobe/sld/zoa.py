@@ -241,7 +241,7 @@ def zoa_lobes(
     g = np.asarray(frf)
     if w.ndim < 1 or g.shape[-3:-2] != w.shape[-1:]:
         raise InputError(f"omega {w.shape} and frf {g.shape}: expected n_freq to match")
-    if w.shape[-1] > 1 and np.any(np.diff(w, axis=-1) < 0):
+    if w.shape[-1] > 1 and np.any(w[..., 1:] < w[..., :-1]):
         raise InputError("omega: expected a sorted (non-decreasing) frequency grid")
     if isinstance(teeth, bool) or int(teeth) != teeth or teeth < 1:
         raise InputError(f"teeth: expected an integer >= 1, found {teeth!r}")
