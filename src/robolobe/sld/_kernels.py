@@ -47,8 +47,7 @@ def _cabs(z: complex) -> float:
     return math.sqrt(z.real * z.real + z.imag * z.imag)
 
 
-@intrinsic
-def _fma(typingctx: Any, a: Any, b: Any, c: Any) -> Any:
+def _fma_intrinsic(typingctx: Any, a: Any, b: Any, c: Any) -> Any:
     """``a * b + c`` rounded once (LLVM's ``llvm.fma.f64``)."""
     sig = types.float64(types.float64, types.float64, types.float64)
 
@@ -59,6 +58,9 @@ def _fma(typingctx: Any, a: Any, b: Any, c: Any) -> Any:
         )
 
     return sig, codegen
+
+
+_fma: Any = intrinsic(_fma_intrinsic)
 
 
 @njit()
