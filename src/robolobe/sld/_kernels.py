@@ -37,16 +37,6 @@ _TWO_PI = 2.0 * math.pi
 _LOCK = threading.Lock()
 
 
-@njit()
-def _cabs(z: complex) -> float:
-    """``|z|`` without hypot's overflow guard (moduli here are far from 1e154).
-
-    Used only to pair the branches; it may differ from numpy's ``abs`` in the
-    last bit, which could flip a pairing only at an exact tie.
-    """
-    return math.sqrt(z.real * z.real + z.imag * z.imag)
-
-
 def _fma_intrinsic(typingctx: Any, a: Any, b: Any, c: Any) -> Any:
     """``a * b + c`` rounded once (LLVM's ``llvm.fma.f64``)."""
     sig = types.float64(types.float64, types.float64, types.float64)
@@ -71,6 +61,29 @@ def _cmul(a: complex, b: complex) -> complex:
     path, which matters where ``Re mu`` cancels (branch edges, huge depths).
     """
     return complex(_fma(a.real, b.real, -(a.imag * b.imag)), _fma(a.real, b.imag, a.imag * b.real))
+
+
+@njit()
+def _crossed(m1: complex, m2: complex, p1: complex, p2: complex) -> bool:
+    """Whether ``|m1 - p2| + |m2 - p1| < |m1 - p1| + |m2 - p2|`` (the branches swapped).
+
+    Decided from the squared moduli where the bounds ``max(x, y) <= (sqrt x +
+    sqrt y)^2 <= 2 (x + y)`` settle it (nearly always), else from the moduli.
+    """
+    a2 = _cabs2(m1 - p1)
+    b2 = _cabs2(m2 - p2)
+    c2 = _cabs2(m1 - p2)
+    d2 = _cabs2(m2 - p1)
+    if max(c2, d2) > 2.0 * (a2 + b2) * (1.0 + 1e-9):
+        return False
+    if max(a2, b2) > 2.0 * (c2 + d2) * (1.0 + 1e-9):
+        return True
+    return math.sqrt(c2) + math.sqrt(d2) < math.sqrt(a2) + math.sqrt(b2)
+
+
+@njit()
+def _cabs2(z: complex) -> float:
+    return z.real * z.real + z.imag * z.imag
 
 
 @njit()
@@ -111,11 +124,8 @@ def _eig_row(
         root = _csqrt(_cmul(h, h) - det)
         m1 = h + root
         m2 = h - root
-        if i > 0:
-            same = _cabs(m1 - p1) + _cabs(m2 - p2)
-            cross = _cabs(m1 - p2) + _cabs(m2 - p1)
-            if cross < same:
-                parity = not parity
+        if i > 0 and _crossed(m1, m2, p1, p2):
+            parity = not parity
         p1 = m1
         p2 = m2
         if parity:
