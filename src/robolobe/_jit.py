@@ -44,14 +44,20 @@ def cache_enabled() -> bool:
 
 
 def njit(*, parallel: bool = False) -> Callable[[Callable[..., Any]], Any]:
-    """``numba.njit(cache=True, nogil=True)``, falling back to no cache if none is writable."""
+    """``numba.njit(cache=True, nogil=True)``, falling back to no cache if none is writable.
+
+    ``error_model="numpy"``: a float division by zero gives inf/nan as in
+    numpy (the reference paths) instead of raising, without a test per division.
+    """
     import numba
+
+    opts: dict[str, Any] = {"parallel": parallel, "nogil": True, "error_model": "numpy"}
 
     def deco(fn: Callable[..., Any]) -> Any:
         try:
-            return numba.njit(cache=True, parallel=parallel, nogil=True)(fn)
+            return numba.njit(cache=True, **opts)(fn)
         except RuntimeError:  # "cannot cache function ...: no locator available"
             _STATE["cache"] = False
-            return numba.njit(cache=False, parallel=parallel, nogil=True)(fn)
+            return numba.njit(cache=False, **opts)(fn)
 
     return deco

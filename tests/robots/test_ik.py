@@ -209,6 +209,10 @@ def test_numeric_fallback_for_non_ortho_parallel_robot(rng: np.random.Generator)
         ik(r, far)
     path = q + np.linspace(0, 0.2, 20)[:, None]
     np.testing.assert_allclose(ik_batch(r, tcp_pose(r, path), q), path, atol=1e-7)
+    poses = tcp_pose(r, path[:4])
+    poses[[1, 3]] = far
+    with pytest.raises(ReachabilityError, match=r"^waypoint 1: .*2 of 4 waypoints.*first: 1, 3\)"):
+        ik_batch(r, poses, q)
 
 
 def test_lateral_offset_stays_closed_form(rng: np.random.Generator) -> None:

@@ -632,6 +632,8 @@ def ik_batch(
     out = np.empty((n, 6))
     if n == 0:
         return out
+    fails: list[tuple[int, str]] = []  # first few failing waypoints and why
+    n_fail = 0
     g = _geometry(robot)
     if not g.closed_form:
         prev = ref
@@ -639,11 +641,14 @@ def ik_batch(
             try:
                 prev = ik_numeric(robot, P[i], prev if continuity else ref)
             except ConvergenceError as exc:
-                raise ReachabilityError(f"waypoint {i}: {exc}") from None
+                n_fail += 1
+                if len(fails) < _N_REPORT:
+                    fails.append((i, f"no solution ({exc})"))
+                out[i] = np.nan
+                continue
             out[i] = prev
+        _raise_failures(robot, P, fails, n_fail)
         return out
-    fails: list[tuple[int, str]] = []  # first few failing waypoints and why
-    n_fail = 0
     prev = ref.copy()
     compiled = n >= JIT_MIN_POSES
     for c0 in range(0, n, _IK_CHUNK):  # chunks bound the memory (~1 kB per pose)
@@ -661,15 +666,21 @@ def ik_batch(
         for i in bad[: max(0, _N_REPORT - len(fails))]:
             why = "out of reach" if not ok[i].any() else "no solution within the limits/constraints"
             fails.append((c0 + int(i), why))
-    if n_fail:
-        i, why = fails[0]
-        more = ", ".join(str(j) for j, _ in fails)
-        raise ReachabilityError(
-            f"waypoint {i}: {_describe_pose(P[i])}: {why} of robot {robot.name!r} "
-            f"({n_fail} of {n} waypoints have no valid solution; the first: {more}"
-            f"{', ...' if n_fail > len(fails) else ''})"
-        )
+    _raise_failures(robot, P, fails, n_fail)
     return out
+
+
+def _raise_failures(robot: Robot, P: FloatArray, fails: list[tuple[int, str]], n_fail: int) -> None:
+    """One error naming the first failing waypoint, the count and the first indices."""
+    if not n_fail:
+        return
+    i, why = fails[0]
+    more = ", ".join(str(j) for j, _ in fails)
+    raise ReachabilityError(
+        f"waypoint {i}: {_describe_pose(P[i])}: {why} of robot {robot.name!r} "
+        f"({n_fail} of {len(P)} waypoints have no valid solution; the first: {more}"
+        f"{', ...' if n_fail > len(fails) else ''})"
+    )
 
 
 _IK_CHUNK = 8192
