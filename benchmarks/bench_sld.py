@@ -1,4 +1,4 @@
-"""Benchmark: batched zero-order lobes vs a per-waypoint loop (issue 4).
+"""Benchmark: batched zero-order lobes, compiled kernel vs numpy path vs a per-waypoint loop.
 
 Workload (the issue's): 2x2 feed-frame FRFs with 10 modes each (6 robot
 modes at 5-40 Hz with random 3-D shapes rotated into a random feed frame,
