@@ -254,7 +254,12 @@ def zoa_lobes(
     if k < 0:
         raise InputError(f"max_lobe: expected an integer >= 0, found {max_lobe!r}")
     a = _alpha(alpha)
-    batch = np.broadcast_shapes(g.shape[:-3], a.shape[:-2], w.shape[:-1])
+    try:
+        batch = np.broadcast_shapes(g.shape[:-3], a.shape[:-2], w.shape[:-1])
+    except ValueError:
+        raise InputError(
+            f"frf {g.shape}, alpha {a.shape} and omega {w.shape}: batch shapes do not broadcast"
+        ) from None
     nb = math.prod(batch)
     nf = w.shape[-1]
     if jit is None:  # numba's start-up (~0.5 s per process) pays only on large batches
