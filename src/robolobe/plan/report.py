@@ -25,16 +25,16 @@ import io
 import json
 import os
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import pandas as pd
-from matplotlib.backends.backend_agg import FigureCanvasAgg
-from matplotlib.colors import TwoSlopeNorm
-from matplotlib.figure import Figure
 
 from robolobe._atomic import atomic_dir
 from robolobe.plan.pipeline import PlanResult
+
+if TYPE_CHECKING:
+    from matplotlib.figure import Figure
 
 __all__ = [
     "CAPTIONS",
@@ -67,6 +67,8 @@ def write_csv(df: pd.DataFrame, path: Path) -> None:
 
 
 def _png(fig: Figure) -> bytes:
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
     FigureCanvasAgg(fig)
     buf = io.BytesIO()
     fig.savefig(buf, format="png", dpi=110)
@@ -112,6 +114,8 @@ def _where(res: PlanResult, c: int) -> str:
 
 def plot_lobes(res: PlanResult) -> Figure:
     """Lobes of the tightest distinct waypoints, each with its operating point."""
+    from matplotlib.figure import Figure
+
     best = res.outcome.best
     tab = res.lobes.table
     sf = res.job.plan.safety_factor
@@ -147,8 +151,16 @@ def plot_lobes(res: PlanResult) -> Figure:
     return fig
 
 
+def _two_slope() -> Any:
+    from matplotlib.colors import TwoSlopeNorm
+
+    return TwoSlopeNorm(vcenter=0.0, vmin=-2.0, vmax=2.0)
+
+
 def plot_speed_map(res: PlanResult, max_rows: int = 1500) -> Figure:
     """Waypoint x speed map of ``a_lim / (SF depth)`` (log2) with the planned speeds."""
+    from matplotlib.figure import Figure
+
     best = res.outcome.best
     tab = res.lobes.table
     sf = res.job.plan.safety_factor
@@ -165,7 +177,7 @@ def plot_speed_map(res: PlanResult, max_rows: int = 1500) -> Figure:
         aspect="auto",
         extent=(rows[0] - 0.5, rows[-1] + 0.5, tab.rpm[0], tab.rpm[-1]),
         cmap="RdYlGn",
-        norm=TwoSlopeNorm(vcenter=0.0, vmin=-2.0, vmax=2.0),
+        norm=_two_slope(),
         interpolation="nearest",
     )
     ax.plot(np.arange(n), best.rpm, color="k", lw=1.2, label="planned speed")
@@ -187,6 +199,7 @@ def plot_path_margin(res: PlanResult) -> Figure:
     """Top view (x-y, workpiece frame) of the path, cutting moves coloured by margin."""
     from matplotlib.collections import LineCollection
     from matplotlib.colors import BoundaryNorm, ListedColormap
+    from matplotlib.figure import Figure
 
     t = res.table
     sf = res.job.plan.safety_factor
@@ -226,6 +239,8 @@ def plot_path_margin(res: PlanResult) -> Figure:
 
 def plot_speed_power(res: PlanResult) -> Figure:
     """Speed and cutting power along the cutting length."""
+    from matplotlib.figure import Figure
+
     o = res.outcome
     s = res.geom.s_m * 1e3
     fig = Figure(figsize=(8, 5))
