@@ -9,16 +9,51 @@ from numpy.typing import NDArray
 
 from robolobe.errors import InputError
 
-__all__ = ["arc_points", "arc_through"]
+__all__ = ["arc_points", "arc_start_tangent", "arc_through", "circle_through"]
+
+_MAX_SEGMENTS = 2_000_000
 
 FloatArray = NDArray[np.float64]
 
 
-def _n_segments(radius: float, sweep: float, tol: float) -> int:
+def _n_segments(radius: float, sweep: float, tol: float, where: str) -> int:
+    if not (math.isfinite(radius) and math.isfinite(sweep)):
+        raise InputError("arc with a non-finite radius or sweep", source=where)
     if radius <= tol:
         return 1
     half = math.acos(max(-1.0, 1.0 - tol / radius))
-    return max(1, math.ceil(abs(sweep) / (2 * half)))
+    n = max(1, math.ceil(abs(sweep) / (2 * half)))
+    if n > _MAX_SEGMENTS:
+        raise InputError(
+            f"arc of radius {radius:.4g} mm sweeping {math.degrees(abs(sweep)):.4g} deg needs "
+            f"{n} chords within {tol:g} mm: expected a plausible arc (check the units and the "
+            "arc words)",
+            source=where,
+        )
+    return n
+
+
+def _check_finite(where: str, *vecs: FloatArray) -> None:
+    for v in vecs:
+        if not np.all(np.isfinite(v)) or float(np.max(np.abs(v))) > 1e7:
+            raise InputError(
+                f"arc point {np.asarray(v).tolist()}: expected finite coordinates within 1e7 mm",
+                source=where,
+            )
+
+
+def arc_start_tangent(
+    start: FloatArray, centre: FloatArray, normal: FloatArray, *, clockwise: bool
+) -> FloatArray:
+    """Unit direction in which an arc leaves ``start`` (in the arc plane); shape (3,)."""
+    nrm = normal / np.linalg.norm(normal)
+    rs = start - centre
+    rs = rs - float(rs @ nrm) * nrm
+    t = np.cross(nrm, rs)
+    n = float(np.linalg.norm(t))
+    if n < 1e-12:
+        return np.zeros(3)
+    return -t / n if clockwise else t / n
 
 
 def arc_points(
@@ -30,6 +65,7 @@ def arc_points(
     clockwise: bool,
     tol: float,
     full_circle: bool = False,
+    turns: int = 0,
     where: str = "",
 ) -> FloatArray:
     """Points along a (helical) arc, excluding the start, ending exactly at ``end``.
@@ -47,6 +83,8 @@ def arc_points(
         ``max(0.01 mm, 0.1 % of the radius, 2 tol)`` (posts round to 3 decimals).
     full_circle : bool
         Sweep 360 degrees when start and end coincide in the plane.
+    turns : int
+        Extra full turns before the end (multi-turn helices, ``TIMES,n``).
     where : str
         ``file:line`` for errors.
 
@@ -59,6 +97,7 @@ def arc_points(
     InputError
         When the end point is not on the circle through the start point.
     """
+    _check_finite(where, start, end, centre)
     nrm = normal / np.linalg.norm(normal)
     rs = start - centre
     re = end - centre
@@ -81,7 +120,9 @@ def arc_points(
     sweep = -(-ang % (2 * math.pi)) if clockwise else ang % (2 * math.pi)
     if abs(sweep) < 1e-12 and full_circle:
         sweep = -2 * math.pi if clockwise else 2 * math.pi
-    n = _n_segments(r0, sweep, tol)
+    if turns:
+        sweep += (-2 * math.pi if clockwise else 2 * math.pi) * turns
+    n = _n_segments(r0, sweep, tol, where)
     t = np.arange(1, n + 1) / n
     th = sweep * t
     r = r0 + (r1 - r0) * t
@@ -93,6 +134,31 @@ def arc_points(
     )
     pts[-1] = end
     return np.asarray(pts, dtype=np.float64)
+
+
+def circle_through(
+    start: FloatArray, via: FloatArray, end: FloatArray, where: str = ""
+) -> tuple[FloatArray, FloatArray] | None:
+    """Centre and unit normal of the circle through three points (None if collinear).
+
+    The normal is ``(via - start) x (end - start)``: the arc start -> via -> end
+    runs counter-clockwise about it.
+    """
+    _check_finite(where, start, via, end)
+    a = via - start
+    b = end - start
+    nrm = np.cross(a, b)
+    nn = float(np.linalg.norm(nrm))
+    scale = max(float(np.linalg.norm(a)), float(np.linalg.norm(b)), 1e-300)
+    if nn < 1e-9 * scale**2:
+        return None
+    nrm = nrm / nn
+    aa, bb = float(a @ a), float(b @ b)
+    ab = float(a @ b)
+    den = 2 * (aa * bb - ab * ab)
+    s = bb * (aa - ab) / den
+    t = aa * (bb - ab) / den
+    return start + s * a + t * b, nrm
 
 
 def arc_through(
@@ -107,20 +173,9 @@ def arc_through(
     -------
     ndarray, shape (n, 3)
     """
-    a = via - start
-    b = end - start
-    nrm = np.cross(a, b)
-    nn = float(np.linalg.norm(nrm))
-    scale = max(float(np.linalg.norm(a)), float(np.linalg.norm(b)), 1e-300)
-    if nn < 1e-9 * scale**2:
+    circ = circle_through(start, via, end, where)
+    if circ is None:
         return np.stack([via, end])
-    nrm = nrm / nn
-    # circumcentre of the triangle (start, via, end)
-    aa, bb = float(a @ a), float(b @ b)
-    ab = float(a @ b)
-    den = 2 * (aa * bb - ab * ab)
-    s = bb * (aa - ab) / den
-    t = aa * (bb - ab) / den
-    centre = start + s * a + t * b
+    centre, nrm = circ
     # via lies on the arc: sense is CCW about nrm (nrm = a x b puts via first)
     return arc_points(start, end, centre, nrm, clockwise=False, tol=tol, where=where)

@@ -22,6 +22,7 @@ column              unit     meaning
 
 from __future__ import annotations
 
+import logging
 import math
 from dataclasses import dataclass, field
 
@@ -61,10 +62,18 @@ COLUMNS: tuple[str, ...] = (
 
 FloatArray = NDArray[np.float64]
 
+logger = logging.getLogger(__name__)
+
+_NAN3 = (math.nan, math.nan, math.nan)
+_MAX_POS_M = 1e4  # 10 km: anything beyond is a corrupt or mis-scaled file
+
 
 @dataclass
 class WaypointBuilder:
     """Collects waypoints while a reader walks a file (positions in metres).
+
+    Per-waypoint work is pure Python (no numpy call per line): a 1e6-line
+    program is read in seconds.
 
     Parameters
     ----------
@@ -80,11 +89,28 @@ class WaypointBuilder:
     _rpm: list[float] = field(default_factory=list)
     _rapid: list[bool] = field(default_factory=list)
     _line: list[int] = field(default_factory=list)
+    warnings: list[str] = field(default_factory=list)
+    _seen: dict[str, int] = field(default_factory=dict)
+
+    def warn(self, message: str, line: int | None = None, *, key: str | None = None) -> None:
+        """Record a reader warning (logged now, repeated in the plan summary).
+
+        Warnings with the same ``key`` are counted; the first is kept with
+        its line, later ones raise the count shown by :meth:`table`.
+        """
+        k = key or message
+        if k in self._seen:
+            self._seen[k] += 1
+            return
+        self._seen[k] = 1
+        text = f"{self.source}:{line}: {message}" if line is not None else f"{self.source}: {message}"
+        logger.warning("%s", text)
+        self.warnings.append(k + "\x00" + text)
 
     def add(
         self,
-        pos_m: FloatArray | tuple[float, float, float],
-        axis: FloatArray | tuple[float, float, float],
+        pos_m: FloatArray | tuple[float, float, float] | list[float],
+        axis: FloatArray | tuple[float, float, float] | list[float],
         *,
         line: int,
         rapid: bool,
@@ -97,7 +123,7 @@ class WaypointBuilder:
         Parameters
         ----------
         pos_m : array, shape (3,)
-            Tip position [m].
+            Tip position [m]; finite, each coordinate within 10 km.
         axis : array, shape (3,)
             Tool axis (tip to spindle); normalised here.
         line : int
@@ -109,29 +135,31 @@ class WaypointBuilder:
         ref : array, shape (3,), optional
             TCP x axis where the path fixes it.
         """
-        a = np.asarray(axis, dtype=np.float64)
-        n = float(np.linalg.norm(a))
+        ax, ay, az = float(axis[0]), float(axis[1]), float(axis[2])
+        n = math.sqrt(ax * ax + ay * ay + az * az)
         if not math.isfinite(n) or n < 1e-9:
             raise InputError(
-                f"expected a non-zero tool axis, found {a.tolist()}", source=f"{self.source}:{line}"
+                f"expected a non-zero tool axis, found {[ax, ay, az]}",
+                source=f"{self.source}:{line}",
             )
-        a = a / n
-        p = np.asarray(pos_m, dtype=np.float64)
-        if not np.all(np.isfinite(p)):
+        ax, ay, az = ax / n, ay / n, az / n
+        px, py, pz = float(pos_m[0]), float(pos_m[1]), float(pos_m[2])
+        if not (abs(px) <= _MAX_POS_M and abs(py) <= _MAX_POS_M and abs(pz) <= _MAX_POS_M):
             raise InputError(
-                f"expected a finite position, found {p.tolist()}", source=f"{self.source}:{line}"
+                f"expected a finite position within {_MAX_POS_M * 1e3:g} mm, found "
+                f"{[px * 1e3, py * 1e3, pz * 1e3]} mm",
+                source=f"{self.source}:{line}",
             )
-        self._pos.append((float(p[0]), float(p[1]), float(p[2])))
-        self._axis.append((float(a[0]), float(a[1]), float(a[2])))
+        self._pos.append((px, py, pz))
+        self._axis.append((ax, ay, az))
         if ref is None:
-            self._ref.append((math.nan, math.nan, math.nan))
+            self._ref.append(_NAN3)
         else:
-            r = np.asarray(ref, dtype=np.float64)
-            r = r - (r @ a) * a
-            rn = float(np.linalg.norm(r))
-            self._ref.append(
-                (math.nan, math.nan, math.nan) if rn < 1e-9 else tuple(float(v) for v in r / rn)  # type: ignore[arg-type]
-            )
+            rx, ry, rz = float(ref[0]), float(ref[1]), float(ref[2])
+            d = rx * ax + ry * ay + rz * az
+            rx, ry, rz = rx - d * ax, ry - d * ay, rz - d * az
+            rn = math.sqrt(rx * rx + ry * ry + rz * rz)
+            self._ref.append(_NAN3 if not rn > 1e-9 else (rx / rn, ry / rn, rz / rn))
         self._feed.append(float(feed_mm_per_min))
         self._rpm.append(float(rpm))
         self._rapid.append(bool(rapid))
@@ -145,8 +173,19 @@ class WaypointBuilder:
         """The last position [m], or None."""
         return np.array(self._pos[-1]) if self._pos else None
 
+    def notes(self) -> list[str]:
+        """The warnings, each once, with ``(n times)`` where it repeated."""
+        out = []
+        for item in self.warnings:
+            k, text = item.split("\x00", 1)
+            n = self._seen.get(k, 1)
+            out.append(text + (f" ({n} times)" if n > 1 else ""))
+        return out
+
     def table(self) -> pd.DataFrame:
         """The waypoint table (see the module docstring).
+
+        Reader warnings are in ``df.attrs["warnings"]`` (list of str).
 
         Raises
         ------
@@ -180,6 +219,7 @@ class WaypointBuilder:
                 "line": np.array(self._line, dtype=np.int64),
             }
         )
+        df.attrs["warnings"] = self.notes()
         return df
 
 
