@@ -9,7 +9,7 @@ from numpy.typing import NDArray
 
 from robolobe.errors import InputError
 
-__all__ = ["arc_points", "arc_start_tangent", "arc_through", "circle_through"]
+__all__ = ["arc_point_list", "arc_points", "arc_start_tangent", "arc_through", "circle_through"]
 
 _MAX_SEGMENTS = 2_000_000
 
@@ -56,6 +56,9 @@ def arc_start_tangent(
     return -t / n if clockwise else t / n
 
 
+Vec = tuple[float, float, float]
+
+
 def arc_points(
     start: FloatArray,
     end: FloatArray,
@@ -97,16 +100,49 @@ def arc_points(
     InputError
         When the end point is not on the circle through the start point.
     """
-    _check_finite(where, start, end, centre)
-    nrm = normal / np.linalg.norm(normal)
-    rs = start - centre
-    re = end - centre
-    h0 = float(rs @ nrm)
-    h1 = float(re @ nrm)
-    rs_p = rs - h0 * nrm
-    re_p = re - h1 * nrm
-    r0 = float(np.linalg.norm(rs_p))
-    r1 = float(np.linalg.norm(re_p))
+    pts = arc_point_list(
+        _vec(start), _vec(end), _vec(centre), _vec(normal), clockwise=clockwise, tol=tol,
+        full_circle=full_circle, turns=turns, where=where,
+    )  # fmt: skip
+    return np.array(pts, dtype=np.float64).reshape(-1, 3)
+
+
+def _vec(a: FloatArray | Vec) -> Vec:
+    return (float(a[0]), float(a[1]), float(a[2]))
+
+
+def arc_point_list(
+    start: Vec,
+    end: Vec,
+    centre: Vec,
+    normal: Vec,
+    *,
+    clockwise: bool,
+    tol: float,
+    full_circle: bool = False,
+    turns: int = 0,
+    where: str = "",
+) -> list[Vec]:
+    """:func:`arc_points` on tuples, in pure Python (no numpy call per arc).
+
+    The readers call it once per arc of a program that may hold a million
+    of them; numpy's per-call overhead on 3-vectors would dominate.
+    """
+    for v in (start, end, centre):
+        if not all(math.isfinite(c) and abs(c) <= 1e7 for c in v):
+            raise InputError(
+                f"arc point {list(v)}: expected finite coordinates within 1e7 mm", source=where
+            )
+    nn = math.sqrt(normal[0] ** 2 + normal[1] ** 2 + normal[2] ** 2)
+    n0, n1, n2 = normal[0] / nn, normal[1] / nn, normal[2] / nn
+    sx, sy, sz = start[0] - centre[0], start[1] - centre[1], start[2] - centre[2]
+    ex, ey, ez = end[0] - centre[0], end[1] - centre[1], end[2] - centre[2]
+    h0 = sx * n0 + sy * n1 + sz * n2
+    h1 = ex * n0 + ey * n1 + ez * n2
+    sx, sy, sz = sx - h0 * n0, sy - h0 * n1, sz - h0 * n2
+    ex, ey, ez = ex - h1 * n0, ey - h1 * n1, ez - h1 * n2
+    r0 = math.sqrt(sx * sx + sy * sy + sz * sz)
+    r1 = math.sqrt(ex * ex + ey * ey + ez * ez)
     if r0 < 1e-12:
         raise InputError("arc of zero radius (start point at the centre)", source=where)
     if abs(r1 - r0) > max(0.01, 1e-3 * r0, 2 * tol):
@@ -114,26 +150,33 @@ def arc_points(
             f"arc end point is not on the circle: radius at start {r0:.4g}, at end {r1:.4g}",
             source=where,
         )
-    u = rs_p / r0
-    v = np.cross(nrm, u)
-    ang = math.atan2(float(re_p @ v), float(re_p @ u))  # (-pi, pi], CCW from start
-    sweep = -(-ang % (2 * math.pi)) if clockwise else ang % (2 * math.pi)
+    ux, uy, uz = sx / r0, sy / r0, sz / r0
+    vx, vy, vz = n1 * uz - n2 * uy, n2 * ux - n0 * uz, n0 * uy - n1 * ux  # n x u
+    ang = math.atan2(ex * vx + ey * vy + ez * vz, ex * ux + ey * uy + ez * uz)  # CCW from start
+    two_pi = 2 * math.pi
+    sweep = -(-ang % two_pi) if clockwise else ang % two_pi
     if abs(sweep) < 1e-12 and full_circle:
-        sweep = -2 * math.pi if clockwise else 2 * math.pi
+        sweep = -two_pi if clockwise else two_pi
     if turns:
-        sweep += (-2 * math.pi if clockwise else 2 * math.pi) * turns
+        sweep += (-two_pi if clockwise else two_pi) * turns
     n = _n_segments(r0, sweep, tol, where)
-    t = np.arange(1, n + 1) / n
-    th = sweep * t
-    r = r0 + (r1 - r0) * t
-    pts = (
-        centre
-        + (r * np.cos(th))[:, None] * u
-        + (r * np.sin(th))[:, None] * v
-        + (h0 + (h1 - h0) * t)[:, None] * nrm
-    )
-    pts[-1] = end
-    return np.asarray(pts, dtype=np.float64)
+    cx, cy, cz = centre
+    out: list[Vec] = []
+    for k in range(1, n):
+        t = k / n
+        th = sweep * t
+        r = r0 + (r1 - r0) * t
+        c, s = r * math.cos(th), r * math.sin(th)
+        h = h0 + (h1 - h0) * t
+        out.append(
+            (
+                cx + c * ux + s * vx + h * n0,
+                cy + c * uy + s * vy + h * n1,
+                cz + c * uz + s * vz + h * n2,
+            )
+        )
+    out.append((float(end[0]), float(end[1]), float(end[2])))
+    return out
 
 
 def circle_through(

@@ -165,6 +165,35 @@ class WaypointBuilder:
         self._rapid.append(bool(rapid))
         self._line.append(int(line))
 
+    def add_unit(
+        self,
+        pos_m: tuple[float, float, float],
+        axis: tuple[float, float, float],
+        line: int,
+        rapid: bool,
+        feed_mm_per_min: float,
+        rpm: float,
+    ) -> None:
+        """:meth:`add` for a reader that already holds a unit tool axis and no TCP x axis.
+
+        The per-line fast path of the G-code reader (no normalisation, no
+        reference axis); the position is still checked.
+        """
+        px, py, pz = pos_m
+        if not (abs(px) <= _MAX_POS_M and abs(py) <= _MAX_POS_M and abs(pz) <= _MAX_POS_M):
+            raise InputError(
+                f"expected a finite position within {_MAX_POS_M * 1e3:g} mm, found "
+                f"{[px * 1e3, py * 1e3, pz * 1e3]} mm",
+                source=f"{self.source}:{line}",
+            )
+        self._pos.append(pos_m)
+        self._axis.append(axis)
+        self._ref.append(_NAN3)
+        self._feed.append(feed_mm_per_min)
+        self._rpm.append(rpm)
+        self._rapid.append(rapid)
+        self._line.append(line)
+
     def __len__(self) -> int:
         return len(self._pos)
 

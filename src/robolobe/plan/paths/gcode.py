@@ -61,7 +61,7 @@ import numpy as np
 import pandas as pd
 
 from robolobe.errors import InputError
-from robolobe.plan.paths._arcs import arc_points
+from robolobe.plan.paths._arcs import arc_point_list
 from robolobe.plan.paths._table import WaypointBuilder
 from robolobe.plan.paths._text import MAX_ABS, UNIT_CHOICES, check_choice, lines, read_text
 
@@ -577,13 +577,13 @@ def _emit_line(
     rapid: bool,
 ) -> None:
     rpm = st.rpm if st.spindle_on else math.nan
-    out.add(
+    out.add_unit(
         (target[0] * 1e-3, target[1] * 1e-3, target[2] * 1e-3),
         axis,
-        line=lineno,
-        rapid=rapid,
-        feed_mm_per_min=math.nan if rapid else _feed_mm_per_min(st),
-        rpm=rpm,
+        lineno,
+        rapid,
+        math.nan if rapid else _feed_mm_per_min(st),
+        rpm,
     )
     st.pos = target
     st.pos_known = True
@@ -597,24 +597,23 @@ def _emit_arc(
     vals: dict[str, float],
     st: _State,
     out: WaypointBuilder,
-    target_l: list[float],
+    target: list[float],
     axis: tuple[float, float, float],
     lineno: int,
     tol: float,
     where: str,
 ) -> None:
     ia, ib, ic = _PLANES[st.plane]
-    normal = np.zeros(3)
+    normal = [0.0, 0.0, 0.0]
     normal[ic] = 1.0
-    start = np.array(st.pos)
-    target = np.array(target_l)
+    start = st.pos
     cw = st.motion == 2
     if "R" in vals:
-        if any(k in vals for k in "IJK"):
+        if "I" in vals or "J" in vals or "K" in vals:
             raise InputError("arc with both R and I/J/K", source=where)
         r = vals["R"] * st.scale
-        d = np.array([target[ia] - start[ia], target[ib] - start[ib]])
-        chord = float(np.linalg.norm(d))
+        da, db = target[ia] - start[ia], target[ib] - start[ib]
+        chord = math.hypot(da, db)
         if chord < 1e-9:
             raise InputError("R-form arc with coincident start and end", source=where)
         if chord > 2 * abs(r) * (1 + 1e-6) + 1e-3:
@@ -622,35 +621,36 @@ def _emit_arc(
                 f"arc radius R{abs(r):g} too small for a chord of {chord:.4g}", source=where
             )
         h = math.sqrt(max(r * r - chord * chord / 4, 0.0))
-        mid = (np.array([start[ia], start[ib]]) + np.array([target[ia], target[ib]])) / 2
-        perp = np.array([-d[1], d[0]]) / chord  # left of the chord (CCW side)
         # CW with a short arc (R > 0): centre to the right of the chord
         sign = (-1.0 if cw else 1.0) * (1.0 if r > 0 else -1.0)
-        c2 = mid + sign * h * perp
-        centre = start.copy()
-        centre[ia], centre[ib] = c2
+        centre = list(start)
+        centre[ia] = (start[ia] + target[ia]) / 2 + sign * h * (-db / chord)
+        centre[ib] = (start[ib] + target[ib]) / 2 + sign * h * (da / chord)
         full = False
     else:
-        off = np.array([vals.get("I", 0.0), vals.get("J", 0.0), vals.get("K", 0.0)]) * st.scale
+        if not ("I" in vals or "J" in vals or "K" in vals):
+            raise InputError("arc without I/J/K or R", source=where)
+        off = [vals.get("I", 0.0) * st.scale, vals.get("J", 0.0) * st.scale, vals.get("K", 0.0) * st.scale]
         if st.arc_abs:
-            centre = start.copy()
+            centre = list(start)
             for n, k in enumerate("IJK"):
                 if k in vals:
                     centre[n] = off[n] + st.offset[n]
         else:
-            centre = start + off
-        if not any(k in vals for k in "IJK"):
-            raise InputError("arc without I/J/K or R", source=where)
+            centre = [start[0] + off[0], start[1] + off[1], start[2] + off[2]]
         full = True
     centre[ic] = start[ic]
-    pts = arc_points(
-        start, target, centre, normal, clockwise=cw, tol=tol, full_circle=full, where=where
-    )
+    pts = arc_point_list(
+        (start[0], start[1], start[2]), (target[0], target[1], target[2]),
+        (centre[0], centre[1], centre[2]), (normal[0], normal[1], normal[2]),
+        clockwise=cw, tol=tol, full_circle=full, where=where,
+    )  # fmt: skip
     feed = _feed_mm_per_min(st)
     rpm = st.rpm if st.spindle_on else math.nan
-    for p in pts * 1e-3:
-        out.add(p, axis, line=lineno, rapid=False, feed_mm_per_min=feed, rpm=rpm)
-    st.pos = target_l
+    add = out.add_unit
+    for p in pts:
+        add((p[0] * 1e-3, p[1] * 1e-3, p[2] * 1e-3), axis, lineno, False, feed, rpm)
+    st.pos = target
     st.pos_known = True
     st.axis = axis
 
