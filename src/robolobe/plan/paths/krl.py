@@ -2,36 +2,43 @@
 
 Positions are aggregates ``{X 100, Y 20, Z 5, A 0, B 90, C 0}`` in mm and
 degrees, A/B/C the ZYX Euler angles of the tool frame (``R = Rz(A) Ry(B)
-Rx(C)``), given in the active base, which is the workpiece (path) frame.
-KUKA's tool convention makes the tool **X** axis the working direction
-(spindle to tip), so the tool axis (tip to spindle) is ``-x_tool``; with
-``tool_direction="z"`` the tool Z axis is taken instead (frames defined the
-ABB/RoboDK way). The TCP x axis the planner uses is the tool frame's next
-axis (``y_tool`` for X, ``x_tool`` for Z), so ``z_tcp = working direction``.
+Rx(C)``), given in the active base, which is the workpiece (path) frame
+(reader option ``coordinates = "machine"`` applies a literal ``$BASE``).
+Which tool-frame axis is the working direction (spindle to tip) is a
+convention of the cell, not of the file: reader option ``tool_direction``,
+default ``"z"`` (RoboDK and other offline programming systems, and ABB: the
+same program posted as KRL and as RAPID gives one tool axis); ``"x"`` is
+KUKA's factory ``$TOOL_DIRECTION`` for programs taught that way. The tool
+axis (tip to spindle) is minus that axis; the TCP x axis the planner uses
+is the tool frame's next axis (``x_tool`` for z, ``y_tool`` for x).
 
 Supported: ``LIN``, ``SLIN``, ``LIN_REL`` (base frame), ``CIRC``/``SCIRC``
-(auxiliary and end point), ``PTP``/``SPTP``/``PTP_REL`` (rapid), targets as
-aggregates (partial aggregates keep the other components), ``E6POS``/
-``POS``/``FRAME`` variables declared in the ``.src`` or the ``.dat`` beside
-it (``DECL E6POS XP1={...}``, ``E6POS P2={...}``), approximation words
-``C_DIS``/``C_VEL``/``C_ORI``/``C_PTP``, ``$VEL.CP = 0.2`` (m/s),
-``$VEL = {CP 0.2, ...}``, ``BAS(#CP_PARAMS, v)`` / ``BAS(#VEL_CP, v)``
-(inline forms, m/s), ``;`` comments and folds, ``&`` header lines, ``DEF``/
-``END``/``DEFDAT``/``ENDDAT``, ``SPLINE``/``ENDSPLINE`` brackets.
+(auxiliary and end point; ``CA angle`` sweeps that angle on the circle),
+``SPL`` (spline points, joined by straight lines, warned), ``PTP``/
+``SPTP``/``PTP_REL`` (rapid), ``WITH $VEL = SVEL_CP(v, ...)`` (that
+motion's velocity, m/s), targets as aggregates (partial aggregates keep the
+other components), ``E6POS``/``POS``/``FRAME`` variables declared in the
+``.src`` or the ``.dat`` beside it, approximation words
+``C_DIS``/``C_VEL``/``C_ORI``/``C_PTP``/``C_SPL``, ``$VEL.CP = 0.2``
+(m/s), ``$VEL = {CP 0.2, ...}``, ``BAS(#CP_PARAMS, v)`` / ``BAS(#VEL_CP,
+v)``, ``;`` comments and folds, ``&`` header lines,
+``SPLINE``/``ENDSPLINE`` brackets. The program is the first ``DEF ...
+END``; routines after its ``END`` (``DEF``, ``GLOBAL DEFFCT``) are not main
+code: a ``DEF`` routine of the same file is followed where it is called,
+other calls are warned and skipped. A ``DEF`` without ``END`` is warned as
+truncated.
 
 Ignored on purpose: other ``$`` system variables (``$APO``, ``$ACC``,
-``$BASE``, ``$TOOL``, ``$OUT``, ``$ANOUT``, ...; the path is taken in the
-active base), other ``BAS`` calls, ``DECL`` of other types, ``WAIT``,
-``HALT``, ``INTERRUPT``, ``TRIGGER``, assignments to plain variables, PTP
-to axis-specific targets (``{A1 0, ...}``, ``HOME``; they leave the
-Cartesian path, which resumes at the next absolute target). Calls of other
-subprograms ``NAME(...)`` are ignored with a warning (their motions are not
-followed).
+``$TOOL``, ``$OUT``, ``$ANOUT``, ...), other ``BAS`` calls, ``DECL`` of
+other types, ``WAIT``, ``HALT``, ``INTERRUPT``, ``TRIGGER``, assignments to
+plain variables, PTP to axis-specific or actual-position targets
+(``{A1 0, ...}``, ``HOME``, ``$AXIS_ACT``, ``$POS_ACT``; they leave the
+Cartesian path, which resumes at the next absolute target).
 
-Control flow (``IF``, ``FOR``, ``WHILE``, ``LOOP``, ``REPEAT``, ``SWITCH``,
-``GOTO``), ``CIRC`` with ``CA``, relative moves in the tool frame and
-expressions in targets raise :class:`~robolobe.errors.InputError` with
-``file:line``.
+Refused with :class:`~robolobe.errors.InputError` naming ``file:line``:
+control flow (``IF``, ``FOR``, ``WHILE``, ``LOOP``, ``REPEAT``, ``SWITCH``,
+``GOTO``), relative moves in the tool frame, expressions in targets,
+non-positive or non-numeric velocities, non-finite numbers.
 """
 
 from __future__ import annotations
