@@ -1,4 +1,8 @@
-"""Bad input for every toolpath reader: a clear ``file:line`` error or a correct read, never a traceback."""
+"""Bad input for every toolpath reader: a clear ``file:line`` error or a correct read.
+
+Never a traceback: empty, binary, BOM, mixed line endings, cut anywhere,
+absurd numbers, non-positive feeds, negative spindle speeds.
+"""
 
 from __future__ import annotations
 
@@ -85,12 +89,15 @@ def test_truncated_file_is_warned(tmp_path, ext, cut_at, what):
 @pytest.mark.parametrize("ext", EXTS)
 def test_cut_anywhere_never_tracebacks(tmp_path, ext):
     data = GOOD[ext].encode()
+    unnamed = []
     for k in range(1, len(data)):
         p = write(tmp_path, ext, data[:k])
         try:
             read_toolpath(p)
         except InputError as exc:
-            assert str(exc).startswith("prog"), str(exc)
+            if not str(exc).startswith("prog"):
+                unnamed.append(str(exc))
+    assert unnamed == []
 
 
 @pytest.mark.parametrize(

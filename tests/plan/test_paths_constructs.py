@@ -80,8 +80,10 @@ def test_nx_pocket_arcs_both_senses(ccw):
     deficit = 2 * math.pi * r * 0.01 / (3 * r)
     assert ring + plunge - deficit - 1e-9 <= cut_length(df) <= ring + plunge + 1e-9
     cut = xyz(df)[(df["motion"] == "cut").to_numpy()]
-    assert cut[:, 0].min() == pytest.approx(0.0, abs=1e-9) and cut[:, 0].max() == pytest.approx(w)
-    assert cut[:, 1].min() == pytest.approx(0.0, abs=1e-9) and cut[:, 1].max() == pytest.approx(h)
+    assert cut[:, 0].min() == pytest.approx(0.0, abs=1e-9)
+    assert cut[:, 0].max() == pytest.approx(w)
+    assert cut[:, 1].min() == pytest.approx(0.0, abs=1e-9)
+    assert cut[:, 1].max() == pytest.approx(h)
     assert max_turn_deg(df[df["z_m"] < 0].iloc[1:]) < 10  # tangent all the way round
     other = parse_apt(nx_pocket(ccw), "pocket.cls", circle_axis="ccw")
     assert any("circle_axis = 'cw'" in w for w in other.attrs["warnings"])
@@ -127,7 +129,8 @@ def test_apt_inch_data_without_units_is_flagged():
     text = "GOTO/0,0,1\nFEDRAT/8\nGOTO/0,0,0\nGOTO/3,2,0\nGOTO/6,0,0\nFINI\n"
     df = parse_apt(text, "small.cls")
     joined = " ".join(df.attrs["warnings"])
-    assert "no UNITS record" in joined and "look like inches" in joined
+    assert "no UNITS record" in joined
+    assert "look like inches" in joined
     inch = parse_apt(text, "small.cls", units="inch")
     assert xyz(inch)[-1] == pytest.approx([6 * 25.4, 0, 0])
     assert inch["feed_mm_per_min"].iloc[-1] == pytest.approx(8 * 25.4)
@@ -215,7 +218,8 @@ def test_krl_circ_ca_spl_with_and_local_routines():
     text = (
         KRL_HEAD
         + "CIRC {X 0, Y 10, Z 0}, {X -10, Y 0, Z 0}, CA 90\n"  # quarter of the circle r 10
-        + "SPLINE\nSPL {X 0, Y 5, Z 0}\nSLIN {X 0, Y 0, Z 0} WITH $VEL = SVEL_CP(0.05, , LDEFAULT)\n"
+        + "SPLINE\nSPL {X 0, Y 5, Z 0}\n"
+        + "SLIN {X 0, Y 0, Z 0} WITH $VEL = SVEL_CP(0.05, , LDEFAULT)\n"
         + "ENDSPLINE\nsub1()\nEND\n"
         + "DEF sub1()\nLIN {X 5, Y 5, Z 0}\nEND\n"
         + "GLOBAL DEFFCT BOOL helper()\nIF TRUE THEN\nRETURN(TRUE)\nENDIF\nENDFCT\n"
@@ -237,7 +241,10 @@ def test_krl_circ_ca_spl_with_and_local_routines():
 def test_krl_if_refused_and_base_applied_in_machine_coordinates():
     with pytest.raises(InputError, match=r"t\.src:5: .*control flow IF"):
         parse_krl(KRL_HEAD + "IF $IN[1] THEN\nENDIF\nEND\n", "t.src")
-    base = "DEF t()\n$BASE = {X 100, Y 0, Z 50, A 90, B 0, C 0}\nLIN {X 10, Y 0, Z 0, A 0, B 0, C 180}\nEND\n"
+    base = (
+        "DEF t()\n$BASE = {X 100, Y 0, Z 50, A 90, B 0, C 0}\n"
+        "LIN {X 10, Y 0, Z 0, A 0, B 0, C 180}\nEND\n"
+    )
     wp = parse_krl(base, "t.src")
     mc = parse_krl(base, "t.src", coordinates="machine")
     assert xyz(wp)[0] == pytest.approx([10, 0, 0])
@@ -305,7 +312,8 @@ def test_cli_rejects_a_bad_reader_option(tmp_path):
     )  # fmt: skip
     assert res.exit_code != 0
     assert isinstance(res.exception, InputError)
-    assert "--units" in str(res.exception) and "furlong" in str(res.exception)
+    assert "--units" in str(res.exception)
+    assert "furlong" in str(res.exception)
 
 
 def test_reader_warnings_reach_the_plan_summary(tmp_path):

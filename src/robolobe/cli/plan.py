@@ -60,23 +60,28 @@ def _print_summary(s: dict[str, Any], out: Path) -> None:
 # Toolpath reader options (job section [path]); a flag given here overrides the job.
 _Units = Annotated[
     str | None,
-    typer.Option(help="Units where the file states none: auto, mm, inch (G-code, APT).",
-                 show_default=False),
+    typer.Option(
+        help="Units where the file states none: auto, mm, inch (G-code, APT).", show_default=False
+    ),
 ]
 _ToolDirection = Annotated[
     str | None,
-    typer.Option(help="Tool-frame axis along the working direction: z or x (KRL, RAPID).",
-                 show_default=False),
+    typer.Option(
+        help="Tool-frame axis along the working direction: z or x (KRL, RAPID).", show_default=False
+    ),
 ]
 _Coordinates = Annotated[
     str | None,
-    typer.Option(help="workpiece (as written) or machine (APT MSYS, KRL $BASE, RAPID wobjdata).",
-                 show_default=False),
+    typer.Option(
+        help="workpiece (as written) or machine (APT MSYS, KRL $BASE, RAPID wobjdata).",
+        show_default=False,
+    ),
 ]
 _RotaryAxes = Annotated[
     str | None,
-    typer.Option(help="G-code A/B/C words: auto (refused without TCP), head or table.",
-                 show_default=False),
+    typer.Option(
+        help="G-code A/B/C words: auto (refused without TCP), head or table.", show_default=False
+    ),
 ]
 _CircleAxis = Annotated[
     str | None,

@@ -665,7 +665,11 @@ def job_from_dict(d: dict[str, Any], source: str = "<dict>", base_dir: Path | No
         tool_rotation_step_rad=math.radians(r.tool_rotation_step_deg),
         name=spec.name,
         source=source,
-        path_options={k: v for k, v in spec.path.model_dump().items() if v is not None and k in _KNOWN_KEYS["path"]},
+        path_options={
+            k: v
+            for k, v in spec.path.model_dump().items()
+            if v is not None and k in _KNOWN_KEYS["path"]
+        },
     )
 
 

@@ -103,7 +103,9 @@ class WaypointBuilder:
             self._seen[k] += 1
             return
         self._seen[k] = 1
-        text = f"{self.source}:{line}: {message}" if line is not None else f"{self.source}: {message}"
+        text = (
+            f"{self.source}:{line}: {message}" if line is not None else f"{self.source}: {message}"
+        )
         logger.warning("%s", text)
         self.warnings.append(k + "\x00" + text)
 

@@ -86,7 +86,9 @@ _PROGRAM_NAME = re.compile(r"^(?:O[A-Z0-9_.\-]+|O\s+\d+|:\s*\d+)\s*")
 
 # G codes accepted without effect on the geometry (no note: routine in posts)
 _G_IGNORED = {4.0, 15.0, 17.1, 40.0, 43.0, 44.0, 49.0, 61.0, 61.1, 64.0, 80.0, 98.0, 99.0}
-_G_IGNORED |= {54.1} | {float(g) for g in range(54, 60)} | {round(54 + k / 10, 1) for k in range(1, 10)}
+_G_IGNORED |= (
+    {54.1} | {float(g) for g in range(54, 60)} | {round(54 + k / 10, 1) for k in range(1, 10)}
+)
 # accepted without effect, with a note in the summary
 _G_NOTED = {
     8.0: "G08 look-ahead mode",
@@ -269,7 +271,7 @@ def parse_gcode(
         upper = line.upper()
         if upper[0] in "O:":
             m = _PROGRAM_NAME.match(upper)
-            if m is None or (m.end() < len(upper) and not upper[m.end() :].lstrip()[:1] in "GMN"):
+            if m is None or (m.end() < len(upper) and upper[m.end() :].lstrip()[:1] not in "GMN"):
                 raise InputError(
                     f"unsupported construct: O-word {upper.split()[0]!r} with "
                     f"{upper[m.end() if m else 1 :].strip()!r} (subroutine or control flow; "
@@ -467,7 +469,11 @@ def _block(
         return end
     where = f"{out.source}:{lineno}"
     moving = "X" in vals or "Y" in vals or "Z" in vals or "A" in vals or "B" in vals or "C" in vals
-    if not moving and st.motion is not None and ("I" in vals or "J" in vals or "K" in vals or "R" in vals):
+    if (
+        not moving
+        and st.motion is not None
+        and ("I" in vals or "J" in vals or "K" in vals or "R" in vals)
+    ):
         moving = True
     if home:  # leaves the path for a machine reference; the next absolute move resumes it
         st.pos_known = False
@@ -493,24 +499,28 @@ def _block(
             # indexing the rotary axes before TCP is switched on: no tip motion to plan
             st.axis = axis
             return end
-    if st.vector_mode == "abc" and rotary_axes != "head" and not st.tcp:
-        if any(abs(v) > 1e-9 for v in st.rot_deg):
-            what = (
-                "rotary words A/B/C without tool centre point control (G43.4/G43.5/G234) or a "
-                "dynamic work offset (G254)"
-            )
-            if rotary_axes == "table":
-                raise InputError(
-                    f"{what}: X/Y/Z are machine coordinates of a rotated table whose pivot the "
-                    "program does not give; post the path with TCP, or as a waypoint table",
-                    where,
-                )
+    if (
+        st.vector_mode == "abc"
+        and rotary_axes != "head"
+        and not st.tcp
+        and any(abs(v) > 1e-9 for v in st.rot_deg)
+    ):
+        what = (
+            "rotary words A/B/C without tool centre point control (G43.4/G43.5/G234) or a "
+            "dynamic work offset (G254)"
+        )
+        if rotary_axes == "table":
             raise InputError(
-                f"{what} are ambiguous: they may index a rotary table (the path is then in "
-                "machine coordinates of a rotated part) or tilt a head; set the reader option "
-                "rotary_axes = 'head' if they tilt the tool, else post the path with TCP",
+                f"{what}: X/Y/Z are machine coordinates of a rotated table whose pivot the "
+                "program does not give; post the path with TCP, or as a waypoint table",
                 where,
             )
+        raise InputError(
+            f"{what} are ambiguous: they may index a rotary table (the path is then in "
+            "machine coordinates of a rotated part) or tilt a head; set the reader option "
+            "rotary_axes = 'head' if they tilt the tool, else post the path with TCP",
+            where,
+        )
     if st.motion in (0, 1):
         if "I" in vals or "J" in vals or "K" in vals:
             if st.vector_mode == "abc":
@@ -529,7 +539,9 @@ def _block(
     return end
 
 
-def _apply_g92(g: float, vals: dict[str, float], st: _State, out: WaypointBuilder, lineno: int) -> None:
+def _apply_g92(
+    g: float, vals: dict[str, float], st: _State, out: WaypointBuilder, lineno: int
+) -> None:
     where = f"{out.source}:{lineno}"
     if g in (92.1, 92.2):
         st.offset = [0.0, 0.0, 0.0]
@@ -547,7 +559,11 @@ def _apply_g92(g: float, vals: dict[str, float], st: _State, out: WaypointBuilde
     for n, k in enumerate("XYZ"):
         if k in vals:
             st.offset[n] = st.pos[n] - vals[k] * st.scale
-    out.warn("G92 coordinate offsets applied (path kept in the coordinates before G92)", lineno, key="G92")
+    out.warn(
+        "G92 coordinate offsets applied (path kept in the coordinates before G92)",
+        lineno,
+        key="G92",
+    )
 
 
 def _target(vals: dict[str, float], st: _State) -> list[float]:
@@ -630,7 +646,11 @@ def _emit_arc(
     else:
         if not ("I" in vals or "J" in vals or "K" in vals):
             raise InputError("arc without I/J/K or R", source=where)
-        off = [vals.get("I", 0.0) * st.scale, vals.get("J", 0.0) * st.scale, vals.get("K", 0.0) * st.scale]
+        off = [
+            vals.get("I", 0.0) * st.scale,
+            vals.get("J", 0.0) * st.scale,
+            vals.get("K", 0.0) * st.scale,
+        ]
         if st.arc_abs:
             centre = list(start)
             for n, k in enumerate("IJK"):

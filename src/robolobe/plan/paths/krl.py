@@ -405,9 +405,7 @@ def _arc_by_angle(
     a = math.radians(ca_deg)
     v = start - centre
     rot = (
-        v * math.cos(a)
-        + np.cross(nrm, v) * math.sin(a)
-        + nrm * float(nrm @ v) * (1 - math.cos(a))
+        v * math.cos(a) + np.cross(nrm, v) * math.sin(a) + nrm * float(nrm @ v) * (1 - math.cos(a))
     )
     stop = centre + rot
     return arc_points(
@@ -445,10 +443,14 @@ def _lines(text: str) -> list[tuple[int, str]]:
     return out
 
 
-_DEF = re.compile(r"^(?:GLOBAL\s+)?(DEF|DEFFCT)\s+(?:[A-Z_][A-Z0-9_]*\s+)?([A-Z_][A-Z0-9_]*)\s*\(", re.I)
+_DEF = re.compile(
+    r"^(?:GLOBAL\s+)?(DEF|DEFFCT)\s+(?:[A-Z_][A-Z0-9_]*\s+)?([A-Z_][A-Z0-9_]*)\s*\(", re.I
+)
 
 
-def _routines(stmts: list[tuple[int, str]], source: str) -> tuple[list[tuple[str, list[tuple[int, str]]]], list[str]]:
+def _routines(
+    stmts: list[tuple[int, str]], source: str
+) -> tuple[list[tuple[str, list[tuple[int, str]]]], list[str]]:
     """Split a .src into routines ``DEF name(...) ... END``; also names left unterminated."""
     routines: list[tuple[str, list[tuple[int, str]]]] = []
     open_: list[str] = []
@@ -541,9 +543,7 @@ def parse_krl(
     for name, body in routines:
         if not name:  # statements outside any DEF ... END
             ln, st = body[0]
-            raise InputError(
-                f"statement outside DEF ... END: {st!r}", source=f"{source}:{ln}"
-            )
+            raise InputError(f"statement outside DEF ... END: {st!r}", source=f"{source}:{ln}")
     if unterminated:
         rd.out.warn(
             f"DEF {unterminated[0]} has no END: the file may be truncated "
@@ -560,7 +560,11 @@ def parse_krl(
                     raise InputError(
                         f"calls nested deeper than 20 levels ({called})", f"{source}:{lineno}"
                     )
-                if re.search(r"\(\s*\S", stmt.split("(", 1)[1].rstrip(") ")) if "(" in stmt else False:
+                if (
+                    re.search(r"\(\s*\S", stmt.split("(", 1)[1].rstrip(") "))
+                    if "(" in stmt
+                    else False
+                ):
                     rd.out.warn(
                         f"call to {called} with arguments: its body is followed with the "
                         "arguments ignored",

@@ -417,7 +417,9 @@ def _wobj_frame(value: str, where: str) -> np.ndarray:
             t[:3, 3] = np.array(fr[0], dtype=np.float64)
             out = out @ t
     except (IndexError, TypeError, ValueError):
-        raise InputError("expected a wobjdata [b, b, s, [[x,y,z],[q]], [[x,y,z],[q]]]", where) from None
+        raise InputError(
+            "expected a wobjdata [b, b, s, [[x,y,z],[q]], [[x,y,z],[q]]]", where
+        ) from None
     return out
 
 
@@ -550,9 +552,7 @@ def parse_rapid(
     elif len(order) == 1:
         run(procs[order[0]], 0, order[0])
     elif order:
-        rd.out.warn(
-            f"no PROC main: the procedures are read in file order ({', '.join(order)})"
-        )
+        rd.out.warn(f"no PROC main: the procedures are read in file order ({', '.join(order)})")
         for name in order:
             run(procs[name], 0, name)
     df = rd.out.table()
