@@ -149,18 +149,21 @@ def reader_options(fmt: str, options: dict[str, Any]) -> dict[str, Any]:
     return {k: v for k, v in options.items() if k in _reader_keywords(fmt)}
 
 
+# format -> (file reader, text parser whose keyword-only parameters are the options)
+_READERS: dict[str, tuple[Callable[..., pd.DataFrame], Callable[..., pd.DataFrame]]] = {
+    "gcode": (read_gcode, parse_gcode),
+    "apt": (read_apt, parse_apt),
+    "krl": (read_krl, parse_krl),
+    "rapid": (read_rapid, parse_rapid),
+}
+
+
 def _reader_keywords(fmt: str) -> set[str]:
-    parsers: dict[str, Callable[..., pd.DataFrame]] = {
-        "gcode": parse_gcode,
-        "apt": parse_apt,
-        "krl": parse_krl,
-        "rapid": parse_rapid,
-    }
-    if fmt not in parsers:
-        raise InputError(f"expected a format in {sorted([*parsers, 'table'])}, found {fmt!r}")
+    if fmt not in _READERS:
+        raise InputError(f"expected a format in {sorted([*_READERS, 'table'])}, found {fmt!r}")
     return {
         name
-        for name, par in inspect.signature(parsers[fmt]).parameters.items()
+        for name, par in inspect.signature(_READERS[fmt][1]).parameters.items()
         if par.kind is inspect.Parameter.KEYWORD_ONLY and name != "dat"
     }
 
@@ -207,18 +210,10 @@ def read_toolpath(
         if options:
             raise InputError(f"the table reader takes no options, found {sorted(options)}")
         return read_table(p)
-    readers: dict[str, Callable[..., pd.DataFrame]] = {
-        "gcode": read_gcode,
-        "apt": read_apt,
-        "krl": read_krl,
-        "rapid": read_rapid,
-    }
-    if fmt not in readers:
-        raise InputError(f"expected a format in {sorted([*readers, 'table'])}, found {fmt!r}")
     known = _reader_keywords(fmt)
     unknown = sorted(set(options) - known)
     if unknown:
         raise InputError(
             f"the {fmt} reader options are {sorted(known)}, found {unknown}", source=p.name
         )
-    return readers[fmt](p, **options)
+    return _READERS[fmt][0](p, **options)
