@@ -9,7 +9,7 @@ format      extensions
 ==========  =========================================================
 ``table``   .csv, .parquet, .pq
 ``gcode``   .nc, .ngc, .gcode, .tap, .cnc, .mpf, .spf, .iso, .eia, .ptp
-``apt``     .apt, .cl, .cls, .aptsource, .clt
+``apt``     .apt, .cl, .cls, .clsf, .aptsource, .clt
 ``krl``     .src, .dat
 ``rapid``   .mod, .modx, .prg, .sys
 ==========  =========================================================
@@ -63,7 +63,7 @@ __all__ = [
 FORMATS: dict[str, tuple[str, ...]] = {
     "table": (".csv", ".parquet", ".pq"),
     "gcode": (".nc", ".ngc", ".gcode", ".tap", ".cnc", ".mpf", ".spf", ".iso", ".eia", ".ptp"),
-    "apt": (".apt", ".cl", ".cls", ".aptsource", ".clt"),
+    "apt": (".apt", ".cl", ".cls", ".clsf", ".aptsource", ".clt"),
     "krl": (".src", ".dat"),
     "rapid": (".mod", ".modx", ".prg", ".sys"),
 }
