@@ -64,7 +64,6 @@ FloatArray = NDArray[np.float64]
 
 logger = logging.getLogger(__name__)
 
-_NAN3 = (math.nan, math.nan, math.nan)
 _MAX_POS_M = 1e4  # 10 km: anything beyond is a corrupt or mis-scaled file
 
 
@@ -82,13 +81,9 @@ class WaypointBuilder:
     """
 
     source: str
-    _pos: list[tuple[float, float, float]] = field(default_factory=list)
-    _axis: list[tuple[float, float, float]] = field(default_factory=list)
-    _ref: list[tuple[float, float, float]] = field(default_factory=list)
-    _feed: list[float] = field(default_factory=list)
-    _rpm: list[float] = field(default_factory=list)
-    _rapid: list[bool] = field(default_factory=list)
-    _line: list[int] = field(default_factory=list)
+    # one row per waypoint: x y z [m], i j k, feed, rpm, rapid (0/1), line
+    _rows: list[tuple[float, ...]] = field(default_factory=list)
+    _ref: dict[int, tuple[float, float, float]] = field(default_factory=dict)
     warnings: list[str] = field(default_factory=list)
     _seen: dict[str, int] = field(default_factory=dict)
 
@@ -145,27 +140,27 @@ class WaypointBuilder:
                 source=f"{self.source}:{line}",
             )
         ax, ay, az = ax / n, ay / n, az / n
-        px, py, pz = float(pos_m[0]), float(pos_m[1]), float(pos_m[2])
-        if not (abs(px) <= _MAX_POS_M and abs(py) <= _MAX_POS_M and abs(pz) <= _MAX_POS_M):
-            raise InputError(
-                f"expected a finite position within {_MAX_POS_M * 1e3:g} mm, found "
-                f"{[px * 1e3, py * 1e3, pz * 1e3]} mm",
-                source=f"{self.source}:{line}",
-            )
-        self._pos.append((px, py, pz))
-        self._axis.append((ax, ay, az))
-        if ref is None:
-            self._ref.append(_NAN3)
-        else:
+        if ref is not None:
             rx, ry, rz = float(ref[0]), float(ref[1]), float(ref[2])
             d = rx * ax + ry * ay + rz * az
             rx, ry, rz = rx - d * ax, ry - d * ay, rz - d * az
             rn = math.sqrt(rx * rx + ry * ry + rz * rz)
-            self._ref.append(_NAN3 if not rn > 1e-9 else (rx / rn, ry / rn, rz / rn))
-        self._feed.append(float(feed_mm_per_min))
-        self._rpm.append(float(rpm))
-        self._rapid.append(bool(rapid))
-        self._line.append(int(line))
+            if rn > 1e-9:
+                self._ref[len(self._rows)] = (rx / rn, ry / rn, rz / rn)
+        self._rows.append(
+            (
+                float(pos_m[0]),
+                float(pos_m[1]),
+                float(pos_m[2]),
+                ax,
+                ay,
+                az,
+                float(feed_mm_per_min),
+                float(rpm),
+                1.0 if rapid else 0.0,
+                int(line),
+            )
+        )
 
     def add_unit(
         self,
@@ -179,30 +174,20 @@ class WaypointBuilder:
         """:meth:`add` for a reader that already holds a unit tool axis and no TCP x axis.
 
         The per-line fast path of the G-code reader (no normalisation, no
-        reference axis); the position is still checked.
+        reference axis); positions are checked, vectorised, by :meth:`table`.
         """
-        px, py, pz = pos_m
-        if not (abs(px) <= _MAX_POS_M and abs(py) <= _MAX_POS_M and abs(pz) <= _MAX_POS_M):
-            raise InputError(
-                f"expected a finite position within {_MAX_POS_M * 1e3:g} mm, found "
-                f"{[px * 1e3, py * 1e3, pz * 1e3]} mm",
-                source=f"{self.source}:{line}",
-            )
-        self._pos.append(pos_m)
-        self._axis.append(axis)
-        self._ref.append(_NAN3)
-        self._feed.append(feed_mm_per_min)
-        self._rpm.append(rpm)
-        self._rapid.append(rapid)
-        self._line.append(line)
+        self._rows.append(
+            (pos_m[0], pos_m[1], pos_m[2], axis[0], axis[1], axis[2], feed_mm_per_min, rpm,
+             1.0 if rapid else 0.0, line)
+        )  # fmt: skip
 
     def __len__(self) -> int:
-        return len(self._pos)
+        return len(self._rows)
 
     @property
     def last_position(self) -> FloatArray | None:
         """The last position [m], or None."""
-        return np.array(self._pos[-1]) if self._pos else None
+        return np.array(self._rows[-1][:3]) if self._rows else None
 
     def notes(self) -> list[str]:
         """The warnings, each once, with ``(n times)`` where it repeated."""
@@ -223,11 +208,24 @@ class WaypointBuilder:
         InputError
             When the file holds no move at all.
         """
-        if not self._pos:
+        if not self._rows:
             raise InputError("expected at least one move, found none", source=self.source)
-        pos = np.array(self._pos)
-        axis = np.array(self._axis)
-        ref = np.array(self._ref)
+        rows = np.array(self._rows, dtype=np.float64)
+        pos = rows[:, 0:3]
+        axis = rows[:, 3:6]
+        line = rows[:, 9].astype(np.int64)
+        bad = ~np.all(np.abs(pos) <= _MAX_POS_M, axis=1)
+        if np.any(bad):
+            r = int(np.argmax(bad))
+            raise InputError(
+                f"expected a finite position within {_MAX_POS_M * 1e3:g} mm, found "
+                f"{(pos[r] * 1e3).tolist()} mm",
+                source=f"{self.source}:{line[r]}",
+            )
+        ref = np.full((len(rows), 3), np.nan)
+        if self._ref:
+            idx = np.fromiter(self._ref.keys(), dtype=np.int64, count=len(self._ref))
+            ref[idx] = np.array(list(self._ref.values()))
         f = feed_directions(pos, axis)
         df = pd.DataFrame(
             {
@@ -243,11 +241,11 @@ class WaypointBuilder:
                 "fx": f[:, 0],
                 "fy": f[:, 1],
                 "fz": f[:, 2],
-                "feed_mm_per_min": np.array(self._feed),
-                "rpm_programmed": np.array(self._rpm),
-                "motion": np.where(np.array(self._rapid), "rapid", "cut"),
+                "feed_mm_per_min": rows[:, 6],
+                "rpm_programmed": rows[:, 7],
+                "motion": np.where(rows[:, 8] > 0, "rapid", "cut"),
                 "source": self.source,
-                "line": np.array(self._line, dtype=np.int64),
+                "line": line,
             }
         )
         df.attrs["warnings"] = self.notes()

@@ -337,6 +337,58 @@ def _number(letter: str, raw: str, lineno: int, nodec: float, out: WaypointBuild
     return value
 
 
+_FAST_G = {"0": 0, "00": 0, "1": 1, "01": 1}
+_AXES = {"X": 0, "Y": 1, "Z": 2}
+
+
+def _fast_line(
+    words: list[tuple[str, str]], st: _State, out: WaypointBuilder, lineno: int, nodec: float
+) -> bool:
+    """The common block (G0/G1 with X/Y/Z/F, N) applied without the general machinery.
+
+    Returns False, having changed nothing, for any other block: :func:`_block`
+    then applies it (and gives its errors).
+    """
+    motion = st.motion
+    t = list(st.pos)
+    seen = ""
+    feed = st.feed
+    for letter, raw in words:
+        if letter in seen:
+            return False
+        k = _AXES.get(letter)
+        if k is not None:
+            v = float(raw)  # raises on inner spaces: the general path handles them
+            if not -MAX_ABS <= v <= MAX_ABS:
+                return False
+            if "." not in raw:
+                v *= nodec
+            v *= st.scale
+            t[k] = v + st.offset[k] if st.absolute else t[k] + v
+        elif letter == "F":
+            feed = float(raw)
+            if not 0 < feed <= MAX_ABS:
+                return False
+        elif letter == "G":
+            g = _FAST_G.get(raw)
+            if g is None:
+                return False
+            motion = g
+        elif letter != "N":
+            return False
+        seen += letter
+    if (
+        motion not in (0, 1)
+        or st.vector_mode == "abc"
+        or not ("X" in seen or "Y" in seen or "Z" in seen)
+    ):
+        return False
+    st.motion = motion
+    st.feed = feed
+    _emit_line(st, out, t, st.axis, lineno, rapid=motion == 0)
+    return True
+
+
 def _block(
     words: list[tuple[str, str]],
     st: _State,
@@ -347,6 +399,11 @@ def _block(
     rotary_axes: str,
 ) -> bool:
     """Apply one block; return True at program end."""
+    try:
+        if _fast_line(words, st, out, lineno, nodec):
+            return False
+    except ValueError:
+        pass
     g_codes: list[float] = []
     m_codes: list[float] = []
     vals: dict[str, float] = {}
