@@ -270,6 +270,12 @@ def test_rapid_procedures_followed_in_call_order_and_wobj():
     PROC first()
         MoveL {t.format(x=3)}, v10, fine, tool0 \\WObj:=wo;
     ENDPROC
+    LOCAL FUNC num twice(num x)
+        IF x > 0 THEN
+            RETURN 2 * x;
+        ENDIF
+        RETURN 0;
+    ENDFUNC
 ENDMODULE
 """
     df = parse_rapid(text, "m.mod")

@@ -310,6 +310,12 @@ class _Reader:
         mw = re.search(r"\bWITH\b", rest)
         if mw:
             vel = _with_velocity(rest[mw.end() :], where)
+            if re.search(r"\$(BASE|TOOL)\b", rest[mw.end() :]):
+                self.out.warn(
+                    "WITH $BASE/$TOOL not applied: the target is taken in the active base",
+                    lineno,
+                    key="with-frame",
+                )
             rest = rest[: mw.start()]
         rest = _APPROX.sub("", rest).strip()
         rapid = word in ("PTP", "SPTP", "PTP_REL")

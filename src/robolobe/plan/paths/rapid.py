@@ -449,7 +449,16 @@ def _procedures(
     order: list[str] = []
     cur: list[tuple[int, str]] | None = None
     ended = False
+    skipping = ""  # FUNC or TRAP routines: not motion code (function calls in targets are refused)
     for lineno, st in stmts:
+        if skipping:
+            if re.match(rf"^END{skipping}\b", st, re.IGNORECASE):
+                skipping = ""
+            continue
+        mf = re.match(r"^(?:LOCAL\s+)?(FUNC|TRAP)\b", st, re.IGNORECASE)
+        if mf and cur is None:
+            skipping = mf.group(1).upper()
+            continue
         m = re.match(r"^(?:LOCAL\s+)?PROC\s+([A-Za-z_]\w*)", st, re.IGNORECASE)
         if m and cur is None:
             name = m.group(1).upper()
