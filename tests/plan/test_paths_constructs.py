@@ -331,3 +331,15 @@ def test_reader_warnings_reach_the_plan_summary(tmp_path):
     p.write_text(text, encoding="utf-8")
     res = plan_path(p, job, refine=False)
     assert any("toolpath reader" in n and "no G20/G21" in n for n in res.summary["notes"])
+
+
+def test_changing_origins_are_warned():
+    nc = parse_gcode("G21 G54\nG0 X0 Y0\nG1 X5 F100\nG55\nG1 X6\nM30\n", "w.nc")
+    assert any("G54 to G55" in w for w in nc.attrs["warnings"])
+    one = "MSYS/0,0,0,1,0,0,0,1,0\nGOTO/0,0,0\nGOTO/1,0,0\n"
+    two = "MSYS/100,0,0,1,0,0,0,1,0\nGOTO/0,0,0\nFINI\n"
+    apt = parse_apt("UNITS/MM\n" + one + two, "m.cls")
+    assert any("MSYS changes" in w for w in apt.attrs["warnings"])
+    placed = parse_apt("UNITS/MM\n" + one + two, "m.cls", coordinates="machine")
+    assert xyz(placed)[-1] == pytest.approx([100.0, 0.0, 0.0])
+    assert not any("MSYS" in w for w in placed.attrs["warnings"])

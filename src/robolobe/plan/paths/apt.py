@@ -190,6 +190,7 @@ def parse_apt(
     msys_o = np.zeros(3)
     ended = False
     max_feed = 0.0
+    msys_seen: list[float] | None = None
 
     def feed_now() -> float:
         if math.isnan(feed):
@@ -276,6 +277,14 @@ def parse_apt(
             if coordinates == "machine":
                 msys_r = np.column_stack([xa, ya, np.cross(xa, ya)])
                 msys_o = np.array(v[:3])
+            elif msys_seen is not None and v != msys_seen and len(out):
+                out.warn(
+                    "MSYS changes between operations: their points are in different MCS "
+                    "(set coordinates = 'machine' to place them in one frame)",
+                    lineno,
+                    key="msys-change",
+                )
+            msys_seen = v
         elif word == "CUTCOM":
             if args and args[0] == "OFF":
                 continue

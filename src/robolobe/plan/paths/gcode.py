@@ -154,6 +154,7 @@ class _State:
     rot_deg: list[float] = field(default_factory=lambda: [0.0, 0.0, 0.0])
     vector_mode: str | None = None  # "ijk" | "abc"
     tcp: bool = False
+    wcs: float | None = None  # active work offset (G54 ...)
     ended: bool = False
 
 
@@ -454,6 +455,8 @@ def _block(
         elif g in _G_IGNORED:
             if g == 49.0:
                 st.tcp = False
+            elif 54.0 <= g < 60.0:
+                _work_offset(g, st, out, lineno)
             continue
         elif g == 10.0:
             out.warn("G10 blocks (offset data, no motion) ignored", lineno, key="G10")
@@ -594,6 +597,19 @@ def _block(
     else:
         _emit_arc(vals, st, out, target, axis, lineno, arc_tol, where)
     return end
+
+
+def _work_offset(g: float, st: _State, out: WaypointBuilder, lineno: int) -> None:
+    """Track the work offset; a change after the first move joins two origins."""
+    if st.wcs is not None and g != st.wcs and len(out):
+        out.warn(
+            f"work offset changes from G{st.wcs:g} to G{g:g}: the coordinates before and after "
+            "are relative to different origins (machine data not in the program); read as one "
+            "frame",
+            lineno,
+            key="wcs-change",
+        )
+    st.wcs = g
 
 
 def _apply_g92(
