@@ -118,8 +118,8 @@ def tool_axes(
 
     Parameters
     ----------
-    rot : ndarray, shape (3, 3)
-        Tool frame in the path frame (columns: x, y, z axes).
+    rot : ndarray, shape (..., 3, 3)
+        Tool frame(s) in the path frame (columns: x, y, z axes).
     tool_direction : {"z", "x"}
         Tool-frame axis along the working direction (spindle to tip): ``z``
         (ABB, RoboDK and most offline programming) or ``x`` (KUKA's factory
@@ -127,12 +127,12 @@ def tool_axes(
 
     Returns
     -------
-    axis, ref : ndarray, shape (3,)
+    axis, ref : ndarray, shape (..., 3)
         ``-working`` and the next tool-frame axis (``x`` for ``z``, ``y``
         for ``x``), so the TCP z axis is the working direction.
     """
     if tool_direction == "x":
-        work, ref = rot[:, 0], rot[:, 1]
+        work, ref = rot[..., :, 0], rot[..., :, 1]
     else:
-        work, ref = rot[:, 2], rot[:, 0]
+        work, ref = rot[..., :, 2], rot[..., :, 0]
     return -work, ref

@@ -119,10 +119,6 @@ def _aggregate(text: str, where: str) -> dict[str, float | None]:
     return out
 
 
-def _tool_axes(abc_deg: np.ndarray, tool_direction: str) -> tuple[np.ndarray, np.ndarray]:
-    return tool_axes(rotation_from_zyx(np.radians(abc_deg)), tool_direction)
-
-
 class _Reader:
     def __init__(
         self, source: str, tool_direction: str, arc_tol_mm: float, coordinates: str = "workpiece"
@@ -137,6 +133,8 @@ class _Reader:
         self.base: np.ndarray | None = None  # $BASE literal (4x4, mm)
         self.base_text: str | None = None
         self.out = WaypointBuilder(source)
+        self.pending: list[tuple[float, float, float, float, float, float, float, int, bool]] = []
+        self.pending_base: list[np.ndarray] = []
 
     # ------------------------------------------------------------ helpers
     def declare(self, stmt: str, where: str) -> bool:
@@ -197,35 +195,50 @@ class _Reader:
                 new[n] = vals[k]
         return new
 
-    def _frame(self, pose: np.ndarray, where: str) -> tuple[np.ndarray, np.ndarray]:
-        """Position [mm] and tool rotation in the output frame."""
-        rot = rotation_from_zyx(np.radians(pose[3:]))
-        pos = pose[:3]
-        if self.coordinates == "machine":
-            if self.base is None:
-                if self.base_text is not None:
-                    raise InputError(
-                        f"coordinates = 'machine' needs $BASE as a literal frame, found "
-                        f"{self.base_text!r}",
-                        where,
-                    )
-                return pos, rot
-            pos = self.base[:3, :3] @ pos + self.base[:3, 3]
-            rot = self.base[:3, :3] @ rot
-        return pos, rot
-
     def emit(
         self, pose: np.ndarray, lineno: int, rapid: bool, *, at: np.ndarray | None = None,
         vel: float | None = None,
     ) -> None:  # fmt: skip
-        where = f"{self.source}:{lineno}"
-        pos, rot = self._frame(pose if at is None else np.concatenate([at, pose[3:]]), where)
-        axis, ref = tool_axes(rot, self.tool_direction)
+        """Queue a waypoint; tool frames are computed for all of them in :meth:`finish`."""
+        base = np.eye(4)
+        if self.coordinates == "machine":
+            if self.base is None and self.base_text is not None:
+                raise InputError(
+                    f"coordinates = 'machine' needs $BASE as a literal frame, found "
+                    f"{self.base_text!r}",
+                    f"{self.source}:{lineno}",
+                )
+            if self.base is not None:
+                base = self.base
         v = self.vel_m_per_s if vel is None else vel
-        feed = math.nan if rapid else v * 6e4
-        self.out.add(pos * 1e-3, axis, line=lineno, rapid=rapid, feed_mm_per_min=feed, ref=ref)
+        xyz = pose[:3] if at is None else at
+        self.pending.append(
+            (float(xyz[0]), float(xyz[1]), float(xyz[2]), float(pose[3]), float(pose[4]),
+             float(pose[5]), math.nan if rapid else v * 6e4, lineno, rapid)
+        )  # fmt: skip
+        self.pending_base.append(base)
         if at is None:
             self.pose = pose
+
+    def finish(self) -> pd.DataFrame:
+        """The waypoint table: all tool frames at once (one rotation call, not one per line)."""
+        if self.pending:
+            rows = np.array([r[:7] for r in self.pending], dtype=np.float64)
+            rot = rotation_from_zyx(np.radians(rows[:, 3:6]))
+            pos = rows[:, :3]
+            if self.coordinates == "machine":
+                bases = np.array(self.pending_base)
+                pos = np.einsum("nij,nj->ni", bases[:, :3, :3], pos) + bases[:, :3, 3]
+                rot = bases[:, :3, :3] @ rot
+            axis, ref = tool_axes(rot, self.tool_direction)
+            for k, r in enumerate(self.pending):
+                self.out.add(
+                    pos[k] * 1e-3, axis[k], line=r[7], rapid=r[8], feed_mm_per_min=r[6],
+                    ref=ref[k],
+                )  # fmt: skip
+        df = self.out.table()
+        df.attrs["warnings"] = self.out.notes()
+        return df
 
     # ------------------------------------------------------------- statements
     def statement(self, stmt: str, lineno: int, in_dat: bool) -> str | None:
@@ -293,7 +306,7 @@ class _Reader:
                 if all(x is not None for x in v):
                     xyzabc = np.array(v, dtype=np.float64)
                     base = pose_from_xyz_zyx(xyzabc[:3], np.radians(xyzabc[3:]))
-            if self.base_text is not None and text != self.base_text and len(self.out):
+            if self.base_text is not None and text != self.base_text and self.pending:
                 self.out.warn(
                     f"$BASE changes between moves ({self.base_text} -> {text}): positions are "
                     "taken as programmed in each base",
@@ -587,9 +600,7 @@ def parse_krl(
                 )
 
     run(main_body, 0)
-    df = rd.out.table()
-    df.attrs["warnings"] = rd.out.notes()
-    return df
+    return rd.finish()
 
 
 def read_krl(path: str | Path, **options: float | str) -> pd.DataFrame:

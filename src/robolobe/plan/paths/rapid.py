@@ -37,11 +37,12 @@ functions in targets, non-positive speeds, non-finite numbers.
 
 from __future__ import annotations
 
+import json
 import logging
 import math
 import re
 from pathlib import Path
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 import pandas as pd
@@ -100,6 +101,8 @@ def quaternion_to_rotation(q: np.ndarray) -> np.ndarray:
 
 
 def _strip_comment(line: str) -> str:
+    if "!" not in line:
+        return line
     in_str = False
     for n, ch in enumerate(line):
         if ch == '"':
@@ -161,6 +164,21 @@ def _no_strings(s: str) -> str:
 
 def _split_args(text: str) -> list[str]:
     """Split at commas outside brackets/parentheses/strings."""
+    if '"' not in text:
+        # no strings: join comma pieces until their brackets balance (C-speed counts)
+        out: list[str] = []
+        acc = ""
+        depth = 0
+        for piece in text.split(","):
+            acc = piece if not acc and depth == 0 else acc + "," + piece
+            depth += piece.count("[") + piece.count("(") - piece.count("]") - piece.count(")")
+            if depth == 0:
+                if acc.strip():
+                    out.append(acc.strip())
+                acc = ""
+        if acc.strip():
+            out.append(acc.strip())
+        return out
     parts: list[str] = []
     cur: list[str] = []
     depth, in_str = 0, False
@@ -182,9 +200,21 @@ def _split_args(text: str) -> list[str]:
     return parts
 
 
+_JSONISH = re.compile(r"\[[\[\]0-9eE+\-.,\s]*\]")
+
+
+def _no_constant(name: str) -> float:
+    raise ValueError(name)
+
+
 def _nested(text: str, where: str) -> list[Any]:
     """Parse a RAPID aggregate literal ``[[1,2,3],[...]]`` into nested lists of floats."""
     t = text.strip()
+    if _JSONISH.fullmatch(t):
+        try:  # the common all-numeric literal, parsed in C
+            return cast(list[Any], json.loads(t, parse_constant=_no_constant, parse_int=float))
+        except ValueError:
+            pass
     if not (t.startswith("[") and t.endswith("]")):
         raise InputError(f"expected a literal [...], found {text.strip()!r}", source=where)
     items = _split_args(t[1:-1])
@@ -242,7 +272,7 @@ class _Reader:
                     where,
                 )
             return pos, quat
-        m = re.match(r"^OFFS\s*\((.*)\)$", t, re.IGNORECASE)
+        m = re.match(r"^OFFS\s*\((.*)\)$", t, re.IGNORECASE) if "(" in t else None
         if m:
             args = _split_args(m.group(1))
             if len(args) != 4:
@@ -259,7 +289,7 @@ class _Reader:
             if not np.all(np.isfinite(d)):
                 raise InputError("Offs: expected finite offsets", source=where)
             return base[0] + d, base[1]
-        if re.match(r"^[A-Z_][A-Z0-9_]*\s*\(", t, re.IGNORECASE):
+        if "(" in t and re.match(r"^[A-Z_][A-Z0-9_]*\s*\(", t, re.IGNORECASE):
             fn = t.split("(")[0].strip()
             raise InputError(f"unsupported construct: function {fn} in a target", source=where)
         name = t.upper()
@@ -270,7 +300,10 @@ class _Reader:
     def speed(self, args: list[str], where: str) -> float:
         """TCP speed [mm/s] from the speeddata argument and an optional \\V:=."""
         v = math.nan
-        pieces = [p.strip() for a in args for p in re.split(r"(?=\\)", a) if p.strip()]
+        pieces = [
+            p.strip() for a in args for p in (re.split(r"(?=\\)", a) if "\\" in a else (a,))
+            if p.strip()
+        ]  # fmt: skip
         for a in pieces:
             m = re.match(r"^\\V\s*:=\s*(\S+)$", a, re.IGNORECASE)
             if m:
@@ -290,6 +323,8 @@ class _Reader:
         """The work object frame of a move (``\\WObj:=name``; default wobj0)."""
         name = "WOBJ0"
         for a in args:
+            if "\\" not in a:
+                continue
             for piece in re.split(r"(?=\\)", a):
                 m = re.match(r"^\\WOBJ\s*:=\s*([A-Za-z_]\w*)\s*$", piece.strip(), re.IGNORECASE)
                 if m:
