@@ -10,7 +10,11 @@ average beside it.
 
 Target (issue 14): "seconds, not minutes" for 1e6 lines.
 
-Run: ``python benchmarks/bench_paths.py [--lines 1000000]``.
+Also timed (``--others N``, default 200,000 lines each): the APT/CL, KRL and
+RAPID readers on straight-line programs of N moves (one move per line), to
+state their per-line cost; 0 skips them.
+
+Run: ``python benchmarks/bench_paths.py [--lines 1000000] [--others 200000]``.
 """
 
 from __future__ import annotations
@@ -47,21 +51,61 @@ def write_program(path: Path, n_lines: int) -> int:
     return n
 
 
+def write_others(folder: Path, n: int) -> dict[str, Path]:
+    """Straight-line programs of ``n`` moves in the APT, KRL and RAPID formats."""
+    tail = "[0,0,0,0],[9E9,9E9,9E9,9E9,9E9,9E9]]"
+    rows = [(k * 0.01, 10 * math.sin(k * 0.01)) for k in range(n)]
+    apt = folder / "bench.cls"
+    with apt.open("w") as f:
+        f.write("UNITS/MM\nFEDRAT/MMPM,1200\nRAPID\nGOTO/0,0,5\n")
+        f.writelines(f"GOTO/{x:.4f},{y:.4f},-1.0000,0.0,0.0,1.0\n" for x, y in rows)
+        f.write("FINI\n")
+    krl = folder / "bench.src"
+    with krl.open("w") as f:
+        f.write("DEF bench()\n$VEL.CP=0.1\n")
+        f.writelines(
+            f"LIN {{X {x:.4f}, Y {y:.4f}, Z -1, A 0, B 0, C 180}} C_DIS\n" for x, y in rows
+        )
+        f.write("END\n")
+    mod = folder / "bench.mod"
+    with mod.open("w") as f:
+        f.write("MODULE M\nPROC main()\n")
+        f.writelines(
+            f"MoveL [[{x:.3f},{y:.3f},-1],[0,0,1,0],{tail},v100,z1,tool0;\n" for x, y in rows
+        )
+        f.write("ENDPROC\nENDMODULE\n")
+    return {"APT/CL": apt, "KRL": krl, "RAPID": mod}
+
+
+def timed(path: Path) -> tuple[int, float, float]:
+    """Waypoints, wall and CPU seconds of one read."""
+    w0, c0 = time.perf_counter(), time.process_time()
+    df = read_toolpath(path)
+    return len(df), time.perf_counter() - w0, time.process_time() - c0
+
+
 def main(argv: list[str] | None = None) -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--lines", type=int, default=1_000_000)
+    ap.add_argument("--others", type=int, default=200_000)
     args = ap.parse_args(argv)
     with tempfile.TemporaryDirectory() as tmp:
         path = Path(tmp) / "bench.nc"
         n = write_program(path, args.lines)
         load0 = os.getloadavg()
-        w0, c0 = time.perf_counter(), time.process_time()
-        df = read_toolpath(path)
-        wall, cpu = time.perf_counter() - w0, time.process_time() - c0
+        n_wp, wall, cpu = timed(path)
         load1 = os.getloadavg()
-    print(f"G-code read: {n} blocks -> {len(df)} waypoints")
-    print(f"  wall {wall:.2f} s, CPU {cpu:.2f} s ({1e6 * cpu / n:.2f} us CPU per block)")
-    print(f"  load average before/after: {load0[0]:.2f} / {load1[0]:.2f} (1 min)")
+        print(f"G-code read: {n} blocks -> {n_wp} waypoints")
+        print(f"  wall {wall:.2f} s, CPU {cpu:.2f} s ({1e6 * cpu / n:.2f} us CPU per block)")
+        print(f"  load average before/after: {load0[0]:.2f} / {load1[0]:.2f} (1 min)")
+        if args.others > 0:
+            for name, p in write_others(Path(tmp), args.others).items():
+                n_wp, wall, cpu = timed(p)
+                print(
+                    f"{name} read: {args.others} moves -> {n_wp} waypoints: wall {wall:.2f} s, "
+                    f"CPU {cpu:.2f} s ({1e6 * cpu / args.others:.1f} us CPU per line)"
+                )
+            print(f"  load average now: {os.getloadavg()[0]:.2f} (1 min)")
 
 
 if __name__ == "__main__":
