@@ -27,7 +27,9 @@ Supported (Fanuc/Haas/Siemens-ISO/LinuxCNC milling programs as CAM posts write t
   ``rotary_axes``: ``auto`` (default) reads rotary words under TCP and
   refuses a move at a non-zero rotary angle without it (a head, or an
   indexing table whose pivot the program does not give?), ``head`` reads
-  them as a head tilt anywhere, ``table`` refuses them without TCP.
+  them as a head tilt anywhere with X/Y/Z taken as the tool tip (a post
+  that writes tip positions, as for a robot), ``table`` refuses them
+  without TCP.
   A rotary-only rapid without TCP (indexing before TCP is switched on) only
   sets the angles. A program uses I/J/K vectors or A/B/C words, not both.
 - ignored on purpose (no effect on the path), each with a note in the
