@@ -65,7 +65,7 @@ def test_bom_and_mixed_line_endings_read_the_same(tmp_path, ext):
     ref = read_toolpath(write(tmp_path, ext, GOOD[ext]))
     lines = GOOD[ext].split("\n")
     mixed = "".join(line + ("\r\n", "\n", "\r")[k % 3] for k, line in enumerate(lines[:-1]))
-    df = read_toolpath(write(tmp_path, ext, b"\xef\xbb\xbf" + mixed.encode()))
+    df = read_toolpath(write(tmp_path, ext, b"\xef\xbb\xbf" + mixed.encode() + b"\x1a"))
     assert cut_xyz(df) == pytest.approx(cut_xyz(ref))
     assert df["line"].tolist() == ref["line"].tolist()  # same line numbers
 

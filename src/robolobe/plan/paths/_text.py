@@ -58,7 +58,7 @@ def strip_bom(text: str) -> str:
 
 
 def read_text(path: str | Path) -> str:
-    """The text of a toolpath file.
+    """The text of a toolpath file (a trailing DOS end-of-file mark ``^Z`` dropped).
 
     Raises
     ------
@@ -79,6 +79,7 @@ def read_text(path: str | Path) -> str:
         raise InputError(
             "expected a text toolpath, found a binary file (NUL or control bytes)", source=p.name
         )
+    data = data.rstrip(b"\x1a")  # DOS end-of-file mark of old NC files
     try:
         text = data.decode("utf-8-sig")
     except UnicodeDecodeError:
