@@ -293,7 +293,7 @@ def parse_apt(
                     f"CUTCOM/{args[0]} on centre-line data: read as the tool centre "
                     "(compensation at the machine adds only wear offsets)",
                     lineno,
-                    key="cutcom",
+                    key=f"cutcom-{args[0]}",
                 )
                 continue
             raise InputError(
