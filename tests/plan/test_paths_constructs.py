@@ -234,6 +234,18 @@ def test_krl_circ_ca_spl_with_and_local_routines():
     assert df["feed_mm_per_min"].iloc[-3] == pytest.approx(6000.0)  # $VEL.CP 0.1
     assert p[-1] == pytest.approx([5.0, 5.0, 0.0])  # sub1's LIN, followed at its call
     assert any("SPL" in w for w in df.attrs["warnings"])
+    assert not any("WITH $" in w for w in df.attrs["warnings"])
+    # KSS inline form: variable velocity, base and tool from the FDAT
+    inline = parse_krl(
+        KRL_HEAD + "SLIN {X 20} WITH $VEL = SVEL_CP(gArcVel, , LCPDAT1), $TOOL = STOOL2(FP1), "
+        "$BASE = SBASE(FP1.BASE_NO), $APO = SAPO(LCPDAT1) C_SPL\nEND\n",
+        "t.src",
+    )
+    assert np.isnan(inline["feed_mm_per_min"].iloc[-1])
+    assert xyz(inline)[-1] == pytest.approx([20.0, 0.0, 0.0])
+    notes = " ".join(inline.attrs["warnings"])
+    assert "not a number" in notes
+    assert "WITH $BASE" not in notes
     neg = parse_krl(KRL_HEAD + "CIRC {X 0, Y 10, Z 0}, {X -10, Y 0, Z 0}, CA -90\nEND\n", "t.src")
     assert xyz(neg)[-1] == pytest.approx([0.0, -10.0, 0.0], abs=1e-9)
 

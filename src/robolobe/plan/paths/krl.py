@@ -322,13 +322,25 @@ class _Reader:
         vel: float | None = None
         mw = re.search(r"\bWITH\b", rest)
         if mw:
-            vel = _with_velocity(rest[mw.end() :], where)
-            if re.search(r"\$(BASE|TOOL)\b", rest[mw.end() :]):
+            clause = rest[mw.end() :]
+            vel = _with_velocity(clause, where)
+            if vel is not None and math.isnan(vel):
                 self.out.warn(
-                    "WITH $BASE/$TOOL not applied: the target is taken in the active base",
+                    "WITH $VEL = SVEL_CP(...) with a velocity that is not a number: no "
+                    "programmed feed for that motion",
                     lineno,
-                    key="with-frame",
+                    key="with-vel",
                 )
+            # inline forms select the FDAT's base and tool (SBASE/STOOL2): the active base;
+            # anything else would move the frame of this one motion
+            for m_frame in re.finditer(r"\$(BASE|TOOL)\s*=\s*([A-Z_0-9]+)", clause):
+                if m_frame.group(2) not in ("SBASE", "STOOL2", "STOOL"):
+                    self.out.warn(
+                        f"WITH ${m_frame.group(1)} = {m_frame.group(2)}... not applied: the "
+                        "target is taken in the active base",
+                        lineno,
+                        key="with-frame",
+                    )
             rest = rest[: mw.start()]
         rest = _APPROX.sub("", rest).strip()
         rapid = word in ("PTP", "SPTP", "PTP_REL")
@@ -397,10 +409,21 @@ def _velocity(text: str, where: str) -> float:
 
 
 def _with_velocity(text: str, where: str) -> float | None:
-    """The velocity [m/s] a ``WITH`` clause sets for one spline motion, if any."""
+    """The velocity [m/s] a ``WITH`` clause sets for one spline motion, if any.
+
+    NaN when it is a variable or an expression (``SVEL_CP(gArcVel, ...)``):
+    the motion then has no programmed feed.
+    """
     m = re.search(r"\$VEL\s*=\s*SVEL_CP\s*\(\s*([^,)]*)", text)
     if m:
-        return _velocity(m.group(1), where) if m.group(1).strip() else None
+        arg = m.group(1).strip()
+        if not arg:
+            return None
+        try:
+            float(arg)
+        except ValueError:
+            return math.nan
+        return _velocity(arg, where)
     m = re.search(r"\$VEL\.CP\s*=\s*([^,]+)", text)
     if m:
         return _velocity(m.group(1), where)
