@@ -355,3 +355,25 @@ def test_changing_origins_are_warned():
     placed = parse_apt("UNITS/MM\n" + one + two, "m.cls", coordinates="machine")
     assert xyz(placed)[-1] == pytest.approx([100.0, 0.0, 0.0])
     assert not any("MSYS" in w for w in placed.attrs["warnings"])
+
+
+def test_positions_set_at_run_time_are_not_read_stale():
+    krl = (
+        "DEF t()\nDECL E6POS P1={X 10, Y 0, Z 0, A 0, B 0, C 180}\nLIN P1\n"
+        "P1.X = 20\nLIN P1\nP1 = $POS_ACT\nLIN {X 0}\nLIN P1\nEND\n"
+    )
+    with pytest.raises(InputError, match=r"t\.src:8: .*P1 is set at run time"):
+        parse_krl(krl, "t.src")
+    ok = parse_krl(krl.replace("LIN P1\nEND", "END"), "t.src")
+    assert xyz(ok)[:, 0].tolist() == pytest.approx([10.0, 20.0, 0.0])
+    lit = "[[{x},0,0],[0,0,1,0],[0,0,0,0],[9E9,9E9,9E9,9E9,9E9,9E9]]"
+    mod = (
+        "MODULE M\nVAR robtarget p := " + lit.format(x=1) + ";\nVAR robtarget q;\n"
+        "PROC main()\nMoveL p, v10, fine, tool0;\np := Offs(p, 5, 0, 0);\n"
+        "MoveL p, v10, fine, tool0;\n"
+        "q := CRobT(\\Tool:=tool0);\nMoveL q, v10, fine, tool0;\nENDPROC\nENDMODULE\n"
+    )
+    with pytest.raises(InputError, match=r"m\.mod:9: .*q is set at run time"):
+        parse_rapid(mod, "m.mod")
+    good = parse_rapid(mod.replace("MoveL q, v10, fine, tool0;\n", ""), "m.mod")
+    assert xyz(good)[:, 0].tolist() == pytest.approx([1.0, 6.0])

@@ -37,7 +37,8 @@ Cartesian path, which resumes at the next absolute target).
 
 Refused with :class:`~robolobe.errors.InputError` naming ``file:line``:
 control flow (``IF``, ``FOR``, ``WHILE``, ``LOOP``, ``REPEAT``, ``SWITCH``,
-``GOTO``), relative moves in the tool frame, expressions in targets,
+``GOTO``), relative moves in the tool frame, expressions in targets, a
+motion to a position variable set at run time (``P1 = $POS_ACT``),
 non-positive or non-numeric velocities, non-finite numbers.
 """
 
@@ -128,6 +129,7 @@ class _Reader:
         self.coordinates = coordinates
         self.tol = arc_tol_mm
         self.vars: dict[str, dict[str, float | None]] = {}
+        self.unresolved: dict[str, str] = {}  # variables set at run time
         self.pose: np.ndarray | None = None  # X Y Z A B C (mm, deg), as programmed
         self.vel_m_per_s = math.nan
         self.base: np.ndarray | None = None  # $BASE literal (4x4, mm)
@@ -138,24 +140,40 @@ class _Reader:
 
     # ------------------------------------------------------------ helpers
     def declare(self, stmt: str, where: str) -> bool:
-        """Handle declarations/assignments of position variables; True if handled."""
+        """Handle declarations/assignments of position variables; True if handled.
+
+        A position variable set from anything but a literal aggregate
+        (``$POS_ACT``, a function, another variable) is marked as set at run
+        time: a motion to it is refused, not read with a stale value.
+        """
         m = re.match(
             r"^(?:DECL\s+)?(?:GLOBAL\s+)?(E6POS|POS|FRAME|E6AXIS|AXIS)\s+([A-Z_][A-Z0-9_]*)\s*(=\s*(.*))?$",
             stmt,
         )
         if m:
             typ, name, _, value = m.groups()
-            agg = _aggregate(value, where) if value is not None else {}
-            self.vars[name] = {"__axis__": 1.0} if typ in ("E6AXIS", "AXIS") else agg
+            if typ in ("E6AXIS", "AXIS"):
+                self.vars[name] = {"__axis__": 1.0}
+            elif value is not None and not value.strip().startswith("{"):
+                self.vars[name] = {}
+                self.unresolved[name] = value.strip()
+            else:
+                self.vars[name] = _aggregate(value, where) if value is not None else {}
             return True
         if stmt.startswith("DECL "):
             return True  # other declarations (INT, REAL, LDAT, FDAT, ...)
-        m = re.match(r"^([A-Z_][A-Z0-9_]*)\s*=\s*(\{.*\})$", stmt)
-        if m and m.group(1) in self.vars:
-            if "__axis__" not in self.vars[m.group(1)]:
-                self.vars[m.group(1)] = _aggregate(m.group(2), where)
+        m = re.match(r"^([A-Z_][A-Z0-9_]*)(\.[A-Z][A-Z0-9]*)?\s*=\s*(.+)$", stmt)
+        if m and m.group(1) in self.vars and "__axis__" not in self.vars[m.group(1)]:
+            name, comp, value = m.group(1), m.group(2), m.group(3).strip()
+            if comp is None and value.startswith("{"):
+                self.vars[name] = _aggregate(value, where)
+                self.unresolved.pop(name, None)
+            elif comp is not None and re.fullmatch(r"[-+]?(\d+\.?\d*|\.\d+)(E[-+]?\d+)?", value):
+                self.vars[name] = {**self.vars[name], comp[1:]: finite(value, where, stmt)}
+            else:
+                self.unresolved[name] = value
             return True
-        return False
+        return m is not None and m.group(1) in self.vars
 
     def target(self, text: str, where: str, *, relative: bool = False) -> np.ndarray | None:
         """Absolute target X..C, or None for an axis-specific or actual-position target."""
@@ -170,6 +188,12 @@ class _Reader:
                 ):
                     return None
                 raise InputError(f"unknown position variable {name!r}", source=where)
+            if name in self.unresolved:
+                raise InputError(
+                    f"position variable {name} is set at run time ({self.unresolved[name]!r}): "
+                    "expected a literal aggregate",
+                    source=where,
+                )
             agg = self.vars[name]
         if "__axis__" in agg or any(k.startswith("A") and k[1:].isdigit() for k in agg):
             return None
@@ -569,6 +593,7 @@ def parse_krl(
         for lineno, stmt in _lines(dat):
             rd_dat.statement(stmt, lineno, in_dat=True)
         rd.vars.update(rd_dat.vars)
+        rd.unresolved.update(rd_dat.unresolved)
     stmts = _lines(text)
     if not stmts:
         raise InputError("expected a KRL program, found no statements", source=source)

@@ -32,7 +32,8 @@ WaitUntil, TPWrite, TPErase, Stop, Set, Reset, CorrClear, PathAccLim, ...).
 Refused with :class:`~robolobe.errors.InputError` naming ``file:line``:
 control flow (``IF``, ``FOR``, ``WHILE``, ``TEST``, ``GOTO``: the path
 would depend on run-time conditions), ``RelTool``, ``CRobT`` and other
-functions in targets, non-positive speeds, non-finite numbers.
+functions in targets (also a move to a robtarget variable assigned one:
+``p := CRobT(); MoveL p, ...``; ``p := Offs(q, ...)`` is followed), non-positive speeds, non-finite numbers.
 """
 
 from __future__ import annotations
@@ -242,6 +243,8 @@ class _Reader:
         self.tool_direction = tool_direction
         self.coordinates = coordinates
         self.targets: dict[str, tuple[np.ndarray, np.ndarray]] = {}  # pos mm, quaternion
+        self.robtargets: set[str] = set()  # declared robtarget names
+        self.unresolved: dict[str, str] = {}  # robtargets set at run time (CRobT(), ...)
         self.speeds: dict[str, float] = {}
         self.wobjs: dict[str, np.ndarray] = {"WOBJ0": np.eye(4)}  # uframe @ oframe (mm)
         self.wobj_used: str | None = None
@@ -293,9 +296,26 @@ class _Reader:
             fn = t.split("(")[0].strip()
             raise InputError(f"unsupported construct: function {fn} in a target", source=where)
         name = t.upper()
+        if name in self.unresolved:
+            raise InputError(
+                f"robtarget {t} is set at run time ({self.unresolved[name]!r}): expected a "
+                "literal or Offs() of one",
+                source=where,
+            )
         if name not in self.targets:
             raise InputError(f"unknown robtarget {t!r}", source=where)
         return self.targets[name]
+
+    def assign(self, name: str, value: str, where: str) -> None:
+        """``name := value`` for a robtarget variable (a failure marks it as run-time)."""
+        try:
+            tgt = self.robtarget(value, where)
+        except InputError:
+            self.unresolved[name] = value.strip()
+            return
+        assert tgt is not None
+        self.targets[name] = tgt
+        self.unresolved.pop(name, None)
 
     def speed(self, args: list[str], where: str) -> float:
         """TCP speed [mm/s] from the speeddata argument and an optional \\V:=."""
@@ -367,10 +387,10 @@ class _Reader:
         if m:
             _, typ, name, value = m.groups()
             typ = typ.lower()
-            if typ == "robtarget" and value is not None:
-                tgt = self.robtarget(value, where)
-                assert tgt is not None
-                self.targets[name.upper()] = tgt
+            if typ == "robtarget":
+                self.robtargets.add(name.upper())
+                if value is not None:
+                    self.assign(name.upper(), value, where)
             elif typ == "speeddata" and value is not None:
                 lit = _nested(value, where)
                 self.speeds[name.upper()] = float(lit[0])
@@ -383,7 +403,12 @@ class _Reader:
         if not head:
             raise InputError(f"unsupported RAPID statement {s!r}", source=where)
         word, rest = head.group(1).upper(), head.group(2).strip()
-        if rest.startswith(":="):
+        if rest.startswith(":=") or (rest.startswith(".") and ":=" in rest):
+            if word in self.robtargets:
+                if rest.startswith(":="):
+                    self.assign(word, rest[2:], where)
+                else:  # a component (p.trans.x := ...): the value is now the program's
+                    self.unresolved[word] = word + rest
             return None  # assignment
         if word in _MOVES:
             self.move(_MOVES[word], rest, lineno, where)
