@@ -99,6 +99,8 @@ _G_NOTED = {
     187.0: "G187 smoothness setting",
     255.0: "G255 cancel dynamic work offset",
 }
+# mode words whose E/P/Q/R words are their parameters, not axes or arc words
+_G_MODE_WORDS = {5.0, 5.1, 8.0, 103.0, 154.0, 187.0}
 # tool centre point control / dynamic work offset on: X/Y/Z are tip positions in the part frame
 _G_TCP_ON = {43.4: "G43.4 TCP", 43.5: "G43.5 TCP", 234.0: "G234 TCPC", 254.0: "G254 DWO"}
 _G_UNSUPPORTED = {
@@ -483,6 +485,9 @@ def _block(
     if g92 is not None:
         _apply_g92(g92, vals, st, out, lineno)
         return False
+    if any(g in _G_MODE_WORDS for g in g_codes) and not any(k in vals for k in "XYZABC"):
+        for k in "EPQR":  # parameters of a mode word (G187 P2 E0.01, G05.1 Q1 R5)
+            vals.pop(k, None)
     # --- M words
     end = False
     for mc in m_codes:
