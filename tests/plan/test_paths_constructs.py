@@ -149,7 +149,8 @@ def test_apt_cutcom_needs_centreline_data():
 # ---------------------------------------------------------------- G-code post words
 def test_gcode_post_words_names_and_offsets():
     text = "\n".join([
-        "%", "OFLOOR_FACING", "(a Haas-style header)", "G20 G90 G17 G187 P2 E0.0005", "G103 P4", "G154 P12", "G05.1 Q1 R5",
+        "%", "OFLOOR_FACING", "(a Haas-style header)", "G20 G90 G17 G187 P2 E0.0005",
+        "G103 P4", "G154 P12", "G05.1 Q1 R5",
         "G08 P1", "G05.1 Q1", "G10 L2 P1 X5. Y6. Z7.", "G0 X0 Y0 Z1.", "G1 Z0 F20.",
         "G92 X10. Y0", "G1 X11.", "G92.1", "G1 X2.", "M30", "%",
     ])  # fmt: skip

@@ -33,7 +33,8 @@ Refused with :class:`~robolobe.errors.InputError` naming ``file:line``:
 control flow (``IF``, ``FOR``, ``WHILE``, ``TEST``, ``GOTO``: the path
 would depend on run-time conditions), ``RelTool``, ``CRobT`` and other
 functions in targets (also a move to a robtarget variable assigned one:
-``p := CRobT(); MoveL p, ...``; ``p := Offs(q, ...)`` is followed), non-positive speeds, non-finite numbers.
+``p := CRobT(); MoveL p, ...``; ``p := Offs(q, ...)`` is followed),
+non-positive speeds, non-finite numbers.
 """
 
 from __future__ import annotations
