@@ -5,9 +5,13 @@ from __future__ import annotations
 import base64
 import json
 import re
+import shutil
+import subprocess
 
+import numpy as np
 import pandas as pd
 import pytest
+from matplotlib.image import imread as plt_imread
 
 from robolobe.plan import report
 from robolobe.plan.job import load_job
@@ -71,3 +75,59 @@ def test_failure_leaves_nothing_half_written(tmp_path, result, monkeypatch):
     assert [p.name for p in out.iterdir()] == ["summary.json"]
     assert (out / "summary.json").read_text() == "old"
     assert not any(p.name.startswith(".o3.") for p in tmp_path.iterdir())
+
+
+def test_rerun_without_plots_replaces_the_whole_set(tmp_path, result):
+    out = report.write_outputs(result, tmp_path / "o3")
+    (out / "mine.txt").write_text("kept")
+    report.write_outputs(result, out, plots=False, html_report=False)
+    assert sorted(p.name for p in out.iterdir()) == ["mine.txt", "summary.json", "waypoints.csv"]
+
+
+def test_report_is_readable(tmp_path, result):
+    out = report.write_outputs(result, tmp_path / "o4")
+    html = (out / "report.html").read_text()
+    # every figure carries a caption that says what to read from it
+    for name in report.PLOTS:
+        assert report.CAPTIONS[name][:60] in html
+    # no absolute local paths; the bundled example is named as such
+    assert "/site-packages/" not in html
+    assert str(tmp_path) not in html
+    assert "contour.apt (bundled example)" in html
+    # the tightest table: one row per position, speeds as whole rpm
+    part = html.split("Tightest waypoints")[1]
+    header = re.findall(r"<th>([^<]*)</th>", part)
+    rows = [re.findall(r"<td>([^<]*)</td>", r) for r in re.findall(r"<tr>(.*?)</tr>", part, re.S)]
+    tight = pd.DataFrame([r for r in rows if r], columns=header)
+    assert len(tight) >= 2
+    assert not tight[["x_mm", "y_mm", "z_mm"]].duplicated().any()
+    assert tight["margin"].astype(float).is_monotonic_increasing
+    assert "e+0" not in html.split("Tightest waypoints")[1]
+
+
+def test_lobes_show_distinct_dynamics(result):
+    chosen = report._chosen(result)
+    groups = result.lobes.table.group[chosen]
+    assert len(set(groups.tolist())) == len(chosen)
+    best = result.outcome.best
+    assert best.margin[chosen[0]] == pytest.approx(np.nanmin(best.margin))
+
+
+@pytest.mark.skipif(shutil.which("chromium") is None, reason="Debian's chromium is not installed")
+def test_report_renders_in_a_headless_browser(tmp_path, result):
+    out = report.write_outputs(result, tmp_path / "o5")
+    shot = tmp_path / "shot.png"
+    subprocess.run(
+        [
+            "chromium", "--headless", "--no-sandbox", "--disable-gpu", "--disable-quic",
+            "--no-first-run", "--disable-background-networking", "--disable-component-update",
+            "--disable-sync", f"--user-data-dir={tmp_path / 'profile'}", "--window-size=1100,4000",
+            f"--screenshot={shot}", (out / "report.html").as_uri(),
+        ],
+        capture_output=True, timeout=120, check=False,
+    )  # fmt: skip
+    img = plt_imread(shot)
+    assert img.shape[:2] == (4000, 1100)
+    # a page of broken images is almost all white; four plots are not
+    ink = float(np.mean(img[..., :3].mean(axis=-1) < 0.9))
+    assert ink > 0.05, ink

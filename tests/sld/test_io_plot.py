@@ -67,6 +67,10 @@ def test_read_modes(tmp_path: Path) -> None:
         ("dir,mode,f_hz,zeta,k_N_per_m\nxy,1,900,0.01,1e6\n", "at least one xx or yy"),
         ("dir,mode,f_hz,zeta,k_N_per_m\nxx,1,900\n", r":2: expected 5 columns"),
         ("", "empty file"),
+        # plausibility: a file cut mid-number, kHz for Hz, k = 1e-300
+        ("dir,mode,f_hz,zeta,k_N_per_m\nxx,1,900,0.01,2.\n", r":2: k_N_per_m: .*found 2 "),
+        ("dir,mode,f_hz,zeta,k_N_per_m\nxx,1,0.9,0.01,1e6\n", r":2: f_hz: .*kHz\?"),
+        ("dir,mode,f_hz,zeta,k_N_per_m\nxx,1,900,0.01,1e-300\n", r":2: k_N_per_m"),
     ],
 )
 def test_read_modes_errors(tmp_path: Path, text: str, match: str) -> None:

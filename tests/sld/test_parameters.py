@@ -48,6 +48,20 @@ def test_material_lookup_and_override() -> None:
         get_material("unobtainium")
     with pytest.raises(InputError, match="Kt"):
         Material("x", kt=-1.0, kr=0.3)
+    # 700 N/mm^2 given where N/m^2 is expected: a unit mistake, named as such
+    with pytest.raises(InputError, match=r"looks like N/mm\^2: 700 N/mm\^2 = 7e\+08 N/m\^2"):
+        Material("x", kt=700.0, kr=0.3)
+    with pytest.raises(InputError, match="Kr"):
+        Material("x", kt=7e8, kr=30.0)
+
+
+def test_builtin_materials_are_inside_the_plausible_range() -> None:
+    from robolobe.sld.material import KT_RANGE_N_PER_M2
+
+    table = material_table()
+    assert len(table) >= 5
+    for m in table:
+        assert KT_RANGE_N_PER_M2[0] < m.kt < KT_RANGE_N_PER_M2[1]
 
 
 def test_cutter_validation() -> None:

@@ -1,28 +1,112 @@
-"""Shared helpers of the CLI: console, progress display, error exit."""
+"""Shared helpers of the CLI: console, progress display, error exit.
+
+Progress shows as rich bars and spinners on a terminal; elsewhere (CI logs,
+``nohup``, a pipe) as plain timestamped lines on stderr every
+:data:`LOG_EVERY_S` seconds once a step has run that long, so a long run
+never leaves an empty log and a short one (or a one-line error) stays quiet.
+"""
 
 from __future__ import annotations
 
 import contextlib
+import threading
+import time
 from collections.abc import Iterator
+from typing import Any
 
 from rich.console import Console
+from rich.markup import escape
 from rich.progress import (
     BarColumn,
     MofNCompleteColumn,
     Progress,
     SpinnerColumn,
+    TaskID,
     TextColumn,
     TimeElapsedColumn,
 )
 
-__all__ = ["console", "err_console", "progress", "status"]
+__all__ = ["LOG_EVERY_S", "console", "err_console", "progress", "status"]
 
-console = Console()
-err_console = Console(stderr=True)
+# User text (file names, file contents quoted in messages) must print as
+# written: no ":x:" emoji codes, no colour guessing. Markup in messages is
+# escaped where they are printed.
+console = Console(emoji=False, highlight=False)
+err_console = Console(stderr=True, emoji=False, highlight=False)
+
+#: Seconds between progress lines when stderr is not a terminal.
+LOG_EVERY_S = 10.0
 
 
-def progress() -> Progress:
-    """A rich progress bar on stderr (hidden when stderr is not a terminal)."""
+def _log(message: str) -> None:
+    err_console.print(
+        f"{time.strftime('%H:%M:%S')} {escape(message)}", highlight=False, soft_wrap=True
+    )
+
+
+class _LogProgress:
+    """The part of :class:`rich.progress.Progress` the CLI uses, as log lines."""
+
+    def __init__(self) -> None:
+        self._tasks: dict[TaskID, dict[str, Any]] = {}
+        self._t0 = time.monotonic()
+
+    def __enter__(self) -> _LogProgress:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        for task in self._tasks.values():
+            if exc[0] is None and task["logged"]:
+                self._emit(task, final=True)
+
+    def add_task(self, description: str, total: float | None = None, **_: Any) -> TaskID:
+        tid = TaskID(len(self._tasks))
+        self._tasks[tid] = {
+            "description": description,
+            "total": total,
+            "completed": 0.0,
+            "last": time.monotonic(),
+            "logged": False,
+        }
+        return tid
+
+    def advance(self, task_id: TaskID, advance: float = 1) -> None:
+        self.update(task_id, advance=advance)
+
+    def update(
+        self,
+        task_id: TaskID,
+        *,
+        description: str | None = None,
+        completed: float | None = None,
+        total: float | None = None,
+        advance: float | None = None,
+        **_: Any,
+    ) -> None:
+        task = self._tasks[task_id]
+        if description is not None:
+            task["description"] = description
+        if total is not None:
+            task["total"] = total
+        if completed is not None:
+            task["completed"] = completed
+        if advance is not None:
+            task["completed"] += advance
+        if time.monotonic() - task["last"] >= LOG_EVERY_S:
+            self._emit(task)
+
+    def _emit(self, task: dict[str, Any], final: bool = False) -> None:
+        task["last"] = time.monotonic()
+        task["logged"] = True
+        done = f"{task['completed']:g}" + (f"/{task['total']:g}" if task["total"] else "")
+        elapsed = task["last"] - self._t0
+        _log(f"{task['description']}: {done} {'done' if final else ''} ({elapsed:.0f} s)")
+
+
+def progress() -> Progress | _LogProgress:
+    """Progress on stderr: a rich bar on a terminal, periodic log lines elsewhere."""
+    if not err_console.is_terminal:
+        return _LogProgress()
     return Progress(
         SpinnerColumn(),
         TextColumn("[progress.description]{task.description}"),
@@ -36,6 +120,31 @@ def progress() -> Progress:
 
 @contextlib.contextmanager
 def status(message: str) -> Iterator[None]:
-    """A spinner with ``message`` on stderr while the block runs."""
-    with err_console.status(message):
+    """A spinner with ``message`` on stderr while the block runs.
+
+    Not on a terminal: a line every :data:`LOG_EVERY_S` seconds while the
+    block runs, and one when it ends if any was written.
+    """
+    if err_console.is_terminal:
+        with err_console.status(message):
+            yield
+        return
+    t0 = time.monotonic()
+    stop = threading.Event()
+
+    logged = threading.Event()
+
+    def heartbeat() -> None:
+        while not stop.wait(LOG_EVERY_S):
+            logged.set()
+            _log(f"{message} (still running, {time.monotonic() - t0:.0f} s)")
+
+    thread = threading.Thread(target=heartbeat, daemon=True)
+    thread.start()
+    try:
         yield
+    finally:
+        stop.set()
+        thread.join()
+    if logged.is_set():
+        _log(f"{message} done in {time.monotonic() - t0:.1f} s")

@@ -38,8 +38,24 @@ app = typer.Typer(
 )
 
 
+def _print_version(value: bool) -> None:
+    if value:
+        from robolobe import __version__
+
+        typer.echo(f"robolobe {__version__}")
+        raise typer.Exit()
+
+
 @app.callback()
-def _root() -> None:
+def _root(
+    version: bool = typer.Option(
+        False,
+        "--version",
+        help="Print the robolobe version and exit.",
+        callback=_print_version,
+        is_eager=True,
+    ),
+) -> None:
     """robolobe: chatter-free milling plans for industrial robots."""
 
 
@@ -51,6 +67,7 @@ _COMMAND_MODULES = (
     "tl",
     "sld",
     "diagnose",
+    "examples",
 )
 
 for _name in _COMMAND_MODULES:
@@ -76,6 +93,17 @@ def main(argv: list[str] | None = None) -> None:
             f"[bold red]error:[/] {escape(str(exc))}", highlight=False, soft_wrap=True
         )
         sys.exit(exc.exit_code)
+    except OSError as exc:
+        # A file system refusal on a user's path (permission, full disk, a
+        # folder where a file was expected) is input, not a bug: one line.
+        what = exc.strerror or type(exc).__name__
+        where = f": {exc.filename}" if exc.filename else ""
+        err_console.print(
+            f"[bold red]error:[/] {escape(what)}{escape(str(where))}",
+            highlight=False,
+            soft_wrap=True,
+        )
+        sys.exit(2)
     except KeyboardInterrupt:
         err_console.print("[bold red]interrupted[/]")
         sys.exit(130)

@@ -107,6 +107,9 @@ def register(app: typer.Typer) -> None:
         --fmax Hz is written. With --exact the twin's receptance itself is
         written on the same 0.25 Hz grid.
         """
+        from robolobe._atomic import check_output_dir
+
+        check_output_dir(output, "--output")
         from robolobe.cli._common import console, progress
         from robolobe.robots import load_robot
         from robolobe.twin.campaign import read_postures, simulate_campaign, write_campaign

@@ -15,6 +15,9 @@ from robolobe.errors import InputError
 __all__ = ["parse_rpm", "register"]
 
 _DEFAULT_N = {"zoa": 1000, "sdm": 200}
+#: Cap on the speed grid: 100k speeds resolve any lobe of a milling
+#: spindle; more only costs memory and time.
+MAX_RPM_POINTS = 100_000
 
 
 def parse_rpm(text: str, method: str) -> np.ndarray:
@@ -27,10 +30,10 @@ def parse_rpm(text: str, method: str) -> np.ndarray:
         n = int(parts[2]) if len(parts) == 3 else _DEFAULT_N[method]
     except ValueError:
         raise InputError(f"--rpm: expected numbers MIN:MAX[:N], found {text!r}") from None
-    if not (math.isfinite(lo) and math.isfinite(hi) and 0 < lo < hi):
-        raise InputError(f"--rpm: expected 0 < MIN < MAX, found {text!r}")
-    if n < 2:
-        raise InputError(f"--rpm: expected N >= 2 speeds, found {n}")
+    if not (math.isfinite(lo) and math.isfinite(hi) and 0 < lo < hi <= 1e6):
+        raise InputError(f"--rpm: expected 0 < MIN < MAX <= 1e6 rpm, found {text!r}")
+    if not 2 <= n <= MAX_RPM_POINTS:
+        raise InputError(f"--rpm: expected 2 <= N <= {MAX_RPM_POINTS} speeds, found {n}")
     return np.linspace(lo, hi, n)
 
 
@@ -63,7 +66,10 @@ def register(app: typer.Typer) -> None:
             Path, typer.Option("-o", "--output", help="Output CSV with columns rpm,a_lim_mm.")
         ],
         kt: Annotated[
-            float | None, typer.Option("--kt", help="Tangential cutting coefficient Kt in N/m^2.")
+            float | None,
+            typer.Option(
+                "--kt", help="Tangential cutting coefficient Kt in N/m^2 (e.g. 7e8, not 700)."
+            ),
         ] = None,
         kr: Annotated[
             float | None, typer.Option("--kr", help="Kr = Kn/Kt (radial over tangential).")
@@ -102,6 +108,7 @@ def register(app: typer.Typer) -> None:
         ] = None,
     ) -> None:
         """Stability lobes (limiting axial depth vs spindle speed) of one tool point."""
+        from robolobe._atomic import check_output_file
         from robolobe.sld import (
             CuttingConditions,
             Material,
@@ -109,6 +116,10 @@ def register(app: typer.Typer) -> None:
             stability_lobes,
         )
         from robolobe.sld.io import read_modes_csv, write_lobes_csv
+
+        check_output_file(output, "--output")
+        if plot is not None:
+            check_output_file(plot, "--plot")
 
         if method not in ("zoa", "sdm"):
             raise InputError(f"--method: expected zoa or sdm, found {method!r}")

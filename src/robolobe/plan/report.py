@@ -37,6 +37,8 @@ from robolobe._atomic import atomic_dir
 from robolobe.plan.pipeline import PlanResult
 
 __all__ = [
+    "CAPTIONS",
+    "OUTPUTS",
     "PLOTS",
     "plot_lobes",
     "plot_path_margin",
@@ -48,6 +50,8 @@ __all__ = [
 ]
 
 PLOTS: tuple[str, ...] = ("lobes", "speed_map", "path_margin", "speed_power")
+#: The top-level names a plan writes into its folder (replaced as a set).
+OUTPUTS: tuple[str, ...] = ("waypoints.csv", "summary.json", "plots", "report.html")
 
 
 def write_csv(df: pd.DataFrame, path: Path) -> None:
@@ -69,26 +73,45 @@ def _png(fig: Figure) -> bytes:
     return buf.getvalue()
 
 
-def _chosen(res: PlanResult, n: int = 4) -> list[int]:
-    """Cutting waypoints (indices into the cut arrays) to show: tightest, then spread out."""
+def _chosen(res: PlanResult, n: int = 3) -> list[int]:
+    """Waypoints whose lobes to show (indices into the cut arrays).
+
+    The tightest waypoint first; then, of the other waypoints, those whose
+    lobes differ most from the ones already shown (mean absolute log ratio
+    over the speed grid, at least 5 %), so the figure shows the range of
+    dynamics along the path instead of near-copies of one curve.
+    """
     best = res.outcome.best
-    g = res.lobes.table.group
+    tab = res.lobes.table
+    g = tab.group
     ok = np.isfinite(best.margin) & (g < res.lobes.n_groups)
     idx = np.flatnonzero(ok)
     if idx.size == 0:
         return []
     out = [int(idx[np.argmin(best.margin[idx])])]
-    for k in np.linspace(0, idx.size - 1, 6).astype(int):
-        c = int(idx[k])
-        if all(g[c] != g[o] for o in out):
-            out.append(c)
-        if len(out) >= n:
+    # one candidate per group: its tightest waypoint
+    order = idx[np.argsort(best.margin[idx], kind="stable")]
+    _, first = np.unique(g[order], return_index=True)
+    cand = order[np.sort(first)]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        log_a = np.log(np.clip(tab.a_lim, 1e-9, 1e3))
+    while len(out) < n:
+        shown = log_a[g[out]]
+        dist = np.array([np.min(np.mean(np.abs(shown - log_a[g[c]]), axis=1)) for c in cand])
+        j = int(np.argmax(dist)) if dist.size else -1
+        if j < 0 or dist[j] < 0.05:
             break
+        out.append(int(cand[j]))
     return out
 
 
+def _where(res: PlanResult, c: int) -> str:
+    i = int(res.cut_index[c])
+    return f"{res.table['source'].iloc[i]}:{int(res.table['line'].iloc[i])}"
+
+
 def plot_lobes(res: PlanResult) -> Figure:
-    """Lobes (limiting depth vs speed) of chosen waypoints, with the operating points."""
+    """Lobes of the tightest distinct waypoints, each with its operating point."""
     best = res.outcome.best
     tab = res.lobes.table
     sf = res.job.plan.safety_factor
@@ -96,21 +119,30 @@ def plot_lobes(res: PlanResult) -> Figure:
     ax = fig.add_subplot()
     chosen = _chosen(res)
     depth = best.depth_m * 1e3
-    top = 4 * sf * depth if depth > 0 else 1.0
-    for c in chosen:
+    # Show the operating region: up to a few times the limit the plan keeps,
+    # and at least every chosen waypoint's limit at its planned speed.
+    a_op = [
+        float(tab.a_lim[tab.group[c], np.argmin(np.abs(tab.rpm - best.rpm[c]))]) * 1e3
+        for c in chosen
+    ]
+    finite = [a for a in a_op if np.isfinite(a)]
+    top = max([3.0 * sf * depth, *(1.15 * a for a in finite)]) if depth > 0 else 1.0
+    for rank, c in enumerate(chosen):
         row = tab.a_lim[tab.group[c]] * 1e3
-        i = int(res.cut_index[c])
-        label = f"{res.table['source'].iloc[i]}:{int(res.table['line'].iloc[i])} (waypoint {i})"
-        (line,) = ax.plot(tab.rpm, np.minimum(row, 10 * top), lw=1.2, label=f"a_lim at {label}")
-        ax.plot([best.rpm[c]], [depth], "o", color=line.get_color(), ms=6)
-    ax.axhline(depth, color="k", lw=0.8, ls="--", label=f"depth {depth:.3g} mm")
-    ax.axhline(depth * sf, color="k", lw=0.8, ls=":", label=f"depth x SF {sf:g}")
+        label = f"{_where(res, c)}, waypoint {int(res.cut_index[c])} (margin {best.margin[c]:.2f})"
+        if rank == 0:
+            label += ", tightest"
+        (line,) = ax.plot(tab.rpm, row, lw=1.3, label=label, zorder=2)
+        ax.plot([best.rpm[c]], [depth], "o", ms=9, mfc=line.get_color(), mec="k", mew=1.2, zorder=4)
+    ax.axhline(depth, color="k", lw=1.0, ls="--", label=f"planned depth {depth:.3g} mm")
+    ax.axhline(depth * sf, color="k", lw=0.8, ls=":", label=f"depth x safety factor {sf:g}")
     ax.set_ylim(0, top)
-    ax.set_xlim(tab.rpm[0], tab.rpm[-1])
+    pad = 0.015 * (tab.rpm[-1] - tab.rpm[0])
+    ax.set_xlim(tab.rpm[0] - pad, tab.rpm[-1] + pad)
     ax.set_xlabel("spindle speed [rpm]")
     ax.set_ylabel("limiting depth a_lim [mm]")
-    ax.set_title("Stability lobes with operating points (dots)")
-    ax.legend(fontsize=7, loc="upper left")
+    ax.set_title("Stability lobes at the tightest waypoints (dots: planned speed and depth)")
+    ax.legend(fontsize=8, loc="upper left", framealpha=0.9)
     fig.tight_layout()
     return fig
 
@@ -152,28 +184,50 @@ def plot_speed_map(res: PlanResult, max_rows: int = 1500) -> Figure:
 
 
 def plot_path_margin(res: PlanResult) -> Figure:
-    """The path in 3-D (workpiece frame), cutting waypoints coloured by margin."""
+    """Top view (x-y, workpiece frame) of the path, cutting moves coloured by margin."""
+    from matplotlib.collections import LineCollection
+    from matplotlib.colors import BoundaryNorm, ListedColormap
+
     t = res.table
-    fig = Figure(figsize=(7, 5.5))
-    ax = fig.add_subplot(projection="3d")
-    ax.plot(t["x_mm"], t["y_mm"], t["z_mm"], color="0.7", lw=0.5)
-    cut = np.isfinite(t["margin"].to_numpy())
-    sc = ax.scatter(
-        t["x_mm"][cut], t["y_mm"][cut], t["z_mm"][cut], c=t["margin"][cut], cmap="viridis", s=6
-    )
-    cb = fig.colorbar(sc, ax=ax, shrink=0.7)
-    cb.set_label("margin a_lim / depth")
+    sf = res.job.plan.safety_factor
+    x = t["x_mm"].to_numpy()
+    y = t["y_mm"].to_numpy()
+    margin = t["margin"].to_numpy()
+    fig = Figure(figsize=(8, 5.5))
+    ax = fig.add_subplot()
+    ax.plot(x, y, color="0.75", lw=0.6, ls="--", zorder=1, label="rapid / non-cutting")
+    # A move ends at its row: segment i-1 -> i carries row i's margin.
+    seg = np.stack([np.column_stack([x[:-1], y[:-1]]), np.column_stack([x[1:], y[1:]])], axis=1)
+    cut = np.isfinite(margin[1:])
+    # Classes an engineer reads at a glance: below the safety factor (the
+    # plan's own limit) is red, at it orange, then more and more spare depth.
+    bounds = [0.0, 1.0, sf, 1.1 * sf, 1.5 * sf, 2.0 * sf, 4.0 * sf]
+    cmap = ListedColormap(
+        ["#8b0000", "#e34a33", "#fdae61", "#fee08b", "#a6d96a", "#1a9850"]
+    ).with_extremes(over="#006837")
+    norm = BoundaryNorm(bounds, cmap.N)
+    lc = LineCollection(seg[cut], cmap=cmap, norm=norm, linewidths=2.4, zorder=2)
+    lc.set_array(margin[1:][cut])
+    ax.add_collection(lc)
+    k = res.summary["min_margin_at"]["waypoint"]
+    ax.plot(x[k], y[k], "kx", ms=10, mew=2, zorder=3, label="tightest waypoint")
+    cb = fig.colorbar(lc, ax=ax, extend="max", ticks=bounds, spacing="uniform")
+    cb.ax.set_yticklabels(["0", "1 (chatter)", f"{sf:g} (SF)", *(f"{b:.2f}" for b in bounds[3:])])
+    cb.set_label("margin = limiting depth / planned depth")
+    ax.set_aspect("equal", adjustable="datalim")
+    ax.autoscale_view()
     ax.set_xlabel("x [mm]")
     ax.set_ylabel("y [mm]")
-    ax.set_zlabel("z [mm]")
-    ax.set_title("Path coloured by stability margin")
+    ax.set_title("Path (top view) coloured by stability margin")
+    ax.legend(fontsize=8, loc="best")
+    fig.tight_layout()
     return fig
 
 
 def plot_speed_power(res: PlanResult) -> Figure:
     """Speed and cutting power along the cutting length."""
     o = res.outcome
-    s = res.geom.s_m
+    s = res.geom.s_m * 1e3
     fig = Figure(figsize=(8, 5))
     ax1, ax2 = fig.subplots(2, 1, sharex=True)
     ax1.plot(s, o.best.rpm, "k", lw=1.2, label=f"plan ({o.best.method})")
@@ -186,8 +240,9 @@ def plot_speed_power(res: PlanResult) -> Figure:
     ax2.plot(s, o.power_W * 1e-3, "k", lw=1.2)
     ax2.axhline(res.job.spindle.power_W * 1e-3, color="r", lw=0.8, ls="--", label="power limit")
     ax2.set_ylabel("cutting power [kW]")
-    ax2.set_xlabel("cutting length [m]")
+    ax2.set_xlabel("cutting length along the path [mm]")
     ax2.legend(fontsize=7)
+    ax1.set_title("Spindle speed and cutting power along the path")
     fig.tight_layout()
     return fig
 
@@ -200,6 +255,37 @@ _PLOTTERS = {
 }
 
 
+#: What to read from each figure (the report's captions).
+CAPTIONS: dict[str, str] = {
+    "lobes": (
+        "Limiting depth of cut against spindle speed at the tightest waypoint and at the "
+        "waypoints whose dynamics differ most from it. Everything below a curve is stable at "
+        "that waypoint; each dot "
+        "is the planned speed and depth, and its height under the curve is the margin. Curves "
+        "that rise steadily with speed are the zeroth lobe of the robot's own low-frequency "
+        "modes (the spindle turns far faster than they vibrate); the peaked lobes come from the "
+        "spindle, holder and tool modes."
+    ),
+    "speed_map": (
+        "Stability along the path: for every cutting waypoint (x) and spindle speed (y), green "
+        "where the limit exceeds the planned depth times the safety factor, red where it does "
+        "not. The black line is the planned speed, which must stay in green; the dashed line the "
+        "best single speed."
+    ),
+    "path_margin": (
+        "The path seen from above in the workpiece frame, each cutting move coloured by its "
+        "margin (limiting depth / planned depth). Orange moves run at the safety factor, the "
+        "plan's own limit; green ones have depth to spare; red would chatter or break the "
+        "safety factor. The cross marks the tightest waypoint."
+    ),
+    "speed_power": (
+        "Planned spindle speed (top) and cutting power (bottom) along the cutting length, with "
+        "the best constant and the programmed speed for comparison and the spindle's power "
+        "limit."
+    ),
+}
+
+
 def _fmt(v: Any) -> str:
     if v is None:
         return "-"
@@ -208,21 +294,73 @@ def _fmt(v: Any) -> str:
     return html.escape(str(v))
 
 
-def render_html(res: PlanResult, images: dict[str, bytes]) -> str:
-    """The self-contained HTML report (PNG images embedded as base64)."""
+def _shown_path(path: str | None, base: Path | None) -> str:
+    """A file name as the report shows it: relative to the report, never a home path."""
+    if not path or path.startswith("<"):
+        return path or "-"
+    p = Path(path)
+    try:
+        from importlib import resources
+
+        bundled = Path(str(resources.files("robolobe.data").joinpath("examples")))
+        if p.resolve().is_relative_to(bundled.resolve()):
+            return f"{p.name} (bundled example)"
+    except (OSError, ValueError):  # pragma: no cover - unusual package layouts
+        pass
+    if base is not None and p.is_absolute():
+        rel = os.path.relpath(p, base.resolve())
+        if rel.count("..") <= 2:
+            return rel
+    return p.name if p.is_absolute() else str(p)
+
+
+def _tightest(res: PlanResult, n: int = 10) -> pd.DataFrame:
+    """The ``n`` tightest cutting waypoints, one row per distinct position (0.1 mm)."""
+    t = res.table
+    cut = t[np.isfinite(t["margin"].to_numpy())]
+    cols = ["source", "line", "x_mm", "y_mm", "z_mm", "rpm", "a_lim_mm", "margin", "limiting"]
+    cols += [c for c in ("power_kW",) if c in cut.columns]
+    order = cut.sort_values("margin", kind="stable")
+    pos = order[["x_mm", "y_mm", "z_mm"]].round(1)
+    return order.loc[~pos.duplicated(), cols].head(n)
+
+
+def render_html(
+    res: PlanResult, images: dict[str, bytes], base: str | os.PathLike[str] | None = None
+) -> str:
+    """The self-contained HTML report (PNG images embedded as base64).
+
+    Parameters
+    ----------
+    res : PlanResult
+    images : dict of str to bytes
+        PNG images by plot name (:data:`PLOTS`).
+    base : path-like, optional
+        Folder the report is written to; file names are shown relative to it.
+    """
     s = res.summary
+    b = Path(base) if base is not None else None
+    where = s["min_margin_at"]
     rows = [
-        ("Path", s["path"]),
-        ("Job", f"{s['job']} ({s['job_file']})"),
+        ("Path", _shown_path(s["path"], b)),
+        ("Job", f"{s['job']} ({_shown_path(s['job_file'], b)})"),
         ("Robot / modes", f"{s['robot']} / {s['mode_source']}"),
         ("Waypoints (cutting, plunges)", f"{s['n_waypoints']} ({s['n_cut']}, {s['n_plunge']})"),
-        ("Depth per pass [mm]", s["depth_mm"]),
+        ("Depth per pass [mm]", f"{s['depth_mm']:.3f}"),
         ("Speed [rpm]", f"{s['rpm_min']:.0f} - {s['rpm_max']:.0f} ({s['speed_mode']})"),
-        ("MRR [cm^3/min]", s["mrr_cm3_per_min"]),
-        ("Cycle time [s]", s["cycle_time_s"]),
-        ("Minimum margin", f"{s['min_margin']:.3f} at {s['min_margin_at']['source']}"),
+        ("MRR [cm^3/min]", f"{s['mrr_cm3_per_min']:.1f}"),
+        ("Cycle time [s]", f"{s['cycle_time_s']:.2f}"),
+        (
+            "Minimum margin",
+            f"{s['min_margin']:.3f} (safety factor {s['safety_factor']:g}) at "
+            f"{where['source']}, x {where['x_mm']:.1f} y {where['y_mm']:.1f} "
+            f"z {where['z_mm']:.1f} mm, {where['rpm']:.0f} rpm",
+        ),
         ("Method", f"{s['method']} (IPOPT: {s['nlp_status']})"),
     ]
+    if s.get("robust"):
+        conf = s.get("confidence")
+        rows.append(("Robust plan", str(conf) if conf else f"k_sigma {s.get('k_sigma')}"))
     for key, name in (
         ("vs_best_constant_speed", "best constant speed"),
         ("vs_programmed_speed", "programmed speed"),
@@ -237,39 +375,40 @@ def render_html(res: PlanResult, images: dict[str, bytes]) -> str:
                     f"{'feasible' if g['feasible'] else 'infeasible: ' + g['reason']})",
                 )
             )
-    table = "\n".join(f"<tr><th>{html.escape(k)}</th><td>{_fmt(v)}</td></tr>" for k, v in rows)
-    t = res.table
-    cut = t[np.isfinite(t["margin"].to_numpy())]
-    tight = cut.nsmallest(10, "margin")[
-        [
-            "source",
-            "line",
-            "x_mm",
-            "y_mm",
-            "z_mm",
-            "rpm",
-            "a_lim_mm",
-            "margin",
-            "limiting",
-            "power_kW",
-        ]
-    ]
-    tight_html = tight.to_html(index=True, float_format=lambda v: f"{v:.4g}", border=0)
+    table = "\n".join(
+        f"<tr><th>{html.escape(k)}</th><td>{html.escape(str(v))}</td></tr>" for k, v in rows
+    )
+    tight = _tightest(res)
+    tight_html = tight.to_html(
+        index=False,
+        border=0,
+        formatters={
+            "rpm": lambda v: f"{v:.0f}",
+            "x_mm": lambda v: f"{v:.1f}",
+            "y_mm": lambda v: f"{v:.1f}",
+            "z_mm": lambda v: f"{v:.1f}",
+            "a_lim_mm": lambda v: f"{v:.3f}",
+            "margin": lambda v: f"{v:.3f}",
+            "power_kW": lambda v: f"{v:.2f}",
+        },
+    )
     imgs = "\n".join(
-        f'<figure><img alt="{k}" src="data:image/png;base64,{base64.b64encode(v).decode()}">'
-        f"<figcaption>{html.escape(k)}</figcaption></figure>"
+        f'<figure><img alt="{html.escape(k)}" '
+        f'src="data:image/png;base64,{base64.b64encode(v).decode()}">'
+        f"<figcaption>{html.escape(CAPTIONS.get(k, k))}</figcaption></figure>"
         for k, v in images.items()
     )
     notes = "".join(f"<li>{html.escape(n)}</li>" for n in s.get("notes", []))
     timing = ", ".join(f"{k} {v:.3g} s" for k, v in s.get("timings_s", {}).items())
     return f"""<!DOCTYPE html>
 <html lang="en"><head><meta charset="utf-8">
-<title>robolobe plan: {html.escape(str(s["path"]))}</title>
+<title>robolobe plan: {html.escape(_shown_path(s["path"], b))}</title>
 <style>
 body {{ font-family: sans-serif; max-width: 1000px; margin: 2em auto; color: #222; }}
 table {{ border-collapse: collapse; margin: 1em 0; }}
 th, td {{ padding: 3px 10px; border-bottom: 1px solid #ddd; text-align: left; font-size: 14px; }}
-figure {{ margin: 1em 0; }} img {{ max-width: 100%; }}
+figure {{ margin: 1.5em 0; }} img {{ max-width: 100%; }}
+figcaption {{ font-size: 14px; color: #444; max-width: 800px; }}
 </style></head><body>
 <h1>robolobe plan</h1>
 <table>{table}</table>
@@ -277,6 +416,7 @@ figure {{ margin: 1em 0; }} img {{ max-width: 100%; }}
 <h2>Plots</h2>
 {imgs}
 <h2>Tightest waypoints</h2>
+<p>The cutting waypoints with the smallest margin, one row per position.</p>
 {tight_html}
 <p><small>robolobe {html.escape(str(s["robolobe_version"]))};
 timings: {html.escape(timing)}</small></p>
@@ -297,8 +437,9 @@ def write_outputs(
     ----------
     res : PlanResult
     out_dir : path-like
-        Created if missing; files of earlier runs that this run does not
-        write are left alone.
+        Created if missing. A plan's files of an earlier run (:data:`OUTPUTS`)
+        that this run does not write are removed, so the folder holds one
+        plan; other files are left alone.
     plots, html_report : bool
         Write the PNG plots and the HTML report.
 
@@ -312,7 +453,7 @@ def write_outputs(
     if plots or html_report:
         for name in PLOTS:
             images[name] = _png(_PLOTTERS[name](res))
-    with atomic_dir(out) as tmp:
+    with atomic_dir(out, managed=OUTPUTS) as tmp:
         write_csv(res.table, tmp / "waypoints.csv")
         (tmp / "summary.json").write_text(
             json.dumps(res.summary, indent=2) + "\n", encoding="utf-8"
@@ -322,5 +463,5 @@ def write_outputs(
             for name, data in images.items():
                 (tmp / "plots" / f"{name}.png").write_bytes(data)
         if html_report:
-            (tmp / "report.html").write_text(render_html(res, images), encoding="utf-8")
+            (tmp / "report.html").write_text(render_html(res, images, out), encoding="utf-8")
     return out

@@ -39,6 +39,12 @@ __all__ = ["MODES_COLUMNS", "read_modes_csv", "write_lobes_csv"]
 #: Required columns of a modes file.
 MODES_COLUMNS = ("dir", "mode", "f_hz", "zeta", "k_N_per_m")
 _DIRS = ("xx", "yy", "xy", "yx")
+#: Plausible natural frequencies of a robot or tool-point mode [Hz]: below
+#: 1 Hz is no structural mode of a milling robot (often kHz given as Hz).
+F_RANGE_HZ = (1.0, 1.0e5)
+#: Plausible magnitude of a modal stiffness [N/m]: from a very soft robot
+#: mode (~1e3) to a mode barely seen at the tool point (~1e13).
+K_RANGE_N_PER_M = (1.0e3, 1.0e13)
 
 
 def _num(text: str, where: str, column: str) -> float:
@@ -126,15 +132,27 @@ def read_modes_csv(path: str | os.PathLike[str]) -> ModalModel:
         f = _num(row[pos["f_hz"]], where, "f_hz")
         z = _num(row[pos["zeta"]], where, "zeta")
         kk = _num(row[pos["k_N_per_m"]], where, "k_N_per_m")
-        if f <= 0:
-            raise InputError(f"f_hz: expected a frequency > 0 Hz, found {f!r}", source=where)
+        if not F_RANGE_HZ[0] <= f <= F_RANGE_HZ[1]:
+            hint = " (kHz? give f_hz in Hz)" if 0 < f < F_RANGE_HZ[0] else ""
+            raise InputError(
+                f"f_hz: expected a natural frequency of {F_RANGE_HZ[0]:g} to "
+                f"{F_RANGE_HZ[1]:g} Hz, found {f:g}{hint}",
+                source=where,
+            )
         if not 0 < z < 1:
             raise InputError(
-                f"zeta: expected a damping ratio in (0, 1) (fraction), found {z!r}", source=where
+                f"zeta: expected a damping ratio in (0, 1) (fraction), found {z:g}", source=where
             )
         if d in ("xx", "yy") and kk <= 0:
             raise InputError(
-                f"k_N_per_m: expected a stiffness > 0 N/m for dir {d}, found {kk!r}", source=where
+                f"k_N_per_m: expected a stiffness > 0 N/m for dir {d}, found {kk:g}", source=where
+            )
+        if kk != 0 and not K_RANGE_N_PER_M[0] <= abs(kk) <= K_RANGE_N_PER_M[1]:
+            raise InputError(
+                f"k_N_per_m: expected a modal stiffness of {K_RANGE_N_PER_M[0]:g} to "
+                f"{K_RANGE_N_PER_M[1]:g} N/m in magnitude, found {kk:g} "
+                "(a truncated number or N/mm?)",
+                source=where,
             )
         if kk == 0:
             raise InputError(

@@ -24,6 +24,15 @@ __all__ = ["Material", "get_material", "material_table"]
 _TABLE = "materials.csv"
 
 
+#: Physical range of the tangential cutting coefficient Kt [N/m^2]: about
+#: 1e8 for soft plastics and wood composites up to ~5e9 for hardened steel
+#: and nickel alloys (Altintas, *Manufacturing Automation*, tables of Kt);
+#: a value outside it is a unit mistake (N/mm^2 given as N/m^2).
+KT_RANGE_N_PER_M2 = (1.0e7, 2.0e10)
+#: Largest plausible Kr = Kn/Kt (published ratios are 0.05-1.5).
+KR_MAX = 5.0
+
+
 @dataclass(frozen=True)
 class Material:
     """Cutting-force coefficients of a work material.
@@ -56,9 +65,19 @@ class Material:
 
     def __post_init__(self) -> None:
         if not (math.isfinite(self.kt) and self.kt > 0.0):
-            raise InputError(f"Kt: expected a positive coefficient in N/m^2, found {self.kt!r}")
-        if not (math.isfinite(self.kr) and self.kr >= 0.0):
-            raise InputError(f"Kr: expected Kn/Kt >= 0, found {self.kr!r}")
+            raise InputError(f"Kt: expected a positive coefficient in N/m^2, found {self.kt:g}")
+        if not KT_RANGE_N_PER_M2[0] <= self.kt <= KT_RANGE_N_PER_M2[1]:
+            hint = (
+                f" (it looks like N/mm^2: {self.kt:g} N/mm^2 = {self.kt * 1e6:g} N/m^2)"
+                if self.kt * 1e6 <= KT_RANGE_N_PER_M2[1]
+                else ""
+            )
+            raise InputError(
+                f"Kt: expected {KT_RANGE_N_PER_M2[0]:g} to {KT_RANGE_N_PER_M2[1]:g} N/m^2 "
+                f"(plastics to hardened steel), found {self.kt:g} N/m^2{hint}"
+            )
+        if not (math.isfinite(self.kr) and 0.0 <= self.kr <= KR_MAX):
+            raise InputError(f"Kr: expected Kn/Kt in [0, {KR_MAX:g}], found {self.kr:g}")
 
     @property
     def kn(self) -> float:
