@@ -378,3 +378,28 @@ def test_positions_set_at_run_time_are_not_read_stale():
         parse_rapid(mod, "m.mod")
     good = parse_rapid(mod.replace("MoveL q, v10, fine, tool0;\n", ""), "m.mod")
     assert xyz(good)[:, 0].tolist() == pytest.approx([1.0, 6.0])
+
+
+def test_circular_moves_turn_the_tool_along_the_arc():
+    krl = (
+        "DEF t()\nLIN {X 10, Y 0, Z 0, A 0, B 0, C 180}\n"
+        "CIRC {X 0, Y 10, Z 0}, {X -10, Y 0, Z 0, A 0, B 30, C 180}\nEND\n"
+    )
+    c30 = math.cos(math.radians(15))  # quaternion of 30 deg about y, times 180 about x
+    s30 = math.sin(math.radians(15))
+    lit = "[[{x},{y},0],[{q}],[0,0,0,0],[9E9,9E9,9E9,9E9,9E9,9E9]]"
+    q0 = "0,1,0,0"  # 180 deg about x: tool z down
+    q1 = f"0,{c30:.9f},0,{-s30:.9f}"  # then tilted 30 deg about y
+    mod = (
+        f"MODULE M\nPROC main()\nMoveL {lit.format(x=10, y=0, q=q0)}, v10, fine, tool0;\n"
+        f"MoveC {lit.format(x=0, y=10, q=q0)}, {lit.format(x=-10, y=0, q=q1)}, v10, fine, "
+        "tool0;\nENDPROC\nENDMODULE\n"
+    )
+    for df in (parse_krl(krl, "t.src"), parse_rapid(mod, "m.mod")):
+        p = xyz(df)
+        tilt = np.degrees(np.arccos(np.clip(df["k"].to_numpy(), -1, 1)))
+        assert tilt[0] == pytest.approx(0.0, abs=1e-6)
+        assert tilt[-1] == pytest.approx(30.0, abs=1e-6)
+        mid = int(np.argmax(p[:, 1]))  # the top of the half circle: half the arc length
+        assert tilt[mid] == pytest.approx(15.0, abs=1.0)
+        assert np.all(np.diff(tilt) >= -1e-9)  # turns steadily

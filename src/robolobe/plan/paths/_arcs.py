@@ -9,7 +9,14 @@ from numpy.typing import NDArray
 
 from robolobe.errors import InputError
 
-__all__ = ["arc_point_list", "arc_points", "arc_start_tangent", "arc_through", "circle_through"]
+__all__ = [
+    "arc_point_list",
+    "arc_points",
+    "arc_start_tangent",
+    "arc_through",
+    "circle_through",
+    "orientations_along",
+]
 
 _MAX_SEGMENTS = 2_000_000
 
@@ -222,3 +229,34 @@ def arc_through(
     centre, nrm = circ
     # via lies on the arc: sense is CCW about nrm (nrm = a x b puts via first)
     return arc_points(start, end, centre, nrm, clockwise=False, tol=tol, where=where)
+
+
+def orientations_along(
+    start: FloatArray, rot0: FloatArray, rot1: FloatArray, pts: FloatArray
+) -> FloatArray:
+    """Tool orientations at the points of a move, slerped by travelled length.
+
+    Robot controllers turn the tool from the start to the end orientation
+    along a circular move (KUKA ``$ORI_TYPE = #VAR``, ABB's default); the
+    end orientation at every point would tilt the tool early.
+
+    Parameters
+    ----------
+    start : ndarray, shape (3,)
+        Start point of the move [mm].
+    rot0, rot1 : ndarray, shape (3, 3)
+        Tool orientation at the start and at the end.
+    pts : ndarray, shape (n, 3)
+        The move's points after the start (the last one is the end) [mm].
+
+    Returns
+    -------
+    ndarray, shape (n, 3, 3)
+    """
+    from scipy.spatial.transform import Rotation, Slerp
+
+    seg = np.linalg.norm(np.diff(np.vstack([start, pts]), axis=0), axis=1)
+    total = float(seg.sum())
+    frac = np.cumsum(seg) / total if total > 0 else np.ones(len(pts))
+    key = Rotation.from_matrix(np.stack([rot0, rot1]))
+    return np.asarray(Slerp([0.0, 1.0], key)(np.clip(frac, 0.0, 1.0)).as_matrix())

@@ -13,7 +13,8 @@ axis (tip to spindle) is minus that axis; the TCP x axis the planner uses
 is the tool frame's next axis (``x_tool`` for z, ``y_tool`` for x).
 
 Supported: ``LIN``, ``SLIN``, ``LIN_REL`` (base frame), ``CIRC``/``SCIRC``
-(auxiliary and end point; ``CA angle`` sweeps that angle on the circle),
+(auxiliary and end point; ``CA angle`` sweeps that angle on the circle;
+the tool turns from the start to the end orientation by arc length),
 ``SPL`` (spline points, joined by straight lines, warned), ``PTP``/
 ``SPTP``/``PTP_REL`` (rapid), ``WITH $VEL = SVEL_CP(v, ...)`` (that
 motion's velocity, m/s), targets as aggregates (partial aggregates keep the
@@ -53,7 +54,12 @@ import numpy as np
 import pandas as pd
 
 from robolobe.errors import InputError
-from robolobe.plan.paths._arcs import arc_points, arc_through, circle_through
+from robolobe.plan.paths._arcs import (
+    arc_points,
+    arc_through,
+    circle_through,
+    orientations_along,
+)
 from robolobe.plan.paths._table import WaypointBuilder
 from robolobe.plan.paths._text import (
     TOOL_DIRECTIONS,
@@ -63,7 +69,7 @@ from robolobe.plan.paths._text import (
     read_text,
     tool_axes,
 )
-from robolobe.robots.transforms import pose_from_xyz_zyx, rotation_from_zyx
+from robolobe.robots.transforms import pose_from_xyz_zyx, rotation_from_zyx, zyx_from_rotation
 
 __all__ = ["parse_krl", "read_krl"]
 
@@ -389,8 +395,15 @@ class _Reader:
             else:
                 pts = _arc_by_angle(start, aux[:3], end[:3], ca, self.tol, where)
                 end = np.concatenate([pts[-1], end[3:]])
-            for p in pts[:-1]:
-                self.emit(end, lineno, rapid=False, at=p, vel=vel)
+            rots = orientations_along(
+                start,
+                rotation_from_zyx(np.radians(self.pose[3:])),
+                rotation_from_zyx(np.radians(end[3:])),
+                np.asarray(pts),
+            )
+            abc = np.degrees(zyx_from_rotation(rots))
+            for p, a in zip(pts[:-1], abc[:-1], strict=True):
+                self.emit(np.concatenate([p, a]), lineno, rapid=False, at=p, vel=vel)
             self.emit(end, lineno, rapid=False, vel=vel)
             return
         if word == "SPL":

@@ -8,8 +8,9 @@ the tool **Z** axis the working direction (spindle to tip), so the tool axis
 option ``tool_direction = "x"`` for a tool frame defined the KUKA way).
 
 Supported: ``MoveL``, ``MoveJ`` (rapid), ``MoveC`` (circle point and end
-point), their ``Trigg``/``DO``/``Sync`` variants (first arguments are the
-targets), targets as literals, as ``CONST``/``PERS``/``VAR robtarget``
+point; the tool turns from the start to the end orientation by arc
+length), their ``Trigg``/``DO``/``Sync`` variants (first arguments are
+the targets), targets as literals, as ``CONST``/``PERS``/``VAR robtarget``
 names (``LOCAL`` too), and ``Offs(p, dx, dy, dz)``; ``speeddata`` ``vN``
 (N mm/s), ``vmax`` (5000 mm/s), user ``speeddata`` declarations (first
 component, mm/s) and the ``\\V:=`` argument; optional switches such as
@@ -50,7 +51,7 @@ import numpy as np
 import pandas as pd
 
 from robolobe.errors import InputError
-from robolobe.plan.paths._arcs import arc_through
+from robolobe.plan.paths._arcs import arc_through, orientations_along
 from robolobe.plan.paths._table import WaypointBuilder
 from robolobe.plan.paths._text import (
     TOOL_DIRECTIONS,
@@ -250,6 +251,7 @@ class _Reader:
         self.wobjs: dict[str, np.ndarray] = {"WOBJ0": np.eye(4)}  # uframe @ oframe (mm)
         self.wobj_used: str | None = None
         self.pos: np.ndarray | None = None
+        self.rot: np.ndarray | None = None  # tool orientation at self.pos
         self.out = WaypointBuilder(source)
 
     def robtarget(self, text: str, where: str) -> tuple[np.ndarray, np.ndarray] | None:
@@ -447,15 +449,18 @@ class _Reader:
                 raise InputError("MoveC before any position", source=where)
             via = r_w @ pts[0][0] + o_w
             arc = arc_through(self.pos, via, end_pos, tol=self.tol, where=where)
-            for p in arc:
-                self.out.add(
-                    p * 1e-3, axis, line=lineno, rapid=False, feed_mm_per_min=feed, ref=ref
-                )
+            rot0 = self.rot if self.rot is not None else rot
+            ax_k, ref_k = tool_axes(
+                orientations_along(self.pos, rot0, rot, arc), self.tool_direction
+            )
+            for p, a, r in zip(arc, ax_k, ref_k, strict=True):
+                self.out.add(p * 1e-3, a, line=lineno, rapid=False, feed_mm_per_min=feed, ref=r)
         else:
             self.out.add(
                 end_pos * 1e-3, axis, line=lineno, rapid=rapid, feed_mm_per_min=feed, ref=ref
             )
         self.pos = end_pos
+        self.rot = rot
 
 
 def _speed(text: str, where: str) -> float:
