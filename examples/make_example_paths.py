@@ -187,12 +187,12 @@ DEF slot( )
 $BASE = BASE_DATA[1]
 $TOOL = TOOL_DATA[1]
 $APO.CDIS = 0.2
-PTP {X 0, Y 0, Z 40, A 0, B 90, C 0}
+PTP {X 0, Y 0, Z 40, A 90, B 0, C 180}
 $VEL.CP = 0.005
 LIN {Z -3} C_DIS
 $VEL.CP = 0.012
-LIN {X 120, Y 0, Z -3, A 0, B 90, C 0} C_DIS
-CIRC {X 155.355, Y 14.645, Z -3}, {X 170, Y 50, Z -3, A 0, B 90, C 0} C_DIS
+LIN {X 120, Y 0, Z -3, A 90, B 0, C 180} C_DIS
+CIRC {X 155.355, Y 14.645, Z -3}, {X 170, Y 50, Z -3, A 90, B 0, C 180} C_DIS
 LIN XP1 C_DIS
 LIN XP2 C_DIS
 $VEL.CP = 0.2
@@ -205,8 +205,8 @@ def slot_dat() -> str:
     tail = "S 6,T 27,E1 0.0,E2 0.0,E3 0.0,E4 0.0,E5 0.0,E6 0.0"
     return (
         "&ACCESS RVP\n&REL 1\nDEFDAT  slot\n"
-        f"DECL E6POS XP1={{X 170.0,Y 150.0,Z -3.0,A 0.0,B 90.0,C 0.0,{tail}}}\n"
-        f"DECL E6POS XP2={{X 60.0,Y 150.0,Z -3.0,A 0.0,B 90.0,C 0.0,{tail}}}\n"
+        f"DECL E6POS XP1={{X 170.0,Y 150.0,Z -3.0,A 90.0,B 0.0,C 180.0,{tail}}}\n"
+        f"DECL E6POS XP2={{X 60.0,Y 150.0,Z -3.0,A 90.0,B 0.0,C 180.0,{tail}}}\n"
         "ENDDAT\n"
     )
 

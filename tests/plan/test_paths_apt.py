@@ -11,7 +11,11 @@ from robolobe.plan.paths.apt import parse_apt
 
 
 def test_catia_fixture(data_dir):
-    df = read_toolpath(data_dir / "contour_catia_ok.apt")
+    # the fixture's arcs run counter-clockwise about their axis: the NX default warns
+    nx = read_toolpath(data_dir / "contour_catia_ok.apt")
+    assert any("circle_axis = 'ccw'" in w for w in nx.attrs["warnings"])
+    df = read_toolpath(data_dir / "contour_catia_ok.apt", circle_axis="ccw")
+    assert not any("circle_axis" in w for w in df.attrs["warnings"])
     # RAPID applies to the next GOTO only
     assert df["motion"].tolist()[:3] == ["rapid", "rapid", "cut"]
     assert df["rpm_programmed"].iloc[0] == 12000.0
@@ -48,7 +52,7 @@ def test_units_msys_godlta_and_feed_forms():
             "FINI",
         ]
     )
-    df = parse_apt(text, "in.cls")
+    df = parse_apt(text, "in.cls", coordinates="machine")
     # MSYS: x' = y, y' = -x; origin (1, 2, 0) inch
     p = df[["x_m", "y_m", "z_m"]].to_numpy() / 0.0254
     assert p[0] == pytest.approx([1.0, 2.0, 1.0])
@@ -65,7 +69,7 @@ def test_units_msys_godlta_and_feed_forms():
     ("text", "what"),
     [
         ("GOTO/1,2\n", "x,y,z"),
-        ("GOTO/1,2,a\n", "numbers"),
+        ("GOTO/1,2,a\n", "number"),
         ("CUTCOM/LEFT\n", "CUTCOM"),
         ("CYCLE/DRILL,5\n", "CYCLE"),
         ("WIBBLE/1\n", "WIBBLE"),

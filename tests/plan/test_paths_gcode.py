@@ -115,7 +115,10 @@ def test_five_axis_tool_vectors_and_rotary_words(data_dir):
     assert np.allclose(np.linalg.norm(ax, axis=1), 1.0)
     assert ax[2] == pytest.approx([0.0, 0.2588, 0.9659], abs=1e-4)
     assert ax[-1] == pytest.approx(ax[-2])  # modal tool vector
-    abc = read_toolpath(data_dir / "head_abc.nc")
+    # without TCP control, A/B/C words are ambiguous (head or table): refused by default
+    with pytest.raises(InputError, match="rotary_axes"):
+        read_toolpath(data_dir / "head_abc.nc")
+    abc = read_toolpath(data_dir / "head_abc.nc", rotary_axes="head")
     # documented convention: axis = Rz(C) Ry(B) Rx(A) ez
     assert abc[["i", "j", "k"]].iloc[2].tolist() == pytest.approx([0.5, 0.0, math.sqrt(3) / 2])
     assert abc[["i", "j", "k"]].iloc[3].tolist() == pytest.approx(

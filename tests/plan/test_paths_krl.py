@@ -13,7 +13,8 @@ from robolobe.plan.paths.krl import parse_krl
 
 
 def test_src_with_dat(data_dir):
-    df = read_toolpath(data_dir / "contour.src")
+    # the fixture is taught the KUKA way: tool x = working direction
+    df = read_toolpath(data_dir / "contour.src", tool_direction="x")
     # PTP XHOME (axis target) is left out; the first move is the PTP on line 26
     assert df["line"].iloc[0] == 26
     assert df["motion"].iloc[0] == "rapid"
@@ -37,8 +38,8 @@ def test_src_with_dat(data_dir):
 
 def test_tool_direction_z():
     text = "DEF t()\nLIN {X 0, Y 0, Z 0, A 0, B 0, C 180}\nEND\n"
-    x = parse_krl(text, "t.src")
-    z = parse_krl(text, "t.src", tool_direction="z")
+    x = parse_krl(text, "t.src", tool_direction="x")
+    z = parse_krl(text, "t.src")  # default: tool z = working direction
     # C 180 turns the tool z axis down: with tool_direction z the tool axis is +z (up)
     assert z[["i", "j", "k"]].iloc[0].tolist() == pytest.approx([0.0, 0.0, 1.0], abs=1e-12)
     assert x[["i", "j", "k"]].iloc[0].tolist() == pytest.approx([-1.0, 0.0, 0.0], abs=1e-12)
@@ -47,7 +48,7 @@ def test_tool_direction_z():
 def test_abc_is_zyx_euler():
     a, b, c = 30.0, 20.0, 10.0
     text = f"DEF t()\nLIN {{X 1, Y 2, Z 3, A {a}, B {b}, C {c}}}\nEND\n"
-    df = parse_krl(text, "t.src")
+    df = parse_krl(text, "t.src", tool_direction="x")
     ar, br = math.radians(a), math.radians(b)
     # tool x axis = first column of Rz(A) Ry(B) Rx(C)
     x_tool = np.array([math.cos(ar) * math.cos(br), math.sin(ar) * math.cos(br), -math.sin(br)])
@@ -59,7 +60,6 @@ def test_abc_is_zyx_euler():
     [
         ("LIN P7", "unknown position variable"),
         ("FOR I=1 TO 3", "control flow"),
-        ("CIRC {X 1, Y 1, Z 0}, {X 2, Y 0, Z 0}, CA 360", "CA"),
         ("LIN {X 1, Y 2, Z 3, A 0, B $POS_ACT.B, C 0}", "expression"),
         ("LIN {X 1, Y 2}", "must give X, Y, Z, A, B, C"),
         ("FOO BAR BAZ", "unsupported KRL statement"),

@@ -57,6 +57,59 @@ def _print_summary(s: dict[str, Any], out: Path) -> None:
     console.print(f"outputs in {out}/ (waypoints.csv, summary.json, plots/, report.html)")
 
 
+# Toolpath reader options (job section [path]); a flag given here overrides the job.
+_Units = Annotated[
+    str | None,
+    typer.Option(
+        help="Units where the file states none: auto, mm, inch (G-code, APT).", show_default=False
+    ),
+]
+_ToolDirection = Annotated[
+    str | None,
+    typer.Option(
+        help="Tool-frame axis along the working direction: z or x (KRL, RAPID).", show_default=False
+    ),
+]
+_Coordinates = Annotated[
+    str | None,
+    typer.Option(
+        help="workpiece (as written) or machine (APT MSYS, KRL $BASE, RAPID wobjdata).",
+        show_default=False,
+    ),
+]
+_RotaryAxes = Annotated[
+    str | None,
+    typer.Option(
+        help="G-code A/B/C words: auto (refused without TCP), head or table.", show_default=False
+    ),
+]
+_CircleAxis = Annotated[
+    str | None,
+    typer.Option(help="APT CIRCLE sense about its axis: cw (Siemens NX) or ccw.",
+                 show_default=False),
+]  # fmt: skip
+
+
+def _path_opts(**given: str | None) -> dict[str, str]:
+    """Reader options given on the command line (validated against their choices)."""
+    from robolobe.plan.paths import READER_OPTIONS
+
+    out = {}
+    for key, value in given.items():
+        if value is None:
+            continue
+        choices = READER_OPTIONS[key] or ()
+        if value not in choices:
+            flag = "--" + key.replace("_", "-")
+            raise InputError(f"{flag}: expected one of {list(choices)}, found {value!r}")
+        out[key] = value
+    return out
+
+
+def _with_path_opts(j: Any, opts: dict[str, str]) -> Any:
+    return j.replace(path_options={**j.path_options, **opts}) if opts else j
+
+
 def _cell(v: Any) -> str:
     if v is None or (isinstance(v, float) and v != v):
         return ""
@@ -100,6 +153,11 @@ def register(app: typer.Typer) -> None:
             bool,
             typer.Option("--refine/--no-refine", help="casadi/IPOPT refinement of the search."),
         ] = True,
+        units: _Units = None,
+        tool_direction: _ToolDirection = None,
+        coordinates: _Coordinates = None,
+        rotary_axes: _RotaryAxes = None,
+        circle_axis: _CircleAxis = None,
     ) -> None:
         """Plan spindle speed and depth along a toolpath (chatter-free, per waypoint).
 
@@ -119,7 +177,11 @@ def register(app: typer.Typer) -> None:
             err_console.print(f"running the bundled example: {path.name} with {job.name}")
         elif path is None or job is None:
             raise InputError("give both PATH and --job (or neither, for the bundled example)")
-        j = load_job(job)
+        j = _with_path_opts(
+            load_job(job),
+            _path_opts(units=units, tool_direction=tool_direction, coordinates=coordinates,
+                       rotary_axes=rotary_axes, circle_axis=circle_axis),
+        )  # fmt: skip
         if robust is not None:
             import dataclasses
 
@@ -153,6 +215,11 @@ def register(app: typer.Typer) -> None:
             "robolobe-compare"
         ),
         refine: Annotated[bool, typer.Option("--refine/--no-refine")] = True,
+        units: _Units = None,
+        tool_direction: _ToolDirection = None,
+        coordinates: _Coordinates = None,
+        rotary_axes: _RotaryAxes = None,
+        circle_axis: _CircleAxis = None,
     ) -> None:
         """Plan the same job on several robots, side by side.
 
@@ -171,7 +238,11 @@ def register(app: typer.Typer) -> None:
         if more_robots and not robots:
             raise InputError(f"unexpected arguments {more_robots}; robots go after --robots")
         names = names or ["A", "B", "C"]
-        j = load_job(job)
+        j = _with_path_opts(
+            load_job(job),
+            _path_opts(units=units, tool_direction=tool_direction, coordinates=coordinates,
+                       rotary_axes=rotary_axes, circle_axis=circle_axis),
+        )  # fmt: skip
         with status(f"planning on {', '.join(names)} ..."):
             cmp = compare_robots(path, j, names, refine=refine)
             write_comparison(cmp, output)
@@ -225,6 +296,11 @@ def register(app: typer.Typer) -> None:
             ),
         ] = "auto",
         refine: Annotated[bool, typer.Option("--refine/--no-refine")] = True,
+        units: _Units = None,
+        tool_direction: _ToolDirection = None,
+        coordinates: _Coordinates = None,
+        rotary_axes: _RotaryAxes = None,
+        circle_axis: _CircleAxis = None,
     ) -> None:
         """Plan many toolpaths with one job, in parallel; one results table.
 
@@ -238,7 +314,11 @@ def register(app: typer.Typer) -> None:
             raise InputError("--job: expected a job file, found none")
         if fmt not in ("auto", "parquet", "csv"):
             raise InputError(f"--format: expected auto, parquet or csv, found {fmt!r}")
-        j = load_job(job)
+        j = _with_path_opts(
+            load_job(job),
+            _path_opts(units=units, tool_direction=tool_direction, coordinates=coordinates,
+                       rotary_axes=rotary_axes, circle_axis=circle_axis),
+        )  # fmt: skip
         rows = []
         with progress() as bar:
             task = bar.add_task("planning", total=len(paths))

@@ -184,7 +184,7 @@ def compare_robots(
     wp = (
         validate_waypoints(path, "<table>")
         if isinstance(path, pd.DataFrame)
-        else read_toolpath(path)
+        else read_toolpath(path, applicable_only=True, **job.path_options)
     )
     rows: list[dict[str, Any]] = []
     results: dict[str, PlanResult] = {}

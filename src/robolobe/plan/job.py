@@ -65,6 +65,15 @@ Example (all keys; defaults shown where a key is optional)::
     k_sigma = 2.0
     n_rpm = 300                  # speed grid of the lobes
     dynamics_tol_pct = 0.3       # waypoints whose modes agree within this share lobes
+
+    [path]                       # toolpath reader options (optional; each reader takes
+                                 # those that apply to its format; CLI flags override)
+    units = "auto"               # "auto" | "mm" | "inch": G-code/APT without G20/G21/UNITS
+    tool_direction = "z"         # "z" | "x": KRL/RAPID tool-frame axis along the working direction
+    coordinates = "workpiece"    # "workpiece" | "machine": APT MSYS, KRL $BASE, RAPID wobjdata
+    rotary_axes = "auto"         # "auto" | "head" | "table": G-code A/B/C words
+    circle_axis = "cw"           # "cw" | "ccw": APT CIRCLE sense about i,j,k (NX: cw)
+    arc_tol_mm = 0.01            # chord tolerance of linearised arcs
 """
 
 from __future__ import annotations
@@ -233,6 +242,15 @@ class _PlanSpec(_Spec):
         return self
 
 
+class _PathSpec(_Spec):
+    units: Literal["auto", "mm", "inch"] | None = None
+    tool_direction: Literal["z", "x"] | None = None
+    coordinates: Literal["workpiece", "machine"] | None = None
+    rotary_axes: Literal["auto", "head", "table"] | None = None
+    circle_axis: Literal["cw", "ccw"] | None = None
+    arc_tol_mm: Annotated[float, Field(gt=0, le=10, allow_inf_nan=False, strict=True)] | None = None
+
+
 class _JobSpec(_Spec):
     format: Literal["robolobe-job/1"]
     name: str = ""
@@ -243,6 +261,7 @@ class _JobSpec(_Spec):
     cut: _CutSpec
     spindle: _SpindleSpec
     plan: _PlanSpec = Field(default_factory=_PlanSpec)
+    path: _PathSpec = Field(default_factory=_PathSpec)
 
 
 _KNOWN_KEYS: dict[str, set[str]] = {
@@ -255,6 +274,7 @@ _KNOWN_KEYS: dict[str, set[str]] = {
     "cut": set(_CutSpec.model_fields),
     "spindle": set(_SpindleSpec.model_fields),
     "plan": set(_PlanSpec.model_fields),
+    "path": set(_PathSpec.model_fields),
 }
 
 
@@ -436,6 +456,9 @@ class Job:
         steps of ``tool_rotation_step_rad`` for the stiffest choice.
     name, source : str
         Free text; the file the job came from.
+    path_options : dict
+        Toolpath reader options (job section ``[path]``; see
+        :data:`robolobe.plan.paths.READER_OPTIONS`); only those set.
     """
 
     robot: str
@@ -454,6 +477,7 @@ class Job:
     tool_rotation_step_rad: float = math.radians(30.0)
     name: str = ""
     source: str = "<code>"
+    path_options: dict[str, Any] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         p = np.array(self.placement, dtype=np.float64)
@@ -492,7 +516,7 @@ def _warn_typos(raw: dict[str, Any], where: str) -> None:
                 )
 
     check(raw, "", "")
-    for sec in ("robot", "placement", "tool", "material", "cut", "spindle", "plan"):
+    for sec in ("robot", "placement", "tool", "material", "cut", "spindle", "plan", "path"):
         check(raw.get(sec), sec, f"{sec}.")
     tool = raw.get("tool")
     if isinstance(tool, dict) and isinstance(tool.get("modes"), list):
@@ -641,6 +665,11 @@ def job_from_dict(d: dict[str, Any], source: str = "<dict>", base_dir: Path | No
         tool_rotation_step_rad=math.radians(r.tool_rotation_step_deg),
         name=spec.name,
         source=source,
+        path_options={
+            k: v
+            for k, v in spec.path.model_dump().items()
+            if v is not None and k in _KNOWN_KEYS["path"]
+        },
     )
 
 
@@ -761,6 +790,7 @@ def job_to_dict(job: Job) -> dict[str, Any]:
             "torque_Nm": _clean(job.spindle.torque_Nm),
         },
         "plan": plan,
+        **({"path": dict(job.path_options)} if job.path_options else {}),
     }
 
 

@@ -309,10 +309,12 @@ def _wrist_measure(robot: Robot, q: FloatArray) -> FloatArray:
 
 
 # --------------------------------------------------------------------- main
-def _read(path: str | os.PathLike[str] | pd.DataFrame) -> tuple[pd.DataFrame, str]:
+def _read(
+    path: str | os.PathLike[str] | pd.DataFrame, options: dict[str, Any] | None = None
+) -> tuple[pd.DataFrame, str]:
     if isinstance(path, pd.DataFrame):
         return validate_waypoints(path, "<table>"), "<table>"
-    return read_toolpath(path), str(path)
+    return read_toolpath(path, applicable_only=True, **(options or {})), str(path)
 
 
 def _feed_lateral(f_tcp: FloatArray) -> FloatArray:
@@ -429,7 +431,7 @@ def plan_path(
     """
     timings: dict[str, float] = {}
     t = time.perf_counter()
-    wp, path_name = _read(path)
+    wp, path_name = _read(path, job.path_options)
     timings["read"] = time.perf_counter() - t
     if robot is None:
         robot = load_robot(job.robot)
@@ -721,6 +723,7 @@ def _summary(
     lim_counts = table.loc[table["motion"] == "cut", "limiting"].value_counts().to_dict()
     ex = modes.extrapolation
     notes = [s for s in (note, grouped.message) if s]
+    notes += [f"toolpath reader: {w}" for w in wp.attrs.get("warnings", [])]
     if ex is not None and np.any(ex > 0.1):
         notes.append(
             f"{int(np.sum(ex > 0.1))} of {ex.size} cutting postures lie beyond the model's "

@@ -9,7 +9,7 @@ format      extensions
 ==========  =========================================================
 ``table``   .csv, .parquet, .pq
 ``gcode``   .nc, .ngc, .gcode, .tap, .cnc, .mpf, .spf, .iso, .eia, .ptp
-``apt``     .apt, .cl, .cls, .aptsource, .clt
+``apt``     .apt, .cl, .cls, .clsf, .aptsource, .clt
 ``krl``     .src, .dat
 ``rapid``   .mod, .modx, .prg, .sys
 ==========  =========================================================
@@ -41,6 +41,7 @@ from robolobe.plan.paths.rapid import parse_rapid, read_rapid
 __all__ = [
     "COLUMNS",
     "FORMATS",
+    "READER_OPTIONS",
     "detect_format",
     "feed_directions",
     "parse_apt",
@@ -53,6 +54,7 @@ __all__ = [
     "read_rapid",
     "read_table",
     "read_toolpath",
+    "reader_options",
     "segment_lengths",
     "validate_waypoints",
     "write_table",
@@ -61,7 +63,7 @@ __all__ = [
 FORMATS: dict[str, tuple[str, ...]] = {
     "table": (".csv", ".parquet", ".pq"),
     "gcode": (".nc", ".ngc", ".gcode", ".tap", ".cnc", ".mpf", ".spf", ".iso", ".eia", ".ptp"),
-    "apt": (".apt", ".cl", ".cls", ".aptsource", ".clt"),
+    "apt": (".apt", ".cl", ".cls", ".clsf", ".aptsource", ".clt"),
     "krl": (".src", ".dat"),
     "rapid": (".mod", ".modx", ".prg", ".sys"),
 }
@@ -109,7 +111,7 @@ def read_table(path: str | os.PathLike[str]) -> pd.DataFrame:
         if p.suffix.lower() in (".parquet", ".pq"):
             df = pd.read_parquet(p)
         else:
-            df = pd.read_csv(p, comment="#", skipinitialspace=True)
+            df = pd.read_csv(p, comment="#", skipinitialspace=True, encoding="utf-8-sig")
     except (OSError, ValueError, ImportError) as exc:
         raise InputError(f"cannot read the table: {exc}", source=p.name) from None
     return validate_waypoints(df, p.name)
@@ -128,8 +130,50 @@ def write_table(df: pd.DataFrame, path: str | os.PathLike[str]) -> Path:
     return p
 
 
+#: Reader options a job file (``[path]``) or the CLI may set, with their choices
+#: (None: a number). Each reader takes those that apply to it (:func:`reader_options`).
+READER_OPTIONS: dict[str, tuple[str, ...] | None] = {
+    "units": ("auto", "mm", "inch"),
+    "tool_direction": ("z", "x"),
+    "coordinates": ("workpiece", "machine"),
+    "rotary_axes": ("auto", "head", "table"),
+    "circle_axis": ("cw", "ccw"),
+    "arc_tol_mm": None,
+}
+
+
+def reader_options(fmt: str, options: dict[str, Any]) -> dict[str, Any]:
+    """The subset of ``options`` that the ``fmt`` reader takes (others do not apply to it)."""
+    if fmt == "table":
+        return {}
+    return {k: v for k, v in options.items() if k in _reader_keywords(fmt)}
+
+
+# format -> (file reader, text parser whose keyword-only parameters are the options)
+_READERS: dict[str, tuple[Callable[..., pd.DataFrame], Callable[..., pd.DataFrame]]] = {
+    "gcode": (read_gcode, parse_gcode),
+    "apt": (read_apt, parse_apt),
+    "krl": (read_krl, parse_krl),
+    "rapid": (read_rapid, parse_rapid),
+}
+
+
+def _reader_keywords(fmt: str) -> set[str]:
+    if fmt not in _READERS:
+        raise InputError(f"expected a format in {sorted([*_READERS, 'table'])}, found {fmt!r}")
+    return {
+        name
+        for name, par in inspect.signature(_READERS[fmt][1]).parameters.items()
+        if par.kind is inspect.Parameter.KEYWORD_ONLY and name != "dat"
+    }
+
+
 def read_toolpath(
-    path: str | os.PathLike[str], fmt: str | None = None, **options: Any
+    path: str | os.PathLike[str],
+    fmt: str | None = None,
+    *,
+    applicable_only: bool = False,
+    **options: Any,
 ) -> pd.DataFrame:
     """Read any supported toolpath into the waypoint table.
 
@@ -139,8 +183,12 @@ def read_toolpath(
         The toolpath file.
     fmt : {"table", "gcode", "apt", "krl", "rapid"}, optional
         Force a reader; default: :func:`detect_format`.
+    applicable_only : bool
+        Drop the options the reader does not take (a job's ``[path]`` options
+        serve every format) instead of refusing them.
     **options
-        Passed to the reader (e.g. ``arc_tol_mm``, ``tool_direction`` for KRL).
+        Passed to the reader (:data:`READER_OPTIONS`, ``block_delete``,
+        ``no_decimal_scale``).
 
     Returns
     -------
@@ -156,32 +204,16 @@ def read_toolpath(
     if not p.is_file():
         raise InputError("expected a toolpath file, found no such file", source=str(p))
     fmt = fmt or detect_format(p)
+    if applicable_only:
+        options = reader_options(fmt, options)
     if fmt == "table":
         if options:
             raise InputError(f"the table reader takes no options, found {sorted(options)}")
         return read_table(p)
-    readers: dict[str, Callable[..., pd.DataFrame]] = {
-        "gcode": read_gcode,
-        "apt": read_apt,
-        "krl": read_krl,
-        "rapid": read_rapid,
-    }
-    if fmt not in readers:
-        raise InputError(f"expected a format in {sorted([*readers, 'table'])}, found {fmt!r}")
-    parsers: dict[str, Callable[..., pd.DataFrame]] = {
-        "gcode": parse_gcode,
-        "apt": parse_apt,
-        "krl": parse_krl,
-        "rapid": parse_rapid,
-    }
-    known = {
-        name
-        for name, par in inspect.signature(parsers[fmt]).parameters.items()
-        if par.kind is inspect.Parameter.KEYWORD_ONLY and name != "dat"
-    }
+    known = _reader_keywords(fmt)
     unknown = sorted(set(options) - known)
     if unknown:
         raise InputError(
             f"the {fmt} reader options are {sorted(known)}, found {unknown}", source=p.name
         )
-    return readers[fmt](p, **options)
+    return _READERS[fmt][0](p, **options)

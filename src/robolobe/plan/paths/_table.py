@@ -22,6 +22,7 @@ column              unit     meaning
 
 from __future__ import annotations
 
+import logging
 import math
 from dataclasses import dataclass, field
 
@@ -61,10 +62,17 @@ COLUMNS: tuple[str, ...] = (
 
 FloatArray = NDArray[np.float64]
 
+logger = logging.getLogger(__name__)
+
+_MAX_POS_M = 1e4  # 10 km: anything beyond is a corrupt or mis-scaled file
+
 
 @dataclass
 class WaypointBuilder:
     """Collects waypoints while a reader walks a file (positions in metres).
+
+    Per-waypoint work is pure Python (no numpy call per line): a 1e6-line
+    program is read in seconds.
 
     Parameters
     ----------
@@ -73,18 +81,33 @@ class WaypointBuilder:
     """
 
     source: str
-    _pos: list[tuple[float, float, float]] = field(default_factory=list)
-    _axis: list[tuple[float, float, float]] = field(default_factory=list)
-    _ref: list[tuple[float, float, float]] = field(default_factory=list)
-    _feed: list[float] = field(default_factory=list)
-    _rpm: list[float] = field(default_factory=list)
-    _rapid: list[bool] = field(default_factory=list)
-    _line: list[int] = field(default_factory=list)
+    # one row per waypoint: x y z [m], i j k, feed, rpm, rapid (0/1), line
+    _rows: list[tuple[float, ...]] = field(default_factory=list)
+    _ref: dict[int, tuple[float, float, float]] = field(default_factory=dict)
+    warnings: list[str] = field(default_factory=list)
+    _seen: dict[str, int] = field(default_factory=dict)
+
+    def warn(self, message: str, line: int | None = None, *, key: str | None = None) -> None:
+        """Record a reader warning (logged now, repeated in the plan summary).
+
+        Warnings with the same ``key`` are counted; the first is kept with
+        its line, later ones raise the count shown by :meth:`table`.
+        """
+        k = key or message
+        if k in self._seen:
+            self._seen[k] += 1
+            return
+        self._seen[k] = 1
+        text = (
+            f"{self.source}:{line}: {message}" if line is not None else f"{self.source}: {message}"
+        )
+        logger.warning("%s", text)
+        self.warnings.append(k + "\x00" + text)
 
     def add(
         self,
-        pos_m: FloatArray | tuple[float, float, float],
-        axis: FloatArray | tuple[float, float, float],
+        pos_m: FloatArray | tuple[float, float, float] | list[float],
+        axis: FloatArray | tuple[float, float, float] | list[float],
         *,
         line: int,
         rapid: bool,
@@ -97,7 +120,7 @@ class WaypointBuilder:
         Parameters
         ----------
         pos_m : array, shape (3,)
-            Tip position [m].
+            Tip position [m]; finite, each coordinate within 10 km.
         axis : array, shape (3,)
             Tool axis (tip to spindle); normalised here.
         line : int
@@ -109,55 +132,100 @@ class WaypointBuilder:
         ref : array, shape (3,), optional
             TCP x axis where the path fixes it.
         """
-        a = np.asarray(axis, dtype=np.float64)
-        n = float(np.linalg.norm(a))
+        ax, ay, az = float(axis[0]), float(axis[1]), float(axis[2])
+        n = math.sqrt(ax * ax + ay * ay + az * az)
         if not math.isfinite(n) or n < 1e-9:
             raise InputError(
-                f"expected a non-zero tool axis, found {a.tolist()}", source=f"{self.source}:{line}"
+                f"expected a non-zero tool axis, found {[ax, ay, az]}",
+                source=f"{self.source}:{line}",
             )
-        a = a / n
-        p = np.asarray(pos_m, dtype=np.float64)
-        if not np.all(np.isfinite(p)):
-            raise InputError(
-                f"expected a finite position, found {p.tolist()}", source=f"{self.source}:{line}"
+        ax, ay, az = ax / n, ay / n, az / n
+        if ref is not None:
+            rx, ry, rz = float(ref[0]), float(ref[1]), float(ref[2])
+            d = rx * ax + ry * ay + rz * az
+            rx, ry, rz = rx - d * ax, ry - d * ay, rz - d * az
+            rn = math.sqrt(rx * rx + ry * ry + rz * rz)
+            if rn > 1e-9:
+                self._ref[len(self._rows)] = (rx / rn, ry / rn, rz / rn)
+        self._rows.append(
+            (
+                float(pos_m[0]),
+                float(pos_m[1]),
+                float(pos_m[2]),
+                ax,
+                ay,
+                az,
+                float(feed_mm_per_min),
+                float(rpm),
+                1.0 if rapid else 0.0,
+                int(line),
             )
-        self._pos.append((float(p[0]), float(p[1]), float(p[2])))
-        self._axis.append((float(a[0]), float(a[1]), float(a[2])))
-        if ref is None:
-            self._ref.append((math.nan, math.nan, math.nan))
-        else:
-            r = np.asarray(ref, dtype=np.float64)
-            r = r - (r @ a) * a
-            rn = float(np.linalg.norm(r))
-            self._ref.append(
-                (math.nan, math.nan, math.nan) if rn < 1e-9 else tuple(float(v) for v in r / rn)  # type: ignore[arg-type]
-            )
-        self._feed.append(float(feed_mm_per_min))
-        self._rpm.append(float(rpm))
-        self._rapid.append(bool(rapid))
-        self._line.append(int(line))
+        )
+
+    def add_unit(
+        self,
+        pos_m: tuple[float, float, float],
+        axis: tuple[float, float, float],
+        line: int,
+        rapid: bool,
+        feed_mm_per_min: float,
+        rpm: float,
+    ) -> None:
+        """:meth:`add` for a reader that already holds a unit tool axis and no TCP x axis.
+
+        The per-line fast path of the G-code reader (no normalisation, no
+        reference axis); positions are checked, vectorised, by :meth:`table`.
+        """
+        self._rows.append(
+            (pos_m[0], pos_m[1], pos_m[2], axis[0], axis[1], axis[2], feed_mm_per_min, rpm,
+             1.0 if rapid else 0.0, line)
+        )  # fmt: skip
 
     def __len__(self) -> int:
-        return len(self._pos)
+        return len(self._rows)
 
     @property
     def last_position(self) -> FloatArray | None:
         """The last position [m], or None."""
-        return np.array(self._pos[-1]) if self._pos else None
+        return np.array(self._rows[-1][:3]) if self._rows else None
+
+    def notes(self) -> list[str]:
+        """The warnings, each once, with ``(n times)`` where it repeated."""
+        out = []
+        for item in self.warnings:
+            k, text = item.split("\x00", 1)
+            n = self._seen.get(k, 1)
+            out.append(text + (f" ({n} times)" if n > 1 else ""))
+        return out
 
     def table(self) -> pd.DataFrame:
         """The waypoint table (see the module docstring).
+
+        Reader warnings are in ``df.attrs["warnings"]`` (list of str).
 
         Raises
         ------
         InputError
             When the file holds no move at all.
         """
-        if not self._pos:
+        if not self._rows:
             raise InputError("expected at least one move, found none", source=self.source)
-        pos = np.array(self._pos)
-        axis = np.array(self._axis)
-        ref = np.array(self._ref)
+        rows = np.array(self._rows, dtype=np.float64)
+        pos = rows[:, 0:3]
+        axis = rows[:, 3:6]
+        line = rows[:, 9].astype(np.int64)
+        bad = ~np.all(np.abs(pos) <= _MAX_POS_M, axis=1)
+        if np.any(bad):
+            r = int(np.argmax(bad))
+            raise InputError(
+                f"expected a finite position within {_MAX_POS_M * 1e3:g} mm, found "
+                f"{(pos[r] * 1e3).tolist()} mm",
+                source=f"{self.source}:{line[r]}",
+            )
+        ref = np.full((len(rows), 3), np.nan)
+        if self._ref:
+            idx = np.fromiter(self._ref.keys(), dtype=np.int64, count=len(self._ref))
+            ref[idx] = np.array(list(self._ref.values()))
         f = feed_directions(pos, axis)
         df = pd.DataFrame(
             {
@@ -173,13 +241,14 @@ class WaypointBuilder:
                 "fx": f[:, 0],
                 "fy": f[:, 1],
                 "fz": f[:, 2],
-                "feed_mm_per_min": np.array(self._feed),
-                "rpm_programmed": np.array(self._rpm),
-                "motion": np.where(np.array(self._rapid), "rapid", "cut"),
+                "feed_mm_per_min": rows[:, 6],
+                "rpm_programmed": rows[:, 7],
+                "motion": np.where(rows[:, 8] > 0, "rapid", "cut"),
                 "source": self.source,
-                "line": np.array(self._line, dtype=np.int64),
+                "line": line,
             }
         )
+        df.attrs["warnings"] = self.notes()
         return df
 
 

@@ -6,23 +6,31 @@ Numbers may carry spaces around them (``GOTO  /  -12.5000,  30.0000, 5.0``).
 
 Supported: ``GOTO/x,y,z[,i,j,k]`` (tool axis tip to spindle), ``FROM/``,
 ``GODLTA/dx,dy,dz`` (or ``GODLTA/d`` along the tool axis), ``RAPID`` (the
-next move only), ``FEDRAT/f[,MMPM|IPM|MMPR|IPR]`` (also ``FEDRAT/MMPM,f``),
-``SPINDL/[RPM,]s[,CLW|CCLW]`` and ``SPINDL/OFF|ON``, ``UNITS/MM|INCHES``,
-``MULTAX[/ON|OFF]``, ``TLAXIS/i,j,k``, ``CIRCLE/cx,cy,cz,ax,ay,az,r,...``
-followed by the ``GOTO`` that ends the arc (counter-clockwise about the
-given axis, the NX/CATIA convention), ``MSYS/x,y,z,xi,xj,xk,yi,yj,yk`` (the
-points are given in that system; it is applied), ``CUTCOM/OFF``, ``CYCLE/OFF``.
+next move only), ``FEDRAT/f[,MMPM|IPM|MMPR|IPR]`` (also ``FEDRAT/IPM,f``;
+the unit word wins over the coordinate units), ``SPINDL/[RPM,]s[,CLW|CCLW]``
+and ``SPINDL/OFF|ON``, ``UNITS/MM|INCHES`` (without it: reader option
+``units``, detected with a warning), ``MULTAX[/ON|OFF]``, ``TLAXIS/i,j,k``,
+``CIRCLE/cx,cy,cz,i,j,k,r,...[,TIMES,n]`` followed by the ``GOTO`` that
+ends the arc: clockwise about ``i,j,k`` as Siemens NX documents it (reader
+option ``circle_axis``), ``TIMES,n`` adds ``n`` full turns (NX helices);
+``MSYS/x,y,z,xi,xj,xk,yi,yj,yk`` (applied only with ``coordinates =
+"machine"``; by default the points stay in the MCS as written),
+``LOAD/TOOL`` (tool change), ``CUTCOM/LEFT|RIGHT`` on data marked ``$$
+centerline data`` (warned: the points are the tool centre), ``CUTCOM/OFF``,
+``CYCLE/OFF``. ``FINI`` or ``END-OF-PATH`` ends the data; without either a
+truncation warning is given.
 
 Ignored on purpose (no effect on the geometry): PARTNO, MACHIN, CUTTER,
-LOADTL, TLDATA, TOOL PATH, END-OF-PATH, COOLNT, PPRINT, TPRINT, INSERT,
-CLEARP, OPSKIP, OPSTOP, STOP, END, FINI, INTOL, OUTTOL, TOLER, DISPLY,
-SELECT, PAINT, SEQNO, AUXFUN, PREFUN, DELAY, HEAD, MODE, GOHOME, OPNAME,
-OPERATION, TOOLNO, TURRET, RETRCT, THICK, LINTOL, NOPS, CATIA0, PITCH,
-PROFIL.
+LOADTL, TLDATA, TOOL PATH, COOLNT, PPRINT, TPRINT, INSERT, CLEARP, OPSKIP,
+OPSTOP, STOP, INTOL, OUTTOL, TOLER, DISPLY, SELECT, PAINT, SEQNO, AUXFUN,
+PREFUN, DELAY, HEAD, MODE, GOHOME, OPNAME, OPERATION, TOOLNO, TURRET,
+RETRCT, THICK, LINTOL, NOPS, CATIA0, PITCH, PROFIL.
 
-Anything else (CUTCOM/ON, cycles, CALSUB, INDIRV/TLON/GOFWD surface
-motion, unknown words) raises :class:`~robolobe.errors.InputError` with
-``file:line``.
+Refused with :class:`~robolobe.errors.InputError` naming ``file:line`` and
+the construct: ``NURBS``/``KNOT``/``CNTRL`` spline motion, ``CUTCOM`` on
+contact data, cycles, ``CALSUB``, ``INDIRV``/``TLON``/``GOFWD`` surface
+motion, non-positive feeds, negative spindle speeds, non-finite numbers,
+unknown words.
 """
 
 from __future__ import annotations
@@ -36,8 +44,9 @@ import numpy as np
 import pandas as pd
 
 from robolobe.errors import InputError
-from robolobe.plan.paths._arcs import arc_points
+from robolobe.plan.paths._arcs import arc_points, arc_start_tangent
 from robolobe.plan.paths._table import WaypointBuilder
+from robolobe.plan.paths._text import UNIT_CHOICES, check_choice, finite, lines, read_text
 
 __all__ = ["parse_apt", "read_apt"]
 
@@ -45,7 +54,7 @@ logger = logging.getLogger(__name__)
 
 _IGNORED = {
     "PARTNO", "MACHIN", "CUTTER", "LOADTL", "TLDATA", "TOOL PATH", "END-OF-PATH", "COOLNT",
-    "PPRINT", "TPRINT", "INSERT", "CLEARP", "OPSKIP", "OPSTOP", "STOP", "END", "FINI",
+    "PPRINT", "TPRINT", "INSERT", "CLEARP", "OPSKIP", "OPSTOP", "STOP",
     "INTOL", "OUTTOL", "TOLER", "DISPLY", "SELECT", "PAINT", "SEQNO", "AUXFUN", "PREFUN",
     "DELAY", "HEAD", "MODE", "GOHOME", "OPNAME", "OPERATION", "TOOLNO", "TURRET", "RETRCT",
     "THICK", "LINTOL", "NOPS", "CATIA0", "PITCH", "PROFIL",
@@ -59,7 +68,7 @@ def _statements(text: str) -> list[tuple[int, str]]:
     out: list[tuple[int, str]] = []
     buf: list[str] = []
     start = 0
-    for lineno, raw in enumerate(text.splitlines(), start=1):
+    for lineno, raw in enumerate(lines(text), start=1):
         line = raw.rstrip()
         cut = line.find("$$")
         if cut >= 0:
@@ -81,17 +90,32 @@ def _statements(text: str) -> list[tuple[int, str]]:
 
 
 def _numbers(args: list[str], where: str, word: str) -> list[float]:
-    vals = []
-    for a in args:
-        try:
-            vals.append(float(a))
-        except ValueError:
-            raise InputError(f"{word}: expected numbers, found {a!r}", source=where) from None
-    return vals
+    return [finite(a, where, word) for a in args]
+
+
+def _first_units(stmts: list[tuple[int, str]]) -> tuple[str | None, str | None]:
+    """Units of a UNITS record before the first motion, and the first FEDRAT unit word."""
+    units: str | None = None
+    feed_word: str | None = None
+    for _, stmt in stmts:
+        up = stmt.upper().replace(" ", "")
+        if up.startswith("UNITS/") and units is None:
+            units = "mm" if up[6:].startswith("MM") else "inch"
+        elif up.startswith("FEDRAT/") and feed_word is None:
+            for w in ("IPM", "IPR", "MMPM", "MMPR"):
+                if w in up.split("/", 1)[1].split(","):
+                    feed_word = w
+    return units, feed_word
 
 
 def parse_apt(
-    text: str, source: str = "<apt>", *, arc_tol_mm: float = 0.01, default_units: str = "mm"
+    text: str,
+    source: str = "<apt>",
+    *,
+    arc_tol_mm: float = 0.01,
+    units: str = "auto",
+    circle_axis: str = "cw",
+    coordinates: str = "workpiece",
 ) -> pd.DataFrame:
     """Read APT/CL text into the waypoint table.
 
@@ -103,44 +127,86 @@ def parse_apt(
         File name for the ``source`` column and messages.
     arc_tol_mm : float
         Chord tolerance of linearised arcs [mm].
-    default_units : {"mm", "inch"}
-        Units before any ``UNITS`` statement.
+    units : {"auto", "mm", "inch"}
+        Units of coordinates where the file has no ``UNITS`` record. ``auto``:
+        inch when the feeds say ``IPM``/``IPR``, else mm; both with a warning
+        (and one more when an mm read looks like inch data: extents within
+        one inch cube and feeds below 100 mm/min).
+    circle_axis : {"cw", "ccw"}
+        Sense of ``CIRCLE`` arcs about their axis ``i,j,k``: ``cw`` (Siemens
+        NX documentation: the axis "assuming a clockwise direction") or
+        ``ccw``. A warning names the arcs that leave their start against
+        the incoming move (the other convention's signature).
+    coordinates : {"workpiece", "machine"}
+        ``workpiece``: points as written (NX writes them in the MCS, the
+        part's program zero). ``machine``: ``MSYS`` applied, i.e. points in
+        the CAM system's absolute frame.
 
     Returns
     -------
     pandas.DataFrame
-        The waypoint table.
+        The waypoint table; reader warnings in ``attrs["warnings"]``.
 
     Raises
     ------
     InputError
         Unsupported or malformed statements, naming ``source:line``.
     """
-    scale = 1.0 if default_units == "mm" else 25.4
-    feed = math.nan
+    check_choice("units", units, UNIT_CHOICES)
+    check_choice("circle_axis", circle_axis, ("cw", "ccw"))
+    check_choice("coordinates", coordinates, ("workpiece", "machine"))
+    out = WaypointBuilder(source)
+    stmts = _statements(text)
+    if not stmts:
+        raise InputError("expected APT/CL statements, found none", source=source)
+    file_units, feed_word = _first_units(stmts)
+    inferred = ""
+    if file_units is not None:
+        unit0 = "mm"
+    elif units != "auto":
+        unit0 = units
+    elif feed_word in ("IPM", "IPR"):
+        unit0 = "inch"
+        inferred = f"no UNITS record; FEDRAT/{feed_word} says inch: coordinates read as inch"
+    elif feed_word in ("MMPM", "MMPR"):
+        unit0 = "mm"  # the feeds say mm
+    else:
+        unit0 = "mm"
+        inferred = "no UNITS record: coordinates read as mm"
+    if inferred:
+        out.warn(inferred + " (set the reader option units to override)")
+    centreline = re.search(r"\$\$\s*CENTER\s*LINE\s+DATA", text, re.IGNORECASE) is not None
+    scale = 1.0 if unit0 == "mm" else 25.4
+    feed = math.nan  # mm/min or mm/rev
     feed_per_rev = False
     rpm = math.nan
     spindle_on = False
     rapid_next = False
     pos: np.ndarray | None = None
+    prev_dir: np.ndarray | None = None
     axis = np.array([0.0, 0.0, 1.0])
-    circle: tuple[np.ndarray, np.ndarray, int] | None = None
+    circle: tuple[np.ndarray, np.ndarray, int, int] | None = None
     msys_r = np.eye(3)
     msys_o = np.zeros(3)
-    out = WaypointBuilder(source)
+    ended = False
+    max_feed = 0.0
+    msys_seen: list[float] | None = None
 
     def feed_now() -> float:
         if math.isnan(feed):
             return math.nan
         if feed_per_rev:
-            return feed * scale * rpm if spindle_on and not math.isnan(rpm) else math.nan
-        return feed * scale
+            return feed * rpm if spindle_on and not math.isnan(rpm) else math.nan
+        return feed
 
-    for lineno, stmt in _statements(text):
+    for lineno, stmt in stmts:
         where = f"{source}:{lineno}"
         up = stmt.upper()
         head = re.split(r"[\s/]", up, maxsplit=1)[0]
-        if head in _IGNORED or up.startswith(("TOOL PATH", "END-OF-PATH")):
+        if head in ("FINI", "END") or up.startswith("END-OF-PATH"):
+            ended = True
+            continue
+        if head in _IGNORED or up.startswith("TOOL PATH"):
             continue
         m = _STMT.match(up)
         if not m:
@@ -154,6 +220,10 @@ def parse_apt(
             scale = 1.0 if args[0] == "MM" else 25.4
         elif word == "MULTAX":
             continue
+        elif word == "LOAD":
+            if args and args[0] == "TOOL":
+                continue  # tool change: no effect on the path
+            raise InputError(f"unsupported construct: LOAD/{','.join(args)}", source=where)
         elif word == "RAPID":
             rapid_next = True
         elif word == "FEDRAT":
@@ -161,8 +231,14 @@ def parse_apt(
             nums = _numbers([a for a in args if a not in _MINOR], where, "FEDRAT")
             if len(nums) != 1:
                 raise InputError(f"FEDRAT: expected one feed value, found {args}", source=where)
-            feed = nums[0]
-            feed_per_rev = bool(mode) and mode[0] in ("MMPR", "IPR")
+            if nums[0] <= 0:
+                raise InputError(f"FEDRAT: expected a positive feed, found {nums[0]:g}", where)
+            unit = mode[0] if mode else ""
+            per = {"IPM": 25.4, "IPR": 25.4, "MMPM": 1.0, "MMPR": 1.0}.get(unit, scale)
+            feed = nums[0] * per
+            feed_per_rev = unit in ("MMPR", "IPR")
+            if not feed_per_rev:
+                max_feed = max(max_feed, feed)
         elif word == "SPINDL":
             if args and args[0] == "OFF":
                 spindle_on = False
@@ -170,13 +246,18 @@ def parse_apt(
             if args and args[0] == "ON":
                 spindle_on = True
                 continue
+            if any(a in ("SFM", "SMM") for a in args):
+                raise InputError("unsupported construct: SPINDL surface speed (SFM/SMM)", where)
             nums = _numbers([a for a in args if a not in _MINOR], where, "SPINDL")
             if len(nums) < 1:
                 raise InputError(f"SPINDL: expected a speed, found {args}", source=where)
-            if any(a in ("SFM", "SMM") for a in args):
-                raise InputError("SPINDL: surface speed (SFM/SMM) is not supported", where)
-            rpm = nums[0]
-            spindle_on = True
+            if nums[0] < 0:
+                raise InputError(
+                    f"SPINDL: expected a speed >= 0 rpm (direction by CLW/CCLW), found {nums[0]:g}",
+                    where,
+                )
+            rpm = nums[0] if nums[0] > 0 else math.nan
+            spindle_on = nums[0] > 0
         elif word == "TLAXIS":
             tv = np.array(_numbers(args, where, "TLAXIS")[:3])
             if tv.size != 3 or np.linalg.norm(tv) < 1e-9:
@@ -193,13 +274,54 @@ def parse_apt(
                 or abs(xa @ ya) > 1e-3
             ):
                 raise InputError("MSYS: expected unit, orthogonal x and y axes", source=where)
-            msys_r = np.column_stack([xa, ya, np.cross(xa, ya)])
-            msys_o = np.array(v[:3])
-        elif word in ("CUTCOM", "CYCLE"):
+            if coordinates == "machine":
+                msys_r = np.column_stack([xa, ya, np.cross(xa, ya)])
+                msys_o = np.array(v[:3])
+            elif msys_seen is not None and v != msys_seen and len(out):
+                out.warn(
+                    "MSYS changes between operations: their points are in different MCS "
+                    "(set coordinates = 'machine' to place them in one frame)",
+                    lineno,
+                    key="msys-change",
+                )
+            msys_seen = v
+        elif word == "CUTCOM":
             if args and args[0] == "OFF":
                 continue
-            raise InputError(f"unsupported construct: {word}/{','.join(args)}", source=where)
+            if args and args[0] in ("LEFT", "RIGHT", "ON") and centreline:
+                out.warn(
+                    f"CUTCOM/{args[0]} on centre-line data: read as the tool centre "
+                    "(compensation at the machine adds only wear offsets)",
+                    lineno,
+                    key=f"cutcom-{args[0]}",
+                )
+                continue
+            raise InputError(
+                f"unsupported construct: CUTCOM/{','.join(args)} on points that are not "
+                "marked '$$ centerline data' (output tool centre-line CL data)",
+                source=where,
+            )
+        elif word == "CYCLE":
+            if args and args[0] == "OFF":
+                continue
+            raise InputError(f"unsupported construct: CYCLE/{','.join(args)}", source=where)
+        elif word in ("NURBS", "KNOT", "CNTRL", "BSPLINE"):
+            raise InputError(
+                f"unsupported construct: {word} spline motion; regenerate the CL data with "
+                "line/arc output (NX: Machine Control > Motion Output Type = Line/Arc)",
+                source=where,
+            )
         elif word == "CIRCLE":
+            turns = 0
+            if "TIMES" in args:
+                k = args.index("TIMES")
+                if k + 1 >= len(args):
+                    raise InputError("CIRCLE: TIMES without a count", source=where)
+                t = finite(args[k + 1], where, "CIRCLE TIMES")
+                if t < 0 or t != int(t):
+                    raise InputError(f"CIRCLE: TIMES expects a whole count, found {t:g}", where)
+                turns = int(t)
+                args = args[:k] + args[k + 2 :]
             v = _numbers(args, where, "CIRCLE")
             if len(v) < 7:
                 raise InputError(f"CIRCLE: expected at least 7 numbers, found {len(v)}", where)
@@ -207,7 +329,7 @@ def parse_apt(
             n = msys_r @ np.array(v[3:6])
             if np.linalg.norm(n) < 1e-9:
                 raise InputError("CIRCLE: zero axis vector", source=where)
-            circle = (c * scale, n / np.linalg.norm(n), lineno)
+            circle = (c * scale, n / np.linalg.norm(n), lineno, turns)
         elif word in ("GOTO", "FROM", "GODLTA"):
             v = _numbers(args, where, word)
             if word == "GODLTA":
@@ -237,16 +359,25 @@ def parse_apt(
             f = math.nan if is_rapid else feed_now()
             s = rpm if spindle_on else math.nan
             if circle is not None and pos is not None and not is_rapid:
-                centre, nrm, _ = circle
+                centre, nrm, _, turns = circle
+                cw = circle_axis == "cw"
+                _check_tangent(out, pos, prev_dir, centre, nrm, cw, circle_axis, lineno)
                 pts = arc_points(
-                    pos, target, centre, nrm, clockwise=False, tol=arc_tol_mm, where=where
-                )
+                    pos, target, centre, nrm, clockwise=cw, tol=arc_tol_mm, turns=turns,
+                    full_circle=True, where=where,
+                )  # fmt: skip
                 for p in pts:
                     out.add(p * 1e-3, new_axis, line=lineno, rapid=False, feed_mm_per_min=f, rpm=s)
+                last = pts[-2] if len(pts) > 1 else pos
             else:
                 out.add(
                     target * 1e-3, new_axis, line=lineno, rapid=is_rapid, feed_mm_per_min=f, rpm=s
                 )
+                last = pos
+            if last is not None:
+                d = target - last
+                nd = float(np.linalg.norm(d))
+                prev_dir = d / nd if nd > 1e-9 else prev_dir
             circle = None
             pos = target
             axis = new_axis
@@ -268,16 +399,56 @@ def parse_apt(
             raise InputError("unsupported construct: subroutine call CALSUB", source=where)
         else:
             raise InputError(f"unsupported APT statement {word!r}", source=where)
-    return out.table()
+    df = out.table()
+    if not ended:
+        out.warn(
+            "no FINI or END-OF-PATH at the end: the file may be truncated "
+            "(the path read so far is planned)"
+        )
+    if file_units is None and unit0 == "mm" and units == "auto":
+        cut = (df["motion"] == "cut").to_numpy()
+        p = df[["x_m", "y_m", "z_m"]].to_numpy()[cut] * 1e3
+        span = float(np.max(np.ptp(p, axis=0))) if len(p) else 0.0
+        if len(p) and span < 25.4 and 0.0 < max_feed < 100.0:
+            out.warn(
+                f"no UNITS record and the cut spans only {span:.3g} mm at feeds up to "
+                f"{max_feed:.3g} mm/min: the data look like inches (set units = 'inch')"
+            )
+    df.attrs["warnings"] = out.notes()
+    return df
+
+
+def _check_tangent(
+    out: WaypointBuilder,
+    start: np.ndarray,
+    prev_dir: np.ndarray | None,
+    centre: np.ndarray,
+    nrm: np.ndarray,
+    cw: bool,
+    circle_axis: str,
+    lineno: int,
+) -> None:
+    """Warn when an arc leaves its start against the incoming move (wrong sense)."""
+    if prev_dir is None:
+        return
+    d = prev_dir - float(prev_dir @ nrm) * nrm
+    nd = float(np.linalg.norm(d))
+    if nd < 0.5:  # incoming move mostly along the arc axis (plunge, helix entry)
+        return
+    t = arc_start_tangent(start, centre, nrm, clockwise=cw)
+    c = float(t @ d) / nd
+    if c < -0.7:
+        other = "ccw" if circle_axis == "cw" else "cw"
+        out.warn(
+            f"CIRCLE leaves its start at {math.degrees(math.acos(max(-1.0, c))):.0f} deg to "
+            f"the incoming move: the CL data look like the other arc convention "
+            f"(set circle_axis = '{other}')",
+            lineno,
+            key="circle-kink",
+        )
 
 
 def read_apt(path: str | Path, **options: float | str) -> pd.DataFrame:
     """Read an APT/CL file (see :func:`parse_apt` for ``options``)."""
     p = Path(path)
-    try:
-        text = p.read_text(encoding="utf-8")
-    except UnicodeDecodeError:
-        text = p.read_text(encoding="latin-1")
-    except OSError as exc:
-        raise InputError(f"cannot read the file: {exc}", source=str(p)) from None
-    return parse_apt(text, p.name, **options)  # type: ignore[arg-type]
+    return parse_apt(read_text(p), p.name, **options)  # type: ignore[arg-type]

@@ -1,30 +1,54 @@
 """G-code (ISO 6983 word-address) reader with modal state.
 
-Supported (Fanuc/Haas/Siemens-ISO style milling programs as CAM posts write them):
+Supported (Fanuc/Haas/Siemens-ISO/LinuxCNC milling programs as CAM posts write them):
 
-- comments ``( ... )`` and ``;`` to the end of the line, ``%`` lines, program
-  numbers ``O1234`` / ``:1234``, line numbers ``N10``, block delete ``/``
-  (those blocks are skipped unless ``block_delete=False``), several words
-  per block with or without spaces (``G0G90X0.Y-12.5``), numbers like
-  ``X0.``, ``X.5``, ``X+10``; lower case.
+- comments ``( ... )`` and ``;`` to the end of the line, ``%`` lines, a UTF-8
+  byte-order mark, program names ``O1234``, ``:1234`` and alphanumeric
+  ones on a line of their own (``OFLOOR_FACING``, ``O7997A``), line numbers
+  ``N10``, block delete ``/`` (skipped unless ``block_delete=False``),
+  several words per block with or without spaces (``G0G90X0.Y-12.5``),
+  numbers like ``X0.``, ``X.5``, ``X+10``; lower case.
 - motion G0 (rapid), G1, G2/G3 (arcs by I/J/K centre offsets, incremental
   unless G90.1, or by R, R < 0 for more than half a turn; full circles;
   helical), linearised within ``arc_tol_mm``; planes G17/G18/G19;
-  G90/G91; G20/G21 (G70/G71 too); G94 feed per minute, G95 per revolution;
-  F, S, M3/M4/M5, M30/M2 (end).
+  G90/G91; G20/G21 (G70/G71 too; without either: reader option ``units``);
+  G94 feed per minute, G95 per revolution; F (> 0), S (>= 0), M3/M4/M5,
+  M30/M2 (end; a file without one, or a closing ``%``, is warned as
+  possibly truncated).
+- G92 X/Y/Z offsets (and G92.1/G92.2 cancelling them) are applied: the
+  path stays in the coordinates before the first G92.
 - 5-axis: I/J/K words in a G0/G1 block are the tool axis vector (tip to
   spindle, normalised); rotary words A/B/C (degrees) give the tool axis
-  ``Rz(C) @ Ry(B) @ Rx(A) @ [0, 0, 1]`` (head kinematics, angles as
-  programmed); a program uses one or the other.
-- ignored on purpose: G4 dwell, G10, G15, G40, G43/G43.4/G49, G54-G59.9,
-  G61/G64, G80, G98/G99, G5.1, G17.1; T, H, D words; M words other than
-  the ones above; G28/G30/G53 (moves to a machine reference: they leave the
-  path, which resumes at the next move; their G91/G90 words still count).
+  ``Rz(C) @ Ry(B) @ Rx(A) @ [0, 0, 1]``, the motion of the tool relative to
+  the part in ISO 841's sense (the same for a head and for a table, whose
+  positive table rotation is the opposite). X/Y/Z are tip positions in the
+  part frame only under tool centre point control (G43.4, G43.5, Haas
+  G234 TCPC) or a dynamic work offset (Haas G254); reader option
+  ``rotary_axes``: ``auto`` (default) reads rotary words under TCP and
+  refuses a move at a non-zero rotary angle without it (a head, or an
+  indexing table whose pivot the program does not give?), ``head`` reads
+  them as a head tilt anywhere with X/Y/Z taken as the tool tip (a post
+  that writes tip positions, as for a robot), ``table`` refuses them
+  without TCP.
+  A rotary-only rapid without TCP (indexing before TCP is switched on) only
+  sets the angles. A program uses I/J/K vectors or A/B/C words, not both.
+- ignored on purpose (no effect on the path), each with a note in the
+  summary where it is unusual: G4 dwell, G10 blocks (offset data; the whole
+  block, L2/L10/L20...), G15, G40, G43/G44/G49, G54-G59.9, G54.1/G154 (work
+  offsets), G61/G64, G80, G98/G99, G17.1, G5.1 Q.. (Fanuc AI contour
+  control, no axis words), G5 P.. (Fanuc high-precision mode), G08 P..
+  (look-ahead), G103 (look-ahead limit), G187 (smoothness), G255 (cancel
+  DWO); T, H, D words; M words other than the ones above; G28/G30/G53
+  (moves to a machine reference: they leave the path, which resumes at the
+  next move; their G91/G90 words still count).
 
-Anything else (macros ``#``, expressions ``[ ]``, ``IF``/``GOTO``/``WHILE``,
-canned cycles G81-G89, cutter compensation G41/G42, inverse-time feed G93,
-polar/rotated coordinates G16/G68, subprograms M98, Heidenhain conversational)
-raises :class:`~robolobe.errors.InputError` naming ``file:line``.
+Refused with :class:`~robolobe.errors.InputError` naming ``file:line`` and
+the construct: macros ``#``, expressions ``[ ]``, ``IF``/``GOTO``/``WHILE``,
+O-word subroutines, splines and NURBS (LinuxCNC G5/G5.1/G5.2 with axis
+words, Fanuc G6.2), canned cycles G73-G89, cutter compensation G41/G42,
+inverse-time feed G93, polar/rotated/cylindrical coordinates
+G16/G68/G12.1/G7.1, subprograms M98, Heidenhain conversational, F <= 0,
+S < 0, non-finite or absurd numbers.
 """
 
 from __future__ import annotations
@@ -39,14 +63,17 @@ import numpy as np
 import pandas as pd
 
 from robolobe.errors import InputError
-from robolobe.plan.paths._arcs import arc_points
+from robolobe.plan.paths._arcs import arc_point_list
 from robolobe.plan.paths._table import WaypointBuilder
+from robolobe.plan.paths._text import MAX_ABS, UNIT_CHOICES, check_choice, lines, read_text
 
 __all__ = ["parse_gcode", "read_gcode"]
 
 logger = logging.getLogger(__name__)
 
-_WORD = re.compile(r"([A-Z])\s*=?\s*([+-]?\s*(?:\d+\.?\d*|\.\d+))")
+_NUM = r"[+-]?\s*(?:\d+\.?\d*|\.\d+)"
+_WORD = re.compile(r"([A-Z])\s*=?\s*(" + _NUM + r")")
+_BLOCK = re.compile(r"(?:\s*[A-Z]\s*=?\s*" + _NUM + r")*\s*")
 _UNSUPPORTED_TEXT = (
     ("#", "macro variables (#)"),
     ("[", "expressions ([ ])"),
@@ -54,11 +81,28 @@ _UNSUPPORTED_TEXT = (
     ("TRAORI", "Siemens TRAORI (post the path with tool vectors or A/B/C words)"),
     ("CYCLE", "Siemens cycles"),
 )
-_UNSUPPORTED_KEYWORDS = re.compile(r"\b(IF|GOTO|WHILE|DO|END\d|THEN|ELSE|ENDIF|REPEAT)\b")
+_UNSUPPORTED_KEYWORDS = re.compile(
+    r"\b(IF|GOTO|WHILE|DO|END\d|THEN|ELSE|ENDIF|REPEAT|SUB|ENDSUB|CALL)\b"
+)
+_PROGRAM_NAME = re.compile(r"^(?:O[A-Z0-9_.\-]+|O\s+\d+|:\s*\d+)\s*")
 
-# G codes accepted without effect on the geometry
-_G_IGNORED = {4.0, 5.1, 10.0, 15.0, 17.1, 40.0, 43.0, 43.4, 44.0, 49.0, 61.0, 61.1, 64.0, 80.0}
-_G_IGNORED |= {98.0, 99.0, 54.1} | {float(g) for g in range(54, 60)}
+# G codes accepted without effect on the geometry (no note: routine in posts)
+_G_IGNORED = {4.0, 15.0, 17.1, 40.0, 43.0, 44.0, 49.0, 61.0, 61.1, 64.0, 80.0, 98.0, 99.0}
+_G_IGNORED |= (
+    {54.1} | {float(g) for g in range(54, 60)} | {round(54 + k / 10, 1) for k in range(1, 10)}
+)
+# accepted without effect, with a note in the summary
+_G_NOTED = {
+    8.0: "G08 look-ahead mode",
+    103.0: "G103 block look-ahead limit",
+    154.0: "G154 extended work offset",
+    187.0: "G187 smoothness setting",
+    255.0: "G255 cancel dynamic work offset",
+}
+# mode words whose E/P/Q/R words are their parameters, not axes or arc words
+_G_MODE_WORDS = {5.0, 5.1, 8.0, 103.0, 154.0, 187.0}
+# tool centre point control / dynamic work offset on: X/Y/Z are tip positions in the part frame
+_G_TCP_ON = {43.4: "G43.4 TCP", 43.5: "G43.5 TCP", 234.0: "G234 TCPC", 254.0: "G254 DWO"}
 _G_UNSUPPORTED = {
     41.0: "cutter radius compensation G41 (post the path with compensation applied)",
     42.0: "cutter radius compensation G42 (post the path with compensation applied)",
@@ -70,8 +114,29 @@ _G_UNSUPPORTED = {
     51.1: "mirroring G51.1",
     65.0: "macro call G65",
     66.0: "macro call G66",
+    5.0: "cubic spline G5 (post the path as lines and arcs)",
+    5.1: "quadratic spline G5.1 (post the path as lines and arcs)",
+    5.2: "NURBS G5.2 (post the path as lines and arcs)",
+    5.3: "NURBS G5.3 (post the path as lines and arcs)",
+    6.2: "NURBS interpolation G6.2 (post the path as lines and arcs)",
+    7.1: "cylindrical interpolation G7.1",
+    12.0: "circular pocket G12",
+    13.0: "circular pocket G13",
+    12.1: "polar coordinate interpolation G12.1",
+    13.1: "polar coordinate interpolation G13.1",
+    33.0: "threading G33",
+    33.1: "rigid tapping G33.1",
+    38.2: "probing G38.2",
+    38.3: "probing G38.3",
+    38.4: "probing G38.4",
+    38.5: "probing G38.5",
+    31.0: "skip function G31",
+    92.3: "G92.3 (restores saved G92 offsets)",
 }
 _G_UNSUPPORTED |= {float(g): f"canned cycle G{g}" for g in range(73, 90) if g != 80}
+_G_UNSUPPORTED[76.0] = "canned cycle G76"
+
+_ROTARY_CHOICES = ("auto", "head", "table")
 
 
 @dataclass
@@ -81,14 +146,20 @@ class _State:
     absolute: bool = True
     arc_abs: bool = False
     scale: float = 1.0  # mm per program unit
+    units_set: bool = False
     per_rev: bool = False
     feed: float = math.nan  # program units per min (or per rev)
     rpm: float = math.nan
     spindle_on: bool = False
-    pos: np.ndarray = field(default_factory=lambda: np.zeros(3))  # mm
-    axis: np.ndarray = field(default_factory=lambda: np.array([0.0, 0.0, 1.0]))
-    rot_deg: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    pos: list[float] = field(default_factory=lambda: [0.0, 0.0, 0.0])  # mm, path frame
+    pos_known: bool = False
+    offset: list[float] = field(default_factory=lambda: [0.0, 0.0, 0.0])  # G92 [mm]
+    axis: tuple[float, float, float] = (0.0, 0.0, 1.0)
+    rot_deg: list[float] = field(default_factory=lambda: [0.0, 0.0, 0.0])
     vector_mode: str | None = None  # "ijk" | "abc"
+    tcp: bool = False
+    wcs: float | None = None  # active work offset (G54 ...)
+    ended: bool = False
 
 
 def _strip_comments(raw: str, where: str) -> str:
@@ -112,28 +183,23 @@ def _strip_comments(raw: str, where: str) -> str:
     return "".join(out)
 
 
-def _tokenize(text: str, where: str) -> list[tuple[str, float, str]]:
-    """Words of one block (comments already removed): (letter, value, raw)."""
-    s = text.upper()
+def _tokenize(s: str, where: str) -> list[tuple[str, str]]:
+    """Words of one upper-case block (comments removed): (letter, number text)."""
     for needle, what in _UNSUPPORTED_TEXT:
         if needle in s:
             raise InputError(f"unsupported construct: {what}", source=where)
+    if _BLOCK.fullmatch(s):
+        return _WORD.findall(s)
     m = _UNSUPPORTED_KEYWORDS.search(s)
     if m:
         raise InputError(f"unsupported construct: control flow {m.group(1)!r}", source=where)
-    words: list[tuple[str, float, str]] = []
     pos = 0
     for mt in _WORD.finditer(s):
         gap = s[pos : mt.start()]
         if gap.strip():
             raise InputError(f"expected address words like X10.5, found {gap.strip()!r}", where)
-        num = mt.group(2).replace(" ", "")
-        words.append((mt.group(1), float(num), num))
         pos = mt.end()
-    rest = s[pos:]
-    if rest.strip():
-        raise InputError(f"expected address words like X10.5, found {rest.strip()!r}", where)
-    return words
+    raise InputError(f"expected address words like X10.5, found {s[pos:].strip()!r}", where)
 
 
 def parse_gcode(
@@ -142,8 +208,9 @@ def parse_gcode(
     *,
     arc_tol_mm: float = 0.01,
     block_delete: bool = True,
-    default_units: str = "mm",
+    units: str = "auto",
     no_decimal_scale: float = 1.0,
+    rotary_axes: str = "auto",
 ) -> pd.DataFrame:
     """Read G-code text into the waypoint table.
 
@@ -157,55 +224,100 @@ def parse_gcode(
         Chord tolerance of linearised arcs [mm].
     block_delete : bool
         Skip blocks starting with ``/`` (block delete switch on).
-    default_units : {"mm", "inch"}
-        Units before any G20/G21.
+    units : {"auto", "mm", "inch"}
+        Units before any G20/G21. ``auto``: mm, with a warning when the
+        program never states its units (and one more when the cut spans
+        less than an inch at feeds below 100 mm/min: inch data?).
     no_decimal_scale : float
         Factor for axis words written without a decimal point (1: ``X10`` is
         10 units; 0.001: classic Fanuc, ``X10`` is 0.010 mm).
+    rotary_axes : {"auto", "head", "table"}
+        How A/B/C words are read (see the module docstring).
 
     Returns
     -------
     pandas.DataFrame
-        The waypoint table (:mod:`robolobe.plan.paths._table`).
+        The waypoint table (:mod:`robolobe.plan.paths._table`); reader
+        warnings in ``attrs["warnings"]``.
 
     Raises
     ------
     InputError
         Unsupported or malformed constructs, naming ``source:line``.
     """
-    if default_units not in ("mm", "inch"):
-        raise InputError(f"default_units: expected 'mm' or 'inch', found {default_units!r}")
-    st = _State(scale=1.0 if default_units == "mm" else 25.4)
+    check_choice("units", units, UNIT_CHOICES)
+    check_choice("rotary_axes", rotary_axes, _ROTARY_CHOICES)
+    st = _State(scale=25.4 if units == "inch" else 1.0)
     out = WaypointBuilder(source)
-    for lineno, raw in enumerate(text.splitlines(), start=1):
-        where = f"{source}:{lineno}"
+    seen_motion = False
+    last_pct = False
+    strip_comments = _strip_comments
+    tokenize = _tokenize
+    block = _block
+    for lineno, raw in enumerate(lines(text), start=1):
         line = raw.strip()
-        if not line or line.startswith("%"):
-            continue
-        line = _strip_comments(line, where).strip()
         if not line:
             continue
-        # block delete may follow a line number: "N10 /G1 ..."
-        m = re.match(r"^(N\s*\d+\s*)?/", line, flags=re.IGNORECASE)
-        if m:
-            if block_delete:
+        if line[0] == "%":
+            last_pct = seen_motion
+            continue
+        if "(" in line or ";" in line or ")" in line:
+            where = f"{source}:{lineno}"
+            line = strip_comments(line, where).strip()
+            if not line:
                 continue
-            line = line[m.end() :]
-        upper = line.upper().lstrip()
-        if re.match(r"^(O\s*\d+|:\s*\d+)", upper):  # program number (maybe with a name)
-            upper = re.sub(r"^(O\s*\d+|:\s*\d+)", "", upper).strip()
+        if line[0] == "/" or (line[0] in "Nn" and "/" in line):
+            # block delete may follow a line number: "N10 /G1 ..."
+            m = re.match(r"^(N\s*\d+\s*)?/", line, flags=re.IGNORECASE)
+            if m:
+                if block_delete:
+                    continue
+                line = line[m.end() :]
+        upper = line.upper()
+        if upper[0] in "O:":
+            m = _PROGRAM_NAME.match(upper)
+            if m is None or (m.end() < len(upper) and upper[m.end() :].lstrip()[:1] not in "GMN"):
+                raise InputError(
+                    f"unsupported construct: O-word {upper.split()[0]!r} with "
+                    f"{upper[m.end() if m else 1 :].strip()!r} (subroutine or control flow; "
+                    "only a program name may stand on an O line)",
+                    source=f"{source}:{lineno}",
+                )
+            upper = upper[m.end() :]
             if not upper:
                 continue
-        words = _tokenize(upper, where)
+        words = tokenize(upper, f"{source}:{lineno}") if upper else []
         if not words:
             continue
-        if _block(words, st, out, where, lineno, arc_tol_mm, no_decimal_scale):
+        seen_motion = True
+        last_pct = False
+        if block(words, st, out, lineno, arc_tol_mm, no_decimal_scale, rotary_axes):
+            st.ended = True
             break
-    return out.table()
+    df = out.table()
+    if not st.ended and not last_pct:
+        out.warn(
+            "no M30/M2 program end: the file may be truncated (the path read so far is planned)"
+        )
+    if not st.units_set and units == "auto":
+        cut = (df["motion"] == "cut").to_numpy()
+        p = df[["x_m", "y_m", "z_m"]].to_numpy()[cut] * 1e3
+        f = df["feed_mm_per_min"].to_numpy()[cut]
+        span = float(np.max(np.ptp(p, axis=0))) if len(p) else 0.0
+        fmax = float(np.nanmax(f)) if len(f) and np.any(np.isfinite(f)) else 0.0
+        hint = ""
+        if len(p) and span < 25.4 and 0.0 < fmax < 100.0:
+            hint = (
+                f"; the cut spans only {span:.3g} mm at feeds up to {fmax:.3g} mm/min: "
+                "the program looks like inches"
+            )
+        out.warn(f"no G20/G21: read as mm{hint} (set the reader option units to override)")
+    df.attrs["warnings"] = out.notes()
+    return df
 
 
-def _axis_from_abc(abc_deg: np.ndarray) -> np.ndarray:
-    a, b, c = np.radians(abc_deg)
+def _axis_from_abc(abc_deg: list[float]) -> tuple[float, float, float]:
+    a, b, c = (math.radians(v) for v in abc_deg)
     ca, sa, cb, sb, cc, sc = (
         math.cos(a),
         math.sin(a),
@@ -215,39 +327,108 @@ def _axis_from_abc(abc_deg: np.ndarray) -> np.ndarray:
         math.sin(c),
     )
     # Rz(c) Ry(b) Rx(a) @ ez
-    v = np.array([sb * ca * cc + sa * sc, sb * ca * sc - sa * cc, cb * ca])
-    return v
+    return (sb * ca * cc + sa * sc, sb * ca * sc - sa * cc, cb * ca)
+
+
+def _number(letter: str, raw: str, lineno: int, nodec: float, out: WaypointBuilder) -> float:
+    value = float(raw.replace(" ", ""))
+    if abs(value) > MAX_ABS:
+        raise InputError(
+            f"word {letter}{raw}: expected a magnitude at most {MAX_ABS:g}",
+            source=f"{out.source}:{lineno}",
+        )
+    if letter in "XYZIJKR" and "." not in raw:
+        value *= nodec
+    return value
+
+
+_FAST_G = {"0": 0, "00": 0, "1": 1, "01": 1}
+_AXES = {"X": 0, "Y": 1, "Z": 2}
+
+
+def _fast_line(
+    words: list[tuple[str, str]], st: _State, out: WaypointBuilder, lineno: int, nodec: float
+) -> bool:
+    """The common block (G0/G1 with X/Y/Z/F, N) applied without the general machinery.
+
+    Returns False, having changed nothing, for any other block: :func:`_block`
+    then applies it (and gives its errors).
+    """
+    motion = st.motion
+    t = list(st.pos)
+    seen = ""
+    feed = st.feed
+    for letter, raw in words:
+        if letter in seen:
+            return False
+        k = _AXES.get(letter)
+        if k is not None:
+            v = float(raw)  # raises on inner spaces: the general path handles them
+            if not -MAX_ABS <= v <= MAX_ABS:
+                return False
+            if "." not in raw:
+                v *= nodec
+            v *= st.scale
+            t[k] = v + st.offset[k] if st.absolute else t[k] + v
+        elif letter == "F":
+            feed = float(raw)
+            if not 0 < feed <= MAX_ABS:
+                return False
+        elif letter == "G":
+            g = _FAST_G.get(raw)
+            if g is None:
+                return False
+            motion = g
+        elif letter != "N":
+            return False
+        seen += letter
+    if (
+        motion not in (0, 1)
+        or st.vector_mode == "abc"
+        or not ("X" in seen or "Y" in seen or "Z" in seen)
+    ):
+        return False
+    st.motion = motion
+    st.feed = feed
+    _emit_line(st, out, t, st.axis, lineno, rapid=motion == 0)
+    return True
 
 
 def _block(
-    words: list[tuple[str, float, str]],
+    words: list[tuple[str, str]],
     st: _State,
     out: WaypointBuilder,
-    where: str,
     lineno: int,
     arc_tol: float,
     nodec: float,
+    rotary_axes: str,
 ) -> bool:
     """Apply one block; return True at program end."""
+    try:
+        if _fast_line(words, st, out, lineno, nodec):
+            return False
+    except ValueError:
+        pass
     g_codes: list[float] = []
     m_codes: list[float] = []
     vals: dict[str, float] = {}
-    for letter, value, raw in words:
+    for letter, raw in words:
         if letter == "G":
-            g_codes.append(round(value, 1))
+            g_codes.append(round(float(raw.replace(" ", "")), 1))
         elif letter == "M":
-            m_codes.append(round(value, 1))
+            m_codes.append(round(float(raw.replace(" ", "")), 1))
         elif letter == "N":
             continue
         else:
             if letter in vals:
-                raise InputError(f"word {letter} appears twice in the block", source=where)
-            if letter in "XYZIJKR" and "." not in raw:
-                value *= nodec
-            vals[letter] = value
+                raise InputError(
+                    f"word {letter} appears twice in the block", source=f"{out.source}:{lineno}"
+                )
+            vals[letter] = _number(letter, raw, lineno, nodec, out)
     # --- G words
     dwell = False
     home = False
+    g92: float | None = None
     for g in g_codes:
         if g in (0.0, 1.0, 2.0, 3.0):
             st.motion = int(g)
@@ -263,8 +444,10 @@ def _block(
             st.arc_abs = False
         elif g in (20.0, 70.0):
             st.scale = 25.4
+            st.units_set = True
         elif g in (21.0, 71.0):
             st.scale = 1.0
+            st.units_set = True
         elif g == 94.0:
             st.per_rev = False
         elif g == 95.0:
@@ -274,52 +457,104 @@ def _block(
         elif g == 4.0:
             dwell = True
         elif g in _G_IGNORED:
+            if g == 49.0:
+                st.tcp = False
+            elif 54.0 <= g < 60.0:
+                _work_offset(g, st, out, lineno)
             continue
+        elif g == 10.0:
+            out.warn("G10 blocks (offset data, no motion) ignored", lineno, key="G10")
+            return False
+        elif g in (92.0, 92.1, 92.2):
+            g92 = g
+        elif g in _G_TCP_ON:
+            st.tcp = True
+        elif g in _G_NOTED:
+            if g == 255.0:
+                st.tcp = False
+            out.warn(f"{_G_NOTED[g]} ignored (no effect on the path)", lineno, key=f"G{g:g}")
+        elif g in (5.0, 5.1) and not any(k in vals for k in "XYZIJABC"):
+            # Fanuc: G05 P10000 (high-precision), G05.1 Q1 (AI contour control): modes
+            out.warn(f"G{g:g} (Fanuc contour control mode) ignored", lineno, key=f"G{g:g}")
         elif g in _G_UNSUPPORTED:
-            raise InputError(f"unsupported construct: {_G_UNSUPPORTED[g]}", source=where)
+            raise InputError(
+                f"unsupported construct: {_G_UNSUPPORTED[g]}", source=f"{out.source}:{lineno}"
+            )
         else:
-            raise InputError(f"unsupported G code G{g:g}", source=where)
+            raise InputError(f"unsupported G code G{g:g}", source=f"{out.source}:{lineno}")
+    if g92 is not None:
+        _apply_g92(g92, vals, st, out, lineno)
+        return False
+    if any(g in _G_MODE_WORDS for g in g_codes) and not any(k in vals for k in "XYZABC"):
+        for k in "EPQR":  # parameters of a mode word (G187 P2 E0.01, G05.1 Q1 R5)
+            vals.pop(k, None)
     # --- M words
     end = False
     for mc in m_codes:
         if mc in (3.0, 4.0):
             st.spindle_on = True
             if mc == 4.0:
-                logger.warning("%s: M4 (counter-clockwise spindle) planned as M3", where)
+                out.warn("M4 (counter-clockwise spindle) planned as M3", lineno, key="M4")
         elif mc == 5.0:
             st.spindle_on = False
         elif mc in (2.0, 30.0):
             end = True
         elif mc in (98.0, 99.0, 97.0):
-            raise InputError(f"unsupported construct: subprogram M{mc:g}", source=where)
+            raise InputError(
+                f"unsupported construct: subprogram M{mc:g}", source=f"{out.source}:{lineno}"
+            )
     if "F" in vals:
-        st.feed = vals.pop("F")
+        f = vals.pop("F")
+        if f <= 0:
+            raise InputError(
+                f"expected a positive feed F, found {f:g}", source=f"{out.source}:{lineno}"
+            )
+        st.feed = f
     if "S" in vals:
-        st.rpm = vals.pop("S")
+        s = vals.pop("S")
+        if s < 0:
+            raise InputError(
+                f"expected a spindle speed S >= 0 (direction by M3/M4), found {s:g}",
+                source=f"{out.source}:{lineno}",
+            )
+        st.rpm = s if s > 0 else math.nan
     for bad in ("L", "E"):
         if bad in vals:
-            raise InputError(f"unsupported word {bad} (repeat count / extruder)", source=where)
+            raise InputError(
+                f"unsupported word {bad} (repeat count / extruder)", source=f"{out.source}:{lineno}"
+            )
     for ignored in ("T", "H", "D", "P", "Q"):
         vals.pop(ignored, None)
     if dwell:
         return end
     for bad in ("U", "V", "W"):
         if bad in vals:
-            raise InputError(f"unsupported axis word {bad} (only X Y Z A B C)", source=where)
-    moving = any(k in vals for k in "XYZABC") or (
-        st.motion is not None and any(k in vals for k in "IJKR")
-    )
+            raise InputError(
+                f"unsupported axis word {bad} (only X Y Z A B C)", source=f"{out.source}:{lineno}"
+            )
+    if not vals:
+        return end
+    where = f"{out.source}:{lineno}"
+    moving = "X" in vals or "Y" in vals or "Z" in vals or "A" in vals or "B" in vals or "C" in vals
+    if (
+        not moving
+        and st.motion is not None
+        and ("I" in vals or "J" in vals or "K" in vals or "R" in vals)
+    ):
+        moving = True
     if home:  # leaves the path for a machine reference; the next absolute move resumes it
+        st.pos_known = False
         return end
     if not moving:
-        if "R" in vals or any(k in vals for k in "IJK"):
+        if "R" in vals or "I" in vals or "J" in vals or "K" in vals:
             raise InputError("arc words I/J/K/R without an arc move", source=where)
         return end
     if st.motion is None:
         raise InputError("axis words before any motion mode (G0/G1/G2/G3)", source=where)
     target = _target(vals, st)
     axis = st.axis
-    if any(k in vals for k in "ABC"):
+    has_xyz = "X" in vals or "Y" in vals or "Z" in vals
+    if "A" in vals or "B" in vals or "C" in vals:
         if st.vector_mode == "ijk":
             raise InputError("rotary words A/B/C in a program that uses I/J/K tool vectors", where)
         st.vector_mode = "abc"
@@ -327,15 +562,42 @@ def _block(
             if k in vals:
                 st.rot_deg[n] = vals[k] if st.absolute else st.rot_deg[n] + vals[k]
         axis = _axis_from_abc(st.rot_deg)
+        if not has_xyz and not st.tcp and st.motion == 0 and rotary_axes != "head":
+            # indexing the rotary axes before TCP is switched on: no tip motion to plan
+            st.axis = axis
+            return end
+    if (
+        st.vector_mode == "abc"
+        and rotary_axes != "head"
+        and not st.tcp
+        and any(abs(v) > 1e-9 for v in st.rot_deg)
+    ):
+        what = (
+            "rotary words A/B/C without tool centre point control (G43.4/G43.5/G234) or a "
+            "dynamic work offset (G254)"
+        )
+        if rotary_axes == "table":
+            raise InputError(
+                f"{what}: X/Y/Z are machine coordinates of a rotated table whose pivot the "
+                "program does not give; post the path with TCP, or as a waypoint table",
+                where,
+            )
+        raise InputError(
+            f"{what} are ambiguous: they may index a rotary table (the path is then in "
+            "machine coordinates of a rotated part) or tilt a head; set the reader option "
+            "rotary_axes = 'head' if they tilt the tool, else post the path with TCP",
+            where,
+        )
     if st.motion in (0, 1):
-        if any(k in vals for k in "IJK"):
+        if "I" in vals or "J" in vals or "K" in vals:
             if st.vector_mode == "abc":
                 raise InputError("I/J/K tool vectors in a program that uses A/B/C words", where)
             st.vector_mode = "ijk"
-            v = np.array([vals.get("I", 0.0), vals.get("J", 0.0), vals.get("K", 0.0)])
-            if np.linalg.norm(v) < 1e-9:
+            v = (vals.get("I", 0.0), vals.get("J", 0.0), vals.get("K", 0.0))
+            nv = math.sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2])
+            if nv < 1e-9:
                 raise InputError("I/J/K tool vector of zero length", source=where)
-            axis = v / np.linalg.norm(v)
+            axis = (v[0] / nv, v[1] / nv, v[2] / nv)
         if "R" in vals:
             raise InputError("word R in a linear move", source=where)
         _emit_line(st, out, target, axis, lineno, rapid=st.motion == 0)
@@ -344,12 +606,52 @@ def _block(
     return end
 
 
-def _target(vals: dict[str, float], st: _State) -> np.ndarray:
-    t = st.pos.copy()
+def _work_offset(g: float, st: _State, out: WaypointBuilder, lineno: int) -> None:
+    """Track the work offset; a change after the first move joins two origins."""
+    if st.wcs is not None and g != st.wcs and len(out):
+        out.warn(
+            f"work offset changes from G{st.wcs:g} to G{g:g}: the coordinates before and after "
+            "are relative to different origins (machine data not in the program); read as one "
+            "frame",
+            lineno,
+            key="wcs-change",
+        )
+    st.wcs = g
+
+
+def _apply_g92(
+    g: float, vals: dict[str, float], st: _State, out: WaypointBuilder, lineno: int
+) -> None:
+    where = f"{out.source}:{lineno}"
+    if g in (92.1, 92.2):
+        st.offset = [0.0, 0.0, 0.0]
+        return
+    if any(k in vals for k in "ABCIJKRUVW"):
+        raise InputError("unsupported construct: G92 on axes other than X/Y/Z", source=where)
+    if not any(k in vals for k in "XYZ"):
+        raise InputError("G92 without X/Y/Z words", source=where)
+    if not st.pos_known:
+        raise InputError(
+            "unsupported construct: G92 where the current position is unknown (before any "
+            "move or after G28/G53): the offset it sets cannot be computed",
+            source=where,
+        )
+    for n, k in enumerate("XYZ"):
+        if k in vals:
+            st.offset[n] = st.pos[n] - vals[k] * st.scale
+    out.warn(
+        "G92 coordinate offsets applied (path kept in the coordinates before G92)",
+        lineno,
+        key="G92",
+    )
+
+
+def _target(vals: dict[str, float], st: _State) -> list[float]:
+    t = list(st.pos)
     for n, k in enumerate("XYZ"):
         if k in vals:
             v = vals[k] * st.scale
-            t[n] = v if st.absolute else t[n] + v
+            t[n] = v + st.offset[n] if st.absolute else t[n] + v
     return t
 
 
@@ -363,18 +665,24 @@ def _feed_mm_per_min(st: _State) -> float:
 
 
 def _emit_line(
-    st: _State, out: WaypointBuilder, target: np.ndarray, axis: np.ndarray, lineno: int, rapid: bool
+    st: _State,
+    out: WaypointBuilder,
+    target: list[float],
+    axis: tuple[float, float, float],
+    lineno: int,
+    rapid: bool,
 ) -> None:
     rpm = st.rpm if st.spindle_on else math.nan
-    out.add(
-        target * 1e-3,
+    out.add_unit(
+        (target[0] * 1e-3, target[1] * 1e-3, target[2] * 1e-3),
         axis,
-        line=lineno,
-        rapid=rapid,
-        feed_mm_per_min=math.nan if rapid else _feed_mm_per_min(st),
-        rpm=rpm,
+        lineno,
+        rapid,
+        math.nan if rapid else _feed_mm_per_min(st),
+        rpm,
     )
     st.pos = target
+    st.pos_known = True
     st.axis = axis
 
 
@@ -385,23 +693,23 @@ def _emit_arc(
     vals: dict[str, float],
     st: _State,
     out: WaypointBuilder,
-    target: np.ndarray,
-    axis: np.ndarray,
+    target: list[float],
+    axis: tuple[float, float, float],
     lineno: int,
     tol: float,
     where: str,
 ) -> None:
     ia, ib, ic = _PLANES[st.plane]
-    normal = np.zeros(3)
+    normal = [0.0, 0.0, 0.0]
     normal[ic] = 1.0
     start = st.pos
     cw = st.motion == 2
     if "R" in vals:
-        if any(k in vals for k in "IJK"):
+        if "I" in vals or "J" in vals or "K" in vals:
             raise InputError("arc with both R and I/J/K", source=where)
         r = vals["R"] * st.scale
-        d = np.array([target[ia] - start[ia], target[ib] - start[ib]])
-        chord = float(np.linalg.norm(d))
+        da, db = target[ia] - start[ia], target[ib] - start[ib]
+        chord = math.hypot(da, db)
         if chord < 1e-9:
             raise InputError("R-form arc with coincident start and end", source=where)
         if chord > 2 * abs(r) * (1 + 1e-6) + 1e-3:
@@ -409,45 +717,45 @@ def _emit_arc(
                 f"arc radius R{abs(r):g} too small for a chord of {chord:.4g}", source=where
             )
         h = math.sqrt(max(r * r - chord * chord / 4, 0.0))
-        mid = (np.array([start[ia], start[ib]]) + np.array([target[ia], target[ib]])) / 2
-        perp = np.array([-d[1], d[0]]) / chord  # left of the chord (CCW side)
         # CW with a short arc (R > 0): centre to the right of the chord
         sign = (-1.0 if cw else 1.0) * (1.0 if r > 0 else -1.0)
-        c2 = mid + sign * h * perp
-        centre = start.copy()
-        centre[ia], centre[ib] = c2
+        centre = list(start)
+        centre[ia] = (start[ia] + target[ia]) / 2 + sign * h * (-db / chord)
+        centre[ib] = (start[ib] + target[ib]) / 2 + sign * h * (da / chord)
         full = False
     else:
-        off = np.array([vals.get("I", 0.0), vals.get("J", 0.0), vals.get("K", 0.0)]) * st.scale
+        if not ("I" in vals or "J" in vals or "K" in vals):
+            raise InputError("arc without I/J/K or R", source=where)
+        off = [
+            vals.get("I", 0.0) * st.scale,
+            vals.get("J", 0.0) * st.scale,
+            vals.get("K", 0.0) * st.scale,
+        ]
         if st.arc_abs:
-            centre = start.copy()
+            centre = list(start)
             for n, k in enumerate("IJK"):
                 if k in vals:
-                    centre[n] = off[n]
+                    centre[n] = off[n] + st.offset[n]
         else:
-            centre = start + off
-        if not any(k in vals for k in "IJK"):
-            raise InputError("arc without I/J/K or R", source=where)
+            centre = [start[0] + off[0], start[1] + off[1], start[2] + off[2]]
         full = True
     centre[ic] = start[ic]
-    pts = arc_points(
-        start, target, centre, normal, clockwise=cw, tol=tol, full_circle=full, where=where
-    )
+    pts = arc_point_list(
+        (start[0], start[1], start[2]), (target[0], target[1], target[2]),
+        (centre[0], centre[1], centre[2]), (normal[0], normal[1], normal[2]),
+        clockwise=cw, tol=tol, full_circle=full, where=where,
+    )  # fmt: skip
     feed = _feed_mm_per_min(st)
     rpm = st.rpm if st.spindle_on else math.nan
+    add = out.add_unit
     for p in pts:
-        out.add(p * 1e-3, axis, line=lineno, rapid=False, feed_mm_per_min=feed, rpm=rpm)
+        add((p[0] * 1e-3, p[1] * 1e-3, p[2] * 1e-3), axis, lineno, False, feed, rpm)
     st.pos = target
+    st.pos_known = True
     st.axis = axis
 
 
 def read_gcode(path: str | Path, **options: float | bool | str) -> pd.DataFrame:
     """Read a G-code file (see :func:`parse_gcode` for ``options``)."""
     p = Path(path)
-    try:
-        text = p.read_text(encoding="utf-8", errors="strict")
-    except UnicodeDecodeError:
-        text = p.read_text(encoding="latin-1")
-    except OSError as exc:
-        raise InputError(f"cannot read the file: {exc}", source=str(p)) from None
-    return parse_gcode(text, p.name, **options)  # type: ignore[arg-type]
+    return parse_gcode(read_text(p), p.name, **options)  # type: ignore[arg-type]

@@ -2,36 +2,45 @@
 
 Positions are aggregates ``{X 100, Y 20, Z 5, A 0, B 90, C 0}`` in mm and
 degrees, A/B/C the ZYX Euler angles of the tool frame (``R = Rz(A) Ry(B)
-Rx(C)``), given in the active base, which is the workpiece (path) frame.
-KUKA's tool convention makes the tool **X** axis the working direction
-(spindle to tip), so the tool axis (tip to spindle) is ``-x_tool``; with
-``tool_direction="z"`` the tool Z axis is taken instead (frames defined the
-ABB/RoboDK way). The TCP x axis the planner uses is the tool frame's next
-axis (``y_tool`` for X, ``x_tool`` for Z), so ``z_tcp = working direction``.
+Rx(C)``), given in the active base, which is the workpiece (path) frame
+(reader option ``coordinates = "machine"`` applies a literal ``$BASE``).
+Which tool-frame axis is the working direction (spindle to tip) is a
+convention of the cell, not of the file: reader option ``tool_direction``,
+default ``"z"`` (RoboDK and other offline programming systems, and ABB: the
+same program posted as KRL and as RAPID gives one tool axis); ``"x"`` is
+KUKA's factory ``$TOOL_DIRECTION`` for programs taught that way. The tool
+axis (tip to spindle) is minus that axis; the TCP x axis the planner uses
+is the tool frame's next axis (``x_tool`` for z, ``y_tool`` for x).
 
 Supported: ``LIN``, ``SLIN``, ``LIN_REL`` (base frame), ``CIRC``/``SCIRC``
-(auxiliary and end point), ``PTP``/``SPTP``/``PTP_REL`` (rapid), targets as
-aggregates (partial aggregates keep the other components), ``E6POS``/
-``POS``/``FRAME`` variables declared in the ``.src`` or the ``.dat`` beside
-it (``DECL E6POS XP1={...}``, ``E6POS P2={...}``), approximation words
-``C_DIS``/``C_VEL``/``C_ORI``/``C_PTP``, ``$VEL.CP = 0.2`` (m/s),
-``$VEL = {CP 0.2, ...}``, ``BAS(#CP_PARAMS, v)`` / ``BAS(#VEL_CP, v)``
-(inline forms, m/s), ``;`` comments and folds, ``&`` header lines, ``DEF``/
-``END``/``DEFDAT``/``ENDDAT``, ``SPLINE``/``ENDSPLINE`` brackets.
+(auxiliary and end point; ``CA angle`` sweeps that angle on the circle;
+the tool turns from the start to the end orientation by arc length),
+``SPL`` (spline points, joined by straight lines, warned), ``PTP``/
+``SPTP``/``PTP_REL`` (rapid), ``WITH $VEL = SVEL_CP(v, ...)`` (that
+motion's velocity, m/s), targets as aggregates (partial aggregates keep the
+other components), ``E6POS``/``POS``/``FRAME`` variables declared in the
+``.src`` or the ``.dat`` beside it, approximation words
+``C_DIS``/``C_VEL``/``C_ORI``/``C_PTP``/``C_SPL``, ``$VEL.CP = 0.2``
+(m/s), ``$VEL = {CP 0.2, ...}``, ``BAS(#CP_PARAMS, v)`` / ``BAS(#VEL_CP,
+v)``, ``;`` comments and folds, ``&`` header lines,
+``SPLINE``/``ENDSPLINE`` brackets. The program is the first ``DEF ...
+END``; routines after its ``END`` (``DEF``, ``GLOBAL DEFFCT``) are not main
+code: a ``DEF`` routine of the same file is followed where it is called,
+other calls are warned and skipped. A ``DEF`` without ``END`` is warned as
+truncated.
 
 Ignored on purpose: other ``$`` system variables (``$APO``, ``$ACC``,
-``$BASE``, ``$TOOL``, ``$OUT``, ``$ANOUT``, ...; the path is taken in the
-active base), other ``BAS`` calls, ``DECL`` of other types, ``WAIT``,
-``HALT``, ``INTERRUPT``, ``TRIGGER``, assignments to plain variables, PTP
-to axis-specific targets (``{A1 0, ...}``, ``HOME``; they leave the
-Cartesian path, which resumes at the next absolute target). Calls of other
-subprograms ``NAME(...)`` are ignored with a warning (their motions are not
-followed).
+``$TOOL``, ``$OUT``, ``$ANOUT``, ...), other ``BAS`` calls, ``DECL`` of
+other types, ``WAIT``, ``HALT``, ``INTERRUPT``, ``TRIGGER``, assignments to
+plain variables, PTP to axis-specific or actual-position targets
+(``{A1 0, ...}``, ``HOME``, ``$AXIS_ACT``, ``$POS_ACT``; they leave the
+Cartesian path, which resumes at the next absolute target).
 
-Control flow (``IF``, ``FOR``, ``WHILE``, ``LOOP``, ``REPEAT``, ``SWITCH``,
-``GOTO``), ``CIRC`` with ``CA``, relative moves in the tool frame and
-expressions in targets raise :class:`~robolobe.errors.InputError` with
-``file:line``.
+Refused with :class:`~robolobe.errors.InputError` naming ``file:line``:
+control flow (``IF``, ``FOR``, ``WHILE``, ``LOOP``, ``REPEAT``, ``SWITCH``,
+``GOTO``), relative moves in the tool frame, expressions in targets, a
+motion to a position variable set at run time (``P1 = $POS_ACT``),
+non-positive or non-numeric velocities, non-finite numbers.
 """
 
 from __future__ import annotations
@@ -45,9 +54,22 @@ import numpy as np
 import pandas as pd
 
 from robolobe.errors import InputError
-from robolobe.plan.paths._arcs import arc_through
+from robolobe.plan.paths._arcs import (
+    arc_points,
+    arc_through,
+    circle_through,
+    orientations_along,
+)
 from robolobe.plan.paths._table import WaypointBuilder
-from robolobe.robots.transforms import rotation_from_zyx
+from robolobe.plan.paths._text import (
+    TOOL_DIRECTIONS,
+    check_choice,
+    finite,
+    lines,
+    read_text,
+    tool_axes,
+)
+from robolobe.robots.transforms import pose_from_xyz_zyx, rotation_from_zyx, zyx_from_rotation
 
 __all__ = ["parse_krl", "read_krl"]
 
@@ -62,7 +84,7 @@ _IGNORED = re.compile(
     r"^(WAIT|HALT|INTERRUPT|TRIGGER|CONTINUE|BRAKE|RESUME|PULSE|ANIN|ANOUT|EXT|EXTFCT|"
     r"GLOBAL|PUBLIC|SIGNAL|CHANNEL|CONST)\b"
 )
-_MOTION = re.compile(r"^(LIN_REL|PTP_REL|LIN|SLIN|PTP|SPTP|CIRC|SCIRC)\b\s*(.*)$")
+_MOTION = re.compile(r"^(LIN_REL|PTP_REL|LIN|SLIN|PTP|SPTP|CIRC|SCIRC|SPL)\b\s*(.*)$")
 _APPROX = re.compile(r"\s+(C_DIS|C_VEL|C_ORI|C_PTP|C_SPL)\s*$")
 
 
@@ -90,67 +112,94 @@ def _aggregate(text: str, where: str) -> dict[str, float | None]:
             )
         key, val = m.group(1), m.group(2)
         try:
-            out[key] = float(val)
+            v = float(val)
         except ValueError:
             if key in _POS_KEYS:
                 raise InputError(
                     f"unsupported construct: expression {val!r} for {key} in a target", where
                 ) from None
             out[key] = None
+            continue
+        if key in _POS_KEYS:
+            v = finite(val, where, f"aggregate component {key}")
+        out[key] = v if math.isfinite(v) else None
     return out
 
 
-def _tool_axes(abc_deg: np.ndarray, tool_direction: str) -> tuple[np.ndarray, np.ndarray]:
-    rot = rotation_from_zyx(np.radians(abc_deg))
-    if tool_direction == "x":
-        work, ref = rot[:, 0], rot[:, 1]
-    else:
-        work, ref = rot[:, 2], rot[:, 0]
-    return -work, ref
-
-
 class _Reader:
-    def __init__(self, source: str, tool_direction: str, arc_tol_mm: float) -> None:
+    def __init__(
+        self, source: str, tool_direction: str, arc_tol_mm: float, coordinates: str = "workpiece"
+    ) -> None:
         self.source = source
         self.tool_direction = tool_direction
+        self.coordinates = coordinates
         self.tol = arc_tol_mm
         self.vars: dict[str, dict[str, float | None]] = {}
-        self.pose: np.ndarray | None = None  # X Y Z A B C (mm, deg)
+        self.unresolved: dict[str, str] = {}  # variables set at run time
+        self.pose: np.ndarray | None = None  # X Y Z A B C (mm, deg), as programmed
         self.vel_m_per_s = math.nan
+        self.base: np.ndarray | None = None  # $BASE literal (4x4, mm)
+        self.base_text: str | None = None
         self.out = WaypointBuilder(source)
+        self.pending: list[tuple[float, float, float, float, float, float, float, int, bool]] = []
+        self.pending_base: list[np.ndarray] = []
 
     # ------------------------------------------------------------ helpers
     def declare(self, stmt: str, where: str) -> bool:
-        """Handle declarations/assignments of position variables; True if handled."""
+        """Handle declarations/assignments of position variables; True if handled.
+
+        A position variable set from anything but a literal aggregate
+        (``$POS_ACT``, a function, another variable) is marked as set at run
+        time: a motion to it is refused, not read with a stale value.
+        """
         m = re.match(
             r"^(?:DECL\s+)?(?:GLOBAL\s+)?(E6POS|POS|FRAME|E6AXIS|AXIS)\s+([A-Z_][A-Z0-9_]*)\s*(=\s*(.*))?$",
             stmt,
         )
         if m:
             typ, name, _, value = m.groups()
-            agg = _aggregate(value, where) if value is not None else {}
-            self.vars[name] = {"__axis__": 1.0} if typ in ("E6AXIS", "AXIS") else agg
+            if typ in ("E6AXIS", "AXIS"):
+                self.vars[name] = {"__axis__": 1.0}
+            elif value is not None and not value.strip().startswith("{"):
+                self.vars[name] = {}
+                self.unresolved[name] = value.strip()
+            else:
+                self.vars[name] = _aggregate(value, where) if value is not None else {}
             return True
         if stmt.startswith("DECL "):
             return True  # other declarations (INT, REAL, LDAT, FDAT, ...)
-        m = re.match(r"^([A-Z_][A-Z0-9_]*)\s*=\s*(\{.*\})$", stmt)
-        if m and m.group(1) in self.vars:
-            if "__axis__" not in self.vars[m.group(1)]:
-                self.vars[m.group(1)] = _aggregate(m.group(2), where)
+        m = re.match(r"^([A-Z_][A-Z0-9_]*)(\.[A-Z][A-Z0-9]*)?\s*=\s*(.+)$", stmt)
+        if m and m.group(1) in self.vars and "__axis__" not in self.vars[m.group(1)]:
+            name, comp, value = m.group(1), m.group(2), m.group(3).strip()
+            if comp is None and value.startswith("{"):
+                self.vars[name] = _aggregate(value, where)
+                self.unresolved.pop(name, None)
+            elif comp is not None and re.fullmatch(r"[-+]?(\d+\.?\d*|\.\d+)(E[-+]?\d+)?", value):
+                self.vars[name] = {**self.vars[name], comp[1:]: finite(value, where, stmt)}
+            else:
+                self.unresolved[name] = value
             return True
-        return False
+        return m is not None and m.group(1) in self.vars
 
     def target(self, text: str, where: str, *, relative: bool = False) -> np.ndarray | None:
-        """Absolute target X..C, or None for an axis-specific target."""
+        """Absolute target X..C, or None for an axis-specific or actual-position target."""
         t = text.strip()
         if t.startswith("{"):
             agg = _aggregate(t, where)
         else:
             name = t.split()[0] if t else ""
             if name not in self.vars:
-                if name in ("HOME", "XHOME", "$H_POS", "$POS_ACT") or name.startswith("XHOME"):
+                if name in ("HOME", "XHOME", "$H_POS", "$POS_ACT", "$AXIS_ACT", "$AXIS_HOME") or (
+                    name.startswith("XHOME")
+                ):
                     return None
                 raise InputError(f"unknown position variable {name!r}", source=where)
+            if name in self.unresolved:
+                raise InputError(
+                    f"position variable {name} is set at run time ({self.unresolved[name]!r}): "
+                    "expected a literal aggregate",
+                    source=where,
+                )
             agg = self.vars[name]
         if "__axis__" in agg or any(k.startswith("A") and k[1:].isdigit() for k in agg):
             return None
@@ -176,92 +225,193 @@ class _Reader:
                 new[n] = vals[k]
         return new
 
-    def emit(self, pose: np.ndarray, lineno: int, rapid: bool) -> None:
-        axis, ref = _tool_axes(pose[3:], self.tool_direction)
-        feed = math.nan if rapid else self.vel_m_per_s * 6e4
-        self.out.add(pose[:3] * 1e-3, axis, line=lineno, rapid=rapid, feed_mm_per_min=feed, ref=ref)
-        self.pose = pose
+    def emit(
+        self, pose: np.ndarray, lineno: int, rapid: bool, *, at: np.ndarray | None = None,
+        vel: float | None = None,
+    ) -> None:  # fmt: skip
+        """Queue a waypoint; tool frames are computed for all of them in :meth:`finish`."""
+        base = np.eye(4)
+        if self.coordinates == "machine":
+            if self.base is None and self.base_text is not None:
+                raise InputError(
+                    f"coordinates = 'machine' needs $BASE as a literal frame, found "
+                    f"{self.base_text!r}",
+                    f"{self.source}:{lineno}",
+                )
+            if self.base is not None:
+                base = self.base
+        v = self.vel_m_per_s if vel is None else vel
+        xyz = pose[:3] if at is None else at
+        self.pending.append(
+            (float(xyz[0]), float(xyz[1]), float(xyz[2]), float(pose[3]), float(pose[4]),
+             float(pose[5]), math.nan if rapid else v * 6e4, lineno, rapid)
+        )  # fmt: skip
+        self.pending_base.append(base)
+        if at is None:
+            self.pose = pose
+
+    def finish(self) -> pd.DataFrame:
+        """The waypoint table: all tool frames at once (one rotation call, not one per line)."""
+        if self.pending:
+            rows = np.array([r[:7] for r in self.pending], dtype=np.float64)
+            rot = rotation_from_zyx(np.radians(rows[:, 3:6]))
+            pos = rows[:, :3]
+            if self.coordinates == "machine":
+                bases = np.array(self.pending_base)
+                pos = np.einsum("nij,nj->ni", bases[:, :3, :3], pos) + bases[:, :3, 3]
+                rot = bases[:, :3, :3] @ rot
+            axis, ref = tool_axes(rot, self.tool_direction)
+            for k, r in enumerate(self.pending):
+                self.out.add(
+                    pos[k] * 1e-3, axis[k], line=r[7], rapid=r[8], feed_mm_per_min=r[6],
+                    ref=ref[k],
+                )  # fmt: skip
+        df = self.out.table()
+        df.attrs["warnings"] = self.out.notes()
+        return df
 
     # ------------------------------------------------------------- statements
-    def statement(self, stmt: str, lineno: int, in_dat: bool) -> None:
+    def statement(self, stmt: str, lineno: int, in_dat: bool) -> str | None:
+        """Apply one statement; return the name of a called local routine, if any."""
         where = f"{self.source}:{lineno}"
         s = stmt.strip().upper()
         if not s or s.startswith("&"):
-            return
+            return None
         if re.match(r"^(GLOBAL\s+)?(DEF|DEFDAT|END|ENDDAT|ENDFCT|SPLINE|ENDSPLINE)\b", s):
             if s.startswith(("DEFFCT", "GLOBAL DEFFCT")):
                 raise InputError("unsupported construct: function definitions DEFFCT", where)
-            return
+            return None
         if s.startswith("DEFFCT"):
             raise InputError("unsupported construct: function definitions DEFFCT", where)
         if self.declare(s, where):
-            return
+            return None
         if in_dat:
-            return  # other data in a .dat file
+            return None  # other data in a .dat file
         m = _CONTROL.match(s)
         if m:
-            raise InputError(f"unsupported construct: control flow {m.group(1)}", source=where)
+            raise InputError(
+                f"unsupported construct: control flow {m.group(1)} (the path depends on "
+                "run-time conditions; export the motions as a straight sequence)",
+                source=where,
+            )
         if s.startswith("$"):
             self.system_var(s, where)
-            return
+            return None
         if s.startswith("BAS"):
             m = re.match(r"^BAS\s*\(\s*#(CP_PARAMS|VEL_CP)\s*,\s*([-+0-9.E]+)\s*\)$", s)
             if m:
-                self.vel_m_per_s = float(m.group(2))
-            return
+                self.vel_m_per_s = _velocity(m.group(2), where)
+            return None
         if _IGNORED.match(s):
-            return
+            return None
         m = _MOTION.match(s)
         if m:
             self.motion(m.group(1), m.group(2), lineno, where)
-            return
+            return None
         m = re.match(r"^([A-Z_][A-Z0-9_]*)\s*\(.*\)$", s)
         if m:
-            logger.warning(
-                "%s: call to %s ignored (its motions are not followed)", where, m.group(1)
-            )
-            return
+            return m.group(1)
         if re.match(r"^[A-Z_][A-Z0-9_.\[\]]*\s*=", s):
-            return  # assignment to a plain variable (LDAT_ACT=..., counters)
+            return None  # assignment to a plain variable (LDAT_ACT=..., counters)
         raise InputError(f"unsupported KRL statement {stmt.strip()!r}", source=where)
 
     def system_var(self, s: str, where: str) -> None:
         m = re.match(r"^\$VEL\.CP\s*=\s*(.+)$", s)
         if m:
-            try:
-                self.vel_m_per_s = float(m.group(1))
-            except ValueError:
-                raise InputError(
-                    f"unsupported construct: expression {m.group(1)!r} for $VEL.CP", where
-                ) from None
+            self.vel_m_per_s = _velocity(m.group(1), where)
             return
         m = re.match(r"^\$VEL\s*=\s*(\{.*\})$", s)
         if m:
             agg = _aggregate(m.group(1), where)
             if agg.get("CP") is not None:
-                self.vel_m_per_s = float(agg["CP"])  # type: ignore[arg-type]
+                self.vel_m_per_s = _velocity(str(agg["CP"]), where)
             return
-        if s.startswith(("$BASE", "$TOOL")):
-            logger.info("%s: %s not applied (the path is taken in the active base)", where, s[:5])
+        m = re.match(r"^\$BASE\s*=\s*(.+)$", s)
+        if m:
+            text = m.group(1).strip()
+            base = None
+            if text.startswith("{"):
+                agg = _aggregate(text, where)
+                v = [agg.get(k) for k in _POS_KEYS]
+                if all(x is not None for x in v):
+                    xyzabc = np.array(v, dtype=np.float64)
+                    base = pose_from_xyz_zyx(xyzabc[:3], np.radians(xyzabc[3:]))
+            if self.base_text is not None and text != self.base_text and self.pending:
+                self.out.warn(
+                    f"$BASE changes between moves ({self.base_text} -> {text}): positions are "
+                    "taken as programmed in each base",
+                    int(where.rsplit(":", 1)[1]),
+                    key="base-change",
+                )
+            self.base, self.base_text = base, text
+            return
+        if s.startswith("$TOOL"):
+            logger.info("%s: $TOOL not applied (the path is the TCP's)", where)
 
     def motion(self, word: str, rest: str, lineno: int, where: str) -> None:
+        vel: float | None = None
+        mw = re.search(r"\bWITH\b", rest)
+        if mw:
+            clause = rest[mw.end() :]
+            vel = _with_velocity(clause, where)
+            if vel is not None and math.isnan(vel):
+                self.out.warn(
+                    "WITH $VEL = SVEL_CP(...) with a velocity that is not a number: no "
+                    "programmed feed for that motion",
+                    lineno,
+                    key="with-vel",
+                )
+            # inline forms select the FDAT's base and tool (SBASE/STOOL2): the active base;
+            # anything else would move the frame of this one motion
+            for m_frame in re.finditer(r"\$(BASE|TOOL)\s*=\s*([A-Z_0-9]+)", clause):
+                if m_frame.group(2) not in ("SBASE", "STOOL2", "STOOL"):
+                    self.out.warn(
+                        f"WITH ${m_frame.group(1)} = {m_frame.group(2)}... not applied: the "
+                        "target is taken in the active base",
+                        lineno,
+                        key="with-frame",
+                    )
+            rest = rest[: mw.start()]
         rest = _APPROX.sub("", rest).strip()
         rapid = word in ("PTP", "SPTP", "PTP_REL")
         if word in ("CIRC", "SCIRC"):
-            if re.search(r"\bCA\b", rest):
-                raise InputError("unsupported construct: CIRC with circular angle CA", where)
             parts = _split_top(rest)
+            ca: float | None = None
+            if len(parts) == 3:
+                mca = re.match(r"^CA\s+(.+)$", parts[2].strip())
+                if not mca:
+                    raise InputError(f"CIRC: expected 'CA angle', found {parts[2]!r}", where)
+                ca = finite(mca.group(1), where, "CIRC CA")
+                parts = parts[:2]
             if len(parts) != 2:
                 raise InputError(f"CIRC: expected auxiliary and end point, found {rest!r}", where)
             aux = self.target(parts[0], where)
             end = self.target(parts[1], where)
             if aux is None or end is None or self.pose is None:
                 raise InputError("CIRC needs Cartesian points after a known position", where)
-            pts = arc_through(self.pose[:3], aux[:3], end[:3], tol=self.tol, where=where)
-            for p in pts[:-1]:
-                self.emit(np.concatenate([p, end[3:]]), lineno, rapid=False)
-            self.emit(end, lineno, rapid=False)
+            start = self.pose[:3]
+            if ca is None:
+                pts = arc_through(start, aux[:3], end[:3], tol=self.tol, where=where)
+            else:
+                pts = _arc_by_angle(start, aux[:3], end[:3], ca, self.tol, where)
+                end = np.concatenate([pts[-1], end[3:]])
+            rots = orientations_along(
+                start,
+                rotation_from_zyx(np.radians(self.pose[3:])),
+                rotation_from_zyx(np.radians(end[3:])),
+                np.asarray(pts),
+            )
+            abc = np.degrees(zyx_from_rotation(rots))
+            for p, a in zip(pts[:-1], abc[:-1], strict=True):
+                self.emit(np.concatenate([p, a]), lineno, rapid=False, at=p, vel=vel)
+            self.emit(end, lineno, rapid=False, vel=vel)
             return
+        if word == "SPL":
+            self.out.warn(
+                "SPL spline points joined by straight lines (the spline passes through them)",
+                lineno,
+                key="SPL",
+            )
         if "#TOOL" in rest:
             raise InputError(
                 "unsupported construct: relative move in the tool frame (#TOOL)", where
@@ -270,10 +420,77 @@ class _Reader:
         tgt = self.target(rest, where, relative=word.endswith("_REL"))
         if tgt is None:
             if not rapid:
-                raise InputError("LIN to an axis-specific target has no Cartesian position", where)
+                raise InputError(
+                    f"{word} to an axis-specific or actual-position target has no Cartesian "
+                    "position",
+                    where,
+                )
             logger.info("%s: PTP to an axis-specific target left out of the path", where)
             return
-        self.emit(tgt, lineno, rapid=rapid)
+        self.emit(tgt, lineno, rapid=rapid, vel=vel)
+
+
+def _velocity(text: str, where: str) -> float:
+    """A CP velocity [m/s] from a file: a positive number."""
+    try:
+        v = float(text)
+    except ValueError:
+        raise InputError(
+            f"unsupported construct: expression {text.strip()!r} for the path velocity", where
+        ) from None
+    if not math.isfinite(v) or v <= 0 or v > 100:
+        raise InputError(
+            f"expected a path velocity in (0, 100] m/s, found {text.strip()!r}", source=where
+        )
+    return v
+
+
+def _with_velocity(text: str, where: str) -> float | None:
+    """The velocity [m/s] a ``WITH`` clause sets for one spline motion, if any.
+
+    NaN when it is a variable or an expression (``SVEL_CP(gArcVel, ...)``):
+    the motion then has no programmed feed.
+    """
+    m = re.search(r"\$VEL\s*=\s*SVEL_CP\s*\(\s*([^,)]*)", text)
+    if m:
+        arg = m.group(1).strip()
+        if not arg:
+            return None
+        try:
+            float(arg)
+        except ValueError:
+            return math.nan
+        return _velocity(arg, where)
+    m = re.search(r"\$VEL\.CP\s*=\s*([^,]+)", text)
+    if m:
+        return _velocity(m.group(1), where)
+    return None
+
+
+def _arc_by_angle(
+    start: np.ndarray, aux: np.ndarray, end: np.ndarray, ca_deg: float, tol: float, where: str
+) -> np.ndarray:
+    """KRL ``CIRC aux, end, CA angle``: the circle through the three points, swept by ``CA``.
+
+    Positive ``CA`` runs start -> aux -> end, negative the other way; the
+    motion ends where the angle says, not at ``end``.
+    """
+    if not 0 < abs(ca_deg) <= 360.0:
+        raise InputError(f"CIRC CA: expected 0 < |CA| <= 360 deg, found {ca_deg:g}", where)
+    circ = circle_through(start, aux, end, where)
+    if circ is None:
+        raise InputError("CIRC with CA: start, auxiliary and end point are collinear", where)
+    centre, nrm = circ
+    a = math.radians(ca_deg)
+    v = start - centre
+    rot = (
+        v * math.cos(a) + np.cross(nrm, v) * math.sin(a) + nrm * float(nrm @ v) * (1 - math.cos(a))
+    )
+    stop = centre + rot
+    return arc_points(
+        start, stop, centre, nrm, clockwise=ca_deg < 0, tol=tol,
+        full_circle=abs(abs(ca_deg) - 360.0) < 1e-9, where=where,
+    )  # fmt: skip
 
 
 def _split_top(text: str) -> list[str]:
@@ -298,11 +515,46 @@ def _split_top(text: str) -> list[str]:
 
 def _lines(text: str) -> list[tuple[int, str]]:
     out = []
-    for lineno, raw in enumerate(text.splitlines(), start=1):
+    for lineno, raw in enumerate(lines(text), start=1):
         s = _strip(raw).strip()
         if s:
             out.append((lineno, s))
     return out
+
+
+_DEF = re.compile(
+    r"^(?:GLOBAL\s+)?(DEF|DEFFCT)\s+(?:[A-Z_][A-Z0-9_]*\s+)?([A-Z_][A-Z0-9_]*)\s*\(", re.I
+)
+
+
+def _routines(
+    stmts: list[tuple[int, str]], source: str
+) -> tuple[list[tuple[str, list[tuple[int, str]]]], list[str]]:
+    """Split a .src into routines ``DEF name(...) ... END``; also names left unterminated."""
+    routines: list[tuple[str, list[tuple[int, str]]]] = []
+    open_: list[str] = []
+    cur: list[tuple[int, str]] | None = None
+    name = ""
+    for lineno, st in stmts:
+        up = st.upper()
+        m = _DEF.match(up)
+        if m and cur is None:
+            name = m.group(2) if m.group(1).upper() == "DEF" else "DEFFCT " + m.group(2)
+            cur = [(lineno, st)]
+            continue
+        if cur is None:
+            if up.startswith("&"):
+                continue
+            routines.append(("", [(lineno, st)]))  # statements outside DEF ... END
+            continue
+        cur.append((lineno, st))
+        if re.match(r"^(END|ENDFCT)\s*$", up):
+            routines.append((name, cur))
+            cur = None
+    if cur is not None:
+        routines.append((name, cur))
+        open_.append(name)
+    return routines, open_
 
 
 def parse_krl(
@@ -310,8 +562,9 @@ def parse_krl(
     source: str = "<krl>",
     *,
     dat: str | None = None,
-    tool_direction: str = "x",
+    tool_direction: str = "z",
     arc_tol_mm: float = 0.01,
+    coordinates: str = "workpiece",
 ) -> pd.DataFrame:
     """Read KRL text into the waypoint table.
 
@@ -323,47 +576,97 @@ def parse_krl(
         File name for the ``source`` column and messages.
     dat : str, optional
         Text of the matching ``.dat`` file (position variables).
-    tool_direction : {"x", "z"}
-        Tool frame axis along the working direction (KUKA default: x).
+    tool_direction : {"z", "x"}
+        Tool frame axis along the working direction (spindle to tip): ``z``
+        (default: RoboDK and other offline programming, and ABB, so the same
+        path posted as KRL and as RAPID gives one tool axis) or ``x``
+        (KUKA's factory ``$TOOL_DIRECTION``, for programs taught that way).
     arc_tol_mm : float
         Chord tolerance of linearised arcs [mm].
+    coordinates : {"workpiece", "machine"}
+        ``workpiece``: targets as programmed in the active base. ``machine``:
+        the literal ``$BASE`` frame applied (robot world/base coordinates).
 
     Returns
     -------
     pandas.DataFrame
-        The waypoint table.
+        The waypoint table; reader warnings in ``attrs["warnings"]``.
 
     Raises
     ------
     InputError
         Unsupported or malformed statements, naming ``source:line``.
     """
-    if tool_direction not in ("x", "z"):
-        raise InputError(f"tool_direction: expected 'x' or 'z', found {tool_direction!r}")
-    rd = _Reader(source, tool_direction, arc_tol_mm)
+    check_choice("tool_direction", tool_direction, TOOL_DIRECTIONS)
+    check_choice("coordinates", coordinates, ("workpiece", "machine"))
+    rd = _Reader(source, tool_direction, arc_tol_mm, coordinates)
     if dat is not None:
         dat_name = re.sub(r"\.src$", ".dat", source, flags=re.IGNORECASE)
         rd_dat = _Reader(dat_name, tool_direction, arc_tol_mm)
         for lineno, stmt in _lines(dat):
             rd_dat.statement(stmt, lineno, in_dat=True)
         rd.vars.update(rd_dat.vars)
-    for lineno, stmt in _lines(text):
-        rd.statement(stmt, lineno, in_dat=False)
-    return rd.out.table()
+        rd.unresolved.update(rd_dat.unresolved)
+    stmts = _lines(text)
+    if not stmts:
+        raise InputError("expected a KRL program, found no statements", source=source)
+    routines, unterminated = _routines(stmts, source)
+    local = {name: body for name, body in routines if name and not name.startswith("DEFFCT")}
+    mains = [(name, body) for name, body in routines if name]
+    if not mains:
+        raise InputError("expected a program DEF name() ... END, found none", source=source)
+    main_name, main_body = mains[0]
+    if main_name.startswith("DEFFCT"):
+        raise InputError(
+            "unsupported construct: the first routine is a function DEFFCT", source=source
+        )
+    for name, body in routines:
+        if not name:  # statements outside any DEF ... END
+            ln, st = body[0]
+            raise InputError(f"statement outside DEF ... END: {st!r}", source=f"{source}:{ln}")
+    if unterminated:
+        rd.out.warn(
+            f"DEF {unterminated[0]} has no END: the file may be truncated "
+            "(the path read so far is planned)"
+        )
+
+    def run(body: list[tuple[int, str]], depth: int) -> None:
+        for lineno, stmt in body:
+            called = rd.statement(stmt, lineno, in_dat=False)
+            if called is None:
+                continue
+            if called in local and called != main_name:
+                if depth > 20:
+                    raise InputError(
+                        f"calls nested deeper than 20 levels ({called})", f"{source}:{lineno}"
+                    )
+                if (
+                    re.search(r"\(\s*\S", stmt.split("(", 1)[1].rstrip(") "))
+                    if "(" in stmt
+                    else False
+                ):
+                    rd.out.warn(
+                        f"call to {called} with arguments: its body is followed with the "
+                        "arguments ignored",
+                        lineno,
+                        key=f"call-args-{called}",
+                    )
+                run(local[called], depth + 1)
+            else:
+                rd.out.warn(
+                    f"call to {called} ignored (not defined in this file: its motions are "
+                    "not followed)",
+                    lineno,
+                    key=f"call-{called}",
+                )
+
+    run(main_body, 0)
+    return rd.finish()
 
 
 def read_krl(path: str | Path, **options: float | str) -> pd.DataFrame:
     """Read a KRL ``.src`` file and the ``.dat`` beside it (if any)."""
     p = Path(path)
-
-    def text_of(q: Path) -> str:
-        try:
-            return q.read_text(encoding="utf-8")
-        except UnicodeDecodeError:
-            return q.read_text(encoding="latin-1")
-        except OSError as exc:
-            raise InputError(f"cannot read the file: {exc}", source=str(q)) from None
-
     if p.suffix.lower() == ".dat":
         src = p.with_suffix(".src")
         if not src.exists():
@@ -372,5 +675,5 @@ def read_krl(path: str | Path, **options: float | str) -> pd.DataFrame:
             raise InputError("a .dat file holds no motions; give the .src program", str(p))
         p = src
     dat_path = next((q for q in (p.with_suffix(".dat"), p.with_suffix(".DAT")) if q.exists()), None)
-    dat = text_of(dat_path) if dat_path is not None else None
-    return parse_krl(text_of(p), p.name, dat=dat, **options)  # type: ignore[arg-type]
+    dat = read_text(dat_path) if dat_path is not None else None
+    return parse_krl(read_text(p), p.name, dat=dat, **options)  # type: ignore[arg-type]

@@ -4,43 +4,63 @@
 [eax_a, ...]]`` in mm in the work object, which is the workpiece (path)
 frame; the quaternion is scalar first (q1 = w). ABB's tool convention makes
 the tool **Z** axis the working direction (spindle to tip), so the tool axis
-(tip to spindle) is ``-z_tool`` and the TCP x axis is ``x_tool``.
+(tip to spindle) is ``-z_tool`` and the TCP x axis is ``x_tool`` (reader
+option ``tool_direction = "x"`` for a tool frame defined the KUKA way).
 
 Supported: ``MoveL``, ``MoveJ`` (rapid), ``MoveC`` (circle point and end
-point), their ``Trigg``/``DO``/``Sync`` variants (first arguments are the
-targets), targets as literals, as ``CONST``/``PERS``/``VAR robtarget``
+point; the tool turns from the start to the end orientation by arc
+length), their ``Trigg``/``DO``/``Sync`` variants (first arguments are
+the targets), targets as literals, as ``CONST``/``PERS``/``VAR robtarget``
 names (``LOCAL`` too), and ``Offs(p, dx, dy, dz)``; ``speeddata`` ``vN``
 (N mm/s), ``vmax`` (5000 mm/s), user ``speeddata`` declarations (first
 component, mm/s) and the ``\\V:=`` argument; optional switches such as
 ``\\Conc``; ``!`` comments; ``%%%`` headers; statements spanning lines.
+The program runs from ``PROC main`` (or the only procedure); calls of
+procedures of the same module are followed where they are called (others
+are warned and skipped). ``\\WObj:=``: positions stay in their work object
+(a warning when moves use different ones); with ``coordinates =
+"machine"`` the module's literal ``wobjdata`` (uframe, oframe) is applied.
+A ``PROC`` without ``ENDPROC`` or a ``MODULE`` without ``ENDMODULE`` is
+warned as truncated; a statement without ``;`` at the end is an error.
 
 Ignored on purpose: ``MODULE``/``ENDMODULE``/``PROC``/``ENDPROC``,
-declarations of other types (tooldata, wobjdata, zonedata, num, ...),
-``MoveAbsJ`` (a joint target: it leaves the Cartesian path, which resumes
-at the next target) and the usual non-motion instructions (ConfL, ConfJ,
-SingArea, AccSet, VelSet, SetDO, SetAO, SetGO, PulseDO, WaitTime, WaitDI,
-WaitDO, WaitUntil, TPWrite, TPErase, Stop, Set, Reset, CorrClear,
-PathAccLim, ...). Calls of other procedures are ignored with a warning.
+declarations of other types (tooldata, zonedata, num, ...), ``MoveAbsJ``
+(a joint target: it leaves the Cartesian path, which resumes at the next
+target) and the usual non-motion instructions (ConfL, ConfJ, SingArea,
+AccSet, VelSet, SetDO, SetAO, SetGO, PulseDO, WaitTime, WaitDI, WaitDO,
+WaitUntil, TPWrite, TPErase, Stop, Set, Reset, CorrClear, PathAccLim, ...).
 
-Control flow (``IF``, ``FOR``, ``WHILE``, ``TEST``, ``GOTO``), ``RelTool``,
-``CRobT`` and other functions in targets raise
-:class:`~robolobe.errors.InputError` with ``file:line``.
+Refused with :class:`~robolobe.errors.InputError` naming ``file:line``:
+control flow (``IF``, ``FOR``, ``WHILE``, ``TEST``, ``GOTO``: the path
+would depend on run-time conditions), ``RelTool``, ``CRobT`` and other
+functions in targets (also a move to a robtarget variable assigned one:
+``p := CRobT(); MoveL p, ...``; ``p := Offs(q, ...)`` is followed),
+non-positive speeds, non-finite numbers.
 """
 
 from __future__ import annotations
 
+import json
 import logging
 import math
 import re
 from pathlib import Path
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 import pandas as pd
 
 from robolobe.errors import InputError
-from robolobe.plan.paths._arcs import arc_through
+from robolobe.plan.paths._arcs import arc_through, orientations_along
 from robolobe.plan.paths._table import WaypointBuilder
+from robolobe.plan.paths._text import (
+    TOOL_DIRECTIONS,
+    check_choice,
+    finite,
+    lines,
+    read_text,
+    tool_axes,
+)
 
 __all__ = ["parse_rapid", "quaternion_to_rotation", "read_rapid"]
 
@@ -84,6 +104,8 @@ def quaternion_to_rotation(q: np.ndarray) -> np.ndarray:
 
 
 def _strip_comment(line: str) -> str:
+    if "!" not in line:
+        return line
     in_str = False
     for n, ch in enumerate(line):
         if ch == '"':
@@ -98,7 +120,7 @@ def _statements(text: str, source: str) -> list[tuple[int, str]]:
     buf: list[str] = []
     start = 0
     in_header = False
-    for lineno, raw in enumerate(text.splitlines(), start=1):
+    for lineno, raw in enumerate(lines(text), start=1):
         s = raw.strip()
         if s.startswith("%%%"):
             in_header = not in_header
@@ -133,7 +155,9 @@ def _statements(text: str, source: str) -> list[tuple[int, str]]:
                 out.append((start, body))
             buf = []
     if buf:
-        raise InputError("statement not terminated by ';'", source=f"{source}:{start}")
+        raise InputError(
+            "statement not terminated by ';' (is the file truncated?)", source=f"{source}:{start}"
+        )
     return out
 
 
@@ -143,6 +167,21 @@ def _no_strings(s: str) -> str:
 
 def _split_args(text: str) -> list[str]:
     """Split at commas outside brackets/parentheses/strings."""
+    if '"' not in text:
+        # no strings: join comma pieces until their brackets balance (C-speed counts)
+        out: list[str] = []
+        acc = ""
+        depth = 0
+        for piece in text.split(","):
+            acc = piece if not acc and depth == 0 else acc + "," + piece
+            depth += piece.count("[") + piece.count("(") - piece.count("]") - piece.count(")")
+            if depth == 0:
+                if acc.strip():
+                    out.append(acc.strip())
+                acc = ""
+        if acc.strip():
+            out.append(acc.strip())
+        return out
     parts: list[str] = []
     cur: list[str] = []
     depth, in_str = 0, False
@@ -164,9 +203,21 @@ def _split_args(text: str) -> list[str]:
     return parts
 
 
+_JSONISH = re.compile(r"\[[\[\]0-9eE+\-.,\s]*\]")
+
+
+def _no_constant(name: str) -> float:
+    raise ValueError(name)
+
+
 def _nested(text: str, where: str) -> list[Any]:
     """Parse a RAPID aggregate literal ``[[1,2,3],[...]]`` into nested lists of floats."""
     t = text.strip()
+    if _JSONISH.fullmatch(t):
+        try:  # the common all-numeric literal, parsed in C
+            return cast(list[Any], json.loads(t, parse_constant=_no_constant, parse_int=float))
+        except ValueError:
+            pass
     if not (t.startswith("[") and t.endswith("]")):
         raise InputError(f"expected a literal [...], found {text.strip()!r}", source=where)
     items = _split_args(t[1:-1])
@@ -176,21 +227,31 @@ def _nested(text: str, where: str) -> list[Any]:
             out.append(_nested(it, where))
         else:
             try:
-                out.append(float(it))
+                v = float(it)
             except ValueError:
                 raise InputError(
                     f"unsupported construct: expression {it!r} in a literal", source=where
                 ) from None
+            out.append(v)
     return out
 
 
 class _Reader:
-    def __init__(self, source: str, tol: float) -> None:
+    def __init__(
+        self, source: str, tol: float, tool_direction: str = "z", coordinates: str = "workpiece"
+    ) -> None:
         self.source = source
         self.tol = tol
+        self.tool_direction = tool_direction
+        self.coordinates = coordinates
         self.targets: dict[str, tuple[np.ndarray, np.ndarray]] = {}  # pos mm, quaternion
+        self.robtargets: set[str] = set()  # declared robtarget names
+        self.unresolved: dict[str, str] = {}  # robtargets set at run time (CRobT(), ...)
         self.speeds: dict[str, float] = {}
+        self.wobjs: dict[str, np.ndarray] = {"WOBJ0": np.eye(4)}  # uframe @ oframe (mm)
+        self.wobj_used: str | None = None
         self.pos: np.ndarray | None = None
+        self.rot: np.ndarray | None = None  # tool orientation at self.pos
         self.out = WaypointBuilder(source)
 
     def robtarget(self, text: str, where: str) -> tuple[np.ndarray, np.ndarray] | None:
@@ -206,14 +267,18 @@ class _Reader:
                 ) from None
             if pos.shape != (3,) or quat.shape != (4,):
                 raise InputError("expected a robtarget [[x,y,z],[q1,q2,q3,q4],...]", where)
-            if abs(np.linalg.norm(quat) - 1) > 1e-3:
+            if not np.all(np.isfinite(pos)) or float(np.max(np.abs(pos))) > 1e7:
+                raise InputError(
+                    f"robtarget position {pos.tolist()}: expected finite mm within 1e7", where
+                )
+            if not np.all(np.isfinite(quat)) or abs(np.linalg.norm(quat) - 1) > 1e-3:
                 raise InputError(
                     f"quaternion {quat.tolist()} is not normalised "
                     f"(|q| = {np.linalg.norm(quat):.5f})",
                     where,
                 )
             return pos, quat
-        m = re.match(r"^OFFS\s*\((.*)\)$", t, re.IGNORECASE)
+        m = re.match(r"^OFFS\s*\((.*)\)$", t, re.IGNORECASE) if "(" in t else None
         if m:
             args = _split_args(m.group(1))
             if len(args) != 4:
@@ -227,42 +292,95 @@ class _Reader:
                 d = np.array([float(a) for a in args[1:]])
             except ValueError:
                 raise InputError("Offs: expected numeric offsets", source=where) from None
+            if not np.all(np.isfinite(d)):
+                raise InputError("Offs: expected finite offsets", source=where)
             return base[0] + d, base[1]
-        if re.match(r"^[A-Z_][A-Z0-9_]*\s*\(", t, re.IGNORECASE):
+        if "(" in t and re.match(r"^[A-Z_][A-Z0-9_]*\s*\(", t, re.IGNORECASE):
             fn = t.split("(")[0].strip()
             raise InputError(f"unsupported construct: function {fn} in a target", source=where)
         name = t.upper()
+        if name in self.unresolved:
+            raise InputError(
+                f"robtarget {t} is set at run time ({self.unresolved[name]!r}): expected a "
+                "literal or Offs() of one",
+                source=where,
+            )
         if name not in self.targets:
             raise InputError(f"unknown robtarget {t!r}", source=where)
         return self.targets[name]
 
+    def assign(self, name: str, value: str, where: str) -> None:
+        """``name := value`` for a robtarget variable (a failure marks it as run-time)."""
+        try:
+            tgt = self.robtarget(value, where)
+        except InputError:
+            self.unresolved[name] = value.strip()
+            return
+        assert tgt is not None
+        self.targets[name] = tgt
+        self.unresolved.pop(name, None)
+
     def speed(self, args: list[str], where: str) -> float:
         """TCP speed [mm/s] from the speeddata argument and an optional \\V:=."""
         v = math.nan
-        pieces = [p.strip() for a in args for p in re.split(r"(?=\\)", a) if p.strip()]
+        pieces = [
+            p.strip() for a in args for p in (re.split(r"(?=\\)", a) if "\\" in a else (a,))
+            if p.strip()
+        ]  # fmt: skip
         for a in pieces:
-            m = re.match(r"^\\V\s*:=\s*([-+0-9.E]+)$", a, re.IGNORECASE)
+            m = re.match(r"^\\V\s*:=\s*(\S+)$", a, re.IGNORECASE)
             if m:
-                return float(m.group(1))
+                return _speed(m.group(1), where)
         for a in pieces:
             u = a.strip().upper()
             m = re.match(r"^V(\d+(?:\.\d*)?)$", u)
             if m:
-                return float(m.group(1))
+                return _speed(m.group(1), where)
             if u == "VMAX":
                 return 5000.0
             if u in self.speeds:
-                return self.speeds[u]
+                return _speed(str(self.speeds[u]), where)
         return v
 
-    def statement(self, lineno: int, stmt: str) -> None:
+    def wobj(self, args: list[str], where: str) -> np.ndarray:
+        """The work object frame of a move (``\\WObj:=name``; default wobj0)."""
+        name = "WOBJ0"
+        for a in args:
+            if "\\" not in a:
+                continue
+            for piece in re.split(r"(?=\\)", a):
+                m = re.match(r"^\\WOBJ\s*:=\s*([A-Za-z_]\w*)\s*$", piece.strip(), re.IGNORECASE)
+                if m:
+                    name = m.group(1).upper()
+        if self.wobj_used is not None and name != self.wobj_used and self.coordinates != "machine":
+            self.out.warn(
+                f"moves in different work objects ({self.wobj_used} and {name}): positions are "
+                "taken as programmed in each (set coordinates = 'machine' to apply them)",
+                int(where.rsplit(":", 1)[1]),
+                key="wobj-mix",
+            )
+        self.wobj_used = name
+        if self.coordinates != "machine":
+            return np.eye(4)
+        if name not in self.wobjs:
+            raise InputError(
+                f"coordinates = 'machine' needs the work object {name} as a literal wobjdata "
+                "in this module",
+                where,
+            )
+        return self.wobjs[name]
+
+    def statement(self, lineno: int, stmt: str) -> str | None:
+        """Apply one statement; return the name of a called procedure, if any."""
         where = f"{self.source}:{lineno}"
         s = stmt.strip()
         if _BLOCK_WORDS.match(s):
-            return
+            return None
         if _CONTROL.match(s):
             raise InputError(
-                f"unsupported construct: control flow {s.split()[0].upper()}", source=where
+                f"unsupported construct: control flow {s.split()[0].upper()} (the path depends "
+                "on run-time conditions; export the moves as a straight sequence)",
+                source=where,
             )
         m = re.match(
             r"^(?:LOCAL\s+|TASK\s+)?(CONST|PERS|VAR)\s+([A-Za-z_]\w*)\s+([A-Za-z_]\w*)\s*(?::=\s*(.*))?$",
@@ -272,33 +390,38 @@ class _Reader:
         if m:
             _, typ, name, value = m.groups()
             typ = typ.lower()
-            if typ == "robtarget" and value is not None:
-                tgt = self.robtarget(value, where)
-                assert tgt is not None
-                self.targets[name.upper()] = tgt
+            if typ == "robtarget":
+                self.robtargets.add(name.upper())
+                if value is not None:
+                    self.assign(name.upper(), value, where)
             elif typ == "speeddata" and value is not None:
                 lit = _nested(value, where)
                 self.speeds[name.upper()] = float(lit[0])
-            elif typ in ("tooldata", "wobjdata"):
-                logger.info(
-                    "%s: %s %s not applied (path taken in the work object)", where, typ, name
-                )
-            return
+            elif typ == "wobjdata" and value is not None:
+                self.wobjs[name.upper()] = _wobj_frame(value, where)
+            elif typ == "tooldata":
+                logger.info("%s: tooldata %s not applied (the path is the TCP's)", where, name)
+            return None
         head = re.match(r"^([A-Za-z_]\w*)\s*(.*)$", s, re.DOTALL)
         if not head:
             raise InputError(f"unsupported RAPID statement {s!r}", source=where)
         word, rest = head.group(1).upper(), head.group(2).strip()
-        if rest.startswith(":="):
-            return  # assignment
+        if rest.startswith(":=") or (rest.startswith(".") and ":=" in rest):
+            if word in self.robtargets:
+                if rest.startswith(":="):
+                    self.assign(word, rest[2:], where)
+                else:  # a component (p.trans.x := ...): the value is now the program's
+                    self.unresolved[word] = word + rest
+            return None  # assignment
         if word in _MOVES:
             self.move(_MOVES[word], rest, lineno, where)
-            return
+            return None
         if word == "MOVEABSJ" or word == "MOVEEXTJ":
             logger.info("%s: %s to a joint target left out of the path", where, word)
-            return
+            return None
         if word in _IGNORED:
-            return
-        logger.warning("%s: call to %s ignored (its motions are not followed)", where, word)
+            return None
+        return word
 
     def move(self, kind: str, rest: str, lineno: int, where: str) -> None:
         args = [a for a in _split_args(rest) if a]
@@ -310,32 +433,127 @@ class _Reader:
             raise InputError(f"Move{kind}: expected target(s) and speeddata, found {rest!r}", where)
         pts = []
         for a in args[:n_pts]:
-            # an optional argument glued to the target, e.g. p10 \ID:=..., is not RAPID syntax
             t = self.robtarget(a, where)
             assert t is not None
             pts.append(t)
         rapid = kind == "J"
         v = self.speed(args[n_pts:], where)
+        frame = self.wobj(args[n_pts:], where)
         feed = math.nan if rapid else v * 60.0
-        end_pos, end_q = pts[-1]
-        rot = quaternion_to_rotation(end_q)
-        axis, ref = -rot[:, 2], rot[:, 0]
+        r_w, o_w = frame[:3, :3], frame[:3, 3]
+        end_pos = r_w @ pts[-1][0] + o_w
+        rot = r_w @ quaternion_to_rotation(pts[-1][1])
+        axis, ref = tool_axes(rot, self.tool_direction)
         if kind == "C":
             if self.pos is None:
                 raise InputError("MoveC before any position", source=where)
-            arc = arc_through(self.pos, pts[0][0], end_pos, tol=self.tol, where=where)
-            for p in arc:
-                self.out.add(
-                    p * 1e-3, axis, line=lineno, rapid=False, feed_mm_per_min=feed, ref=ref
-                )
+            via = r_w @ pts[0][0] + o_w
+            arc = arc_through(self.pos, via, end_pos, tol=self.tol, where=where)
+            rot0 = self.rot if self.rot is not None else rot
+            ax_k, ref_k = tool_axes(
+                orientations_along(self.pos, rot0, rot, arc), self.tool_direction
+            )
+            for p, a, r in zip(arc, ax_k, ref_k, strict=True):
+                self.out.add(p * 1e-3, a, line=lineno, rapid=False, feed_mm_per_min=feed, ref=r)
         else:
             self.out.add(
                 end_pos * 1e-3, axis, line=lineno, rapid=rapid, feed_mm_per_min=feed, ref=ref
             )
         self.pos = end_pos
+        self.rot = rot
 
 
-def parse_rapid(text: str, source: str = "<rapid>", *, arc_tol_mm: float = 0.01) -> pd.DataFrame:
+def _speed(text: str, where: str) -> float:
+    v = finite(text, where, "speed")
+    if v <= 0:
+        raise InputError(f"expected a positive TCP speed [mm/s], found {text!r}", source=where)
+    return v
+
+
+def _wobj_frame(value: str, where: str) -> np.ndarray:
+    """uframe @ oframe of a wobjdata literal [robhold, ufprog, ufmec, uframe, oframe] (mm)."""
+    lit = _nested_loose(value, where)
+    try:
+        frames = [x for x in lit if isinstance(x, list)]
+        uf, of = frames[0], frames[1]
+        out = np.eye(4)
+        for fr in (uf, of):
+            t = np.eye(4)
+            t[:3, :3] = quaternion_to_rotation(np.array(fr[1], dtype=np.float64))
+            t[:3, 3] = np.array(fr[0], dtype=np.float64)
+            out = out @ t
+    except (IndexError, TypeError, ValueError):
+        raise InputError(
+            "expected a wobjdata [b, b, s, [[x,y,z],[q]], [[x,y,z],[q]]]", where
+        ) from None
+    return out
+
+
+def _nested_loose(text: str, where: str) -> list[Any]:
+    """Like :func:`_nested`, keeping non-numeric items (TRUE, strings) as text."""
+    t = text.strip()
+    if not (t.startswith("[") and t.endswith("]")):
+        raise InputError(f"expected a literal [...], found {text.strip()!r}", source=where)
+    out: list[Any] = []
+    for it in _split_args(t[1:-1]):
+        if it.startswith("["):
+            out.append(_nested_loose(it, where))
+        else:
+            try:
+                out.append(float(it))
+            except ValueError:
+                out.append(it)
+    return out
+
+
+def _procedures(
+    stmts: list[tuple[int, str]],
+) -> tuple[list[tuple[int, str]], dict[str, list[tuple[int, str]]], list[str], bool]:
+    """Module-level statements, procedure bodies by name, procedure order, ENDMODULE seen."""
+    top: list[tuple[int, str]] = []
+    procs: dict[str, list[tuple[int, str]]] = {}
+    order: list[str] = []
+    cur: list[tuple[int, str]] | None = None
+    ended = False
+    skipping = ""  # FUNC or TRAP routines: not motion code (function calls in targets are refused)
+    for lineno, st in stmts:
+        if skipping:
+            if re.match(rf"^END{skipping}\b", st, re.IGNORECASE):
+                skipping = ""
+            continue
+        mf = re.match(r"^(?:LOCAL\s+)?(FUNC|TRAP)\b", st, re.IGNORECASE)
+        if mf and cur is None:
+            skipping = mf.group(1).upper()
+            continue
+        m = re.match(r"^(?:LOCAL\s+)?PROC\s+([A-Za-z_]\w*)", st, re.IGNORECASE)
+        if m and cur is None:
+            name = m.group(1).upper()
+            cur = procs.setdefault(name, [])
+            order.append(name)
+            continue
+        if re.match(r"^ENDPROC\b", st, re.IGNORECASE):
+            cur = None
+            continue
+        if re.match(r"^ENDMODULE\b", st, re.IGNORECASE):
+            ended = True
+            continue
+        if cur is None:
+            top.append((lineno, st))
+        else:
+            cur.append((lineno, st))
+    if cur is not None:
+        order.append("\x00open")
+    return top, procs, order, ended
+
+
+def parse_rapid(
+    text: str,
+    source: str = "<rapid>",
+    *,
+    arc_tol_mm: float = 0.01,
+    tool_direction: str = "z",
+    coordinates: str = "workpiece",
+) -> pd.DataFrame:
     """Read RAPID text into the waypoint table.
 
     Parameters
@@ -346,30 +564,78 @@ def parse_rapid(text: str, source: str = "<rapid>", *, arc_tol_mm: float = 0.01)
         File name for the ``source`` column and messages.
     arc_tol_mm : float
         Chord tolerance of linearised arcs [mm].
+    tool_direction : {"z", "x"}
+        Tool frame axis along the working direction: ``z`` (ABB's convention)
+        or ``x`` (a tool frame defined the KUKA way).
+    coordinates : {"workpiece", "machine"}
+        ``workpiece``: targets as programmed in their work object (a warning
+        when moves use different ones). ``machine``: each move's ``\\WObj``
+        (uframe and oframe of a literal wobjdata in the module) applied.
 
     Returns
     -------
     pandas.DataFrame
-        The waypoint table.
+        The waypoint table; reader warnings in ``attrs["warnings"]``.
 
     Raises
     ------
     InputError
         Unsupported or malformed statements, naming ``source:line``.
     """
-    rd = _Reader(source, arc_tol_mm)
-    for lineno, stmt in _statements(text, source):
-        rd.statement(lineno, stmt)
-    return rd.out.table()
+    check_choice("tool_direction", tool_direction, TOOL_DIRECTIONS)
+    check_choice("coordinates", coordinates, ("workpiece", "machine"))
+    rd = _Reader(source, arc_tol_mm, tool_direction, coordinates)
+    stmts = _statements(text, source)
+    if not stmts:
+        raise InputError("expected a RAPID module, found no statements", source=source)
+    top, procs, order, ended = _procedures(stmts)
+    if "\x00open" in order:
+        rd.out.warn(
+            f"PROC {order[-2]} has no ENDPROC: the file may be truncated "
+            "(the path read so far is planned)"
+        )
+        order = order[:-1]
+    elif not ended and any(re.match(r"^MODULE\b", s, re.IGNORECASE) for _, s in stmts):
+        rd.out.warn("MODULE without ENDMODULE: the file may be truncated")
+    for lineno, st in top:
+        called = rd.statement(lineno, st)
+        if called is not None:
+            raise InputError(f"statement outside a PROC: {st!r}", source=f"{source}:{lineno}")
+
+    def run(body: list[tuple[int, str]], depth: int, name: str) -> None:
+        for lineno, st in body:
+            called = rd.statement(lineno, st)
+            if called is None:
+                continue
+            if called in procs and called != name:
+                if depth > 20:
+                    raise InputError(
+                        f"procedure calls nested deeper than 20 levels ({called})",
+                        f"{source}:{lineno}",
+                    )
+                run(procs[called], depth + 1, called)
+            else:
+                rd.out.warn(
+                    f"call to {called} ignored (not a procedure of this module: its motions "
+                    "are not followed)",
+                    lineno,
+                    key=f"call-{called}",
+                )
+
+    if "MAIN" in procs:
+        run(procs["MAIN"], 0, "MAIN")
+    elif len(order) == 1:
+        run(procs[order[0]], 0, order[0])
+    elif order:
+        rd.out.warn(f"no PROC main: the procedures are read in file order ({', '.join(order)})")
+        for name in order:
+            run(procs[name], 0, name)
+    df = rd.out.table()
+    df.attrs["warnings"] = rd.out.notes()
+    return df
 
 
-def read_rapid(path: str | Path, **options: float) -> pd.DataFrame:
+def read_rapid(path: str | Path, **options: float | str) -> pd.DataFrame:
     """Read a RAPID module file (see :func:`parse_rapid`)."""
     p = Path(path)
-    try:
-        text = p.read_text(encoding="utf-8")
-    except UnicodeDecodeError:
-        text = p.read_text(encoding="latin-1")
-    except OSError as exc:
-        raise InputError(f"cannot read the file: {exc}", source=str(p)) from None
-    return parse_rapid(text, p.name, **options)
+    return parse_rapid(read_text(p), p.name, **options)  # type: ignore[arg-type]
