@@ -673,13 +673,9 @@ class ModalPredictor:
         InputError
             If the file is missing, not a robolobe model, or inconsistent.
         """
-        path = Path(path)
-        try:
-            with np.load(path, allow_pickle=False) as z:
-                arrays = {k: z[k] for k in z.files}
-        except (OSError, ValueError) as exc:
-            raise InputError(f"cannot read the model file: {exc}", source=str(path)) from None
-        return cls._from_arrays(arrays, str(path))
+        from robolobe._npz import read_npz
+
+        return cls._from_arrays(read_npz(path), str(path))
 
     @classmethod
     def _from_arrays(cls, arrays: dict[str, Any], where: str) -> ModalPredictor:
