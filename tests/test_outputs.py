@@ -118,3 +118,41 @@ def test_cli_simulate_output_that_is_a_file_is_refused_before_work(tmp_path: Pat
     assert r.returncode == 2, r.stderr
     assert "is a file; expected a folder path" in r.stderr
     assert f.read_text() == "x"
+
+
+@pytest.mark.parametrize(
+    "args",
+    [
+        ["identify", "CAMP", "-o", "DIR"],
+        ["identify", "CAMP", "-o", "DIR/m.csv", "--plots", "FILE"],
+        ["plan", "-o", "FILE"],
+        ["plan", "-o", "FILE/sub"],
+        ["batch", "PATH", "--job", "JOB", "-o", "FILE"],
+        ["compare", "PATH", "--job", "JOB", "-o", "FILE"],
+        ["sld", "--modes", "MODES", "--teeth", "2", "--immersion", "0.5", "--rpm", "5000:6000",
+         "--material", "Al7075-T6", "-o", "M/x.csv", "--plot", "DIR"],
+    ],
+)  # fmt: skip
+def test_cli_bad_outputs_refused_before_work(tmp_path: Path, args: list[str]) -> None:
+    d = tmp_path / "d"
+    d.mkdir()
+    f = tmp_path / "file.txt"
+    f.write_text("x")
+    modes = tmp_path / "modes.csv"
+    modes.write_text("dir,mode,f_hz,zeta,k_N_per_m\nxx,1,500,0.03,2e7\n")
+    subst = {
+        "DIR": str(d), "FILE": str(f), "CAMP": str(tmp_path / "camp"), "MODES": str(modes),
+        "PATH": str(tmp_path / "p.nc"), "JOB": str(tmp_path / "j.toml"), "M": str(tmp_path),
+    }  # fmt: skip
+
+    def expand(arg: str) -> str:
+        head, _, rest = arg.partition("/")
+        return subst.get(head, head) + (f"/{rest}" if rest else "")
+
+    argv = [expand(a) for a in args]
+    r = _cli(*argv)
+    assert r.returncode == 2, r.stderr
+    assert "Traceback" not in r.stderr
+    assert "--output" in r.stderr or "--plot" in r.stderr, r.stderr
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["d", "file.txt", "modes.csv"]
+    assert f.read_text() == "x"

@@ -117,12 +117,17 @@ def register(app: typer.Typer) -> None:
         import numpy as np
         import pandas as pd
 
-        from robolobe._atomic import atomic_dir, atomic_path
+        from robolobe._atomic import atomic_dir, atomic_path, check_output_dir, check_output_file
         from robolobe.cli._common import console, err_console, progress
         from robolobe.modal.identify import identify_campaign
         from robolobe.modal.modal_csv import write_modal_csv
         from robolobe.twin.campaign import read_campaign
 
+        check_output_file(output, "--output")
+        if plots is not None:
+            check_output_dir(plots, "--plots")
+        if fit_report is not None:
+            check_output_file(fit_report, "--fit-report")
         if modes < 1:
             raise InputError(f"expected an integer >= 1, found {modes}", source="--modes")
         if campaign.is_file():

@@ -11,7 +11,7 @@ from rich.markup import escape
 from rich.table import Table
 
 from robolobe.cli._common import console, err_console, progress, status
-from robolobe.errors import EXIT_INPUT, InputError
+from robolobe.errors import EXIT_INPUT, InfeasibleError, InputError
 
 __all__ = ["EXAMPLE_JOB", "EXAMPLE_PATH", "example_files", "register"]
 
@@ -168,10 +168,12 @@ def register(app: typer.Typer) -> None:
         power and torque limits. Writes waypoints.csv, summary.json, plots and
         report.html. Exit code 3 when no feasible plan exists.
         """
+        from robolobe._atomic import check_output_dir
         from robolobe.plan.job import load_job
         from robolobe.plan.pipeline import plan_path
         from robolobe.plan.report import write_outputs
 
+        check_output_dir(output, "--output")
         if path is None and job is None:
             path, job = example_files()
             err_console.print(f"running the bundled example: {path.name} with {job.name}")
@@ -227,9 +229,11 @@ def register(app: typer.Typer) -> None:
         in front of that robot that reaches it is searched (or the robot is
         reported unreachable). Writes compare.csv/json/png and each robot's plan.
         """
+        from robolobe._atomic import check_output_dir
         from robolobe.plan.compare import compare_robots, write_comparison
         from robolobe.plan.job import load_job
 
+        check_output_dir(output, "--output")
         if job == Path():
             raise InputError("--job: expected a job file, found none")
         names: list[str] = []
@@ -266,6 +270,10 @@ def register(app: typer.Typer) -> None:
         console.print(
             f"outputs in {output}/ (compare.csv, compare.json, compare.png, one folder per robot)"
         )
+        if not (cmp.table["status"] == "ok").any():
+            # no robot can do the job: a failure, not a comparison
+            err = InfeasibleError if (cmp.table["status"] == "infeasible").all() else InputError
+            raise err(f"no robot of {', '.join(names)} can run this job (see the table above)")
 
     @app.command("batch")
     def batch_command(
@@ -314,6 +322,17 @@ def register(app: typer.Typer) -> None:
             raise InputError("--job: expected a job file, found none")
         if fmt not in ("auto", "parquet", "csv"):
             raise InputError(f"--format: expected auto, parquet or csv, found {fmt!r}")
+        from robolobe._atomic import check_output_dir
+
+        check_output_dir(output, "--output")
+        if fmt == "parquet":
+            try:
+                import pyarrow  # noqa: F401
+            except ImportError:
+                raise InputError(
+                    "--format parquet needs pyarrow (pip install 'robolobe[parquet]'), "
+                    "found it missing; use --format csv"
+                ) from None
         j = _with_path_opts(
             load_job(job),
             _path_opts(units=units, tool_direction=tool_direction, coordinates=coordinates,
