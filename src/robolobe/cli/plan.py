@@ -253,7 +253,8 @@ def register(app: typer.Typer) -> None:
         cols = {
             "robot": "robot", "status": "status", "depth_mm": "depth\nmm",
             "rpm_min": "rpm\nmin", "rpm_max": "rpm\nmax", "mrr_cm3_per_min": "MRR\ncm3/min",
-            "cycle_time_s": "cycle\ns", "min_margin": "min\nmargin",
+            "cycle_time_s": "cycle\ns", "passes": "passes", "part_time_s": "part\ns",
+            "min_margin": "min\nmargin",
             "worst_source": "worst\nwaypoint",
         }  # fmt: skip
         t = Table(title=f"robolobe compare: {path.name}")

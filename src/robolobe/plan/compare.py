@@ -217,6 +217,9 @@ def compare_robots(
                 rpm_max=s["rpm_max"],
                 mrr_cm3_per_min=s["mrr_cm3_per_min"],
                 cycle_time_s=s["cycle_time_s"],
+                passes=_passes(jr, s["depth_mm"]),
+                part_time_s=_passes(jr, s["depth_mm"]) * s["cycle_time_s"],
+                time_per_mm_depth_s=s["cycle_time_s"] / s["depth_mm"],
                 min_margin=s["min_margin"],
                 worst_waypoint=s["min_margin_at"]["waypoint"],
                 worst_source=s["min_margin_at"]["source"],
@@ -234,11 +237,20 @@ def compare_robots(
         rows.append(row)
     cols = [
         "robot", "status", "placement_adjusted", "placement_xyz_m", "depth_mm", "rpm_min",
-        "rpm_max", "mrr_cm3_per_min", "cycle_time_s", "min_margin", "worst_waypoint",
+        "rpm_max", "mrr_cm3_per_min", "cycle_time_s", "passes", "part_time_s",
+        "time_per_mm_depth_s", "min_margin", "worst_waypoint",
         "worst_source", "method", "mode_source", "message",
     ]  # fmt: skip
     table = pd.DataFrame(rows).reindex(columns=cols)
     return Comparison(table=table, results=results)
+
+
+def _passes(job: Job, depth_mm: float) -> float:
+    """Passes needed to remove the job's stock at ``depth_mm`` per pass (NaN: no stock given)."""
+    stock = job.cut.stock_depth_m
+    if stock is None or depth_mm <= 0:
+        return math.nan
+    return float(math.ceil(stock * 1e3 / depth_mm - 1e-9))
 
 
 def _plot(cmp: Comparison) -> bytes:
@@ -252,9 +264,17 @@ def _plot(cmp: Comparison) -> bytes:
     axes = fig.subplots(2, 2)
     names = list(t["robot"].astype(str))
     colors = ["C0", "C1", "C2", "C3", "C4", "C5"]
+    # Per part, never per pass: a robot that needs three times the passes
+    # must not look fastest because each pass is short.
+    per_part = pd.to_numeric(t["part_time_s"], errors="coerce").notna().any()
+    time_col, time_label = (
+        ("part_time_s", "time per part, all passes [s]")
+        if per_part
+        else ("time_per_mm_depth_s", "machining time per mm of depth [s/mm]")
+    )
     for ax, col, label in (
         (axes[0, 0], "mrr_cm3_per_min", "MRR [cm^3/min]"),
-        (axes[0, 1], "cycle_time_s", "cycle time [s]"),
+        (axes[0, 1], time_col, time_label),
         (axes[1, 0], "min_margin", "minimum margin a_lim/depth"),
     ):
         vals = pd.to_numeric(t[col], errors="coerce").fillna(0.0).to_numpy()
@@ -268,6 +288,7 @@ def _plot(cmp: Comparison) -> bytes:
         ax.plot(res.geom.s_m, res.outcome.best.rpm, color=colors[i % len(colors)], label=key)
     ax.set_xlabel("cutting length [m]")
     ax.set_ylabel("planned speed [rpm]")
+    ax.set_title("planned spindle speed along the path")
     if cmp.results:
         ax.legend(fontsize=8)
     fig.suptitle("Same job on each robot")

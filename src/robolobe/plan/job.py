@@ -48,6 +48,8 @@ Example (all keys; defaults shown where a key is optional)::
     max_feed_mm_per_min = 20000  # optional cap on the feed rate (robot path speed)
     rapid_feed_mm_per_min = 30000
     programmed_rpm = 18000       # optional: used where the path has no S word
+    stock_depth_mm = 12.0        # optional: total depth to remove (all passes), for
+                                 # per-part times in compare
 
     [spindle]
     rpm_min = 6000
@@ -194,6 +196,7 @@ class _CutSpec(_Spec):
     max_feed_mm_per_min: PosNum | None = None
     rapid_feed_mm_per_min: PosNum = 30000.0
     programmed_rpm: PosNum | None = None
+    stock_depth_mm: PosNum | None = None
 
     @model_validator(mode="after")
     def _width(self) -> _CutSpec:
@@ -362,6 +365,9 @@ class CutSpec:
         Speed of rapid moves [m/s], for the cycle time.
     programmed_rpm : float or None
         Spindle speed [rpm] used where the path programs none.
+    stock_depth_m : float or None
+        Total axial depth to remove with this path [m] (all passes), for
+        per-part times (``compare``); None: not given.
     """
 
     radial_width_m: float
@@ -370,6 +376,7 @@ class CutSpec:
     max_feed_m_per_s: float | None = None
     rapid_feed_m_per_s: float = 0.5
     programmed_rpm: float | None = None
+    stock_depth_m: float | None = None
 
 
 @dataclass(frozen=True)
@@ -629,6 +636,7 @@ def job_from_dict(d: dict[str, Any], source: str = "<dict>", base_dir: Path | No
         max_feed_m_per_s=c.max_feed_mm_per_min * 1e-3 / 60 if c.max_feed_mm_per_min else None,
         rapid_feed_m_per_s=c.rapid_feed_mm_per_min * 1e-3 / 60,
         programmed_rpm=c.programmed_rpm,
+        stock_depth_m=c.stock_depth_mm * 1e-3 if c.stock_depth_mm else None,
     )
     s = spec.spindle
     spindle = SpindleSpec(s.rpm_min, s.rpm_max, s.power_kW * 1e3, s.torque_Nm)
