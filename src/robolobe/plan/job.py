@@ -748,6 +748,8 @@ def job_to_dict(job: Job) -> dict[str, Any]:
         cut["max_feed_mm_per_min"] = _clean(job.cut.max_feed_m_per_s * 6e4)
     if job.cut.programmed_rpm is not None:
         cut["programmed_rpm"] = _clean(job.cut.programmed_rpm)
+    if job.cut.stock_depth_m is not None:
+        cut["stock_depth_mm"] = _clean(job.cut.stock_depth_m * 1e3)
     pl = job.plan
     plan: dict[str, Any] = {
         "safety_factor": _clean(pl.safety_factor),
