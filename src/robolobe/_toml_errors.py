@@ -6,10 +6,13 @@ Shared by the robot-file and job-file readers: a pydantic error becomes
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+import difflib
+from collections.abc import Iterable, Sequence
 from typing import Any
 
-__all__ = ["describe_error", "found", "key_path"]
+from robolobe.errors import InputError
+
+__all__ = ["check_key_typos", "describe_error", "found", "key_path"]
 
 
 def key_path(loc: Sequence[int | str], table_arrays: Sequence[str] = ()) -> str:
@@ -92,3 +95,39 @@ def describe_error(err: Any) -> str:
     else:
         return str(err.get("msg", kind))
     return f"expected {expected}, found {found(inp)}"
+
+
+def check_key_typos(tables: Iterable[tuple[Any, Iterable[str], str]], where: str) -> None:
+    """Refuse a key that looks like a misspelt known key.
+
+    A misspelt optional key would otherwise be ignored and its default used
+    without a word; a misspelt required key would be reported as missing.
+    Unknown keys that resemble no known key are allowed (extensions).
+
+    Parameters
+    ----------
+    tables : iterable of (table, known keys, key-path prefix)
+        Each parsed TOML table (anything that is not a dict is skipped), the
+        keys it may hold and its path for messages (e.g. ``"plan."``).
+    where : str
+        File name for the message.
+
+    Raises
+    ------
+    InputError
+        ``where: unknown key plan.safty_factor; did you mean 'safety_factor'?``
+    """
+    for table, known, prefix in tables:
+        if not isinstance(table, dict):
+            continue
+        names = sorted(known)
+        for key in table:
+            if key in known:
+                continue
+            close = difflib.get_close_matches(str(key), names, n=1, cutoff=0.75)
+            if close:
+                raise InputError(
+                    f"unknown key {prefix}{key}; did you mean {close[0]!r}? "
+                    "(a misspelt key would be ignored)",
+                    source=where,
+                )

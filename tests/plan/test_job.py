@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import logging
 import math
 import tomllib
 
@@ -89,12 +88,27 @@ def test_errors_name_file_and_key(edit, key, what):
     assert what in msg
 
 
-def test_typo_is_logged(caplog):
+def test_misspelt_keys_are_refused_with_did_you_mean():
     d = _base()
     d["tool"]["diamter_mm"] = 12.0
-    with caplog.at_level(logging.WARNING):
+    with pytest.raises(
+        InputError, match=r"^job\.toml: unknown key tool\.diamter_mm; did you mean 'diameter_mm'"
+    ):
         job_from_dict(d, source="job.toml")
-    assert "did you mean 'diameter_mm'" in caplog.text
+    # an optional key misspelt: would silently plan with the default safety factor
+    d = _base()
+    d["plan"] = {"safty_factor": 2.0}
+    with pytest.raises(InputError, match=r"plan\.safty_factor; did you mean 'safety_factor'"):
+        job_from_dict(d, source="job.toml")
+    # a required key misspelt gets the hint too (not just "missing")
+    d = _base()
+    d["cut"]["feed_per_toth_mm"] = d["cut"].pop("feed_per_tooth_mm")
+    with pytest.raises(InputError, match="did you mean 'feed_per_tooth_mm'"):
+        job_from_dict(d, source="job.toml")
+    # an unrelated extra key is allowed
+    d = _base()
+    d["comment"] = "second shift"
+    job_from_dict(d, source="job.toml")
 
 
 def test_toml_syntax_error_has_line(tmp_path):

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import logging
 import re
 from pathlib import Path
 
@@ -176,19 +175,20 @@ def test_robot_from_dict_names_source() -> None:
         robot_from_dict([1, 2], "x.toml")  # type: ignore[arg-type]
 
 
-def test_typo_warning_and_extra_keys(tmp_path: Path, caplog: pytest.LogCaptureFixture) -> None:
+def test_misspelt_keys_are_refused_and_extra_keys_allowed(tmp_path: Path) -> None:
     d = _base()
     d["joints"][2]["stifness_Nm_per_rad"] = 1.0  # typo of a known key
-    d["tool"]["zxy_deg"] = [0, 0, 0]  # typo
-    d["comment"] = "lab robot 2"  # unrelated extra key: no warning
-    path = _write(tmp_path, d, "typo.toml")
-    with caplog.at_level(logging.WARNING, logger="robolobe.robots.io"):
-        r = load_robot(path)
-    msgs = [rec.getMessage() for rec in caplog.records]
-    assert any("[[joints]][3].stifness_Nm_per_rad" in m and "stiffness_Nm_per_rad" in m
-               for m in msgs)  # fmt: skip
-    assert any("tool.zxy_deg" in m and "'zyx_deg'" in m for m in msgs)
-    assert not any("comment" in m for m in msgs)
+    with pytest.raises(
+        InputError, match=r"\[\[joints\]\]\[3\]\.stifness_Nm_per_rad; did you mean 'stiffness_Nm"
+    ):
+        load_robot(_write(tmp_path, d, "typo.toml"))
+    d = _base()
+    d["tool"]["zxy_deg"] = [0, 0, 0]  # typo of an optional key: would be ignored silently
+    with pytest.raises(InputError, match=r"tool\.zxy_deg; did you mean 'zyx_deg'"):
+        load_robot(_write(tmp_path, d, "typo2.toml"))
+    d = _base()
+    d["comment"] = "lab robot 2"  # unrelated extra key: allowed
+    r = load_robot(_write(tmp_path, d, "extra.toml"))
     assert r.joints[2].stiffness_Nm_per_rad == load_robot("A").joints[2].stiffness_Nm_per_rad
 
 

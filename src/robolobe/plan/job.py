@@ -80,7 +80,6 @@ Example (all keys; defaults shown where a key is optional)::
 
 from __future__ import annotations
 
-import difflib
 import logging
 import math
 import os
@@ -94,7 +93,7 @@ import numpy as np
 import tomli_w
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
 
-from robolobe._toml_errors import describe_error, key_path
+from robolobe._toml_errors import check_key_typos, describe_error, key_path
 from robolobe.errors import InputError
 from robolobe.robots.transforms import pose_from_xyz_zyx, xyz_zyx_from_pose
 from robolobe.twin.effects import Effect
@@ -508,27 +507,15 @@ class Job:
 # ------------------------------------------------------------ key paths
 
 
-def _warn_typos(raw: dict[str, Any], where: str) -> None:
-    def check(table: Any, level: str, path: str) -> None:
-        if not isinstance(table, dict):
-            return
-        known = _KNOWN_KEYS[level]
-        for key in table:
-            if key in known:
-                continue
-            close = difflib.get_close_matches(key, sorted(known), n=1, cutoff=0.75)
-            if close:
-                logger.warning(
-                    "%s: unknown key %s%s ignored; did you mean %r?", where, path, key, close[0]
-                )
-
-    check(raw, "", "")
+def _check_typos(raw: dict[str, Any], where: str) -> None:
+    tables: list[tuple[Any, set[str], str]] = [(raw, _KNOWN_KEYS[""], "")]
     for sec in ("robot", "placement", "tool", "material", "cut", "spindle", "plan", "path"):
-        check(raw.get(sec), sec, f"{sec}.")
+        tables.append((raw.get(sec), _KNOWN_KEYS[sec], f"{sec}."))
     tool = raw.get("tool")
     if isinstance(tool, dict) and isinstance(tool.get("modes"), list):
         for i, m in enumerate(tool["modes"]):
-            check(m, "tool.modes", f"tool.modes[{i + 1}].")
+            tables.append((m, _KNOWN_KEYS["tool.modes"], f"tool.modes[{i + 1}]."))
+    check_key_typos(tables, where)
 
 
 # ---------------------------------------------------------------- build
@@ -557,13 +544,13 @@ def job_from_dict(d: dict[str, Any], source: str = "<dict>", base_dir: Path | No
         Naming ``source`` and the key.
     """
     where = Path(source).name if source not in ("<dict>", "<code>") else source
+    _check_typos(d, where)
     try:
         spec = _JobSpec.model_validate(d)
     except ValidationError as exc:
         err = exc.errors()[0]
         key = key_path(tuple(err["loc"]))
         raise InputError(f"{key}: {describe_error(err)}", source=where) from None
-    _warn_typos(d, where)
 
     r = spec.robot
     robot = r.name

@@ -15,7 +15,6 @@ inertia tensor about the COM (products as tensor entries, i.e.
 
 from __future__ import annotations
 
-import difflib
 import logging
 import math
 import os
@@ -29,7 +28,7 @@ import numpy as np
 import tomli_w
 from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
-from robolobe._toml_errors import describe_error, found, key_path
+from robolobe._toml_errors import check_key_typos, describe_error, found, key_path
 from robolobe.errors import InputError
 from robolobe.robots.model import Joint, LinearConstraint, RigidBody, Robot
 from robolobe.robots.transforms import pose_from_xyz_zyx, xyz_zyx_from_pose
@@ -123,39 +122,28 @@ _KNOWN_KEYS: dict[str, set[str]] = {
 
 
 # ------------------------------------------------------------ key paths
-def _warn_typos(raw: dict[str, Any], where: str) -> None:
-    def check(table: Any, level: str, path: str) -> None:
-        if not isinstance(table, dict):
-            return
-        known = _KNOWN_KEYS[level]
-        for key in table:
-            if key in known:
-                continue
-            close = difflib.get_close_matches(key, sorted(known), n=1, cutoff=0.75)
-            if close:
-                logger.warning(
-                    "%s: unknown key %s%s ignored; did you mean %r?",
-                    where,
-                    path,
-                    key,
-                    close[0],
-                )
-
-    check(raw, "", "")
+def _check_typos(raw: dict[str, Any], where: str) -> None:
     kin = raw.get("kinematics")
-    check(kin, "kinematics", "kinematics.")
+    tables: list[tuple[Any, set[str], str]] = [
+        (raw, _KNOWN_KEYS[""], ""),
+        (kin, _KNOWN_KEYS["kinematics"], "kinematics."),
+        (raw.get("tool"), _KNOWN_KEYS["tool"], "tool."),
+        (raw.get("end_effector"), _KNOWN_KEYS["end_effector"], "end_effector."),
+    ]
     if isinstance(kin, dict):
-        check(kin.get("base"), "kinematics.base", "kinematics.base.")
+        tables.append((kin.get("base"), _KNOWN_KEYS["kinematics.base"], "kinematics.base."))
         cons = kin.get("constraints")
         if isinstance(cons, list):
-            for i, c in enumerate(cons):
-                check(c, "kinematics.constraints", f"kinematics.constraints[{i + 1}].")
-    check(raw.get("tool"), "tool", "tool.")
-    check(raw.get("end_effector"), "end_effector", "end_effector.")
+            tables += [
+                (c, _KNOWN_KEYS["kinematics.constraints"], f"kinematics.constraints[{i + 1}].")
+                for i, c in enumerate(cons)
+            ]
     joints = raw.get("joints")
     if isinstance(joints, list):
-        for i, j in enumerate(joints):
-            check(j, "joints", f"[[joints]][{i + 1}].")
+        tables += [
+            (j, _KNOWN_KEYS["joints"], f"[[joints]][{i + 1}].") for i, j in enumerate(joints)
+        ]
+    check_key_typos(tables, where)
 
 
 # -------------------------------------------------------------- inertia
@@ -200,7 +188,7 @@ def _pose(spec: _PoseSpec | None) -> np.ndarray:
 def _build(d: dict[str, Any], source: str, where: str) -> Robot:
     if not isinstance(d, dict):
         raise InputError(f"expected a table at the top level, found {found(d)}", source=where)
-    _warn_typos(d, where)
+    _check_typos(d, where)
     try:
         spec = _RobotSpec.model_validate(d)
     except ValidationError as exc:
