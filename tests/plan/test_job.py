@@ -136,3 +136,22 @@ def test_material_coefficients_without_name():
     mat = material_from_job(job)
     assert mat.kt == pytest.approx(2e9)
     assert mat.kr == pytest.approx(0.4)
+
+
+@pytest.mark.parametrize(
+    ("section", "key", "value", "match"),
+    [
+        ("spindle", "rpm_max", 1e12, r"spindle\.rpm_max: expected a number <= 100000"),
+        ("placement", "xyz_m", [1600.0, 0.0, 1200.0], r"placement\.xyz_m\[1\]: .*<= 50"),
+        ("tool", "diameter_mm", 20000.0, r"tool\.diameter_mm: .*<= 500"),
+        ("cut", "feed_per_tooth_mm", 80.0, r"cut\.feed_per_tooth_mm: .*<= 5"),
+        ("spindle", "power_kW", 15000.0, r"spindle\.power_kW: .*<= 1000"),
+    ],
+)
+def test_implausible_values_are_refused_with_the_key(section, key, value, match):
+    d = _base()
+    d.setdefault(section, {})[key] = value
+    if section == "spindle" and key == "rpm_max":
+        d["spindle"]["rpm_min"] = 6000.0
+    with pytest.raises(InputError, match=match):
+        job_from_dict(d, source="job.toml")

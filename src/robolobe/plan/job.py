@@ -125,6 +125,23 @@ NonNegNum = Annotated[float, Field(ge=0, allow_inf_nan=False, strict=True)]
 Vec3 = Annotated[list[Num], Field(min_length=3, max_length=3)]
 
 
+def _upto(hi: float) -> Any:
+    """Field of a positive finite number at most ``hi``: the physical range of a job value.
+
+    The upper bounds catch unit mistakes (mm given as m, rpm as rad/s, a
+    stray 1e12) before they become an absurd plan; they are far above any
+    machine a robot carries.
+    """
+    return Field(gt=0, le=hi, allow_inf_nan=False, strict=True)
+
+
+#: Placement coordinates: a robot cell is metres, not kilometres (mm given as m).
+PlaceVec3 = Annotated[
+    list[Annotated[float, Field(ge=-50, le=50, allow_inf_nan=False, strict=True)]],
+    Field(min_length=3, max_length=3),
+]
+
+
 class _Spec(BaseModel):
     model_config = ConfigDict(extra="allow", strict=True)
 
@@ -151,22 +168,22 @@ class _RobotSpec(_Spec):
 
 
 class _PlacementSpec(_Spec):
-    xyz_m: Vec3 = Field(default_factory=lambda: [0.0, 0.0, 0.0])
+    xyz_m: PlaceVec3 = Field(default_factory=lambda: [0.0, 0.0, 0.0])
     zyx_deg: Vec3 = Field(default_factory=lambda: [0.0, 0.0, 0.0])
 
 
 class _ModeSpec(_Spec):
     dir: Literal["x", "y", "xy"]
-    f_hz: PosNum
+    f_hz: Annotated[float, Field(ge=1, le=1e5, allow_inf_nan=False, strict=True)]
     zeta: Annotated[float, Field(gt=0, lt=1, allow_inf_nan=False, strict=True)]
-    k_N_per_m: PosNum
+    k_N_per_m: Annotated[float, Field(ge=1e3, le=1e13, allow_inf_nan=False, strict=True)]
 
 
 class _ToolSpec(_Spec):
-    diameter_mm: PosNum
+    diameter_mm: Annotated[float, _upto(500.0)]
     teeth: Annotated[int, Field(ge=1, le=64, strict=True)]
     helix_deg: Annotated[float, Field(ge=0, lt=90, allow_inf_nan=False, strict=True)] = 30.0
-    stickout_mm: PosNum = 50.0
+    stickout_mm: Annotated[float, _upto(1000.0)] = 50.0
     modes: list[_ModeSpec] = Field(default_factory=list)
 
 
@@ -191,11 +208,11 @@ class _CutSpec(_Spec):
     radial_width_mm: PosNum | None = None
     immersion: Annotated[float, Field(gt=0, le=1, allow_inf_nan=False, strict=True)] | None = None
     milling: Literal["down", "up"] = "down"
-    feed_per_tooth_mm: PosNum
-    max_feed_mm_per_min: PosNum | None = None
-    rapid_feed_mm_per_min: PosNum = 30000.0
-    programmed_rpm: PosNum | None = None
-    stock_depth_mm: PosNum | None = None
+    feed_per_tooth_mm: Annotated[float, _upto(5.0)]
+    max_feed_mm_per_min: Annotated[float, _upto(1e6)] | None = None
+    rapid_feed_mm_per_min: Annotated[float, _upto(1e6)] = 30000.0
+    programmed_rpm: Annotated[float, _upto(1e5)] | None = None
+    stock_depth_mm: Annotated[float, _upto(2000.0)] | None = None
 
     @model_validator(mode="after")
     def _width(self) -> _CutSpec:
@@ -205,10 +222,10 @@ class _CutSpec(_Spec):
 
 
 class _SpindleSpec(_Spec):
-    rpm_min: PosNum
-    rpm_max: PosNum
-    power_kW: PosNum
-    torque_Nm: PosNum
+    rpm_min: Annotated[float, _upto(1e5)]
+    rpm_max: Annotated[float, _upto(1e5)]
+    power_kW: Annotated[float, _upto(1000.0)]
+    torque_Nm: Annotated[float, _upto(1e4)]
 
     @model_validator(mode="after")
     def _range(self) -> _SpindleSpec:
