@@ -116,6 +116,10 @@ class CorrectedTwin:
     calibration : dict, optional
         Keyword arguments of :class:`~robolobe.tl.graybox.TwinCalibration`
         (``params``, ``bounds``...; ``robot`` is the one above).
+    prefit : TwinCalibration, optional
+        A calibration already fitted to the same hammer tests (its robot
+        file is used; ``calibration`` is then ignored): only the correction
+        is learned.
     kernel_source : CorrectedTwin, optional
         A fitted model (e.g. on robot A) whose kernel length scales are
         taken frozen; only the signal fraction is refitted.
@@ -153,6 +157,7 @@ class CorrectedTwin:
         *,
         robot: Robot | str | os.PathLike[str],
         calibration: dict[str, Any] | None = None,
+        prefit: TwinCalibration | None = None,
         kernel_source: CorrectedTwin | None = None,
         min_postures: int = 8,
         min_points: int = 6,
@@ -160,6 +165,7 @@ class CorrectedTwin:
     ) -> None:
         self.robot = robot
         self.calibration = calibration
+        self.prefit = prefit
         self.kernel_source = kernel_source
         self.min_postures = min_postures
         self.min_points = min_points
@@ -211,9 +217,14 @@ class CorrectedTwin:
         src = self.kernel_source
         if src is not None and not hasattr(src, "length_scales_"):
             raise InputError("kernel_source: expected a fitted CorrectedTwin")
-        kw = dict(self.calibration or {})
-        kw.setdefault("random_state", self.random_state)
-        cal = TwinCalibration(robot=self.robot, **kw).fit_dataset(ds)
+        if self.prefit is not None:
+            cal = self.prefit
+            if not hasattr(cal, "robot_"):
+                raise InputError("prefit: expected a fitted TwinCalibration")
+        else:
+            kw = dict(self.calibration or {})
+            kw.setdefault("random_state", self.random_state)
+            cal = TwinCalibration(robot=self.robot, **kw).fit_dataset(ds)
         r = self._residuals(cal, ds)
         x = np.asarray(ds.q_rad, dtype=float)
         nd, nm = r.shape[1], r.shape[2]
