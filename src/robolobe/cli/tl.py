@@ -295,7 +295,14 @@ def register(app: typer.Typer) -> None:
             return
         if source is None:
             raise InputError("expected a source model with --method network", source="--from")
+        from robolobe.tl.estimator import ModalPredictor
+
         src = load_model(source)
+        if not isinstance(src, ModalPredictor):
+            raise InputError(
+                f"expected a network model to transfer, found a corrected twin ({source})",
+                source="--from",
+            )
         with _shown_warnings():
             ds = _load_dataset(modal_csv, tuple(src.directions), robot, _MIN_TRANSFER)
             kw: dict[str, Any] = {

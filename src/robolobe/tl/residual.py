@@ -152,6 +152,9 @@ class CorrectedTwin:
     train_q_rad_ : ndarray, shape (n, 6)
     """
 
+    length_scales_: FloatArray
+    rho_: FloatArray
+
     def __init__(
         self,
         *,
