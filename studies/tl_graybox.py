@@ -193,13 +193,16 @@ def run(
     forms: tuple[str, ...] = FORMS,
     tool_offset_m: float = 0.03,
     case_kinds: tuple[str, ...] = ("paper", "designed"),
+    out: Path | None = None,
 ) -> list[dict[str, Any]]:
     src = load_model("A")
     rows: list[dict[str, Any]] = []
-    for form in forms:
-        for rep in range(reps):
+    for rep in range(reps):  # every form per repetition: a cut-short run stays balanced
+        for form in forms:
             for key in ("B", "C"):
                 rows += _one(src, form, rep, key, data, file_error, beta, tool_offset_m, case_kinds)
+                if out is not None:
+                    out.write_text(json.dumps(rows, indent=1))
     return rows
 
 
@@ -390,6 +393,7 @@ def main() -> None:
         forms,
         args.tool_offset,
         kinds,
+        Path(args.out),
     )
     Path(args.out).write_text(json.dumps(rows, indent=1))
     print(summarize(rows))

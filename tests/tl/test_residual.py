@@ -144,3 +144,17 @@ def test_inertia_shape_errors_stay_physical():
             for a, b in zip(truth.joints, base.joints, strict=True)
         ]
         assert all(moved)
+
+
+def test_kernel_transfer_keeps_the_source_length_scales(gravity_case):
+    src = gravity_case["model"]
+    ds = gravity_case["ds"].subset(np.arange(gravity_case["ds"].n_postures) < 16)
+    model = CorrectedTwin(
+        robot=gravity_case["base"], prefit=gravity_case["cal"], kernel_source=src
+    ).fit_dataset(ds)
+    np.testing.assert_array_equal(model.length_scales_, src.length_scales_)
+    assert np.all((model.rho_ > 0) & (model.rho_ < 1))
+    with pytest.raises(InputError, match="kernel_source"):
+        CorrectedTwin(
+            robot=gravity_case["base"], kernel_source=CorrectedTwin(robot="B")
+        ).fit_dataset(ds)

@@ -20,8 +20,12 @@ smooth, posture-dependent residual. :class:`CorrectedTwin` learns it:
 4. per output, the leave-one-out predictions ``g`` of the process
    (closed form) decide how much of it to use: ``alpha = <r, g> / <g, g>``
    clipped to [0, 1], and ``alpha = 0`` (the calibrated twin unchanged)
-   unless the leave-one-out squared error falls by more than the ``2 / n``
-   of the sum that fitting one factor to noise gains;
+   unless the leave-one-out squared error falls by more than a fraction
+   ``max(2 / n, min_gain)`` of its sum (``2 / n``: twice what fitting one
+   factor to noise gains); and a quantity is corrected at all only if its
+   leave-one-out squared error pooled over the outputs falls by more than
+   ``pooled_gain`` (a decision on all its data, less noisy than each
+   output's: where the twin's form is right for a quantity, it stays as is);
 5. spread: the twin's parameter spread plus, per output, the leave-one-out
    RMS error of the corrected residual, scaled up where the process is less
    certain than at the training postures (away from the tests).
@@ -127,6 +131,12 @@ class CorrectedTwin:
         Fewest postures accepted by :meth:`fit`.
     min_points : int
         Fewest training values of an output for it to get a correction.
+    min_gain : float
+        Least relative fall of the leave-one-out squared error for an output
+        to be corrected (module docstring, step 4).
+    pooled_gain : float
+        Least relative fall of a quantity's pooled leave-one-out squared
+        error for any of its outputs to be corrected.
     random_state : int or None
         Seed of the calibration's random starts.
 
@@ -164,6 +174,8 @@ class CorrectedTwin:
         kernel_source: CorrectedTwin | None = None,
         min_postures: int = 8,
         min_points: int = 6,
+        min_gain: float = 0.0,
+        pooled_gain: float = 0.2,
         random_state: int | None = 0,
     ) -> None:
         self.robot = robot
@@ -172,6 +184,8 @@ class CorrectedTwin:
         self.kernel_source = kernel_source
         self.min_postures = min_postures
         self.min_points = min_points
+        self.min_gain = min_gain
+        self.pooled_gain = pooled_gain
         self.random_state = random_state
 
     # ----------------------------------------------------------------- fit
@@ -277,6 +291,7 @@ class CorrectedTwin:
             ell = np.exp(hyp[:n_ell])
             rho = float(1.0 / (1.0 + np.exp(-hyp[n_ell])))
             ells[c], rhos[c] = ell, rho
+            pooled = [0.0, 0.0]  # squared error of the twin, of the corrected twin (scaled)
             for (j, m), xo, to in zip(outs, xs, ts, strict=True):
                 kmat = rho * _kernel(xo, xo, ell) + (1.0 - rho) * np.eye(len(xo))
                 a = np.linalg.inv(kmat)
@@ -286,12 +301,17 @@ class CorrectedTwin:
                 al = float(np.clip((to @ g) / gg, 0.0, 1.0)) if gg > 0 else 0.0
                 sse0 = float(to @ to)
                 sse = float(np.sum((to - al * g) ** 2))
-                if sse0 - sse <= 2.0 * sse0 / len(to):
+                if sse0 - sse <= max(2.0 / len(to), self.min_gain) * sse0:
                     al, sse = 0.0, sse0
                 alpha[j, m, c] = al
+                pooled[0] += sse0  # unit-RMS outputs: each counts alike
+                pooled[1] += sse
                 loo[j, m, c] = scale[j, m, c] * np.sqrt(sse / len(to))
                 # mean predictive variance at the training postures, left out in turn
                 inv_var_mean[j, m, c] = float(np.mean(1.0 / d))
+            if outs and pooled[0] - pooled[1] <= self.pooled_gain * pooled[0]:
+                alpha[..., c] = 0.0  # not worth it for this quantity: the twin as is
+                loo[..., c] = np.where(count[..., c] > 0, scale[..., c], np.nan)
         self.calibration_ = cal
         self.robot_ = cal.robot_
         self.length_scales_ = ells
