@@ -57,28 +57,32 @@ def gravity_case():
     }
 
 
+@pytest.mark.slow
 def test_correction_beats_the_calibrated_twin_where_its_form_is_wrong(gravity_case):
     g = gravity_case
-    twin_pred = g["cal"].predict(g["q_test"], spread=False).values
+    twin_pred = g["cal"].predict(g["q_test"])
     pred = g["model"].predict(g["q_test"], warn=False)
-    e_twin = _median_errors(twin_pred, g["y"])
+    e_twin = _median_errors(twin_pred.values, g["y"])
     e_corr = _median_errors(pred.values, g["y"])
     assert e_corr[0] < 0.8 * e_twin[0]  # frequencies: what gravity stiffening moves
-    assert np.all(e_corr <= e_twin * 1.02 + 1e-4)  # and nowhere worse
+    assert np.all(e_corr <= e_twin * 1.02 + 1e-9)  # and nowhere worse
     assert (g["model"].alpha_[..., 0] > 0).any()
-    # the stated spread covers the held-out truth about as often as it says
-    z = np.abs((np.log(g["y"]) - pred.center) / pred.std)[..., 0]
-    cover = np.mean(z[np.isfinite(z)] < 1.645)
-    assert 0.75 <= cover <= 1.0
+
+    # the stated spread is at least as honest as the calibrated twin's
+    def cover(p):
+        z = np.abs((np.log(g["y"]) - p.center) / p.std)[..., 0]
+        return np.mean(z[np.isfinite(z)] < 1.645)
+
+    assert cover(pred) >= cover(twin_pred) - 0.05
 
 
-def test_save_load_and_load_model(gravity_case, tmp_path):
-    model = gravity_case["model"]
+def test_save_load_and_load_model(exact_file_case, tmp_path):
+    model = exact_file_case["model"]
     path = model.save(tmp_path / "B_pred.npz")
     assert is_corrected_twin_file(path)
     back = load_model(path)
     assert isinstance(back, CorrectedTwin)
-    q = gravity_case["q_test"][:4]
+    q = exact_file_case["q_test"][:4]
     a, b = model.predict(q, warn=False), back.predict(q, warn=False)
     np.testing.assert_allclose(b.center, a.center, rtol=1e-12, atol=1e-12)
     np.testing.assert_allclose(b.std, a.std, rtol=1e-10, atol=1e-12)
@@ -91,8 +95,9 @@ def test_save_load_and_load_model(gravity_case, tmp_path):
         CorrectedTwin.load(bad)
 
 
-def test_no_correction_where_the_twin_has_nothing_to_miss():
-    """Hammer tests of exactly the robot file: the correction must shrink to nothing."""
+@pytest.fixture(scope="module")
+def exact_file_case():
+    """Hammer tests of exactly the robot file (with identification noise)."""
     base = load_robot("B")
     q = _postures(base, 20, 4)
     ds = twin_modal_dataset(
@@ -100,7 +105,12 @@ def test_no_correction_where_the_twin_has_nothing_to_miss():
     )
     cal = TwinCalibration(robot=base, params=("stiffness", "damping", "ee_mass")).fit_dataset(ds)
     model = CorrectedTwin(robot=base, prefit=cal).fit_dataset(ds)
-    q_test = _postures(base, 20, 5)
+    return {"base": base, "cal": cal, "model": model, "q_test": _postures(base, 20, 5)}
+
+
+def test_no_correction_where_the_twin_has_nothing_to_miss(exact_file_case):
+    """The correction must shrink to nothing when the twin's form is right."""
+    model, cal, q_test = (exact_file_case[k] for k in ("model", "cal", "q_test"))
     shift = model.predict(q_test, spread=False, warn=False).center - np.log(
         cal.predict(q_test, spread=False).values
     )
@@ -146,6 +156,7 @@ def test_inertia_shape_errors_stay_physical():
         assert all(moved)
 
 
+@pytest.mark.slow
 def test_kernel_transfer_keeps_the_source_length_scales(gravity_case):
     src = gravity_case["model"]
     ds = gravity_case["ds"].subset(np.arange(gravity_case["ds"].n_postures) < 16)
