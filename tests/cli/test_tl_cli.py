@@ -186,6 +186,13 @@ def test_default_transfer_makes_a_corrected_twin_a_job_plans_on(tmp_path, b_moda
     assert "correction of log f" in res.output
     model = load_model(out)
     assert isinstance(model, CorrectedTwin)
+    post = tmp_path / "postures.csv"
+    write_postures(post, [f"T{i}" for i in range(1, 6)], np.radians(B_TEST_DEG))
+    res = run(["predict", out, post, "-o", tmp_path / "pred.csv"])
+    assert res.exit_code == 0, res.output
+    pred = read_modal_csv(tmp_path / "pred.csv")
+    assert len(pred) == 5 * 2 * 5
+    assert np.all(pred["f_hz_lo90"] <= pred["f_hz"])
     # a .toml output is the calibrated robot file only: say so instead of guessing
     res = run(["transfer", b_modal, "--robot", "B", "-o", tmp_path / "B.toml"])
     assert res.exit_code == 2
