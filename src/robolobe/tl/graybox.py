@@ -73,7 +73,14 @@ from robolobe.tl.twin_params import (
     parameter_names,
 )
 
-__all__ = ["DEFAULT_PARAMS", "PARAMETER_GROUPS", "PRIOR_STD", "TwinCalibration", "twin_values"]
+__all__ = [
+    "DEFAULT_PARAMS",
+    "PARAMETER_GROUPS",
+    "PRIOR_STD",
+    "TwinCalibration",
+    "modal_frame_dataset",
+    "twin_values",
+]
 
 FloatArray = NDArray[np.float64]
 #: Default calibrated groups: every group of :data:`PARAMETER_GROUPS`.
@@ -140,6 +147,37 @@ def _injective_maps(n_from: int, n_to: int) -> NDArray[np.intp]:
     return np.array(list(itertools.permutations(range(n_to), n_from)), dtype=np.intp).reshape(
         -1, n_from
     )
+
+
+def modal_frame_dataset(modal_df: pd.DataFrame) -> ModalDataset:
+    """The driving-point rows (``xx``, ``yy``, ``zz``) of a ``modal.csv`` frame as a dataset.
+
+    Parameters
+    ----------
+    modal_df : pandas.DataFrame
+        Columns posture_id, q1_deg..q6_deg, dir, mode, f_hz, zeta, k_N_per_m
+        (:func:`robolobe.modal.modal_csv.read_modal_csv`).
+
+    Returns
+    -------
+    ModalDataset
+        Every driving-point direction present, as many modes as numbered.
+    """
+    if not isinstance(modal_df, pd.DataFrame):
+        raise InputError(f"modal_df: expected a pandas DataFrame, found {type(modal_df)}")
+    if "dir" not in modal_df.columns or "mode" not in modal_df.columns:
+        missing = [c for c in ("dir", "mode") if c not in modal_df.columns]
+        raise InputError(f"modal_df: missing columns {missing}", source="modal dataset")
+    dirs_in = set(modal_df["dir"].astype(str).str.lower())
+    dirs = tuple(d for d in DRIVING_DIRECTIONS if d in dirs_in)
+    if not dirs:
+        raise InputError(
+            f"modal_df: expected driving-point rows (dir xx, yy or zz), found {sorted(dirs_in)}"
+        )
+    n_modes = int(pd.to_numeric(modal_df["mode"], errors="coerce").max())
+    if not n_modes >= 1:
+        raise InputError("modal_df: expected mode numbers >= 1", source="modal dataset")
+    return dataset_from_frame(modal_df, directions=dirs, n_modes=n_modes)
 
 
 class TwinCalibration:
@@ -366,22 +404,7 @@ class TwinCalibration:
         -------
         self
         """
-        if not isinstance(modal_df, pd.DataFrame):
-            raise InputError(f"modal_df: expected a pandas DataFrame, found {type(modal_df)}")
-        if "dir" not in modal_df.columns or "mode" not in modal_df.columns:
-            missing = [c for c in ("dir", "mode") if c not in modal_df.columns]
-            raise InputError(f"modal_df: missing columns {missing}", source="modal dataset")
-        dirs_in = set(modal_df["dir"].astype(str).str.lower())
-        dirs = tuple(d for d in DRIVING_DIRECTIONS if d in dirs_in)
-        if not dirs:
-            raise InputError(
-                f"modal_df: expected driving-point rows (dir xx, yy or zz), found {sorted(dirs_in)}"
-            )
-        n_modes = int(pd.to_numeric(modal_df["mode"], errors="coerce").max())
-        if not n_modes >= 1:
-            raise InputError("modal_df: expected mode numbers >= 1", source="modal dataset")
-        ds = dataset_from_frame(modal_df, directions=dirs, n_modes=n_modes)
-        return self.fit_dataset(ds)
+        return self.fit_dataset(modal_frame_dataset(modal_df))
 
     def fit_dataset(self, ds: ModalDataset) -> TwinCalibration:
         """Calibrate on a :class:`~robolobe.tl.dataset.ModalDataset` (NaN = not seen)."""

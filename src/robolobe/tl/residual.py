@@ -54,9 +54,9 @@ from scipy.optimize import minimize
 from robolobe._atomic import atomic_path
 from robolobe.errors import InputError
 from robolobe.robots.model import Robot
-from robolobe.tl.dataset import DRIVING_DIRECTIONS, ModalDataset, dataset_from_frame
+from robolobe.tl.dataset import ModalDataset
 from robolobe.tl.estimator import ModalPrediction
-from robolobe.tl.graybox import TwinCalibration
+from robolobe.tl.graybox import TwinCalibration, modal_frame_dataset
 from robolobe.tl.twin_params import K_MAX
 
 __all__ = ["CORRECTED_TWIN_FORMAT", "CorrectedTwin", "is_corrected_twin_file"]
@@ -191,20 +191,7 @@ class CorrectedTwin:
     # ----------------------------------------------------------------- fit
     def fit(self, modal_df: pd.DataFrame) -> CorrectedTwin:
         """Fit on a ``modal.csv`` frame (driving-point rows ``xx``, ``yy``, ``zz``)."""
-        if not isinstance(modal_df, pd.DataFrame) or "dir" not in modal_df.columns:
-            raise InputError("modal_df: expected a modal.csv DataFrame with a 'dir' column")
-        if "mode" not in modal_df.columns:
-            raise InputError("modal_df: missing columns ['mode']", source="modal dataset")
-        dirs_in = set(modal_df["dir"].astype(str).str.lower())
-        dirs = tuple(d for d in DRIVING_DIRECTIONS if d in dirs_in)
-        if not dirs:
-            raise InputError(
-                f"modal_df: expected driving-point rows (dir xx, yy or zz), found {sorted(dirs_in)}"
-            )
-        n_modes = int(pd.to_numeric(modal_df["mode"], errors="coerce").max())
-        if not n_modes >= 1:
-            raise InputError("modal_df: expected mode numbers >= 1", source="modal dataset")
-        return self.fit_dataset(dataset_from_frame(modal_df, directions=dirs, n_modes=n_modes))
+        return self.fit_dataset(modal_frame_dataset(modal_df))
 
     def _residuals(self, cal: TwinCalibration, ds: ModalDataset) -> FloatArray:
         """``log(measured / twin)`` per posture, direction, twin mode, quantity (NaN: none)."""
