@@ -164,3 +164,57 @@ def test_design_tests_and_augment(tmp_path, run):
     assert "6 existing postures" in res.output
     res = run(["design-tests", "C", "--n", "0", "-o", str(tmp_path / "x.csv")])
     assert res.exit_code == 2
+
+
+@pytest.mark.slow
+def test_default_transfer_makes_a_corrected_twin_a_job_plans_on(tmp_path, b_modal, run):
+    """The documented one-liner: ``transfer modal.csv --robot B -o OUT.npz``, then a job
+    with ``[robot] model = "OUT.npz"`` plans on the calibrated, corrected twin."""
+    import json
+    import re
+    import subprocess
+    import sys
+    from importlib import resources
+    from pathlib import Path
+
+    from robolobe.tl.models import load_model
+    from robolobe.tl.residual import CorrectedTwin
+
+    out = tmp_path / "B_pred.npz"
+    res = run(["transfer", b_modal, "--robot", "B", "-o", out, "--params", "stiffness,damping"])
+    assert res.exit_code == 0, res.output
+    assert "correction of log f" in res.output
+    model = load_model(out)
+    assert isinstance(model, CorrectedTwin)
+    post = tmp_path / "postures.csv"
+    write_postures(post, [f"T{i}" for i in range(1, 6)], np.radians(B_TEST_DEG))
+    res = run(["predict", out, post, "-o", tmp_path / "pred.csv"])
+    assert res.exit_code == 0, res.output
+    pred = read_modal_csv(tmp_path / "pred.csv")
+    assert len(pred) == 5 * 2 * 5
+    assert np.all(pred["f_hz_lo90"] <= pred["f_hz"])
+    # a .toml output is the calibrated robot file only: say so instead of guessing
+    res = run(["transfer", b_modal, "--robot", "B", "-o", tmp_path / "B.toml"])
+    assert res.exit_code == 2
+    assert "twin-calibration" in res.output
+    # neither a robot to calibrate nor a network to transfer
+    res = run(["transfer", b_modal, "-o", tmp_path / "x.npz"])
+    assert res.exit_code == 2
+    assert "--robot" in res.output
+    ex = Path(str(resources.files("robolobe.data").joinpath("examples")))
+    text = (ex / "job_B_contour.toml").read_text(encoding="utf-8")
+    text = re.sub(r"(?m)^model = .*$", f'model = "{out.name}"', text)
+    job = tmp_path / "job.toml"
+    job.write_text(text, encoding="utf-8")
+    cmd = [sys.executable, "-m", "robolobe.cli.main", "plan", str(ex / "contour.apt")]
+    r = subprocess.run(
+        [*cmd, "--job", str(job), "-o", "plan_out"],
+        cwd=tmp_path,
+        capture_output=True,
+        text=True,
+        timeout=600,
+        check=False,
+    )
+    assert r.returncode == 0, r.stderr
+    summary = json.loads((tmp_path / "plan_out" / "summary.json").read_text())
+    assert summary["mode_source"] == f"tl model {out.name}"

@@ -12,9 +12,9 @@ import pytest
 from robolobe.errors import InputError
 from robolobe.robots import load_robot
 from robolobe.robots.model import robots_allclose
-from robolobe.tl.graybox import DEFAULT_PARAMS, TwinCalibration, twin_values
+from robolobe.tl.graybox import DEFAULT_PARAMS, PRIOR_STD, TwinCalibration, twin_values
 from robolobe.tl.twin_data import twin_modal_dataset
-from robolobe.tl.twin_params import COM_UNIT_M, apply_parameters
+from robolobe.tl.twin_params import COM_UNIT_M, PARAMETER_GROUPS, apply_parameters
 from robolobe.twin import Twin
 from robolobe.twin.designs import design_arrays, seed_design
 
@@ -169,3 +169,43 @@ def test_cli_bad_params_group(setup, tmp_path):
     assert "masses" in res.stderr + res.stdout
     assert "Traceback" not in res.stderr
     assert not out.exists()
+
+
+def _prior_scaled(fit):
+    sd = np.concatenate([np.full(PARAMETER_GROUPS[g], PRIOR_STD[g]) for g in fit.groups_])
+    return np.abs(fit.theta_) / sd
+
+
+@pytest.fixture(scope="module")
+def exact_file_campaign():
+    ids, q, roles = design_arrays(seed_design("B"))
+    ds = twin_modal_dataset(Twin(load_robot("B")), ids, q, rng=np.random.default_rng(5))
+    return ds.subset(np.asarray(roles) == "train")
+
+
+def test_exact_file_campaign_keeps_every_parameter_at_the_file(exact_file_campaign):
+    """Hammer tests of the robot the file describes: nothing may wander off the file.
+
+    Without the prior this campaign moved link 1's mass to x0.30 and link 5's
+    to x0.53 and two centres of mass by 10-13 cm (issue 11).
+    """
+    fit = TwinCalibration(robot="B").fit_dataset(exact_file_campaign)
+    scaled = _prior_scaled(fit)
+    assert scaled.max() < 1.0, fit.param_names_[int(scaled.argmax())]
+    assert fit.at_bounds_ == ()
+    # the parameters the data see are pinned far tighter than the prior
+    np.testing.assert_allclose(fit.factors_["stiffness"], 1.0, atol=0.01)
+
+
+@pytest.mark.slow
+def test_without_the_prior_unseen_parameters_wander(exact_file_campaign):
+    loose = TwinCalibration(robot="B", regularization=0.0, n_starts=1, n_starts_com=1)
+    loose.fit_dataset(exact_file_campaign)
+    assert _prior_scaled(loose).max() > 2.0
+
+
+def test_prior_std_validated():
+    with pytest.raises(InputError, match="prior_std"):
+        TwinCalibration(robot="B", prior_std={"link_mass": 0.0})._validate()
+    with pytest.raises(InputError, match="prior_std"):
+        TwinCalibration(robot="B", prior_std={"masses": 0.1})._validate()

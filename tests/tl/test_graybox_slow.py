@@ -9,45 +9,24 @@ at its 5 test postures against the truth's modes and the measured FRFs.
 
 from __future__ import annotations
 
-import dataclasses
-
 import numpy as np
 import pytest
-from scipy.spatial.transform import Rotation
 
 from robolobe.robots import load_robot
-from robolobe.robots.model import RigidBody
+from robolobe.tl.concealed import concealed_robot
 from robolobe.tl.dataset import dataset_from_frame
 from robolobe.tl.evaluate import evaluate_prediction
-from robolobe.tl.graybox import DEFAULT_PARAMS, TwinCalibration, twin_values
+from robolobe.tl.graybox import PRIOR_STD, TwinCalibration, twin_values
 from robolobe.tl.twin_data import measured_frfs, twin_modal_dataset, twin_modal_values
-from robolobe.tl.twin_params import COM_UNIT_M, apply_parameters
+from robolobe.tl.twin_params import PARAMETER_GROUPS
 from robolobe.twin import Twin
 from robolobe.twin.designs import design_arrays, seed_design
 
 
 def _truth(key: str, seed: int):
+    """The robot file and a concealed real robot (physically valid, through the loader)."""
     base = load_robot(key)
-    rng = np.random.default_rng(seed)
-    theta = np.concatenate(
-        [
-            np.log(rng.uniform(0.75, 1.3, 6)),
-            np.log(rng.uniform(0.6, 1.6, 6)),
-            np.log(rng.uniform(0.85, 1.15, 1)),
-            np.log(rng.uniform(0.9, 1.1, 6)),
-            rng.normal(0.0, 0.05, 18) / COM_UNIT_M,
-        ]
-    )
-    truth = apply_parameters(base, DEFAULT_PARAMS, theta)
-    joints = []
-    for j in truth.joints:  # inertia shape: not a calibrated parameter
-        ev, vec = np.linalg.eigh(j.body.inertia_kgm2)
-        ax = rng.normal(size=3)
-        turn = Rotation.from_rotvec(ax / np.linalg.norm(ax) * np.radians(rng.normal(0, 10)))
-        v = turn.as_matrix() @ vec
-        inertia = v @ np.diag(ev * rng.uniform(0.8, 1.2, 3)) @ v.T
-        joints.append(dataclasses.replace(j, body=RigidBody(j.body.mass_kg, j.body.com_m, inertia)))
-    return base, truth.replace(joints=tuple(joints))
+    return base, concealed_robot(base, np.random.default_rng(seed))
 
 
 def _goals(values, y_true, freq, h, decay):
@@ -107,3 +86,28 @@ def test_calibration_on_identified_hammer_tests_of_c():
     np.testing.assert_array_less(e, [1.0, 10.0, 5.0])  # median % errors f, zeta, k
     assert frac_min >= 0.95
     assert nrmse_max <= 0.15
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("key", ["B", "C"])
+def test_identified_tests_of_the_exact_file_keep_it(key):
+    """Identified hammer tests of the robot the file describes: no parameter wanders."""
+    from robolobe.modal.identify import identify_campaign
+    from robolobe.twin.campaign import simulate_campaign
+
+    ids, q, roles = design_arrays(seed_design(key))
+    ids = [str(i) for i in ids]
+    base = load_robot(key)
+    camp = simulate_campaign(
+        Twin(base).receptance, key, ids, q, rng=np.random.default_rng(5), dirs=("xx", "yy")
+    )
+    ds = dataset_from_frame(identify_campaign(camp).table, directions=("xx", "yy"), n_modes=5)
+    train = [i for i, r in zip(ids, roles, strict=True) if r == "train" and i in ds.posture_ids]
+    fit = TwinCalibration(robot=base).fit_dataset(ds.select_ids(train))
+    sd = np.concatenate([np.full(PARAMETER_GROUPS[g], PRIOR_STD[g]) for g in fit.groups_])
+    scaled = np.abs(fit.theta_) / sd
+    # identification biases (k 2.5-4.5 %, zeta 2-7 % at p90) may pull a weakly seen
+    # parameter to about one prior standard deviation, never to its bound
+    assert scaled.max() < 1.25, fit.param_names_[int(scaled.argmax())]
+    assert fit.at_bounds_ == ()
+    np.testing.assert_allclose(fit.factors_["stiffness"], 1.0, atol=0.03)

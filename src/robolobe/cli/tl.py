@@ -92,6 +92,82 @@ def _summary(model: Any, seconds: float, out: Path) -> None:
             )
 
 
+def _calibrate(
+    modal_csv: Path, output: Path, robot: str | None, method: str, params: str, seed: int
+) -> None:
+    """``transfer --method corrected-twin | twin-calibration``: fit, write, report."""
+    from robolobe.modal.modal_csv import read_modal_csv
+    from robolobe.tl.graybox import TwinCalibration
+    from robolobe.tl.residual import CorrectedTwin
+
+    if robot is None:
+        raise InputError(
+            "expected the robot file to calibrate (A, B, C or a .toml)", source="--robot"
+        )
+    suffix = output.suffix.lower()
+    if method == "corrected-twin" and suffix != ".npz":
+        raise InputError(
+            f"expected a .npz model file for the corrected twin, found {output.name!r} (for "
+            "the calibrated robot file alone give --method twin-calibration -o OUT.toml)",
+            source="--output",
+        )
+    if method == "twin-calibration" and suffix != ".toml":
+        raise InputError(
+            f"expected a .toml robot file for twin-calibration, found {output.name!r}",
+            source="--output",
+        )
+    rob = _robot(robot)
+    groups = tuple(g.strip() for g in params.split(",") if g.strip())
+    with _shown_warnings():
+        df = read_modal_csv(modal_csv)
+        present = set(df["dir"].astype(str).str.lower()) if "dir" in df.columns else set()
+        dirs = tuple(d for d in ("xx", "yy", "zz") if d in present) or ("xx", "yy")
+        _load_dataset(modal_csv, dirs, robot, 5)  # joint limits, duplicates, missing modes
+        t0 = time.perf_counter()
+        if method == "twin-calibration":
+            with status("calibrating the twin"):
+                cal = TwinCalibration(robot=rob, params=groups, random_state=seed).fit(df)
+            cal.save(output)
+        else:
+            with status("calibrating the twin and learning its correction"):
+                model = CorrectedTwin(
+                    robot=rob, calibration={"params": groups}, random_state=seed
+                ).fit(df)
+            cal = model.calibration_
+            model.save(output)
+    console.print(
+        f"[bold]{output}[/]: {cal.n_postures_} postures, {cal.n_matched_} modes matched "
+        f"({cal.n_unmatched_} not), residual RMS f/zeta/k = "
+        f"{cal.residual_rms_['f']:.4f}/{cal.residual_rms_['zeta']:.3f}/"
+        f"{cal.residual_rms_['k']:.3f}, {time.perf_counter() - t0:.1f} s"
+    )
+    for _, row in cal.summary().iterrows():
+        if row["unit"] == "m":
+            console.print(
+                f"  {row['param']}: {1000 * row['value']:+.1f} mm (+- {1000 * row['std']:.1f} mm)"
+            )
+        else:
+            console.print(f"  {row['param']}: x{row['value']:.3f} (+- {row['std']:.3f})")
+    if method == "corrected-twin":
+        summ = model.summary()
+        for q in ("f", "zeta", "k"):
+            part = summ[(summ["quantity"] == q) & (summ["n"] > 0)]
+            used = int((part["alpha"] > 0).sum())
+            console.print(
+                f"  correction of log {q}: {used} of {len(part)} direction x mode outputs "
+                f"corrected; cross-validated RMS {np.sqrt(np.mean(part['rms_loo'] ** 2)):.4f} "
+                f"(calibrated twin {np.sqrt(np.mean(part['rms_twin'] ** 2)):.4f})"
+            )
+        console.print(f'  plan on it: [robot] name = "{robot}", model = "{output}"')
+    else:
+        console.print(f'  plan on it: [robot] name = "{output}", model = "twin"')
+    if cal.at_bounds_:
+        err_console.print(
+            f"[yellow]warning:[/] at their bounds: {', '.join(cal.at_bounds_)} (the data "
+            "want more change than allowed: check the robot file and the tests)"
+        )
+
+
 def register(app: typer.Typer) -> None:
     """Add ``train``, ``transfer``, ``predict`` and ``design-tests`` to ``app``."""
 
@@ -146,36 +222,40 @@ def register(app: typer.Typer) -> None:
             typer.Option(
                 "--output",
                 "-o",
-                help="Model file to write (.npz); with twin-calibration the calibrated robot "
-                "(.toml).",
+                help="Model file to write (.npz; a job's robot.model can name it); with "
+                "twin-calibration the calibrated robot (.toml).",
             ),
         ],
         source: Annotated[
             str | None,
-            typer.Option("--from", help="Source model: A, B, C (shipped) or a model file."),
+            typer.Option(
+                "--from",
+                help="Source network: A, B, C (shipped) or a model file (implies --method "
+                "network).",
+            ),
         ] = None,
         robot: Annotated[
             str | None,
             typer.Option(
                 "--robot",
-                help="Target robot (A, B, C or .toml): label and limit check; with "
-                "twin-calibration the robot file to calibrate.",
+                help="Target robot (A, B, C or .toml): the robot file to calibrate; with "
+                "network only the label and limit check.",
             ),
         ] = None,
         method: Annotated[
-            str,
+            str | None,
             typer.Option(
                 "--method",
-                help="'network' (the seed's transfer of --from) or 'twin-calibration' "
-                "(fit joint stiffness and damping, spindle and link masses and link centres "
-                "of mass of --robot).",
+                help="'corrected-twin' (default with --robot: calibrated twin plus a learned, "
+                "cross-validated correction), 'twin-calibration' (the calibrated robot file "
+                "alone) or 'network' (default with --from: the seed's transfer).",
             ),
-        ] = "network",
+        ] = None,
         params: Annotated[
             str,
             typer.Option(
                 "--params",
-                help="twin-calibration: comma-separated groups out of stiffness, damping, "
+                help="twin calibration: comma-separated groups out of stiffness, damping, "
                 "ee_mass, link_mass, link_com.",
             ),
         ] = "stiffness,damping,ee_mass,link_mass,link_com",
@@ -185,51 +265,44 @@ def register(app: typer.Typer) -> None:
         ] = None,
         seed: Annotated[int, typer.Option("--seed", help="Random seed.")] = 0,
     ) -> None:
-        """Transfer a pretrained model to a new robot from a few hammer tests."""
+        """Make a robot's mode predictor from a few hammer tests.
+
+        Default (``--robot R``, no ``--method``): the best validated predictor,
+        R's twin calibrated to the tests plus a learned correction of what it
+        still misses; a job plans on it with ``[robot] model = "OUT.npz"``.
+        """
         from robolobe.tl.estimator import transfer
         from robolobe.tl.models import load_model
 
-        if method not in ("network", "twin-calibration"):
-            raise InputError(
-                f"expected 'network' or 'twin-calibration', found {method!r}", source="--method"
-            )
-        if method == "twin-calibration":
-            from robolobe.modal.modal_csv import read_modal_csv
-            from robolobe.tl.graybox import TwinCalibration
-
-            if robot is None:
+        methods = ("corrected-twin", "twin-calibration", "network")
+        if method is None:
+            if source is not None:
+                method = "network"
+            elif robot is not None:
+                method = "corrected-twin"
+            else:
                 raise InputError(
-                    "expected the robot file to calibrate (A, B, C or a .toml)", source="--robot"
+                    "expected --robot (the robot file to calibrate: the default predictor) or "
+                    "--from (a network to transfer)",
+                    source="--robot",
                 )
-            df = read_modal_csv(modal_csv)
-            t0 = time.perf_counter()
-            with status("calibrating the twin"):
-                groups = tuple(g.strip() for g in params.split(",") if g.strip())
-                cal = TwinCalibration(robot=robot, params=groups, random_state=seed).fit(df)
-            cal.save(output)
-            console.print(
-                f"[bold]{output}[/]: {cal.n_postures_} postures, {cal.n_matched_} modes matched "
-                f"({cal.n_unmatched_} not), residual RMS f/zeta/k = "
-                f"{cal.residual_rms_['f']:.4f}/{cal.residual_rms_['zeta']:.3f}/"
-                f"{cal.residual_rms_['k']:.3f}, {time.perf_counter() - t0:.1f} s"
+        if method not in methods:
+            raise InputError(
+                f"expected one of {', '.join(methods)}, found {method!r}", source="--method"
             )
-            for _, row in cal.summary().iterrows():
-                if row["unit"] == "m":
-                    console.print(
-                        f"  {row['param']}: {1000 * row['value']:+.1f} mm "
-                        f"(+- {1000 * row['std']:.1f} mm)"
-                    )
-                else:
-                    console.print(f"  {row['param']}: x{row['value']:.3f} (+- {row['std']:.3f})")
-            if cal.at_bounds_:
-                console.print(
-                    f"[yellow]warning:[/] at their bounds: {', '.join(cal.at_bounds_)} (the data "
-                    "want more change than allowed: check the robot file and the tests)"
-                )
+        if method != "network":
+            _calibrate(modal_csv, output, robot, method, params, seed)
             return
         if source is None:
             raise InputError("expected a source model with --method network", source="--from")
+        from robolobe.tl.estimator import ModalPredictor
+
         src = load_model(source)
+        if not isinstance(src, ModalPredictor):
+            raise InputError(
+                f"expected a network model to transfer, found a corrected twin ({source})",
+                source="--from",
+            )
         with _shown_warnings():
             ds = _load_dataset(modal_csv, tuple(src.directions), robot, _MIN_TRANSFER)
             kw: dict[str, Any] = {
@@ -276,10 +349,13 @@ def register(app: typer.Typer) -> None:
         from robolobe.twin.campaign import read_postures
 
         model = load_model(model_spec)
+        label = getattr(model.robot, "name", model.robot)  # a corrected twin holds its Robot
         robot_spec = robot
-        if robot_spec is None and str(model.robot).upper() in ("A", "B", "C"):
-            robot_spec = str(model.robot).upper()
+        if robot_spec is None and str(label).upper() in ("A", "B", "C"):
+            robot_spec = str(label).upper()
         rob = _robot(robot_spec)
+        if rob is None and not isinstance(model.robot, str | type(None)):
+            rob = model.robot  # the corrected twin's robot file: its joint limits
         ids, q = read_postures(postures, robot=rob)
         if not np.isfinite(fmax) or fmax <= 0 or not np.isfinite(df) or not 0 < df < fmax:
             raise InputError(f"expected 0 < df < fmax, found df={df}, fmax={fmax}", "--df/--fmax")
@@ -291,7 +367,7 @@ def register(app: typer.Typer) -> None:
             f"[bold]{output}[/]: {len(ids)} postures x {len(pred.directions)} directions x 5 modes"
         )
         if frf is not None:
-            write_frf_campaign(frf, robot_spec or str(model.robot), ids, q, pred, fmax, df)
+            write_frf_campaign(frf, robot_spec or str(label), ids, q, pred, fmax, df)
             msg += f"; FRFs in {frf}"
         console.print(msg)
 

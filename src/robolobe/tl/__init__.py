@@ -12,7 +12,10 @@ Modules: :mod:`~robolobe.tl.dataset` (modal datasets), :mod:`~robolobe.tl.prepro
 :mod:`~robolobe.tl.baselines`, :mod:`~robolobe.tl.design`,
 :mod:`~robolobe.tl.evaluate`, :mod:`~robolobe.tl.schedule`,
 :mod:`~robolobe.tl.twin_data`, :mod:`~robolobe.tl.predict_io`,
-:mod:`~robolobe.tl.graybox` (``TwinCalibration``: the physics-informed transfer).
+:mod:`~robolobe.tl.graybox` (``TwinCalibration``: the physics-informed transfer),
+:mod:`~robolobe.tl.residual` (``CorrectedTwin``: the calibrated twin plus a
+learned correction, the default predictor of ``robolobe transfer``),
+:mod:`~robolobe.tl.concealed` (concealed "real" robots for studies).
 """
 
 from robolobe.tl.dataset import ModalDataset, TrustWarning, dataset_from_frame
@@ -20,10 +23,12 @@ from robolobe.tl.estimator import ModalPrediction, ModalPredictor, transfer
 from robolobe.tl.graybox import TwinCalibration
 from robolobe.tl.models import load_model
 from robolobe.tl.presets import DEFAULT_PRESET, PRESETS
+from robolobe.tl.residual import CorrectedTwin
 
 __all__ = [
     "DEFAULT_PRESET",
     "PRESETS",
+    "CorrectedTwin",
     "ModalDataset",
     "ModalPrediction",
     "ModalPredictor",

@@ -11,8 +11,9 @@ fits them (:mod:`robolobe.tl.twin_params`, 37 by default):
 * each link's mass and inertia (6 factors) and centre of mass (18 offsets)
 
 by bounded nonlinear least squares (:func:`scipy.optimize.least_squares`,
-factors log-parametrised, every parameter regularised toward the robot file)
-on the misfit between measured and twin modes:
+factors log-parametrised) on the misfit between measured and twin modes plus
+a Gaussian prior centred on the robot file (:data:`PRIOR_STD`), so that a
+parameter the data cannot see stays at the file's value:
 
 * per posture and driving-point direction the measured modes are matched to
   the twin's modes (the linear sum assignment of ``|log f_meas / f_twin|``
@@ -21,7 +22,12 @@ on the misfit between measured and twin modes:
 * residuals ``log(f_meas / f_twin)`` (weight 1), ``log(zeta_meas / zeta_twin)``
   (weight ``weights[1]``) and ``log(k_meas / k_twin)`` at the measured
   direction (weight ``weights[2]``, only where the mode was seen there);
-* ``regularization * theta`` per parameter.
+* prior residuals ``regularization * s * theta / prior_std`` per parameter,
+  with ``s`` the scatter of the weighted data residuals: at least what
+  identification leaves (:class:`robolobe.tl.twin_data.IdentificationNoise`
+  through ``weights``), in the last stage the fit's own RMS if larger (a
+  maximum a posteriori estimate with the residual variance estimated from
+  the data).
 
 The search is staged because mode matching makes the misfit multimodal:
 stage 1 fits the factor groups from several starts with the matching redone
@@ -67,12 +73,30 @@ from robolobe.tl.twin_params import (
     parameter_names,
 )
 
-__all__ = ["DEFAULT_PARAMS", "PARAMETER_GROUPS", "TwinCalibration", "twin_values"]
+__all__ = [
+    "DEFAULT_PARAMS",
+    "PARAMETER_GROUPS",
+    "PRIOR_STD",
+    "TwinCalibration",
+    "modal_frame_dataset",
+    "twin_values",
+]
 
 FloatArray = NDArray[np.float64]
 #: Default calibrated groups: every group of :data:`PARAMETER_GROUPS`.
 DEFAULT_PARAMS = ("stiffness", "damping", "ee_mass", "link_mass", "link_com")
 _FIRST_STAGE = ("stiffness", "damping", "ee_mass", "link_mass")
+#: Prior standard deviation of each group's parameters, in ``theta`` units
+#: (log factor, or 0.1 m for centres of mass): joint stiffness x0.5-2 and
+#: damping x0.4-2.5 at two sigma (rarely published, FORMATS.md section 1);
+#: spindle and link masses +-10 %; centres of mass +-5 cm per axis.
+PRIOR_STD: dict[str, float] = {
+    "stiffness": math.log(2.0) / 2,
+    "damping": math.log(2.5) / 2,
+    "ee_mass": 0.1,
+    "link_mass": 0.1,
+    "link_com": 0.05 / COM_UNIT_M,
+}
 
 
 def _as_robot(robot: Robot | str | os.PathLike[str]) -> Robot:
@@ -125,6 +149,37 @@ def _injective_maps(n_from: int, n_to: int) -> NDArray[np.intp]:
     )
 
 
+def modal_frame_dataset(modal_df: pd.DataFrame) -> ModalDataset:
+    """The driving-point rows (``xx``, ``yy``, ``zz``) of a ``modal.csv`` frame as a dataset.
+
+    Parameters
+    ----------
+    modal_df : pandas.DataFrame
+        Columns posture_id, q1_deg..q6_deg, dir, mode, f_hz, zeta, k_N_per_m
+        (:func:`robolobe.modal.modal_csv.read_modal_csv`).
+
+    Returns
+    -------
+    ModalDataset
+        Every driving-point direction present, as many modes as numbered.
+    """
+    if not isinstance(modal_df, pd.DataFrame):
+        raise InputError(f"modal_df: expected a pandas DataFrame, found {type(modal_df)}")
+    if "dir" not in modal_df.columns or "mode" not in modal_df.columns:
+        missing = [c for c in ("dir", "mode") if c not in modal_df.columns]
+        raise InputError(f"modal_df: missing columns {missing}", source="modal dataset")
+    dirs_in = set(modal_df["dir"].astype(str).str.lower())
+    dirs = tuple(d for d in DRIVING_DIRECTIONS if d in dirs_in)
+    if not dirs:
+        raise InputError(
+            f"modal_df: expected driving-point rows (dir xx, yy or zz), found {sorted(dirs_in)}"
+        )
+    n_modes = int(pd.to_numeric(modal_df["mode"], errors="coerce").max())
+    if not n_modes >= 1:
+        raise InputError("modal_df: expected mode numbers >= 1", source="modal dataset")
+    return dataset_from_frame(modal_df, directions=dirs, n_modes=n_modes)
+
+
 class TwinCalibration:
     """Fit the uncertain parameters of a robot file to measured modes.
 
@@ -141,8 +196,12 @@ class TwinCalibration:
     com_bound_m : float
         Largest centre-of-mass offset per axis [m].
     regularization : float
-        Weight of the ``theta`` residuals pulling each parameter toward the
-        robot file (a parameter the data do not see stays there).
+        Multiplier of the prior residuals pulling each parameter toward the
+        robot file (1: the prior :data:`PRIOR_STD`; 0: none, parameters the
+        data do not see wander).
+    prior_std : dict of str to float, optional
+        Prior standard deviation per group in ``theta`` units, overriding
+        :data:`PRIOR_STD` for the groups given.
     weights : (float, float, float)
         Residual weights of log frequency, log damping and log stiffness.
     match_tol : float
@@ -203,7 +262,8 @@ class TwinCalibration:
         params: Sequence[str] = DEFAULT_PARAMS,
         bounds: tuple[float, float] = (0.3, 3.0),
         com_bound_m: float = 0.15,
-        regularization: float = 1e-3,
+        regularization: float = 1.0,
+        prior_std: dict[str, float] | None = None,
         weights: tuple[float, float, float] = (1.0, 0.2, 0.3),
         match_tol: float = 0.3,
         match_k_weight: float = 0.1,
@@ -220,6 +280,7 @@ class TwinCalibration:
         self.bounds = bounds
         self.com_bound_m = com_bound_m
         self.regularization = regularization
+        self.prior_std = prior_std
         self.weights = weights
         self.match_tol = match_tol
         self.match_k_weight = match_k_weight
@@ -263,7 +324,29 @@ class TwinCalibration:
             )
         if len(self.weights) != 3 or any(w < 0 for w in self.weights):
             raise InputError(f"weights: expected 3 non-negative numbers, found {self.weights}")
+        prior = dict(self.prior_std or {})
+        bad_prior = {
+            g: v for g, v in prior.items() if g not in PARAMETER_GROUPS or not float(v) > 0
+        }
+        if bad_prior:
+            raise InputError(
+                f"prior_std: expected positive values for groups of {tuple(PARAMETER_GROUPS)}, "
+                f"found {bad_prior}"
+            )
         return robot, groups
+
+    def _prior_vector(self, groups: tuple[str, ...]) -> FloatArray:
+        """Prior standard deviation of every parameter [theta units], shape (n_params,)."""
+        sd = {**PRIOR_STD, **(self.prior_std or {})}
+        return np.concatenate([np.full(PARAMETER_GROUPS[g], float(sd[g])) for g in groups])
+
+    def _noise_floor(self) -> float:
+        """RMS of the weighted log residuals that identification scatter alone leaves."""
+        from robolobe.tl.twin_data import IdentificationNoise
+
+        noise = IdentificationNoise()
+        w = np.asarray(self.weights, dtype=float)
+        return float(np.sqrt(np.mean((w * [noise.f, noise.zeta, noise.k]) ** 2)))
 
     def _theta_bounds(self, groups: tuple[str, ...]) -> tuple[FloatArray, FloatArray]:
         lo, hi = (float(np.log(b)) for b in self.bounds)
@@ -321,22 +404,7 @@ class TwinCalibration:
         -------
         self
         """
-        if not isinstance(modal_df, pd.DataFrame):
-            raise InputError(f"modal_df: expected a pandas DataFrame, found {type(modal_df)}")
-        if "dir" not in modal_df.columns or "mode" not in modal_df.columns:
-            missing = [c for c in ("dir", "mode") if c not in modal_df.columns]
-            raise InputError(f"modal_df: missing columns {missing}", source="modal dataset")
-        dirs_in = set(modal_df["dir"].astype(str).str.lower())
-        dirs = tuple(d for d in DRIVING_DIRECTIONS if d in dirs_in)
-        if not dirs:
-            raise InputError(
-                f"modal_df: expected driving-point rows (dir xx, yy or zz), found {sorted(dirs_in)}"
-            )
-        n_modes = int(pd.to_numeric(modal_df["mode"], errors="coerce").max())
-        if not n_modes >= 1:
-            raise InputError("modal_df: expected mode numbers >= 1", source="modal dataset")
-        ds = dataset_from_frame(modal_df, directions=dirs, n_modes=n_modes)
-        return self.fit_dataset(ds)
+        return self.fit_dataset(modal_frame_dataset(modal_df))
 
     def fit_dataset(self, ds: ModalDataset) -> TwinCalibration:
         """Calibrate on a :class:`~robolobe.tl.dataset.ModalDataset` (NaN = not seen)."""
@@ -360,6 +428,10 @@ class TwinCalibration:
         twin.n_modes = n_twin
         wf, wz, wk = (float(w) for w in self.weights)
         reg = float(self.regularization)
+        prior_sd = self._prior_vector(groups)
+        # weight of the prior rows: the scatter of the weighted data residuals
+        # (updated from the fit in the last stage)
+        prior_w = np.array([reg * self._noise_floor()])
         cache: dict[bytes, FloatArray] = {}
 
         def model(theta: FloatArray) -> FloatArray:
@@ -381,7 +453,7 @@ class TwinCalibration:
             return np.asarray(r[np.isfinite(meas)])
 
         def residuals(theta: FloatArray, idx: tuple[NDArray[np.intp], ...]) -> FloatArray:
-            return np.concatenate([data_res(theta, idx), reg * theta])
+            return np.concatenate([data_res(theta, idx), prior_w[0] * theta / prior_sd])
 
         wvec = np.array([wf, wz, wk])
         jcache: dict[bytes, FloatArray] = {}
@@ -394,7 +466,7 @@ class TwinCalibration:
             i, j, m, t = idx
             d = -jcache[key][i, j, t] * wvec[None, :, None]  # (n_pairs, 3, p)
             rows = d[np.isfinite(y[i, j, m])]
-            return np.vstack([rows, reg * np.eye(p)])
+            return np.vstack([rows, np.diag(prior_w[0] / prior_sd)])
 
         def dyn_jac(theta: FloatArray) -> FloatArray:
             idx, _ = self._match(ds, model(theta), tol=np.inf)
@@ -491,6 +563,8 @@ class TwinCalibration:
                     f"{n_res} ({unmatched} of {int(np.isfinite(y[..., 0]).sum())} measured modes "
                     f"had no twin mode within {100 * (np.exp(self.match_tol) - 1):.0f} %)"
                 )
+            r0 = data_res(theta, idx)
+            prior_w[0] = reg * max(self._noise_floor(), float(np.sqrt(np.mean(r0**2))))
             sol = least_squares(
                 residuals,
                 theta,
@@ -649,6 +723,76 @@ class TwinCalibration:
 
         self._check_fitted()
         return save_robot(self.robot_, path)
+
+    def state(self) -> tuple[dict[str, Any], dict[str, FloatArray]]:
+        """What :meth:`predict` needs, as JSON-able metadata and float arrays.
+
+        :meth:`from_state` rebuilds a fitted calibration from them (no pickling).
+        """
+        from robolobe.robots.io import robot_to_toml
+
+        self._check_fitted()
+        meta = {
+            "base_robot_toml": robot_to_toml(self.base_robot_),
+            "robot_name": self.robot_.name,
+            "groups": list(self.groups_),
+            "residual_rms": dict(self.residual_rms_),
+            "directions": list(self.directions_),
+            "n_modes": int(self.n_modes_),
+            "n_postures": int(self.n_postures_),
+            "n_matched": int(self.n_matched_),
+            "n_unmatched": int(self.n_unmatched_),
+            "at_bounds": list(self.at_bounds_),
+        }
+        arrays = {
+            "theta": np.asarray(self.theta_, dtype=float),
+            "covariance": np.asarray(self.covariance_, dtype=float),
+            "train_q_rad": np.asarray(self.train_q_rad_, dtype=float),
+        }
+        return meta, arrays
+
+    @classmethod
+    def from_state(
+        cls, meta: dict[str, Any], arrays: dict[str, Any], where: str
+    ) -> TwinCalibration:
+        """A fitted calibration from :meth:`state`'s output (``where`` names the file)."""
+        from robolobe.robots.io import _parse_toml, robot_from_dict
+
+        try:
+            base = robot_from_dict(_parse_toml(str(meta["base_robot_toml"]), where), where)
+            groups = tuple(str(g) for g in meta["groups"])
+            theta = np.asarray(arrays["theta"], dtype=float)
+            cov = np.asarray(arrays["covariance"], dtype=float)
+            names = parameter_names(groups)
+            if theta.shape != (len(names),) or cov.shape != (len(names), len(names)):
+                raise ValueError(f"theta/covariance do not fit {len(names)} parameters")
+            self = cls(robot=base, params=groups)
+            self.theta_ = theta
+            self.covariance_ = cov
+            self.param_std_ = np.sqrt(np.clip(np.diag(cov), 0.0, None))
+            self.base_robot_ = base
+            self.groups_ = groups
+            self.param_names_ = names
+            self.robot_ = apply_parameters(base, groups, theta).replace(
+                name=str(meta["robot_name"])
+            )
+            self.factors_ = {}
+            k = 0
+            for g in groups:
+                v = theta[k : k + PARAMETER_GROUPS[g]]
+                self.factors_[g] = COM_UNIT_M * v.reshape(6, 3) if g == "link_com" else np.exp(v)
+                k += PARAMETER_GROUPS[g]
+            self.residual_rms_ = {str(a): float(b) for a, b in meta["residual_rms"].items()}
+            self.directions_ = tuple(str(d) for d in meta["directions"])
+            self.n_modes_ = int(meta["n_modes"])
+            self.n_postures_ = int(meta["n_postures"])
+            self.n_matched_ = int(meta["n_matched"])
+            self.n_unmatched_ = int(meta["n_unmatched"])
+            self.at_bounds_ = tuple(str(a) for a in meta["at_bounds"])
+            self.train_q_rad_ = np.asarray(arrays["train_q_rad"], dtype=float)
+        except (KeyError, TypeError, ValueError) as exc:
+            raise InputError(f"inconsistent twin calibration ({exc})", source=where) from None
+        return self
 
     def __repr__(self) -> str:
         state = "fitted" if hasattr(self, "robot_") else "unfitted"

@@ -12,10 +12,13 @@ from __future__ import annotations
 import json
 from importlib import resources
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from robolobe.errors import InputError
 from robolobe.tl.estimator import ModalPredictor
+
+if TYPE_CHECKING:
+    from robolobe.tl.residual import CorrectedTwin
 
 __all__ = ["SHIPPED", "load_model", "shipped_info"]
 
@@ -36,8 +39,12 @@ def shipped_info() -> dict[str, Any]:
     return data
 
 
-def load_model(spec: str | Path) -> ModalPredictor:
+def load_model(spec: str | Path) -> ModalPredictor | CorrectedTwin:
     """A shipped model by key (``"A"``, ``"B"``, ``"C"``) or a model file.
+
+    A model file is a network (:class:`ModalPredictor`) or a calibrated twin
+    with its learned correction (:class:`robolobe.tl.residual.CorrectedTwin`,
+    from ``robolobe transfer --robot R``); both predict modes with spread.
 
     Raises
     ------
@@ -61,4 +68,8 @@ def load_model(spec: str | Path) -> ModalPredictor:
             f"found {key!r}",
             source="MODEL",
         )
+    from robolobe.tl.residual import CorrectedTwin, is_corrected_twin_file
+
+    if is_corrected_twin_file(path):
+        return CorrectedTwin.load(path)
     return ModalPredictor.load(path)

@@ -1,0 +1,567 @@
+"""The calibrated twin plus a learned correction of what it still misses.
+
+A twin calibration (:class:`robolobe.tl.graybox.TwinCalibration`) fits the
+physical parameters a robot file gets wrong, but not what its *form* lacks:
+link inertias of another shape, gear stiffness that grows with the gravity
+load, a tool (hammer-test point) not where the file says. Those leave a
+smooth, posture-dependent residual. :class:`CorrectedTwin` learns it:
+
+1. calibrate the twin on the hammer tests;
+2. residuals ``r = log(measured / twin)`` of f, zeta and k per direction and
+   twin mode (the calibration's own mode matching, so a mode not seen in a
+   direction is not mistaken for the next one);
+3. per quantity, a Gaussian process on the joint angles shared by all
+   (direction, mode) outputs: each output scaled to unit RMS, an RBF kernel
+   with one length scale per joint and a signal fraction ``rho`` (the rest is
+   scatter), hyperparameters by the pooled marginal likelihood; or taken,
+   frozen, from a source model fitted on another robot (``kernel_source``:
+   the length scales of model-form residuals learned on robot A's campaign,
+   only ``rho`` refitted);
+4. per output, the leave-one-out predictions ``g`` of the process
+   (closed form) decide how much of it to use: ``alpha = <r, g> / <g, g>``
+   clipped to [0, 1], and ``alpha = 0`` (the calibrated twin unchanged)
+   unless the leave-one-out squared error falls by more than a fraction
+   ``max(2 / n, min_gain)`` of its sum (``2 / n``: twice what fitting one
+   factor to noise gains); and a quantity is corrected at all only if its
+   leave-one-out squared error pooled over the outputs falls by more than
+   ``pooled_gain`` (a decision on all its data, less noisy than each
+   output's: where the twin's form is right for a quantity, it stays as is);
+5. spread: the twin's parameter spread plus, per output, the leave-one-out
+   RMS error of the corrected residual, scaled up where the process is less
+   certain than at the training postures (away from the tests).
+
+The correction tends to zero away from the tested postures (the process has
+zero mean), so the predictor falls back on the calibrated twin where the
+tests say nothing. Saved as one ``.npz`` without pickles (the robot file as
+TOML text, arrays, JSON metadata); :func:`robolobe.tl.models.load_model`
+reads it, so a job's ``robot.model`` can name it.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import warnings
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+from numpy.typing import ArrayLike, NDArray
+from scipy.optimize import minimize
+
+from robolobe._atomic import atomic_path
+from robolobe.errors import InputError
+from robolobe.robots.model import Robot
+from robolobe.tl.dataset import ModalDataset
+from robolobe.tl.estimator import ModalPrediction
+from robolobe.tl.graybox import TwinCalibration, modal_frame_dataset
+from robolobe.tl.twin_params import K_MAX
+
+__all__ = ["CORRECTED_TWIN_FORMAT", "CorrectedTwin", "is_corrected_twin_file"]
+
+FloatArray = NDArray[np.float64]
+#: ``format`` of a saved :class:`CorrectedTwin`.
+CORRECTED_TWIN_FORMAT = "robolobe-corrected-twin/1"
+_QUANTITIES = ("f", "zeta", "k")
+_LOG_ELL_BOUNDS = (np.log(0.05), np.log(20.0))  # length scales [rad]
+_RHO_BOUNDS = (0.01, 0.99)
+
+
+def _kernel(xa: FloatArray, xb: FloatArray, ell: FloatArray) -> FloatArray:
+    """Unit-variance RBF kernel, shape (len(xa), len(xb))."""
+    d = (xa[:, None, :] - xb[None, :, :]) / ell
+    return np.asarray(np.exp(-0.5 * np.sum(d * d, axis=-1)))
+
+
+def _pooled_nll(hyp: FloatArray, xs: list[FloatArray], ts: list[FloatArray], n_ell: int) -> float:
+    """Negative log marginal likelihood of unit-RMS outputs sharing one kernel."""
+    ell = np.exp(hyp[:n_ell])
+    rho = 1.0 / (1.0 + np.exp(-hyp[n_ell]))
+    total = 0.0
+    for x, t in zip(xs, ts, strict=True):
+        k = rho * _kernel(x, x, ell) + (1.0 - rho) * np.eye(len(x))
+        try:
+            c = np.linalg.cholesky(k)
+        except np.linalg.LinAlgError:
+            return 1e12
+        a = np.linalg.solve(c, t)
+        total += 0.5 * float(a @ a) + float(np.log(np.diag(c)).sum())
+    return total
+
+
+def _frozen_nll(
+    logit_rho: FloatArray, log_ell: FloatArray, xs: list[FloatArray], ts: list[FloatArray]
+) -> float:
+    """:func:`_pooled_nll` with the length scales held fixed."""
+    return _pooled_nll(np.r_[log_ell, logit_rho], xs, ts, len(log_ell))
+
+
+def is_corrected_twin_file(path: str | os.PathLike[str]) -> bool:
+    """Whether ``path`` is a saved :class:`CorrectedTwin` (reads only its metadata)."""
+    try:
+        with np.load(Path(path), allow_pickle=False) as z:
+            if "meta" not in z.files:
+                return False
+            meta = json.loads(str(z["meta"]))
+    except (OSError, ValueError):
+        return False
+    return isinstance(meta, dict) and meta.get("format") == CORRECTED_TWIN_FORMAT
+
+
+class CorrectedTwin:
+    """Calibrated twin plus a cross-validated Gaussian-process correction (module docstring).
+
+    Parameters
+    ----------
+    robot : Robot or str
+        The robot file (``"B"``, a ``.toml`` path or a Robot).
+    calibration : dict, optional
+        Keyword arguments of :class:`~robolobe.tl.graybox.TwinCalibration`
+        (``params``, ``bounds``...; ``robot`` is the one above).
+    prefit : TwinCalibration, optional
+        A calibration already fitted to the same hammer tests (its robot
+        file is used; ``calibration`` is then ignored): only the correction
+        is learned.
+    kernel_source : CorrectedTwin, optional
+        A fitted model (e.g. on robot A) whose kernel length scales are
+        taken frozen; only the signal fraction is refitted.
+    min_postures : int
+        Fewest postures accepted by :meth:`fit`.
+    min_points : int
+        Fewest training values of an output for it to get a correction.
+    min_gain : float
+        Least relative fall of the leave-one-out squared error for an output
+        to be corrected (module docstring, step 4).
+    pooled_gain : float
+        Least relative fall of a quantity's pooled leave-one-out squared
+        error for any of its outputs to be corrected.
+    random_state : int or None
+        Seed of the calibration's random starts.
+
+    Attributes
+    ----------
+    calibration_ : TwinCalibration
+    robot_ : Robot
+        The calibrated robot.
+    length_scales_ : ndarray, shape (3, 6)
+        Kernel length scales per quantity (f, zeta, k) and joint [rad].
+    rho_ : ndarray, shape (3,)
+        Signal fraction of the scaled residuals per quantity.
+    alpha_ : ndarray, shape (n_dir, n_modes, 3)
+        Share of the process used per output (0: the calibrated twin as is).
+    scale_ : ndarray, shape (n_dir, n_modes, 3)
+        RMS of the training residuals per output (NaN: no data).
+    loo_rmse_ : ndarray, shape (n_dir, n_modes, 3)
+        Leave-one-out RMS log error of the corrected residual per output.
+    loo_rmse_twin_ : ndarray, shape (n_dir, n_modes, 3)
+        The same for the calibrated twin alone (in-sample residual RMS).
+    directions_ : tuple of str
+    n_modes_ : int
+    train_q_rad_ : ndarray, shape (n, 6)
+    """
+
+    length_scales_: FloatArray
+    rho_: FloatArray
+
+    def __init__(
+        self,
+        *,
+        robot: Robot | str | os.PathLike[str],
+        calibration: dict[str, Any] | None = None,
+        prefit: TwinCalibration | None = None,
+        kernel_source: CorrectedTwin | None = None,
+        min_postures: int = 8,
+        min_points: int = 6,
+        min_gain: float = 0.0,
+        pooled_gain: float = 0.2,
+        random_state: int | None = 0,
+    ) -> None:
+        self.robot = robot
+        self.calibration = calibration
+        self.prefit = prefit
+        self.kernel_source = kernel_source
+        self.min_postures = min_postures
+        self.min_points = min_points
+        self.min_gain = min_gain
+        self.pooled_gain = pooled_gain
+        self.random_state = random_state
+
+    # ----------------------------------------------------------------- fit
+    def fit(self, modal_df: pd.DataFrame) -> CorrectedTwin:
+        """Fit on a ``modal.csv`` frame (driving-point rows ``xx``, ``yy``, ``zz``)."""
+        return self.fit_dataset(modal_frame_dataset(modal_df))
+
+    def _residuals(self, cal: TwinCalibration, ds: ModalDataset) -> FloatArray:
+        """``log(measured / twin)`` per posture, direction, twin mode, quantity (NaN: none)."""
+        q = ds.q_rad
+        nm = ds.n_modes
+        twin = cal.predict(q, directions=ds.directions, n_modes=6, spread=False).values
+        (i, j, m, t), _ = cal._match(ds, twin)
+        y = np.asarray(ds.y)
+        r = np.full((len(q), len(ds.directions), nm, 3), np.nan)
+        keep = t < nm
+        i, j, m, t = i[keep], j[keep], m[keep], t[keep]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            val = np.log(y[i, j, m] / twin[i, j, t])
+        val[:, 2] = np.where(twin[i, j, t, 2] >= K_MAX, np.nan, val[:, 2])
+        r[i, j, t] = val
+        return r
+
+    def fit_dataset(self, ds: ModalDataset) -> CorrectedTwin:
+        """Fit on a :class:`~robolobe.tl.dataset.ModalDataset` (NaN = not seen)."""
+        if ds.n_postures < self.min_postures:
+            raise InputError(
+                f"expected at least {self.min_postures} postures for a corrected twin, found "
+                f"{ds.n_postures}"
+            )
+        if self.min_points < 3:
+            raise InputError(f"min_points: expected >= 3, found {self.min_points}")
+        src = self.kernel_source
+        if src is not None and not hasattr(src, "length_scales_"):
+            raise InputError("kernel_source: expected a fitted CorrectedTwin")
+        if self.prefit is not None:
+            cal = self.prefit
+            if not hasattr(cal, "robot_"):
+                raise InputError("prefit: expected a fitted TwinCalibration")
+        else:
+            kw = dict(self.calibration or {})
+            kw.setdefault("random_state", self.random_state)
+            cal = TwinCalibration(robot=self.robot, **kw).fit_dataset(ds)
+        r = self._residuals(cal, ds)
+        x = np.asarray(ds.q_rad, dtype=float)
+        nd, nm = r.shape[1], r.shape[2]
+        n_ell = x.shape[1]
+        ok = np.isfinite(r)
+        count = ok.sum(axis=0)  # (nd, nm, 3)
+        with np.errstate(invalid="ignore"):
+            scale = np.sqrt(np.nanmean(r**2, axis=0))  # (nd, nm, 3); NaN without data
+        scale = np.where(count > 0, np.maximum(scale, 1e-6), np.nan)
+        ells = np.zeros((3, n_ell))
+        rhos = np.zeros(3)
+        alpha = np.zeros((nd, nm, 3))
+        loo = np.where(count > 0, scale, np.nan)
+        inv_var_mean = np.ones((nd, nm, 3))
+        for c in range(3):
+            outs = [
+                (j, m) for j in range(nd) for m in range(nm) if count[j, m, c] >= self.min_points
+            ]
+            xs = [x[ok[:, j, m, c]] for j, m in outs]
+            ts = [r[ok[:, j, m, c], j, m, c] / scale[j, m, c] for j, m in outs]
+            if src is not None:
+                ell0 = np.log(src.length_scales_[c])
+                rho0 = float(src.rho_[c])
+            else:
+                ell0 = np.full(n_ell, np.log(0.5))
+                rho0 = 0.5
+            hyp0 = np.r_[ell0, np.log(rho0 / (1 - rho0))]
+            if outs:
+                lo_r, hi_r = (np.log(b / (1 - b)) for b in _RHO_BOUNDS)
+                if src is None:
+                    bounds = [_LOG_ELL_BOUNDS] * n_ell + [(lo_r, hi_r)]
+                    res = minimize(
+                        _pooled_nll, hyp0, args=(xs, ts, n_ell), method="L-BFGS-B", bounds=bounds
+                    )
+                    hyp = np.asarray(res.x)
+                else:  # length scales frozen: refit the signal fraction only
+                    res = minimize(
+                        _frozen_nll,
+                        hyp0[n_ell:],
+                        args=(ell0, xs, ts),
+                        method="L-BFGS-B",
+                        bounds=[(lo_r, hi_r)],
+                    )
+                    hyp = np.r_[ell0, res.x]
+            else:
+                hyp = hyp0
+            ell = np.exp(hyp[:n_ell])
+            rho = float(1.0 / (1.0 + np.exp(-hyp[n_ell])))
+            ells[c], rhos[c] = ell, rho
+            pooled = [0.0, 0.0]  # squared error of the twin, of the corrected twin (scaled)
+            for (j, m), xo, to in zip(outs, xs, ts, strict=True):
+                kmat = rho * _kernel(xo, xo, ell) + (1.0 - rho) * np.eye(len(xo))
+                a = np.linalg.inv(kmat)
+                d = np.diag(a)
+                g = to - (a @ to) / d  # leave-one-out means (closed form)
+                gg = float(g @ g)
+                al = float(np.clip((to @ g) / gg, 0.0, 1.0)) if gg > 0 else 0.0
+                sse0 = float(to @ to)
+                sse = float(np.sum((to - al * g) ** 2))
+                if sse0 - sse <= max(2.0 / len(to), self.min_gain) * sse0:
+                    al, sse = 0.0, sse0
+                alpha[j, m, c] = al
+                pooled[0] += sse0  # unit-RMS outputs: each counts alike
+                pooled[1] += sse
+                loo[j, m, c] = scale[j, m, c] * np.sqrt(sse / len(to))
+                # mean predictive variance at the training postures, left out in turn
+                inv_var_mean[j, m, c] = float(np.mean(1.0 / d))
+            if outs and pooled[0] - pooled[1] <= self.pooled_gain * pooled[0]:
+                alpha[..., c] = 0.0  # not worth it for this quantity: the twin as is
+                loo[..., c] = np.where(count[..., c] > 0, scale[..., c], np.nan)
+        self.calibration_ = cal
+        self.robot_ = cal.robot_
+        self.length_scales_ = ells
+        self.rho_ = rhos
+        self.alpha_ = alpha
+        self.scale_ = scale
+        self.loo_rmse_ = loo
+        self.loo_rmse_twin_ = np.where(count > 0, scale, np.nan)
+        self.loo_var_mean_ = inv_var_mean
+        self.train_r_ = r
+        self.directions_ = tuple(ds.directions)
+        self.n_modes_ = nm
+        self.train_q_rad_ = x
+        return self
+
+    # ------------------------------------------------------------- predict
+    def _check_fitted(self) -> None:
+        if not hasattr(self, "calibration_"):
+            raise InputError("this CorrectedTwin is not fitted yet: call fit()")
+
+    @property
+    def directions(self) -> tuple[str, ...]:
+        """Driving-point directions of the predictions."""
+        self._check_fitted()
+        return self.directions_
+
+    @property
+    def robot_name(self) -> str:
+        """Name of the calibrated robot."""
+        self._check_fitted()
+        return str(self.robot_.name)
+
+    def correction(self, q_rad: ArrayLike) -> tuple[FloatArray, FloatArray]:
+        """Learned log correction and its spread at postures.
+
+        Returns
+        -------
+        mean, std : ndarray, shape (n, n_dir, n_modes, 3)
+            Added to the calibrated twin's log f, log zeta, log k; ``std`` is
+            the leave-one-out error scaled by the process' uncertainty there
+            (NaN where the output has no training data).
+        """
+        self._check_fitted()
+        q = np.asarray(q_rad, dtype=float)
+        x = self.train_q_rad_
+        r = self.train_r_
+        nd, nm = r.shape[1], r.shape[2]
+        mean = np.zeros((len(q), nd, nm, 3))
+        std = np.tile(self.loo_rmse_, (len(q), 1, 1, 1))
+        for c in range(3):
+            ell, rho = self.length_scales_[c], float(self.rho_[c])
+            for j in range(nd):
+                for m in range(nm):
+                    okm = np.isfinite(r[:, j, m, c])
+                    if okm.sum() < self.min_points or not np.isfinite(self.scale_[j, m, c]):
+                        continue
+                    xo = x[okm]
+                    to = r[okm, j, m, c] / self.scale_[j, m, c]
+                    kmat = rho * _kernel(xo, xo, ell) + (1.0 - rho) * np.eye(len(xo))
+                    ks = rho * _kernel(q, xo, ell)
+                    sol = np.linalg.solve(kmat, np.c_[to, ks.T])
+                    mean[:, j, m, c] = (
+                        self.alpha_[j, m, c] * self.scale_[j, m, c] * (ks @ sol[:, 0])
+                    )
+                    var = 1.0 - np.einsum("ij,ji->i", ks, sol[:, 1:])  # predictive, with scatter
+                    ratio = np.clip(var / self.loo_var_mean_[j, m, c], 1.0, None)
+                    std[:, j, m, c] = self.loo_rmse_[j, m, c] * np.sqrt(ratio)
+        return mean, std
+
+    def predict(
+        self,
+        q_rad: ArrayLike,
+        *,
+        directions: Sequence[str] | None = None,
+        n_modes: int | None = None,
+        spread: bool = True,
+        warn: bool = True,
+    ) -> ModalPrediction:
+        """Modes of the calibrated twin with the learned correction and its spread.
+
+        Parameters
+        ----------
+        q_rad : array_like, shape (n, 6)
+            Joint angles [rad].
+        directions : sequence of str, optional
+            Must be the training directions (the default); other directions
+            get the calibrated twin without correction.
+        n_modes : int, optional
+            Modes per direction (default: as trained); modes beyond those
+            trained get no correction.
+        spread : bool
+            False: zero spread (faster).
+        warn : bool
+            Warn about postures outside the robot's joint limits.
+
+        Returns
+        -------
+        ModalPrediction
+            ``kind="log"``, shape (n, n_dir, n_modes, 3).
+        """
+        self._check_fitted()
+        q = np.asarray(q_rad, dtype=float)
+        if q.ndim != 2 or q.shape[1] != 6 or not np.all(np.isfinite(q)):
+            raise InputError(f"q_rad: expected finite angles of shape (n, 6), found {q.shape}")
+        if warn:
+            rob = self.robot_
+            out = np.any((q < rob.q_min - 1e-9) | (q > rob.q_max + 1e-9), axis=1)
+            if out.any():
+                warnings.warn(
+                    f"{int(out.sum())} postures outside the joint limits of {rob.name}",
+                    stacklevel=2,
+                )
+        dirs = tuple(directions) if directions is not None else self.directions_
+        nm = int(n_modes) if n_modes is not None else self.n_modes_
+        base = self.calibration_.predict(q, directions=dirs, n_modes=nm, spread=spread)
+        center = np.array(base.center)
+        std = np.array(base.std)
+        rms = np.nan_to_num([self.calibration_.residual_rms_[c] for c in _QUANTITIES])
+        if spread:  # the calibration's in-sample residual term is replaced by the LOO error
+            std = np.sqrt(np.clip(std**2 - rms**2, 0.0, None))
+        mean_c, std_c = self.correction(q)
+        k_on = center[..., 2] < np.log(K_MAX) - 1e-9
+        for jj, d in enumerate(dirs):
+            if d not in self.directions_:
+                if spread:
+                    std[:, jj] = np.sqrt(std[:, jj] ** 2 + rms**2)
+                continue
+            j = self.directions_.index(d)
+            mm = min(nm, self.n_modes_)
+            add = mean_c[:, j, :mm].copy()
+            add[..., 2] = np.where(k_on[:, jj, :mm], add[..., 2], 0.0)
+            center[:, jj, :mm] += add
+            if spread:
+                sc = np.where(np.isfinite(std_c[:, j, :mm]), std_c[:, j, :mm], rms)
+                std[:, jj, :mm] = np.sqrt(std[:, jj, :mm] ** 2 + sc**2)
+                std[:, jj, mm:] = np.sqrt(std[:, jj, mm:] ** 2 + rms**2)
+        if not spread:
+            std = np.zeros_like(center)
+        return ModalPrediction(directions=dirs, center=center, std=std, kind="log")
+
+    def extrapolation(self, q_rad: ArrayLike) -> FloatArray:
+        """Zero per posture: the twin is physics over the whole workspace.
+
+        Away from the tested postures the correction fades to zero and its
+        spread grows (:meth:`correction`); nothing extrapolates blindly.
+
+        Returns
+        -------
+        ndarray, shape (n,)
+        """
+        self._check_fitted()
+        return np.zeros(len(np.asarray(q_rad, dtype=float).reshape(-1, 6)))
+
+    def summary(self) -> pd.DataFrame:
+        """Per direction, mode and quantity: training values, alpha, RMS errors (twin, LOO)."""
+        self._check_fitted()
+        rows = []
+        for j, d in enumerate(self.directions_):
+            for m in range(self.n_modes_):
+                for c, name in enumerate(_QUANTITIES):
+                    rows.append(
+                        {
+                            "dir": d,
+                            "mode": m + 1,
+                            "quantity": name,
+                            "n": int(np.isfinite(self.train_r_[:, j, m, c]).sum()),
+                            "alpha": float(self.alpha_[j, m, c]),
+                            "rms_twin": float(self.loo_rmse_twin_[j, m, c]),
+                            "rms_loo": float(self.loo_rmse_[j, m, c]),
+                        }
+                    )
+        return pd.DataFrame(rows)
+
+    # ---------------------------------------------------------------- save
+    def save(self, path: str | os.PathLike[str]) -> Path:
+        """Write one ``.npz`` (JSON metadata and float arrays; nothing pickled), atomically."""
+        self._check_fitted()
+        cal_meta, cal_arrays = self.calibration_.state()
+        meta = {
+            "format": CORRECTED_TWIN_FORMAT,
+            "calibration": cal_meta,
+            "directions": list(self.directions_),
+            "n_modes": int(self.n_modes_),
+            "min_points": int(self.min_points),
+        }
+        arrays: dict[str, Any] = {f"cal_{k}": v for k, v in cal_arrays.items()}
+        arrays.update(
+            meta=np.array(json.dumps(meta)),
+            length_scales=self.length_scales_,
+            rho=self.rho_,
+            alpha=self.alpha_,
+            scale=self.scale_,
+            loo_rmse=self.loo_rmse_,
+            loo_rmse_twin=self.loo_rmse_twin_,
+            loo_var_mean=self.loo_var_mean_,
+            train_r=self.train_r_,
+            train_q_rad=self.train_q_rad_,
+        )
+        path = Path(path)
+        with atomic_path(path) as tmp, tmp.open("wb") as fh:
+            np.savez_compressed(fh, **arrays)
+        return path
+
+    @classmethod
+    def load(cls, path: str | os.PathLike[str]) -> CorrectedTwin:
+        """Read a model written by :meth:`save` (``allow_pickle=False``).
+
+        Raises
+        ------
+        InputError
+            Missing or unreadable file, another format, inconsistent content.
+        """
+        where = str(path)
+        try:
+            with np.load(Path(path), allow_pickle=False) as z:
+                arrays = {k: z[k] for k in z.files}
+            meta = json.loads(str(arrays["meta"]))
+        except (OSError, ValueError, KeyError) as exc:
+            raise InputError(f"cannot read the model file: {exc}", source=where) from None
+        if not isinstance(meta, dict) or meta.get("format") != CORRECTED_TWIN_FORMAT:
+            found = meta.get("format") if isinstance(meta, dict) else None
+            raise InputError(
+                f"format: expected {CORRECTED_TWIN_FORMAT!r}, found {found!r}", source=where
+            )
+        cal = TwinCalibration.from_state(
+            meta["calibration"],
+            {k[4:]: v for k, v in arrays.items() if k.startswith("cal_")},
+            where,
+        )
+        try:
+            self = cls(robot=cal.base_robot_, min_points=int(meta["min_points"]))
+            self.calibration_ = cal
+            self.robot_ = cal.robot_
+            self.directions_ = tuple(str(d) for d in meta["directions"])
+            self.n_modes_ = int(meta["n_modes"])
+            for name in (
+                "length_scales",
+                "rho",
+                "alpha",
+                "scale",
+                "loo_rmse",
+                "loo_rmse_twin",
+                "loo_var_mean",
+                "train_r",
+                "train_q_rad",
+            ):
+                setattr(self, f"{name}_", np.asarray(arrays[name], dtype=float))
+        except (KeyError, TypeError, ValueError) as exc:
+            raise InputError(f"inconsistent model file ({exc})", source=where) from None
+        nd, nm = len(self.directions_), self.n_modes_
+        n = len(self.train_q_rad_)
+        if (
+            self.alpha_.shape != (nd, nm, 3)
+            or self.train_r_.shape != (n, nd, nm, 3)
+            or self.length_scales_.shape != (3, 6)
+            or self.rho_.shape != (3,)
+        ):
+            raise InputError(
+                "inconsistent model file: array shapes do not match the directions and modes",
+                source=where,
+            )
+        return self
+
+    def __repr__(self) -> str:
+        state = "fitted" if hasattr(self, "calibration_") else "unfitted"
+        return f"CorrectedTwin(robot={getattr(self.robot, 'name', self.robot)!r}, {state})"
