@@ -17,6 +17,7 @@ smallest over the scenarios, on the grid and in the exact queries.
 
 from __future__ import annotations
 
+import math
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass, field
@@ -85,7 +86,9 @@ class DynamicsTolerance:
         )
 
 
-def _features(model: ModalModel, tol: DynamicsTolerance) -> FloatArray:
+def _features(
+    model: ModalModel, tol: DynamicsTolerance, alpha: FloatArray | None = None
+) -> FloatArray:
     """Scaled features (n, F): a max-norm distance <= 1 means 'within tolerance'.
 
     Per mode: log natural frequency, log damping, log of the residue trace
@@ -93,6 +96,14 @@ def _features(model: ModalModel, tol: DynamicsTolerance) -> FloatArray:
     direction). Each mode's features are weighted by the square root of its
     share of the peak compliance at that waypoint, so that modes that barely
     move the tool do not split groups.
+
+    With the directional factors ``alpha`` (2, 2) the cut sees a mode through
+    ``tr(alpha A_r)`` (for a mode shape ``u``: ``u^T alpha u``), which is small
+    and varies fast with the angle between the feed and a mode shape close to
+    the feed direction (where ``alpha`` weighs the normal direction): its log
+    (and sign) is a feature too, weighted by its own share, so that such a
+    mode splits groups at the angle where it changes the limit, not at the
+    angle where its residue entries do.
     """
     w = model.omega.reshape(-1, model.n_modes)
     z = model.zeta.reshape(-1, model.n_modes)
@@ -111,12 +122,23 @@ def _features(model: ModalModel, tol: DynamicsTolerance) -> FloatArray:
         for j in range(i, model.dim):
             if i == j and i == model.dim - 1:
                 continue  # the last diagonal share follows from the others
-            feats.append(a[:, :, i, j] / trs / max(tol.residue, 1e-15))
-    return np.concatenate([f * weight for f in feats], axis=1)
+            # a mode's direction relative to the feed: sin/cos products of its angle, to
+            # a quarter of the size tolerance (0.5 % -> 0.3 deg): near the feed or normal
+            # direction the limit moves by several % per degree
+            feats.append(a[:, :, i, j] / trs / max(tol.residue / 4.0, 1e-15))
+    out = [f * weight for f in feats]
+    if alpha is not None and model.dim == 2:
+        ori = np.einsum("ij,nmji->nm", np.asarray(alpha, dtype=np.float64), a)
+        peak_o = np.abs(ori) / (2.0 * z * w**2)
+        w_o = np.sqrt(peak_o / np.maximum(peak_o.max(axis=1, keepdims=True), 1e-300))
+        mag = np.log(np.maximum(np.abs(ori), 1e-300)) / max(tol.residue, 1e-15)
+        out.append(mag * w_o)
+        out.append(np.sign(ori) * w_o / max(tol.residue, 1e-15))
+    return np.concatenate(out, axis=1)
 
 
 def group_dynamics(
-    model: ModalModel, tol: DynamicsTolerance | None = None
+    model: ModalModel, tol: DynamicsTolerance | None = None, alpha: FloatArray | None = None
 ) -> tuple[IntArray, IntArray]:
     """Group a batch of modal models whose parameters agree within ``tol``.
 
@@ -129,6 +151,9 @@ def group_dynamics(
     model : ModalModel
         Batch shape (n,).
     tol : DynamicsTolerance, optional
+    alpha : ndarray, shape (2, 2), optional
+        Directional factors of the cut (feed-frame models): adds the oriented
+        size of each mode to the features (see :func:`_features`).
 
     Returns
     -------
@@ -139,7 +164,7 @@ def group_dynamics(
     """
     tol = tol or DynamicsTolerance()
     n = int(np.prod(model.batch_shape)) if model.batch_shape else 1
-    f = _features(model, tol)
+    f = _features(model, tol, alpha)
     if tol.exact:
         _, first, inv = np.unique(f, axis=0, return_index=True, return_inverse=True)
         order = np.argsort(first)
@@ -193,6 +218,8 @@ class GroupedLobes:
         Why, when not valid.
     timings : dict
         Seconds spent grouping and computing lobes.
+    window : ndarray, shape (n_groups,)
+        Relative speed window of each group (0 without robust planning).
     """
 
     table: LobeTable
@@ -201,6 +228,7 @@ class GroupedLobes:
     valid: bool
     message: str
     timings: dict[str, float] = field(default_factory=dict)
+    window: FloatArray = field(default_factory=lambda: np.zeros(0))
 
     @property
     def n_groups(self) -> int:
@@ -221,6 +249,7 @@ def waypoint_lobes(
     unbounded: NDArray[np.bool_] | None = None,
     tol: DynamicsTolerance | None = None,
     max_lobe_cap: int = 400,
+    window: FloatArray | None = None,
 ) -> GroupedLobes:
     """Lobes of every waypoint, computed once per group of equal dynamics.
 
@@ -244,6 +273,12 @@ def waypoint_lobes(
         Grouping tolerance (default 0.3 % in frequency).
     max_lobe_cap : int
         Upper bound of the automatic lobe count.
+    window : ndarray, shape (n,), optional
+        Relative speed window per waypoint (robust planning: the frequency
+        uncertainty): the limit at speed ``n`` is the smallest over
+        ``n (1 + t w)``, ``|t| <= 1`` (sampled at most one grid step apart,
+        kept inside the grid), on the grid and in the exact queries. A group
+        takes the widest window of its members.
 
     Returns
     -------
@@ -272,7 +307,7 @@ def waypoint_lobes(
                 np.concatenate([joined.zeta, m.zeta[idx_b]], axis=-1),
                 np.concatenate([joined.residues, m.residues[idx_b]], axis=-3),
             )
-        g_b, lead_b = group_dynamics(joined, tol)
+        g_b, lead_b = group_dynamics(joined, tol, alpha)
         leader = idx_b[lead_b]
     else:
         g_b = np.zeros(0, np.int64)
@@ -303,7 +338,7 @@ def waypoint_lobes(
     group = np.full(n, n_groups, np.int64)  # last row: unbounded
     group[idx_b] = g_b
 
-    def exact(rows: FloatArray, groups: IntArray) -> FloatArray:
+    def exact0(rows: FloatArray, groups: IntArray) -> FloatArray:
         out = np.full(rows.shape, np.inf)
         sel = groups < n_groups  # the last row is the unbounded one
         if np.any(sel):
@@ -322,6 +357,34 @@ def waypoint_lobes(
             out[sel] = np.min(np.stack(vals), axis=0)
         return out
 
+    w_group = np.zeros(n_groups + 1)
+    if window is not None and n_groups:
+        w = np.clip(np.nan_to_num(np.asarray(window, dtype=np.float64)), 0.0, 0.5)
+        if w.shape != (n,):
+            raise InputError(f"window: expected shape ({n},), found {w.shape}")
+        np.maximum.at(w_group, group, w)
+        w_group[n_groups] = 0.0
+    w_max = float(w_group.max())
+    if w_max > 0:
+        step = float(rpm[-1] - rpm[0]) / max(rpm.size - 1, 1)
+        n_t = int(min(41, max(3, 2 * math.ceil(w_max * rpm[-1] / max(step, 1e-9)) + 1)))
+        t_samples = np.linspace(-1.0, 1.0, n_t)
+
+        def exact(rows: FloatArray, groups: IntArray) -> FloatArray:
+            wg = w_group[groups][:, None]
+            out = exact0(rows, groups)
+            for t in t_samples:
+                if t == 0.0:
+                    continue
+                shifted = np.clip(rows * (1.0 + t * wg), rpm[0], rpm[-1])
+                out = np.minimum(out, exact0(shifted, groups))
+            return out
+
+        g_all = np.arange(n_groups, dtype=np.int64)
+        a_grid[:n_groups] = exact(np.broadcast_to(rpm, (n_groups, rpm.size)).copy(), g_all)
+    else:
+        exact = exact0
+
     t2 = time.perf_counter()
     return GroupedLobes(
         table=LobeTable(rpm=rpm, a_lim=a_grid, group=group, exact=exact),
@@ -330,4 +393,5 @@ def waypoint_lobes(
         valid=diagrams[0].valid if diagrams else True,
         message=diagrams[0].message if diagrams else "",
         timings={"grouping": t1 - t0, "zoa": t2 - t1},
+        window=w_group[:n_groups],
     )
