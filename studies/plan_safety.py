@@ -21,8 +21,8 @@ are simulated on the truth with noise (:func:`robolobe.twin.campaign.simulate_ca
 identified (:func:`robolobe.modal.identify.identify_campaign`), and turned
 into predictors: the robot A network transferred (the seed's method) and the
 robot file's twin calibrated (``transfer --method twin-calibration``'s
-:class:`robolobe.tl.graybox.TwinCalibration`, its residual scatter as the
-spread). The bundled jobs reachable on the robot (aluminium and steel) are
+:class:`robolobe.tl.graybox.TwinCalibration`; spread from the fit alone,
+:func:`calibrated_spread`). The bundled jobs reachable on the robot (aluminium and steel) are
 planned with each source, plain and robust, and every plan is verified on
 the concealed truth with :func:`robolobe.plan.verify.verify_plan` (every
 waypoint its own lobes). The oracle plans on the truth itself.
@@ -37,7 +37,7 @@ robot's twin over the workspace (300 random postures within the tested
 ranges): p90 of |f error| and |k error| of the modes the twin sees.
 
 Run: ``nice python studies/plan_safety.py [--draws 3] [--robots B,C,user]
-[--jobs all|al|steel] [--out studies/plan_safety.json]``; ``--summarize FILE``
+[--jobs all|al|steel] [--workers 2] [--out studies/plan_safety.json]``; ``--summarize FILE``
 prints the tables of a saved run.
 """
 
@@ -150,13 +150,31 @@ def predictors(base: Robot, modal: Any, draw: int) -> dict[str, Any]:
     out["network"] = PredictorSource(net, "network transferred from A")
     t1 = time.perf_counter()
     cal = TwinCalibration(robot=base, random_state=draw).fit(modal)
-    spread = [cal.residual_rms_[c] for c in ("f", "zeta", "k")]
-    src = TwinSource(cal.robot_, spread=np.nan_to_num(spread))
+    spread = calibrated_spread(cal, ds.q_rad)
+    src = TwinSource(cal.robot_, spread=spread)
     src.name = "calibrated twin"
     out["calibrated twin"] = src
     out["_times"] = {"network_s": t1 - t0, "calibration_s": time.perf_counter() - t1}
     out["_spread"] = spread
     return out
+
+
+def calibrated_spread(cal: TwinCalibration, q_train: np.ndarray) -> list[float]:
+    """Prediction spread of a calibrated twin (std of log f, zeta, k) from its fit alone.
+
+    The parameter covariance propagated to the training postures (median over
+    postures and modes) plus a model-form term: the frequency residual (the
+    frequencies are measured to ~0.1 %, so their residual is what the twin's
+    form misses) for f, twice it for k (k ~ m f^2), the damping residual for
+    zeta. The modal-stiffness residual itself is mostly identification noise
+    of k (10-20 %), which a fit over 20 postures averages out.
+    """
+    pred = cal.predict(q_train)
+    rms = np.array([cal.residual_rms_[c] for c in ("f", "zeta", "k")])
+    var_p = np.clip(np.asarray(pred.std) ** 2 - np.nan_to_num(rms) ** 2, 0.0, None)
+    p = np.sqrt(np.nanmedian(var_p.reshape(-1, 3), axis=0))
+    form = np.nan_to_num(np.array([rms[0], rms[1], 2.0 * rms[0]]))
+    return [float(v) for v in np.sqrt(p**2 + form**2)]
 
 
 def _job_for(job_name: str, key: str) -> Any:
@@ -165,78 +183,91 @@ def _job_for(job_name: str, key: str) -> Any:
     return j.replace(robot=robot, model="twin")
 
 
-def run(draws: int, robots: list[str], jobs: str, tmp: Path) -> list[dict[str, Any]]:
+def run_one(draw: int, key: str, jobs: str) -> list[dict[str, Any]]:
+    """Every plan of one concealed robot."""
     rows: list[dict[str, Any]] = []
-    for draw in range(draws):
-        for key in robots:
-            base = load_robot(str(USER_ROBOT) if key == "user" else key)
-            truth, truth_path = concealed_truth(key, draw, tmp)
-            t0 = time.perf_counter()
-            modal, _ = hammer_tests(base, truth, key, draw)
-            t_id = time.perf_counter() - t0
-            srcs = predictors(base, modal, draw)
-            print(
-                f"draw {draw} {key}: identify {t_id:.0f} s, network {srcs['_times']['network_s']:.0f} s,"
-                f" calibration {srcs['_times']['calibration_s']:.0f} s, calibrated spread "
-                f"f/zeta/k {np.round(srcs['_spread'], 4).tolist()}",
-                flush=True,
-            )
-            for path, job_name, mat in JOBS:
-                if jobs != "all" and jobs != mat:
+    with tempfile.TemporaryDirectory() as tmp_s:
+        tmp = Path(tmp_s)
+        base = load_robot(str(USER_ROBOT) if key == "user" else key)
+        truth, truth_path = concealed_truth(key, draw, tmp)
+        t0 = time.perf_counter()
+        modal, _ = hammer_tests(base, truth, key, draw)
+        t_id = time.perf_counter() - t0
+        srcs = predictors(base, modal, draw)
+        print(
+            f"draw {draw} {key}: identify {t_id:.0f} s, network "
+            f"{srcs['_times']['network_s']:.0f} s, calibration "
+            f"{srcs['_times']['calibration_s']:.0f} s, calibrated spread "
+            f"f/zeta/k {np.round(srcs['_spread'], 4).tolist()}",
+            flush=True,
+        )
+        for path, job_name, mat in JOBS:
+            if jobs != "all" and jobs != mat:
+                continue
+            j = _job_for(job_name, key)
+            runs = [("oracle", False, TwinSource(truth))]
+            runs += [(s, r, srcs[s]) for s in SOURCES for r in (False, True)]
+            oracle = None
+            for name, robust, src in runs:
+                jj = j.replace(plan=dataclasses.replace(j.plan, robust=robust))
+                head = {"draw": draw, "robot": key, "job": job_name, "material": mat}
+                head |= {"source": name, "robust": robust}
+                t1 = time.perf_counter()
+                try:
+                    res = plan_path(EX / path, jj, robot=base, source=src)
+                except (ReachabilityError, SingularityError) as exc:
+                    print(f"  {job_name} on {key}: unreachable ({exc}); skipped", flush=True)
+                    break
+                except InfeasibleError as exc:
+                    rows.append({**head, "feasible": False, "reason": str(exc)[:200]})
                     continue
-                j = _job_for(job_name, key)
-                runs = [("oracle", False, TwinSource(truth))]
-                runs += [(s, r, srcs[s]) for s in SOURCES for r in (False, True)]
-                oracle = None
-                for name, robust, src in runs:
-                    jj = j.replace(plan=dataclasses.replace(j.plan, robust=robust))
-                    head = {"draw": draw, "robot": key, "job": job_name, "material": mat}
-                    head |= {"source": name, "robust": robust}
-                    t1 = time.perf_counter()
-                    try:
-                        res = plan_path(EX / path, jj, robot=base, source=src)
-                    except (ReachabilityError, SingularityError) as exc:
-                        print(f"  {job_name} on {key}: unreachable ({exc}); skipped", flush=True)
-                        break
-                    except InfeasibleError as exc:
-                        rows.append({**head, "feasible": False, "reason": str(exc)[:200]})
-                        continue
-                    t_plan = time.perf_counter() - t1
-                    feasible = bool(res.outcome.best.feasible)
-                    d = tmp / "plan"
-                    write_outputs(res, d, plots=False, html_report=False)
-                    v = verify_plan(d, robot=truth_path, job=jj, dynamics_tol=0.0)
-                    s = res.summary
-                    row = {
-                        **head,
-                        "feasible": feasible,
-                        "plan_s": round(t_plan, 2),
-                        "depth_mm": s["depth_mm"],
-                        "mrr": s["mrr_cm3_per_min"],
-                        "cycle_s": s["cycle_time_s"],
-                        "pct_beyond": v.summary["pct_beyond_limit"],
-                        "pct_inside_sf": v.summary["pct_inside_safety_factor"],
-                        "min_true_margin": v.min_margin,
-                        "sf": v.safety_factor,
-                    }
-                    if name == "oracle":
-                        oracle = row
-                    if oracle is not None and oracle["mrr"] > 0:
-                        row["mrr_rel"] = row["mrr"] / oracle["mrr"]
-                        row["cycle_rel"] = (
-                            row["cycle_s"]
-                            / oracle["cycle_s"]
-                            * (oracle["depth_mm"] / max(row["depth_mm"], 1e-9))
-                        )
-                    rows.append(row)
-                    print(
-                        f"  {job_name} {name}{' robust' if robust else ''}: depth "
-                        f"{row['depth_mm']:.3f} mm, MRR {row.get('mrr_rel', float('nan')):.2f} x "
-                        f"oracle, beyond {row['pct_beyond']:.1f} %, min true margin "
-                        f"{row['min_true_margin']:.3f} ({t_plan:.1f} s)",
-                        flush=True,
+                t_plan = time.perf_counter() - t1
+                feasible = bool(res.outcome.best.feasible)
+                d = tmp / "plan"
+                write_outputs(res, d, plots=False, html_report=False)
+                v = verify_plan(d, robot=truth_path, job=jj, dynamics_tol=0.0)
+                s = res.summary
+                row = {
+                    **head,
+                    "feasible": feasible,
+                    "plan_s": round(t_plan, 2),
+                    "depth_mm": s["depth_mm"],
+                    "mrr": s["mrr_cm3_per_min"],
+                    "cycle_s": s["cycle_time_s"],
+                    "pct_beyond": v.summary["pct_beyond_limit"],
+                    "pct_inside_sf": v.summary["pct_inside_safety_factor"],
+                    "min_true_margin": v.min_margin,
+                    "sf": v.safety_factor,
+                }
+                if name == "oracle":
+                    oracle = row
+                if oracle is not None and oracle["mrr"] > 0:
+                    row["mrr_rel"] = row["mrr"] / oracle["mrr"]
+                    row["cycle_rel"] = (
+                        row["cycle_s"]
+                        / oracle["cycle_s"]
+                        * (oracle["depth_mm"] / max(row["depth_mm"], 1e-9))
                     )
+                rows.append(row)
+                print(
+                    f"  {job_name} {name}{' robust' if robust else ''}: depth "
+                    f"{row['depth_mm']:.3f} mm, MRR {row.get('mrr_rel', float('nan')):.2f} x "
+                    f"oracle, beyond {row['pct_beyond']:.1f} %, min true margin "
+                    f"{row['min_true_margin']:.3f} ({t_plan:.1f} s)",
+                    flush=True,
+                )
     return rows
+
+
+def run(draws: int, robots: list[str], jobs: str, workers: int) -> list[dict[str, Any]]:
+    """All draws of all robots, ``workers`` processes."""
+    tasks = [(d, k, jobs) for d in range(draws) for k in robots]
+    if workers <= 1:
+        return [r for t in tasks for r in run_one(*t)]
+    from concurrent.futures import ProcessPoolExecutor
+
+    with ProcessPoolExecutor(workers) as ex:
+        return [r for rows in ex.map(run_one, *zip(*tasks, strict=True)) for r in rows]
 
 
 def summarize(rows: list[dict[str, Any]]) -> str:
@@ -305,6 +336,7 @@ def main() -> None:
     ap.add_argument("--robots", default="B,C,user")
     ap.add_argument("--jobs", default="all", choices=("all", "al", "steel"))
     ap.add_argument("--out", type=Path, default=ROOT / "studies" / "plan_safety.json")
+    ap.add_argument("--workers", type=int, default=1)
     ap.add_argument("--summarize", type=Path)
     ap.add_argument("--accuracy", action="store_true")
     a = ap.parse_args()
@@ -317,12 +349,12 @@ def main() -> None:
             print(r, flush=True)
         return
     t0 = time.perf_counter()
-    with tempfile.TemporaryDirectory() as tmp:
-        rows = run(a.draws, a.robots.split(","), a.jobs, Path(tmp))
+    rows = run(a.draws, a.robots.split(","), a.jobs, a.workers)
     meta = {
         "draws": a.draws,
         "robots": a.robots,
         "jobs": a.jobs,
+        "workers": a.workers,
         "time_s": round(time.perf_counter() - t0, 1),
         "loadavg": os.getloadavg(),
     }

@@ -46,6 +46,7 @@ def _root() -> None:
 # Command modules, in the order they appear in --help.
 _COMMAND_MODULES = (
     "plan",
+    "verify",
     "simulate",
     "identify",
     "tl",

@@ -15,7 +15,8 @@ Example (all keys; defaults shown where a key is optional)::
 
     [robot]
     name = "A"                   # "A" | "B" | "C" | path of a robot TOML
-    model = "builtin"            # "builtin" (shipped tl model) | "twin" | path
+    model = "twin"               # "twin" (default: the robot file's own modes) | "builtin"
+                                 # (the shipped network of A, B, C) | a tl model file
     tool_rotation_deg = 0.0      # rotation of the TCP x axis about the tool axis
     tool_rotation = "fixed"      # "fixed" | "stiffest" (search the range below)
     tool_rotation_range_deg = [-90.0, 90.0]
@@ -124,7 +125,7 @@ class _Spec(BaseModel):
 
 class _RobotSpec(_Spec):
     name: Annotated[str, Field(min_length=1)]
-    model: Annotated[str, Field(min_length=1)] = "builtin"
+    model: Annotated[str, Field(min_length=1)] = "twin"
     effects: Annotated[str, Field(min_length=1)] | None = None
     tool_rotation_deg: Num = 0.0
     tool_rotation: Literal["fixed", "stiffest"] = "fixed"
@@ -436,7 +437,11 @@ class Job:
     robot : str
         ``"A"``, ``"B"``, ``"C"`` or the (absolute) path of a robot file.
     model : str
-        ``"builtin"``, ``"twin"`` or the (absolute) path of a tl model file.
+        ``"twin"`` (default: the robot file's twin; for a calibrated robot
+        file, e.g. from ``robolobe transfer --method twin-calibration``, the
+        calibrated twin), ``"builtin"`` (the shipped network of A, B, C, which
+        misses its twin's modes by 3-15 % in frequency, README) or the
+        (absolute) path of a tl model file.
     effects : tuple of Effect
         Physics effects added to the twin (job key ``robot.effects``: an
         ``effects.toml`` file, e.g. from ``robolobe diagnose --updated-model``;
@@ -460,7 +465,7 @@ class Job:
     cut: CutSpec
     spindle: SpindleSpec
     plan: PlanSpec = field(default_factory=PlanSpec)
-    model: str = "builtin"
+    model: str = "twin"
     effects: tuple[Effect, ...] = ()
     effects_file: str | None = None
     placement: np.ndarray = field(default_factory=lambda: np.eye(4))

@@ -48,8 +48,10 @@ FloatArray = NDArray[np.float64]
 #: Fewest postures of a campaign that ``verify --campaign`` calibrates a twin on.
 MIN_CAMPAIGN_POSTURES = 8
 
-_NEEDED = ("source", "line", "motion", "x_mm", "y_mm", "z_mm", "feed_angle_deg", "rpm")
-_NEEDED += ("depth_mm", "a_lim_mm", "limiting", *(f"q{j}_deg" for j in range(1, 7)))
+_NEEDED: tuple[str, ...] = (
+    *("source", "line", "motion", "x_mm", "y_mm", "z_mm", "feed_angle_deg", "rpm"),
+    *("depth_mm", "a_lim_mm", "limiting", *(f"q{j}_deg" for j in range(1, 7))),
+)
 
 
 @dataclass(frozen=True, eq=False)
@@ -292,7 +294,7 @@ def verify_plan(
         elif model is not None:
             from robolobe.tl.models import load_model
 
-            pred = load_model(model if str(model).upper() in ("A", "B", "C") else Path(model))
+            pred = load_model(str(model) if str(model).upper() in ("A", "B", "C") else Path(model))
             _check_limits(load_robot(j.robot), q, sub, where)
             source = PredictorSource(pred, f"tl model {Path(str(model)).name}")
         else:
