@@ -102,3 +102,39 @@ def test_query_padding_with_uneven_groups():
     got = gl.table.query(speeds)
     ref = np.array([gl.table.query_shared(speeds[[i]])[i, 0] for i in range(6)])
     assert got == pytest.approx(ref, rel=1e-12)
+
+
+def test_lobe_envelope_with_zero_phase_at_lobe_zero_is_not_nan():
+    """eps + 2 k pi = 0 puts a piece's end at infinite speed: no NaN (was a robust-plan crash)."""
+    from robolobe.sld.lobes import lobe_envelope
+
+    w = np.linspace(50.0, 60.0, 5)
+    depth = np.array([[1e-3, 2e-3, 3e-3, 2e-3, 1e-3]])
+    eps = np.array([[0.0, 0.5, 1.0, 1.5, 2.0]])
+    a = lobe_envelope(w, depth, eps, teeth=2, rpm=np.linspace(100.0, 5000.0, 50), max_lobe=3)
+    assert not np.any(np.isnan(a))
+    assert np.all(a > 0)
+
+
+def test_robust_bound_keeps_invisible_modes_and_caps_spreads():
+    from robolobe.plan.modes import INVISIBLE_K, MAX_LOG_STD, RobotModes, _directional
+
+    f = np.array([[[10.0, 20.0], [10.0, 20.0], [np.nan, np.nan]]])
+    z = np.full_like(f, 0.03)
+    k = np.array([[[1e6, 1e12], [2e6, 5e7], [np.nan, np.nan]]])
+    std = np.zeros((1, 3, 2, 3))
+    std[..., 2] = 300.0  # a network's log-spread of a mode it calls not visible
+    std[..., 0] = 0.01
+    modes = RobotModes(f, z, k, std, _directional(f, z, k), None, "test")
+    b = modes.robust(2.0)
+    assert b is not None
+    # x direction, mode 2 (k = 1e12 >= INVISIBLE_K) keeps its stiffness; visible modes are
+    # softened by exp(2 * MAX_LOG_STD) at most
+    assert k[0, 0, 1] >= INVISIBLE_K
+    ratios = modes.model.residues[0, :, 0, 0] + modes.model.residues[0, :, 1, 1]
+    lowered = b.model.residues[0, :, 0, 0] + b.model.residues[0, :, 1, 1]
+    ok = ratios > 0
+    r = lowered[ok] / ratios[ok]
+    assert np.all(r <= np.exp(2 * MAX_LOG_STD) + 1e-12)
+    assert r[1] == pytest.approx(1.0)  # the invisible one
+    assert b.window[0] == pytest.approx(0.02)
