@@ -138,3 +138,46 @@ def test_robust_bound_keeps_invisible_modes_and_caps_spreads():
     assert np.all(r <= np.exp(2 * MAX_LOG_STD) + 1e-12)
     assert r[1] == pytest.approx(1.0)  # the invisible one
     assert b.window[0] == pytest.approx(0.02)
+
+
+@pytest.mark.parametrize("milling", ["down", "up"])
+def test_sharing_near_the_feed_direction_stays_within_one_percent(milling):
+    """A robot mode within a few degrees of the feed (or normal) direction, turned in
+    0.1 deg steps, plus a tool mode (issue 11: sharing once changed a limit by 38 %).
+
+    Wherever a member is not next to a steep wall of its leader's lobes (where the
+    planner gives it lobes of its own, :func:`steep_members`), the shared limit is within
+    1 % of its own (0.3 % here); next to walls a 0.1 deg turn moves a cusp by a grid step
+    (5x in depth),
+    which no tolerance can share."""
+    from robolobe.plan.lobes import steep_members
+
+    deg = np.r_[np.arange(-3.0, 3.01, 0.1), 90.0 + np.arange(-3.0, 3.01, 0.1)]
+    th = np.radians(deg)
+    u = np.stack([np.cos(th), np.sin(th)], axis=1)  # robot mode shape in the feed frame
+    n = th.size
+    omega = np.tile([2 * np.pi * 12.0, 2 * np.pi * 900.0], (n, 1))
+    zeta = np.tile([0.02, 0.03], (n, 1))
+    res = np.zeros((n, 2, 2, 2))
+    res[:, 0] = omega[:, :1, None] ** 2 / 2e6 * np.einsum("ni,nj->nij", u, u)
+    res[:, 1] = omega[0, 1] ** 2 / 3e7 * np.eye(2)
+    m = ModalModel(omega, zeta, res)
+    st, ex = engagement_angles(0.3, milling)
+    rpm = np.linspace(2000.0, 12000.0, 300)
+    kw = dict(teeth=3, kt=767e6, kr=0.22, phi_entry=st, phi_exit=ex, rpm=rpm, immersion=0.3)
+    shared = waypoint_lobes([m], tol=DynamicsTolerance(0.003, 0.03, 0.021, 0.01, 50.0), **kw)
+    own = waypoint_lobes([m], tol=DynamicsTolerance(0.0, 0.0, 0.0), **kw)
+    assert shared.n_groups < n / 2  # sharing still shares
+    speeds = rpm[5:-5:7]
+    worst = 0.0
+    n_steep = 0
+    for r in speeds:
+        at = np.full(n, r)
+        steep = steep_members(shared, at)
+        a_s = shared.table.query(at)
+        a_o = own.table.query(at)
+        err = np.abs(a_s / a_o - 1.0)[~steep]
+        worst = max(worst, float(err.max(initial=0.0)))
+        n_steep += int(steep.sum())
+    assert worst <= 0.01
+    assert n_steep < 0.5 * n * speeds.size  # walls and steep flanks are the exception

@@ -10,9 +10,16 @@ group's leader, which is one of its waypoints), batched through
 lobe polylines intersected at any speed (:meth:`LobeDiagram.query`). With a
 tolerance of zero every distinct waypoint is its own group.
 
-Robust planning passes extra scenario models (lower stiffness and damping,
-frequencies shifted both ways by the prediction spread): the limit is the
-smallest over the scenarios, on the grid and in the exact queries.
+Robust planning passes a second model (stiffness and damping lowered by the
+prediction spread, :meth:`robolobe.plan.modes.RobotModes.robust`) and a
+relative speed window per waypoint (the frequency spread: modes all shifted
+by a factor r have the lobes at speed n / r): the limit is the smallest over
+the models and over the window, on the grid and in the exact queries.
+
+Grouping features include, per mode, the angle of its residue relative to
+the feed direction (to ~0.3 deg) and the size with which the cut sees it,
+``tr(alpha A_r)``: a mode within a degree of the feed or normal direction can
+change the limit by several % per degree.
 """
 
 from __future__ import annotations
@@ -37,6 +44,7 @@ __all__ = [
     "DynamicsTolerance",
     "GroupedLobes",
     "group_dynamics",
+    "steep_members",
     "waypoint_lobes",
 ]
 
@@ -100,10 +108,10 @@ def _features(
     With the directional factors ``alpha`` (2, 2) the cut sees a mode through
     ``tr(alpha A_r)`` (for a mode shape ``u``: ``u^T alpha u``), which is small
     and varies fast with the angle between the feed and a mode shape close to
-    the feed direction (where ``alpha`` weighs the normal direction): its log
-    (and sign) is a feature too, weighted by its own share, so that such a
-    mode splits groups at the angle where it changes the limit, not at the
-    angle where its residue entries do.
+    the feed direction (where ``alpha`` weighs the normal direction): the log
+    of its size relative to the mode's trace (and its sign) is a feature too,
+    so that such a mode splits groups at the angle where it changes the
+    limit, not at the angle where its residue entries do.
     """
     w = model.omega.reshape(-1, model.n_modes)
     z = model.zeta.reshape(-1, model.n_modes)
@@ -128,12 +136,14 @@ def _features(
             feats.append(a[:, :, i, j] / trs / max(tol.residue / 4.0, 1e-15))
     out = [f * weight for f in feats]
     if alpha is not None and model.dim == 2:
-        ori = np.einsum("ij,nmji->nm", np.asarray(alpha, dtype=np.float64), a)
-        peak_o = np.abs(ori) / (2.0 * z * w**2)
-        w_o = np.sqrt(peak_o / np.maximum(peak_o.max(axis=1, keepdims=True), 1e-300))
-        mag = np.log(np.maximum(np.abs(ori), 1e-300)) / max(tol.residue, 1e-15)
-        out.append(mag * w_o)
-        out.append(np.sign(ori) * w_o / max(tol.residue, 1e-15))
+        # the cut sees mode r through tr(alpha A_r): its limit goes as 1 / that, so its
+        # log (relative to the mode's size) is compared to the residue tolerance, with the
+        # mode's own weight: near a sign change it varies without bound and splits groups
+        # finely there, which is where the limit is most sensitive
+        ori = np.einsum("ij,nmji->nm", np.asarray(alpha, dtype=np.float64), a) / trs
+        mag = np.log(np.maximum(np.abs(ori), 1e-12)) / max(tol.residue, 1e-15)
+        out.append(mag * weight)
+        out.append(np.sign(ori) * weight / max(tol.residue, 1e-15))
     return np.concatenate(out, axis=1)
 
 
@@ -250,6 +260,7 @@ def waypoint_lobes(
     tol: DynamicsTolerance | None = None,
     max_lobe_cap: int = 400,
     window: FloatArray | None = None,
+    own: NDArray[np.bool_] | None = None,
 ) -> GroupedLobes:
     """Lobes of every waypoint, computed once per group of equal dynamics.
 
@@ -277,8 +288,11 @@ def waypoint_lobes(
         Relative speed window per waypoint (robust planning: the frequency
         uncertainty): the limit at speed ``n`` is the smallest over
         ``n (1 + t w)``, ``|t| <= 1`` (sampled at most one grid step apart,
-        kept inside the grid), on the grid and in the exact queries. A group
-        takes the widest window of its members.
+        kept inside the grid) in the exact queries, over the grid points inside
+        the window on the grid. A group takes the widest window of its members.
+    own : ndarray of bool, shape (n,), optional
+        Waypoints that get lobes of their own whatever the tolerance (e.g. those
+        :func:`steep_members` finds next to a steep lobe wall).
 
     Returns
     -------
@@ -308,6 +322,13 @@ def waypoint_lobes(
                 np.concatenate([joined.residues, m.residues[idx_b]], axis=-3),
             )
         g_b, lead_b = group_dynamics(joined, tol, alpha)
+        if own is not None:
+            force = np.asarray(own, bool)[idx_b]
+            force[lead_b] = False  # leaders have their own lobes already
+            extra = np.flatnonzero(force)
+            g_b = g_b.copy()
+            g_b[extra] = lead_b.size + np.arange(extra.size)
+            lead_b = np.r_[lead_b, extra].astype(np.int64)
         leader = idx_b[lead_b]
     else:
         g_b = np.zeros(0, np.int64)
@@ -371,17 +392,24 @@ def waypoint_lobes(
         t_samples = np.linspace(-1.0, 1.0, n_t)
 
         def exact(rows: FloatArray, groups: IntArray) -> FloatArray:
-            wg = w_group[groups][:, None]
-            out = exact0(rows, groups)
-            for t in t_samples:
-                if t == 0.0:
-                    continue
-                shifted = np.clip(rows * (1.0 + t * wg), rpm[0], rpm[-1])
-                out = np.minimum(out, exact0(shifted, groups))
-            return out
+            # all shifts in one envelope query (one pass over the lobe pieces)
+            wg = w_group[groups][:, None, None]
+            shifted = np.clip(rows[:, None, :] * (1.0 + t_samples[:, None] * wg), rpm[0], rpm[-1])
+            vals = exact0(shifted.reshape(rows.shape[0], -1), groups)
+            return np.asarray(vals.reshape(shifted.shape).min(axis=1))
 
-        g_all = np.arange(n_groups, dtype=np.int64)
-        a_grid[:n_groups] = exact(np.broadcast_to(rpm, (n_groups, rpm.size)).copy(), g_all)
+        # the grid: a running minimum of the grid itself over each group's window
+        # (exact at the grid speeds, sampled at the grid's own spacing in between)
+        lo_idx = np.searchsorted(rpm, rpm[None, :] * (1.0 - w_group[:n_groups, None]), "left")
+        hi_idx = np.searchsorted(rpm, rpm[None, :] * (1.0 + w_group[:n_groups, None]), "right")
+        base = a_grid[:n_groups].copy()
+        win = base.copy()
+        cols = np.arange(rpm.size)
+        for off in range(1, int(np.max(np.maximum(cols - lo_idx, hi_idx - 1 - cols))) + 1):
+            left = np.where(cols - off >= lo_idx, np.roll(base, off, axis=1), np.inf)
+            right = np.where(cols + off <= hi_idx - 1, np.roll(base, -off, axis=1), np.inf)
+            win = np.minimum(win, np.minimum(left, right))
+        a_grid[:n_groups] = win
     else:
         exact = exact0
 
@@ -395,3 +423,49 @@ def waypoint_lobes(
         timings={"grouping": t1 - t0, "zoa": t2 - t1},
         window=w_group[:n_groups],
     )
+
+
+def steep_members(
+    grouped: GroupedLobes, rpm: FloatArray, *, shift: float = 0.005, ratio: float = 1.01
+) -> NDArray[np.bool_]:
+    """Waypoints that share lobes and run next to a steep wall of them.
+
+    A member's own lobes are its leader's shifted a little in speed (its
+    frequencies differ within the tolerance) and reshaped a little (its mode
+    directions): where the leader's limit changes by more than ``ratio``
+    within ``rpm (1 +- shift)``, a steep wall or cusp is near and the shared
+    limit may be far from the member's own. Such members should get their
+    own lobes (``waypoint_lobes(..., own=...)``).
+
+    Parameters
+    ----------
+    grouped : GroupedLobes
+    rpm : ndarray, shape (n_cut,)
+        Planned speed of each cutting waypoint [rpm].
+    shift : float
+        Relative speed range examined.
+    ratio : float
+        Largest allowed max/min of the limit over that range.
+
+    Returns
+    -------
+    ndarray of bool, shape (n_cut,)
+    """
+    tab = grouped.table
+    g = tab.group
+    n = g.size
+    out = np.zeros(n, bool)
+    lead = np.zeros(n, bool)
+    lead[grouped.leader] = True
+    cand = np.flatnonzero((g < grouped.n_groups) & ~lead)
+    if cand.size == 0:
+        return out
+    t = np.linspace(-1.0, 1.0, 9)
+    r = np.asarray(rpm, dtype=np.float64)[cand, None] * (1.0 + shift * t)
+    r = np.clip(r, tab.rpm[0], tab.rpm[-1])
+    a = tab.rows(r, g[cand])
+    with np.errstate(invalid="ignore", divide="ignore"):
+        var = np.max(a, axis=1) / np.min(a, axis=1)
+    out[cand] = ~(var <= ratio)  # NaN (inf / inf) counts as steep
+    out[cand] &= np.isfinite(np.min(a, axis=1))
+    return out

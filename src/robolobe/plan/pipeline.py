@@ -43,7 +43,7 @@ from numpy.typing import NDArray
 
 from robolobe.errors import InputError, ReachabilityError, SingularityError
 from robolobe.plan.job import Job
-from robolobe.plan.lobes import DynamicsTolerance, GroupedLobes, waypoint_lobes
+from robolobe.plan.lobes import DynamicsTolerance, GroupedLobes, steep_members, waypoint_lobes
 from robolobe.plan.modes import ModeSource, RobotModes, RobustBound, mode_source
 from robolobe.plan.optimize import Constraints, PathGeometry, PlanOutcome, optimize_schedule
 from robolobe.plan.paths import read_toolpath, segment_lengths, validate_waypoints
@@ -343,6 +343,7 @@ def _lobes_for_rotation(
     dict[str, float],
     FloatArray,
     RobustBound | None,
+    FloatArray,
 ]:
     timings: dict[str, float] = {}
     t = time.perf_counter()
@@ -362,7 +363,7 @@ def _lobes_for_rotation(
         job, modes, f_tcp, material, tool, rpm
     )
     timings.update(t_lobes)
-    return q, wm, modes, model0, plunge, grouped, timings, feed_angle, bound
+    return q, wm, modes, model0, plunge, grouped, timings, feed_angle, bound, f_tcp
 
 
 def cut_lobes(
@@ -375,6 +376,7 @@ def cut_lobes(
     *,
     dynamics_tol: float | None = None,
     robust: bool | None = None,
+    own: NDArray[np.bool_] | None = None,
 ) -> tuple[
     ModalModel, NDArray[np.bool_], GroupedLobes, dict[str, float], FloatArray, RobustBound | None
 ]:
@@ -400,6 +402,8 @@ def cut_lobes(
         Overrides ``job.plan.dynamics_tol`` (0: every waypoint its own lobes).
     robust : bool, optional
         Overrides ``job.plan.robust``.
+    own : ndarray of bool, shape (n,), optional
+        Waypoints that get lobes of their own (see :func:`robolobe.plan.lobes.steep_members`).
 
     Returns
     -------
@@ -447,6 +451,7 @@ def cut_lobes(
         unbounded=plunge,
         tol=tol,
         window=None if bound is None else bound.window,
+        own=own,
     )
     timings["lobes"] = time.perf_counter() - t
     feed_angle = np.degrees(np.arctan2(f_use[:, 1], f_use[:, 0]))
@@ -522,7 +527,7 @@ def plan_path(
         rotation, rot_note = _stiffest_rotation(
             job, wp, robot, source, cut, material, tool, rpm, cons
         )
-    q, wm, modes, _model0, plunge, grouped, t_stage, feed_angle, bound = _lobes_for_rotation(
+    q, wm, modes, _model0, plunge, grouped, t_stage, feed_angle, bound, f_tcp = _lobes_for_rotation(
         job, wp, robot, source, rotation, cut, material, tool, rpm
     )
     timings.update(t_stage)
@@ -546,11 +551,35 @@ def plan_path(
         labels=labels,
         refine=refine,
     )
+    # lobe sharing keeps its promise: members planned next to a steep wall of their
+    # leader's lobes get lobes of their own, and the schedule is made again
+    steep = steep_members(grouped, outcome.best.rpm)
+    n_split = int(steep.sum())
+    if n_split:
+        t_split = time.perf_counter()
+        _, _, grouped, _, _, _ = cut_lobes(job, modes, f_tcp, material, tool, rpm, own=steep)
+        timings["lobes"] += time.perf_counter() - t_split
+        outcome = optimize_schedule(
+            grouped.table,
+            geom,
+            cons,
+            programmed_rpm=prog if np.any(np.isfinite(prog)) else None,
+            labels=labels,
+            refine=refine,
+        )
     timings["optimize"] = time.perf_counter() - t
     t = time.perf_counter()
     table = _result_table(
         wp, q, wm, modes, grouped, outcome, ci, plunge, feed_angle, job, cons, seg
     )
+    own_col = np.zeros(len(wp), bool)
+    own_col[ci] = steep
+    table["lobes_own"] = own_col
+    if n_split:
+        note = (note + "; " if note else "") + (
+            f"{n_split} waypoints next to a steep lobe wall got lobes of their own "
+            "(sharing would have moved their limit)"
+        )
     summary = _summary(
         job,
         path_name,
@@ -620,7 +649,7 @@ def _stiffest_rotation(
     best, best_val, tried = None, -np.inf, []
     for r in cands:
         try:
-            *_, grouped, _, _, _ = _lobes_for_rotation(
+            *_, grouped, _, _, _, _ = _lobes_for_rotation(
                 job, wp, robot, source, float(r), keep, material, tool, rpm
             )
         except (ReachabilityError, SingularityError) as exc:

@@ -307,6 +307,11 @@ def verify_plan(
     f_tcp = np.stack([np.cos(fa), np.sin(fa), np.zeros_like(fa)], axis=1)
     f_tcp[plunge_rec] = [0.0, 0.0, 1.0]
     rpm_grid = np.linspace(j.spindle.rpm_min, j.spindle.rpm_max, j.plan.n_rpm)
+    own = (
+        sub["lobes_own"].astype(str).str.lower().isin(("true", "1")).to_numpy()
+        if "lobes_own" in sub.columns
+        else None
+    )
     _, plunge, grouped, _, _, _ = cut_lobes(
         j,
         modes,
@@ -316,6 +321,7 @@ def verify_plan(
         rpm_grid,
         dynamics_tol=dynamics_tol,
         robust=False,
+        own=own,
     )
     rpm = sub["rpm"].to_numpy(dtype=np.float64)
     depth = sub["depth_mm"].to_numpy(dtype=np.float64) * 1e-3
