@@ -227,7 +227,9 @@ def run_one(draw: int, key: str, jobs: str) -> list[dict[str, Any]]:
                 continue
             j = _job_for(job_name, spec)
             runs = [("oracle", False, TwinSource(truth))]
-            runs += [(s, r, srcs[s]) for s in SOURCES for r in (False, True)]
+            runs += [(s, r, srcs[s]) for s in SOURCES for r in (False, True) if srcs[s]]
+            if srcs["network"] is None:
+                print(f"  network skipped: {srcs['_network_error']}", flush=True)
             oracle = None
             for name, robust, src in runs:
                 jj = j.replace(plan=dataclasses.replace(j.plan, robust=robust))
