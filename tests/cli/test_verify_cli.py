@@ -4,10 +4,8 @@ from __future__ import annotations
 
 import dataclasses
 import json
-import os
 import shutil
 import subprocess
-import sys
 from importlib import resources
 from pathlib import Path
 
@@ -15,24 +13,12 @@ import pytest
 
 from robolobe.robots.io import load_robot, save_robot
 
-pytestmark = (
-    pytest.mark.slow
-)  # subprocesses: a plan, then verify runs (~20 s each on a busy machine)
+from .test_plan_cli import run
+
+# subprocesses: a plan, then verify runs (~20 s each on a busy machine)
+pytestmark = pytest.mark.slow
 
 EX = Path(str(resources.files("robolobe.data").joinpath("examples")))
-
-
-def run(args: list[str], cwd: Path) -> subprocess.CompletedProcess[str]:
-    env = {**os.environ, "COLUMNS": "120"}
-    return subprocess.run(
-        [sys.executable, "-m", "robolobe.cli.main", *args],
-        cwd=cwd,
-        capture_output=True,
-        text=True,
-        timeout=300,
-        env=env,
-        check=False,
-    )
 
 
 @pytest.fixture(scope="module")

@@ -210,7 +210,8 @@ class RobustBound:
             "stiffness_lowered_to_pct": round(100.0 * math.exp(-ks * sk), 2),
             "damping_lowered_to_pct": round(100.0 * math.exp(-ks * sz), 2),
             "statement": (
-                f"each mode's frequency within +-{100 * (math.exp(ks * sf) - 1):.2g} %, "
+                f"each mode's frequency within "
+                f"+-{100 * min(math.exp(ks * sf) - 1, MAX_WINDOW):.2g} %, "
                 f"stiffness above {100 * math.exp(-ks * sk):.3g} % and damping above "
                 f"{100 * math.exp(-ks * sz):.3g} % of the prediction (k_sigma = {ks:g}: "
                 f"{100 * self.confidence:.1f} % one-sided per quantity if the spread is "

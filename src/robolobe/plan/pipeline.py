@@ -543,14 +543,18 @@ def plan_path(
     src_col = wp["source"].to_numpy()[ci]
     line_col = wp["line"].to_numpy()[ci]
     labels = [f"{a}:{int(b)}" for a, b in zip(src_col, line_col, strict=True)]
-    outcome = optimize_schedule(
-        grouped.table,
-        geom,
-        cons,
-        programmed_rpm=prog if np.any(np.isfinite(prog)) else None,
-        labels=labels,
-        refine=refine,
-    )
+
+    def schedule(table: Any) -> PlanOutcome:
+        return optimize_schedule(
+            table,
+            geom,
+            cons,
+            programmed_rpm=prog if np.any(np.isfinite(prog)) else None,
+            labels=labels,
+            refine=refine,
+        )
+
+    outcome = schedule(grouped.table)
     # lobe sharing keeps its promise: members planned next to a steep wall of their
     # leader's lobes get lobes of their own, and the schedule is made again
     steep = steep_members(grouped, outcome.best.rpm)
@@ -559,14 +563,7 @@ def plan_path(
         t_split = time.perf_counter()
         _, _, grouped, _, _, _ = cut_lobes(job, modes, f_tcp, material, tool, rpm, own=steep)
         timings["lobes"] += time.perf_counter() - t_split
-        outcome = optimize_schedule(
-            grouped.table,
-            geom,
-            cons,
-            programmed_rpm=prog if np.any(np.isfinite(prog)) else None,
-            labels=labels,
-            refine=refine,
-        )
+        outcome = schedule(grouped.table)
     timings["optimize"] = time.perf_counter() - t
     t = time.perf_counter()
     table = _result_table(
