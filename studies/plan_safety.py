@@ -23,8 +23,11 @@ identified (:func:`robolobe.modal.identify.identify_campaign`), and turned
 into predictors: the robot A network transferred (the seed's method) and the
 robot file's twin calibrated (``transfer --method twin-calibration``'s
 :class:`robolobe.tl.graybox.TwinCalibration`; spread from the fit alone,
-:func:`calibrated_spread`). The bundled jobs reachable on the robot (aluminium and steel) are
-planned with each source, plain and robust, and every plan is verified on
+:func:`calibrated_spread`). The calibrated robot is also saved as a robot TOML and loaded back
+("calibrated file": what a job naming ``transfer --method twin-calibration``'s
+output gets; its robust plans take the job's assumed spread). The bundled
+jobs reachable on the robot (aluminium and steel) are planned with each
+source, plain and robust, and every plan is verified on
 the concealed truth with :func:`robolobe.plan.verify.verify_plan` (every
 waypoint its own lobes). The oracle plans on the truth itself.
 
@@ -91,7 +94,7 @@ JOBS = (
     ("slot.src", "job_A_slot_steel.toml", "steel"),
     ("face.mod", "job_C_face_ti_lowspeed.toml", "steel"),
 )
-SOURCES = ("nominal file", "network", "calibrated twin")
+SOURCES = ("nominal file", "network", "calibrated twin", "calibrated file")
 
 
 def _physical_shape_error(robot: Robot, rng: np.random.Generator, e: float) -> Robot:
@@ -177,6 +180,12 @@ def predictors(base: Robot, modal: Any, draw: int) -> dict[str, Any]:
     src = TwinSource(cal.robot_, spread=spread)
     src.name = "calibrated twin"
     out["calibrated twin"] = src
+    # what a job naming the calibrated robot TOML gets: the twin of the saved file, no
+    # spread of its own (robust plans take the job's assumed spread)
+    saved = Path(tempfile.mkdtemp()) / "calibrated.toml"
+    cal.save(saved)
+    out["calibrated file"] = TwinSource(load_robot(saved))
+    out["calibrated file"].name = "calibrated robot file"
     out["_times"] = {"network_s": t1 - t0, "calibration_s": time.perf_counter() - t1}
     out["_spread"] = spread
     return out
