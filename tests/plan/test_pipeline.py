@@ -151,7 +151,57 @@ def test_robust_mode_plans_on_the_lower_bound(pocket_job):
     robust = plan_path(example("pocket.nc"), job, source=src, refine=False)
     assert robust.summary["robust"] is True
     assert robust.outcome.best.depth_m < nominal.outcome.best.depth_m
-    assert len(robust.lobes.diagrams) == 4  # nominal + three scenarios
+    assert len(robust.lobes.diagrams) == 2  # nominal + stiffness and damping lowered
+    b = robust.summary["robust_bound"]
+    assert b["k_sigma"] == 2.0
+    assert b["confidence_pct"] == pytest.approx(97.72, abs=0.01)
+    # spread 0.05 in log f, 2 sigma: a +-10 % speed window; k and zeta x exp(-0.1)
+    assert b["frequency_window_pct_max"] == pytest.approx(10.0, abs=1e-6)
+    assert b["stiffness_lowered_to_pct"] == pytest.approx(100 * np.exp(-0.1), abs=0.01)
+    assert any(n.startswith("robust plan:") for n in robust.summary["notes"])
+    assert robust.summary["min_margin_at"]["source"].startswith("pocket.nc:")
+    # the stated limit is the smallest of the lowered model's lobes over the speed window
+    tab = robust.lobes.table
+    rpm = robust.outcome.best.rpm
+    k = int(np.argmin(robust.outcome.best.a_lim_m))
+    g = tab.group[k]
+    d1 = robust.lobes.diagrams[1]
+    from robolobe.sld.lobes import lobe_envelope
+
+    shifts = np.clip(rpm[k] * (1 + np.linspace(-0.1, 0.1, 201)), tab.rpm[0], tab.rpm[-1])
+    dense = lobe_envelope(
+        d1.omega[g] if np.ndim(d1.omega) > 1 else d1.omega,
+        d1.depth[g],
+        d1.eps[g],
+        teeth=d1.teeth,
+        rpm=shifts,
+        max_lobe=d1.max_lobe,
+    )
+    stated = robust.outcome.best.a_lim_m[k]
+    assert stated <= dense.max()
+    assert stated == pytest.approx(dense.min(), rel=0.05)
+
+
+def test_twin_robust_uses_the_jobs_assumed_spread_and_never_nan(pocket_job):
+    job = pocket_job.replace(plan=dataclasses.replace(pocket_job.plan, robust=True))
+    res = plan_path(example("pocket.nc"), job, refine=False)
+    b = res.summary["robust_bound"]
+    assert "assumed spread" in b["spread_from"]
+    assert b["frequency_window_pct_max"] == pytest.approx(100 * 2 * np.log1p(0.005), abs=1e-3)
+    assert np.all(np.isfinite(res.outcome.best.a_lim_m[np.isfinite(res.outcome.best.margin)]))
+    nominal = plan_path(example("pocket.nc"), pocket_job, refine=False)
+    assert res.outcome.best.depth_m <= nominal.outcome.best.depth_m
+
+
+def test_robust_infeasible_says_why_and_where(pocket_job):
+    job = pocket_job.replace(
+        plan=dataclasses.replace(
+            pocket_job.plan, robust=True, k_sigma=3.0, depth_min_m=pocket_job.plan.depth_max_m
+        )
+    )
+    with pytest.raises(InfeasibleError, match=r"pocket\.nc:\d+") as exc:
+        plan_path(example("pocket.nc"), job, refine=False)
+    assert "nan" not in str(exc.value).lower()
 
 
 def test_degenerate_paths(tmp_path, pocket_job):

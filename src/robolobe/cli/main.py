@@ -62,6 +62,7 @@ def _root(
 # Command modules, in the order they appear in --help.
 _COMMAND_MODULES = (
     "plan",
+    "verify",
     "simulate",
     "identify",
     "tl",

@@ -15,7 +15,8 @@ Example (all keys; defaults shown where a key is optional)::
 
     [robot]
     name = "A"                   # "A" | "B" | "C" | path of a robot TOML
-    model = "builtin"            # "builtin" (shipped tl model) | "twin" | path
+    model = "twin"               # "twin" (default: the robot file's own modes) | "builtin"
+                                 # (the shipped network of A, B, C) | a tl model file
     tool_rotation_deg = 0.0      # rotation of the TCP x axis about the tool axis
     tool_rotation = "fixed"      # "fixed" | "stiffest" (search the range below)
     tool_rotation_range_deg = [-90.0, 90.0]
@@ -64,7 +65,10 @@ Example (all keys; defaults shown where a key is optional)::
     speed = "scheduled"          # "scheduled" | "constant"
     max_rate_rpm_per_s = 2000    # or max_rate_rpm_per_mm (at most one; none: free)
     robust = false               # plan on the lower bound of the prediction spread
-    k_sigma = 2.0
+    k_sigma = 2.0                # width of that bound in standard deviations
+    spread_f_pct = 0.5           # 1-sigma spread robust plans assume where the mode
+    spread_zeta_pct = 10.0       #   source has none (the twin): frequency, damping,
+    spread_k_pct = 5.0           #   stiffness
     n_rpm = 300                  # speed grid of the lobes
     dynamics_tol_pct = 0.3       # waypoints whose modes agree within this share lobes
 
@@ -148,7 +152,7 @@ class _Spec(BaseModel):
 
 class _RobotSpec(_Spec):
     name: Annotated[str, Field(min_length=1)]
-    model: Annotated[str, Field(min_length=1)] = "builtin"
+    model: Annotated[str, Field(min_length=1)] = "twin"
     effects: Annotated[str, Field(min_length=1)] | None = None
     tool_rotation_deg: Num = 0.0
     tool_rotation: Literal["fixed", "stiffest"] = "fixed"
@@ -246,6 +250,9 @@ class _PlanSpec(_Spec):
     max_rate_rpm_per_mm: PosNum | None = None
     robust: bool = False
     k_sigma: NonNegNum = 2.0
+    spread_f_pct: Annotated[float, Field(ge=0, le=30, allow_inf_nan=False, strict=True)] = 0.5
+    spread_zeta_pct: Annotated[float, Field(ge=0, le=30, allow_inf_nan=False, strict=True)] = 10.0
+    spread_k_pct: Annotated[float, Field(ge=0, le=30, allow_inf_nan=False, strict=True)] = 5.0
     n_rpm: Annotated[int, Field(ge=16, le=5000, strict=True)] = 300
     dynamics_tol_pct: Annotated[float, Field(ge=0, le=10, allow_inf_nan=False, strict=True)] = 0.3
 
@@ -433,6 +440,11 @@ class PlanSpec:
         Plan on the lower bound of the prediction spread.
     k_sigma : float
         Width of that lower bound in standard deviations.
+    assumed_spread : (float, float, float)
+        Spread (std of log f, log zeta, log k) robust planning assumes where
+        the mode source has none (the twin); job keys ``spread_f_pct``,
+        ``spread_zeta_pct``, ``spread_k_pct`` (1 sigma, default 0.5, 10, 5 %: the
+        identification accuracy a calibrated twin reaches).
     n_rpm : int
         Number of points of the speed grid.
     dynamics_tol : float
@@ -450,6 +462,11 @@ class PlanSpec:
     max_rate_rpm_per_m: float | None = None
     robust: bool = False
     k_sigma: float = 2.0
+    assumed_spread: tuple[float, float, float] = (
+        math.log1p(0.005),
+        math.log1p(0.10),
+        math.log1p(0.05),
+    )
     n_rpm: int = 300
     dynamics_tol: float = 0.003
 
@@ -463,7 +480,11 @@ class Job:
     robot : str
         ``"A"``, ``"B"``, ``"C"`` or the (absolute) path of a robot file.
     model : str
-        ``"builtin"``, ``"twin"`` or the (absolute) path of a tl model file.
+        ``"twin"`` (default: the robot file's twin; for a calibrated robot
+        file, e.g. from ``robolobe transfer --method twin-calibration``, the
+        calibrated twin), ``"builtin"`` (the shipped network of A, B, C, which
+        misses its twin's modes by 3-15 % in frequency, README) or the
+        (absolute) path of a tl model file.
     effects : tuple of Effect
         Physics effects added to the twin (job key ``robot.effects``: an
         ``effects.toml`` file, e.g. from ``robolobe diagnose --updated-model``;
@@ -490,7 +511,7 @@ class Job:
     cut: CutSpec
     spindle: SpindleSpec
     plan: PlanSpec = field(default_factory=PlanSpec)
-    model: str = "builtin"
+    model: str = "twin"
     effects: tuple[Effect, ...] = ()
     effects_file: str | None = None
     placement: np.ndarray = field(default_factory=lambda: np.eye(4))
@@ -654,6 +675,11 @@ def job_from_dict(d: dict[str, Any], source: str = "<dict>", base_dir: Path | No
         max_rate_rpm_per_m=p.max_rate_rpm_per_mm * 1e3 if p.max_rate_rpm_per_mm else None,
         robust=p.robust,
         k_sigma=p.k_sigma,
+        assumed_spread=(
+            math.log1p(p.spread_f_pct / 100.0),
+            math.log1p(p.spread_zeta_pct / 100.0),
+            math.log1p(p.spread_k_pct / 100.0),
+        ),
         n_rpm=p.n_rpm,
         dynamics_tol=p.dynamics_tol_pct / 100.0,
     )

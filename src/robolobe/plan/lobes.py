@@ -10,13 +10,21 @@ group's leader, which is one of its waypoints), batched through
 lobe polylines intersected at any speed (:meth:`LobeDiagram.query`). With a
 tolerance of zero every distinct waypoint is its own group.
 
-Robust planning passes extra scenario models (lower stiffness and damping,
-frequencies shifted both ways by the prediction spread): the limit is the
-smallest over the scenarios, on the grid and in the exact queries.
+Robust planning passes a second model (stiffness and damping lowered by the
+prediction spread, :meth:`robolobe.plan.modes.RobotModes.robust`) and a
+relative speed window per waypoint (the frequency spread: modes all shifted
+by a factor r have the lobes at speed n / r): the limit is the smallest over
+the models and over the window, on the grid and in the exact queries.
+
+Grouping features include, per mode, the angle of its residue relative to
+the feed direction (to ~0.3 deg) and the size with which the cut sees it,
+``tr(alpha A_r)``: a mode within a degree of the feed or normal direction can
+change the limit by several % per degree.
 """
 
 from __future__ import annotations
 
+import math
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass, field
@@ -36,6 +44,7 @@ __all__ = [
     "DynamicsTolerance",
     "GroupedLobes",
     "group_dynamics",
+    "steep_members",
     "waypoint_lobes",
 ]
 
@@ -85,7 +94,9 @@ class DynamicsTolerance:
         )
 
 
-def _features(model: ModalModel, tol: DynamicsTolerance) -> FloatArray:
+def _features(
+    model: ModalModel, tol: DynamicsTolerance, alpha: FloatArray | None = None
+) -> FloatArray:
     """Scaled features (n, F): a max-norm distance <= 1 means 'within tolerance'.
 
     Per mode: log natural frequency, log damping, log of the residue trace
@@ -93,6 +104,14 @@ def _features(model: ModalModel, tol: DynamicsTolerance) -> FloatArray:
     direction). Each mode's features are weighted by the square root of its
     share of the peak compliance at that waypoint, so that modes that barely
     move the tool do not split groups.
+
+    With the directional factors ``alpha`` (2, 2) the cut sees a mode through
+    ``tr(alpha A_r)`` (for a mode shape ``u``: ``u^T alpha u``), which is small
+    and varies fast with the angle between the feed and a mode shape close to
+    the feed direction (where ``alpha`` weighs the normal direction): the log
+    of its size relative to the mode's trace (and its sign) is a feature too,
+    so that such a mode splits groups at the angle where it changes the
+    limit, not at the angle where its residue entries do.
     """
     w = model.omega.reshape(-1, model.n_modes)
     z = model.zeta.reshape(-1, model.n_modes)
@@ -111,12 +130,25 @@ def _features(model: ModalModel, tol: DynamicsTolerance) -> FloatArray:
         for j in range(i, model.dim):
             if i == j and i == model.dim - 1:
                 continue  # the last diagonal share follows from the others
-            feats.append(a[:, :, i, j] / trs / max(tol.residue, 1e-15))
-    return np.concatenate([f * weight for f in feats], axis=1)
+            # a mode's direction relative to the feed: sin/cos products of its angle, to
+            # a quarter of the size tolerance (0.5 % -> 0.3 deg): near the feed or normal
+            # direction the limit moves by several % per degree
+            feats.append(a[:, :, i, j] / trs / max(tol.residue / 4.0, 1e-15))
+    out = [f * weight for f in feats]
+    if alpha is not None and model.dim == 2:
+        # the cut sees mode r through tr(alpha A_r): its limit goes as 1 / that, so its
+        # log (relative to the mode's size) is compared to the residue tolerance, with the
+        # mode's own weight: near a sign change it varies without bound and splits groups
+        # finely there, which is where the limit is most sensitive
+        ori = np.einsum("ij,nmji->nm", np.asarray(alpha, dtype=np.float64), a) / trs
+        mag = np.log(np.maximum(np.abs(ori), 1e-12)) / max(tol.residue, 1e-15)
+        out.append(mag * weight)
+        out.append(np.sign(ori) * weight / max(tol.residue, 1e-15))
+    return np.concatenate(out, axis=1)
 
 
 def group_dynamics(
-    model: ModalModel, tol: DynamicsTolerance | None = None
+    model: ModalModel, tol: DynamicsTolerance | None = None, alpha: FloatArray | None = None
 ) -> tuple[IntArray, IntArray]:
     """Group a batch of modal models whose parameters agree within ``tol``.
 
@@ -129,6 +161,9 @@ def group_dynamics(
     model : ModalModel
         Batch shape (n,).
     tol : DynamicsTolerance, optional
+    alpha : ndarray, shape (2, 2), optional
+        Directional factors of the cut (feed-frame models): adds the oriented
+        size of each mode to the features (see :func:`_features`).
 
     Returns
     -------
@@ -139,7 +174,7 @@ def group_dynamics(
     """
     tol = tol or DynamicsTolerance()
     n = int(np.prod(model.batch_shape)) if model.batch_shape else 1
-    f = _features(model, tol)
+    f = _features(model, tol, alpha)
     if tol.exact:
         _, first, inv = np.unique(f, axis=0, return_index=True, return_inverse=True)
         order = np.argsort(first)
@@ -193,6 +228,8 @@ class GroupedLobes:
         Why, when not valid.
     timings : dict
         Seconds spent grouping and computing lobes.
+    window : ndarray, shape (n_groups,)
+        Relative speed window of each group (0 without robust planning).
     """
 
     table: LobeTable
@@ -201,6 +238,7 @@ class GroupedLobes:
     valid: bool
     message: str
     timings: dict[str, float] = field(default_factory=dict)
+    window: FloatArray = field(default_factory=lambda: np.zeros(0))
 
     @property
     def n_groups(self) -> int:
@@ -221,6 +259,8 @@ def waypoint_lobes(
     unbounded: NDArray[np.bool_] | None = None,
     tol: DynamicsTolerance | None = None,
     max_lobe_cap: int = 400,
+    window: FloatArray | None = None,
+    own: NDArray[np.bool_] | None = None,
 ) -> GroupedLobes:
     """Lobes of every waypoint, computed once per group of equal dynamics.
 
@@ -244,6 +284,15 @@ def waypoint_lobes(
         Grouping tolerance (default 0.3 % in frequency).
     max_lobe_cap : int
         Upper bound of the automatic lobe count.
+    window : ndarray, shape (n,), optional
+        Relative speed window per waypoint (robust planning: the frequency
+        uncertainty): the limit at speed ``n`` is the smallest over
+        ``n (1 + t w)``, ``|t| <= 1`` (sampled at most one grid step apart,
+        kept inside the grid) in the exact queries, over the grid points inside
+        the window on the grid. A group takes the widest window of its members.
+    own : ndarray of bool, shape (n,), optional
+        Waypoints that get lobes of their own whatever the tolerance (e.g. those
+        :func:`steep_members` finds next to a steep lobe wall).
 
     Returns
     -------
@@ -272,7 +321,14 @@ def waypoint_lobes(
                 np.concatenate([joined.zeta, m.zeta[idx_b]], axis=-1),
                 np.concatenate([joined.residues, m.residues[idx_b]], axis=-3),
             )
-        g_b, lead_b = group_dynamics(joined, tol)
+        g_b, lead_b = group_dynamics(joined, tol, alpha)
+        if own is not None:
+            force = np.asarray(own, bool)[idx_b]
+            force[lead_b] = False  # leaders have their own lobes already
+            extra = np.flatnonzero(force)
+            g_b = g_b.copy()
+            g_b[extra] = lead_b.size + np.arange(extra.size)
+            lead_b = np.r_[lead_b, extra].astype(np.int64)
         leader = idx_b[lead_b]
     else:
         g_b = np.zeros(0, np.int64)
@@ -303,7 +359,7 @@ def waypoint_lobes(
     group = np.full(n, n_groups, np.int64)  # last row: unbounded
     group[idx_b] = g_b
 
-    def exact(rows: FloatArray, groups: IntArray) -> FloatArray:
+    def exact0(rows: FloatArray, groups: IntArray) -> FloatArray:
         out = np.full(rows.shape, np.inf)
         sel = groups < n_groups  # the last row is the unbounded one
         if np.any(sel):
@@ -322,6 +378,41 @@ def waypoint_lobes(
             out[sel] = np.min(np.stack(vals), axis=0)
         return out
 
+    w_group = np.zeros(n_groups + 1)
+    if window is not None and n_groups:
+        w = np.clip(np.nan_to_num(np.asarray(window, dtype=np.float64)), 0.0, 0.5)
+        if w.shape != (n,):
+            raise InputError(f"window: expected shape ({n},), found {w.shape}")
+        np.maximum.at(w_group, group, w)
+        w_group[n_groups] = 0.0
+    w_max = float(w_group.max())
+    if w_max > 0:
+        step = float(rpm[-1] - rpm[0]) / max(rpm.size - 1, 1)
+        n_t = int(min(41, max(3, 2 * math.ceil(w_max * rpm[-1] / max(step, 1e-9)) + 1)))
+        t_samples = np.linspace(-1.0, 1.0, n_t)
+
+        def exact(rows: FloatArray, groups: IntArray) -> FloatArray:
+            # all shifts in one envelope query (one pass over the lobe pieces)
+            wg = w_group[groups][:, None, None]
+            shifted = np.clip(rows[:, None, :] * (1.0 + t_samples[:, None] * wg), rpm[0], rpm[-1])
+            vals = exact0(shifted.reshape(rows.shape[0], -1), groups)
+            return np.asarray(vals.reshape(shifted.shape).min(axis=1))
+
+        # the grid: a running minimum of the grid itself over each group's window
+        # (exact at the grid speeds, sampled at the grid's own spacing in between)
+        lo_idx = np.searchsorted(rpm, rpm[None, :] * (1.0 - w_group[:n_groups, None]), "left")
+        hi_idx = np.searchsorted(rpm, rpm[None, :] * (1.0 + w_group[:n_groups, None]), "right")
+        base = a_grid[:n_groups].copy()
+        win = base.copy()
+        cols = np.arange(rpm.size)
+        for off in range(1, int(np.max(np.maximum(cols - lo_idx, hi_idx - 1 - cols))) + 1):
+            left = np.where(cols - off >= lo_idx, np.roll(base, off, axis=1), np.inf)
+            right = np.where(cols + off <= hi_idx - 1, np.roll(base, -off, axis=1), np.inf)
+            win = np.minimum(win, np.minimum(left, right))
+        a_grid[:n_groups] = win
+    else:
+        exact = exact0
+
     t2 = time.perf_counter()
     return GroupedLobes(
         table=LobeTable(rpm=rpm, a_lim=a_grid, group=group, exact=exact),
@@ -330,4 +421,51 @@ def waypoint_lobes(
         valid=diagrams[0].valid if diagrams else True,
         message=diagrams[0].message if diagrams else "",
         timings={"grouping": t1 - t0, "zoa": t2 - t1},
+        window=w_group[:n_groups],
     )
+
+
+def steep_members(
+    grouped: GroupedLobes, rpm: FloatArray, *, shift: float = 0.005, ratio: float = 1.01
+) -> NDArray[np.bool_]:
+    """Waypoints that share lobes and run next to a steep wall of them.
+
+    A member's own lobes are its leader's shifted a little in speed (its
+    frequencies differ within the tolerance) and reshaped a little (its mode
+    directions): where the leader's limit changes by more than ``ratio``
+    within ``rpm (1 +- shift)``, a steep wall or cusp is near and the shared
+    limit may be far from the member's own. Such members should get their
+    own lobes (``waypoint_lobes(..., own=...)``).
+
+    Parameters
+    ----------
+    grouped : GroupedLobes
+    rpm : ndarray, shape (n_cut,)
+        Planned speed of each cutting waypoint [rpm].
+    shift : float
+        Relative speed range examined.
+    ratio : float
+        Largest allowed max/min of the limit over that range.
+
+    Returns
+    -------
+    ndarray of bool, shape (n_cut,)
+    """
+    tab = grouped.table
+    g = tab.group
+    n = g.size
+    out = np.zeros(n, bool)
+    lead = np.zeros(n, bool)
+    lead[grouped.leader] = True
+    cand = np.flatnonzero((g < grouped.n_groups) & ~lead)
+    if cand.size == 0:
+        return out
+    t = np.linspace(-1.0, 1.0, 9)
+    r = np.asarray(rpm, dtype=np.float64)[cand, None] * (1.0 + shift * t)
+    r = np.clip(r, tab.rpm[0], tab.rpm[-1])
+    a = tab.rows(r, g[cand])
+    with np.errstate(invalid="ignore", divide="ignore"):
+        var = np.max(a, axis=1) / np.min(a, axis=1)
+    out[cand] = ~(var <= ratio)  # NaN (inf / inf) counts as steep
+    out[cand] &= np.isfinite(np.min(a, axis=1))
+    return out

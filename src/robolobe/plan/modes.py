@@ -13,12 +13,15 @@ receptance for the tool-point FRF.
   (:meth:`robolobe.twin.model.Twin.modes`), coupled 3x3 residues from the
   mode shapes, no spread.
 
-:func:`mode_source` picks one from a job's ``robot.model``.
+:func:`mode_source` picks one from a job's ``robot.model``; the default is the
+twin: the shipped networks miss their own robot's twin by 3-15 % in
+frequency and 20-300 % in stiffness over the workspace (README, planning).
 """
 
 from __future__ import annotations
 
 import logging
+import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -36,6 +39,7 @@ __all__ = [
     "ModeSource",
     "PredictorSource",
     "RobotModes",
+    "RobustBound",
     "TwinSource",
     "mode_source",
 ]
@@ -44,6 +48,14 @@ logger = logging.getLogger(__name__)
 
 FloatArray = NDArray[np.float64]
 _DIRS = ("xx", "yy", "zz")
+#: Largest log spread (per sigma) a robust plan takes from a source: a larger one says
+#: the source does not know (e.g. a network's stiffness of a mode it calls not visible),
+#: and lowering a stiffness by exp(-k_sigma * 3) would plan on a robot that does not exist.
+MAX_LOG_STD = 0.35
+#: Largest relative speed window (frequency uncertainty) of a robust plan.
+MAX_WINDOW = 0.25
+#: Modal stiffness [N/m] from which a mode counts as not visible in a direction.
+INVISIBLE_K = 1e11
 
 
 @dataclass(frozen=True, eq=False)
@@ -65,6 +77,9 @@ class RobotModes:
         0.1 = 10 % of a joint's range beyond).
     source : str
         Description (``"tl model A (shipped)"``, ``"twin"``, a file name).
+    shapes_coupled : bool
+        True when ``model`` holds one set of coupled modes (the twin's, the
+        same in every direction); False for per-direction modes (a predictor).
     """
 
     f_hz: FloatArray
@@ -74,21 +89,135 @@ class RobotModes:
     model: ModalModel
     extrapolation: FloatArray | None
     source: str
+    shapes_coupled: bool = False
 
-    def scenarios(self, k_sigma: float) -> list[ModalModel]:
-        """Robust scenario models: lower k and zeta by ``k_sigma``, f shifted -, 0, +.
+    def robust(self, k_sigma: float, assumed: Sequence[float] = ()) -> RobustBound | None:
+        """The robust bound of these modes: stiffness and damping lowered, a speed window.
 
-        Empty without spread (or ``k_sigma == 0``).
+        Each visible mode's stiffness and damping are lowered by ``k_sigma``
+        standard deviations of their log spread (capped at
+        :data:`MAX_LOG_STD` per sigma); frequencies keep their nominal values
+        and their uncertainty becomes a relative speed window
+        ``+-k_sigma * std(log f)`` (the lobes of modes all shifted by a factor
+        ``r`` are the lobes at speed ``Omega / r``): the planner takes the
+        smallest limit inside that window, which keeps speeds away from steep
+        lobe walls. Modes that are not visible in a direction (stiffness at
+        least :data:`INVISIBLE_K`, or none) keep it: a spread of a mode that a
+        test cannot see is not a spread of its stiffness.
+
+        Parameters
+        ----------
+        k_sigma : float
+            Width of the bound in standard deviations (0: no bound).
+        assumed : (float, float, float)
+            Spread (std of log f, log zeta, log k) used where the source has
+            none (the twin); empty: no bound without a source spread.
+
+        Returns
+        -------
+        RobustBound or None
+            None when ``k_sigma`` is 0 or there is no spread.
         """
-        if self.log_std is None or k_sigma <= 0 or not np.any(self.log_std > 0):
-            return []
-        s = k_sigma * np.nan_to_num(self.log_std)
-        z_lo = self.zeta * np.exp(-s[..., 1])
-        k_lo = self.k_N_per_m * np.exp(-s[..., 2])
-        return [
-            _directional(self.f_hz * np.exp(sign * s[..., 0]), z_lo, k_lo)
-            for sign in (-1.0, 0.0, 1.0)
-        ]
+        if k_sigma <= 0:
+            return None
+        n, nd, m = self.f_hz.shape
+        if self.log_std is not None and np.any(self.log_std > 0):
+            std = np.clip(np.nan_to_num(self.log_std, nan=0.0, posinf=0.0), 0.0, MAX_LOG_STD)
+            how = f"{self.source}'s prediction spread"
+        elif len(assumed) == 3 and any(a > 0 for a in assumed):
+            std = np.broadcast_to(
+                np.clip(np.asarray(assumed, dtype=np.float64), 0.0, MAX_LOG_STD), (n, nd, m, 3)
+            ).copy()
+            how = "the job's assumed spread (the mode source has none)"
+        else:
+            return None
+        s = k_sigma * std
+        visible = np.isfinite(self.k_N_per_m) & (np.abs(self.k_N_per_m) < INVISIBLE_K)
+        s = np.where(visible[..., None], s, 0.0)
+        model = self.model
+        if self.shapes_coupled:
+            # one set of modes seen in all directions: a mode's spread is its largest
+            sm = s.max(axis=1)  # (n, m, 3)
+            f_scale = np.ones((n, m))
+            z_scale = np.exp(-sm[..., 1])
+            r_scale = np.exp(sm[..., 2])
+        else:
+            sm = s.reshape(n, nd * m, 3)
+            f_scale = np.ones((n, nd * m))
+            z_scale = np.exp(-sm[..., 1])
+            r_scale = np.exp(sm[..., 2])
+        lowered = ModalModel(
+            model.omega * f_scale,
+            model.zeta * z_scale,
+            model.residues * r_scale[..., None, None],
+        )
+        # the speed window: the largest frequency spread of the modes that matter at
+        # each posture (peak compliance at least 5 % of the largest)
+        peak = np.abs(np.trace(model.residues, axis1=-2, axis2=-1)) / (
+            2.0 * model.zeta * model.omega**2
+        )
+        matter = peak >= 0.05 * peak.max(axis=1, keepdims=True)
+        window = np.minimum(np.max(np.where(matter, sm[..., 0], 0.0), axis=1), MAX_WINDOW)
+        return RobustBound(
+            model=lowered,
+            window=np.asarray(window, dtype=np.float64),
+            k_sigma=float(k_sigma),
+            std_max=np.asarray(std.reshape(-1, 3).max(axis=0), dtype=np.float64),
+            how=how,
+        )
+
+
+@dataclass(frozen=True, eq=False)
+class RobustBound:
+    """What robust planning plans on (see :meth:`RobotModes.robust`).
+
+    Attributes
+    ----------
+    model : ModalModel
+        TCP-frame model with stiffness and damping lowered, batch (n,).
+    window : ndarray, shape (n,)
+        Relative half-width of the speed window (frequency uncertainty).
+    k_sigma : float
+    std_max : ndarray, shape (3,)
+        Largest spread used (std of log f, log zeta, log k).
+    how : str
+        Where the spread came from.
+    """
+
+    model: ModalModel
+    window: FloatArray
+    k_sigma: float
+    std_max: FloatArray
+    how: str
+
+    @property
+    def confidence(self) -> float:
+        """One-sided normal probability that a quantity lies inside its bound."""
+        return 0.5 * (1.0 + math.erf(self.k_sigma / math.sqrt(2.0)))
+
+    def describe(self) -> dict[str, object]:
+        """JSON-ready statement of the bound."""
+        sf, sz, sk = (float(v) for v in self.std_max)
+        ks = self.k_sigma
+        return {
+            "k_sigma": ks,
+            "confidence_pct": round(100.0 * self.confidence, 2),
+            "spread_from": self.how,
+            "frequency_window_pct_max": round(100.0 * float(np.max(self.window, initial=0.0)), 3),
+            "frequency_window_pct_median": round(
+                100.0 * float(np.median(self.window)) if self.window.size else 0.0, 3
+            ),
+            "stiffness_lowered_to_pct": round(100.0 * math.exp(-ks * sk), 2),
+            "damping_lowered_to_pct": round(100.0 * math.exp(-ks * sz), 2),
+            "statement": (
+                f"each mode's frequency within "
+                f"+-{100 * min(math.exp(ks * sf) - 1, MAX_WINDOW):.2g} %, "
+                f"stiffness above {100 * math.exp(-ks * sk):.3g} % and damping above "
+                f"{100 * math.exp(-ks * sz):.3g} % of the prediction (k_sigma = {ks:g}: "
+                f"{100 * self.confidence:.1f} % one-sided per quantity if the spread is "
+                "normal in log)"
+            ),
+        }
 
 
 def _directional(f: FloatArray, z: FloatArray, k: FloatArray) -> ModalModel:
@@ -155,19 +284,37 @@ class PredictorSource:
 
 
 class TwinSource:
-    """Exact nominal modes of the robot file (no spread).
+    """Exact nominal modes of the robot file (no spread unless given).
 
     Parameters
     ----------
     robot : Robot
+    effects : sequence of Effect
+        Physics effects added to the twin.
+    spread : (float, float, float), optional
+        Spread of its modes (std of log f, log zeta, log k), e.g. a calibrated
+        twin's residual scatter (:attr:`robolobe.tl.graybox.TwinCalibration.residual_rms_`);
+        default none (robust plans then take the job's assumed spread).
     """
 
-    def __init__(self, robot: Robot, effects: Sequence[Effect] = ()) -> None:
+    def __init__(
+        self,
+        robot: Robot,
+        effects: Sequence[Effect] = (),
+        spread: Sequence[float] | None = None,
+    ) -> None:
         from robolobe.twin.model import Twin
 
         self.twin = Twin(robot, tuple(effects))
         names = ", ".join(e.name for e in effects)
         self.name = f"twin of {robot.name}" + (f" + {names}" if names else "")
+        if spread is not None:
+            sp = np.asarray(spread, dtype=np.float64)
+            if sp.shape != (3,) or not np.all(np.isfinite(sp)) or np.any(sp < 0):
+                raise InputError(f"spread: expected 3 non-negative log spreads, found {spread!r}")
+            self.spread: FloatArray | None = sp
+        else:
+            self.spread = None
 
     def predict(self, q_rad: ArrayLike) -> RobotModes:
         q = np.asarray(q_rad, dtype=np.float64).reshape(-1, 6)
@@ -187,10 +334,13 @@ class TwinSource:
             f_hz=np.broadcast_to(f[:, None, :], (n, 3, m)).copy(),
             zeta=np.broadcast_to(z[:, None, :], (n, 3, m)).copy(),
             k_N_per_m=k,
-            log_std=None,
+            log_std=None
+            if self.spread is None
+            else np.broadcast_to(self.spread, (n, 3, m, 3)).copy(),
             model=model,
             extrapolation=None,
             source=self.name,
+            shapes_coupled=True,
         )
 
 
@@ -202,8 +352,8 @@ def mode_source(
     Parameters
     ----------
     model : str
-        ``"builtin"`` (the shipped tl model of A, B or C), ``"twin"`` or the
-        path of a tl model file.
+        ``"twin"`` (the robot file's own modes: the default), ``"builtin"``
+        (the shipped tl model of A, B or C) or the path of a tl model file.
     robot : Robot
     robot_key : str
         ``"A"``, ``"B"``, ``"C"`` or the robot file.

@@ -43,8 +43,8 @@ from numpy.typing import NDArray
 
 from robolobe.errors import InputError, ReachabilityError, SingularityError
 from robolobe.plan.job import Job
-from robolobe.plan.lobes import DynamicsTolerance, GroupedLobes, waypoint_lobes
-from robolobe.plan.modes import ModeSource, RobotModes, mode_source
+from robolobe.plan.lobes import DynamicsTolerance, GroupedLobes, steep_members, waypoint_lobes
+from robolobe.plan.modes import ModeSource, RobotModes, RobustBound, mode_source
 from robolobe.plan.optimize import Constraints, PathGeometry, PlanOutcome, optimize_schedule
 from robolobe.plan.paths import read_toolpath, segment_lengths, validate_waypoints
 from robolobe.robots.ik import ik, ik_batch
@@ -59,9 +59,13 @@ from robolobe.sld.toolpoint import feed_frame, tool_point_model
 __all__ = [
     "PlanResult",
     "constraints_from_job",
+    "cut_lobes",
+    "job_fingerprint",
     "material_from_job",
     "plan_path",
+    "plan_record",
     "tcp_targets",
+    "waypoints_hash",
 ]
 
 logger = logging.getLogger(__name__)
@@ -340,6 +344,8 @@ def _lobes_for_rotation(
     GroupedLobes,
     dict[str, float],
     FloatArray,
+    RobustBound | None,
+    FloatArray,
 ]:
     timings: dict[str, float] = {}
     t = time.perf_counter()
@@ -351,21 +357,83 @@ def _lobes_for_rotation(
     ci = np.flatnonzero(cut)
     modes = source.predict(q[ci])
     timings["modes"] = time.perf_counter() - t
-    t = time.perf_counter()
     f_path = wp[["fx", "fy", "fz"]].to_numpy(dtype=np.float64)[ci]
     f_world = f_path @ r_wp.T
     r_tcp = poses[ci, :3, :3]
     f_tcp = np.einsum("nji,nj->ni", r_tcp, f_world)
+    model0, plunge, grouped, t_lobes, feed_angle, bound = cut_lobes(
+        job, modes, f_tcp, material, tool, rpm
+    )
+    timings.update(t_lobes)
+    return q, wm, modes, model0, plunge, grouped, timings, feed_angle, bound, f_tcp
+
+
+def cut_lobes(
+    job: Job,
+    modes: RobotModes,
+    f_tcp: FloatArray,
+    material: Material,
+    tool: ModalModel | None,
+    rpm: FloatArray,
+    *,
+    dynamics_tol: float | None = None,
+    robust: bool | None = None,
+    own: NDArray[np.bool_] | None = None,
+) -> tuple[
+    ModalModel, NDArray[np.bool_], GroupedLobes, dict[str, float], FloatArray, RobustBound | None
+]:
+    """Lobes of the cutting waypoints from their robot modes and feed directions.
+
+    The one place where the planner turns robot modes into stability limits
+    (tool-point model, feed frame, robust bound, grouping, ZOA): planning and
+    :func:`robolobe.plan.verify.verify_plan` both call it.
+
+    Parameters
+    ----------
+    job : Job
+    modes : RobotModes
+        Robot modes at the n cutting waypoints.
+    f_tcp : ndarray, shape (n, 3)
+        Feed direction in the TCP frame.
+    material : Material
+    tool : ModalModel or None
+        Spindle/tool modes (3-D).
+    rpm : ndarray, shape (n_rpm,)
+        Speed grid [rpm].
+    dynamics_tol : float, optional
+        Overrides ``job.plan.dynamics_tol`` (0: every waypoint its own lobes).
+    robust : bool, optional
+        Overrides ``job.plan.robust``.
+    own : ndarray of bool, shape (n,), optional
+        Waypoints that get lobes of their own (see :func:`robolobe.plan.lobes.steep_members`).
+
+    Returns
+    -------
+    model : ModalModel
+        Nominal feed-frame tool-point models, batch (n,).
+    plunge : ndarray of bool, shape (n,)
+    grouped : GroupedLobes
+    timings : dict
+        Seconds for ``frf`` and ``lobes``.
+    feed_angle_deg : ndarray, shape (n,)
+        Feed direction in the TCP x/y plane [deg].
+    bound : RobustBound or None
+        The robust bound planned on (None for a nominal plan).
+    """
+    timings: dict[str, float] = {}
+    t = time.perf_counter()
     plunge = _feed_lateral(f_tcp) < PLUNGE_LATERAL
     f_use = np.where(plunge[:, None], [[1.0, 0.0, 0.0]], f_tcp)
     rot = feed_frame(f_use, (0.0, 0.0, -1.0), rotation="cw")
     models = [tool_point_model(rot, modes.model, tool)]
-    if job.plan.robust:
-        models += [tool_point_model(rot, sc, tool) for sc in modes.scenarios(job.plan.k_sigma)]
+    use_robust = job.plan.robust if robust is None else robust
+    bound = modes.robust(job.plan.k_sigma, job.plan.assumed_spread) if use_robust else None
+    if bound is not None:
+        models.append(tool_point_model(rot, bound.model, tool))
     timings["frf"] = time.perf_counter() - t
     t = time.perf_counter()
     st, ex = engagement_angles(job.radial_immersion, job.cut.milling)
-    dt = job.plan.dynamics_tol
+    dt = job.plan.dynamics_tol if dynamics_tol is None else dynamics_tol
     tol = DynamicsTolerance(
         freq=dt,
         damping=10 * dt,
@@ -384,10 +452,12 @@ def _lobes_for_rotation(
         immersion=job.radial_immersion,
         unbounded=plunge,
         tol=tol,
+        window=None if bound is None else bound.window,
+        own=own,
     )
     timings["lobes"] = time.perf_counter() - t
     feed_angle = np.degrees(np.arctan2(f_use[:, 1], f_use[:, 0]))
-    return q, wm, modes, models[0], plunge, grouped, timings, feed_angle
+    return models[0], plunge, grouped, timings, feed_angle, bound
 
 
 def plan_path(
@@ -459,7 +529,7 @@ def plan_path(
         rotation, rot_note = _stiffest_rotation(
             job, wp, robot, source, cut, material, tool, rpm, cons
         )
-    q, wm, modes, _model0, plunge, grouped, t_stage, feed_angle = _lobes_for_rotation(
+    q, wm, modes, _model0, plunge, grouped, t_stage, feed_angle, bound, f_tcp = _lobes_for_rotation(
         job, wp, robot, source, rotation, cut, material, tool, rpm
     )
     timings.update(t_stage)
@@ -475,19 +545,40 @@ def plan_path(
     src_col = wp["source"].to_numpy()[ci]
     line_col = wp["line"].to_numpy()[ci]
     labels = [f"{a}:{int(b)}" for a, b in zip(src_col, line_col, strict=True)]
-    outcome = optimize_schedule(
-        grouped.table,
-        geom,
-        cons,
-        programmed_rpm=prog if np.any(np.isfinite(prog)) else None,
-        labels=labels,
-        refine=refine,
-    )
+
+    def schedule(table: Any) -> PlanOutcome:
+        return optimize_schedule(
+            table,
+            geom,
+            cons,
+            programmed_rpm=prog if np.any(np.isfinite(prog)) else None,
+            labels=labels,
+            refine=refine,
+        )
+
+    outcome = schedule(grouped.table)
+    # lobe sharing keeps its promise: members planned next to a steep wall of their
+    # leader's lobes get lobes of their own, and the schedule is made again
+    steep = steep_members(grouped, outcome.best.rpm)
+    n_split = int(steep.sum())
+    if n_split:
+        t_split = time.perf_counter()
+        _, _, grouped, _, _, _ = cut_lobes(job, modes, f_tcp, material, tool, rpm, own=steep)
+        timings["lobes"] += time.perf_counter() - t_split
+        outcome = schedule(grouped.table)
     timings["optimize"] = time.perf_counter() - t
     t = time.perf_counter()
     table = _result_table(
         wp, q, wm, modes, grouped, outcome, ci, plunge, feed_angle, job, cons, seg
     )
+    own_col = np.zeros(len(wp), bool)
+    own_col[ci] = steep
+    table["lobes_own"] = own_col
+    if n_split:
+        note = (note + "; " if note else "") + (
+            f"{n_split} waypoints next to a steep lobe wall got lobes of their own "
+            "(sharing would have moved their limit)"
+        )
     summary = _summary(
         job,
         path_name,
@@ -504,6 +595,10 @@ def plan_path(
         modes,
         cons,
         geom,
+        bound,
+    )
+    summary["plan_record"] = plan_record(
+        job, path if not isinstance(path, pd.DataFrame) else None, table
     )
     timings["table"] = time.perf_counter() - t
     summary["timings_s"] = {k: round(v, 4) for k, v in timings.items()}
@@ -553,7 +648,7 @@ def _stiffest_rotation(
     best, best_val, tried = None, -np.inf, []
     for r in cands:
         try:
-            *_, grouped, _, _ = _lobes_for_rotation(
+            *_, grouped, _, _, _, _ = _lobes_for_rotation(
                 job, wp, robot, source, float(r), keep, material, tool, rpm
             )
         except (ReachabilityError, SingularityError) as exc:
@@ -662,6 +757,67 @@ def _result_table(
     return pd.DataFrame(cols)
 
 
+def waypoints_hash(table: pd.DataFrame) -> str:
+    """SHA-256 of a plan's path geometry (source, line, x/y/z to 1 nm) from its table."""
+    import hashlib
+
+    h = hashlib.sha256()
+    h.update("\n".join(map(str, table["source"].tolist())).encode())
+    h.update(np.asarray(table["line"], dtype=np.int64).tobytes())
+    xyz = np.round(table[["x_mm", "y_mm", "z_mm"]].to_numpy(dtype=np.float64), 6) + 0.0
+    h.update(xyz.tobytes())
+    h.update("\n".join(map(str, table["motion"].tolist())).encode())
+    return h.hexdigest()
+
+
+def job_fingerprint(job: Job) -> dict[str, Any]:
+    """What of a job a plan's limits depend on (beside the robot and its modes), JSON-ready."""
+    material = material_from_job(job)
+    return {
+        "robot": job.robot,
+        "tool": {
+            "diameter_mm": round(job.tool.diameter_m * 1e3, 9),
+            "teeth": job.tool.teeth,
+            "modes": [[m.direction, m.f_hz, m.zeta, m.k_N_per_m] for m in job.tool.modes],
+        },
+        "material": {"name": material.name, "Kt": material.kt, "Kr": material.kr},
+        "cut": {
+            "radial_width_mm": round(job.cut.radial_width_m * 1e3, 9),
+            "milling": job.cut.milling,
+        },
+        "spindle_rpm": [job.spindle.rpm_min, job.spindle.rpm_max],
+        "n_rpm": job.plan.n_rpm,
+        "dynamics_tol": job.plan.dynamics_tol,
+        "safety_factor": job.plan.safety_factor,
+        "placement": [round(float(v), 12) for v in np.asarray(job.placement).ravel()],
+    }
+
+
+def plan_record(
+    job: Job, path: str | os.PathLike[str] | None, table: pd.DataFrame
+) -> dict[str, Any]:
+    """What ``robolobe verify`` needs to check that a job and a path belong to a plan.
+
+    Returns
+    -------
+    dict
+        ``job`` (:func:`job_fingerprint`), ``path_sha256`` (the toolpath
+        file's bytes; None for a table), ``waypoints_sha256``
+        (:func:`waypoints_hash`).
+    """
+    import hashlib
+
+    p_hash = None
+    if path is not None and Path(path).is_file():
+        p_hash = hashlib.sha256(Path(path).read_bytes()).hexdigest()
+    return {
+        "format": "robolobe-plan-record/1",
+        "job": job_fingerprint(job),
+        "path_sha256": p_hash,
+        "waypoints_sha256": waypoints_hash(table),
+    }
+
+
 def _sched_dict(s: Any) -> dict[str, Any] | None:
     if s is None:
         return None
@@ -713,6 +869,7 @@ def _summary(
     modes: RobotModes,
     cons: Constraints,
     geom: PathGeometry,
+    bound: RobustBound | None = None,
 ) -> dict[str, Any]:
     import robolobe
 
@@ -736,8 +893,13 @@ def _summary(
             f"{n_plunge} cutting moves run along the tool axis (plunges): the lateral (ZOA) "
             "stability model does not apply to them and they do not limit the depth"
         )
-    if job.plan.robust and modes.log_std is None:
-        notes.append("robust mode: the mode source has no spread; planned on the nominal modes")
+    if job.plan.robust and bound is None:
+        notes.append(
+            "robust mode: neither the mode source nor the job gives a spread (k_sigma or the "
+            "spread_*_pct keys are 0); planned on the nominal modes"
+        )
+    elif bound is not None:
+        notes.append("robust plan: " + str(bound.describe()["statement"]))
     return {
         "robolobe_version": robolobe.__version__,
         "job": job.name,
@@ -756,6 +918,7 @@ def _summary(
         "speed_mode": job.plan.speed,
         "robust": job.plan.robust,
         "k_sigma": job.plan.k_sigma if job.plan.robust else None,
+        "robust_bound": bound.describe() if bound is not None else None,
         "safety_factor": cons.safety_factor,
         "method": best.method,
         "nlp_status": outcome.nlp_status,

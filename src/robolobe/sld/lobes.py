@@ -181,8 +181,16 @@ def lobe_envelope(
         if v.size == 0:
             continue
         twopik = _TWO_PI * (klo[v] + off)
-        n0 = c * w0[v] / (e0[v] + twopik)
-        n1 = c * w1[v] / (e1[v] + twopik)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            n0 = c * w0[v] / (e0[v] + twopik)
+            n1 = c * w1[v] / (e1[v] + twopik)
+        # eps + 2 k pi = 0 (lobe 0 at zero phase) puts an end of the piece at infinite
+        # speed: outside any grid, and a straight piece through it would be NaN
+        fin_piece = np.isfinite(n0) & np.isfinite(n1) & (n0 > 0) & (n1 > 0)
+        if not np.all(fin_piece):
+            v, twopik, n0, n1 = v[fin_piece], twopik[fin_piece], n0[fin_piece], n1[fin_piece]
+            if v.size == 0:
+                continue
         if uniform:
             s0 = float(s_sorted[0])
             ds = (float(s_sorted[-1]) - s0) / (n_speed - 1)
