@@ -35,12 +35,17 @@ from robolobe.modal.quality import QualityIssue, check_campaign_grids, check_pos
 from robolobe.twin.campaign import Campaign
 
 __all__ = [
+    "LOWEST_HZ",
     "campaign_observations",
     "read_force_levels",
     "window_decay_from_test",
 ]
 
 log = logging.getLogger(__name__)
+
+#: Lower edge of the default band [Hz]: below it a hammer test carries almost
+#: no response (the receptance estimate divides the accelerance by w^2).
+LOWEST_HZ = 1.0
 
 
 def window_decay_from_test(test: dict[str, Any], df_hz: float) -> float | None:
@@ -126,7 +131,7 @@ def _groups(q_rad: NDArray[np.float64], ids: tuple[str, ...]) -> tuple[str, ...]
 def campaign_observations(
     campaign: Campaign,
     *,
-    band_hz: tuple[float, float] = (2.0, 40.0),
+    band_hz: tuple[float, float] | None = None,
     window_decay_per_s: float | None = None,
     force_N: NDArray[np.float64] | None = None,
     noise_floor: float = 0.01,
@@ -136,8 +141,10 @@ def campaign_observations(
     Parameters
     ----------
     campaign : Campaign
-    band_hz : (float, float)
-        Analysis band [Hz].
+    band_hz : (float, float) or None
+        Analysis band [Hz]; None: the whole recorded band from
+        :data:`LOWEST_HZ` up (the first posture's grid). A band wider than
+        the recordings is cut to them, with a quality note saying so.
     window_decay_per_s : float, optional
         Exponential-window decay [1/s]; default from ``campaign.test``, else 0.
     force_N : ndarray, shape (n,), optional
@@ -153,12 +160,28 @@ def campaign_observations(
     issues : list of QualityIssue
         Data-quality findings (``error`` ones are left out of the data).
     """
-    lo, hi = band_hz
-    if not (0 <= lo < hi):
-        raise InputError(f"band_hz: expected 0 <= low < high, found {band_hz}")
     ids = campaign.posture_ids
     issues: list[QualityIssue] = list(check_campaign_grids(ids, [r.freq_hz for r in campaign.frfs]))
     ref = campaign.frfs[0].freq_hz
+    rec_lo, rec_hi = float(ref[ref > 0][0]) if np.any(ref > 0) else 0.0, float(ref[-1])
+    if band_hz is None:
+        band_hz = (max(LOWEST_HZ, rec_lo), rec_hi)
+    lo, hi = band_hz
+    if not (0 <= lo < hi):
+        raise InputError(f"band_hz: expected 0 <= low < high, found {band_hz}")
+    if lo < rec_lo or hi > rec_hi:
+        issues.append(
+            QualityIssue(
+                "*",
+                "*",
+                "band",
+                "warning",
+                f"the requested band {lo:g}-{hi:g} Hz is wider than the recordings "
+                f"({rec_lo:g}-{rec_hi:g} Hz): analysed {max(lo, rec_lo):g}-{min(hi, rec_hi):g} Hz",
+            )
+        )
+        lo, hi = max(lo, rec_lo), min(hi, rec_hi)
+        band_hz = (lo, hi)
     sel = (ref >= lo) & (ref <= hi)
     f = ref[sel]
     if f.size < 8:

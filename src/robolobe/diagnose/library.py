@@ -36,6 +36,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from robolobe.diagnose.calibration import CALIBRATION, calibration_candidate
 from robolobe.diagnose.candidate import NONE, Candidate, ParamSpec, Requirement
 from robolobe.errors import InputError
 from robolobe.robots import Robot
@@ -59,6 +60,7 @@ __all__ = ["FAMILIES", "Untestable", "build_library"]
 #: Names of the candidate families, ``none`` first.
 FAMILIES: tuple[str, ...] = (
     NONE,
+    CALIBRATION,
     "added_mass",
     "joint_stiffness",
     "joint_damping",
@@ -120,6 +122,8 @@ def _family(robot: Robot, name: str, band_hz: tuple[float, float]) -> list[Candi
     lo_hz, hi_hz = band_hz
     if name == NONE:
         return [Candidate(NONE, (), _no_effects, description="the nominal model as it is")]
+    if name == CALIBRATION:
+        return [calibration_candidate(robot)]
     if name == "added_mass":
         return [
             Candidate(
@@ -191,7 +195,7 @@ def _family(robot: Robot, name: str, band_hz: tuple[float, float]) -> list[Candi
     if name == "tool_mode":
         f_lo = max(1.0, 0.75 * lo_hz)
         f_hi = min(5000.0, 1.5 * hi_hz)
-        f_grid = tuple(float(x) for x in np.geomspace(max(f_lo, 0.9 * lo_hz + 0.5), hi_hz, 12))
+        f_grid = tuple(float(x) for x in np.geomspace(max(f_lo, 0.9 * lo_hz + 0.5), hi_hz, 24))
         out = []
         for d in ("x", "y", "z", "xyz"):
             req = Requirement(
