@@ -78,6 +78,9 @@ class ForwardSettings:
         nominal model's held-out excess over the noise.
     at_noise : float
         RMS held-out residual (noise deviations) at which the search stops.
+    screen_k : int
+        Candidates refitted in rounds after the first: those that improved
+        the nominal model's BIC most in round 1 (and the file calibration).
     max_misfit_x_noise : float
         Above this held-out misfit (either measure) the recordings are unexplained.
     joint_max_nfev : int
@@ -86,7 +89,8 @@ class ForwardSettings:
 
     max_effects: int = 3
     min_share: float = 0.02
-    at_noise: float = 1.1
+    at_noise: float = 1.3
+    screen_k: int = 12
     max_misfit_x_noise: float = 2.0
     joint_max_nfev: int = 30
 
@@ -301,6 +305,17 @@ def _fold_spread(cv: CrossValidation, cand: Candidate) -> NDArray[np.float64]:
     return np.asarray(sd_z * np.abs(g))
 
 
+def _screen(
+    remaining: Sequence[Candidate], round1: Sequence[CandidateFit], k: int
+) -> list[Candidate]:
+    """``none``, the calibration and the ``k`` remaining candidates best by round-1 BIC."""
+    labels = {c.label for c in remaining}
+    ranked = [f for f in sorted(round1, key=lambda f: f.bic) if f.candidate.label in labels]
+    keep = {f.candidate.label for f in ranked if f.candidate.require_identifiable}
+    top = [f.candidate.label for f in ranked if f.candidate.label in keep][:k]
+    return [c for c in remaining if c.name == NONE or not c.require_identifiable or c.label in top]
+
+
 def forward_select(
     candidates: Sequence[Candidate],
     model: ModelFn,
@@ -351,8 +366,9 @@ def forward_select(
         base = joint.candidate.effects(joint.params) if joint is not None else ()
         m_r = _on_top(model, tuple(base))
         fits: list[CandidateFit] = []
-        total = len(remaining)
-        for i, c in enumerate(remaining):
+        todo = remaining if r == 0 else _screen(remaining, round1, st.screen_k)
+        total = len(todo)
+        for i, c in enumerate(todo):
             if progress is not None:
                 progress(f"round {r + 1}: fitting {c.label}", i, total)
             fits.append(fit_one(c, m_r, obs_fit))
@@ -365,7 +381,8 @@ def forward_select(
         if base_cv is None:
             base_cv = sel.baseline.cv
             prev_cv = base_cv
-        assert base_cv is not None and prev_cv is not None
+        assert base_cv is not None
+        assert prev_cv is not None
         if sel.name == NONE:
             stop = "no further candidate beats the noise on held-out postures"
             break
