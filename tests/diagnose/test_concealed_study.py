@@ -13,8 +13,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-
 from robolobe.diagnose.concealed import run_study, standard_cases, study_tables
+
 from robolobe.robots import load_robot, save_robot
 from robolobe.robots.model import RigidBody
 

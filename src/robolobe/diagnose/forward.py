@@ -88,7 +88,7 @@ class ForwardSettings:
     """
 
     max_effects: int = 3
-    min_share: float = 0.02
+    min_share: float = 0.005
     at_noise: float = 1.3
     screen_k: int = 12
     max_misfit_x_noise: float = 2.0

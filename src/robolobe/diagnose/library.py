@@ -331,8 +331,11 @@ def _family(
                 (
                     ParamSpec("stiffness_Nm_per_rad", 1e3, 1e10, (1e4, 1e5, 1e6, 1e7, 1e8), "log"),
                     ParamSpec("zeta", 0.005, 0.8, (0.05, 0.2), "log"),
+                    ParamSpec("rotor_inertia_kgm2", 0.1, 3000.0, (5.0, 50.0, 300.0), "log"),
                 ),
-                _builder(ServoMode, ["stiffness_Nm_per_rad", "zeta"], joint=j),
+                _builder(
+                    ServoMode, ["stiffness_Nm_per_rad", "zeta", "rotor_inertia_kgm2"], joint=j
+                ),
                 variant=f"joint {j}",
                 description=f"joint {j}'s servo holds it with a finite stiffness "
                 "(a holding mode of the arm)",

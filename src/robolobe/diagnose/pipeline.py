@@ -69,7 +69,8 @@ class DiagnoseSettings:
     ----------
     band_hz : (float, float) or None
         Analysis band [Hz]; None (default): the whole recorded band from
-        1 Hz up (stated in the summary). Candidates' ranges (a tool mode's
+        1 Hz up to 80 % of its highest line, below the anti-aliasing filter
+        (stated in the summary). Candidates' ranges (a tool mode's
         frequency) follow the band.
     max_fit_lines : int
         Frequency lines used by the fits (the band is decimated to this,

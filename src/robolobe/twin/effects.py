@@ -815,9 +815,13 @@ class ServoMode(Effect):
     finite stiffness ``k_servo``, in series with the gear stiffness of the
     joint. One extra DOF ``servo<j>`` [rad] turns everything distal to joint
     ``j`` about that joint's axis (like the joint DOF itself) against the
-    spring ``k_servo`` with a dashpot for ``zeta`` of its own oscillator. A
-    soft loop gives a low "holding" mode of the whole arm (a few hertz) and
-    lowers the joint's effective stiffness to ``k k_s / (k + k_s)``.
+    spring ``k_servo`` with a dashpot for ``zeta`` of its own oscillator. The
+    servo DOF also turns the motor's rotor (its inertia reflected through the
+    gear, ``rotor_inertia_kgm2`` about the joint axis), which sits between the
+    servo spring and the gear spring: without it the two springs in series
+    would have no mass between them. A soft loop gives a low "holding" mode
+    of the whole arm (a few hertz) and lowers the joint's effective stiffness
+    to ``k k_s / (k + k_s)``.
 
     Parameters
     ----------
@@ -827,6 +831,8 @@ class ServoMode(Effect):
         Servo holding stiffness [N m/rad], 1e2 .. 1e11.
     zeta : float
         Damping ratio of the servo DOF's oscillator, 0.001 .. 0.9.
+    rotor_inertia_kgm2 : float
+        Motor rotor inertia reflected to the joint [kg m^2], 1e-3 .. 1e5.
     """
 
     name: ClassVar[str] = "servo_mode"
@@ -834,15 +840,20 @@ class ServoMode(Effect):
     joint: int = 1
     stiffness_Nm_per_rad: float = 1.0e6
     zeta: float = 0.1
+    rotor_inertia_kgm2: float = 20.0
 
     def __post_init__(self) -> None:
         _set(self, "joint", _joint(self.name, "joint", self.joint))
         k = _num(self.name, "stiffness_Nm_per_rad", self.stiffness_Nm_per_rad, 1e2, 1e11, "N m/rad")
         _set(self, "stiffness_Nm_per_rad", k)
         _set(self, "zeta", _num(self.name, "zeta", self.zeta, 0.001, 0.9, "-"))
+        r = _pos(self.name, "rotor_inertia_kgm2", self.rotor_inertia_kgm2, 1e5, "kg m^2")
+        if r < 1e-3:
+            raise InputError(f"{self.name}.rotor_inertia_kgm2: expected >= 0.001, found {r:g}")
+        _set(self, "rotor_inertia_kgm2", r)
 
     def modify(self, mats: SystemMatrices) -> SystemMatrices:
-        """Append the servo DOF (the joint's own Jacobian column)."""
+        """Append the servo DOF (the joint's own Jacobian column) and the rotor."""
         j = self.joint - 1
         bj = mats.bodies
         n_old = mats.n_dof
@@ -854,7 +865,16 @@ class ServoMode(Effect):
             mats.tcp_jw[..., j : j + 1],
             np.array([self.stiffness_Nm_per_rad]),
         )
-        return out.with_dof_damping(n_old, self.zeta)
+        zs, pts = joint_axes(mats.robot, mats.frames)
+        a = zs[..., j, :]  # (..., 3)
+        batch = mats.q.shape[:-1]
+        jw = np.zeros((*batch, 3, n_old + 1))
+        jw[..., :, n_old] = a
+        inertia = self.rotor_inertia_kgm2 * a[..., :, None] * a[..., None, :]
+        bodies = out.bodies.with_body(
+            f"rotor{self.joint}", 0.0, pts[..., j, :], inertia, np.zeros_like(jw), jw
+        )
+        return out.replace(bodies=bodies).with_dof_damping(n_old, self.zeta)
 
 
 @dataclass(frozen=True)
