@@ -33,7 +33,7 @@ def test_names_added_mass_and_improves_the_fit(mass_diagnosis) -> None:  # type:
     assert "kg at the tool" in d.summary
     assert "Found:" in d.summary
     assert "UNEXPLAINED" not in d.summary
-    assert "Analysed 1-409.6 Hz" in d.summary  # the whole recorded band, stated
+    assert "Analysed 1-409.5 Hz" in d.summary  # the whole recorded band, stated
     assert d.named == ("added_mass",)
     assert d.forward.noise.misfit_x_noise < 2.0
     assert "->" in d.summary

@@ -21,6 +21,7 @@ from __future__ import annotations
 import logging
 import math
 import os
+import warnings
 from pathlib import Path
 from typing import Any
 
@@ -38,6 +39,7 @@ __all__ = [
     "LOWEST_HZ",
     "USABLE_SHARE",
     "campaign_observations",
+    "noisy_postures",
     "read_force_levels",
     "window_decay_from_test",
 ]
@@ -120,6 +122,64 @@ def read_force_levels(
         )
     by_id = dict(zip(df["posture_id"].astype(str), vals.to_numpy(dtype=float), strict=True))
     return np.array([by_id[p] for p in posture_ids], dtype=float)
+
+
+def noisy_postures(
+    ids: tuple[str, ...],
+    sigma: NDArray[np.float64],
+    *,
+    factor: float = 2.5,
+    min_share: float = 0.15,
+) -> list[QualityIssue]:
+    """Postures whose FRF noise stands out from the campaign's (double hits and the like).
+
+    A double hit kept in the averages puts notches into the force spectrum
+    (every ``1 / delay`` Hz); the FRF estimate is noisy at and around them. So
+    are overloads and loose sensors. The check compares each posture's
+    driving-point noise scale (:func:`robolobe.diagnose.noise.roughness_sigma`)
+    with the campaign's median at the same line and direction.
+
+    Parameters
+    ----------
+    ids : tuple of str
+        Posture ids, length n.
+    sigma : ndarray, shape (n, n_freq, 3, 3)
+        Noise scale (NaN where not measured).
+    factor : float
+        A line counts as noisy above ``factor`` times the campaign's median.
+    min_share : float
+        Share of noisy lines from which a posture is flagged.
+
+    Returns
+    -------
+    list of QualityIssue
+        One ``warning`` per flagged posture (``check = "double_hit"``).
+    """
+    if len(ids) < 3:
+        return []
+    d = np.stack([sigma[:, :, i, i] for i in range(3)], axis=-1)  # (n, n_freq, 3)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)
+        med = np.nanmedian(d, axis=0)  # (n_freq, 3)
+        noisy = np.where(np.isfinite(d), d > factor * med, np.nan)
+        share = np.nanmean(noisy, axis=(1, 2))
+        ratio = np.nanmedian(d / med, axis=(1, 2))
+    out = []
+    for pid, sh, r in zip(ids, share, ratio, strict=True):
+        if np.isfinite(sh) and sh >= min_share:
+            out.append(
+                QualityIssue(
+                    pid,
+                    "*",
+                    "double_hit",
+                    "warning",
+                    f"the FRF noise is over {factor:g} x the campaign's at {sh:.0%} of the lines "
+                    f"(median {r:.1f} x): a double hit, an overload or a loose sensor? "
+                    "Check the force signals; the posture is kept, with its noise",
+                    value=float(sh),
+                )
+            )
+    return out
 
 
 def _groups(q_rad: NDArray[np.float64], ids: tuple[str, ...]) -> tuple[str, ...]:
@@ -236,6 +296,8 @@ def campaign_observations(
                 )
             )
     sigma = roughness_sigma(f, H, window_decay_per_s=decay, floor=noise_floor)
+    # without the model-form floor, so that noise under 1 % still tells postures apart
+    issues.extend(noisy_postures(ids, roughness_sigma(f, H, window_decay_per_s=decay, floor=1e-6)))
     if force_N is not None and np.asarray(force_N).shape != (len(ids),):
         raise InputError(f"force_N: expected {len(ids)} values, found {np.asarray(force_N).shape}")
     obs = Observations(

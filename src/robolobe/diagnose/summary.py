@@ -57,8 +57,10 @@ def describe_fit(fit: CandidateFit) -> str:
     if c.name == "base_compliance":
         return f"the base is compliant (tilt stiffness {_pm(fit, 'stiffness_Nm_per_rad')} N m/rad)"
     if c.name == "tool_mode":
+        held = " (its mass already in the file's end effector)" if fx.get("mass_in_file") else ""
         return (
-            f"a local tool/spindle mode at {_pm(fit, 'f_hz', '.2f')} Hz along {fx['direction']} "
+            f"a local tool/spindle mode{held} at {_pm(fit, 'f_hz', '.2f')} Hz "
+            f"along {fx['direction']} "
             f"(damping {_pm(fit, 'zeta', '.3f')}, modal mass {_pm(fit, 'mass_kg')} kg)"
         )
     if c.name == "sensor_misalignment":
@@ -75,6 +77,29 @@ def describe_fit(fit: CandidateFit) -> str:
         return (
             f"link {fx['link']} bends about its {ax} axis "
             f"(stiffness {_pm(fit, 'stiffness_Nm_per_rad')} N m/rad)"
+        )
+    if c.name == "servo_mode":
+        return (
+            f"joint {fx['joint']}'s servo holds it with {_pm(fit, 'stiffness_Nm_per_rad')} N m/rad "
+            f"(damping {_pm(fit, 'zeta', '.3f')}, rotor {_pm(fit, 'rotor_inertia_kgm2')} kg m^2): "
+            "a holding mode"
+        )
+    if c.name == "tcp_offset":
+        return (
+            "the tested point is offset from the file's TCP by "
+            f"({_pm(fit, 'dx_m', '.3f', 1e3)}, {_pm(fit, 'dy_m', '.3f', 1e3)}, "
+            f"{_pm(fit, 'dz_m', '.3f', 1e3)}) mm in the TCP frame"
+        )
+    if c.name == "sensor_gain":
+        return "the response channel gains are off: " + ", ".join(
+            f"{p.name[1]} x{_pm(fit, p.name, '.3f')}" for p in c.params
+        )
+    if c.name == "hammer_direction":
+        deg = 180.0 / np.pi
+        return (
+            "the hammer hits off axis by "
+            f"rx {_pm(fit, 'rx_rad', '.2f', deg)}, ry {_pm(fit, 'ry_rad', '.2f', deg)}, "
+            f"rz {_pm(fit, 'rz_rad', '.2f', deg)} deg"
         )
     if c.name == "friction_damping":
         return (
