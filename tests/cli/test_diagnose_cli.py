@@ -81,7 +81,7 @@ def test_posture_outside_limits_is_left_out_and_said(mass_campaign: Path, tmp_pa
         (bad / name).write_bytes((mass_campaign / name).read_bytes())
     lines = (mass_campaign / "postures.csv").read_text(encoding="utf-8").splitlines()
     cells = lines[2].split(",")
-    cells[1] = "400"  # q1 far outside +-180 deg
+    cells[2] = "90"  # q2 outside B's limits (-60..75 deg), a valid angle otherwise
     lines[2] = ",".join(cells)
     (bad / "postures.csv").write_text("\n".join(lines) + "\n", encoding="utf-8")
     out = tmp_path / "d.json"
@@ -91,7 +91,7 @@ def test_posture_outside_limits_is_left_out_and_said(mass_campaign: Path, tmp_pa
     left = [q for q in rep["quality"] if q["check"] == "limits"]
     assert len(left) == 1
     assert left[0]["posture"] == cells[0]
-    assert "postures.csv:3" in left[0]["message"]
+    assert "q2" in left[0]["message"]
     assert rep["n_postures"] == 5
     assert "Data warnings" in rep["summary"]
 

@@ -126,7 +126,7 @@ def _where(nt: NoiseTest) -> str:
 
 
 def _calibration_effect(fw: ForwardResult) -> str:
-    """What calibrating the file achieves, if a step calibrated it."""
+    """What calibrating the file achieves (named as a step, or tried in round 1)."""
     for i, st in enumerate(fw.steps):
         if st.candidate.name != CALIBRATION:
             continue
@@ -136,7 +136,19 @@ def _calibration_effect(fw: ForwardResult) -> str:
             f"lowers the held-out misfit from {np.sqrt(max(before, 0)):.1f} to "
             f"{np.sqrt(max(st.per_residual, 0)):.1f} x the noise."
         )
-    return ""
+    cal = next(
+        (r for r in fw.rounds[0].ranking if r.fit.candidate.name == CALIBRATION and r.cv), None
+    )
+    if cal is None or cal.cv is None:
+        return ""
+    b = float(np.sqrt(max(fw.baseline_cv.per_residual, 0.0)))
+    a = float(np.sqrt(max(cal.cv.per_residual, 0.0)))
+    if a < b:
+        what = f"lowers the held-out misfit from {b:.1f} to {a:.1f} x the noise"
+    else:
+        what = f"does not lower the held-out misfit ({b:.1f} -> {a:.1f} x the noise)"
+    off = "The robot file is globally off" if b > 2.0 else "The robot file fits"
+    return f"{off}: calibrating its values alone {what}."
 
 
 def summarize(
