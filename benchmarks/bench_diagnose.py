@@ -55,8 +55,10 @@ def main(argv: list[str] | None = None) -> None:
 
     rows = []
     t0 = time.perf_counter()
+    c0 = time.process_time()
     d = diagnose(camp, robot=robot)
     t_full = time.perf_counter() - t0
+    cpu_full = time.process_time() - c0
     n_eval = sum(f.nfev for f in d.fits)
     rows.append(
         (
@@ -84,6 +86,7 @@ def main(argv: list[str] | None = None) -> None:
             twin.receptance(q, f)
         t_solve = (time.perf_counter() - t0) / reps
 
+    print(f"full library: {cpu_full:.1f} s of CPU (one thread) for {t_full:.1f} s wall")
     print(
         f"robot {args.robot}, {args.postures} postures, {f.size} lines, 9 directions; "
         f"load average {os.getloadavg()[0]:.1f} (2 cores shared)"
