@@ -17,19 +17,19 @@ from robolobe.twin.effects import (
     Effect,
     FrictionDamping,
     GravityStiffening,
+    HammerDirection,
     JointDamping,
     JointStiffness,
     LinkFlexibility,
-    HammerDirection,
     SensorDelay,
     SensorGain,
     SensorMisalignment,
     ServoMode,
     TcpOffset,
     ToolMode,
-    link_bending_axes,
     effect_from_dict,
     effect_to_dict,
+    link_bending_axes,
 )
 from robolobe.twin.model import Twin
 from robolobe.twin.modes import undamped_modes
