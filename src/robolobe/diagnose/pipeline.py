@@ -277,7 +277,8 @@ def _diagnose(
     if not isinstance(campaign, Campaign):
         source = os.fspath(campaign)
         folder = Path(campaign)
-        camp = read_campaign(folder)
+        # limits are checked below: postures outside them are left out, not fatal
+        camp = read_campaign(folder, check_limits=False)
         if force_N is None:
             force_N = read_force_levels(folder, camp.posture_ids)
     else:
