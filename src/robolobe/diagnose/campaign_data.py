@@ -128,8 +128,8 @@ def noisy_postures(
     ids: tuple[str, ...],
     sigma: NDArray[np.float64],
     *,
-    factor: float = 2.5,
-    min_share: float = 0.15,
+    factor: float = 3.0,
+    min_share: float = 0.5,
 ) -> list[QualityIssue]:
     """Postures whose FRF noise stands out from the campaign's (double hits and the like).
 
