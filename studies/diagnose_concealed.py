@@ -26,7 +26,7 @@ Run (about 1-3 min per 30-posture case on a loaded 2-core machine)::
 
 Options: ``--robots B,C``, ``--postures 30``, ``--seeds 0``, ``--groups
 single,pair,outside,null``, ``--file-error 0.1``, ``--no-seed-tables``,
-``--limit N`` (first N cases), ``--from-csv cases.csv`` (tables only).
+``--limit N`` (first N cases), ``--skip N``, ``--from-csv cases.csv`` (tables only).
 """
 
 from __future__ import annotations
@@ -59,6 +59,7 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--file-error", type=float, default=0.1)
     p.add_argument("--no-seed-tables", action="store_true")
     p.add_argument("--limit", type=int, default=None)
+    p.add_argument("--skip", type=int, default=0, help="leave out the first N cases")
     p.add_argument("--out", type=Path, default=Path("studies/out/diagnose"))
     p.add_argument("--from-csv", type=Path, nargs="+", default=None)
     a = p.parse_args(argv)
@@ -77,6 +78,7 @@ def main(argv: list[str] | None = None) -> int:
         file_error=a.file_error,
         groups=[g.strip() for g in a.groups.split(",")],
     )
+    cases = cases[a.skip :]
     if a.limit is not None:
         cases = cases[: a.limit]
     print(
