@@ -95,7 +95,7 @@ def register(app: typer.Typer) -> None:
         sensor rotation/gain/delay, hammer direction, link flexibility,
         friction) to all postures at once, and names candidates one after
         another while each beats the noise on held-out postures. If the
-        best model still misses the held-out postures by more than twice the
+        best model still misses the held-out postures by more than 1.5x the
         noise, the verdict is 'unexplained' and the candidates are listed
         only as the closest ones. Exponential-window settings come from the
         campaign's [test] table (window_end, duration_s); hammer force levels

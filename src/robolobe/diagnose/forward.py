@@ -22,7 +22,10 @@ The absolute test (:func:`noise_test`) then compares the chosen model's
 held-out misfit with the noise: the RMS held-out residual in noise standard
 deviations (``sqrt(D_cv / N)``) and the mean held-out NRMSE over the NRMSE the
 noise alone gives (:func:`robolobe.diagnose.residuals.noise_nrmse`). If
-either exceeds ``max_misfit_x_noise`` (2) the recordings are *unexplained*:
+either exceeds ``max_misfit_x_noise`` (1.5) the recordings are *unexplained*:
+(a claim is false, by the issue's measure, when the misfit stays above 2x
+the noise; the margin keeps a library candidate that only mimics physics
+outside the library from being presented as found)
 the diagnosis says so, where (postures and bands), and presents the
 candidates only as the closest ones.
 """
@@ -91,7 +94,7 @@ class ForwardSettings:
     min_share: float = 0.005
     at_noise: float = 1.3
     screen_k: int = 12
-    max_misfit_x_noise: float = 2.0
+    max_misfit_x_noise: float = 1.5
     joint_max_nfev: int = 30
 
 
@@ -212,11 +215,11 @@ class NoiseTest:
     unexplained: bool
     worst_postures: tuple[tuple[str, float], ...]
     worst_bands: tuple[BandScore, ...]
-    limit: float = 2.0
+    limit: float = 1.5
 
 
 def noise_test(
-    cv: CrossValidation, obs: Observations, *, limit: float = 2.0, n_worst: int = 3
+    cv: CrossValidation, obs: Observations, *, limit: float = 1.5, n_worst: int = 3
 ) -> NoiseTest:
     """Compare held-out predictions with the noise (module notes).
 

@@ -112,7 +112,7 @@ class Diagnosis:
         ``"none"`` (the file fits within the noise), the family names of the
         named candidates joined by ``+`` (``"file_parameters+tool_mode"``), or
         ``"unexplained"`` (the best model found still misses the held-out
-        postures by more than twice the noise; the candidates are then only
+        postures by more than 1.5 x the noise; the candidates are then only
         the closest ones, see ``forward.steps``).
     selection : Selection
         Round-1 ranking with scores (every candidate on the nominal model).
