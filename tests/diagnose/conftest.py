@@ -10,6 +10,8 @@ parameters acting only through their product: not identifiable),
 
 from __future__ import annotations
 
+import sys
+from pathlib import Path
 from types import SimpleNamespace
 from typing import Any
 
@@ -126,3 +128,10 @@ def ab_candidate() -> Candidate:
 def toy() -> SimpleNamespace:
     """The toy structure: ``model``, ``obs(effects, ...)``, ``candidates()``, ``ab()``."""
     return SimpleNamespace(model=toy_model, obs=toy_obs, candidates=toy_candidates, ab=ab_candidate)
+
+
+# the concealed-campaign generator is study code (studies/diagnose_reference.py), an
+# implementation independent of robolobe.twin.effects
+_STUDIES = Path(__file__).resolve().parents[2] / "studies"
+if str(_STUDIES) not in sys.path:
+    sys.path.insert(0, str(_STUDIES))

@@ -15,7 +15,7 @@ ALL = ("xx", "xy", "xz", "yx", "yy", "yz", "zx", "zy", "zz")
 
 
 def test_every_twin_effect_has_a_family() -> None:
-    assert set(FAMILIES) == {"none", *EFFECTS}
+    assert set(FAMILIES) == {"none", "file_parameters", *EFFECTS}
 
 
 def test_every_candidate_builds_at_its_grid_and_bounds() -> None:
@@ -27,17 +27,26 @@ def test_every_candidate_builds_at_its_grid_and_bounds() -> None:
     q = np.radians([[0, 10, -60, 0, 30, 0]])
     f = np.array([5.0, 15.0])
     for c in cands:
-        assert 0 <= c.n_params <= 3
+        assert 0 <= c.n_params <= (3 if c.name != "file_parameters" else 19)
         pts = [*c.start_grid(), *(c.to_physical(b) for b in c.bounds_internal)]
         for p in pts:
             effects = c.effects(p)
             for e in effects:
                 assert e.name == c.name
+                if c.name in ("file_parameters", "tcp_offset", "sensor_gain"):
+                    continue  # parameters map onto vector fields
                 d = effect_to_dict(e)
                 for spec, v in zip(c.params, p, strict=True):
                     assert d[spec.name] == pytest.approx(v)
             if c.name == "coupled_joint_stiffness":
                 continue  # the bounds are where K stops being definite
+            if c.fixed.get("mass_in_file"):
+                # a sprung mass above the arm's effective mass at the TCP is refused
+                try:
+                    H = Twin(r, effects).receptance(q, f)
+                except InputError as exc:
+                    assert "positive definite" in str(exc)
+                    continue
             H = Twin(r, effects).receptance(q, f)
             assert np.all(np.isfinite(H))
 

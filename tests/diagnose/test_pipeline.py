@@ -7,20 +7,19 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from diagnose_reference import Case, P, make_campaign
 
 from robolobe.diagnose import DiagnoseSettings, diagnose, to_report, write_report
-from robolobe.diagnose.concealed import Case, make_concealed_campaign
 from robolobe.errors import InputError
 from robolobe.robots import load_robot
 from robolobe.twin.campaign import Campaign
-from robolobe.twin.effects import AddedMass, FrictionDamping
 
 FAMS = ("added_mass", "joint_stiffness", "sensor_delay", "gravity_stiffening")
 
 
 @pytest.fixture(scope="module")
 def mass_diagnosis():  # type: ignore[no-untyped-def]
-    camp, _ = make_concealed_campaign(Case("B", AddedMass(mass_kg=5.0), "medium", 8, seed=3))
+    camp = make_campaign(Case("B", (P("mass", mass_kg=5.0),), "+5 kg", 0.0, 8, seed=3))
     return diagnose(camp, robot=load_robot("B"), settings=DiagnoseSettings(families=FAMS))
 
 
@@ -32,6 +31,11 @@ def test_names_added_mass_and_improves_the_fit(mass_diagnosis) -> None:  # type:
     assert d.fit_after.frac_mean >= 0.98
     assert d.fit_after.nrmse_mean < d.fit_before.nrmse_mean
     assert "kg at the tool" in d.summary
+    assert "Found:" in d.summary
+    assert "UNEXPLAINED" not in d.summary
+    assert "Analysed 1-409.5 Hz" in d.summary  # the whole recorded band, stated
+    assert d.named == ("added_mass",)
+    assert d.forward.noise.misfit_x_noise < 2.0
     assert "->" in d.summary
     assert [e.name for e in d.effects] == ["added_mass"]
     # friction cannot be tested on one force level, and the diagnosis says so
@@ -49,6 +53,9 @@ def test_json_schema_holds_the_required_keys(mass_diagnosis) -> None:  # type: i
     named = [c for c in rep["candidates"] if c["named"]]
     assert len(named) == 1
     assert named[0]["name"] == "added_mass"
+    assert rep["unexplained"] is False
+    assert rep["steps"][0]["label"] == "added_mass"
+    assert rep["steps"][0]["share"] == pytest.approx(1.0)
     for k in ("frac_mean", "frac_min", "nrmse_mean"):
         assert 0 <= rep["fit_after"][k] <= 1.5
     assert rep["parameters"][0]["name"] == "mass_kg"
@@ -65,7 +72,7 @@ def test_report_folder(mass_diagnosis, tmp_path: Path) -> None:  # type: ignore[
 
 
 def test_null_campaign_gives_none() -> None:
-    camp, _ = make_concealed_campaign(Case("B", None, "null", 8, seed=11))
+    camp = make_campaign(Case("B", (), "null", 0.0, 8, seed=11))
     d = diagnose(camp, robot=load_robot("B"), settings=DiagnoseSettings(families=FAMS))
     assert d.verdict == "none"
     assert d.effects == ()
@@ -74,9 +81,7 @@ def test_null_campaign_gives_none() -> None:
 
 
 def test_friction_needs_force_levels() -> None:
-    case = Case("B", FrictionDamping(torque_Nm=60.0), "medium", 6, seed=5, force_levels_N=(300.0,))
-    camp, force = make_concealed_campaign(case)
-    assert force is None
+    camp = make_campaign(Case("B", (), "null", 0.0, 6, seed=5))
     d = diagnose(
         camp,
         robot=load_robot("B"),
@@ -87,16 +92,27 @@ def test_friction_needs_force_levels() -> None:
     assert "friction_damping" in d.summary  # "Not tested: ..."
 
 
-def test_postures_outside_the_robots_limits_are_rejected() -> None:
-    camp, _ = make_concealed_campaign(Case("B", None, "null", 4, seed=1))
+def test_postures_outside_the_robots_limits_are_left_out_with_a_warning() -> None:
+    camp = make_campaign(Case("B", (), "null", 0.0, 5, seed=1))
     q = camp.q_rad.copy()
     q[2, 0] = np.radians(300.0)
     bad = Campaign(camp.robot, camp.posture_ids, q, camp.frfs, test=camp.test)
-    with pytest.raises(InputError, match=f"posture '{camp.posture_ids[2]}'.*q1"):
-        diagnose(bad, robot=load_robot("B"))
+    d = diagnose(bad, robot=load_robot("B"), settings=DiagnoseSettings(families=FAMS))
+    left = [i for i in d.quality if i.check == "limits"]
+    assert [i.posture_id for i in left] == [camp.posture_ids[2]]
+    assert "q1" in left[0].message
+    assert camp.posture_ids[2] not in d.obs.record_ids
+    assert "Data warnings" in d.summary
+    assert camp.posture_ids[2] in d.summary
+    # with fewer than two postures left it refuses, naming the posture
+    q2 = q.copy()
+    q2[:4, 0] = np.radians(300.0)
+    worse = Campaign(camp.robot, camp.posture_ids, q2, camp.frfs, test=camp.test)
+    with pytest.raises(InputError, match="q1"):
+        diagnose(worse, robot=load_robot("B"))
 
 
 def test_a_single_posture_cannot_be_cross_validated() -> None:
-    camp, _ = make_concealed_campaign(Case("B", None, "null", 1, seed=1))
+    camp = make_campaign(Case("B", (), "null", 0.0, 1, seed=1))
     with pytest.raises(InputError, match="at least 2 postures"):
         diagnose(camp, robot=load_robot("B"))

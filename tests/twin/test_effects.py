@@ -17,14 +17,19 @@ from robolobe.twin.effects import (
     Effect,
     FrictionDamping,
     GravityStiffening,
+    HammerDirection,
     JointDamping,
     JointStiffness,
     LinkFlexibility,
     SensorDelay,
+    SensorGain,
     SensorMisalignment,
+    ServoMode,
+    TcpOffset,
     ToolMode,
     effect_from_dict,
     effect_to_dict,
+    link_bending_axes,
 )
 from robolobe.twin.model import Twin
 from robolobe.twin.modes import undamped_modes
@@ -300,6 +305,13 @@ def test_twin_rejects_non_effects(robot: Robot) -> None:
         (ToolMode, {"f_hz": "fast"}, "f_hz"),
         (SensorMisalignment, {"rx_rad": 2.0}, "rx_rad"),
         (SensorDelay, {"delay_s": 1.0}, "delay_s"),
+        (ToolMode, {"mass_in_file": "yes"}, "mass_in_file"),
+        (ServoMode, {"joint": 0}, "joint"),
+        (ServoMode, {"stiffness_Nm_per_rad": 1.0}, "stiffness"),
+        (ServoMode, {"rotor_inertia_kgm2": 0.0}, "rotor_inertia"),
+        (TcpOffset, {"offset_m": (0, 0, 2.0)}, "offset_m"),
+        (SensorGain, {"gain": (1.0, 0.0, 1.0)}, "gain"),
+        (HammerDirection, {"ry_rad": 3.0}, "ry_rad"),
     ],
 )
 def test_parameter_validation(cls: type[Effect], kwargs: dict, match: str) -> None:
@@ -326,3 +338,95 @@ def test_from_dict_errors() -> None:
         effect_from_dict({"name": "added_mass", "mass_kg": -3.0}, source="model.toml[effects][1]")
     with pytest.raises(InputError, match="name"):
         effect_from_dict({"mass_kg": 3.0})
+
+
+# ------------------------------------------------------------ lab effects (issue 13)
+def _static(twin: Twin, q: np.ndarray) -> np.ndarray:
+    """Receptance at 0 Hz, shape (n, 3, 3)."""
+    return twin.receptance(q, np.array([0.0]))[:, 0]
+
+
+def test_servo_mode_is_a_series_spring_and_a_low_holding_mode(robot: Robot, q: np.ndarray) -> None:
+    ks = 3e5
+    twin = Twin(robot, (ServoMode(joint=1, stiffness_Nm_per_rad=ks, rotor_inertia_kgm2=40.0),))
+    s = Twin(robot).system(q)
+    # static: the joint's compliance is 1/k1 + 1/ks (springs in series)
+    Kinv = np.linalg.inv(s.K)
+    Kinv[..., 0, 0] += 1.0 / ks
+    np.testing.assert_allclose(
+        _static(twin, q).real, s.J @ Kinv @ np.swapaxes(s.J, -1, -2), rtol=1e-8
+    )
+    f_servo = _f_undamped(twin, q)
+    assert np.all(f_servo[:, 0] < 0.6 * _f_undamped(Twin(robot), q)[:, 0])  # the holding mode
+    # a stiff loop leaves the arm's modes as they were
+    stiff = Twin(robot, (ServoMode(joint=1, stiffness_Nm_per_rad=1e11),))
+    np.testing.assert_allclose(_f_undamped(stiff, q)[:, :6], _f_undamped(Twin(robot), q), rtol=1e-3)
+
+
+def test_tcp_offset_sees_the_wrist_rotations(robot: Robot, q: np.ndarray) -> None:
+    d = np.array([0.0, 0.0, 0.05])
+    twin = Twin(robot, (TcpOffset(offset_m=tuple(d)),))
+    s = Twin(robot).system(q)
+    r = s.tcp_rotation @ d  # (n, 3)
+    # v_p = v + w x r, column by column, in the TCP frame
+    jp = np.swapaxes(s.tcp_rotation, -1, -2) @ (
+        s.tcp_jv + np.cross(s.tcp_jw, r[:, :, None], axis=1)
+    )
+    np.testing.assert_allclose(
+        _static(twin, q).real, jp @ np.linalg.inv(s.K) @ np.swapaxes(jp, -1, -2), rtol=1e-8
+    )
+    assert not np.allclose(_static(twin, q), _static(Twin(robot), q), rtol=1e-3)
+
+
+def test_hammer_direction_mixes_columns_and_a_rotated_sensor_rows(
+    robot: Robot, q: np.ndarray
+) -> None:
+    ang = {"rx_rad": 0.05, "ry_rad": 0.17, "rz_rad": -0.03}
+    H = Twin(robot).receptance(q, FREQ)
+    Hh = Twin(robot, (HammerDirection(**ang),)).receptance(q, FREQ)
+    Hs = Twin(robot, (SensorMisalignment(**ang),)).receptance(q, FREQ)
+    # H is symmetric, so an off-axis hammer is the rotated sensor's transpose
+    np.testing.assert_allclose(Hh, np.swapaxes(Hs, -1, -2), rtol=1e-10, atol=1e-20)
+    assert not np.allclose(Hh, Hs, rtol=1e-3)
+    assert not np.allclose(Hh, H, rtol=1e-3)
+
+
+def test_sensor_gain_scales_its_channel_only(robot: Robot, q: np.ndarray) -> None:
+    H = Twin(robot).receptance(q, FREQ)
+    Hg = Twin(robot, (SensorGain(gain=(1.0, 1.12, 1.0)),)).receptance(q, FREQ)
+    np.testing.assert_allclose(Hg[..., 1, :], 1.12 * H[..., 1, :], rtol=1e-12)
+    np.testing.assert_allclose(Hg[..., [0, 2], :], H[..., [0, 2], :], rtol=1e-12)
+
+
+def test_local_tool_mode_keeps_the_arm_mass(robot: Robot, q: np.ndarray) -> None:
+    ee = robot.end_effector
+    assert ee is not None
+    m = 0.1 * ee.mass_kg  # below the arm's effective mass at the TCP (M stays definite)
+    stiff_local = Twin(robot, (ToolMode(f_hz=5000.0, mass_kg=m, direction="x", mass_in_file=True),))
+    stiff_extra = Twin(robot, (ToolMode(f_hz=5000.0, mass_kg=m, direction="x"),))
+    f0 = _f_undamped(Twin(robot), q)
+    # a rigid local mode changes nothing below it; an extra mass lowers the modes
+    np.testing.assert_allclose(_f_undamped(stiff_local, q)[:, :6], f0, rtol=2e-3)
+    assert np.all(_f_undamped(stiff_extra, q)[:, 0] < 0.995 * f0[:, 0])
+    with pytest.raises(InputError, match="mass_in_file"):
+        Twin(robot, (ToolMode(mass_kg=2 * ee.mass_kg, direction="x", mass_in_file=True),)).system(q)
+
+
+@pytest.mark.parametrize("name", ["A", "B", "C"])
+def test_link_bending_axes_are_across_the_next_joint(name: str) -> None:
+    rb = load_robot(name)
+    qq = np.radians([[10.0, -60.0, 40.0, 10.0, 30.0, 0.0]])
+    for link in range(1, 6):
+        a1, a2 = (np.array(a) for a in link_bending_axes(rb, link))
+        assert abs(a1 @ a2) < 1e-9
+        for a in (a1, a2):
+            # every variant evaluates (B's links 1, 3-5 about y used to be singular)
+            f = _f_undamped(Twin(rb, (LinkFlexibility(link=link, axis=tuple(a)),)), qq)
+            assert np.all(np.isfinite(f))
+
+
+def test_link_flexibility_about_the_next_joint_axis_is_refused() -> None:
+    rb = load_robot("B")
+    qq = np.radians([[10.0, -60.0, 40.0, 10.0, 30.0, 0.0]])
+    with pytest.raises(InputError, match="series compliance"):
+        Twin(rb, (LinkFlexibility(link=3, axis=(0.0, 1.0, 0.0)),)).system(qq)

@@ -70,8 +70,12 @@ def register(app: typer.Typer) -> None:
             ),
         ] = None,
         band_hz: Annotated[
-            str, typer.Option("--band-hz", help="Analysis band 'low,high' in Hz.")
-        ] = "2,40",
+            str | None,
+            typer.Option(
+                "--band-hz",
+                help="Analysis band 'low,high' in Hz (default: the whole recorded band from 1 Hz).",
+            ),
+        ] = None,
         candidates: Annotated[
             str | None,
             typer.Option(
@@ -84,12 +88,16 @@ def register(app: typer.Typer) -> None:
     ) -> None:
         """Compare a campaign with its nominal robot model, name the missing physics, fit it.
 
-        Locates the mismatch (posture x frequency), fits every candidate
-        addition (added mass, joint stiffness/damping, gravity stiffening,
-        coupled joints, base compliance, tool mode, sensor rotation/delay,
-        link flexibility, friction) to all postures at once, ranks them by
-        BIC and held-out postures, and names one, or 'none' when nothing
-        beats the noise. Exponential-window settings come from the
+        Locates the mismatch (posture x frequency) over the whole recorded
+        band, fits every candidate (the robot file's own values off, added
+        mass, joint stiffness/damping, gravity stiffening, coupled joints,
+        base compliance, tool/bracket modes, servo holding modes, TCP offset,
+        sensor rotation/gain/delay, hammer direction, link flexibility,
+        friction) to all postures at once, and names candidates one after
+        another while each beats the noise on held-out postures. If the
+        best model still misses the held-out postures by more than 1.5x the
+        noise, the verdict is 'unexplained' and the candidates are listed
+        only as the closest ones. Exponential-window settings come from the
         campaign's [test] table (window_end, duration_s); hammer force levels
         from an optional force_N column of postures.csv.
         """
@@ -107,7 +115,7 @@ def register(app: typer.Typer) -> None:
         if folds < 2:
             raise InputError(f"expected at least 2 folds, found {folds}", source="--folds")
         settings = DiagnoseSettings(
-            band_hz=parse_band(band_hz),
+            band_hz=None if band_hz is None else parse_band(band_hz),
             families=parse_families(candidates),
             selection=dataclasses.replace(SelectionSettings(), n_folds=folds),
         )
@@ -125,6 +133,12 @@ def register(app: typer.Typer) -> None:
             write_report(result, report)
         if updated_model is not None:
             write_updated_model(updated_model, result.robot, result.effects, note=result.summary)
+            if result.unexplained and result.effects:
+                console.print(
+                    "[yellow]the updated model holds partial corrections only "
+                    "(the recordings are unexplained)[/]",
+                    highlight=False,
+                )
         console.print(f"[bold]verdict:[/] {rep.verdict_label}", highlight=False)
         console.print(result.summary, highlight=False, soft_wrap=True)
         outs = [str(json_out)] + [str(p) for p in (report, updated_model) if p is not None]

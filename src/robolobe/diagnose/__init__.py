@@ -16,9 +16,11 @@ one grid), :mod:`~robolobe.diagnose.noise` (noise scale),
 see it), :mod:`~robolobe.diagnose.fitting` (fit, uncertainty,
 identifiability), :mod:`~robolobe.diagnose.selection` (cross-validation,
 ranking, ``none``), :mod:`~robolobe.diagnose.pipeline` (end to end),
-:mod:`~robolobe.diagnose.schema` (JSON), :mod:`~robolobe.diagnose.report`
-(HTML), :mod:`~robolobe.diagnose.updated_model` (robot + effects files),
-:mod:`~robolobe.diagnose.concealed` (campaigns with a concealed effect, study).
+:mod:`~robolobe.diagnose.calibration` (the file's own values as a candidate),
+:mod:`~robolobe.diagnose.forward` (several candidates, the test against the
+noise), :mod:`~robolobe.diagnose.schema` (JSON), :mod:`~robolobe.diagnose.report`
+(HTML), :mod:`~robolobe.diagnose.updated_model` (robot + effects files). The
+concealed-campaign study is in ``studies/`` (an independent reference model).
 """
 
 from robolobe.diagnose.library import FAMILIES

@@ -146,6 +146,9 @@ class Candidate:
         What the data must hold to test it.
     fixed : dict
         Fixed settings of the variant, for reports and the updated model.
+    require_identifiable : bool
+        Whether every parameter must be determined for the candidate to be
+        named (False for the file calibration: judged by its held-out fit).
     """
 
     name: str
@@ -155,6 +158,7 @@ class Candidate:
     description: str = ""
     requirement: Requirement = field(default_factory=Requirement)
     fixed: dict[str, Any] = field(default_factory=dict)
+    require_identifiable: bool = True
 
     @property
     def label(self) -> str:

@@ -36,7 +36,9 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from robolobe.diagnose.calibration import CALIBRATION, calibration_candidate
 from robolobe.diagnose.candidate import NONE, Candidate, ParamSpec, Requirement
+from robolobe.diagnose.observations import DIRS
 from robolobe.errors import InputError
 from robolobe.robots import Robot
 from robolobe.twin.effects import (
@@ -46,12 +48,17 @@ from robolobe.twin.effects import (
     Effect,
     FrictionDamping,
     GravityStiffening,
+    HammerDirection,
     JointDamping,
     JointStiffness,
     LinkFlexibility,
     SensorDelay,
+    SensorGain,
     SensorMisalignment,
+    ServoMode,
+    TcpOffset,
     ToolMode,
+    link_bending_axes,
 )
 
 __all__ = ["FAMILIES", "Untestable", "build_library"]
@@ -59,6 +66,7 @@ __all__ = ["FAMILIES", "Untestable", "build_library"]
 #: Names of the candidate families, ``none`` first.
 FAMILIES: tuple[str, ...] = (
     NONE,
+    CALIBRATION,
     "added_mass",
     "joint_stiffness",
     "joint_damping",
@@ -70,6 +78,10 @@ FAMILIES: tuple[str, ...] = (
     "sensor_delay",
     "link_flexibility",
     "friction_damping",
+    "servo_mode",
+    "tcp_offset",
+    "sensor_gain",
+    "hammer_direction",
 )
 
 _AXES = "xyz"
@@ -115,11 +127,24 @@ def _no_effects(p: NDArray[np.float64]) -> tuple[Effect, ...]:
     return ()
 
 
-def _family(robot: Robot, name: str, band_hz: tuple[float, float]) -> list[Candidate]:
+def _axis_name(axis: tuple[float, ...]) -> str:
+    """``x``, ``-z``, or the vector, for an axis in a DH frame."""
+    a = np.asarray(axis)
+    i = int(np.argmax(np.abs(a)))
+    if abs(a[i]) > 0.999:
+        return ("-" if a[i] < 0 else "") + _AXES[i]
+    return "(" + ", ".join(f"{x:.2f}" for x in a) + ")"
+
+
+def _family(
+    robot: Robot, name: str, band_hz: tuple[float, float], directions: Sequence[str] = DIRS
+) -> list[Candidate]:
     """All variants of one family."""
     lo_hz, hi_hz = band_hz
     if name == NONE:
         return [Candidate(NONE, (), _no_effects, description="the nominal model as it is")]
+    if name == CALIBRATION:
+        return [calibration_candidate(robot)]
     if name == "added_mass":
         return [
             Candidate(
@@ -191,8 +216,9 @@ def _family(robot: Robot, name: str, band_hz: tuple[float, float]) -> list[Candi
     if name == "tool_mode":
         f_lo = max(1.0, 0.75 * lo_hz)
         f_hi = min(5000.0, 1.5 * hi_hz)
-        f_grid = tuple(float(x) for x in np.geomspace(max(f_lo, 0.9 * lo_hz + 0.5), hi_hz, 12))
+        f_grid = tuple(float(x) for x in np.geomspace(max(f_lo, 0.9 * lo_hz + 0.5), hi_hz, 24))
         out = []
+        ee = robot.end_effector
         for d in ("x", "y", "z", "xyz"):
             req = Requirement(
                 any_of_directions=tuple(r + e for r in _AXES for e in _AXES if d in (r, e))
@@ -215,6 +241,35 @@ def _family(robot: Robot, name: str, band_hz: tuple[float, float]) -> list[Candi
                     fixed={"direction": d},
                 )
             )
+            if ee is not None and ee.mass_kg > 0.5 and d != "xyz":
+                m_hi = 0.9 * ee.mass_kg
+                out.append(
+                    Candidate(
+                        name,
+                        (
+                            ParamSpec("f_hz", f_lo, f_hi, f_grid, "log"),
+                            ParamSpec("zeta", 0.003, 0.2, (0.03,), "log"),
+                            ParamSpec(
+                                "mass_kg",
+                                0.1,
+                                m_hi,
+                                tuple(x for x in (0.3, 3.0, 15.0) if x < m_hi) or (0.2,),
+                                "log",
+                            ),
+                        ),
+                        _builder(
+                            ToolMode,
+                            ["f_hz", "zeta", "mass_kg"],
+                            direction=d,
+                            mass_in_file=True,
+                        ),
+                        variant=f"local, direction {d}",
+                        description=f"a local tool/bracket mode along {d} whose mass the "
+                        "file already holds in its end effector",
+                        requirement=req,
+                        fixed={"direction": d, "mass_in_file": True},
+                    )
+                )
         return out
     if name == "sensor_misalignment":
         g = (-0.1, 0.0, 0.1)
@@ -251,8 +306,8 @@ def _family(robot: Robot, name: str, band_hz: tuple[float, float]) -> list[Candi
     if name == "link_flexibility":
         out = []
         for link in range(1, 6):
-            for ax in ("x", "y"):
-                axis = tuple(float(ax == a) for a in _AXES)
+            for axis in link_bending_axes(robot, link):
+                ax = _axis_name(axis)
                 out.append(
                     Candidate(
                         name,
@@ -263,11 +318,81 @@ def _family(robot: Robot, name: str, band_hz: tuple[float, float]) -> list[Candi
                         ),
                         _builder(LinkFlexibility, ["stiffness_Nm_per_rad"], link=link, axis=axis),
                         variant=f"link {link} about {ax}",
-                        description=f"bending of link {link} about its DH-frame {ax} axis",
+                        description=f"bending of link {link} about its DH-frame {ax} axis "
+                        f"(across joint {link + 1}'s axis)",
                         fixed={"link": link, "axis": axis},
                     )
                 )
         return out
+    if name == "servo_mode":
+        return [
+            Candidate(
+                name,
+                (
+                    ParamSpec("stiffness_Nm_per_rad", 1e3, 1e10, (1e4, 1e5, 1e6, 1e7, 1e8), "log"),
+                    ParamSpec("zeta", 0.005, 0.8, (0.05, 0.2), "log"),
+                    ParamSpec("rotor_inertia_kgm2", 0.1, 3000.0, (5.0, 50.0, 300.0), "log"),
+                ),
+                _builder(
+                    ServoMode, ["stiffness_Nm_per_rad", "zeta", "rotor_inertia_kgm2"], joint=j
+                ),
+                variant=f"joint {j}",
+                description=f"joint {j}'s servo holds it with a finite stiffness "
+                "(a holding mode of the arm)",
+                fixed={"joint": j},
+            )
+            for j in range(1, 7)
+        ]
+    if name == "tcp_offset":
+        g = (-0.06, 0.0, 0.06)
+        return [
+            Candidate(
+                name,
+                tuple(ParamSpec(f"d{a}_m", -0.3, 0.3, g, "linear", null=0.0) for a in _AXES),
+                lambda p: (TcpOffset(offset_m=(float(p[0]), float(p[1]), float(p[2]))),),
+                description="the tested point is offset from the file's TCP (tool length)",
+            )
+        ]
+    if name == "sensor_gain":
+        chans = sorted({d[0] for d in directions})
+        idx = ["xyz".index(c) for c in chans]
+
+        def build_gain(p: NDArray[np.float64]) -> tuple[Effect, ...]:
+            g = [1.0, 1.0, 1.0]
+            for i, v in zip(idx, p, strict=True):
+                g[i] = float(v)
+            return (SensorGain(gain=(g[0], g[1], g[2])),)
+
+        return [
+            Candidate(
+                name,
+                tuple(
+                    ParamSpec(f"g{c}", 0.5, 2.0, (0.9, 1.0, 1.1), "log", null=1.0) for c in chans
+                ),
+                build_gain,
+                description="a response channel's sensitivity is off (level error)",
+                fixed={"channels": tuple(chans)},
+            )
+        ]
+    if name == "hammer_direction":
+        g = (-0.1, 0.0, 0.1)
+        return [
+            Candidate(
+                name,
+                (
+                    ParamSpec("rx_rad", -0.35, 0.35, g, "linear", null=0.0),
+                    ParamSpec("ry_rad", -0.35, 0.35, g, "linear", null=0.0),
+                    ParamSpec("rz_rad", -0.35, 0.35, g, "linear", null=0.0),
+                ),
+                _builder(HammerDirection, ["rx_rad", "ry_rad", "rz_rad"]),
+                description="the hammer hits off the nominal axes (input side)",
+                requirement=Requirement(
+                    min_directions=2,
+                    why="an off-axis hit mixes excitation directions; one direction alone "
+                    "cannot tell it from a level change",
+                ),
+            )
+        ]
     if name == "friction_damping":
         return [
             Candidate(
@@ -321,7 +446,7 @@ def build_library(
     cands: list[Candidate] = []
     skipped: list[Untestable] = []
     for n in names:
-        for c in _family(robot, n, band_hz):
+        for c in _family(robot, n, band_hz, directions):
             why = c.requirement.unmet(directions, n_force_levels)
             if why is None:
                 cands.append(c)

@@ -205,7 +205,13 @@ class Observations:
         )
 
     def decimated(self, max_lines: int) -> Observations:
-        """Every k-th frequency line so that at most ``max_lines`` remain.
+        """At most ``max_lines`` frequency lines, spaced evenly in log frequency.
+
+        Log spacing keeps the relative resolution (lines per half-power
+        bandwidth ``2 zeta f``) the same at every frequency, so that a wide
+        band (the whole recorded band, e.g. 1-512 Hz) still resolves the low
+        robot modes; at low frequency, where log spacing would be finer than
+        the recorded line spacing, every line is kept.
 
         Parameters
         ----------
@@ -214,10 +220,21 @@ class Observations:
         """
         if max_lines < 8:
             raise InputError(f"max_lines: expected >= 8, found {max_lines}")
-        step = int(np.ceil(self.freq_hz.size / max_lines))
-        if step <= 1:
+        n = self.freq_hz.size
+        if n <= max_lines:
             return self
-        sl = slice(0, None, step)
+        f = self.freq_hz
+        f0 = max(float(f[0]), 1e-3)
+        lo, hi = 8, 64 * max_lines
+        sl = np.unique(np.linspace(0, n - 1, max_lines).round().astype(int))
+        # the most log-spaced targets whose distinct nearest lines fit in max_lines
+        while lo < hi:
+            m = (lo + hi + 1) // 2
+            idx = np.unique(np.searchsorted(f, np.geomspace(f0, float(f[-1]), m)).clip(0, n - 1))
+            if idx.size <= max_lines:
+                lo, sl = m, idx
+            else:
+                hi = m - 1
         return Observations(
             record_ids=self.record_ids,
             group=self.group,

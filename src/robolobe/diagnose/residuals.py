@@ -43,6 +43,7 @@ __all__ = [
     "deviance_per_record",
     "fit_metrics",
     "log_ratio",
+    "noise_nrmse",
     "residual_vector",
 ]
 
@@ -197,3 +198,32 @@ def fit_metrics(H_model: NDArray[np.complexfloating], obs: Observations) -> FitM
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", RuntimeWarning)  # records without driving points
         return FitMetrics(frac=np.nanmean(fr, axis=1), nrmse=np.nanmean(nr, axis=1))
+
+
+def noise_nrmse(obs: Observations) -> NDArray[np.float64]:
+    """NRMSE that the noise alone gives, per record (the scale of :func:`fit_metrics`).
+
+    A model equal to the true FRF misses each measured line by its noise,
+    ``|H| sigma`` in magnitude, so its expected NRMSE on a driving point is
+    ``sqrt(sum sigma^2 |H|^2 / sum |H|^2)``; averaged over the measured
+    driving points like :func:`fit_metrics`.
+
+    Returns
+    -------
+    ndarray, shape (n,)
+    """
+    out = np.full((obs.n, 3), np.nan)
+    for k, d in enumerate(DRIVING):
+        i, j = dir_index(d)
+        m = obs.mask[:, :, i, j]
+        ok = m.any(axis=1)
+        if not ok.any():
+            continue
+        a2 = np.where(m, np.abs(np.nan_to_num(obs.H[:, :, i, j])) ** 2, 0.0)
+        s2 = np.where(m, np.nan_to_num(obs.sigma[:, :, i, j]) ** 2, 0.0)
+        den = a2.sum(axis=1)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            out[ok, k] = np.sqrt((s2 * a2).sum(axis=1)[ok] / den[ok])
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)
+        return np.asarray(np.nanmean(out, axis=1))

@@ -2,9 +2,15 @@
 
 ``format = "robolobe-diagnosis/1"``. Top-level keys:
 
-- ``verdict``: family name (``none``, ``added_mass``, ...); ``verdict_label``
-  adds the variant (``joint_stiffness[joint 3]``); ``parameters``: the
-  verdict's fitted parameters with standard deviations;
+- ``verdict``: ``none``, the named families joined by ``+``
+  (``file_parameters+tool_mode``) or ``unexplained``; ``verdict_label`` adds
+  the variants; ``unexplained``: whether the best model still misses the
+  held-out postures by more than twice the noise (then ``steps`` are only
+  the closest candidates); ``steps``: the named candidates in order with
+  parameters (standard deviations include the remaining misfit and the
+  spread over the folds), held-out gain and share of the explained misfit;
+  ``noise_test``: held-out misfit and NRMSE against the noise, worst
+  postures and bands; ``parameters``: all steps' parameters;
 - ``summary``: the conclusion in plain language;
 - ``candidates``: every tested candidate, ranked (``rank`` 1 is best), with
   its scores (``bic``, ``delta_bic`` against none, held-out ``gain`` in noise
@@ -157,6 +163,30 @@ class QualityOut(_Model):
     message: str
 
 
+class StepOut(_Model):
+    """One candidate named by the forward selection (a closest one if unexplained)."""
+
+    name: str
+    label: str
+    description: str
+    params: list[ParamOut]
+    gain: float | None = Field(description="held-out deviance drop per point [noise variances]")
+    share: float = Field(description="share of the explained held-out misfit (0..1)")
+    misfit_x_noise_after: float | None
+
+
+class NoiseTestOut(_Model):
+    """The chosen model's held-out misfit against the noise."""
+
+    misfit_x_noise: float | None = Field(description="RMS held-out residual / noise")
+    nrmse_x_noise: float | None = Field(description="held-out NRMSE / the noise's NRMSE")
+    nrmse_noise: float | None
+    limit: float
+    unexplained: bool
+    worst_postures: dict[str, float | None]
+    worst_bands: list[str]
+
+
 class DiagnosisReport(_Model):
     """Everything ``robolobe diagnose`` writes to JSON."""
 
@@ -165,7 +195,11 @@ class DiagnosisReport(_Model):
     robot: str
     verdict: str
     verdict_label: str
+    unexplained: bool
     summary: str
+    steps: list[StepOut]
+    noise_test: NoiseTestOut
+    stop_reason: str
     parameters: list[ParamOut]
     runner_up: str | None
     candidates: list[CandidateOut]
@@ -262,15 +296,43 @@ def to_report(d: Diagnosis) -> DiagnosisReport:
     mm = d.mismatch
     worst = sorted(mm.bands, key=lambda b: -b.score)[:8]
     sig = obs.sigma[obs.mask]
+    fw = d.forward
+    nt = fw.noise
     return DiagnosisReport(
         campaign=d.campaign,
         robot=d.robot.source,
         verdict=d.verdict,
-        verdict_label=sel.verdict.label,
+        verdict_label=(
+            ("unexplained; closest: " if nt.unexplained else "")
+            + (" + ".join(st.label for st in fw.steps) or "none")
+        ),
+        unexplained=nt.unexplained,
         summary=d.summary,
-        parameters=_params(sel.verdict.fit),
+        steps=[
+            StepOut(
+                name=st.candidate.name,
+                label=st.label,
+                description=st.candidate.description,
+                params=_params(st.fit),
+                gain=_f(st.gain),
+                share=st.share,
+                misfit_x_noise_after=_f(math.sqrt(max(st.per_residual, 0.0))),
+            )
+            for st in fw.steps
+        ],
+        noise_test=NoiseTestOut(
+            misfit_x_noise=_f(nt.misfit_x_noise),
+            nrmse_x_noise=_f(nt.nrmse_x_noise),
+            nrmse_noise=_f(nt.nrmse_noise),
+            limit=nt.limit,
+            unexplained=nt.unexplained,
+            worst_postures={p: _f(v) for p, v in nt.worst_postures},
+            worst_bands=[f"{b.direction} {b.f_lo_hz:g}-{b.f_hi_hz:g} Hz" for b in nt.worst_bands],
+        ),
+        stop_reason=fw.stop_reason,
+        parameters=[p for st in fw.steps for p in _params(st.fit)],
         runner_up=None if sel.runner_up is None else sel.runner_up.label,
-        candidates=[_cand(r, r is sel.verdict) for r in sel.ranking],
+        candidates=[_cand(r, r is sel.verdict and not nt.unexplained) for r in sel.ranking],
         untestable=[
             UntestableOut(name=u.name, variant=u.variant, reason=u.reason) for u in d.untestable
         ],

@@ -305,6 +305,9 @@ def select(
 
     by_bic = sorted(others, key=lambda f: f.bic)
     to_cv = [f for f in by_bic if f.identifiable][: st.top_k]
+    # candidates judged by their held-out fit alone (the file calibration) are always
+    # cross-validated: their many parameters cost them BIC they may earn back on held-out data
+    to_cv += [f for f in by_bic if not f.candidate.require_identifiable and f not in to_cv]
     cvs: dict[int, CrossValidation] = {}
     for f in to_cv:
         cvs[id(f)] = cross_validate(f, model, obs_fit, obs_eval, folds, max_nfev=st.cv_max_nfev)
@@ -316,9 +319,9 @@ def select(
         cv = cvs.get(id(f))
         gain = share = None
         reasons: list[str] = []
-        if not f.identifiable:
+        if not f.identifiable and f.candidate.require_identifiable:
             reasons.append("not identifiable: " + "; ".join(f.notes))
-        if dbic < st.min_delta_bic:
+        if dbic < st.min_delta_bic and f.candidate.require_identifiable:
             reasons.append(f"BIC gain {dbic:.1f} < {st.min_delta_bic:g}")
         if cv is not None:
             gain = (cv0.deviance.sum() - cv.deviance.sum()) / n_eval

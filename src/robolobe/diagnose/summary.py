@@ -6,12 +6,14 @@ from collections.abc import Sequence
 
 import numpy as np
 
+from robolobe.diagnose.calibration import CALIBRATION, moved_parameters
 from robolobe.diagnose.candidate import NONE
 from robolobe.diagnose.fitting import CandidateFit
+from robolobe.diagnose.forward import ForwardResult, NoiseTest
 from robolobe.diagnose.library import Untestable
 from robolobe.diagnose.locate import MismatchMap
 from robolobe.diagnose.residuals import FitMetrics
-from robolobe.diagnose.selection import Selection
+from robolobe.modal.quality import QualityIssue
 
 __all__ = ["describe_fit", "summarize"]
 
@@ -29,6 +31,15 @@ def describe_fit(fit: CandidateFit) -> str:
     """One phrase saying what the fitted candidate means physically."""
     c = fit.candidate
     fx = c.fixed
+    if c.name == CALIBRATION:
+        moved = moved_parameters(
+            tuple(p.name for p in c.params), np.asarray(fit.params), np.asarray(fit.std)
+        )
+        what = ", ".join(f"{n} x{v:.3f} ± {sd:.2g}" for n, v, sd in moved[:6])
+        more = f" and {len(moved) - 6} more" if len(moved) > 6 else ""
+        return "the robot file's values are off" + (
+            f" ({what}{more})" if moved else " (no single factor determined)"
+        )
     if c.name == "added_mass":
         return f"an extra {_pm(fit, 'mass_kg')} kg at the tool"
     if c.name == "joint_stiffness":
@@ -46,8 +57,10 @@ def describe_fit(fit: CandidateFit) -> str:
     if c.name == "base_compliance":
         return f"the base is compliant (tilt stiffness {_pm(fit, 'stiffness_Nm_per_rad')} N m/rad)"
     if c.name == "tool_mode":
+        held = " (its mass already in the file's end effector)" if fx.get("mass_in_file") else ""
         return (
-            f"a local tool/spindle mode at {_pm(fit, 'f_hz', '.2f')} Hz along {fx['direction']} "
+            f"a local tool/spindle mode{held} at {_pm(fit, 'f_hz', '.2f')} Hz "
+            f"along {fx['direction']} "
             f"(damping {_pm(fit, 'zeta', '.3f')}, modal mass {_pm(fit, 'mass_kg')} kg)"
         )
     if c.name == "sensor_misalignment":
@@ -65,6 +78,29 @@ def describe_fit(fit: CandidateFit) -> str:
             f"link {fx['link']} bends about its {ax} axis "
             f"(stiffness {_pm(fit, 'stiffness_Nm_per_rad')} N m/rad)"
         )
+    if c.name == "servo_mode":
+        return (
+            f"joint {fx['joint']}'s servo holds it with {_pm(fit, 'stiffness_Nm_per_rad')} N m/rad "
+            f"(damping {_pm(fit, 'zeta', '.3f')}, rotor {_pm(fit, 'rotor_inertia_kgm2')} kg m^2): "
+            "a holding mode"
+        )
+    if c.name == "tcp_offset":
+        return (
+            "the tested point is offset from the file's TCP by "
+            f"({_pm(fit, 'dx_m', '.3f', 1e3)}, {_pm(fit, 'dy_m', '.3f', 1e3)}, "
+            f"{_pm(fit, 'dz_m', '.3f', 1e3)}) mm in the TCP frame"
+        )
+    if c.name == "sensor_gain":
+        return "the response channel gains are off: " + ", ".join(
+            f"{p.name[1]} x{_pm(fit, p.name, '.3f')}" for p in c.params
+        )
+    if c.name == "hammer_direction":
+        deg = 180.0 / np.pi
+        return (
+            "the hammer hits off axis by "
+            f"rx {_pm(fit, 'rx_rad', '.2f', deg)}, ry {_pm(fit, 'ry_rad', '.2f', deg)}, "
+            f"rz {_pm(fit, 'rz_rad', '.2f', deg)} deg"
+        )
     if c.name == "friction_damping":
         return (
             f"joint friction of {_pm(fit, 'torque_Nm')} N m makes the damping fall "
@@ -73,72 +109,159 @@ def describe_fit(fit: CandidateFit) -> str:
     return c.description
 
 
+def _shares(fw: ForwardResult) -> str:
+    if len(fw.steps) < 2:
+        return ""
+    return (
+        " (shares of the explained held-out misfit: "
+        + ", ".join(f"{st.label} {st.share:.0%}" for st in fw.steps)
+        + ")"
+    )
+
+
+def _where(nt: NoiseTest) -> str:
+    posts = ", ".join(f"{p} ({x:.1f} x)" for p, x in nt.worst_postures)
+    bands = ", ".join(f"{b.direction} {b.f_lo_hz:g}-{b.f_hi_hz:g} Hz" for b in nt.worst_bands)
+    return f"at postures {posts}" + (f" and bands {bands}" if bands else "")
+
+
+def _calibration_effect(fw: ForwardResult) -> str:
+    """What calibrating the file achieves (named as a step, or tried in round 1)."""
+    for i, st in enumerate(fw.steps):
+        if st.candidate.name != CALIBRATION:
+            continue
+        before = fw.baseline_cv.per_residual if i == 0 else fw.steps[i - 1].per_residual
+        return (
+            "The robot file is globally off: calibrating its values "
+            f"lowers the held-out misfit from {np.sqrt(max(before, 0)):.1f} to "
+            f"{np.sqrt(max(st.per_residual, 0)):.1f} x the noise."
+        )
+    cal = next(
+        (r for r in fw.rounds[0].ranking if r.fit.candidate.name == CALIBRATION and r.cv), None
+    )
+    if cal is None or cal.cv is None:
+        return ""
+    b = float(np.sqrt(max(fw.baseline_cv.per_residual, 0.0)))
+    a = float(np.sqrt(max(cal.cv.per_residual, 0.0)))
+    if a < b:
+        what = f"lowers the held-out misfit from {b:.1f} to {a:.1f} x the noise"
+    else:
+        what = f"does not lower the held-out misfit ({b:.1f} -> {a:.1f} x the noise)"
+    off = "The robot file is globally off" if b > 2.0 else "The robot file fits"
+    return f"{off}: calibrating its values alone {what}."
+
+
 def summarize(
-    sel: Selection,
+    fw: ForwardResult,
     before: FitMetrics,
     after: FitMetrics,
     mm: MismatchMap,
     untestable: Sequence[Untestable],
+    band_hz: tuple[float, float],
+    issues: Sequence[QualityIssue] = (),
 ) -> str:
     """The diagnosis in a few sentences.
 
     Parameters
     ----------
-    sel : Selection
+    fw : ForwardResult
+        Named steps and the noise test.
     before, after : FitMetrics
         Nominal and corrected (held-out) fit.
     mm : MismatchMap
+        Where the nominal model misses.
     untestable : sequence of Untestable
+    band_hz : (float, float)
+        The analysed band [Hz].
+    issues : sequence of QualityIssue
+        Data-quality findings (warnings and left-out data are repeated here).
     """
+    nt = fw.noise
     fit_txt = (
         f"held-out FRAC {before.frac_mean:.2f} -> {after.frac_mean:.2f} "
         f"(worst posture {before.frac_min:.2f} -> {after.frac_min:.2f}), "
-        f"NRMSE {before.nrmse_mean:.2f} -> {after.nrmse_mean:.2f}"
+        f"NRMSE {before.nrmse_mean:.3f} -> {after.nrmse_mean:.3f} "
+        f"(the noise alone: {nt.nrmse_noise:.3f})"
     )
-    parts: list[str] = []
-    v = sel.verdict
-    if v.fit.candidate.name != NONE:
-        parts.append(f"The recordings show {describe_fit(v.fit)} ({v.label}); {fit_txt}.")
-        if v.explained < 0.7:
+    parts: list[str] = [f"Analysed {band_hz[0]:g}-{band_hz[1]:g} Hz."]
+    base_x = float(np.sqrt(max(fw.baseline_cv.per_residual, 0.0)))
+    if nt.unexplained:
+        parts.append(
+            f"UNEXPLAINED: the best model found still misses the held-out postures by "
+            f"{nt.misfit_x_noise:.1f} x the noise (NRMSE {nt.nrmse_x_noise:.1f} x the noise's) "
+            f"{_where(nt)}; nothing in the library explains the recordings."
+        )
+        if fw.steps:
             parts.append(
-                f"It explains {v.explained:.0%} of the mismatch beyond the noise: "
-                "more may be missing."
+                "Closest candidates (partial corrections, not a diagnosis): "
+                + "; ".join(f"{describe_fit(st.fit)} ({st.label})" for st in fw.steps)
+                + _shares(fw)
+                + f"; {fit_txt}."
             )
-        if sel.runner_up is not None:
-            parts.append(
-                f"A close alternative is {sel.runner_up.label}: {describe_fit(sel.runner_up.fit)}."
-            )
-        notes = [n for n in v.fit.notes if "bound" in n or "poorly" in n or "correlated" in n]
-        if notes:
-            parts.append("Note: " + "; ".join(notes) + ".")
-    else:
-        score = sel.baseline.fit.deviance / max(sel.baseline.fit.n_resid, 1)
-        best = next((r for r in sel.ranking if r.fit.candidate.name != NONE), None)
-        if score < 1.5:
-            parts.append(
-                "The nominal model fits the recordings within the noise "
-                f"(mismatch {score:.2f} noise variances per point; FRAC {before.frac_mean:.2f}); "
-                "no candidate is needed."
-            )
-            if best is not None and best.delta_bic > 0 and best.gain is not None and best.gain > 0:
-                parts.append(
-                    f"The closest candidate, {best.label}, improves the held-out fit by only "
-                    f"{best.gain:.3g} noise variances per point ({'; '.join(best.reasons)})."
-                )
         else:
+            close = [r for r in fw.rounds[0].ranking if r.fit.candidate.name != NONE and r.gain][:3]
             parts.append(
-                f"The nominal model misses the recordings ({score:.1f} noise variances per point, "
-                f"FRAC {before.frac_mean:.2f}) but no candidate explains it"
-                + (f" (best: {best.label}, {'; '.join(best.reasons)})" if best else "")
+                f"The nominal model misses by {base_x:.1f} x the noise; closest candidates: "
+                + (
+                    ", ".join(f"{r.label} ({'; '.join(r.reasons) or 'passed'})" for r in close)
+                    if close
+                    else "none improves the held-out fit"
+                )
                 + "."
             )
-        worst = sorted(mm.bands, key=lambda b: -b.score)[:2]
-        if worst and score >= 1.5:
+        cal = _calibration_effect(fw)
+        if cal:
+            parts.append(cal)
+    elif fw.steps:
+        parts.append(
+            "Found: "
+            + "; ".join(f"{describe_fit(st.fit)} ({st.label})" for st in fw.steps)
+            + _shares(fw)
+            + f". The corrected model predicts held-out postures within the noise "
+            f"(misfit {nt.misfit_x_noise:.1f} x the noise, was {base_x:.1f} x); {fit_txt}."
+        )
+        cal = _calibration_effect(fw)
+        if cal:
+            parts.append(cal)
+    else:
+        parts.append(
+            "The nominal model fits the recordings within the noise "
+            f"(held-out misfit {nt.misfit_x_noise:.1f} x the noise; FRAC {before.frac_mean:.2f}); "
+            "no candidate is needed."
+        )
+        best = next((r for r in fw.rounds[0].ranking if r.fit.candidate.name != NONE), None)
+        if best is not None and best.gain is not None and best.gain > 0:
             parts.append(
-                "Largest mismatch: "
+                f"The closest candidate, {best.label}, improves the held-out fit by only "
+                f"{best.gain:.3g} noise variances per point ({'; '.join(best.reasons)})."
+            )
+    bound = [
+        f"{st.candidate.params[i].name} of {st.label} ({st.params[i]:.4g})"
+        for st in fw.steps
+        for i, b in enumerate(st.at_bound)
+        if b
+    ]
+    if bound:
+        parts.append(
+            "On a search bound (a limit of the search, not a measured value): "
+            + "; ".join(bound)
+            + "."
+        )
+    if fw.rejected:
+        parts.append("Not added: " + "; ".join(fw.rejected) + ".")
+    if nt.unexplained or not fw.steps:
+        worst = sorted(mm.bands, key=lambda b: -b.score)[:2]
+        if worst and base_x > 1.2:
+            parts.append(
+                "Largest nominal mismatch: "
                 + ", ".join(f"{b.direction} {b.f_lo_hz:g}-{b.f_hi_hz:g} Hz" for b in worst)
                 + "."
             )
+    warn = [q for q in issues if q.severity in ("warning", "error")]
+    if warn:
+        shown = "; ".join(f"{q.posture_id} {q.dir} {q.check}: {q.message}" for q in warn[:4])
+        more = f" (and {len(warn) - 4} more)" if len(warn) > 4 else ""
+        parts.append(f"Data warnings: {shown}{more}.")
     if untestable:
         parts.append(
             "Not tested: " + "; ".join(f"{u.label} ({u.reason})" for u in untestable) + "."

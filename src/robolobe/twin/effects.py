@@ -38,7 +38,7 @@ from numpy.typing import NDArray
 from robolobe.errors import InputError
 from robolobe.robots import RigidBody, Robot
 from robolobe.robots.kinematics import joint_axes
-from robolobe.robots.transforms import rotation_from_zyx
+from robolobe.robots.transforms import rotation_from_zyx, skew
 from robolobe.twin.dynamics import gravity_torques
 from robolobe.twin.modes import undamped_modes
 from robolobe.twin.system import SystemMatrices
@@ -51,14 +51,19 @@ __all__ = [
     "Effect",
     "FrictionDamping",
     "GravityStiffening",
+    "HammerDirection",
     "JointDamping",
     "JointStiffness",
     "LinkFlexibility",
     "SensorDelay",
+    "SensorGain",
     "SensorMisalignment",
+    "ServoMode",
+    "TcpOffset",
     "ToolMode",
     "effect_from_dict",
     "effect_to_dict",
+    "link_bending_axes",
 ]
 
 FloatArray = NDArray[np.float64]
@@ -572,9 +577,19 @@ class LinkFlexibility(Effect):
 
     def modify(self, mats: SystemMatrices) -> SystemMatrices:
         """Append the hinge DOF."""
-        _, pts = joint_axes(mats.robot, mats.frames)
+        zs, pts = joint_axes(mats.robot, mats.frames)
         hinge = pts[..., self.link, :]  # point on joint link+1's axis, (..., 3)
         a = mats.frames[..., self.link, :3, :3] @ np.array(self.axis)  # (..., 3)
+        # about joint link+1's own axis the hinge moves exactly as that joint does:
+        # two equal Jacobian columns, a singular mass matrix
+        par = np.abs(np.sum(a * zs[..., self.link, :], axis=-1))
+        if np.any(par > 1.0 - 1e-6):
+            raise InputError(
+                f"{self.name}.axis: {self.axis} is joint {self.link + 1}'s axis in DH frame "
+                f"{self.link}; a hinge about it is that joint's series compliance "
+                "(joint_stiffness or servo_mode), not a bending: choose an axis across it "
+                "(link_bending_axes)"
+            )
         distal = np.array(
             [
                 nm == "end_effector" or (nm.startswith("link") and int(nm[4:]) > self.link)
@@ -595,6 +610,37 @@ class LinkFlexibility(Effect):
             np.array([self.stiffness_Nm_per_rad]),
         )
         return out.with_dof_damping(n_old, self.ZETA)
+
+
+def link_bending_axes(robot: Robot, link: int) -> tuple[tuple[float, ...], tuple[float, ...]]:
+    """Two bending axes of ``link`` in its DH frame, across joint ``link + 1``'s axis.
+
+    The DH frame's x and y axes, each with its component along joint
+    ``link + 1``'s axis removed (that joint's axis is fixed in the link's
+    frame); if one of them lies along the joint axis, the other and their
+    common normal. With standard DH (joint i+1 along z_i) these are x and y.
+
+    Returns
+    -------
+    (tuple of 3 floats, tuple of 3 floats)
+        Unit axes in DH frame ``link``, orthogonal to each other.
+    """
+    from robolobe.robots.kinematics import link_frames
+
+    _joint("link_flexibility", "link", link, hi=5)
+    frames = link_frames(robot, np.zeros(6))
+    zs, _ = joint_axes(robot, frames)
+    z = frames[link, :3, :3].T @ zs[link]  # joint link+1's axis in frame `link`
+    out: list[FloatArray] = []
+    for e in np.eye(3)[:2]:
+        v = e - float(e @ z) * z
+        if np.linalg.norm(v) > 1e-3:
+            out.append(v / np.linalg.norm(v))
+    if len(out) == 1:
+        out.append(np.cross(z, out[0]))
+    a1, a2 = out[0], out[1] - float(out[1] @ out[0]) * out[0]
+    a2 = a2 / np.linalg.norm(a2)
+    return tuple(float(x) for x in a1), tuple(float(x) for x in a2)
 
 
 # ----------------------------------------------------------- stage 4
@@ -622,6 +668,12 @@ class ToolMode(Effect):
         Modal mass [kg], 0.01 .. 1000.
     direction : {"x", "y", "z", "xyz"}
         TCP axis (axes) of the spring.
+    mass_in_file : bool
+        Whether the robot file already holds the sprung mass in its end
+        effector (a local tool/bracket mode of a spindle the file models as
+        rigid): the mass then moves from the rigid end effector onto the
+        spring (a point mass of ``-mass_kg`` at the TCP rides with the arm), so
+        the arm's total mass is unchanged. False (default): the mass is extra.
     """
 
     name: ClassVar[str] = "tool_mode"
@@ -630,6 +682,7 @@ class ToolMode(Effect):
     zeta: float = 0.03
     mass_kg: float = 5.0
     direction: Literal["x", "y", "z", "xyz"] = "xyz"
+    mass_in_file: bool = False
 
     def __post_init__(self) -> None:
         _set(self, "f_hz", _num(self.name, "f_hz", self.f_hz, 1.0, 5000.0, "Hz"))
@@ -640,6 +693,11 @@ class ToolMode(Effect):
                 f"{self.name}.direction: expected one of {sorted(_DIRECTIONS)}, "
                 f"found {self.direction!r}"
             )
+        if not isinstance(self.mass_in_file, bool | np.bool_):
+            raise InputError(
+                f"{self.name}.mass_in_file: expected true or false, found {self.mass_in_file!r}"
+            )
+        _set(self, "mass_in_file", bool(self.mass_in_file))
 
     def modify(self, mats: SystemMatrices) -> SystemMatrices:
         """Append the tool DOFs and the tool mass; the TCP rides on the spring."""
@@ -665,6 +723,23 @@ class ToolMode(Effect):
             out.tcp_jv,
             np.zeros_like(out.tcp_jw),
         )
+        if self.mass_in_file:
+            ee = mats.robot.end_effector
+            if ee is None or ee.mass_kg <= self.mass_kg:
+                raise InputError(
+                    f"{self.name}.mass_kg: with mass_in_file the end effector must hold more "
+                    f"than the sprung mass, found {self.mass_kg:g} kg against "
+                    f"{0.0 if ee is None else ee.mass_kg:g} kg"
+                )
+            rigid_jv = np.concatenate([mats.tcp_jv, np.zeros((*batch, 3, m))], axis=-1)
+            bodies = bodies.with_body(
+                "tool_mass_in_file",
+                -self.mass_kg,
+                mats.tcp_position,
+                np.zeros((3, 3)),
+                rigid_jv,
+                np.zeros_like(rigid_jv),
+            )
         # the tool DOF's own mass entry is m, so this dashpot is 2 zeta m (2 pi f)
         return out.replace(bodies=bodies).with_dof_damping(mats.n_dof, self.zeta)
 
@@ -732,6 +807,172 @@ class SensorDelay(Effect):
         return out
 
 
+@dataclass(frozen=True)
+class ServoMode(Effect):
+    """A joint's servo (position-loop) compliance in series with its gear: a holding mode.
+
+    A controlled axis is not clamped: the position loop holds the motor with a
+    finite stiffness ``k_servo``, in series with the gear stiffness of the
+    joint. One extra DOF ``servo<j>`` [rad] turns everything distal to joint
+    ``j`` about that joint's axis (like the joint DOF itself) against the
+    spring ``k_servo`` with a dashpot for ``zeta`` of its own oscillator. The
+    servo DOF also turns the motor's rotor (its inertia reflected through the
+    gear, ``rotor_inertia_kgm2`` about the joint axis), which sits between the
+    servo spring and the gear spring: without it the two springs in series
+    would have no mass between them. A soft loop gives a low "holding" mode
+    of the whole arm (a few hertz) and lowers the joint's effective stiffness
+    to ``k k_s / (k + k_s)``.
+
+    Parameters
+    ----------
+    joint : int
+        1..6.
+    stiffness_Nm_per_rad : float
+        Servo holding stiffness [N m/rad], 1e2 .. 1e11.
+    zeta : float
+        Damping ratio of the servo DOF's oscillator, 0.001 .. 0.9.
+    rotor_inertia_kgm2 : float
+        Motor rotor inertia reflected to the joint [kg m^2], 1e-3 .. 1e5.
+    """
+
+    name: ClassVar[str] = "servo_mode"
+    stage: ClassVar[int] = 3
+    joint: int = 1
+    stiffness_Nm_per_rad: float = 1.0e6
+    zeta: float = 0.1
+    rotor_inertia_kgm2: float = 20.0
+
+    def __post_init__(self) -> None:
+        _set(self, "joint", _joint(self.name, "joint", self.joint))
+        k = _num(self.name, "stiffness_Nm_per_rad", self.stiffness_Nm_per_rad, 1e2, 1e11, "N m/rad")
+        _set(self, "stiffness_Nm_per_rad", k)
+        _set(self, "zeta", _num(self.name, "zeta", self.zeta, 0.001, 0.9, "-"))
+        r = _pos(self.name, "rotor_inertia_kgm2", self.rotor_inertia_kgm2, 1e5, "kg m^2")
+        if r < 1e-3:
+            raise InputError(f"{self.name}.rotor_inertia_kgm2: expected >= 0.001, found {r:g}")
+        _set(self, "rotor_inertia_kgm2", r)
+
+    def modify(self, mats: SystemMatrices) -> SystemMatrices:
+        """Append the servo DOF (the joint's own Jacobian column) and the rotor."""
+        j = self.joint - 1
+        bj = mats.bodies
+        n_old = mats.n_dof
+        out = mats.add_dofs(
+            (f"servo{self.joint}",),
+            bj.jv[..., j : j + 1],
+            bj.jw[..., j : j + 1],
+            mats.tcp_jv[..., j : j + 1],
+            mats.tcp_jw[..., j : j + 1],
+            np.array([self.stiffness_Nm_per_rad]),
+        )
+        zs, pts = joint_axes(mats.robot, mats.frames)
+        a = zs[..., j, :]  # (..., 3)
+        batch = mats.q.shape[:-1]
+        jw = np.zeros((*batch, 3, n_old + 1))
+        jw[..., :, n_old] = a
+        inertia = self.rotor_inertia_kgm2 * a[..., :, None] * a[..., None, :]
+        bodies = out.bodies.with_body(
+            f"rotor{self.joint}", 0.0, pts[..., j, :], inertia, np.zeros_like(jw), jw
+        )
+        return out.replace(bodies=bodies).with_dof_damping(n_old, self.zeta)
+
+
+@dataclass(frozen=True)
+class TcpOffset(Effect):
+    """The measured and hit point is not the file's TCP (a tool longer or shifted).
+
+    The point ``p = tcp + R d`` (``d`` in the TCP frame) moves with
+    ``v_p = v_tcp + w x (R d)``: the translational TCP Jacobian becomes
+    ``Jv - [R d]_x Jw`` over every DOF, so a longer tool sees more of the
+    wrist's rotations. Structural DOFs added by other effects are included
+    (they are assembled before this stage); a tool mode's spring DOFs carry
+    no rotation and are unchanged.
+
+    Parameters
+    ----------
+    offset_m : tuple of 3 floats
+        Offset in the TCP frame [m], each |component| <= 1 m.
+    """
+
+    name: ClassVar[str] = "tcp_offset"
+    stage: ClassVar[int] = 4
+    offset_m: tuple[float, float, float] = (0.0, 0.0, 0.05)
+
+    def __post_init__(self) -> None:
+        off = _vec3(self.name, "offset_m", self.offset_m, "m")
+        if max(abs(x) for x in off) > 1.0:
+            raise InputError(f"{self.name}.offset_m: expected |components| <= 1 m, found {off}")
+        _set(self, "offset_m", off)
+
+    def modify(self, mats: SystemMatrices) -> SystemMatrices:
+        """``tcp_jv <- tcp_jv - [R d]_x tcp_jw``."""
+        r = mats.tcp_rotation @ np.array(self.offset_m)  # (..., 3)
+        return mats.replace(tcp_jv=mats.tcp_jv - skew(r) @ mats.tcp_jw)
+
+
+@dataclass(frozen=True)
+class SensorGain(Effect):
+    """Wrong sensitivity of the response channels (a calibration or cable error).
+
+    ``H_meas = diag(g_x, g_y, g_z) H``: every FRF measured by channel ``i`` is
+    scaled by ``g_i`` (a level offset, no frequency shift).
+
+    Parameters
+    ----------
+    gain : tuple of 3 floats
+        Gain of the x, y, z response channel, each 0.1 .. 10.
+    """
+
+    name: ClassVar[str] = "sensor_gain"
+    stage: ClassVar[int] = 5
+    gain: tuple[float, float, float] = (1.0, 1.0, 1.0)
+
+    def __post_init__(self) -> None:
+        g = _vec3(self.name, "gain", self.gain, "-")
+        if not all(0.1 <= x <= 10.0 for x in g):
+            raise InputError(f"{self.name}.gain: expected 0.1 <= each <= 10, found {g}")
+        _set(self, "gain", g)
+
+    def modify_frf(self, H: ComplexArray, freq_hz: FloatArray) -> ComplexArray:
+        """``diag(g) H``."""
+        out: ComplexArray = np.asarray(self.gain)[:, None] * H
+        return out
+
+
+@dataclass(frozen=True)
+class HammerDirection(Effect):
+    """The hammer hits off the nominal axes (the input side, not the sensor).
+
+    The hit meant along TCP axis ``j`` goes along ``R e_j`` with
+    ``R = Rz(rz) Ry(ry) Rx(rx)``, so the measured receptance is ``H R``
+    (columns mixed; a rotated sensor mixes rows, ``R^T H``).
+
+    Parameters
+    ----------
+    rx_rad, ry_rad, rz_rad : float
+        Rotation angles [rad], each |angle| <= pi/2.
+    """
+
+    name: ClassVar[str] = "hammer_direction"
+    stage: ClassVar[int] = 5
+    rx_rad: float = 0.0
+    ry_rad: float = 0.0
+    rz_rad: float = 0.0
+
+    def __post_init__(self) -> None:
+        for f in ("rx_rad", "ry_rad", "rz_rad"):
+            _set(self, f, _num(self.name, f, getattr(self, f), -np.pi / 2, np.pi / 2, "rad"))
+
+    def rotation(self) -> FloatArray:
+        """Hit directions in the TCP frame (columns), shape (3, 3)."""
+        return rotation_from_zyx([self.rz_rad, self.ry_rad, self.rx_rad])
+
+    def modify_frf(self, H: ComplexArray, freq_hz: FloatArray) -> ComplexArray:
+        """``H R``."""
+        out: ComplexArray = H @ self.rotation()
+        return out
+
+
 # ------------------------------------------------------------ registry
 EFFECTS: dict[str, type[Effect]] = {
     cls.name: cls
@@ -747,6 +988,10 @@ EFFECTS: dict[str, type[Effect]] = {
         ToolMode,
         SensorMisalignment,
         SensorDelay,
+        ServoMode,
+        TcpOffset,
+        SensorGain,
+        HammerDirection,
     )
 }
 """Effect classes by name."""

@@ -1,0 +1,474 @@
+"""More than one thing wrong: forward selection of candidates, and the test against the noise.
+
+Round 1 is the one-candidate selection of :func:`robolobe.diagnose.selection.select`
+over the whole library (the file calibration included). If it names a
+candidate, that candidate joins the model and round 2 fits every remaining
+candidate *on top of it* (the earlier ones fixed at their fit), selects
+again, and so on. Each accepted step is then refitted jointly with the
+earlier ones (all parameters free, warm-started) and cross-validated over
+postures with every parameter refitted in each fold: a step is kept only if
+this joint model lowers the held-out deviance per residual by at least
+``min_gain`` noise variances against the previous step (and by
+``min_share`` of the nominal model's held-out excess over the noise), so a
+second effect is named only when it beats the noise on postures the fit did
+not see. The search stops when a round names nothing, when the held-out
+misfit is at the noise, or after ``max_effects`` steps.
+
+Each named effect gets its *share* of the explained misfit: the held-out
+deviance drop of its step over the drop of all steps (attribution in the
+order the steps were taken).
+
+The absolute test (:func:`noise_test`) then compares the chosen model's
+held-out misfit with the noise: the RMS held-out residual in noise standard
+deviations (``sqrt(D_cv / N)``) and the mean held-out NRMSE over the NRMSE the
+noise alone gives (:func:`robolobe.diagnose.residuals.noise_nrmse`). If
+either exceeds ``max_misfit_x_noise`` (1.5) the recordings are *unexplained*:
+(a claim is false, by the issue's measure, when the misfit stays above 2x
+the noise; the margin keeps a library candidate that only mimics physics
+outside the library from being presented as found)
+the diagnosis says so, where (postures and bands), and presents the
+candidates only as the closest ones.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from robolobe.diagnose.calibration import CALIBRATION, FileParameters
+from robolobe.diagnose.candidate import NONE, Candidate
+from robolobe.diagnose.fitting import CandidateFit, ModelFn, fit_candidate
+from robolobe.diagnose.locate import BandScore, mismatch_map
+from robolobe.diagnose.observations import Observations
+from robolobe.diagnose.residuals import fit_metrics, noise_nrmse
+from robolobe.diagnose.selection import (
+    CrossValidation,
+    Selection,
+    SelectionSettings,
+    cross_validate,
+    make_folds,
+    select,
+)
+
+__all__ = [
+    "ForwardResult",
+    "ForwardSettings",
+    "NoiseTest",
+    "Step",
+    "combine",
+    "forward_select",
+    "noise_test",
+]
+
+#: Families a calibrated file already holds (not searched after the calibration).
+SUBSUMED_BY_CALIBRATION = ("joint_stiffness", "joint_damping")
+
+
+@dataclass(frozen=True)
+class ForwardSettings:
+    """Settings of :func:`forward_select`.
+
+    Parameters
+    ----------
+    max_effects : int
+        Most named candidates.
+    min_share : float
+        Least held-out deviance drop of a later step, as a share of the
+        nominal model's held-out excess over the noise.
+    at_noise : float
+        RMS held-out residual (noise deviations) at which the search stops.
+    screen_k : int
+        Candidates refitted in rounds after the first: those that improved
+        the nominal model's BIC most in round 1 (and the file calibration).
+    max_misfit_x_noise : float
+        Above this held-out misfit (either measure) the recordings are unexplained.
+    joint_max_nfev : int
+        Evaluations of the joint refit of each step.
+    """
+
+    max_effects: int = 3
+    min_share: float = 0.005
+    at_noise: float = 1.3
+    screen_k: int = 12
+    max_misfit_x_noise: float = 1.5
+    joint_max_nfev: int = 30
+
+
+def combine(cands: Sequence[Candidate]) -> Candidate:
+    """One candidate with the parameters of ``cands`` in order (effects concatenated).
+
+    A file calibration's effect is put first, so that later robot-level
+    effects (an added mass) act on the calibrated file.
+    """
+    sizes = [c.n_params for c in cands]
+    cuts = np.cumsum([0, *sizes])
+
+    def build(p: NDArray[np.float64]) -> tuple[Any, ...]:
+        eff: list[Any] = []
+        for c, a, b in zip(cands, cuts[:-1], cuts[1:], strict=True):
+            eff += list(c.effects(p[a:b]))
+        return tuple(sorted(eff, key=lambda e: not isinstance(e, FileParameters)))
+
+    return Candidate(
+        "+".join(c.name for c in cands),
+        tuple(p for c in cands for p in c.params),
+        build,
+        variant="; ".join(c.label for c in cands),
+        description="; ".join(c.description for c in cands),
+        require_identifiable=all(c.require_identifiable for c in cands),
+    )
+
+
+def _on_top(model: ModelFn, base: tuple[Any, ...]) -> ModelFn:
+    if not base:
+        return model
+
+    def fn(effects: tuple[Any, ...], obs: Observations) -> NDArray[np.complex128]:
+        return model(tuple(base) + tuple(effects), obs)
+
+    return fn
+
+
+@dataclass(frozen=True, eq=False)
+class Step:
+    """One named candidate of the forward selection.
+
+    Parameters
+    ----------
+    candidate : Candidate
+    params, std : ndarray, shape (p,)
+        Its parameters in the joint fit of all steps so far, and their
+        standard deviations (statistical, inflated by the remaining misfit,
+        combined with the spread over the cross-validation folds).
+    at_bound : tuple of bool
+    notes : tuple of str
+        Identifiability remarks of its screening fit.
+    gain : float
+        Held-out deviance drop per residual against the previous step [noise variances].
+    share : float
+        Its share of the explained held-out misfit (0..1).
+    per_residual : float
+        Held-out deviance per residual after this step.
+    """
+
+    candidate: Candidate
+    params: NDArray[np.float64]
+    std: NDArray[np.float64]
+    at_bound: tuple[bool, ...]
+    notes: tuple[str, ...]
+    gain: float
+    share: float
+    per_residual: float
+
+    @property
+    def label(self) -> str:
+        """Candidate label."""
+        return self.candidate.label
+
+    @property
+    def fit(self) -> CandidateFit:
+        """A :class:`CandidateFit` view of the step (for descriptions)."""
+        p = self.candidate.n_params
+        return CandidateFit(
+            candidate=self.candidate,
+            params=self.params,
+            std=self.std,
+            corr=np.eye(p),
+            deviance=float("nan"),
+            n_resid=0,
+            cond=float("nan"),
+            identifiable=True,
+            notes=self.notes,
+            at_bound=self.at_bound,
+            nfev=0,
+        )
+
+
+@dataclass(frozen=True)
+class NoiseTest:
+    """The chosen model's held-out misfit against the noise.
+
+    Parameters
+    ----------
+    misfit_x_noise : float
+        RMS held-out residual in noise standard deviations, ``sqrt(D_cv / N)``.
+    nrmse_x_noise : float
+        Mean held-out NRMSE over the mean NRMSE of the noise alone.
+    nrmse_noise : float
+        Mean NRMSE the noise alone gives.
+    unexplained : bool
+        Whether either ratio exceeds the limit.
+    worst_postures : tuple of (str, float)
+        Postures with the largest held-out misfit (id, RMS residual in noise deviations).
+    worst_bands : tuple of BandScore
+        Direction/bands with the largest held-out misfit.
+    limit : float
+    """
+
+    misfit_x_noise: float
+    nrmse_x_noise: float
+    nrmse_noise: float
+    unexplained: bool
+    worst_postures: tuple[tuple[str, float], ...]
+    worst_bands: tuple[BandScore, ...]
+    limit: float = 1.5
+
+
+def noise_test(
+    cv: CrossValidation, obs: Observations, *, limit: float = 1.5, n_worst: int = 3
+) -> NoiseTest:
+    """Compare held-out predictions with the noise (module notes).
+
+    Parameters
+    ----------
+    cv : CrossValidation
+        Held-out predictions of the chosen model on ``obs``.
+    obs : Observations
+        The records on the evaluation grid.
+    limit : float
+        Largest misfit (x noise) still counted as explained.
+    n_worst : int
+        Postures and bands listed.
+    """
+    per_res = cv.per_residual
+    mx = float(np.sqrt(max(per_res, 0.0)))
+    met = fit_metrics(cv.H, obs)
+    nn = float(np.nanmean(noise_nrmse(obs)))
+    nx = float(met.nrmse_mean / nn) if nn > 0 else float("inf")
+    rec = np.sqrt(cv.deviance / np.maximum(cv.count, 1))
+    order = np.argsort(-rec)[:n_worst]
+    mm = mismatch_map(cv.H, obs)
+    bands = tuple(b for b in sorted(mm.bands, key=lambda b: -b.score)[:n_worst] if b.score > 1.0)
+    return NoiseTest(
+        misfit_x_noise=mx,
+        nrmse_x_noise=nx,
+        nrmse_noise=nn,
+        unexplained=bool(mx > limit or nx > limit),
+        worst_postures=tuple((obs.record_ids[i], float(rec[i])) for i in order),
+        worst_bands=bands,
+        limit=limit,
+    )
+
+
+@dataclass(frozen=True, eq=False)
+class ForwardResult:
+    """Outcome of :func:`forward_select`.
+
+    Parameters
+    ----------
+    steps : tuple of Step
+        Named candidates in the order taken (empty: none).
+    rounds : tuple of Selection
+        The selection of each round (the last one named nothing, or the
+        limit was reached).
+    fits : tuple of CandidateFit
+        Round-1 fits of every candidate (on the nominal model).
+    model_fit : CandidateFit
+        The joint fit of all steps (the ``none`` fit if there are none).
+    cv : CrossValidation
+        Its held-out predictions.
+    baseline_cv : CrossValidation
+        Held-out predictions of the nominal model.
+    stop_reason : str
+        Why the search stopped.
+    noise : NoiseTest
+        The absolute test of the chosen model.
+    """
+
+    steps: tuple[Step, ...]
+    rounds: tuple[Selection, ...]
+    fits: tuple[CandidateFit, ...]
+    model_fit: CandidateFit
+    cv: CrossValidation
+    baseline_cv: CrossValidation
+    stop_reason: str
+    noise: NoiseTest
+    rejected: tuple[str, ...] = field(default=())
+
+    @property
+    def effects(self) -> tuple[Any, ...]:
+        """Effects of the joint fit."""
+        f = self.model_fit
+        return tuple(f.candidate.effects(f.params)) if f.candidate.n_params else ()
+
+
+def _fold_spread(cv: CrossValidation, cand: Candidate) -> NDArray[np.float64]:
+    """Jackknife-style spread of the fold parameters (physical units), shape (p,)."""
+    fp = cv.fold_params
+    k = fp.shape[0]
+    if k < 2 or fp.shape[1] == 0:
+        return np.zeros(fp.shape[1])
+    z = np.array([cand.to_internal(p) for p in fp])
+    sd_z = np.sqrt((k - 1) / k * np.sum((z - z.mean(axis=0)) ** 2, axis=0))
+    g = np.array([ps.dphys_dz(zi) for ps, zi in zip(cand.params, z.mean(axis=0), strict=True)])
+    return np.asarray(sd_z * np.abs(g))
+
+
+def _screen(
+    remaining: Sequence[Candidate], round1: Sequence[CandidateFit], k: int
+) -> list[Candidate]:
+    """``none``, the calibration and the ``k`` remaining candidates best by round-1 BIC."""
+    labels = {c.label for c in remaining}
+    ranked = [f for f in sorted(round1, key=lambda f: f.bic) if f.candidate.label in labels]
+    keep = {f.candidate.label for f in ranked if f.candidate.require_identifiable}
+    top = [f.candidate.label for f in ranked if f.candidate.label in keep][:k]
+    return [c for c in remaining if c.name == NONE or not c.require_identifiable or c.label in top]
+
+
+def forward_select(
+    candidates: Sequence[Candidate],
+    model: ModelFn,
+    obs_fit: Observations,
+    obs_eval: Observations,
+    *,
+    selection: SelectionSettings | None = None,
+    settings: ForwardSettings | None = None,
+    fit: Callable[..., CandidateFit] | None = None,
+    progress: Callable[[str, int, int], None] | None = None,
+) -> ForwardResult:
+    """Name candidates one after another while each beats the noise on held-out postures.
+
+    Parameters
+    ----------
+    candidates : sequence of Candidate
+        The library, ``none`` included.
+    model : ModelFn
+    obs_fit, obs_eval : Observations
+        Records on the fitting and the evaluation grid.
+    selection : SelectionSettings, optional
+    settings : ForwardSettings, optional
+    fit : callable, optional
+        ``fit(candidate, model, obs) -> CandidateFit`` (default
+        :func:`fit_candidate` with its defaults).
+    progress : callable, optional
+
+    Returns
+    -------
+    ForwardResult
+    """
+    sel_st = selection or SelectionSettings()
+    st = settings or ForwardSettings()
+    fit_one = fit or (lambda c, m, o: fit_candidate(c, m, o))
+    folds = make_folds(obs_fit.group, sel_st.n_folds)
+    remaining = list(candidates)
+    chosen: list[Candidate] = []
+    steps: list[Step] = []
+    rounds: list[Selection] = []
+    rejected: list[str] = []
+    round1: list[CandidateFit] = []
+    joint: CandidateFit | None = None
+    joint_cv: CrossValidation | None = None
+    base_cv: CrossValidation | None = None
+    prev_cv: CrossValidation | None = None
+    stop = f"the limit of {st.max_effects} named candidates"
+    for r in range(st.max_effects):
+        base = joint.candidate.effects(joint.params) if joint is not None else ()
+        m_r = _on_top(model, tuple(base))
+        fits: list[CandidateFit] = []
+        todo = remaining if r == 0 else _screen(remaining, round1, st.screen_k)
+        total = len(todo)
+        for i, c in enumerate(todo):
+            if progress is not None:
+                progress(f"round {r + 1}: fitting {c.label}", i, total)
+            fits.append(fit_one(c, m_r, obs_fit))
+        if r == 0:
+            round1 = fits
+        if progress is not None:
+            progress(f"round {r + 1}: cross-validating", total, total)
+        sel = select(fits, m_r, obs_fit, obs_eval, sel_st)
+        rounds.append(sel)
+        if base_cv is None:
+            base_cv = sel.baseline.cv
+            prev_cv = base_cv
+        assert base_cv is not None
+        assert prev_cv is not None
+        if sel.name == NONE:
+            stop = "no further candidate beats the noise on held-out postures"
+            break
+        win = sel.verdict.fit
+        comp = combine([*chosen, win.candidate])
+        z0 = np.concatenate([joint.z if joint is not None else np.zeros(0), win.z])
+        jf = fit_candidate(comp, model, obs_fit, z0=z0, max_nfev=st.joint_max_nfev)
+        jcv = cross_validate(jf, model, obs_fit, obs_eval, folds, max_nfev=sel_st.cv_max_nfev)
+        n_eval = float(max(int(base_cv.count.sum()), 1))
+        gain = float((prev_cv.deviance.sum() - jcv.deviance.sum()) / n_eval)
+        # a later step must remove a share of the nominal model's excess over the noise:
+        # measured against what is left, a wrong candidate mopping up the last residue
+        # of a missed effect was named (2 of 3 two-effect cases in the study)
+        excess0 = max(base_cv.per_residual - 1.0, 0.0)
+        need = max(sel_st.min_gain, st.min_share * excess0) if steps else sel_st.min_gain
+        if gain < need:
+            rejected.append(
+                f"{win.candidate.label}: held-out gain {gain:.3g} noise variances per point "
+                f"on top of the earlier steps < {need:.3g}"
+            )
+            stop = "the next candidate does not beat the noise on held-out postures"
+            break
+        chosen.append(win.candidate)
+        joint, joint_cv, prev_cv = jf, jcv, jcv
+        steps.append(
+            Step(
+                candidate=win.candidate,
+                params=win.params,
+                std=win.std,
+                at_bound=win.at_bound,
+                notes=win.notes,
+                gain=gain,
+                share=0.0,
+                per_residual=jcv.per_residual,
+            )
+        )
+        remaining = [
+            c
+            for c in remaining
+            if c.label != win.candidate.label
+            and not (win.candidate.name == CALIBRATION and c.name in SUBSUMED_BY_CALIBRATION)
+        ]
+        if np.sqrt(max(jcv.per_residual, 0.0)) <= st.at_noise:
+            stop = "the held-out misfit is at the noise"
+            break
+    assert base_cv is not None
+    none_fit = next(f for f in round1 if f.candidate.name == NONE)
+    if joint is None or joint_cv is None:
+        model_fit, model_cv = none_fit, base_cv
+    else:
+        model_fit, model_cv = joint, joint_cv
+        # parameters from the joint fit; std: statistical (inflated by the remaining
+        # misfit through D / (N - p)) combined with the spread over the folds
+        spread = _fold_spread(joint_cv, joint.candidate)
+        total_gain = sum(s.gain for s in steps)
+        a = 0
+        out: list[Step] = []
+        for s in steps:
+            b = a + s.candidate.n_params
+            std = np.sqrt(joint.std[a:b] ** 2 + spread[a:b] ** 2)
+            out.append(
+                Step(
+                    candidate=s.candidate,
+                    params=joint.params[a:b],
+                    std=std,
+                    at_bound=joint.at_bound[a:b],
+                    notes=s.notes,
+                    gain=s.gain,
+                    share=s.gain / total_gain if total_gain > 0 else 0.0,
+                    per_residual=s.per_residual,
+                )
+            )
+            a = b
+        steps = out
+    nt = noise_test(model_cv, obs_eval, limit=st.max_misfit_x_noise)
+    return ForwardResult(
+        steps=tuple(steps),
+        rounds=tuple(rounds),
+        fits=tuple(round1),
+        model_fit=model_fit,
+        cv=model_cv,
+        baseline_cv=base_cv,
+        stop_reason=stop,
+        noise=nt,
+        rejected=tuple(rejected),
+    )
