@@ -1,10 +1,27 @@
 """robolobe: chatter-free milling plans for industrial robots.
 
+The public Python API, imported lazily (``import robolobe as rl`` costs
+nothing until a name is used)::
+
+    import robolobe as rl
+
+    campaign = rl.read_campaign("camp")                  # hammer tests (CSV or UFF 58)
+    modal = rl.identify(campaign)                        # modal parameters per posture
+    model = rl.CorrectedTwin(robot="B").fit(modal.table) # calibrated twin + correction
+    job = rl.load_job("job_B_contour.toml")
+    plan = rl.plan_path("contour.apt", job, modes=model)
+    rl.write_plan(plan, "out")                           # waypoints, summary, plots, report
+
 Subpackages (each owns one concept, DESIGN.md): :mod:`robolobe.robots`,
 :mod:`robolobe.twin`, :mod:`robolobe.modal`, :mod:`robolobe.tl`,
 :mod:`robolobe.sld`, :mod:`robolobe.plan`, :mod:`robolobe.diagnose`,
 :mod:`robolobe.cli`.
 """
+
+from __future__ import annotations
+
+import importlib
+from typing import Any
 
 from robolobe.errors import (
     ConvergenceError,
@@ -17,6 +34,34 @@ from robolobe.errors import (
 
 __version__ = "0.1.0"
 
+#: Public name -> (module, attribute).
+_API: dict[str, tuple[str, str]] = {
+    # robots and their twins
+    "load_robot": ("robolobe.robots", "load_robot"),
+    "Twin": ("robolobe.twin.model", "Twin"),
+    # measured data and modal identification
+    "read_campaign": ("robolobe.twin.campaign", "read_campaign"),
+    "write_campaign": ("robolobe.twin.campaign", "write_campaign"),
+    "identify": ("robolobe.modal.identify", "identify_campaign"),
+    "read_modal_csv": ("robolobe.modal.modal_csv", "read_modal_csv"),
+    # mode predictors (estimators: fit / predict / save)
+    "CorrectedTwin": ("robolobe.tl.residual", "CorrectedTwin"),
+    "TwinCalibration": ("robolobe.tl.graybox", "TwinCalibration"),
+    "ModalPredictor": ("robolobe.tl.estimator", "ModalPredictor"),
+    "load_model": ("robolobe.tl.models", "load_model"),
+    # stability lobes
+    "stability_lobes": ("robolobe.sld", "stability_lobes"),
+    # planning
+    "load_job": ("robolobe.plan.job", "load_job"),
+    "read_toolpath": ("robolobe.plan.paths", "read_toolpath"),
+    "plan_path": ("robolobe.plan.pipeline", "plan_path"),
+    "write_plan": ("robolobe.plan.report", "write_outputs"),
+    "verify": ("robolobe.plan.verify", "verify_plan"),
+    "compare_robots": ("robolobe.plan.compare", "compare_robots"),
+    # diagnosis
+    "diagnose": ("robolobe.diagnose.pipeline", "diagnose"),
+}
+
 __all__ = [
     "ConvergenceError",
     "InfeasibleError",
@@ -25,4 +70,19 @@ __all__ = [
     "RobolobeError",
     "SingularityError",
     "__version__",
+    *sorted(_API),
 ]
+
+
+def __getattr__(name: str) -> Any:
+    try:
+        module, attr = _API[name]
+    except KeyError:
+        raise AttributeError(f"module 'robolobe' has no attribute {name!r}") from None
+    value = getattr(importlib.import_module(module), attr)
+    globals()[name] = value  # later look-ups skip this function
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(_API))

@@ -41,6 +41,7 @@ __all__ = [
     "RobotModes",
     "RobustBound",
     "TwinSource",
+    "as_mode_source",
     "mode_source",
 ]
 
@@ -342,6 +343,49 @@ class TwinSource:
             source=self.name,
             shapes_coupled=True,
         )
+
+
+def as_mode_source(modes: object) -> ModeSource:
+    """Any mode predictor as the planner's mode source.
+
+    Parameters
+    ----------
+    modes : object
+        A mode source (``PredictorSource``, ``TwinSource`` or anything with
+        ``name`` and ``predict(q) -> RobotModes``); a :class:`Robot` (its
+        twin); a fitted ``TwinCalibration`` (the calibrated twin with its
+        residual spread); or a fitted ``ModalPredictor`` / ``CorrectedTwin``
+        (anything whose ``predict(q)`` returns a ``ModalPrediction`` and that
+        has ``extrapolation(q)``).
+
+    Returns
+    -------
+    ModeSource
+
+    Raises
+    ------
+    InputError
+        For anything else, or an estimator that is not fitted.
+    """
+    if isinstance(modes, PredictorSource | TwinSource):
+        return modes
+    if isinstance(modes, Robot):
+        return TwinSource(modes)
+    robot = getattr(modes, "robot_", None)
+    rms = getattr(modes, "residual_rms_", None)
+    if isinstance(robot, Robot) and isinstance(rms, dict) and not hasattr(modes, "extrapolation"):
+        spread = [float(rms[c]) for c in ("f", "zeta", "k")]
+        return TwinSource(robot, spread=spread)
+    if hasattr(modes, "predict") and hasattr(modes, "extrapolation"):
+        name = type(modes).__name__
+        label = getattr(modes, "robot_name", None) or getattr(modes, "robot", None)
+        return PredictorSource(modes, f"{name} ({label})" if isinstance(label, str) else name)
+    if hasattr(modes, "predict") and isinstance(getattr(modes, "name", None), str):
+        return modes  # type: ignore[return-value]
+    raise InputError(
+        "modes: expected a mode predictor (CorrectedTwin, TwinCalibration, ModalPredictor, "
+        f"a Robot or a mode source), found {type(modes).__name__}"
+    )
 
 
 def mode_source(

@@ -44,7 +44,13 @@ from numpy.typing import NDArray
 from robolobe.errors import InputError, ReachabilityError, SingularityError
 from robolobe.plan.job import Job
 from robolobe.plan.lobes import DynamicsTolerance, GroupedLobes, steep_members, waypoint_lobes
-from robolobe.plan.modes import ModeSource, RobotModes, RobustBound, mode_source
+from robolobe.plan.modes import (
+    ModeSource,
+    RobotModes,
+    RobustBound,
+    as_mode_source,
+    mode_source,
+)
 from robolobe.plan.optimize import Constraints, PathGeometry, PlanOutcome, optimize_schedule
 from robolobe.plan.paths import read_toolpath, segment_lengths, validate_waypoints
 from robolobe.robots.ik import ik, ik_batch
@@ -466,6 +472,7 @@ def plan_path(
     *,
     robot: Robot | None = None,
     source: ModeSource | None = None,
+    modes: object | None = None,
     refine: bool = True,
 ) -> PlanResult:
     """Plan one toolpath with one job.
@@ -479,6 +486,11 @@ def plan_path(
         Overrides ``job.robot`` (already loaded).
     source : ModeSource, optional
         Overrides ``job.model``.
+    modes : optional
+        Overrides ``job.model`` with any mode predictor
+        (:func:`robolobe.plan.modes.as_mode_source`: a fitted
+        ``CorrectedTwin``, ``TwinCalibration`` or ``ModalPredictor``, a
+        ``Robot`` for its twin, or a mode source); not with ``source``.
     refine : bool
         Run the casadi refinement.
 
@@ -506,6 +518,10 @@ def plan_path(
     if robot is None:
         robot = load_robot(job.robot)
     note = ""
+    if modes is not None:
+        if source is not None:
+            raise InputError("plan_path: give modes or source, not both")
+        source = as_mode_source(modes)
     if source is None:
         source, note = mode_source(job.model, robot, job.robot, job.effects)
     material = material_from_job(job)
