@@ -209,3 +209,22 @@ def test_prior_std_validated():
         TwinCalibration(robot="B", prior_std={"link_mass": 0.0})._validate()
     with pytest.raises(InputError, match="prior_std"):
         TwinCalibration(robot="B", prior_std={"masses": 0.1})._validate()
+
+
+def test_spread_propagation_matches_finite_differences(setup):
+    """The analytic first-order spread equals a finite-difference propagation."""
+    from robolobe.tl.twin_params import ParametrizedTwin
+
+    fit = setup["model"]
+    q = setup["q"][setup["test"]][:3]
+    pred = fit.predict(q)
+    twin = ParametrizedTwin(fit.base_robot_, q, fit.groups_, n_modes=fit.n_modes_)
+    center = np.log(twin.values(fit.theta_))
+    jac = np.empty((len(fit.theta_), *center.shape))
+    for a in range(len(fit.theta_)):
+        th = fit.theta_.copy()
+        th[a] += 1e-6
+        jac[a] = (np.log(twin.values(th)) - center) / 1e-6
+    var = np.einsum("a...,ab,b...->...", jac, fit.covariance_, jac)
+    rms = np.array([fit.residual_rms_[c] for c in ("f", "zeta", "k")])
+    np.testing.assert_allclose(pred.std, np.sqrt(var + rms**2), rtol=0.02)

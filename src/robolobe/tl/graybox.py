@@ -651,9 +651,9 @@ class TwinCalibration:
         n_modes : int, optional
             Lowest modes per direction; default: as in the training data.
         spread : bool
-            Propagate the parameter covariance (one twin evaluation per
-            parameter) and add the training residual scatter; False gives
-            zero spread.
+            Propagate the parameter covariance (first order, analytic
+            eigen-sensitivities) and add the training residual scatter;
+            False gives zero spread.
 
         Returns
         -------
@@ -671,14 +671,15 @@ class TwinCalibration:
         center = np.log(twin.values(self.theta_))
         std = np.zeros_like(center)
         if spread:
-            h = 1e-4
-            jac = np.empty((len(self.theta_), *center.shape))
-            for a in range(len(self.theta_)):
-                th = self.theta_.copy()
-                th[a] += h
-                jac[a] = (np.log(twin.values(th)) - center) / h
-            jf = jac.reshape(len(self.theta_), -1)
-            var = np.einsum("ak,ab,bk->k", jf, self.covariance_, jf).reshape(center.shape)
+            # first-order propagation with the analytic eigen-sensitivities, in
+            # chunks of postures (the Jacobian holds n * n_params * 36 numbers)
+            var = np.empty_like(center)
+            for lo in range(0, len(q), 2000):
+                part = ParametrizedTwin(
+                    self.base_robot_, q[lo : lo + 2000], self.groups_, directions=dirs, n_modes=nm
+                )
+                jac = part.log_jacobian(self.theta_)  # (n, n_dir, nm, 3, n_params)
+                var[lo : lo + 2000] = np.einsum("...a,ab,...b->...", jac, self.covariance_, jac)
             # plus what the calibrated twin still misses at the training postures
             # (model-form error and measurement scatter), per quantity
             rms = np.array([self.residual_rms_[c] for c in ("f", "zeta", "k")])
