@@ -45,7 +45,11 @@ def test_every_candidate_builds_at_its_grid_and_bounds() -> None:
                 try:
                     H = Twin(r, effects).receptance(q, f)
                 except InputError as exc:
-                    assert "positive definite" in str(exc)
+                    msg = str(exc)
+                else:
+                    msg = ""
+                if msg:
+                    assert "positive definite" in msg
                     continue
             H = Twin(r, effects).receptance(q, f)
             assert np.all(np.isfinite(H))
