@@ -77,8 +77,12 @@ def test_job_effects_need_the_twin_and_change_the_plan(tmp_path: Path) -> None:
     job_text = (EXAMPLES / "job_A_pocket.toml").read_text()
     eff = tmp_path / "effects.toml"
     eff.write_text(effects_to_toml([AddedMass(mass_kg=40.0)]))
+    # effects with the shipped network (the bundled job plans on the twin by default)
+    no_model = "\n".join(ln for ln in job_text.splitlines() if not ln.strip().startswith("model"))
     bad = tmp_path / "bad_job.toml"
-    bad.write_text(job_text.replace("[robot]", '[robot]\neffects = "effects.toml"', 1))
+    bad.write_text(
+        no_model.replace("[robot]", '[robot]\neffects = "effects.toml"\nmodel = "builtin"', 1)
+    )
     with pytest.raises(InputError, match=r"robot\.effects"):
         load_job(bad)
     good_text = job_text.replace("[robot]", '[robot]\neffects = "effects.toml"', 1)
