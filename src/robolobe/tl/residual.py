@@ -235,8 +235,9 @@ class CorrectedTwin:
         n_ell = x.shape[1]
         ok = np.isfinite(r)
         count = ok.sum(axis=0)  # (nd, nm, 3)
-        with np.errstate(invalid="ignore"):
-            scale = np.sqrt(np.nanmean(r**2, axis=0))  # (nd, nm, 3); NaN without data
+        # RMS over the postures that see each mode (a mode no posture sees: NaN)
+        mean_sq = np.where(ok, r, 0.0) ** 2
+        scale = np.sqrt(mean_sq.sum(axis=0) / np.maximum(count, 1))  # (nd, nm, 3)
         scale = np.where(count > 0, np.maximum(scale, 1e-6), np.nan)
         ells = np.zeros((3, n_ell))
         rhos = np.zeros(3)
