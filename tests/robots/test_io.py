@@ -138,6 +138,33 @@ BROKEN = [
      r"\[\[joints\]\]\[6\]\.damping_Nms_per_rad: expected a number, found true"),
     (_mutate_joint(0, "d_m", float("nan")), r"\[\[joints\]\]\[1\]\.d_m: expected a finite number"),
     (_del(("kinematics",)), r"kinematics: missing required key"),
+    # optional compliances (tilt per joint, end-effector mount)
+    (lambda d: d["joints"][1].update(tilt_stiffness_Nm_per_rad=[-1e7, 1e7],
+                                     tilt_damping_Nms_per_rad=[10.0, 10.0]),
+     r"\[\[joints\]\]\[2\]\.tilt_stiffness_Nm_per_rad\[1\]: "
+     r"expected a positive number, found -10000000"),
+    (lambda d: d["joints"][1].update(tilt_stiffness_Nm_per_rad=[1e7, 1e13],
+                                     tilt_damping_Nms_per_rad=[10.0, 10.0]),
+     r"\[\[joints\]\]\[2\]\.tilt_stiffness_Nm_per_rad\[2\]: "
+     r"expected a number <= 1000000000000\.0, found 10000000000000"),
+    (lambda d: d["joints"][0].update(tilt_stiffness_Nm_per_rad=[1e7, 1e7]),
+     r"\[\[joints\]\]\[1\]\.tilt_damping_Nms_per_rad: expected two numbers beside "
+     r"tilt_stiffness_Nm_per_rad, found it missing"),
+    (lambda d: d["joints"][2].update(tilt_stiffness_Nm_per_rad=[1e7],
+                                     tilt_damping_Nms_per_rad=[1.0, 1.0]),
+     r"\[\[joints\]\]\[3\]\.tilt_stiffness_Nm_per_rad: expected 2 entries, found 1"),
+    (lambda d: d["joints"][2].update(tilt_stiffness_Nm_per_rad=[1e7, 1e7],
+                                     tilt_damping_Nms_per_rad=[1.0, -1.0]),
+     r"\[\[joints\]\]\[3\]\.tilt_damping_Nms_per_rad\[2\]: expected a non-negative number"),
+    (lambda d: d["end_effector"].update(mount_stiffness_Nm_per_rad=[0.0, 1e6],
+                                        mount_damping_Nms_per_rad=[1.0, 1.0]),
+     r"end_effector\.mount_stiffness_Nm_per_rad\[1\]: expected a positive number, found 0"),
+    (lambda d: d["end_effector"].update(mount_damping_Nms_per_rad=[1.0, 1.0]),
+     r"end_effector\.mount_stiffness_Nm_per_rad: expected two numbers beside"),
+    (lambda d: d["end_effector"].update(mass_kg=0.0, inertia_kgm2=[0.0] * 6,
+                                        mount_stiffness_Nm_per_rad=[1e6, 1e6],
+                                        mount_damping_Nms_per_rad=[1.0, 1.0]),
+     r"end_effector\.mount_stiffness_Nm_per_rad: expected an end effector with mass"),
 ]  # fmt: skip
 
 

@@ -57,6 +57,12 @@ PosNum = Annotated[float, Field(gt=0, allow_inf_nan=False, strict=True)]
 NonNegNum = Annotated[float, Field(ge=0, allow_inf_nan=False, strict=True)]
 Vec3 = Annotated[list[Num], Field(min_length=3, max_length=3)]
 Vec6 = Annotated[list[Num], Field(min_length=6, max_length=6)]
+# optional compliances (README "Robot description"): stiffness in (0, 1e12] N m/rad,
+# damping in [0, 1e9] N m s/rad, one value per tilt axis
+_TiltK = Annotated[float, Field(gt=0, le=1e12, allow_inf_nan=False, strict=True)]
+_TiltC = Annotated[float, Field(ge=0, le=1e9, allow_inf_nan=False, strict=True)]
+PairK = Annotated[list[_TiltK], Field(min_length=2, max_length=2)]
+PairC = Annotated[list[_TiltC], Field(min_length=2, max_length=2)]
 
 
 class _Spec(BaseModel):
@@ -87,6 +93,11 @@ class _BodySpec(_Spec):
     inertia_kgm2: Vec6
 
 
+class _EndEffectorSpec(_BodySpec):
+    mount_stiffness_Nm_per_rad: PairK | None = None
+    mount_damping_Nms_per_rad: PairC | None = None
+
+
 class _JointSpec(_Spec):
     a_m: Num
     alpha_deg: Num
@@ -99,6 +110,8 @@ class _JointSpec(_Spec):
     inertia_kgm2: Vec6
     stiffness_Nm_per_rad: PosNum
     damping_Nms_per_rad: NonNegNum
+    tilt_stiffness_Nm_per_rad: PairK | None = None
+    tilt_damping_Nms_per_rad: PairC | None = None
 
 
 class _RobotSpec(_Spec):
@@ -106,7 +119,7 @@ class _RobotSpec(_Spec):
     format: Literal["robolobe-robot/1"]
     kinematics: _KinematicsSpec
     tool: _PoseSpec = Field(default_factory=_PoseSpec)
-    end_effector: _BodySpec | None = None
+    end_effector: _EndEffectorSpec | None = None
     joints: Annotated[list[_JointSpec], Field(min_length=6, max_length=6)]
 
 
@@ -116,7 +129,7 @@ _KNOWN_KEYS: dict[str, set[str]] = {
     "kinematics.base": set(_PoseSpec.model_fields),
     "kinematics.constraints": set(_ConstraintSpec.model_fields),
     "tool": set(_PoseSpec.model_fields),
-    "end_effector": set(_BodySpec.model_fields),
+    "end_effector": set(_EndEffectorSpec.model_fields),
     "joints": set(_JointSpec.model_fields),
 }
 
@@ -185,6 +198,23 @@ def _pose(spec: _PoseSpec | None) -> np.ndarray:
 
 
 # --------------------------------------------------------------- loading
+def _opt_pair(v: list[float] | None) -> tuple[float, float] | None:
+    return None if v is None else (float(v[0]), float(v[1]))
+
+
+def _both(k: list[float] | None, c: list[float] | None, key: str, what: str, where: str) -> None:
+    """The stiffness and damping of an optional compliance come together."""
+    if (k is None) != (c is None):
+        have, miss = (
+            (f"{what}_stiffness_Nm_per_rad", f"{what}_damping_Nms_per_rad")
+            if c is None
+            else (f"{what}_damping_Nms_per_rad", f"{what}_stiffness_Nm_per_rad")
+        )
+        raise InputError(
+            f"{key}.{miss}: expected two numbers beside {have}, found it missing", where
+        )
+
+
 def _build(d: dict[str, Any], source: str, where: str) -> Robot:
     if not isinstance(d, dict):
         raise InputError(f"expected a table at the top level, found {found(d)}", source=where)
@@ -235,6 +265,7 @@ def _build(d: dict[str, Any], source: str, where: str) -> Robot:
                 f"{key}: expected q_min_deg < q_max_deg, found {j.q_min_deg} >= {j.q_max_deg}",
                 where,
             )
+        _both(j.tilt_stiffness_Nm_per_rad, j.tilt_damping_Nms_per_rad, key, "tilt", where)
         joints.append(
             Joint(
                 a_m=j.a_m,
@@ -246,9 +277,26 @@ def _build(d: dict[str, Any], source: str, where: str) -> Robot:
                 body=_body(j, key, where),
                 stiffness_Nm_per_rad=j.stiffness_Nm_per_rad,
                 damping_Nms_per_rad=j.damping_Nms_per_rad,
+                tilt_stiffness_Nm_per_rad=_opt_pair(j.tilt_stiffness_Nm_per_rad),
+                tilt_damping_Nms_per_rad=_opt_pair(j.tilt_damping_Nms_per_rad),
             )
         )
     ee = None if spec.end_effector is None else _body(spec.end_effector, "end_effector", where)
+    mount_k = mount_c = None
+    if spec.end_effector is not None:
+        e = spec.end_effector
+        _both(e.mount_stiffness_Nm_per_rad, e.mount_damping_Nms_per_rad, "end_effector", "mount",
+              where)  # fmt: skip
+        mount_k, mount_c = (
+            _opt_pair(e.mount_stiffness_Nm_per_rad),
+            _opt_pair(e.mount_damping_Nms_per_rad),
+        )
+        if mount_k is not None and e.mass_kg <= 0:
+            raise InputError(
+                "end_effector.mount_stiffness_Nm_per_rad: expected an end effector with mass "
+                "(a compliant mount carries it), found mass_kg = 0",
+                where,
+            )
     return Robot(
         name=spec.name,
         convention=kin.convention,
@@ -259,6 +307,8 @@ def _build(d: dict[str, Any], source: str, where: str) -> Robot:
         end_effector=ee,
         constraints=tuple(constraints),
         source=source,
+        mount_stiffness_Nm_per_rad=mount_k,
+        mount_damping_Nms_per_rad=mount_c,
     )
 
 
@@ -385,6 +435,13 @@ def robot_to_dict(robot: Robot) -> dict[str, Any]:
     }
     if robot.end_effector is not None:
         out["end_effector"] = _body_dict(robot.end_effector)
+        if robot.mount_stiffness_Nm_per_rad is not None:
+            out["end_effector"]["mount_stiffness_Nm_per_rad"] = _pair_out(
+                robot.mount_stiffness_Nm_per_rad
+            )
+            out["end_effector"]["mount_damping_Nms_per_rad"] = _pair_out(
+                robot.mount_damping_Nms_per_rad
+            )
     out["joints"] = [
         {
             "a_m": _clean(j.a_m),
@@ -396,10 +453,23 @@ def robot_to_dict(robot: Robot) -> dict[str, Any]:
             **_body_dict(j.body),
             "stiffness_Nm_per_rad": _clean(j.stiffness_Nm_per_rad),
             "damping_Nms_per_rad": _clean(j.damping_Nms_per_rad),
+            **(
+                {
+                    "tilt_stiffness_Nm_per_rad": _pair_out(j.tilt_stiffness_Nm_per_rad),
+                    "tilt_damping_Nms_per_rad": _pair_out(j.tilt_damping_Nms_per_rad),
+                }
+                if j.has_tilt
+                else {}
+            ),
         }
         for j in robot.joints
     ]
     return out
+
+
+def _pair_out(v: tuple[float, float] | None) -> list[float | int]:
+    assert v is not None
+    return [_clean(x) for x in v]
 
 
 def robot_to_toml(robot: Robot) -> str:

@@ -31,6 +31,16 @@ _JOINT_SCALARS = (
 )
 
 
+def _pair(value: ArrayLike | None) -> tuple[float, float] | None:
+    """Two finite floats, or None."""
+    if value is None:
+        return None
+    arr = np.asarray(value, dtype=np.float64)
+    if arr.shape != (2,) or not np.all(np.isfinite(arr)):
+        raise ValueError(f"expected two finite numbers, found {value!r}")
+    return (float(arr[0]), float(arr[1]))
+
+
 def _frozen_array(value: ArrayLike, shape: tuple[int, ...], name: str) -> FloatArray:
     arr = np.array(value, dtype=np.float64)  # always a copy
     if arr.shape != shape:
@@ -101,6 +111,16 @@ class Joint:
         Joint stiffness [N m/rad], acting on the controller axis q_i.
     damping_Nms_per_rad : float
         Joint viscous damping [N m s/rad], acting on q_i.
+    tilt_stiffness_Nm_per_rad : tuple of 2 floats or None
+        Optional tilt compliance of the joint's bearing and gearbox (the
+        non-actuated rotations of virtual-joint stiffness models): rotational
+        springs [N m/rad] about DH axis x_i (perpendicular to the joint axis)
+        and about ``z_joint x x_i``, through the joint axis point; they tilt
+        link i and everything distal to it. None: the joint is rigid in tilt
+        (the nominal model of FORMATS.md section 1).
+    tilt_damping_Nms_per_rad : tuple of 2 floats or None
+        Viscous dampers [N m s/rad] of the two tilt springs; given exactly
+        when ``tilt_stiffness_Nm_per_rad`` is.
     """
 
     a_m: float
@@ -112,10 +132,26 @@ class Joint:
     body: RigidBody
     stiffness_Nm_per_rad: float
     damping_Nms_per_rad: float
+    tilt_stiffness_Nm_per_rad: tuple[float, float] | None = None
+    tilt_damping_Nms_per_rad: tuple[float, float] | None = None
 
     def __post_init__(self) -> None:
         for name in _JOINT_SCALARS:
             object.__setattr__(self, name, float(getattr(self, name)))
+        ks, cs = _pair(self.tilt_stiffness_Nm_per_rad), _pair(self.tilt_damping_Nms_per_rad)
+        if (ks is None) != (cs is None):
+            raise ValueError(
+                "tilt_stiffness_Nm_per_rad, tilt_damping_Nms_per_rad: expected both or neither"
+            )
+        if ks is not None and cs is not None and (min(ks) <= 0 or min(cs) < 0):
+            raise ValueError(f"tilt: expected stiffness > 0 and damping >= 0, found {ks}, {cs}")
+        object.__setattr__(self, "tilt_stiffness_Nm_per_rad", ks)
+        object.__setattr__(self, "tilt_damping_Nms_per_rad", cs)
+
+    @property
+    def has_tilt(self) -> bool:
+        """Whether the joint has tilt compliance (two extra DOFs in the twin)."""
+        return self.tilt_stiffness_Nm_per_rad is not None
 
 
 @dataclass(frozen=True, eq=False)
@@ -164,6 +200,13 @@ class Robot:
         Linear limits on q (e.g. a parallelogram's relative angle).
     source : str
         File path, or ``"built-in A"`` etc.
+    mount_stiffness_Nm_per_rad : tuple of 2 floats or None
+        Optional compliant end-effector mount (spindle bracket/flange joint):
+        rotational springs [N m/rad] about the flange (DH frame 6) x and y
+        axes through the flange centre; they tilt the end effector and the
+        TCP. None: rigid mount (FORMATS.md section 1). Needs an end effector.
+    mount_damping_Nms_per_rad : tuple of 2 floats or None
+        Their viscous dampers [N m s/rad]; given exactly when the stiffness is.
     """
 
     name: str
@@ -175,8 +218,22 @@ class Robot:
     end_effector: RigidBody | None = None
     constraints: tuple[LinearConstraint, ...] = ()
     source: str = "<code>"
+    mount_stiffness_Nm_per_rad: tuple[float, float] | None = None
+    mount_damping_Nms_per_rad: tuple[float, float] | None = None
 
     def __post_init__(self) -> None:
+        ks, cs = _pair(self.mount_stiffness_Nm_per_rad), _pair(self.mount_damping_Nms_per_rad)
+        if (ks is None) != (cs is None):
+            raise ValueError(
+                "mount_stiffness_Nm_per_rad, mount_damping_Nms_per_rad: expected both or neither"
+            )
+        if ks is not None and cs is not None:
+            if min(ks) <= 0 or min(cs) < 0:
+                raise ValueError(f"mount: expected stiffness > 0, damping >= 0, found {ks}, {cs}")
+            if self.end_effector is None or self.end_effector.mass_kg <= 0:
+                raise ValueError("mount_stiffness_Nm_per_rad: needs an end effector with mass")
+        object.__setattr__(self, "mount_stiffness_Nm_per_rad", ks)
+        object.__setattr__(self, "mount_damping_Nms_per_rad", cs)
         if self.convention not in ("standard-dh", "modified-dh"):
             raise ValueError(
                 f"convention: expected 'standard-dh' or 'modified-dh', found {self.convention!r}"
@@ -246,6 +303,21 @@ class Robot:
         return self._vec("theta_offset_rad")
 
     @property
+    def tilt_joints(self) -> tuple[int, ...]:
+        """0-based indices of the joints with tilt compliance."""
+        return tuple(i for i, j in enumerate(self.joints) if j.has_tilt)
+
+    @property
+    def has_mount(self) -> bool:
+        """Whether the end-effector mount is compliant."""
+        return self.mount_stiffness_Nm_per_rad is not None
+
+    @property
+    def is_flexible_joint_only(self) -> bool:
+        """True for the nominal model (six joint springs, nothing else)."""
+        return not self.tilt_joints and not self.has_mount
+
+    @property
     def total_mass_kg(self) -> float:
         """Mass of the moving links plus the end effector [kg]."""
         m = sum(j.body.mass_kg for j in self.joints)
@@ -274,6 +346,42 @@ class Robot:
         """Copy with joint damping ``c`` [N m s/rad], shape (6,)."""
         return self._with_joint_values("damping_Nms_per_rad", c)
 
+    def with_tilt(
+        self, joint: int, stiffness: ArrayLike | None, damping: ArrayLike | None
+    ) -> Robot:
+        """Copy with the tilt compliance of joint ``joint`` (0-based) set (None: rigid).
+
+        Parameters
+        ----------
+        joint : int
+            0..5.
+        stiffness : array_like, shape (2,), or None
+            [N m/rad] about DH x_i and ``z_joint x x_i``.
+        damping : array_like, shape (2,), or None
+            [N m s/rad].
+        """
+        joints = list(self.joints)
+        joints[joint] = dataclasses.replace(
+            joints[joint],
+            tilt_stiffness_Nm_per_rad=_pair(stiffness),
+            tilt_damping_Nms_per_rad=_pair(damping),
+        )
+        return self.replace(joints=tuple(joints))
+
+    def with_mount(self, stiffness: ArrayLike | None, damping: ArrayLike | None) -> Robot:
+        """Copy with the end-effector mount compliance set (None: rigid mount).
+
+        Parameters
+        ----------
+        stiffness : array_like, shape (2,), or None
+            [N m/rad] about the flange x and y axes.
+        damping : array_like, shape (2,), or None
+            [N m s/rad].
+        """
+        return self.replace(
+            mount_stiffness_Nm_per_rad=_pair(stiffness), mount_damping_Nms_per_rad=_pair(damping)
+        )
+
 
 def _bodies_close(a: RigidBody | None, b: RigidBody | None, rtol: float, atol: float) -> bool:
     if a is None or b is None:
@@ -283,6 +391,14 @@ def _bodies_close(a: RigidBody | None, b: RigidBody | None, rtol: float, atol: f
         and np.allclose(a.com_m, b.com_m, rtol=rtol, atol=atol)
         and np.allclose(a.inertia_kgm2, b.inertia_kgm2, rtol=rtol, atol=atol)
     )
+
+
+def _pairs_close(
+    a: tuple[float, float] | None, b: tuple[float, float] | None, rtol: float, atol: float
+) -> bool:
+    if a is None or b is None:
+        return a is None and b is None
+    return bool(np.allclose(a, b, rtol=rtol, atol=atol))
 
 
 def robots_allclose(a: Robot, b: Robot, *, rtol: float = 1e-9, atol: float = 1e-12) -> bool:
@@ -305,6 +421,13 @@ def robots_allclose(a: Robot, b: Robot, *, rtol: float = 1e-9, atol: float = 1e-
         for name in _JOINT_SCALARS:
             if not np.isclose(getattr(ja, name), getattr(jb, name), rtol=rtol, atol=atol):
                 return False
+    for ja, jb in zip(a.joints, b.joints, strict=True):
+        for name in ("tilt_stiffness_Nm_per_rad", "tilt_damping_Nms_per_rad"):
+            if not _pairs_close(getattr(ja, name), getattr(jb, name), rtol, atol):
+                return False
+    for name in ("mount_stiffness_Nm_per_rad", "mount_damping_Nms_per_rad"):
+        if not _pairs_close(getattr(a, name), getattr(b, name), rtol, atol):
+            return False
     for ca, cb in zip(a.constraints, b.constraints, strict=True):
         if not (
             np.allclose(ca.coeffs, cb.coeffs, rtol=rtol, atol=atol)

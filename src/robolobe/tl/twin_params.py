@@ -23,7 +23,10 @@ computed once, and the mass matrix is reassembled from them (a moved centre
 of mass changes a body's linear Jacobian by ``-[R d]_x Jw``). It gives the same
 modes as ``Twin(apply_parameters(robot, groups, theta)).modes(q)`` (tested to
 1e-9) about three times faster, which is what makes the 37-parameter fit
-quick.
+quick. A robot file with the optional tilt or mount compliances (FORMATS.md
+section 1 extension, README "Robot description") keeps those DOFs at their
+file values: the groups act on the six joint springs and dampers and on the
+bodies, the extra DOFs move the bodies as in the twin.
 """
 
 from __future__ import annotations
@@ -218,7 +221,11 @@ class ParametrizedTwin:
         sys_ = nominal_system(base, q_rad)
         b = sys_.bodies
         nb = len(b.mass_kg)
-        self._k0, self._c0 = base.stiffness, base.damping
+        nd = sys_.n_dof
+        self._nd = nd
+        # diagonal springs/dampers: the six joints, then the file's compliance DOFs
+        self._k0 = np.diagonal(sys_.K.reshape(-1, nd, nd)[0]).copy()
+        self._c0 = np.diagonal(sys_.C.reshape(-1, nd, nd)[0]).copy()
         self._m0 = b.mass_kg  # (nb,)
         self._jv = b.jv  # (n, nb, 3, 6) at the file's COMs
         self._jw = b.jw
@@ -226,7 +233,7 @@ class ParametrizedTwin:
         self._mw = np.einsum("nbki,nbkl,nblj->nbij", b.jw, b.inertia_kgm2, b.jw)
         self._mv = np.einsum("nbki,nbkj->nbij", b.jv, b.jv)
         self._J = sys_.J
-        self._eye = np.eye(6)
+        self._eye = np.eye(nd)
 
     @property
     def n_params(self) -> int:
@@ -257,13 +264,16 @@ class ParametrizedTwin:
         return s, jv, mv
 
     def _matrices(self, theta: ArrayLike) -> tuple[FloatArray, FloatArray, FloatArray]:
-        """M (n, 6, 6), K and C (6, 6) for ``theta``."""
+        """M (n, nd, nd), K and C (nd, nd) for ``theta`` (nd = 6 + compliance DOFs)."""
         parts = _split(self.groups, theta)
         s, _, mv = self._mass_parts(parts)
         m = np.einsum("b,nbij->nij", self._m0 * s, mv) + np.einsum("b,nbij->nij", s, self._mw)
         m = 0.5 * (m + np.swapaxes(m, -1, -2))
-        k = self._k0 * np.exp(parts["stiffness"]) if "stiffness" in parts else self._k0
-        c = self._c0 * np.exp(parts["damping"]) if "damping" in parts else self._c0
+        k, c = self._k0.copy(), self._c0.copy()
+        if "stiffness" in parts:
+            k[:6] *= np.exp(parts["stiffness"])
+        if "damping" in parts:
+            c[:6] *= np.exp(parts["damping"])
         return m, self._eye * k, self._eye * c
 
     def log_jacobian(self, theta: ArrayLike) -> FloatArray:
@@ -285,7 +295,7 @@ class ParametrizedTwin:
         parts = _split(self.groups, theta)
         s, jv, mv = self._mass_parts(parts)
         w = self._m0 * s
-        n, p, nd = self._jv.shape[0], self.n_params, 6
+        n, p, nd = self._jv.shape[0], self.n_params, self._nd
         m, kmat, cmat = self._matrices(theta)
         k, c = np.diag(kmat), np.diag(cmat)
         dm = np.zeros((n, p, nd, nd))
@@ -295,9 +305,9 @@ class ParametrizedTwin:
         for g in self.groups:
             size = PARAMETER_GROUPS[g]
             if g == "stiffness":
-                dk[i0 : i0 + 6] = np.diag(k)
+                dk[i0 : i0 + 6, :6] = np.diag(k[:6])
             elif g == "damping":
-                dc[i0 : i0 + 6] = np.diag(c)
+                dc[i0 : i0 + 6, :6] = np.diag(c[:6])
             elif g == "ee_mass":
                 dm[:, i0] = w[6] * mv[:, 6] + s[6] * self._mw[:, 6]
             elif g == "link_mass":

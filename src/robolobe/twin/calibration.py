@@ -39,11 +39,13 @@ its upper frequencies cannot both be met; the fit trades them. The values in
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy.optimize import least_squares, lsq_linear
+from scipy.optimize import least_squares, linear_sum_assignment, lsq_linear
 
 from robolobe.errors import InputError
 from robolobe.robots import RigidBody, Robot, sample_postures
@@ -56,6 +58,7 @@ from robolobe.twin.modes import (
     seen_mask,
     undamped_modes,
 )
+from robolobe.twin.seed_tables import SeedTable
 from robolobe.twin.system import nominal_system
 
 __all__ = [
@@ -292,8 +295,11 @@ def fit_stiffness(
         r: FloatArray = np.sqrt(np.mean(x**2, axis=0))
         return r
 
+    k_all = np.diagonal(s.K.reshape(-1, s.n_dof, s.n_dof)[0]).copy()  # compliances kept
+
     def resid(x: FloatArray) -> FloatArray:
-        w, phi = undamped_modes(s.M, np.diag(k0 * np.exp(x)))
+        k_all[:6] = k0 * np.exp(x)
+        w, phi = undamped_modes(s.M, np.diag(k_all))
         with np.errstate(divide="ignore"):
             logkk = np.log((w**2)[..., None, :] / (s.J @ phi) ** 2)  # (n, 3, modes)
         idx, valid = lowest_seen(seen_mask(np.exp(logkk)), nm)
@@ -347,7 +353,10 @@ def fit_damping(
     # a[n, r, i] = phi_ir^2 / (2 w_r) / zeta_target
     a = (phi**2 / (2.0 * w[:, None, :])).transpose(0, 2, 1) / targets.zeta_target
     rows = a[valid]
-    res = lsq_linear(rows, np.ones(len(rows)), bounds=(c_min, np.inf))
+    # dampers of the robot's tilt/mount DOFs stay as they are; fit the six joints'
+    c_fixed = np.diagonal(s.C.reshape(-1, s.n_dof, s.n_dof)[0])[6:]
+    rhs = np.ones(len(rows)) - rows[:, 6:] @ c_fixed
+    res = lsq_linear(rows[:, :6], rhs, bounds=(c_min, np.inf))
     c: FloatArray = res.x
     return c
 
@@ -387,7 +396,9 @@ def calibrate_builtin(name: str, robot: Robot) -> Robot:
 
     Uses :data:`TOOLS`, :data:`END_EFFECTORS`, :data:`PRIOR_STIFFNESS`, :data:`TARGETS` and
     :data:`FIT_POSTURES` postures drawn with seed :data:`FIT_SEED` within
-    :data:`TESTED_RANGES_DEG`.
+    :data:`TESTED_RANGES_DEG`. The seed-table fit of B and C
+    (:func:`fit_seed_table`) is a separate procedure (``studies/seed_tables.py``);
+    the shipped files are not its output yet.
 
     Parameters
     ----------
@@ -402,6 +413,14 @@ def calibrate_builtin(name: str, robot: Robot) -> Robot:
     r = robot.replace(tool=tool, end_effector=END_EFFECTORS[name])
     q = sample_postures(r, FIT_POSTURES, np.random.default_rng(FIT_SEED), TESTED_RANGES_DEG[name])
     return calibrate(r, q, TARGETS[name], prior=PRIOR_STIFFNESS[name])
+
+
+def seed_prior_plain(robot: Robot) -> Robot:
+    """``robot`` without tilt or mount compliance."""
+    r = robot.with_mount(None, None)
+    for j in range(6):
+        r = r.with_tilt(j, None, None)
+    return r
 
 
 # ---------------------------------------------------------------- report
@@ -556,3 +575,701 @@ def calibration_report(
         modes=modes,
         all_modes_in_bands=float(np.mean(np.all(allin, axis=1))),
     )
+
+
+# ------------------------------------------------------ seed-table fit
+SEED_FIT_STARTS = 40
+"""Random starts of :func:`fit_seed_table` for the shipped robots."""
+
+_LOG15 = float(np.log(1.5))
+K_WEIGHT = 2.0
+"""Weight of a factor 1.5 in relative modal stiffness against 1 % in frequency."""
+FRAC_WEIGHT = 10.0
+"""Weight of ``1 - FRAC`` (per posture) in the stage-1 residuals."""
+EXTRA_PEAK = 0.15
+"""Largest peak of an unmatched twin mode (2 % damping assumed) relative to the table's highest."""
+
+
+@dataclass(frozen=True)
+class SeedFitForm:
+    """Model form and parameter bounds of :func:`fit_seed_table`.
+
+    The fitted parameters are log factors on priors: the six joint
+    stiffnesses (prior: the robot's), two tilt stiffnesses per joint in
+    ``tilt_joints`` (prior ``tilt_prior`` x the joint's stiffness), the two
+    mount stiffnesses (prior ``mount_prior_Nm_per_rad``), the end-effector
+    mass and inertia, each link's mass and inertia (the B and C masses are
+    estimates), and the level ``log(k_twin / k_table)`` of modal stiffness.
+
+    Attributes
+    ----------
+    tilt_joints : tuple of int
+        0-based joints given tilt compliance.
+    mount : bool
+        Whether the end-effector mount is compliant.
+    stiffness_bound : float
+        Bound on the log factors of all springs.
+    ee_mass_bound, link_mass_bound : float
+        Bounds on the log factors of the masses; 0 (default) keeps the
+        robot file's masses, so that :func:`seed_prior` recovers the prior.
+    tilt_prior : float
+        Tilt stiffness prior as a multiple of the joint's stiffness prior.
+    mount_prior_Nm_per_rad : float
+    direction : int
+        Axis of the table (1 = y).
+    k_level_range : tuple of 2 floats
+        Bounds on ``k_twin / k_table`` (table read literally in 1e5 N/m).
+    frame : {"tcp", "world"}
+        Whether ``direction`` is an axis of the TCP frame (the twin's FRF
+        convention) or of the robot base (world) frame.
+    """
+
+    tilt_joints: tuple[int, ...] = (0, 1, 2, 3, 4)
+    mount: bool = True
+    stiffness_bound: float = 3.0
+    ee_mass_bound: float = 0.0
+    link_mass_bound: float = 0.0
+    tilt_prior: float = 3.0
+    mount_prior_Nm_per_rad: float = 1.0e5
+    direction: int = 1
+    frame: str = "tcp"
+    k_level_range: tuple[float, float] = (0.05, 150.0)
+
+
+class _TableModel:
+    """Undamped TCP modes of a robot with the form's DOFs for many parameter vectors.
+
+    The Jacobians of every body over all DOFs are computed once at the
+    postures (they do not depend on springs or masses); ``M`` is then a
+    weighted sum of per-body mass matrices and ``K`` diagonal.
+    """
+
+    def __init__(self, robot: Robot, q: FloatArray, form: SeedFitForm) -> None:
+        r = robot
+        for j in form.tilt_joints:
+            r = r.with_tilt(j, (1.0, 1.0), (0.0, 0.0))
+        r = r.with_mount((1.0, 1.0), (0.0, 0.0)) if form.mount else r.with_mount(None, None)
+        for j in set(range(6)) - set(form.tilt_joints):
+            r = r.with_tilt(j, None, None)
+        self.base = r
+        self.form = form
+        s = nominal_system(r, q)
+        b = s.bodies
+        self.nb = len(b.names)
+        self.nd = s.n_dof
+        self.mb = np.einsum("b,pbki,pbkj->pbij", b.mass_kg, b.jv, b.jv) + np.einsum(
+            "pbki,pbkl,pblj->pbij", b.jw, b.inertia_kgm2, b.jw
+        )
+        jac = s.J if form.frame == "tcp" else s.tcp_jv
+        self.j = jac[:, form.direction, :]  # (p, nd)
+        k6 = robot.stiffness
+        tilt = np.repeat(form.tilt_prior * k6[list(form.tilt_joints)], 2)
+        mount = [form.mount_prior_Nm_per_rad] * (2 if form.mount else 0)
+        self.k0 = np.concatenate([k6, tilt, mount])
+        ns, nm = self.nd, self.nb
+        self.slices = {"k": slice(0, ns), "ee": slice(ns, ns + 1), "links": slice(ns + 1, ns + 7)}
+        self.n_params = ns + 7 + 1  # + level
+        del nm
+        lo = np.concatenate(
+            [np.full(ns, -form.stiffness_bound), [-form.ee_mass_bound],
+             np.full(6, -form.link_mass_bound), [-3.0]]
+        )  # fmt: skip
+        self.lower, self.upper = lo, -lo
+        self.lower[-1], self.upper[-1] = np.log(form.k_level_range)
+
+    def mass_scales(self, x: FloatArray) -> FloatArray:
+        sc = np.ones(self.nb)
+        sc[:6] = np.exp(x[self.slices["links"]])
+        if self.nb > 6:
+            sc[6] = np.exp(x[self.slices["ee"]][0])
+        return sc
+
+    def matrices(self, x: FloatArray) -> tuple[FloatArray, FloatArray]:
+        m = np.einsum("b,pbij->pij", self.mass_scales(x), self.mb)
+        return m, np.diag(self.k0 * np.exp(x[self.slices["k"]]))
+
+    def modes(self, x: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
+        """log f [Hz], log k_dir [N/m], shapes phi (p, nd, nd), w [rad/s]."""
+        m, k = self.matrices(x)
+        w, phi = undamped_modes(m, k)
+        u = np.einsum("pi,pir->pr", self.j, phi)
+        with np.errstate(divide="ignore"):
+            lk = np.log(w**2 / np.maximum(u**2, 1e-300))
+        return np.log(w / (2.0 * np.pi)), lk, phi, w
+
+    def robot(self, x: FloatArray, damping: FloatArray | None = None) -> Robot:
+        """The robot file for parameters ``x`` (dampers ``damping``, shape (nd,))."""
+        k = self.k0 * np.exp(x[self.slices["k"]])
+        c = np.zeros(self.nd) if damping is None else damping
+        r = self.base.with_stiffness(k[:6]).with_damping(c[:6])
+        i = 6
+        for j in self.form.tilt_joints:
+            r = r.with_tilt(j, k[i : i + 2], c[i : i + 2])
+            i += 2
+        if self.form.mount:
+            r = r.with_mount(k[i : i + 2], c[i : i + 2])
+        sc = self.mass_scales(x)
+        joints = tuple(
+            dataclasses.replace(
+                jt,
+                body=RigidBody(
+                    jt.body.mass_kg * sc[n], jt.body.com_m, jt.body.inertia_kgm2 * sc[n]
+                ),
+            )
+            for n, jt in enumerate(r.joints)
+        )
+        r = r.replace(joints=joints)
+        ee = r.end_effector
+        if ee is not None:
+            r = r.replace(
+                end_effector=RigidBody(ee.mass_kg * sc[6], ee.com_m, ee.inertia_kgm2 * sc[6])
+            )
+        return r
+
+
+def _match(lf: FloatArray, lk: FloatArray, f_t: FloatArray, k_t: FloatArray) -> NDArray[np.intp]:
+    """Twin mode index for each table mode (one posture): least frequency and level misfit."""
+    cost = ((lf[None, :] - f_t[:, None]) / 0.03) ** 2 + ((lk[None, :] - k_t[:, None]) / 0.7) ** 2
+    _, cols = linear_sum_assignment(cost)
+    return np.asarray(cols, dtype=np.intp)
+
+
+@dataclass(frozen=True)
+class SeedFit:
+    """Result of :func:`fit_seed_table`.
+
+    Attributes
+    ----------
+    robot : Robot
+        Fitted robot (springs, dampers, masses, compliances).
+    postures : tuple of int
+        0-based table postures used in the fit.
+    k_level : float
+        ``k_twin / k_table`` (table read literally in 1e5 N/m): the level of
+        modal stiffness the twin's masses give; the fit uses relative values.
+    cost : float
+        Robust cost of the stiffness stage.
+    x : ndarray
+        Parameters (log factors; see :class:`SeedFitForm`).
+    """
+
+    robot: Robot
+    postures: tuple[int, ...]
+    k_level: float
+    cost: float
+    x: FloatArray
+
+
+def _soft_l1(r: FloatArray, scale: float) -> FloatArray:
+    """Residuals whose squares are the soft-L1 cost ``2 s^2 (sqrt(1 + (r/s)^2) - 1)``."""
+    out: FloatArray = np.sign(r) * scale * np.sqrt(2.0 * (np.sqrt(1.0 + (r / scale) ** 2) - 1.0))
+    return out
+
+
+def _soft_l1_slope(r: FloatArray, scale: float) -> FloatArray:
+    """Derivative of :func:`_soft_l1` with respect to ``r``."""
+    rho = _soft_l1(r, scale)
+    g = np.sqrt(1.0 + (r / scale) ** 2)
+    small = np.abs(r) < 1e-8 * scale
+    out: FloatArray = np.where(small, 1.0, r / (g * np.where(small, 1.0, rho)))
+    return out
+
+
+def _table_residuals(
+    model: _TableModel,
+    x: FloatArray,
+    f_t: FloatArray,
+    k_t: FloatArray,
+    lz_t: FloatArray,
+    ridge: float,
+    *,
+    jacobian: bool = False,
+    with_frac: bool = True,
+) -> FloatArray | tuple[FloatArray, FloatArray]:
+    """Stage-1 residuals of :func:`fit_seed_table` (and their Jacobian w.r.t. the springs
+    and the level, from eigen-sensitivities; masses fixed)."""
+    lf, lk, phi, w = model.modes(x)
+    ls = x[-1]
+    nd = model.nd
+    lam = w**2
+    k = model.k0 * np.exp(x[model.slices["k"]])
+    out, rows = [], []
+    a_f, a_k = 1.0 / 0.01, K_WEIGHT / _LOG15  # 1 % in f = 1; a factor 1.5 in k = K_WEIGHT
+    for p in range(f_t.shape[0]):
+        m = _match(lf[p], lk[p], f_t[p], k_t[p] + ls)
+        # robust (soft L1, scale 3) on the data; the penalties below stay quadratic
+        rf = a_f * (lf[p, m] - f_t[p])
+        rk = a_k * (lk[p, m] - k_t[p] - ls)
+        out.append(_soft_l1(rf, 3.0))
+        out.append(_soft_l1(rk, 3.0))
+        other = np.ones(lf.shape[1], dtype=bool)
+        other[m] = False
+        # other modes below 42 Hz must not add a peak the table lacks: at 2 % damping their
+        # peak 1/(2 zeta k) stays below EXTRA_PEAK x the table's highest 1/(2 zeta_t k_t)
+        floor = ls - np.log(2.0 * 0.02 * EXTRA_PEAK) + np.min(k_t[p] + lz_t[p])
+        active = other & (lf[p] < np.log(42.0)) & (floor > lk[p])
+        out.append(np.where(active, floor - lk[p], 0.0) / _LOG15)
+        if jacobian:
+            ph = phi[p]  # (nd, modes), mass-normalised
+            dlam = k[:, None] * ph**2  # d lam_r / d x_i: (i, r)
+            dlf = 0.5 * dlam / lam[p][None, :]
+            u = model.j[p] @ ph  # (r,)
+            gap = lam[p][None, :] - lam[p][:, None]  # (s, r): lam_r - lam_s
+            np.fill_diagonal(gap, np.inf)
+            # du_r/dx_i = sum_s u_s k_i phi_is phi_ir / (lam_r - lam_s)
+            du = np.einsum("s,is,ir,sr->ir", u, ph, ph, 1.0 / gap) * k[:, None]
+            with np.errstate(divide="ignore", invalid="ignore"):
+                dlk = dlam / lam[p][None, :] - 2.0 * du / u[None, :]
+            dlk = np.nan_to_num(dlk)
+            jf = np.zeros((5, nd + 1))
+            jf[:, :nd] = (_soft_l1_slope(rf, 3.0) * a_f)[:, None] * dlf[:, m].T
+            jk = np.zeros((5, nd + 1))
+            jk[:, :nd] = (_soft_l1_slope(rk, 3.0) * a_k)[:, None] * dlk[:, m].T
+            jk[:, nd] = -_soft_l1_slope(rk, 3.0) * a_k
+            jp = np.zeros((lf.shape[1], nd + 1))
+            jp[:, :nd] = -dlk.T / _LOG15
+            jp[:, nd] = 1.0 / _LOG15
+            jp[~active] = 0.0
+            rows += [jf, jk, jp]
+    out.append(np.sqrt(ridge) * x[:-1])
+    fr = np.zeros(0)
+    if with_frac:
+        fr = FRAC_WEIGHT * (1.0 - _modal_frac(lf, lk, f_t, k_t, lz_t, ls))
+        out.append(fr)
+    res = np.concatenate(out)
+    if not jacobian:
+        return res
+    jr = np.zeros((model.n_params - 1, nd + 1))
+    jr[:nd, :nd] = np.sqrt(ridge) * np.eye(nd)
+    rows.append(jr)  # ridge on the (fixed, zero) mass factors has no column here
+    jfr = np.zeros((len(fr), nd + 1))  # FRAC rows: central differences
+    cols = [*range(nd), model.n_params - 1] if with_frac else []
+    for n, i in enumerate(cols):
+        for sign in (1.0, -1.0):
+            xx = x.copy()
+            xx[i] += sign * 1e-5
+            lf2, lk2, _, _ = model.modes(xx)
+            v = FRAC_WEIGHT * (1.0 - _modal_frac(lf2, lk2, f_t, k_t, lz_t, xx[-1]))
+            jfr[:, n] += sign * v / 2e-5
+    rows.append(jfr)
+    return res, np.concatenate(rows)
+
+
+_FRAC_GRID_HZ = np.arange(2.0, 40.0 + 1e-9, 0.25)
+
+
+def _modal_frac(
+    lf: FloatArray,
+    lk: FloatArray,
+    f_t: FloatArray,
+    k_t: FloatArray,
+    lz_t: FloatArray,
+    ls: float,
+) -> FloatArray:
+    """FRAC per posture of the twin's modal receptance (undamped modes; the damping of
+    the matched table mode, 2 % for the others) against the table's, 2-40 Hz."""
+    from robolobe.modal.metrics import frac
+    from robolobe.twin.frf import modal_receptance
+
+    z = np.full(lf.shape, 0.02)
+    for p in range(f_t.shape[0]):
+        m = _match(lf[p], lk[p], f_t[p], k_t[p] + ls)
+        z[p, m] = np.exp(lz_t[p])
+    h = modal_receptance(np.exp(lf), z, np.exp(lk), _FRAC_GRID_HZ)
+    ht = modal_receptance(np.exp(f_t), np.exp(lz_t), np.exp(k_t), _FRAC_GRID_HZ)
+    out: FloatArray = np.asarray(frac(h, ht, axis=-1), dtype=np.float64)
+    return out
+
+
+def fit_seed_table(
+    robot: Robot,
+    table: SeedTable,
+    postures: tuple[int, ...] = (0, 1, 2),
+    *,
+    form: SeedFitForm | None = None,
+    starts: int = SEED_FIT_STARTS,
+    seed: int = FIT_SEED,
+    ridge: float = 0.0025,
+    x0: ArrayLike | None = None,
+    refine: int = 8,
+) -> SeedFit:
+    """Fit springs, dampers and masses to a seed table (robust, multi-start).
+
+    Stage 1 (springs, masses, level): least squares with a soft-L1 loss
+    (``f_scale`` 3: residuals beyond ~3 % in frequency or a factor ~2 in
+    modal stiffness count linearly, so a copy error pulls little) over
+
+    * ``log f_twin - log f_table`` per 1 % for each table mode,
+    * ``log k_twin - log k_table - level`` per factor 1.5, weight :data:`K_WEIGHT`,
+    * the twin's other modes below 42 Hz kept from adding peaks the table
+      lacks: at 2 % damping their peak ``1/(2 zeta k)`` below
+      :data:`EXTRA_PEAK` x the table's highest (a quadratic penalty),
+    * a ridge on the log factors.
+
+    Each table mode is matched to a twin mode per posture by the least
+    frequency and modal-stiffness misfit (Hungarian assignment). Starts are
+    uniform within 60 % of the bounds, plus ``x0`` if given.
+
+    Stage 2 (dampers): with the matched undamped modes, ``zeta_r = phi_r^T C
+    phi_r / (2 w_r)`` (first order), the log of every damper is fitted to
+    the table's damping with a soft-L1 loss in ``log zeta`` (scale log 1.5).
+
+    Parameters
+    ----------
+    robot : Robot
+        Prior (kinematics, masses, joint stiffness).
+    table : SeedTable
+    postures : tuple of int
+        0-based table postures to fit (two of them for leave-one-out).
+    form : SeedFitForm, optional
+    starts : int
+        Random starts of stage 1.
+    seed : int
+    ridge : float
+        Weight of the pull of the log factors towards 0.
+    x0 : array_like, optional
+        An extra start (e.g. the parameters of a previous fit).
+    refine : int
+        Every start is first run for 40 evaluations; the ``refine`` best
+        are then run to convergence.
+
+    Returns
+    -------
+    SeedFit
+    """
+    fm = SeedFitForm() if form is None else form
+    idx = list(postures)
+    if not idx or any(p not in (0, 1, 2) for p in idx):
+        raise InputError(f"postures: expected indices 0..2, found {postures!r}")
+    model = _TableModel(robot, table.postures_rad[idx], fm)
+    f_t = np.log(table.f_hz[idx])
+    k_t = np.log(table.k_N_per_m[idx])
+    lz_t = np.log(table.zeta[idx])
+    rng = np.random.default_rng(seed)
+    cands = [rng.uniform(0.6 * model.lower, 0.6 * model.upper) for _ in range(starts)]
+    for c in cands:
+        c[-1] = np.log(np.sqrt(fm.k_level_range[0] * fm.k_level_range[1]))
+    if x0 is not None:
+        cands.insert(0, np.clip(np.asarray(x0, dtype=np.float64), model.lower, model.upper))
+
+    free = model.upper > model.lower  # a zero bound fixes the parameter at 0
+
+    def full(y: FloatArray) -> FloatArray:
+        x = np.zeros(model.n_params)
+        x[free] = y
+        return x
+
+    def resid(y: FloatArray, with_frac: bool) -> FloatArray:
+        r = _table_residuals(model, full(y), f_t, k_t, lz_t, ridge, with_frac=with_frac)
+        assert isinstance(r, np.ndarray)
+        return r
+
+    analytic = bool(
+        np.array_equal(np.flatnonzero(free), np.r_[np.arange(model.nd), model.n_params - 1])
+    )
+
+    def jac(y: FloatArray, with_frac: bool) -> FloatArray:
+        out = _table_residuals(
+            model, full(y), f_t, k_t, lz_t, ridge, jacobian=True, with_frac=with_frac
+        )
+        assert isinstance(out, tuple)
+        return out[1]
+
+    def solve(c: FloatArray, nfev: int, with_frac: bool) -> Any:
+        return least_squares(
+            resid, c, jac=jac if analytic else "2-point",
+            max_nfev=nfev,
+            bounds=(model.lower[free], model.upper[free]), args=(with_frac,),
+        )  # fmt: skip
+
+    # explore every start briefly (without the FRAC term, whose Jacobian is by
+    # differences), refine the most promising ones with it
+    scout = sorted((solve(c[free], 40, False) for c in cands), key=lambda sol: float(sol.cost))
+    best = None
+    for sc in scout[:refine]:
+        sol = solve(sc.x, 300, True)
+        if best is None or sol.cost < best.cost:
+            best = sol
+    assert best is not None
+    x = full(best.x)
+    damping = _fit_table_damping(model, x, table, idx)
+    return SeedFit(
+        robot=model.robot(x, damping),
+        postures=tuple(idx),
+        k_level=float(np.exp(x[-1])),
+        cost=float(best.cost),
+        x=x,
+    )
+
+
+def _fit_table_damping(
+    model: _TableModel, x: FloatArray, table: SeedTable, idx: list[int]
+) -> FloatArray:
+    """Dampers [N m s/rad] that give the matched modes the table's damping (robust)."""
+    lf, lk, phi, w = model.modes(x)
+    f_t = np.log(table.f_hz[idx])
+    k_t = np.log(table.k_N_per_m[idx]) + x[-1]
+    rows, target, every = [], [], []
+    for p in range(len(idx)):
+        every.append((phi[p] ** 2 / (2.0 * w[p])).T)
+        m = _match(lf[p], lk[p], f_t[p], k_t[p])
+        ph = phi[p][:, m]  # (nd, 5)
+        rows.append((ph**2 / (2.0 * w[p, m])).T)  # zeta_r = sum_i c_i row_ri
+        target.append(np.log(table.zeta[idx[p]]))
+    a = np.concatenate(rows)
+    a_all = np.concatenate(every)
+    lt = np.concatenate(target)
+    # prior: every DOF's own oscillator at 2 % damping
+    m_diag = np.einsum("b,pbii->pi", model.mass_scales(x), model.mb).mean(axis=0)
+    k = model.k0 * np.exp(x[model.slices["k"]])
+    c0 = 2.0 * 0.02 * np.sqrt(k * m_diag)
+
+    def resid(s: FloatArray) -> FloatArray:
+        c = c0 * np.exp(s)
+        z = a @ c
+        # no mode of the twin beyond 8 % damping (robot modes: 0.2-7 %, REFERENCES.md)
+        over = np.maximum(0.0, np.log(np.maximum(a_all @ c, 1e-12) / 0.08)) / _LOG15
+        r = _soft_l1((np.log(np.maximum(z, 1e-12)) - lt) / _LOG15, 1.0)
+        return np.concatenate([r, 3.0 * over, 0.05 * s])
+
+    sol = least_squares(resid, np.zeros(len(c0)), bounds=(-5, 5))
+    out: FloatArray = c0 * np.exp(sol.x)
+    return out
+
+
+@dataclass(frozen=True)
+class TableComparison:
+    """The twin's modes matched to a seed table, per posture and mode.
+
+    Attributes
+    ----------
+    f_hz, zeta, k_N_per_m : ndarray, shape (n_post, 5)
+        The matched twin modes (exact damped modes; modal stiffness along the
+        table's direction) [Hz, fraction, N/m].
+    k_level : float
+        Median of ``k_twin / k_table`` (table read literally).
+    f_err : ndarray, shape (n_post, 5)
+        ``f_twin / f_table - 1``.
+    zeta_ratio, k_ratio : ndarray, shape (n_post, 5)
+        ``zeta_twin / zeta_table`` and ``k_twin / (k_level k_table)``.
+    frac : ndarray, shape (n_post,)
+        FRAC of the twin's receptance along the direction against the one
+        rebuilt from the table (:func:`robolobe.twin.frf.modal_receptance`),
+        2-40 Hz in 0.25 Hz steps (the seed's resolution).
+    extra_modes : ndarray of int, shape (n_post,)
+        Unmatched twin modes in 2-40 Hz whose peak ``1/(2 zeta k)`` along the
+        direction exceeds :data:`EXTRA_PEAK` x the table's highest (peaks the
+        table lacks).
+    """
+
+    f_hz: FloatArray
+    zeta: FloatArray
+    k_N_per_m: FloatArray
+    k_level: float
+    f_err: FloatArray
+    zeta_ratio: FloatArray
+    k_ratio: FloatArray
+    frac: FloatArray
+    extra_modes: NDArray[np.intp]
+
+
+def compare_to_table(
+    robot: Robot,
+    table: SeedTable,
+    postures: tuple[int, ...] = (0, 1, 2),
+    *,
+    k_level: float | None = None,
+    direction: int = 1,
+) -> TableComparison:
+    """Match the twin's modes to a seed table and measure the misfit.
+
+    Parameters
+    ----------
+    robot : Robot
+    table : SeedTable
+    postures : tuple of int
+        0-based table postures.
+    k_level : float, optional
+        ``k_twin / k_table`` used in the matching and ``k_ratio``; the median
+        ratio over the postures if omitted (a prediction for a held-out
+        posture should pass the level of its fit).
+    direction : int
+        TCP axis (1 = y).
+
+    Returns
+    -------
+    TableComparison
+    """
+    from robolobe.modal.metrics import frac
+    from robolobe.twin.frf import modal_receptance, receptance
+
+    idx = list(postures)
+    s = nominal_system(robot, table.postures_rad[idx])
+    md = compute_modes(s.M, s.K, s.C, s.J)
+    lf = np.log(md.f_hz)
+    lk = np.log(np.abs(md.k_N_per_m[:, direction, :]))
+    f_t, z_t, k_t = table.f_hz[idx], table.zeta[idx], table.k_N_per_m[idx]
+    level = k_level
+    if level is None:
+        # first match at the level that puts the softest modes together
+        shift = [lk[p].min() - np.log(k_t[p]).min() for p in range(len(idx))]
+        m0 = [_match(lf[p], lk[p], np.log(f_t[p]), np.log(k_t[p]) + shift[p])
+              for p in range(len(idx))]  # fmt: skip
+        level = float(np.exp(np.median([lk[p, m] - np.log(k_t[p]) for p, m in enumerate(m0)])))
+    ms = [_match(lf[p], lk[p], np.log(f_t[p]), np.log(k_t[p] * level)) for p in range(len(idx))]
+    take = np.array(ms)
+    f = np.take_along_axis(md.f_hz, take, axis=-1)
+    z = np.take_along_axis(md.zeta, take, axis=-1)
+    k = np.take_along_axis(np.exp(lk), take, axis=-1)
+    grid = np.arange(2.0, 40.0 + 1e-9, 0.25)
+    h_twin = receptance(s.M, s.K, s.C, s.J, grid)[..., direction, direction]
+    h_tab = modal_receptance(f_t, z_t, k_t, grid)
+    extra = []
+    for p, m in enumerate(ms):
+        other = np.ones(lf.shape[1], dtype=bool)
+        other[m] = False
+        show = other & (md.f_hz[p] >= 2.0) & (md.f_hz[p] <= 40.0)
+        peak_t = np.max(1.0 / (2.0 * z_t[p] * k_t[p] * level))
+        peak = 1.0 / (2.0 * np.maximum(md.zeta[p], 1e-6) * np.exp(lk[p]))
+        extra.append(int(np.sum(show & (peak > EXTRA_PEAK * peak_t))))
+    return TableComparison(
+        f_hz=f,
+        zeta=z,
+        k_N_per_m=k,
+        k_level=float(level),
+        f_err=f / f_t - 1.0,
+        zeta_ratio=z / z_t,
+        k_ratio=k / (level * k_t),
+        frac=np.asarray(frac(h_twin, h_tab, axis=-1), dtype=np.float64),
+        extra_modes=np.array(extra, dtype=np.intp),
+    )
+
+
+@dataclass(frozen=True)
+class ValueVerdict:
+    """Verdict on one table value after the fit.
+
+    Attributes
+    ----------
+    posture, mode : int
+        1-based.
+    quantity : {"f", "zeta", "k"}
+    table, twin : float
+        Table value (f [Hz], zeta [%], k [table unit 1e5 N/m]) and the
+        twin's (k divided by the fit's level).
+    verdict : {"ok", "outlier", "copy error"}
+        ``copy error``: the tables themselves show it
+        (:func:`robolobe.twin.seed_tables.table_checks`); ``outlier``: the
+        robust fit leaves it beyond 3 % (f) or a factor 2.25 (zeta, k);
+        ``ok`` otherwise.
+    reason : str
+    """
+
+    posture: int
+    mode: int
+    quantity: str
+    table: float
+    twin: float
+    verdict: str
+    reason: str
+
+
+OUTLIER_F = 0.03
+"""Frequency misfit beyond which a table value is an outlier of the fit."""
+OUTLIER_FACTOR = 2.25
+"""Damping / relative modal-stiffness factor beyond which a value is an outlier (1.5^2)."""
+
+
+def value_verdicts(name: str, comparison: TableComparison) -> list[ValueVerdict]:
+    """A verdict per table value of robot ``name`` ("B" or "C") against its fitted twin.
+
+    Parameters
+    ----------
+    name : str
+    comparison : TableComparison
+        :func:`compare_to_table` at all three postures.
+
+    Returns
+    -------
+    list of ValueVerdict
+        45 entries (3 postures x 5 modes x 3 quantities).
+    """
+    from robolobe.twin.seed_tables import SEED_TABLES, table_checks
+
+    t = SEED_TABLES[name]
+    checks = {(c.posture, c.mode, c.quantity): c for c in table_checks() if c.robot == name}
+    c = comparison
+    out = []
+    for p in range(3):
+        for m in range(5):
+            vals = (
+                ("f", t.f_hz[p, m], c.f_hz[p, m], abs(c.f_err[p, m]) > OUTLIER_F,
+                 f"twin off by {100 * c.f_err[p, m]:+.1f} %"),
+                ("zeta", 100 * t.zeta[p, m], 100 * c.zeta[p, m],
+                 max(c.zeta_ratio[p, m], 1 / c.zeta_ratio[p, m]) > OUTLIER_FACTOR,
+                 f"twin/table {c.zeta_ratio[p, m]:.2f}"),
+                ("k", t.ema[2, p, m], c.k_N_per_m[p, m] / c.k_level / 1e5,
+                 max(c.k_ratio[p, m], 1 / c.k_ratio[p, m]) > OUTLIER_FACTOR,
+                 f"twin/table (relative) {c.k_ratio[p, m]:.2f}"),
+            )  # fmt: skip
+            for q, tv, wv, off, why in vals:
+                chk = checks.get((p + 1, m + 1, q))
+                if chk is not None:
+                    verdict = "copy error"
+                    reason = f"{chk.kind}: {chk.detail}; fit: {why}"
+                elif off:
+                    verdict, reason = "outlier", why
+                else:
+                    verdict, reason = "ok", why
+                out.append(ValueVerdict(p + 1, m + 1, q, float(tv), float(wv), verdict, reason))
+    return out
+
+
+def seed_prior(name: str, robot: Robot) -> Robot:
+    """The prior of the seed-table fit of built-in robot ``name``.
+
+    ``robot``'s kinematics, masses and end effector with the prior joint
+    stiffness (:data:`PRIOR_STIFFNESS`) and no tilt or mount compliance: what
+    :func:`fit_seed_table` starts from, so that a refit (e.g. leaving a
+    posture out) does not see the shipped fit.
+    """
+    if name not in PRIOR_STIFFNESS:
+        raise InputError(f"name: expected one of {sorted(PRIOR_STIFFNESS)}, found {name!r}")
+    return seed_prior_plain(robot.with_stiffness(PRIOR_STIFFNESS[name]))
+
+
+def seed_parameters(name: str, robot: Robot, form: SeedFitForm | None = None) -> FloatArray:
+    """The parameters of :func:`fit_seed_table` that give ``robot``'s springs.
+
+    Log factors of its joint, tilt and mount springs on the priors of
+    :func:`seed_prior` (masses: 0) and the log of its modal-stiffness level
+    against the table (:func:`compare_to_table`). Used to restart the fit
+    from a robot file (e.g. to check that a shipped file is the fit's
+    optimum).
+
+    Parameters
+    ----------
+    name : str
+        "B" or "C".
+    robot : Robot
+        With the form's compliances.
+    form : SeedFitForm, optional
+    """
+    from robolobe.twin.seed_tables import SEED_TABLES
+
+    fm = SeedFitForm() if form is None else form
+    model = _TableModel(seed_prior(name, robot), SEED_TABLES[name].postures_rad[:1], fm)
+    k = list(robot.stiffness)
+    for j in fm.tilt_joints:
+        ks = robot.joints[j].tilt_stiffness_Nm_per_rad
+        if ks is None:
+            raise InputError(f"robot: joint {j + 1} has no tilt compliance, the fit form needs it")
+        k += list(ks)
+    if fm.mount:
+        if robot.mount_stiffness_Nm_per_rad is None:
+            raise InputError("robot: no mount compliance, the fit form needs it")
+        k += list(robot.mount_stiffness_Nm_per_rad)
+    x = np.zeros(model.n_params)
+    x[model.slices["k"]] = np.log(np.asarray(k) / model.k0)
+    x[-1] = np.log(compare_to_table(robot, SEED_TABLES[name]).k_level)
+    return x

@@ -5,7 +5,10 @@ a posture and what the structural effects (:mod:`robolobe.twin.effects`)
 modify: the bodies with their Jacobians (the mass matrix follows from them),
 the stiffness and damping matrices, and the Jacobian of the measured TCP
 point. The first six DOFs are always the joint deflections on the
-controller axes q1..q6 [rad]; effects may append DOFs (their names in
+controller axes q1..q6 [rad]; the robot's optional compliances come next
+(:func:`compliance_dofs`: ``tilt<i>x``, ``tilt<i>y`` per joint i with tilt
+compliance, ``mount_x``, ``mount_y`` for a compliant end-effector mount,
+small rotations [rad]); effects may append DOFs after them (their names in
 ``dof_names``, units in the effect's documentation).
 """
 
@@ -20,10 +23,10 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from robolobe.robots import Robot, link_frames, point_jacobian
-from robolobe.robots.kinematics import TCP_FRAME
+from robolobe.robots.kinematics import TCP_FRAME, joint_axes
 from robolobe.twin.dynamics import BodySet, _q, robot_bodies
 
-__all__ = ["JOINT_DOFS", "SystemMatrices", "nominal_system"]
+__all__ = ["JOINT_DOFS", "SystemMatrices", "compliance_dofs", "nominal_system"]
 
 FloatArray = NDArray[np.float64]
 
@@ -161,8 +164,95 @@ class SystemMatrices:
         return self.replace(C=big_c)
 
 
+def compliance_dofs(mats: SystemMatrices) -> SystemMatrices:
+    """Append the robot's optional tilt and mount compliances as DOFs.
+
+    Each is a small rotation [rad] about a fixed axis through a point, which
+    turns a set of bodies and (if distal) the TCP rigidly:
+
+    * tilt of joint i (``Joint.tilt_stiffness_Nm_per_rad``): about DH axis
+      x_i (perpendicular to the joint axis) and about ``z_joint x x_i``,
+      through the joint's axis point; turns links i..6, the end effector and
+      the TCP. These are the non-actuated rotational virtual joints of VJM
+      stiffness models (bearing and gearbox tilt; Klimchik et al.,
+      REFERENCES.md), DOFs ``tilt<i>x``, ``tilt<i>y``.
+    * mount (``Robot.mount_stiffness_Nm_per_rad``): about the flange (DH frame
+      6) x and y axes through its origin; turns the end effector and the TCP.
+      DOFs ``mount_x``, ``mount_y``.
+
+    Each DOF has its own spring and viscous damper (diagonal).
+
+    Parameters
+    ----------
+    mats : SystemMatrices
+        With the six joint DOFs only.
+
+    Returns
+    -------
+    SystemMatrices
+        ``mats`` itself if the robot has no optional compliance.
+    """
+    robot = mats.robot
+    if robot.is_flexible_joint_only:
+        return mats
+    names = mats.bodies.names
+    fr = mats.frames
+    z, o = joint_axes(robot, fr)
+    dof: list[str] = []
+    axes: list[FloatArray] = []
+    points: list[FloatArray] = []
+    masks: list[NDArray[np.bool_]] = []
+    k: list[float] = []
+    c: list[float] = []
+    for i in robot.tilt_joints:
+        jt = robot.joints[i]
+        assert jt.tilt_stiffness_Nm_per_rad is not None
+        assert jt.tilt_damping_Nms_per_rad is not None
+        u = fr[..., i + 1, :3, 0]  # DH x_(i+1): perpendicular to joint i+1's axis
+        zi = z[..., i, :]
+        u = u - np.sum(u * zi, axis=-1, keepdims=True) * zi
+        u = u / np.linalg.norm(u, axis=-1, keepdims=True)
+        distal = np.array(
+            [nm == "end_effector" or (nm.startswith("link") and int(nm[4:]) >= i + 1)
+             for nm in names]
+        )  # fmt: skip
+        for tag, a in (("x", u), ("y", np.cross(zi, u))):
+            dof.append(f"tilt{i + 1}{tag}")
+            axes.append(a)
+            points.append(o[..., i, :])
+            masks.append(distal)
+        k += list(jt.tilt_stiffness_Nm_per_rad)
+        c += list(jt.tilt_damping_Nms_per_rad)
+    if robot.has_mount:
+        assert robot.mount_stiffness_Nm_per_rad is not None
+        assert robot.mount_damping_Nms_per_rad is not None
+        ee = np.array([nm == "end_effector" for nm in names])
+        for col, tag in ((0, "x"), (1, "y")):
+            dof.append(f"mount_{tag}")
+            axes.append(fr[..., 6, :3, col])
+            points.append(fr[..., 6, :3, 3])
+            masks.append(ee)
+        k += list(robot.mount_stiffness_Nm_per_rad)
+        c += list(robot.mount_damping_Nms_per_rad)
+    a = np.stack(axes, axis=-1)  # (..., 3, m)
+    p = np.stack(points, axis=-1)  # (..., 3, m)
+    mask = np.stack(masks, axis=-1).astype(np.float64)  # (nb, m)
+    lever = mats.bodies.com_m[..., :, :, None] - p[..., None, :, :]  # (..., nb, 3, m)
+    a_b = np.broadcast_to(a[..., None, :, :], lever.shape)
+    body_jv = np.cross(a_b, lever, axis=-2) * mask[:, None, :]
+    body_jw = a_b * mask[:, None, :]
+    tcp_lever = mats.tcp_position[..., :, None] - p  # (..., 3, m)
+    tcp_jv = np.cross(a, tcp_lever, axis=-2)
+    n_old = mats.n_dof
+    out = mats.add_dofs(tuple(dof), body_jv, body_jw, tcp_jv, a, np.array(k))
+    big_c = out.C.copy()
+    idx = np.arange(n_old, out.n_dof)
+    big_c[..., idx, idx] = np.array(c)
+    return out.replace(C=big_c)
+
+
 def nominal_system(robot: Robot, q: ArrayLike) -> SystemMatrices:
-    """The nominal model of FORMATS.md section 1 at postures q.
+    """The model of FORMATS.md section 1 at postures q, with the robot's compliances.
 
     Parameters
     ----------
@@ -173,13 +263,14 @@ def nominal_system(robot: Robot, q: ArrayLike) -> SystemMatrices:
     Returns
     -------
     SystemMatrices
-        Six joint DOFs, ``K = diag(stiffness)``, ``C = diag(damping)``.
+        Six joint DOFs, ``K = diag(stiffness)``, ``C = diag(damping)``, then
+        the optional tilt and mount DOFs of :func:`compliance_dofs`.
     """
     qq = _q(q)
     batch = qq.shape[:-1]
     frames = link_frames(robot, qq)
     tcp = point_jacobian(robot, qq, TCP_FRAME)
-    return SystemMatrices(
+    mats = SystemMatrices(
         robot=robot,
         q=qq,
         frames=frames,
@@ -190,3 +281,4 @@ def nominal_system(robot: Robot, q: ArrayLike) -> SystemMatrices:
         tcp_jw=tcp[..., 3:, :],
         dof_names=JOINT_DOFS,
     )
+    return compliance_dofs(mats)

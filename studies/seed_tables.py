@@ -1,0 +1,141 @@
+"""Built-in robots B and C against the seed paper's measured modes (Tables 4 and 7).
+
+For each of B and C prints
+
+1. the table's copy errors found from the tables alone
+   (:func:`robolobe.twin.seed_tables.table_checks`);
+2. the shipped robot file's FRAC and frequency errors against the table;
+3. the table fit (:func:`robolobe.twin.calibration.fit_seed_table`, joint tilt
+   and mount compliance, from the prior :func:`seed_prior`): measured vs twin
+   per posture and mode (frequency, damping, relative modal stiffness), FRAC
+   of its yy receptance against the one rebuilt from the table (2-40 Hz), and
+   a verdict per value;
+4. leave-one-posture-out: the fit (:func:`robolobe.twin.calibration.fit_seed_table`)
+   rerun from the prior (the robot file's kinematics and masses, prior joint
+   stiffness, no compliance values) on two postures, predicting the third.
+
+Run from the repository root (a few minutes; ``--starts`` trades time for
+the chance of finding the best fit; ``--no-lopo`` skips step 3)::
+
+    python studies/seed_tables.py [--starts 12] [--no-lopo] [--json out.json]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import time
+
+import numpy as np
+
+from robolobe.robots import load_robot
+from robolobe.twin.calibration import (
+    SEED_FIT_STARTS,
+    compare_to_table,
+    fit_seed_table,
+    seed_prior,
+    value_verdicts,
+)
+from robolobe.twin.seed_tables import SEED_TABLES, table_checks
+
+
+def _fmt_row(p: int, m: int, t, c) -> str:
+    return (
+        f"| {p + 1} | {m + 1} | {t.f_hz[p, m]:.2f} | {c.f_hz[p, m]:.2f} | "
+        f"{100 * c.f_err[p, m]:+.1f} | {100 * t.zeta[p, m]:.2f} | {100 * c.zeta[p, m]:.2f} | "
+        f"{t.ema[2, p, m]:.2f} | {c.k_N_per_m[p, m] / c.k_level / 1e5:.2f} |"
+    )
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--starts", type=int, default=SEED_FIT_STARTS // 2)
+    ap.add_argument("--no-lopo", action="store_true")
+    ap.add_argument("--json", default=None)
+    args = ap.parse_args()
+    out: dict[str, object] = {}
+    print("Copy errors visible in the tables alone:")
+    for chk in table_checks():
+        print(f"  {chk.robot} posture {chk.posture} mode {chk.mode} {chk.quantity}: "
+              f"{chk.kind}: {chk.detail}")  # fmt: skip
+    for name in ("B", "C"):
+        t = SEED_TABLES[name]
+        shipped = load_robot(name)
+        cs = compare_to_table(shipped, t)
+        print(f"\n## Robot {name} ({shipped.name}) vs {t.source}")
+        print("shipped file: FRAC " + ", ".join(f"{v:.3f}" for v in cs.frac)
+              + f"; |f err| median {100 * np.median(np.abs(cs.f_err)):.1f} %, "
+              f"max {100 * np.max(np.abs(cs.f_err)):.1f} %")  # fmt: skip
+        t0 = time.perf_counter()
+        fit = fit_seed_table(seed_prior(name, shipped), t, starts=args.starts)
+        robot = fit.robot
+        c = compare_to_table(robot, t)
+        print(f"\ntable fit ({args.starts} starts, {time.perf_counter() - t0:.0f} s, "
+              f"load {os.getloadavg()[0]:.1f}):")  # fmt: skip
+        print(f"twin modal stiffness / table (read as 1e5 N/m): {c.k_level:.2f}")
+        print("\n| posture | mode | f table | f twin | err % | zeta table % | zeta twin % "
+              "| k table | k twin (rel.) |")  # fmt: skip
+        print("|---|---|---|---|---|---|---|---|---|")
+        for p in range(3):
+            for m in range(5):
+                print(_fmt_row(p, m, t, c))
+        ae = np.abs(c.f_err)
+        print(f"\nfrequency error: median {100 * np.median(ae):.2f} %, max {100 * ae.max():.2f} %, "
+              f"within 3 %: {int(np.sum(ae <= 0.03))}/15")  # fmt: skip
+        zr = np.maximum(c.zeta_ratio, 1 / c.zeta_ratio)
+        kr = np.maximum(c.k_ratio, 1 / c.k_ratio)
+        print(f"damping within x1.5: {int(np.sum(zr <= 1.5))}/15; relative k within x1.5: "
+              f"{int(np.sum(kr <= 1.5))}/15")  # fmt: skip
+        print("FRAC yy per posture (2-40 Hz): " + ", ".join(f"{v:.3f}" for v in c.frac)
+              + f"; extra twin peaks: {c.extra_modes.tolist()}")  # fmt: skip
+        spread_t = t.f_hz.max(axis=0) / t.f_hz.min(axis=0) - 1
+        spread_w = c.f_hz.max(axis=0) / c.f_hz.min(axis=0) - 1
+        print("posture variation of f per mode (max/min - 1), table vs twin: "
+              + ", ".join(f"{100 * a:.0f}/{100 * b:.0f} %"
+                          for a, b in zip(spread_t, spread_w, strict=True)))  # fmt: skip
+        print("\nverdicts (values flagged by the tables or the fit):")
+        verdicts = value_verdicts(name, c)
+        for v in verdicts:
+            if v.verdict != "ok":
+                print(f"  posture {v.posture} mode {v.mode} {v.quantity}: table {v.table:.4g}, "
+                      f"twin {v.twin:.4g}: {v.verdict} ({v.reason})")  # fmt: skip
+        res: dict[str, object] = {
+            "f_err": c.f_err.tolist(),
+            "zeta_ratio": c.zeta_ratio.tolist(),
+            "k_ratio": c.k_ratio.tolist(),
+            "frac": c.frac.tolist(),
+            "k_level": c.k_level,
+            "verdicts": [v.__dict__ for v in verdicts],
+        }
+        if not args.no_lopo:
+            print(f"\nleave-one-posture-out ({args.starts} starts per fit, from the prior):")
+            prior = seed_prior(name, shipped)
+            errs = []
+            lopo: list[dict[str, object]] = []
+            for held in range(3):
+                keep = tuple(p for p in range(3) if p != held)
+                t0 = time.perf_counter()
+                fit = fit_seed_table(prior, t, keep, starts=args.starts)
+                dt = time.perf_counter() - t0
+                ch = compare_to_table(fit.robot, t, (held,), k_level=fit.k_level)
+                e = np.abs(ch.f_err[0])
+                errs.append(e)
+                print(f"  held-out posture {held + 1}: f error per mode "
+                      + " ".join(f"{100 * x:.1f}" for x in ch.f_err[0])
+                      + f" %; FRAC {ch.frac[0]:.3f}; fit {dt:.0f} s "
+                      f"(load {os.getloadavg()[0]:.1f})")  # fmt: skip
+                lopo.append({"held": held + 1, "f_err": ch.f_err[0].tolist(),
+                             "frac": float(ch.frac[0])})  # fmt: skip
+            ae = np.concatenate(errs)
+            print(f"  LOPO frequency error: median {100 * np.median(ae):.2f} %, "
+                  f"max {100 * ae.max():.2f} %")  # fmt: skip
+            res["lopo"] = lopo
+        out[name] = res
+    if args.json:
+        with open(args.json, "w", encoding="utf-8") as fh:
+            json.dump(out, fh, indent=1)
+
+
+if __name__ == "__main__":
+    main()
