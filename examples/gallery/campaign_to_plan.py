@@ -39,7 +39,9 @@ rng = np.random.default_rng(1)
 # The robot that is tested: B with a softer joint 2 (unknown to robolobe).
 nominal = load_robot("B")
 joints = list(nominal.joints)
-joints[1] = dataclasses.replace(joints[1], stiffness_Nm_per_rad=0.75 * joints[1].stiffness_Nm_per_rad)
+joints[1] = dataclasses.replace(
+    joints[1], stiffness_Nm_per_rad=0.75 * joints[1].stiffness_Nm_per_rad
+)
 truth = dataclasses.replace(nominal, joints=tuple(joints))
 
 # 1. hammer tests at 12 postures

@@ -36,6 +36,8 @@ diagnosis = diagnose(campaign, robot=robot)
 print(f"verdict: {diagnosis.verdict}")
 for step in diagnosis.forward.steps:
     names = [p.name for p in step.candidate.params]
-    fitted = ", ".join(f"{n} = {v:.3g} +- {e:.2g}" for n, v, e in zip(names, step.params, step.std))
+    fitted = ", ".join(
+        f"{n} = {v:.3g} +- {e:.2g}" for n, v, e in zip(names, step.params, step.std, strict=True)
+    )
     print(f"  {step.candidate.name}: {fitted} ({step.candidate.description})")
 print(f"report: {write_report(diagnosis, out / 'diagnosis')}")

@@ -38,8 +38,13 @@ lobes = stability_lobes(dynamics, cutter=cutter, material=material, conditions=c
 
 a_min, rpm_at_min = lobes.minimum()
 best = int(np.argmax(lobes.a_lim))
-print(f"smallest stable depth in the range: {1e3 * float(a_min):.2f} mm at {float(rpm_at_min):.0f} rpm")
-print(f"best speed in the range: {rpm[best]:.0f} rpm, stable up to {1e3 * lobes.a_lim[best]:.2f} mm")
+print(
+    f"smallest stable depth in the range: {1e3 * float(a_min):.2f} mm "
+    f"at {float(rpm_at_min):.0f} rpm"
+)
+print(
+    f"best speed in the range: {rpm[best]:.0f} rpm, stable up to {1e3 * lobes.a_lim[best]:.2f} mm"
+)
 
 write_lobes_csv(out / "lobes.csv", lobes)
 save_lobe_plot(lobes, out / "lobes.png")

@@ -27,7 +27,10 @@ s = result.summary
 print(f"robot: {s['robot']} ({s['mode_source']})")
 print(f"waypoints: {s['n_waypoints']} ({s['n_cut']} cutting)")
 print(f"depth per pass: {s['depth_mm']:.2f} mm, speed {s['rpm_min']:.0f}-{s['rpm_max']:.0f} rpm")
-print(f"material removal rate: {s['mrr_cm3_per_min']:.1f} cm^3/min, cycle time {s['cycle_time_s']:.1f} s")
+print(
+    f"material removal rate: {s['mrr_cm3_per_min']:.1f} cm^3/min, "
+    f"cycle time {s['cycle_time_s']:.1f} s"
+)
 print(f"minimum stability margin: {s['min_margin']:.2f} (safety factor {s['safety_factor']})")
 print(json.dumps(s["vs_best_constant_speed"], default=str))
 print(f"report written to {report}")
