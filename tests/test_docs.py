@@ -33,17 +33,16 @@ def _env() -> dict[str, str]:
     return env
 
 
-def _run_gallery(name: str, out: Path) -> str:
+def _run(args: list[str], what: str) -> str:
     proc = subprocess.run(
-        [sys.executable, str(GALLERY / f"{name}.py"), str(out)],
-        cwd=ROOT,
-        env=_env(),
-        capture_output=True,
-        text=True,
-        timeout=600,
+        [sys.executable, *args], cwd=ROOT, env=_env(), capture_output=True, text=True, timeout=600
     )
-    assert proc.returncode == 0, f"{name}.py failed:\n{proc.stdout}\n{proc.stderr}"
+    assert proc.returncode == 0, f"{what} failed:\n{proc.stdout}\n{proc.stderr}"
     return proc.stdout
+
+
+def _run_gallery(name: str, out: Path) -> str:
+    return _run([str(GALLERY / f"{name}.py"), str(out)], f"{name}.py")
 
 
 def test_every_gallery_script_has_a_page_in_the_nav() -> None:
@@ -62,15 +61,7 @@ def test_docs_build_strict(tmp_path: Path) -> None:
     if missing:
         pytest.skip(f"docs tools not installed ({', '.join(missing)}): pip install -e '.[docs]'")
     site = tmp_path / "site"
-    proc = subprocess.run(
-        [sys.executable, "-m", "mkdocs", "build", "--strict", "--site-dir", str(site)],
-        cwd=ROOT,
-        env=_env(),
-        capture_output=True,
-        text=True,
-        timeout=600,
-    )
-    assert proc.returncode == 0, f"mkdocs build --strict failed:\n{proc.stdout}\n{proc.stderr}"
+    _run(["-m", "mkdocs", "build", "--strict", "--site-dir", str(site)], "mkdocs build --strict")
     # The API reference was rendered from the docstrings, not left empty.
     api = (site / "api" / "plan" / "index.html").read_text(encoding="utf-8")
     assert "load_job" in api
