@@ -11,11 +11,15 @@ from robolobe.plan.paths.apt import parse_apt
 
 
 def test_catia_fixture(data_dir):
-    # the fixture's arcs run counter-clockwise about their axis: the NX default warns
-    nx = read_toolpath(data_dir / "contour_catia_ok.apt")
+    # the fixture's arcs run counter-clockwise about their axis: the NX sense
+    # forced on them warns; the default (auto) reads them ccw from tangency
+    nx = read_toolpath(data_dir / "contour_catia_ok.apt", circle_axis="cw")
     assert any("circle_axis = 'ccw'" in w for w in nx.attrs["warnings"])
     df = read_toolpath(data_dir / "contour_catia_ok.apt", circle_axis="ccw")
     assert not any("circle_axis" in w for w in df.attrs["warnings"])
+    auto = read_toolpath(data_dir / "contour_catia_ok.apt")
+    assert auto.attrs["warnings"] == df.attrs["warnings"]
+    np.testing.assert_array_equal(auto[["x_m", "y_m", "z_m"]], df[["x_m", "y_m", "z_m"]])
     # RAPID applies to the next GOTO only
     assert df["motion"].tolist()[:3] == ["rapid", "rapid", "cut"]
     assert df["rpm_programmed"].iloc[0] == 12000.0
@@ -80,3 +84,16 @@ def test_units_msys_godlta_and_feed_forms():
 def test_errors(text, what):
     with pytest.raises(InputError, match=rf"^x\.apt:1: .*{what}"):
         parse_apt(text, "x.apt")
+
+
+def test_circle_sense_that_cannot_be_checked_is_said(tmp_path):
+    # the only arc follows a plunge: no lateral move to check tangency against
+    f = tmp_path / "plunge_arc.apt"
+    f.write_text(
+        "UNITS/MM\nFEDRAT/MMPM,1000\nGOTO/0,-20,5\nGOTO/0,-20,-5\n"
+        "CIRCLE/0,0,-5,0,0,1,20\nGOTO/20,0,-5\nFINI\n"
+    )
+    df = read_toolpath(f)
+    assert any("could not be checked" in w and "taken as cw" in w for w in df.attrs["warnings"])
+    cw = read_toolpath(f, circle_axis="cw")
+    np.testing.assert_array_equal(df[["x_m", "y_m"]], cw[["x_m", "y_m"]])

@@ -85,7 +85,8 @@ _RotaryAxes = Annotated[
 ]
 _CircleAxis = Annotated[
     str | None,
-    typer.Option(help="APT CIRCLE sense about its axis: cw (Siemens NX) or ccw.",
+    typer.Option(help="APT CIRCLE sense about its axis: auto (from tangency, default), "
+                      "cw (Siemens NX) or ccw (CATIA).",
                  show_default=False),
 ]  # fmt: skip
 

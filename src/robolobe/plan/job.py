@@ -78,7 +78,8 @@ Example (all keys; defaults shown where a key is optional)::
     tool_direction = "z"         # "z" | "x": KRL/RAPID tool-frame axis along the working direction
     coordinates = "workpiece"    # "workpiece" | "machine": APT MSYS, KRL $BASE, RAPID wobjdata
     rotary_axes = "auto"         # "auto" | "head" | "table": G-code A/B/C words
-    circle_axis = "cw"           # "cw" | "ccw": APT CIRCLE sense about i,j,k (NX: cw)
+    circle_axis = "auto"         # "auto" | "cw" | "ccw": APT CIRCLE sense about i,j,k
+                                 # (NX: cw, CATIA: ccw; auto: from tangency)
     arc_tol_mm = 0.01            # chord tolerance of linearised arcs
 """
 
@@ -273,7 +274,7 @@ class _PathSpec(_Spec):
     tool_direction: Literal["z", "x"] | None = None
     coordinates: Literal["workpiece", "machine"] | None = None
     rotary_axes: Literal["auto", "head", "table"] | None = None
-    circle_axis: Literal["cw", "ccw"] | None = None
+    circle_axis: Literal["auto", "cw", "ccw"] | None = None
     arc_tol_mm: Annotated[float, Field(gt=0, le=10, allow_inf_nan=False, strict=True)] | None = None
 
 

@@ -137,7 +137,7 @@ READER_OPTIONS: dict[str, tuple[str, ...] | None] = {
     "tool_direction": ("z", "x"),
     "coordinates": ("workpiece", "machine"),
     "rotary_axes": ("auto", "head", "table"),
-    "circle_axis": ("cw", "ccw"),
+    "circle_axis": ("auto", "cw", "ccw"),
     "arc_tol_mm": None,
 }
 

@@ -114,8 +114,9 @@ def parse_apt(
     *,
     arc_tol_mm: float = 0.01,
     units: str = "auto",
-    circle_axis: str = "cw",
+    circle_axis: str = "auto",
     coordinates: str = "workpiece",
+    _tally: dict[str, int] | None = None,
 ) -> pd.DataFrame:
     """Read APT/CL text into the waypoint table.
 
@@ -132,11 +133,17 @@ def parse_apt(
         inch when the feeds say ``IPM``/``IPR``, else mm; both with a warning
         (and one more when an mm read looks like inch data: extents within
         one inch cube and feeds below 100 mm/min).
-    circle_axis : {"cw", "ccw"}
+    circle_axis : {"auto", "cw", "ccw"}
         Sense of ``CIRCLE`` arcs about their axis ``i,j,k``: ``cw`` (Siemens
         NX documentation: the axis "assuming a clockwise direction") or
-        ``ccw``. A warning names the arcs that leave their start against
-        the incoming move (the other convention's signature).
+        ``ccw`` (CATIA and other APT posts). CAM systems disagree, so
+        ``auto`` (default) reads the file both ways and keeps the sense in
+        which arcs leave their start along the incoming move (a toolpath is
+        tangent there; the other sense turns back by ~180 deg); the choice
+        is stated as a reader warning. Where no arc follows a lateral move
+        ``auto`` cannot tell, takes ``cw`` and says so. With ``cw``/``ccw``
+        a warning names the arcs that leave their start against the incoming
+        move (the other convention's signature).
     coordinates : {"workpiece", "machine"}
         ``workpiece``: points as written (NX writes them in the MCS, the
         part's program zero). ``machine``: ``MSYS`` applied, i.e. points in
@@ -153,8 +160,12 @@ def parse_apt(
         Unsupported or malformed statements, naming ``source:line``.
     """
     check_choice("units", units, UNIT_CHOICES)
-    check_choice("circle_axis", circle_axis, ("cw", "ccw"))
+    check_choice("circle_axis", circle_axis, ("auto", "cw", "ccw"))
     check_choice("coordinates", coordinates, ("workpiece", "machine"))
+    if circle_axis == "auto":
+        return _parse_auto_sense(
+            text, source, arc_tol_mm=arc_tol_mm, units=units, coordinates=coordinates
+        )
     out = WaypointBuilder(source)
     stmts = _statements(text)
     if not stmts:
@@ -361,7 +372,7 @@ def parse_apt(
             if circle is not None and pos is not None and not is_rapid:
                 centre, nrm, _, turns = circle
                 cw = circle_axis == "cw"
-                _check_tangent(out, pos, prev_dir, centre, nrm, cw, circle_axis, lineno)
+                _check_tangent(out, pos, prev_dir, centre, nrm, cw, circle_axis, lineno, _tally)
                 pts = arc_points(
                     pos, target, centre, nrm, clockwise=cw, tol=arc_tol_mm, turns=turns,
                     full_circle=True, where=where,
@@ -427,8 +438,12 @@ def _check_tangent(
     cw: bool,
     circle_axis: str,
     lineno: int,
+    tally: dict[str, int] | None = None,
 ) -> None:
-    """Warn when an arc leaves its start against the incoming move (wrong sense)."""
+    """Warn when an arc leaves its start against the incoming move (wrong sense).
+
+    ``tally`` (optional) counts arcs that leave ``along`` / ``against`` it.
+    """
     if prev_dir is None:
         return
     d = prev_dir - float(prev_dir @ nrm) * nrm
@@ -437,6 +452,11 @@ def _check_tangent(
         return
     t = arc_start_tangent(start, centre, nrm, clockwise=cw)
     c = float(t @ d) / nd
+    if tally is not None:
+        if c > 0.7:
+            tally["along"] = tally.get("along", 0) + 1
+        elif c < -0.7:
+            tally["against"] = tally.get("against", 0) + 1
     if c < -0.7:
         other = "ccw" if circle_axis == "cw" else "cw"
         out.warn(
@@ -446,6 +466,53 @@ def _check_tangent(
             lineno,
             key="circle-kink",
         )
+
+
+def _parse_auto_sense(
+    text: str, source: str, *, arc_tol_mm: float, units: str, coordinates: str
+) -> pd.DataFrame:
+    """:func:`parse_apt` with the ``CIRCLE`` sense the file's own moves imply."""
+    import logging
+
+    tally: dict[str, int] = {}
+    table_log = logging.getLogger("robolobe.plan.paths._table")
+    level = table_log.level
+    table_log.setLevel(logging.ERROR)  # the trial read's warnings are not the answer's
+    try:
+        parse_apt(
+            text, source, arc_tol_mm=arc_tol_mm, units=units, circle_axis="cw",
+            coordinates=coordinates, _tally=tally,
+        )  # fmt: skip
+    finally:
+        table_log.setLevel(level)
+    along, against = tally.get("along", 0), tally.get("against", 0)
+    sense = "ccw" if against > along else "cw"
+    df = parse_apt(
+        text, source, arc_tol_mm=arc_tol_mm, units=units, circle_axis=sense,
+        coordinates=coordinates,
+    )  # fmt: skip
+    if along + against and min(along, against) == 0:
+        # every checkable arc agrees: the reading is unambiguous
+        logging.getLogger(__name__).info(
+            "%s: CIRCLE sense %s about i,j,k (all %d checkable arcs tangent)",
+            source, sense, along + against,
+        )  # fmt: skip
+        return df
+    if along + against:
+        note = (
+            f"CIRCLE sense taken as {sense} about i,j,k: in it {max(along, against)} of "
+            f"{along + against} arcs that follow a lateral move leave their start along it, "
+            "the others turn back: check the CL data (set circle_axis to force one)"
+        )
+    elif "CIRCLE" in text.upper():
+        note = (
+            "CIRCLE sense could not be checked (no arc follows a lateral move); taken as cw "
+            "(Siemens NX); set circle_axis = 'ccw' for CATIA-style CL data"
+        )
+    else:
+        return df
+    df.attrs["warnings"] = [f"{source}: {note}", *df.attrs.get("warnings", [])]
+    return df
 
 
 def read_apt(path: str | Path, **options: float | str) -> pd.DataFrame:
