@@ -131,6 +131,13 @@ def test_cli_simulate_output_that_is_a_file_is_refused_before_work(tmp_path: Pat
         ["compare", "PATH", "--job", "JOB", "-o", "FILE"],
         ["sld", "--modes", "MODES", "--teeth", "2", "--immersion", "0.5", "--rpm", "5000:6000",
          "--material", "Al7075-T6", "-o", "M/x.csv", "--plot", "DIR"],
+        ["transfer", "MODES", "--robot", "B", "-o", "DIR"],
+        ["train", "MODES", "-o", "FILE/m.npz"],
+        ["predict", "B", "MODES", "-o", "DIR"],
+        ["design-tests", "B", "--n", "20", "-o", "DIR"],
+        ["diagnose", "CAMP", "--json", "DIR"],
+        ["diagnose", "CAMP", "--json", "M/d.json", "--report", "FILE"],
+        ["verify", "CAMP", "--robot", "B", "-o", "FILE"],
     ],
 )  # fmt: skip
 def test_cli_bad_outputs_refused_before_work(tmp_path: Path, args: list[str]) -> None:
@@ -153,6 +160,6 @@ def test_cli_bad_outputs_refused_before_work(tmp_path: Path, args: list[str]) ->
     r = _cli(*argv)
     assert r.returncode == 2, r.stderr
     assert "Traceback" not in r.stderr
-    assert "--output" in r.stderr or "--plot" in r.stderr, r.stderr
+    assert any(o in r.stderr for o in ("--output", "--plot", "--json", "--report")), r.stderr
     assert sorted(p.name for p in tmp_path.iterdir()) == ["d", "file.txt", "modes.csv"]
     assert f.read_text() == "x"

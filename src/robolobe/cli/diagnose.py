@@ -101,6 +101,14 @@ def register(app: typer.Typer) -> None:
         campaign's [test] table (window_end, duration_s); hammer force levels
         from an optional force_N column of postures.csv.
         """
+        from robolobe._atomic import check_output_dir, check_output_file
+
+        check_output_file(json_out, "--json")
+        if report is not None:
+            check_output_dir(report, "--report")
+        if updated_model is not None:
+            check_output_dir(updated_model, "--updated-model")
+
         import dataclasses
 
         from robolobe._atomic import atomic_write_text

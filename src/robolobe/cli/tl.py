@@ -192,6 +192,10 @@ def register(app: typer.Typer) -> None:
         Holds out 20 % of the postures (the seed's 80:20 split) to calibrate
         the spread and reports it.
         """
+        from robolobe._atomic import check_output_file
+
+        check_output_file(output, "--output")
+
         from robolobe.tl.estimator import ModalPredictor
         from robolobe.tl.presets import PRESETS
 
@@ -271,6 +275,10 @@ def register(app: typer.Typer) -> None:
         R's twin calibrated to the tests plus a learned correction of what it
         still misses; a job plans on it with ``[robot] model = "OUT.npz"``.
         """
+        from robolobe._atomic import check_output_file
+
+        check_output_file(output, "--output")
+
         from robolobe.tl.estimator import transfer
         from robolobe.tl.models import load_model
 
@@ -343,6 +351,12 @@ def register(app: typer.Typer) -> None:
         Columns: those of modal.csv, then per value its standard deviation
         (``*_std``) and 90 % interval (``*_lo90``, ``*_hi90``).
         """
+        from robolobe._atomic import check_output_dir, check_output_file
+
+        check_output_file(output, "--output")
+        if frf is not None:
+            check_output_dir(frf, "--frf")
+
         from robolobe.modal.modal_csv import write_modal_csv
         from robolobe.tl.models import load_model
         from robolobe.tl.predict_io import prediction_frame, write_frf_campaign
@@ -387,6 +401,10 @@ def register(app: typer.Typer) -> None:
         seed: Annotated[int, typer.Option("--seed", help="Random seed.")] = 0,
     ) -> None:
         """Propose hammer-test postures that cover the feasible workspace."""
+        from robolobe._atomic import check_output_file
+
+        check_output_file(output, "--output")
+
         from robolobe.tl.design import design_postures
         from robolobe.tl.models import load_model
         from robolobe.twin.campaign import read_postures

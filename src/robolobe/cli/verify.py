@@ -68,6 +68,10 @@ def register(app: typer.Typer) -> None:
         chatter with their file:line. Exit code 0: no waypoint beyond its limit;
         4: some are; 2: bad input (nothing written).
         """
+        from robolobe._atomic import check_output_dir
+
+        check_output_dir(output if output is not None else plan_dir / "verify", "--output")
+
         from robolobe.plan.verify import verify_plan, write_verify
 
         with status("verifying ..."):
