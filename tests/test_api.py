@@ -28,6 +28,15 @@ def test_every_public_name_resolves(name: str) -> None:
     assert (obj.__doc__ or "").strip(), f"rl.{name} has no docstring"
 
 
+def test_public_names_survive_subpackage_imports() -> None:
+    # importing a subpackage sets an attribute of that name on robolobe: no
+    # public name may be a subpackage's name, or it would turn into a module
+    import pkgutil
+
+    subpackages = {m.name for m in pkgutil.iter_modules(rl.__path__)}
+    assert not (set(rl.__all__) & subpackages)
+
+
 def test_unknown_name_is_an_attribute_error() -> None:
     with pytest.raises(AttributeError, match="no attribute 'plan_pth'"):
         _ = rl.plan_pth  # type: ignore[attr-defined]

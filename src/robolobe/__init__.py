@@ -58,8 +58,9 @@ _API: dict[str, tuple[str, str]] = {
     "write_plan": ("robolobe.plan.report", "write_outputs"),
     "verify": ("robolobe.plan.verify", "verify_plan"),
     "compare_robots": ("robolobe.plan.compare", "compare_robots"),
-    # diagnosis
-    "diagnose": ("robolobe.diagnose.pipeline", "diagnose"),
+    # diagnosis (not "diagnose": importing robolobe.diagnose would replace it
+    # by the subpackage of that name)
+    "diagnose_campaign": ("robolobe.diagnose.pipeline", "diagnose"),
 }
 
 __all__ = [
