@@ -113,6 +113,14 @@ class Untestable:
 Builder = Callable[[NDArray[np.float64]], tuple[Effect, ...]]
 
 
+def _rotation_params() -> tuple[ParamSpec, ...]:
+    """Search ranges of the three angles of a rotated sensor or hammer [rad]."""
+    g = (-0.1, 0.0, 0.1)
+    return tuple(
+        ParamSpec(n, -0.35, 0.35, g, "linear", null=0.0) for n in ("rx_rad", "ry_rad", "rz_rad")
+    )
+
+
 def _builder(cls: type[Effect], names: Sequence[str], **fixed: Any) -> Builder:
     """``p -> (cls(**fixed, names[0]=p[0], ...),)``."""
 
@@ -272,15 +280,10 @@ def _family(
                 )
         return out
     if name == "sensor_misalignment":
-        g = (-0.1, 0.0, 0.1)
         return [
             Candidate(
                 name,
-                (
-                    ParamSpec("rx_rad", -0.35, 0.35, g, "linear", null=0.0),
-                    ParamSpec("ry_rad", -0.35, 0.35, g, "linear", null=0.0),
-                    ParamSpec("rz_rad", -0.35, 0.35, g, "linear", null=0.0),
-                ),
+                _rotation_params(),
                 _builder(SensorMisalignment, ["rx_rad", "ry_rad", "rz_rad"]),
                 description="accelerometer axes rotated against the TCP frame",
                 requirement=Requirement(
@@ -375,15 +378,10 @@ def _family(
             )
         ]
     if name == "hammer_direction":
-        g = (-0.1, 0.0, 0.1)
         return [
             Candidate(
                 name,
-                (
-                    ParamSpec("rx_rad", -0.35, 0.35, g, "linear", null=0.0),
-                    ParamSpec("ry_rad", -0.35, 0.35, g, "linear", null=0.0),
-                    ParamSpec("rz_rad", -0.35, 0.35, g, "linear", null=0.0),
-                ),
+                _rotation_params(),
                 _builder(HammerDirection, ["rx_rad", "ry_rad", "rz_rad"]),
                 description="the hammer hits off the nominal axes (input side)",
                 requirement=Requirement(

@@ -746,7 +746,24 @@ class ToolMode(Effect):
 
 # ----------------------------------------------------------- stage 5
 @dataclass(frozen=True)
-class SensorMisalignment(Effect):
+class _AxesRotation(Effect):
+    """Three rotation angles ``R = Rz(rz) Ry(ry) Rx(rx)`` [rad], each |angle| <= pi/2."""
+
+    rx_rad: float = 0.0
+    ry_rad: float = 0.0
+    rz_rad: float = 0.0
+
+    def __post_init__(self) -> None:
+        for f in ("rx_rad", "ry_rad", "rz_rad"):
+            _set(self, f, _num(self.name, f, getattr(self, f), -np.pi / 2, np.pi / 2, "rad"))
+
+    def rotation(self) -> FloatArray:
+        """``R``, shape (3, 3)."""
+        return rotation_from_zyx([self.rz_rad, self.ry_rad, self.rx_rad])
+
+
+@dataclass(frozen=True)
+class SensorMisalignment(_AxesRotation):
     """Accelerometer axes rotated against the TCP frame.
 
     The sensor frame is the TCP frame rotated by ``R = Rz(rz) Ry(ry) Rx(rx)``;
@@ -762,17 +779,6 @@ class SensorMisalignment(Effect):
 
     name: ClassVar[str] = "sensor_misalignment"
     stage: ClassVar[int] = 5
-    rx_rad: float = 0.0
-    ry_rad: float = 0.0
-    rz_rad: float = 0.0
-
-    def __post_init__(self) -> None:
-        for f in ("rx_rad", "ry_rad", "rz_rad"):
-            _set(self, f, _num(self.name, f, getattr(self, f), -np.pi / 2, np.pi / 2, "rad"))
-
-    def rotation(self) -> FloatArray:
-        """Sensor axes in the TCP frame, shape (3, 3)."""
-        return rotation_from_zyx([self.rz_rad, self.ry_rad, self.rx_rad])
 
     def modify_frf(self, H: ComplexArray, freq_hz: FloatArray) -> ComplexArray:
         """``R^T H``."""
@@ -940,7 +946,7 @@ class SensorGain(Effect):
 
 
 @dataclass(frozen=True)
-class HammerDirection(Effect):
+class HammerDirection(_AxesRotation):
     """The hammer hits off the nominal axes (the input side, not the sensor).
 
     The hit meant along TCP axis ``j`` goes along ``R e_j`` with
@@ -955,17 +961,6 @@ class HammerDirection(Effect):
 
     name: ClassVar[str] = "hammer_direction"
     stage: ClassVar[int] = 5
-    rx_rad: float = 0.0
-    ry_rad: float = 0.0
-    rz_rad: float = 0.0
-
-    def __post_init__(self) -> None:
-        for f in ("rx_rad", "ry_rad", "rz_rad"):
-            _set(self, f, _num(self.name, f, getattr(self, f), -np.pi / 2, np.pi / 2, "rad"))
-
-    def rotation(self) -> FloatArray:
-        """Hit directions in the TCP frame (columns), shape (3, 3)."""
-        return rotation_from_zyx([self.rz_rad, self.ry_rad, self.rx_rad])
 
     def modify_frf(self, H: ComplexArray, freq_hz: FloatArray) -> ComplexArray:
         """``H R``."""
