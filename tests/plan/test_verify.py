@@ -84,6 +84,8 @@ def test_less_damped_robot_is_predicted_to_chatter_with_file_lines(plans, tmp_pa
     s = json.loads((out / "verify.json").read_text())
     assert s["n_beyond_limit"] == v.n_beyond
     assert (out / "plots" / "verify_margin.png").stat().st_size > 1000
+    write_verify(v, out, plots=False)  # a re-run replaces the set: no stale plot
+    assert sorted(p.name for p in out.iterdir()) == ["verify.csv", "verify.json"]
 
 
 def test_bad_inputs(plans, tmp_path):

@@ -416,13 +416,17 @@ def plot_verify_margin(res: VerifyResult) -> Any:
 
 
 def write_verify(res: VerifyResult, out_dir: str | os.PathLike[str], *, plots: bool = True) -> Path:
-    """Write ``verify.csv``, ``verify.json`` and ``plots/verify_margin.png`` atomically."""
+    """Write ``verify.csv``, ``verify.json`` and ``plots/verify_margin.png`` atomically.
+
+    A re-run replaces the whole set (``plots/`` of an earlier run goes when
+    ``plots`` is False); other files in ``out_dir`` are kept.
+    """
     from robolobe._atomic import atomic_dir
     from robolobe.plan.report import _png, write_csv
 
     out = Path(out_dir)
     png = _png(plot_verify_margin(res)) if plots else None
-    with atomic_dir(out) as tmp:
+    with atomic_dir(out, managed=("verify.csv", "verify.json", "plots")) as tmp:
         write_csv(res.table, tmp / "verify.csv")
         (tmp / "verify.json").write_text(json.dumps(res.summary, indent=2) + "\n", encoding="utf-8")
         if png is not None:
