@@ -471,29 +471,37 @@ def _check_tangent(
 def _parse_auto_sense(
     text: str, source: str, *, arc_tol_mm: float, units: str, coordinates: str
 ) -> pd.DataFrame:
-    """:func:`parse_apt` with the ``CIRCLE`` sense the file's own moves imply."""
-    import logging
+    """:func:`parse_apt` with the ``CIRCLE`` sense the file's own moves imply.
 
+    The trial read in ``cw`` is the answer when ``cw`` wins (no second read).
+    """
+
+    def read(sense: str, tally: dict[str, int] | None = None) -> pd.DataFrame:
+        return parse_apt(
+            text, source, arc_tol_mm=arc_tol_mm, units=units, circle_axis=sense,
+            coordinates=coordinates, _tally=tally,
+        )  # fmt: skip
+
+    if "CIRCLE" not in text.upper():
+        return read("cw")
     tally: dict[str, int] = {}
     table_log = logging.getLogger("robolobe.plan.paths._table")
     level = table_log.level
-    table_log.setLevel(logging.ERROR)  # the trial read's warnings are not the answer's
+    table_log.setLevel(logging.ERROR)  # logged below, once the sense is chosen
     try:
-        parse_apt(
-            text, source, arc_tol_mm=arc_tol_mm, units=units, circle_axis="cw",
-            coordinates=coordinates, _tally=tally,
-        )  # fmt: skip
+        df = read("cw", tally)
     finally:
         table_log.setLevel(level)
     along, against = tally.get("along", 0), tally.get("against", 0)
     sense = "ccw" if against > along else "cw"
-    df = parse_apt(
-        text, source, arc_tol_mm=arc_tol_mm, units=units, circle_axis=sense,
-        coordinates=coordinates,
-    )  # fmt: skip
+    if sense == "ccw":
+        df = read("ccw")
+    else:
+        for w in df.attrs.get("warnings", []):
+            table_log.warning("%s", w)
     if along + against and min(along, against) == 0:
         # every checkable arc agrees: the reading is unambiguous
-        logging.getLogger(__name__).info(
+        logger.info(
             "%s: CIRCLE sense %s about i,j,k (all %d checkable arcs tangent)",
             source, sense, along + against,
         )  # fmt: skip
@@ -504,13 +512,11 @@ def _parse_auto_sense(
             f"{along + against} arcs that follow a lateral move leave their start along it, "
             "the others turn back: check the CL data (set circle_axis to force one)"
         )
-    elif "CIRCLE" in text.upper():
+    else:
         note = (
             "CIRCLE sense could not be checked (no arc follows a lateral move); taken as cw "
             "(Siemens NX); set circle_axis = 'ccw' for CATIA-style CL data"
         )
-    else:
-        return df
     df.attrs["warnings"] = [f"{source}: {note}", *df.attrs.get("warnings", [])]
     return df
 
