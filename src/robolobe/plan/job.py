@@ -101,6 +101,7 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_valida
 from robolobe._toml_errors import check_key_typos, describe_error, key_path
 from robolobe.errors import InputError
 from robolobe.robots.transforms import pose_from_xyz_zyx, xyz_zyx_from_pose
+from robolobe.sld.io import F_RANGE_HZ, K_RANGE_N_PER_M
 from robolobe.twin.effects import Effect
 from robolobe.twin.effects_file import read_effects
 
@@ -179,9 +180,14 @@ class _PlacementSpec(_Spec):
 
 class _ModeSpec(_Spec):
     dir: Literal["x", "y", "xy"]
-    f_hz: Annotated[float, Field(ge=1, le=1e5, allow_inf_nan=False, strict=True)]
+    f_hz: Annotated[
+        float, Field(ge=F_RANGE_HZ[0], le=F_RANGE_HZ[1], allow_inf_nan=False, strict=True)
+    ]
     zeta: Annotated[float, Field(gt=0, lt=1, allow_inf_nan=False, strict=True)]
-    k_N_per_m: Annotated[float, Field(ge=1e3, le=1e13, allow_inf_nan=False, strict=True)]
+    k_N_per_m: Annotated[
+        float,
+        Field(ge=K_RANGE_N_PER_M[0], le=K_RANGE_N_PER_M[1], allow_inf_nan=False, strict=True),
+    ]
 
 
 class _ToolSpec(_Spec):
