@@ -110,9 +110,10 @@ def register(app: typer.Typer) -> None:
         from robolobe._atomic import check_output_dir
 
         check_output_dir(output, "--output")
+        from robolobe.campaign import read_postures, write_campaign
         from robolobe.cli._common import console, progress
         from robolobe.robots import load_robot
-        from robolobe.twin.campaign import read_postures, simulate_campaign, write_campaign
+        from robolobe.twin.campaign import simulate_campaign
         from robolobe.twin.hammer import HammerTestSettings
         from robolobe.twin.model import Twin
 

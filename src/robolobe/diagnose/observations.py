@@ -18,9 +18,9 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from robolobe.campaign import ALL_DIRS
 from robolobe.diagnose.noise import variance_inflation
 from robolobe.errors import InputError
-from robolobe.twin.campaign import ALL_DIRS
 
 __all__ = [
     "DIRS",
