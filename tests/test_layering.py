@@ -32,10 +32,6 @@ ALLOWED: dict[str, set[str]] = {
 
 #: Known breaches, each with the issue that removes it. Keep this short.
 KNOWN: dict[tuple[str, str], str] = {
-    # the identification accuracy study simulates campaigns with the twin;
-    # study harness that belongs in studies/ (issue 15)
-    ("modal/validation.py", "robots"): "issue 15",
-    ("modal/validation.py", "twin"): "issue 15",
     # the seed-table fit (issue 12) scores its shape with modal's FRAC; it
     # belongs with the study, or FRAC in a measured-data layer (issue 15)
     ("twin/calibration.py", "modal"): "issues 12, 15",

@@ -466,13 +466,17 @@ def test_test_header_is_one_typed_rule_for_the_window():
 
     h = TestHeader.from_mapping({"duration_s": 4.0, "window_end": 0.05, "operator": "x"})
     assert h.decay_per_s == pytest.approx(-np.log(0.05) / 4.0, rel=1e-15)
-    assert h.has_window and dict(h) == {"duration_s": 4.0, "window_end": 0.05, "operator": "x"}
+    assert h.has_window
+    assert dict(h) == {"duration_s": 4.0, "window_end": 0.05, "operator": "x"}
     # identification takes the same number from the same rule
     assert settings_from_test(h).window_decay_per_s == h.decay_per_s
     direct = TestHeader.from_mapping({"window_decay_per_s": 0.7})
-    assert direct.decay_per_s == 0.7 and direct.duration_s is None
+    assert direct.decay_per_s == 0.7
+    assert direct.duration_s is None
     none = TestHeader()
-    assert not none.has_window and none.decay_per_s == 0.0 and len(none) == 0
+    assert not none.has_window
+    assert none.decay_per_s == 0.0
+    assert len(none) == 0
 
 
 @pytest.mark.parametrize(
@@ -493,7 +497,8 @@ def test_test_header_refuses_bad_values_by_key(tmp_path, table, key, expect):
     (folder / "campaign.toml").write_text(tomli_w.dumps({"robot": "B", "test": table}))
     with pytest.raises(InputError) as exc:
         read_campaign(folder)
-    assert f"campaign.toml[{key}" in str(exc.value) and expect in str(exc.value)
+    assert f"campaign.toml[{key}" in str(exc.value)
+    assert expect in str(exc.value)
 
 
 def test_force_levels_round_trip_and_bad_value_names_the_line(tmp_path):
@@ -503,7 +508,8 @@ def test_force_levels_round_trip_and_bad_value_names_the_line(tmp_path):
     )
     out = write_campaign(tmp_path / "camp", c2)
     back = read_campaign(out)
-    assert back.force_N is not None and np.array_equal(back.force_N, [200.0, 400.0, 800.0])
+    assert back.force_N is not None
+    assert np.array_equal(back.force_N, [200.0, 400.0, 800.0])
     assert read_campaign(write_campaign(tmp_path / "plain", c)).force_N is None
     lines = _lines(out / "postures.csv")
     assert lines[0].endswith(",force_N")
