@@ -213,10 +213,8 @@ def plot_frf_overlay(pm: PostureModal, rows: pd.DataFrame, path: str | os.PathLi
         if len(g):
             fn = g["f_hz"].to_numpy(float)
             z = g["zeta"].to_numpy(float)
-            # damping as seen through the exponential window
-            wn = 2 * np.pi * fn
-            zw = (z * wn + decay) / wn
-            hp = synthesize_frf(fn, zw, g["k_N_per_m"].to_numpy(float), f)
+            # as seen through the exponential window
+            hp = synthesize_frf(fn, z, g["k_N_per_m"].to_numpy(float), f, window_decay_per_s=decay)
             ax.semilogy(
                 f,
                 np.abs(hp),
