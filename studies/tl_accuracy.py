@@ -41,9 +41,9 @@ from pathlib import Path
 
 import numpy as np
 import torch
+from tl_baselines import make_baselines
 
 from robolobe.robots import load_robot
-from robolobe.tl.baselines import make_baselines
 from robolobe.tl.dataset import TrustWarning
 from robolobe.tl.design import design_postures
 from robolobe.tl.estimator import ModalPredictor
