@@ -34,6 +34,7 @@ import tomli_w
 from numpy.typing import ArrayLike, NDArray
 
 from robolobe._atomic import atomic_dir
+from robolobe._directions import dir_index
 from robolobe._frf_checks import frf_value_problem
 from robolobe.campaign._model import (
     ALL_DIRS,
@@ -43,7 +44,6 @@ from robolobe.campaign._model import (
     Campaign,
     PostureFRF,
     TestHeader,
-    _dir_index,
 )
 from robolobe.campaign.uff import UffQuantity, read_uff_frf, write_uff_frf
 from robolobe.errors import InputError
@@ -488,7 +488,7 @@ def _write_frf_csv(path: Path, campaign: Campaign) -> None:
             for d in ALL_DIRS:
                 if d not in rec.dirs:
                     continue
-                r, e = _dir_index(d)
+                r, e = dir_index(d)
                 h = rec.H[:, r, e]
                 pre = f"{_csv_field(pid)},{d},"
                 fh.write(

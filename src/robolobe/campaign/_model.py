@@ -14,6 +14,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from robolobe._directions import ALL_DIRS, dir_index
 from robolobe.errors import InputError
 
 __all__ = [
@@ -29,9 +30,6 @@ __all__ = [
 FloatArray = NDArray[np.float64]
 ComplexArray = NDArray[np.complex128]
 
-_AXES = "xyz"
-ALL_DIRS: tuple[str, ...] = tuple(r + e for r in _AXES for e in _AXES)
-"""The nine directions in array order (row-major: response, excitation)."""
 POSTURE_COLUMNS: tuple[str, ...] = ("posture_id", *(f"q{i}_deg" for i in range(1, 7)))
 FRF_COLUMNS: tuple[str, ...] = ("posture_id", "dir", "freq_hz", "re", "im")
 TEST_KEYS: tuple[str, ...] = (
@@ -43,10 +41,6 @@ TEST_KEYS: tuple[str, ...] = (
     "window_decay_per_s",
 )
 """Keys of the ``[test]`` table (:class:`TestHeader`)."""
-
-
-def _dir_index(d: str) -> tuple[int, int]:
-    return _AXES.index(d[0]), _AXES.index(d[1])
 
 
 # ------------------------------------------------------------------ test header
@@ -234,7 +228,7 @@ class PostureFRF:
     def dirs(self) -> frozenset[str]:
         """Two-letter directions present."""
         m = self.has_dir
-        return frozenset(d for d in ALL_DIRS if m[_dir_index(d)])
+        return frozenset(d for d in ALL_DIRS if m[dir_index(d)])
 
 
 @dataclass(frozen=True, eq=False)
@@ -361,7 +355,7 @@ class Campaign:
                 f"posture {posture_id!r} has no direction {d!r} (has {sorted(rec.dirs)})",
                 source="Campaign",
             )
-        r, e = _dir_index(d)
+        r, e = dir_index(d)
         return rec.freq_hz, rec.H[:, r, e]
 
     def has_common_grid(self) -> bool:
@@ -444,7 +438,7 @@ class Campaign:
                     raise InputError(
                         f"expected directions like 'xx', found {d!r}", source="Campaign.from_arrays"
                     )
-                keep[_dir_index(dd)] = True
+                keep[dir_index(dd)] = True
             h[:, :, ~keep] = np.nan
         return cls(
             robot=robot,

@@ -9,12 +9,12 @@ from typing import Annotated
 import numpy as np
 import typer
 
+from robolobe._directions import AXES
 from robolobe.errors import InputError
 
 __all__ = ["parse_dirs", "register"]
 
-_AXES = "xyz"
-_ALL = tuple(r + e for r in _AXES for e in _AXES)
+_ALL = tuple(r + e for r in AXES for e in AXES)
 
 
 def parse_dirs(text: str) -> tuple[str, ...]:

@@ -38,6 +38,7 @@ import pandas as pd
 from numpy.typing import ArrayLike, NDArray
 from scipy.optimize import linear_sum_assignment
 
+from robolobe._directions import AXES
 from robolobe.campaign import Campaign, TestHeader
 from robolobe.errors import InputError
 from robolobe.modal.metrics import frac, nrmse
@@ -66,7 +67,6 @@ __all__ = [
     "settings_from_test",
 ]
 
-_AX = "xyz"
 P = ParamSpec("P")
 T = TypeVar("T")
 #: Extra columns of the modal table beyond FORMATS.md section 3.
@@ -459,7 +459,7 @@ def identify_frfs(
         raise InputError(
             f"expected 'rank' or 'track', found {numbering!r}", source="identify_frfs(numbering)"
         )
-    chosen = {_AX[d] * 2: _choose_tracks(postures, tr, d, s.n_modes, min_presence) for d in dirs}
+    chosen = {AXES[d] * 2: _choose_tracks(postures, tr, d, s.n_modes, min_presence) for d in dirs}
     recovered_modes = (
         _recover(postures, labels, chosen, q, n_neighbours, tracking, n_jobs) if recover else {}
     )
@@ -482,7 +482,7 @@ def identify_frfs(
         else:
             for d in vis_sets:
                 lst = []
-                for m_no, t in enumerate(chosen[_AX[d] * 2], start=1):
+                for m_no, t in enumerate(chosen[AXES[d] * 2], start=1):
                     hit = np.flatnonzero(labels[p] == t)
                     if hit.size:
                         lst.append((m_no, int(hit[0])))
@@ -495,7 +495,7 @@ def identify_frfs(
     for p, pm in enumerate(postures):
         q_deg = np.degrees(q[p])
         for d in dirs:
-            dname = _AX[d] * 2
+            dname = AXES[d] * 2
             if not pm.used[d, d]:
                 continue
             sel_modes: list[int] = []

@@ -27,13 +27,13 @@ import pandas as pd
 from numpy.typing import ArrayLike, NDArray
 from scipy.optimize import linear_sum_assignment
 
+from robolobe._directions import AXES
+
 __all__ = [
     "AccuracyReport",
     "compare_with_truth",
     "true_visibility",
 ]
-
-_AX = "xyz"
 
 
 def true_visibility(
@@ -167,7 +167,7 @@ def compare_with_truth(
     n_visible = 0
     for p, pid in enumerate(posture_ids):
         for dname in dirs:
-            d = _AX.index(dname[0])
+            d = AXES.index(dname[0])
             vis = V[p, d]
             visible = np.flatnonzero(vis >= visible_min)
             n_visible += visible.size

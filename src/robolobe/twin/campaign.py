@@ -11,6 +11,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from robolobe._directions import AXES
 from robolobe.campaign import ALL_DIRS, Campaign
 from robolobe.errors import InputError
 from robolobe.twin.hammer import HammerTestSettings, simulate_hammer_test
@@ -18,7 +19,6 @@ from robolobe.twin.hammer import HammerTestSettings, simulate_hammer_test
 __all__ = ["simulate_campaign"]
 
 FloatArray = NDArray[np.float64]
-_AXES = "xyz"
 
 
 def simulate_campaign(
@@ -79,7 +79,7 @@ def simulate_campaign(
             source="simulate_campaign",
         )
     q = np.asarray(q_rad, dtype=float).reshape(len(posture_ids), 6)
-    excite = "".join(sorted({d[1] for d in want}, key=_AXES.index))
+    excite = "".join(sorted({d[1] for d in want}, key=AXES.index))
     children = rng.spawn(len(posture_ids))
     full = s.freq_hz
     freq = full[full <= fmax_hz * (1 + 1e-12)]
