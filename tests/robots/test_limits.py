@@ -144,7 +144,7 @@ def test_as_postures_is_the_one_posture_array_validator() -> None:
         as_postures(np.zeros((2, 5)))
     with pytest.raises(InputError, match="posture 1"):
         as_postures([[0.0] * 6, [0.0, np.nan, 0, 0, 0, 0]])
-    with pytest.raises(InputError, match="q_samples: .*n >= 1"):
+    with pytest.raises(InputError, match=r"q_samples: .*n >= 1"):
         as_postures(np.zeros((0, 6)), "q_samples")
     with pytest.raises(InputError, match="non-numbers"):
         as_postures([["a"] * 6])
