@@ -318,6 +318,17 @@ class Robot:
         return not self.tilt_joints and not self.has_mount
 
     @property
+    def reach_m(self) -> float:
+        """Rough reach [m]: an upper bound on the TCP's distance from the shoulder.
+
+        The sum of the DH lengths ``|a_i|``, ``|d_i|`` (i >= 2; ``d_1`` is the
+        shoulder height) and the tool offset.
+        """
+        return float(
+            np.sum(np.abs(self.a)) + np.sum(np.abs(self.d[1:])) + np.linalg.norm(self.tool[:3, 3])
+        )
+
+    @property
     def total_mass_kg(self) -> float:
         """Mass of the moving links plus the end effector [kg]."""
         m = sum(j.body.mass_kg for j in self.joints)
