@@ -8,6 +8,7 @@ directly (tests, code).
 from __future__ import annotations
 
 import dataclasses
+import math
 from dataclasses import dataclass, field
 from typing import Any, Literal
 
@@ -324,9 +325,8 @@ class Robot:
         The sum of the DH lengths ``|a_i|``, ``|d_i|`` (i >= 2; ``d_1`` is the
         shoulder height) and the tool offset.
         """
-        return float(
-            np.sum(np.abs(self.a)) + np.sum(np.abs(self.d[1:])) + np.linalg.norm(self.tool[:3, 3])
-        )
+        tool = math.hypot(*(float(v) for v in self.tool[:3, 3]))  # no overflow at 1e300
+        return float(np.sum(np.abs(self.a)) + np.sum(np.abs(self.d[1:])) + tool)
 
     @property
     def total_mass_kg(self) -> float:

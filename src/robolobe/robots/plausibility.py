@@ -19,7 +19,7 @@ Ranges (SI, as in the file; angles in degrees):
 - joint stiffness within :data:`JOINT_K_ERROR`, usually :data:`JOINT_K_USUAL`
   (N m/rad); tilt and mount stiffness within :data:`TILT_K_ERROR`;
 - damping: the time constant c/k at most :data:`DAMPING_TAU_ERROR_S`
-  (a damping ratio of about 300 % at 10 Hz), usually below
+  (a damping ratio of about 95 % at 10 Hz), usually below
   :data:`DAMPING_TAU_USUAL_S`;
 - masses at most :data:`LINK_MASS_MAX_KG` (link) and :data:`EE_MASS_MAX_KG`
   (end effector); principal inertias at most :data:`INERTIA_MAX_KGM2` and a
@@ -27,7 +27,9 @@ Ranges (SI, as in the file; angles in degrees):
 - joint limits: not all within +-:data:`RADIAN_LIKE_DEG` (radians under a
   ``_deg`` key), none beyond +-:data:`JOINT_LIMIT_MAX_DEG`; DH angles that
   equal +-pi/2 or +-pi are radians;
-- moving masses: at least :data:`TOTAL_MASS_MIN_KG` in total.
+- moving masses: at least :data:`TOTAL_MASS_MIN_KG` in total;
+- axis coupling: entries within +-:data:`COUPLING_MAX`, condition number at
+  most :data:`COUPLING_COND_MAX`.
 """
 
 from __future__ import annotations
@@ -44,6 +46,8 @@ from robolobe.errors import InputError
 from robolobe.robots.model import RigidBody, Robot
 
 __all__ = [
+    "COUPLING_COND_MAX",
+    "COUPLING_MAX",
     "DAMPING_TAU_ERROR_S",
     "DAMPING_TAU_USUAL_S",
     "EE_MASS_MAX_KG",
@@ -80,10 +84,11 @@ TILT_K_ERROR = (1e2, 1e12)
 #: Tilt and mount stiffness [N m/rad] usually found (bearings, brackets).
 TILT_K_USUAL = (1e4, 1e10)
 #: Damping time constant c/k [s] above which a file is refused (zeta ~ pi f c/k:
-#: about 300 % at 10 Hz; N mm s/rad read as N m s/rad gives ~1 s).
-DAMPING_TAU_ERROR_S = 0.1
-#: Damping time constant c/k [s] above which a file is unusual (zeta ~ 30 % at 10 Hz).
-DAMPING_TAU_USUAL_S = 0.01
+#: about 95 % at 10 Hz, an overdamped robot; N mm s/rad read as N m s/rad gives
+#: ~1 s). The seed's robots: 1e-4 to 1e-3 s.
+DAMPING_TAU_ERROR_S = 0.03
+#: Damping time constant c/k [s] above which a file is unusual (zeta ~ 16 % at 10 Hz).
+DAMPING_TAU_USUAL_S = 0.005
 #: Heaviest link [kg] (the largest robots' arms weigh a few tonnes).
 LINK_MASS_MAX_KG = 1e5
 #: Link mass [kg] above which a file is unusual.
@@ -103,6 +108,14 @@ GYRATION_USUAL_M = 3.0
 RADIAN_LIKE_DEG = 12.6
 #: Largest joint limit [deg] (ten turns).
 JOINT_LIMIT_MAX_DEG = 3600.0
+#: Largest axis coupling ratio (DH angle per axis angle; 0, +-1 or a wrist's gear ratio).
+COUPLING_MAX = 10.0
+#: Axis coupling ratio above which a file is unusual.
+COUPLING_USUAL = 2.0
+#: Largest condition number of the coupling matrix (an axis that hardly moves its joint).
+COUPLING_COND_MAX = 20.0
+#: Coupling condition number above which a file is unusual.
+COUPLING_COND_USUAL = 5.0
 #: Moving mass [kg] below which a file is refused (the twin needs masses).
 TOTAL_MASS_MIN_KG = 1.0
 #: Moving mass [kg] below which the arm is unusual (a few kg: a toy).
@@ -276,6 +289,31 @@ def _body(out: list[Finding], key: str, body: RigidBody) -> None:
             )
 
 
+def _coupling(out: list[Finding], c: np.ndarray) -> None:
+    """Axis coupling ratios: small numbers (0, +-1, gear ratios of a wrist), well conditioned."""
+    big = float(np.max(np.abs(c)))
+    cond = float(np.linalg.cond(c))
+    if big > COUPLING_MAX or cond > COUPLING_COND_MAX:
+        out.append(
+            Finding(
+                "error",
+                "kinematics.coupling",
+                f"expected axis coupling ratios within +-{_n(COUPLING_MAX)} and a condition "
+                f"number of at most {_n(COUPLING_COND_MAX)}, found largest entry {_n(big)}, "
+                f"condition number {_n(cond)}",
+            )
+        )
+    elif big > COUPLING_USUAL or cond > COUPLING_COND_USUAL:
+        out.append(
+            Finding(
+                "warning",
+                "kinematics.coupling",
+                f"unusual axis coupling (largest entry {_n(big)}, condition number {_n(cond)}; "
+                "usually 0 and +-1)",
+            )
+        )
+
+
 def _radian_like(values_deg: Iterable[float]) -> float | None:
     """The first value that equals +-pi/2 or +-pi (degrees read as radians), or None."""
     for v in values_deg:
@@ -345,7 +383,18 @@ def robot_findings(robot: Robot) -> list[Finding]:
                     f"{_n(math.degrees(v))} deg?)",
                 )
             )
-    _length(out, "tool.xyz_m", float(np.linalg.norm(robot.tool[:3, 3])), usual_m=2.0)
+    for name, vals in (("alpha_deg", robot.alpha), ("theta_offset_deg", robot.theta_offset)):
+        big = float(np.max(np.abs(np.degrees(vals))))
+        if big > JOINT_LIMIT_MAX_DEG:
+            out.append(
+                Finding(
+                    "error",
+                    f"[[joints]].{name}",
+                    f"expected angles within +-{_n(JOINT_LIMIT_MAX_DEG)} deg, found {_n(big)} deg",
+                )
+            )
+    _coupling(out, robot.coupling)
+    _length(out, "tool.xyz_m", math.hypot(*(float(v) for v in robot.tool[:3, 3])), usual_m=2.0)
     base = float(np.max(np.abs(robot.base[:3, 3])))
     if base > 50.0:
         out.append(
@@ -364,8 +413,8 @@ def robot_findings(robot: Robot) -> list[Finding]:
             _stiffness(out, f"end_effector.mount_stiffness_Nm_per_rad[{n + 1}]", k, TILT_K_ERROR,
                        TILT_K_USUAL, "mount")  # fmt: skip
             _damping(out, f"end_effector.mount_damping_Nms_per_rad[{n + 1}]", c, k)
-    reach = robot.reach_m
     if not out or all(f.level == "warning" for f in out):
+        reach = robot.reach_m
         lo, hi = REACH_ERROR_M
         if not lo <= reach <= hi:
             out.append(
