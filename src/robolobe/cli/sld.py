@@ -130,9 +130,8 @@ def register(app: typer.Typer) -> None:
         if material is not None:
             mat = get_material(material, kt=kt, kr=kr)
         elif kt is None or kr is None:
-            raise InputError(
-                f"--kt and --kr: expected both (or --material NAME), found kt={kt}, kr={kr}"
-            )
+            given = "only --kt" if kt is not None else "only --kr" if kr is not None else "neither"
+            raise InputError(f"--kt and --kr: expected both (or --material NAME), found {given}")
         else:
             mat = Material(name="user", kt=kt, kr=kr)
         grid = parse_rpm(rpm, method)

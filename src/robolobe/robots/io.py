@@ -28,6 +28,7 @@ import numpy as np
 import tomli_w
 from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
+from robolobe._atomic import not_a_file
 from robolobe._toml_errors import check_key_typos, describe_error, found, key_path
 from robolobe.errors import InputError
 from robolobe.robots.model import Joint, LinearConstraint, RigidBody, Robot
@@ -387,7 +388,7 @@ def load_robot(spec: str | os.PathLike[str]) -> Robot:
         if not path.is_file():
             raise InputError(
                 f"expected a built-in robot {', '.join(BUILTIN_ROBOTS)} or a robot file, "
-                "found no such file",
+                f"found {not_a_file(path)}",
                 source=where,
             )
     try:
