@@ -346,8 +346,10 @@ def _read_csv(
     path: Path, display: str, required: Sequence[str], str_cols: Sequence[str]
 ) -> tuple[pd.DataFrame, NDArray[np.int64]]:
     """Read a CSV; check the header; return the frame (blank lines dropped) and line numbers."""
-    if not path.is_file():
+    if path.is_dir():
         raise InputError(f"expected a CSV file, found {not_a_file(path)}", source=display)
+    if not path.is_file():
+        raise InputError("file not found", source=display)
     _check_text_file(path, display)
     num_cols = [c for c in required if c not in str_cols]
     try:

@@ -428,8 +428,10 @@ def read_uff_frfs(path: str | os.PathLike[str], *, source: str | None = None) ->
 
     where = source or os.fspath(path)
     p = Path(path)
-    if not p.is_file():
+    if p.is_dir():
         raise InputError(f"expected a UFF file, found {not_a_file(p)}", source=where)
+    if not p.is_file():
+        raise InputError("file not found", source=where)
     try:
         data = p.read_bytes()
     except OSError as exc:
