@@ -103,6 +103,7 @@ def test_messages_name_the_option(
         ["plan", "{d}", "--job", "{ex}/job_A_pocket.toml", "-o", "{t}/o"],
         ["simulate", "{d}", "-o", "{t}/o", "--design", "random", "--n", "2"],
         ["design-tests", "{d}", "--n", "3", "-o", "{t}/o.csv"],
+        ["batch", "{ex}/pocket.nc", "{d}", "--job", "{ex}/job_A_pocket.toml", "-o", "{t}/o"],
         ["sld", "--modes", "{d}", "--teeth", "2", "--immersion", "0.5", "--rpm", "5000:6000",
          "-o", "{t}/o.csv", "--material", "steel"],
     ],
@@ -119,3 +120,21 @@ def test_a_directory_given_for_a_file_is_called_one(
     assert f"error: {d}: " in err, err
     assert "directory" in err, err
     assert "no such file" not in err, err
+
+
+def test_batch_refuses_a_missing_path_before_planning(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    from importlib import resources
+
+    ex = Path(str(resources.files("robolobe.data").joinpath("examples")))
+    err = _main_err(
+        ["batch", str(ex / "pocket.nc"), "paths/*.nc", "--job", str(ex / "job_A_pocket.toml"),
+         "-o", str(tmp_path / "b")],
+        capsys,
+    )  # fmt: skip
+    assert err == (
+        "error: paths/*.nc: expected a toolpath file, found no such file "
+        "(a shell pattern that matched nothing?)"
+    )
+    assert not (tmp_path / "b").exists()

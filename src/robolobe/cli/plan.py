@@ -341,9 +341,15 @@ def register(app: typer.Typer) -> None:
             raise InputError("--job: expected a job file, found none")
         if fmt not in ("auto", "parquet", "csv"):
             raise InputError(f"--format: expected auto, parquet or csv, found {fmt!r}")
-        from robolobe._atomic import check_output_dir
+        from robolobe._atomic import check_output_dir, not_a_file
 
         check_output_dir(output, "--output")
+        for p in paths:  # a missing file is a typo, not a row after hours of planning
+            if not p.is_file():
+                hint = (
+                    " (a shell pattern that matched nothing?)" if set("*?[") & set(str(p)) else ""
+                )
+                raise InputError(f"expected a toolpath file, found {not_a_file(p)}{hint}", str(p))
         if fmt == "parquet":
             try:
                 import pyarrow  # noqa: F401
@@ -371,9 +377,10 @@ def register(app: typer.Typer) -> None:
                 rows.append(row)
                 bar.advance(task)
                 if row["status"] != "ok":
+                    where, msg = str(row["path"]), str(row["message"])
+                    msg = msg.removeprefix(f"{where}: ")  # the line names the path already
                     err_console.print(
-                        f"[yellow]{row['status']}:[/] "
-                        f"{escape(str(row['path']))}: {escape(str(row['message']))}",
+                        f"[yellow]{row['status']}:[/] {escape(where)}: {escape(msg)}",
                         highlight=False,
                     )
         table = write_batch(rows, output, fmt=fmt)
