@@ -96,3 +96,19 @@ def test_unusual_robot_is_planned_with_the_warning_in_the_summary(tmp_path: Path
     assert hit, notes
     assert str(robot) in hit[0]
     assert "outside the usual joint stiffness" in hit[0]
+
+
+def test_robot_warning_is_one_warning_line(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    robot = _robot(tmp_path, lambda d: d["joints"][5].update(stiffness_Nm_per_rad=8e3))
+    capsys.readouterr()
+    with pytest.raises(SystemExit):  # stops after the robot is read: --n 0
+        main(["simulate", str(robot), "-o", str(tmp_path / "s"), "--design", "random", "--n", "0"])
+    main_lines = capsys.readouterr().err.strip().splitlines()
+    assert main_lines[0] == (
+        f"warning: {robot}: [[joints]][6].stiffness_Nm_per_rad: 8000 N m/rad is outside the "
+        "usual joint stiffness of 10000 to 1e9 N m/rad"
+    )
+    assert main_lines[1].startswith("error: ")
+    assert len(main_lines) == 2  # the warning once (no second handler, no bare copy)
