@@ -34,7 +34,7 @@ import pandas as pd
 import tomli_w
 from numpy.typing import ArrayLike, NDArray
 
-from robolobe._atomic import atomic_dir, not_a_file
+from robolobe._atomic import atomic_dir
 from robolobe._frf_checks import frf_value_problem
 from robolobe.errors import InputError
 from robolobe.twin.hammer import HammerTestSettings, simulate_hammer_test
@@ -346,8 +346,6 @@ def _read_csv(
     path: Path, display: str, required: Sequence[str], str_cols: Sequence[str]
 ) -> tuple[pd.DataFrame, NDArray[np.int64]]:
     """Read a CSV; check the header; return the frame (blank lines dropped) and line numbers."""
-    if path.is_dir():
-        raise InputError(f"expected a CSV file, found {not_a_file(path)}", source=display)
     if not path.is_file():
         raise InputError("file not found", source=display)
     _check_text_file(path, display)
