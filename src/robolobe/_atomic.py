@@ -25,6 +25,7 @@ __all__ = [
     "atomic_write_text",
     "check_output_dir",
     "check_output_file",
+    "not_a_file",
 ]
 
 
@@ -63,6 +64,20 @@ def _check_parent(path: Path, option: str) -> None:
         )
     if not _writable(anc):
         raise InputError(f"cannot create {path}: {anc} is not writable", source=option)
+
+
+def not_a_file(path: str | os.PathLike[str]) -> str:
+    """What an input path that should be a file is instead, for ``found ...`` in a message.
+
+    ``"a directory"``, ``"no such file"`` or ``"not a regular file"`` (a
+    device, a socket).
+    """
+    p = Path(path)
+    if p.is_dir():
+        return "a directory"
+    if not p.exists():
+        return "no such file"
+    return "not a regular file"
 
 
 def check_output_file(path: str | os.PathLike[str], option: str = "-o") -> Path:

@@ -7,12 +7,13 @@ Shared by the robot-file and job-file readers: a pydantic error becomes
 from __future__ import annotations
 
 import difflib
+import re
 from collections.abc import Iterable, Sequence
 from typing import Any
 
 from robolobe.errors import InputError
 
-__all__ = ["check_key_typos", "describe_error", "found", "key_path"]
+__all__ = ["check_key_typos", "describe_error", "found", "key_path", "number"]
 
 
 def key_path(loc: Sequence[int | str], table_arrays: Sequence[str] = ()) -> str:
@@ -38,6 +39,14 @@ def key_path(loc: Sequence[int | str], table_arrays: Sequence[str] = ()) -> str:
     return out or "<file>"
 
 
+def number(x: float) -> str:
+    """A number in a message: ``100000``, ``0.0125``, ``1e12`` (not ``1e+12`` or ``1e12.0``)."""
+    v = float(x)
+    if v.is_integer() and abs(v) < 1e7:
+        return str(int(v))
+    return re.sub(r"e\+?(-?)0*(\d)", r"e\1\2", f"{v:.4g}")
+
+
 def found(value: Any) -> str:
     """How a found value reads in a message."""
     if isinstance(value, dict):
@@ -51,6 +60,14 @@ def found(value: Any) -> str:
     if isinstance(value, float) and value.is_integer() and abs(value) < 1e15:
         return str(int(value))
     return str(value)
+
+
+def _bound(value: Any) -> str:
+    return (
+        number(value)
+        if isinstance(value, int | float) and not isinstance(value, bool)
+        else str(value)
+    )
 
 
 def describe_error(err: Any) -> str:
@@ -69,13 +86,14 @@ def describe_error(err: Any) -> str:
     elif kind == "finite_number":
         expected = "a finite number"
     elif kind == "greater_than":
-        expected = "a positive number" if ctx.get("gt") == 0 else f"a number > {ctx.get('gt')}"
+        gt = ctx.get("gt")
+        expected = "a positive number" if gt == 0 else f"a number > {_bound(gt)}"
     elif kind == "greater_than_equal":
         ge = ctx.get("ge")
-        expected = "a non-negative number" if ge == 0 else f"a number >= {ge}"
+        expected = "a non-negative number" if ge == 0 else f"a number >= {_bound(ge)}"
     elif kind in ("less_than", "less_than_equal"):
         bound = ctx.get("lt", ctx.get("le"))
-        expected = f"a number {'<' if kind == 'less_than' else '<='} {bound}"
+        expected = f"a number {'<' if kind == 'less_than' else '<='} {_bound(bound)}"
     elif kind in ("too_short", "too_long"):
         n = ctx.get("min_length") if kind == "too_short" else ctx.get("max_length")
         if isinstance(inp, list):

@@ -9,6 +9,7 @@ is a ``RobolobeError`` whose message does not name the file.
 
 from __future__ import annotations
 
+import re
 import shutil
 from collections.abc import Callable
 from importlib import resources
@@ -50,8 +51,6 @@ def mutated(draw: st.DrawFn, text: str) -> str:
         elif op == "dup":
             lines.insert(i, lines[i])
         elif op == "number":
-            import re
-
             nums = list(re.finditer(r"-?\d+(\.\d*)?([eE][-+]?\d+)?", lines[i]))
             if nums:
                 m = nums[draw(st.integers(0, len(nums) - 1))]
@@ -77,6 +76,10 @@ def _check(read: Callable[[Path], Any], path: Path) -> None:
     except RobolobeError as exc:
         msg = str(exc)
         assert "\n" not in msg.strip(), msg
+        # message rules: no numpy reprs, no doubled prefix ("f.toml: f.toml: ...")
+        assert "np.float64" not in msg, msg
+        assert "array(" not in msg, msg
+        assert not re.search(r"(?:^|\s)(\S+): \1: ", msg), msg
         # the message names the file (or its companion, e.g. a KRL .dat)
         names = [path.name, path.parent.name, *(p.name for p in path.parent.iterdir())]
         assert any(n in msg for n in names), msg

@@ -146,7 +146,7 @@ BROKEN = [
     (lambda d: d["joints"][1].update(tilt_stiffness_Nm_per_rad=[1e7, 1e13],
                                      tilt_damping_Nms_per_rad=[10.0, 10.0]),
      r"\[\[joints\]\]\[2\]\.tilt_stiffness_Nm_per_rad\[2\]: "
-     r"expected a number <= 1000000000000\.0, found 10000000000000"),
+     r"expected a number <= 1e12, found 10000000000000"),
     (lambda d: d["joints"][0].update(tilt_stiffness_Nm_per_rad=[1e7, 1e7]),
      r"\[\[joints\]\]\[1\]\.tilt_damping_Nms_per_rad: expected two numbers beside "
      r"tilt_stiffness_Nm_per_rad, found it missing"),

@@ -8,6 +8,7 @@ become one readable line on stderr and exit code 2 (3: no feasible plan).
 from __future__ import annotations
 
 import importlib
+import logging
 import sys
 
 import typer
@@ -34,7 +35,7 @@ app = typer.Typer(
     no_args_is_help=True,
     pretty_exceptions_enable=False,
     add_completion=False,
-    rich_markup_mode="rich",
+    rich_markup_mode=None,
 )
 
 
@@ -81,12 +82,33 @@ for _name in _COMMAND_MODULES:
     _mod.register(app)
 
 
+class _WarningLines(logging.Handler):
+    """Library warnings (file readers, plausibility) as ``warning: ...`` lines on stderr."""
+
+    def emit(self, record: logging.LogRecord) -> None:
+        from rich.markup import escape
+
+        from robolobe.cli._common import err_console
+
+        err_console.print(
+            f"[yellow]warning:[/] {escape(record.getMessage())}", highlight=False, soft_wrap=True
+        )
+
+
+def _show_warnings() -> None:
+    log = logging.getLogger("robolobe")
+    if not any(isinstance(h, _WarningLines) for h in log.handlers):
+        handler = _WarningLines(level=logging.WARNING)
+        log.addHandler(handler)
+
+
 def main(argv: list[str] | None = None) -> None:
     """Run the CLI; turn robolobe errors into one line and an exit code."""
     from rich.markup import escape
 
     from robolobe.cli._common import err_console
 
+    _show_warnings()
     try:
         app(args=argv, standalone_mode=True)
     except RobolobeError as exc:

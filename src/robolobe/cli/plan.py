@@ -205,7 +205,10 @@ def register(app: typer.Typer) -> None:
             list[str] | None,
             typer.Argument(help="More robots after --robots (--robots A B C).", show_default=False),
         ] = None,
-        job: Annotated[Path, typer.Option("--job", "-j", help="Job file (TOML).")] = Path(),
+        job: Annotated[
+            Path | None,
+            typer.Option("--job", "-j", help="Job file (TOML, robolobe-job/1). Required."),
+        ] = None,
         robots: Annotated[
             list[str] | None,
             typer.Option(
@@ -217,7 +220,10 @@ def register(app: typer.Typer) -> None:
         output: Annotated[Path, typer.Option("-o", "--output", help="Output directory.")] = Path(
             "robolobe-compare"
         ),
-        refine: Annotated[bool, typer.Option("--refine/--no-refine")] = True,
+        refine: Annotated[
+            bool,
+            typer.Option("--refine/--no-refine", help="casadi/IPOPT refinement of the search."),
+        ] = True,
         units: _Units = None,
         tool_direction: _ToolDirection = None,
         coordinates: _Coordinates = None,
@@ -235,7 +241,7 @@ def register(app: typer.Typer) -> None:
         from robolobe.plan.job import load_job
 
         check_output_dir(output, "--output")
-        if job == Path():
+        if job is None:
             raise InputError("--job: expected a job file, found none")
         names: list[str] = []
         for item in [*(robots or []), *(more_robots or [])]:
@@ -250,7 +256,10 @@ def register(app: typer.Typer) -> None:
         )  # fmt: skip
         with status(f"planning on {', '.join(names)} ..."):
             cmp = compare_robots(path, j, names, refine=refine)
-            write_comparison(cmp, output)
+        any_ok = bool((cmp.table["status"] == "ok").any())
+        if any_ok:
+            with status("writing outputs ..."):
+                write_comparison(cmp, output)
         cols = {
             "robot": "robot", "status": "status", "depth_mm": "depth\nmm",
             "rpm_min": "rpm\nmin", "rpm_max": "rpm\nmax", "mrr_cm3_per_min": "MRR\ncm3/min",
@@ -266,21 +275,26 @@ def register(app: typer.Typer) -> None:
         console.print(t)
         for r in cmp.table.to_dict(orient="records"):
             if r.get("status") != "ok":
+                robot, msg = str(r["robot"]), str(r.get("message", ""))
+                msg = msg.removeprefix(f"{robot}: ")  # the row names the robot already
                 err_console.print(
-                    f"[yellow]{r['robot']}:[/] {escape(str(r.get('message', '')))}", highlight=False
+                    f"[yellow]{escape(robot)} ({r['status']}):[/] {escape(msg)}", highlight=False
                 )
+        if not any_ok:
+            # no robot can do the job: a failure, not a comparison (nothing written)
+            err = InfeasibleError if (cmp.table["status"] == "infeasible").all() else InputError
+            raise err(f"no robot of {', '.join(names)} can run this job (see the table above)")
         console.print(
             f"outputs in {output}/ (compare.csv, compare.json, compare.png, one folder per robot)"
         )
-        if not (cmp.table["status"] == "ok").any():
-            # no robot can do the job: a failure, not a comparison
-            err = InfeasibleError if (cmp.table["status"] == "infeasible").all() else InputError
-            raise err(f"no robot of {', '.join(names)} can run this job (see the table above)")
 
     @app.command("batch")
     def batch_command(
         paths: Annotated[list[Path], typer.Argument(help="Toolpaths (any supported format).")],
-        job: Annotated[Path, typer.Option("--job", "-j", help="Job file (TOML).")] = Path(),
+        job: Annotated[
+            Path | None,
+            typer.Option("--job", "-j", help="Job file (TOML, robolobe-job/1). Required."),
+        ] = None,
         output: Annotated[Path, typer.Option("-o", "--output", help="Output directory.")] = Path(
             "robolobe-batch"
         ),
@@ -305,7 +319,10 @@ def register(app: typer.Typer) -> None:
                 "--format", help="auto (Parquet if pyarrow is installed), parquet or csv."
             ),
         ] = "auto",
-        refine: Annotated[bool, typer.Option("--refine/--no-refine")] = True,
+        refine: Annotated[
+            bool,
+            typer.Option("--refine/--no-refine", help="casadi/IPOPT refinement of the search."),
+        ] = True,
         units: _Units = None,
         tool_direction: _ToolDirection = None,
         coordinates: _Coordinates = None,
@@ -320,13 +337,19 @@ def register(app: typer.Typer) -> None:
         from robolobe.plan.batch import batch_plan, write_batch
         from robolobe.plan.job import load_job
 
-        if job == Path():
+        if job is None:
             raise InputError("--job: expected a job file, found none")
         if fmt not in ("auto", "parquet", "csv"):
             raise InputError(f"--format: expected auto, parquet or csv, found {fmt!r}")
-        from robolobe._atomic import check_output_dir
+        from robolobe._atomic import check_output_dir, not_a_file
 
         check_output_dir(output, "--output")
+        for p in paths:  # a missing file is a typo, not a row after hours of planning
+            if not p.is_file():
+                hint = (
+                    " (a shell pattern that matched nothing?)" if set("*?[") & set(str(p)) else ""
+                )
+                raise InputError(f"expected a toolpath file, found {not_a_file(p)}{hint}", str(p))
         if fmt == "parquet":
             try:
                 import pyarrow  # noqa: F401
@@ -354,9 +377,10 @@ def register(app: typer.Typer) -> None:
                 rows.append(row)
                 bar.advance(task)
                 if row["status"] != "ok":
+                    where, msg = str(row["path"]), str(row["message"])
+                    msg = msg.removeprefix(f"{where}: ")  # the line names the path already
                     err_console.print(
-                        f"[yellow]{row['status']}:[/] "
-                        f"{escape(str(row['path']))}: {escape(str(row['message']))}",
+                        f"[yellow]{row['status']}:[/] {escape(where)}: {escape(msg)}",
                         highlight=False,
                     )
         table = write_batch(rows, output, fmt=fmt)

@@ -33,6 +33,16 @@ def parse_dirs(text: str) -> tuple[str, ...]:
     return tuple(d for d in _ALL if d in items)
 
 
+#: HammerTestSettings fields set from options, for messages that name the option.
+_SETTINGS_OPTIONS = {
+    "HammerTestSettings.impacts": "--impacts",
+    "HammerTestSettings.double_hit_probability": "--double-hits",
+    "HammerTestSettings.window_end": "--window-end",
+    "HammerTestSettings.force_noise_n": "--noise",
+    "HammerTestSettings.accel_noise_m_per_s2": "--noise",
+}
+
+
 def register(app: typer.Typer) -> None:
     """Add the ``simulate`` command to ``app``."""
 
@@ -122,13 +132,17 @@ def register(app: typer.Typer) -> None:
         if noise < 0:
             raise InputError(f"expected noise >= 0, found {noise:g}", source="--noise")
         want = parse_dirs(dirs)
-        settings = HammerTestSettings(
-            impacts=impacts,
-            force_noise_n=HammerTestSettings.force_noise_n * noise,
-            accel_noise_m_per_s2=HammerTestSettings.accel_noise_m_per_s2 * noise,
-            double_hit_probability=double_hits,
-            window_end=window_end,
-        )
+        try:
+            settings = HammerTestSettings(
+                impacts=impacts,
+                force_noise_n=HammerTestSettings.force_noise_n * noise,
+                accel_noise_m_per_s2=HammerTestSettings.accel_noise_m_per_s2 * noise,
+                double_hit_probability=double_hits,
+                window_end=window_end,
+            )
+        except InputError as exc:  # name the option, not the settings field
+            option = _SETTINGS_OPTIONS.get(str(exc.source), exc.source)
+            raise InputError(exc.detail.removesuffix(".0"), option) from None
         if not 0 < fmax <= settings.sample_rate_hz / 2:
             raise InputError(
                 f"expected 0 < fmax <= {settings.sample_rate_hz / 2:g} Hz, found {fmax:g}",

@@ -127,14 +127,23 @@ def register(app: typer.Typer) -> None:
             raise InputError(f"--milling: expected down or up, found {milling!r}")
         if teeth < 1:
             raise InputError(f"--teeth: expected an integer >= 1, found {teeth}")
-        if material is not None:
-            mat = get_material(material, kt=kt, kr=kr)
-        elif kt is None or kr is None:
-            raise InputError(
-                f"--kt and --kr: expected both (or --material NAME), found kt={kt}, kr={kr}"
-            )
-        else:
-            mat = Material(name="user", kt=kt, kr=kr)
+        try:
+            if material is not None:
+                mat = get_material(material, kt=kt, kr=kr)
+            elif kt is None or kr is None:
+                given = (
+                    "only --kt" if kt is not None else "only --kr" if kr is not None else "neither"
+                )
+                raise InputError(
+                    f"--kt and --kr: expected both (or --material NAME), found {given}"
+                )
+            else:
+                mat = Material(name="user", kt=kt, kr=kr)
+        except InputError as exc:  # name the option, not the library's argument
+            for name, option in (("material: ", "--material"), ("Kt: ", "--kt"), ("Kr: ", "--kr")):
+                if exc.source is None and exc.detail.startswith(name):
+                    raise InputError(exc.detail.removeprefix(name), option) from None
+            raise
         grid = parse_rpm(rpm, method)
         model = read_modes_csv(modes)
         conditions = CuttingConditions.from_immersion(immersion, milling)

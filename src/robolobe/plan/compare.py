@@ -23,7 +23,13 @@ import numpy as np
 import pandas as pd
 
 from robolobe._atomic import atomic_dir
-from robolobe.errors import InfeasibleError, ReachabilityError, RobolobeError, SingularityError
+from robolobe.errors import (
+    InfeasibleError,
+    InputError,
+    ReachabilityError,
+    RobolobeError,
+    SingularityError,
+)
 from robolobe.plan.job import Job
 from robolobe.plan.modes import ModeSource, mode_source
 from robolobe.plan.paths import read_toolpath, validate_waypoints
@@ -38,16 +44,16 @@ from robolobe.plan.pipeline import (
 from robolobe.robots.io import load_robot
 from robolobe.robots.model import Robot
 
-__all__ = ["Comparison", "compare_robots", "find_placement", "write_comparison"]
+__all__ = [
+    "COMPARE_FILES",
+    "Comparison",
+    "compare_robots",
+    "find_placement",
+    "robot_folders",
+    "write_comparison",
+]
 
 logger = logging.getLogger(__name__)
-
-
-def _reach(robot: Robot) -> float:
-    """Rough reach [m]: link lengths plus the tool offset."""
-    return float(
-        np.sum(np.abs(robot.a)) + np.sum(np.abs(robot.d[1:])) + np.linalg.norm(robot.tool[:3, 3])
-    )
 
 
 def _placement_score(
@@ -105,7 +111,7 @@ def find_placement(
     sub = sub.reset_index(drop=True)
     r_pl = job.placement[:3, :3]
     centre = wp[["x_m", "y_m", "z_m"]].to_numpy().mean(axis=0)
-    reach = _reach(robot)
+    reach = robot.reach_m
     best: tuple[float, np.ndarray] | None = None
     for frac in (0.6, 0.5, 0.7, 0.45, 0.8, 0.4, 0.85, 0.35):
         for z in (0.0, 0.3, -0.3, 0.6, -0.6, 0.9, 1.2):
@@ -180,6 +186,12 @@ def compare_robots(
     Returns
     -------
     Comparison
+
+    Raises
+    ------
+    InputError
+        A robot file that cannot be read or is implausible, or a robot
+        given twice (before any planning).
     """
     wp = (
         validate_waypoints(path, "<table>")
@@ -188,11 +200,17 @@ def compare_robots(
     )
     rows: list[dict[str, Any]] = []
     results: dict[str, PlanResult] = {}
+    # every robot file is read before any planning: a bad file is the user's
+    # input (one error now), not a row after minutes of planning the others
+    loaded: dict[str, Robot] = {}
     for key in robots:
         spec = key.upper() if key.upper() in ("A", "B", "C") else str(Path(key))
+        if spec in loaded:
+            raise InputError(f"--robots: expected each robot once, found {spec} twice")
+        loaded[spec] = load_robot(spec)
+    for spec, robot in loaded.items():
         row: dict[str, Any] = {"robot": spec}
         try:
-            robot = load_robot(spec)
             model = _model_for(job, spec)
             # the job's physics effects belong to the job's own robot only
             effects = job.effects if spec == job.robot else ()
@@ -299,31 +317,93 @@ def _plot(cmp: Comparison) -> bytes:
     return buf.getvalue()
 
 
+#: Files of a comparison; with the robot folders they are the managed output set.
+COMPARE_FILES = ("compare.csv", "compare.json", "compare.png")
+
+
+def robot_folders(robots: list[str]) -> dict[str, str]:
+    """The output folder name of each robot of a comparison (robot spec -> name).
+
+    The file stem of a robot file (``cells/r1.toml`` -> ``r1``), the name of
+    a built-in robot; a stem that repeats (``a/r.toml``, ``b/r.toml``) gets
+    ``-2``, ``-3`` ...
+    """
+    out: dict[str, str] = {}
+    for spec in robots:
+        stem = Path(spec).stem or "robot"
+        name, n = stem, 1
+        while name in out.values() or name in COMPARE_FILES:
+            n += 1
+            name = f"{stem}-{n}"
+        out[spec] = name
+    return out
+
+
+def _stale_folders(out: Path) -> list[str]:
+    """Robot folders an earlier comparison wrote into ``out`` (from its compare.json).
+
+    Only plain names of folders that hold a ``summary.json`` count, so a
+    damaged or foreign compare.json cannot remove anything else.
+    """
+    import json
+
+    try:
+        records = json.loads((out / "compare.json").read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return []
+    if not isinstance(records, list):
+        return []
+    specs = [str(r["robot"]) for r in records if isinstance(r, dict) and "robot" in r]
+    names = [
+        str(r.get("folder") or robot_folders(specs).get(str(r["robot"]), ""))
+        for r in records
+        if isinstance(r, dict) and "robot" in r
+    ]
+    return [
+        n
+        for n in names
+        if n
+        and n not in (".", "..")
+        and Path(n).name == n
+        and "\\" not in n
+        and (out / n / "summary.json").is_file()
+    ]
+
+
 def write_comparison(
     cmp: Comparison, out_dir: str | os.PathLike[str], *, plans: bool = True
 ) -> Path:
-    """Write ``compare.csv``, ``compare.json``, ``compare.png`` (+ each robot's plan) atomically."""
+    """Write ``compare.csv``, ``compare.json``, ``compare.png`` (+ each robot's plan) atomically.
+
+    The outputs are one set: a re-run into the same folder replaces the
+    files and removes the robot folders of the earlier comparison that this
+    one did not write (other files in the folder are kept).
+    """
     import json
 
     from robolobe.plan.report import _PLOTTERS, PLOTS, _png, render_html, write_csv
 
     out = Path(out_dir)
     png = _plot(cmp)
+    folders = robot_folders([str(r) for r in cmp.table["robot"]])
     per_robot: dict[str, dict[str, bytes]] = {}
     if plans:
         for key, res in cmp.results.items():
             per_robot[key] = {name: _png(_PLOTTERS[name](res)) for name in PLOTS}
-    with atomic_dir(out) as tmp:
-        t = cmp.table.copy()
+    table = cmp.table.copy()
+    table["folder"] = [folders[str(r)] if r in cmp.results else "" for r in table["robot"]]
+    managed = (*COMPARE_FILES, *_stale_folders(out), *folders.values())
+    with atomic_dir(out, managed=managed) as tmp:
+        t = table.copy()
         t["placement_xyz_m"] = t["placement_xyz_m"].map(
             lambda v: json.dumps(v) if isinstance(v, list) else ""
         )
         t.to_csv(tmp / "compare.csv", index=False)
-        records = json.loads(cmp.table.to_json(orient="records"))
+        records = json.loads(table.to_json(orient="records"))
         (tmp / "compare.json").write_text(json.dumps(records, indent=2) + "\n", encoding="utf-8")
         (tmp / "compare.png").write_bytes(png)
         for key, res in cmp.results.items():
-            d = tmp / Path(key).stem
+            d = tmp / folders[key]
             (d / "plots").mkdir(parents=True)
             write_csv(res.table, d / "waypoints.csv")
             (d / "summary.json").write_text(

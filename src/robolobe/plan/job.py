@@ -98,6 +98,7 @@ import numpy as np
 import tomli_w
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
 
+from robolobe._atomic import not_a_file
 from robolobe._toml_errors import check_key_typos, describe_error, key_path
 from robolobe.errors import InputError
 from robolobe.robots.transforms import pose_from_xyz_zyx, xyz_zyx_from_pose
@@ -606,7 +607,7 @@ def job_from_dict(d: dict[str, Any], source: str = "<dict>", base_dir: Path | No
         if not Path(robot).is_file():
             raise InputError(
                 f"robot.name: expected 'A', 'B', 'C' or a robot file, found {r.name!r} "
-                "(no such file)",
+                f"({not_a_file(robot)})",
                 source=where,
             )
     model = r.model
@@ -739,7 +740,7 @@ def load_job(path: str | os.PathLike[str]) -> Job:
     p = Path(path)
     where = p.name
     if not p.is_file():
-        raise InputError("expected a job file (TOML), found no such file", source=str(p))
+        raise InputError(f"expected a job file (TOML), found {not_a_file(p)}", source=str(p))
     try:
         text = p.read_text(encoding="utf-8")
     except (OSError, UnicodeDecodeError) as exc:

@@ -57,6 +57,7 @@ from robolobe.robots.ik import ik, ik_batch
 from robolobe.robots.io import load_robot
 from robolobe.robots.kinematics import joint_axes, link_frames
 from robolobe.robots.model import Robot
+from robolobe.robots.plausibility import robot_warnings
 from robolobe.sld.conditions import engagement_angles
 from robolobe.sld.frf import ModalModel
 from robolobe.sld.material import Material, get_material
@@ -897,6 +898,7 @@ def _summary(
     ex = modes.extrapolation
     notes = [s for s in (note, grouped.message) if s]
     notes += [f"toolpath reader: {w}" for w in wp.attrs.get("warnings", [])]
+    notes += [f"robot file {robot.source}: {w}" for w in robot_warnings(robot)]
     if ex is not None and np.any(ex > 0.1):
         notes.append(
             f"{int(np.sum(ex > 0.1))} of {ex.size} cutting postures lie beyond the model's "

@@ -28,9 +28,11 @@ import numpy as np
 import tomli_w
 from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
+from robolobe._atomic import not_a_file
 from robolobe._toml_errors import check_key_typos, describe_error, found, key_path
 from robolobe.errors import InputError
 from robolobe.robots.model import Joint, LinearConstraint, RigidBody, Robot
+from robolobe.robots.plausibility import check_inertia_range, robot_findings
 from robolobe.robots.transforms import pose_from_xyz_zyx, xyz_zyx_from_pose
 
 __all__ = [
@@ -174,6 +176,7 @@ def inertia_to_components(inertia: np.ndarray) -> list[float]:
 
 
 def _body(spec: _BodySpec | _JointSpec, key: str, where: str) -> RigidBody:
+    check_inertia_range(spec.mass_kg, spec.inertia_kgm2, key, where)
     inertia = inertia_from_components(spec.inertia_kgm2)
     eig = np.linalg.eigvalsh(inertia)
     scale = max(float(np.max(np.abs(eig))), 1e-300)
@@ -185,7 +188,7 @@ def _body(spec: _BodySpec | _JointSpec, key: str, where: str) -> RigidBody:
         what = "positive-definite" if spec.mass_kg > 0 else "positive-semidefinite"
         raise InputError(
             f"{key}.inertia_kgm2: expected a {what} inertia tensor satisfying the triangle "
-            f"inequality, found eigenvalues {np.array2string(eig, precision=4)} kg m^2",
+            f"inequality, found principal moments {', '.join(f'{v:.4g}' for v in eig)} kg m^2",
             source=where,
         )
     return RigidBody(mass_kg=spec.mass_kg, com_m=np.array(spec.com_m), inertia_kgm2=inertia)
@@ -297,7 +300,7 @@ def _build(d: dict[str, Any], source: str, where: str) -> Robot:
                 "(a compliant mount carries it), found mass_kg = 0",
                 where,
             )
-    return Robot(
+    robot = Robot(
         name=spec.name,
         convention=kin.convention,
         joints=tuple(joints),
@@ -310,6 +313,12 @@ def _build(d: dict[str, Any], source: str, where: str) -> Robot:
         mount_stiffness_Nm_per_rad=mount_k,
         mount_damping_Nms_per_rad=mount_c,
     )
+    findings = robot_findings(robot)
+    for f in findings:
+        if f.level == "error":
+            raise InputError(str(f), where)
+        logger.warning("%s: %s", where, f)
+    return robot
 
 
 def robot_from_dict(d: dict[str, Any], source: str) -> Robot:
@@ -379,7 +388,7 @@ def load_robot(spec: str | os.PathLike[str]) -> Robot:
         if not path.is_file():
             raise InputError(
                 f"expected a built-in robot {', '.join(BUILTIN_ROBOTS)} or a robot file, "
-                "found no such file",
+                f"found {not_a_file(path)}",
                 source=where,
             )
     try:

@@ -8,6 +8,7 @@ directly (tests, code).
 from __future__ import annotations
 
 import dataclasses
+import math
 from dataclasses import dataclass, field
 from typing import Any, Literal
 
@@ -316,6 +317,16 @@ class Robot:
     def is_flexible_joint_only(self) -> bool:
         """True for the nominal model (six joint springs, nothing else)."""
         return not self.tilt_joints and not self.has_mount
+
+    @property
+    def reach_m(self) -> float:
+        """Rough reach [m]: an upper bound on the TCP's distance from the shoulder.
+
+        The sum of the DH lengths ``|a_i|``, ``|d_i|`` (i >= 2; ``d_1`` is the
+        shoulder height) and the tool offset.
+        """
+        tool = math.hypot(*(float(v) for v in self.tool[:3, 3]))  # no overflow at 1e300
+        return float(np.sum(np.abs(self.a)) + np.sum(np.abs(self.d[1:])) + tool)
 
     @property
     def total_mass_kg(self) -> float:

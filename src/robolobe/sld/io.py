@@ -29,7 +29,7 @@ from pathlib import Path
 
 import numpy as np
 
-from robolobe._atomic import atomic_write_text
+from robolobe._atomic import atomic_write_text, not_a_file
 from robolobe.errors import InputError
 from robolobe.sld.frf import ModalModel
 from robolobe.sld.lobes import LobeDiagram
@@ -79,6 +79,8 @@ def read_modes_csv(path: str | os.PathLike[str]) -> ModalModel:
     """
     p = Path(path)
     name = str(path)
+    if p.is_dir():
+        raise InputError(f"expected a modes CSV file, found {not_a_file(p)}", source=name)
     try:
         text = p.read_text(encoding="utf-8-sig")
     except FileNotFoundError:

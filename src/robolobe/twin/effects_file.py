@@ -24,6 +24,7 @@ from typing import Any
 
 import tomli_w
 
+from robolobe._atomic import not_a_file
 from robolobe.errors import InputError
 from robolobe.twin.effects import Effect, effect_from_dict, effect_to_dict
 
@@ -60,7 +61,7 @@ def read_effects(path: str | os.PathLike[str]) -> tuple[Effect, ...]:
     p = Path(path)
     where = os.fspath(path)
     if not p.is_file():
-        raise InputError("expected an effects file (effects.toml), found no such file", where)
+        raise InputError(f"expected an effects file (effects.toml), found {not_a_file(p)}", where)
     try:
         doc = tomllib.loads(p.read_text(encoding="utf-8"))
     except (tomllib.TOMLDecodeError, OSError, UnicodeDecodeError) as exc:

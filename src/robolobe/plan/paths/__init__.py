@@ -26,6 +26,7 @@ from typing import Any
 
 import pandas as pd
 
+from robolobe._atomic import not_a_file
 from robolobe.errors import InputError
 from robolobe.plan.paths._table import (
     COLUMNS,
@@ -202,7 +203,7 @@ def read_toolpath(
     """
     p = Path(path)
     if not p.is_file():
-        raise InputError("expected a toolpath file, found no such file", source=str(p))
+        raise InputError(f"expected a toolpath file, found {not_a_file(p)}", source=str(p))
     fmt = fmt or detect_format(p)
     if applicable_only:
         options = reader_options(fmt, options)
