@@ -517,3 +517,15 @@ def test_force_levels_round_trip_and_bad_value_names_the_line(tmp_path):
     _put(out / "postures.csv", lines)
     with pytest.raises(InputError, match=r"postures.csv:3.*peak force > 0 N.*-5"):
         read_campaign(out)
+
+
+def test_a_folder_where_a_file_belongs_is_named(tmp_path):
+    from robolobe.campaign.uff import read_uff_frfs
+
+    folder = _write(tmp_path)
+    (folder / "frf.csv").unlink()
+    (folder / "frf.csv").mkdir()
+    with pytest.raises(InputError, match=r"frf.csv: expected a CSV file, found a directory"):
+        read_campaign(folder)
+    with pytest.raises(InputError, match="expected a UFF file, found a directory"):
+        read_uff_frfs(tmp_path)

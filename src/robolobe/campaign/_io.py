@@ -33,7 +33,7 @@ import pandas as pd
 import tomli_w
 from numpy.typing import ArrayLike, NDArray
 
-from robolobe._atomic import atomic_dir
+from robolobe._atomic import atomic_dir, not_a_file
 from robolobe._directions import dir_index
 from robolobe._frf_checks import frf_value_problem
 from robolobe.campaign._model import (
@@ -82,6 +82,8 @@ def _read_csv(
     path: Path, display: str, required: Sequence[str], str_cols: Sequence[str]
 ) -> tuple[pd.DataFrame, NDArray[np.int64]]:
     """Read a CSV; check the header; return the frame (blank lines dropped) and line numbers."""
+    if path.is_dir():
+        raise InputError(f"expected a CSV file, found {not_a_file(path)}", source=display)
     if not path.is_file():
         raise InputError("file not found", source=display)
     _check_text_file(path, display)
@@ -543,11 +545,11 @@ def read_campaign(path: str | os.PathLike[str], *, check_limits: bool = True) ->
     csv_path = folder / "frf.csv"
     uff_dir = folder / "frf"
     has_uff = uff_dir.is_dir() and any(uff_dir.glob("*.uff"))
-    if csv_path.is_file() and has_uff:
+    if csv_path.exists() and has_uff:
         raise InputError(
             "found both frf.csv and frf/*.uff; expected one of them", source=os.fspath(folder)
         )
-    if csv_path.is_file():
+    if csv_path.exists():  # a folder named frf.csv is refused by name
         try:
             frfs = _read_frf_csv(csv_path, "frf.csv", ids, post_lines)
         except InputError as exc:

@@ -56,6 +56,7 @@ from typing import Any, Literal
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from robolobe._atomic import not_a_file
 from robolobe._directions import AXES
 from robolobe._frf_checks import frf_value_problem
 from robolobe.errors import InputError
@@ -427,6 +428,8 @@ def read_uff_frfs(path: str | os.PathLike[str], *, source: str | None = None) ->
 
     where = source or os.fspath(path)
     p = Path(path)
+    if p.is_dir():
+        raise InputError(f"expected a UFF file, found {not_a_file(p)}", source=where)
     if not p.is_file():
         raise InputError("file not found", source=where)
     try:
