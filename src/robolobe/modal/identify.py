@@ -181,6 +181,12 @@ def one_blas_thread() -> Any:
     return threadpool_limits(limits=1, user_api="blas")
 
 
+def _run_chunk(fn: Callable[[Any], PostureModal], part: Sequence[Any]) -> list[PostureModal]:
+    """``[fn(x) for x in part]`` with one BLAS thread (in a worker process)."""
+    with one_blas_thread():
+        return [fn(x) for x in part]
+
+
 def _map_chunks(
     fn: Callable[[Any], PostureModal],
     items: Sequence[Any],
@@ -199,13 +205,11 @@ def _map_chunks(
         return out
     from joblib import Parallel, delayed
 
-    def run_chunk(a: int) -> list[PostureModal]:
-        with one_blas_thread():
-            return [fn(x) for x in items[a : a + chunk]]
-
     results: list[PostureModal] = []
+    # each task carries only its own chunk (a closure over ``items`` would send the
+    # whole campaign to the workers with every chunk)
     gen = Parallel(n_jobs=n_jobs, return_as="generator")(
-        delayed(run_chunk)(a) for a in range(0, n, chunk)
+        delayed(_run_chunk)(fn, items[a : a + chunk]) for a in range(0, n, chunk)
     )
     for part in gen:
         results.extend(part)
