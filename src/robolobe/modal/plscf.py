@@ -184,7 +184,7 @@ def plscf(
         else:
             # numerator values per output: beta_o = -R_o^-1 S_o A, A = [alpha_low; 1]
             A = np.concatenate([alpha_low[:, 0], [1.0]])
-            beta = -np.linalg.solve(R[:, :na, :na], S[:, :na, :nb] @ A)  # (O, na)
+            beta = -np.linalg.solve(R[:, :na, :na], (S[:, :na, :nb] @ A)[..., None])[..., 0]
             powers = zk[:, None] ** np.arange(na)[None, :]  # (n_p, na)
             vec = (powers @ beta.T) / w.mean(axis=0)[None, :]  # undo output weights
             norms = np.linalg.norm(vec, axis=1, keepdims=True)
