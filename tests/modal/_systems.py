@@ -62,7 +62,7 @@ def add_noise(
     return H + scale * (rng.normal(size=H.shape) + 1j * rng.normal(size=H.shape)) / np.sqrt(2)
 
 
-def drifting_campaign(n: int, seed: int = 0):  # type: ignore[no-untyped-def]
+def drifting_campaign(n: int, seed: int = 0):
     """Postures along q2: five modes drift by up to 15 %; shapes rotate with q6."""
     rng = np.random.default_rng(seed)
     q = np.zeros((n, 6))

@@ -34,7 +34,7 @@ from ._systems import drifting_campaign
 DATA = Path(__file__).parent / "data" / "previous_identification.csv"
 
 
-def _cases():  # type: ignore[no-untyped-def]
+def _cases():
     n = 10
     q, f, Hs, _ = drifting_campaign(n, seed=11)
     ids = [f"p{i}" for i in range(n)]

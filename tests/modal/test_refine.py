@@ -9,7 +9,7 @@ from robolobe.modal.refine import _Projection, refine_poles
 from ._systems import add_noise, make_system
 
 
-def _problem(proportional: bool, noise: float = 0.01):  # type: ignore[no-untyped-def]
+def _problem(proportional: bool, noise: float = 0.01):
     sysm = make_system(4)
     f = np.arange(2.0, 46.0, 0.25)
     rng = np.random.default_rng(0)
