@@ -67,6 +67,13 @@ from robolobe.twin.hammer import HammerTestSettings, simulate_hammer_test
 from robolobe.twin.model import Twin
 
 REPO = Path(__file__).resolve().parents[1]
+#: imports of an older robolobe.modal whose targets have moved since
+_MOVED = (
+    (
+        "from robolobe.twin.uff import frf_value_problem",
+        "from robolobe._frf_checks import frf_value_problem",
+    ),
+)
 
 
 def cpu_s() -> float:
@@ -113,7 +120,10 @@ def load_reference(commit: str) -> tuple[ModuleType | None, str]:
     dst = tmp / name
     src.rename(dst)
     for p in dst.glob("*.py"):
-        p.write_text(p.read_text().replace("robolobe.modal", name))
+        text = p.read_text().replace("robolobe.modal", name)
+        for was, now in _MOVED:
+            text = text.replace(was, now)
+        p.write_text(text)
     sys.path.insert(0, str(tmp))
     try:
         return importlib.import_module(name), f"reference: robolobe.modal of commit {commit}"
