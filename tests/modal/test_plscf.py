@@ -78,3 +78,14 @@ def test_participation_vectors_are_the_companion_eigenvectors(m: int) -> None:
     L = _null_vectors(P)
     np.testing.assert_allclose(np.linalg.norm(L, axis=1), 1.0, rtol=1e-12)
     np.testing.assert_allclose(mac(L, vecs[:m].T), 1.0, atol=1e-9)
+
+
+def test_participation_vector_of_a_double_pole() -> None:
+    """A 2-D null space (every 2x2 minor zero): a unit vector of it, not a zero vector."""
+    from robolobe.modal.plscf import _null_vectors
+
+    u = np.array([1.0, 2.0, -1.0]) / np.sqrt(6)
+    P = np.stack([np.outer(u, [1.0, 0.5, 2.0]), np.zeros((3, 3))]).astype(complex)
+    L = _null_vectors(P)
+    np.testing.assert_allclose(np.linalg.norm(L, axis=1), 1.0)
+    np.testing.assert_allclose(np.abs(np.einsum("pij,pj->pi", P, L)), 0.0, atol=1e-12)

@@ -237,5 +237,12 @@ def _null_vectors(P: NDArray[np.complex128]) -> NDArray[np.complex128]:
         L = np.stack([-r[:, 1], r[:, 0]], axis=1)
     else:
         L = np.linalg.svd(P)[2][:, -1, :].conj()
-    nrm = np.linalg.norm(L, axis=1, keepdims=True)
-    return np.asarray(L / np.where(nrm > 0, nrm, 1.0), dtype=np.complex128)
+    nrm = np.linalg.norm(L, axis=1)
+    # rank <= m - 2 (a null space of dimension >= 2: all products ~0): any vector of it,
+    # from the SVD
+    scale = np.linalg.norm(P.reshape(n_p, -1), axis=1) ** (m - 1)
+    weak = ~(nrm > 1e-9 * scale)
+    if m in (2, 3) and weak.any():
+        L[weak] = np.linalg.svd(P[weak])[2][:, -1, :].conj()
+        nrm[weak] = np.linalg.norm(L[weak], axis=1)
+    return np.asarray(L / np.where(nrm > 0, nrm, 1.0)[:, None], dtype=np.complex128)
