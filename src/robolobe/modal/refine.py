@@ -291,7 +291,9 @@ def refine_poles(
             )
             r_opt = info["fvec"]
             cost_opt, ok = 0.5 * float(r_opt @ r_opt), ier in (1, 2, 3, 4)
-    except (ValueError, np.linalg.LinAlgError):
+    # TypeError: leastsq's 'improper input' (fewer residuals than parameters), which
+    # least_squares raises as a ValueError
+    except (ValueError, TypeError, np.linalg.LinAlgError):
         return RefineResult(lam0.astype(np.complex128), cost0, cost0, fr.copy(), False)
     if not np.all(np.isfinite(x_opt)) or not np.isfinite(cost_opt) or cost_opt > cost0:
         return RefineResult(lam0.astype(np.complex128), cost0, cost0, np.zeros(n, bool), False)
