@@ -81,3 +81,13 @@ def test_refinement_moves_offset_poles_to_the_true_ones() -> None:
     # modes at 60 and 95 Hz are outside the model (residual terms): not exact
     np.testing.assert_allclose(np.abs(res.poles), np.abs(true), rtol=5e-4)
     np.testing.assert_allclose(-res.poles.real / np.abs(res.poles), sysm.zeta[:6], rtol=0.01)
+
+
+def test_too_few_residuals_return_the_start_poles_flagged() -> None:
+    f = np.array([5.0, 6.0])
+    lam = np.array([-1 + 30j, -1 + 40j, -1 + 50j])
+    H = (1 / (2j * np.pi * f[:, None] - lam[None])).sum(axis=1)
+    res = refine_poles(f, H, lam, lower=False, upper=False)  # 4 residuals, 6 parameters
+    assert not res.success
+    assert res.at_bound.all()
+    np.testing.assert_array_equal(res.poles, lam)
