@@ -89,3 +89,4 @@ def test_participation_vector_of_a_double_pole() -> None:
     L = _null_vectors(P)
     np.testing.assert_allclose(np.linalg.norm(L, axis=1), 1.0)
     np.testing.assert_allclose(np.abs(np.einsum("pij,pj->pi", P, L)), 0.0, atol=1e-12)
+    assert _null_vectors(np.zeros((0, 3, 3), complex)).shape == (0, 3)

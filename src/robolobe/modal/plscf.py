@@ -222,6 +222,8 @@ def _null_vectors(P: NDArray[np.complex128]) -> NDArray[np.complex128]:
         smallest singular value).
     """
     n_p, m, _ = P.shape
+    if n_p == 0:
+        return np.zeros((0, m), dtype=np.complex128)
     if m == 3:
         # orthogonal to two rows: their cross product; of the three pairs the longest
         # product is the best conditioned (much cheaper than batched 3x3 SVDs)
