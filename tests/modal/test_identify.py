@@ -158,3 +158,18 @@ def test_analytic_refinement_jacobian_gives_the_finite_difference_modes() -> Non
     np.testing.assert_allclose(b["f_hz"], a["f_hz"], rtol=1e-6)
     np.testing.assert_allclose(b["zeta"], a["zeta"], rtol=1e-4)
     np.testing.assert_allclose(b["k_N_per_m"], a["k_N_per_m"], rtol=1e-4)
+
+
+def test_refit_that_keeps_no_extra_pole_returns_the_posture() -> None:
+    """Neighbour recovery's refit: a start where the data hold no mode drifts out of its box
+    and is dropped; the posture comes back as it was (its residues are not refitted)."""
+    from robolobe.modal.posture import identify_posture, refit_posture
+    from robolobe.modal.synthesis import modal_to_poles
+
+    _, f, Hs, _ = _campaign(3, seed=11)
+    pm = identify_posture(f, Hs[1])
+    empty = refit_posture(pm, modal_to_poles(np.array([12.0]), np.array([0.01])))
+    assert empty is pm
+    found = refit_posture(pm, modal_to_poles(np.array([26.0]), np.array([0.01])))
+    assert found is not pm
+    assert found.n_modes == pm.n_modes + 1
