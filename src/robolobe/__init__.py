@@ -13,9 +13,9 @@ nothing until a name is used)::
     rl.write_plan(plan, "out")                           # waypoints, summary, plots, report
 
 Subpackages (each owns one concept, DESIGN.md): :mod:`robolobe.robots`,
-:mod:`robolobe.twin`, :mod:`robolobe.modal`, :mod:`robolobe.tl`,
-:mod:`robolobe.sld`, :mod:`robolobe.plan`, :mod:`robolobe.diagnose`,
-:mod:`robolobe.cli`.
+:mod:`robolobe.campaign` (measured data), :mod:`robolobe.twin`,
+:mod:`robolobe.modal`, :mod:`robolobe.tl`, :mod:`robolobe.sld`,
+:mod:`robolobe.plan`, :mod:`robolobe.diagnose`, :mod:`robolobe.cli`.
 """
 
 from __future__ import annotations
