@@ -60,3 +60,22 @@ def add_noise(
     """Complex Gaussian noise of std ``rel * max|H|`` per FRF (or ``rel * |H|`` per line)."""
     scale = rel * (np.abs(H) if proportional else np.max(np.abs(H), axis=0, keepdims=True))
     return H + scale * (rng.normal(size=H.shape) + 1j * rng.normal(size=H.shape)) / np.sqrt(2)
+
+
+def drifting_campaign(n: int, seed: int = 0):
+    """Postures along q2: five modes drift by up to 15 %; shapes rotate with q6."""
+    rng = np.random.default_rng(seed)
+    q = np.zeros((n, 6))
+    q[:, 1] = np.linspace(-0.5, 0.5, n)
+    q[:, 5] = np.linspace(0, 0.8, n)
+    f = np.arange(0.25, 50.01, 0.25)
+    systems, Hs = [], []
+    base_u = rng.normal(size=(5, 3)) / 25.0
+    for i in range(n):
+        fn = np.array([6.0, 9.5, 15.0, 22.0, 31.0]) * (1 + 0.15 * np.sin(q[i, 1] + np.arange(5)))
+        c, s = np.cos(q[i, 5]), np.sin(q[i, 5])
+        Rz = np.array([[c, -s, 0], [s, c, 0], [0, 0, 1]])
+        sysm = ModalSystem(fn, np.array([0.01, 0.02, 0.015, 0.03, 0.02]), base_u @ Rz.T)
+        systems.append(sysm)
+        Hs.append(add_noise(sysm.H(f), 0.005, rng, proportional=True))
+    return q, f, Hs, systems

@@ -10,26 +10,7 @@ from robolobe.modal.identify import identify_frfs, settings_from_test
 from robolobe.modal.modal_csv import MODAL_COLUMNS
 from robolobe.modal.validation import compare_with_truth, true_visibility
 
-from ._systems import ModalSystem, add_noise
-
-
-def _campaign(n: int, seed: int = 0):  # type: ignore[no-untyped-def]
-    """Postures along q2: five modes drift by up to 15 %; shapes rotate with q6."""
-    rng = np.random.default_rng(seed)
-    q = np.zeros((n, 6))
-    q[:, 1] = np.linspace(-0.5, 0.5, n)
-    q[:, 5] = np.linspace(0, 0.8, n)
-    f = np.arange(0.25, 50.01, 0.25)
-    systems, Hs = [], []
-    base_u = rng.normal(size=(5, 3)) / 25.0
-    for i in range(n):
-        fn = np.array([6.0, 9.5, 15.0, 22.0, 31.0]) * (1 + 0.15 * np.sin(q[i, 1] + np.arange(5)))
-        c, s = np.cos(q[i, 5]), np.sin(q[i, 5])
-        Rz = np.array([[c, -s, 0], [s, c, 0], [0, 0, 1]])
-        sysm = ModalSystem(fn, np.array([0.01, 0.02, 0.015, 0.03, 0.02]), base_u @ Rz.T)
-        systems.append(sysm)
-        Hs.append(add_noise(sysm.H(f), 0.005, rng, proportional=True))
-    return q, f, Hs, systems
+from ._systems import drifting_campaign as _campaign
 
 
 def test_campaign_table_numbering_and_accuracy() -> None:
@@ -177,3 +158,18 @@ def test_analytic_refinement_jacobian_gives_the_finite_difference_modes() -> Non
     np.testing.assert_allclose(b["f_hz"], a["f_hz"], rtol=1e-6)
     np.testing.assert_allclose(b["zeta"], a["zeta"], rtol=1e-4)
     np.testing.assert_allclose(b["k_N_per_m"], a["k_N_per_m"], rtol=1e-4)
+
+
+def test_refit_that_keeps_no_extra_pole_returns_the_posture() -> None:
+    """Neighbour recovery's refit: a start where the data hold no mode drifts out of its box
+    and is dropped; the posture comes back as it was (its residues are not refitted)."""
+    from robolobe.modal.posture import identify_posture, refit_posture
+    from robolobe.modal.synthesis import modal_to_poles
+
+    _, f, Hs, _ = _campaign(3, seed=11)
+    pm = identify_posture(f, Hs[1])
+    empty = refit_posture(pm, modal_to_poles(np.array([12.0]), np.array([0.01])))
+    assert empty is pm
+    found = refit_posture(pm, modal_to_poles(np.array([26.0]), np.array([0.01])))
+    assert found is not pm
+    assert found.n_modes == pm.n_modes + 1

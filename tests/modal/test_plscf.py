@@ -57,3 +57,36 @@ def test_orders_and_validation() -> None:
         plscf(f[::-1], sysm.H(f), [4])
     with pytest.raises(InputError, match="orders"):
         plscf(f, sysm.H(f), [0])
+
+
+@pytest.mark.parametrize("m", [2, 3, 4])
+def test_participation_vectors_are_the_companion_eigenvectors(m: int) -> None:
+    """Null vectors of the matrix polynomial = first block of the companion's eigenvectors."""
+    from robolobe.modal.plscf import _null_vectors
+
+    rng = np.random.default_rng(m)
+    n = 6
+    alpha_t = rng.normal(size=(n, m, m))  # alpha_0^T .. alpha_{n-1}^T, alpha_n = I
+    k = n * m
+    comp = np.zeros((k, k))
+    comp[: k - m, m:] = np.eye(k - m)
+    comp[k - m :, :] = -alpha_t.transpose(1, 0, 2).reshape(m, k)
+    z, vecs = np.linalg.eig(comp)  # an independent eigen-solver's vectors
+    P = np.einsum("pr,rij->pij", z[:, None] ** np.arange(n), alpha_t) + (z**n)[
+        :, None, None
+    ] * np.eye(m)
+    L = _null_vectors(P)
+    np.testing.assert_allclose(np.linalg.norm(L, axis=1), 1.0, rtol=1e-12)
+    np.testing.assert_allclose(mac(L, vecs[:m].T), 1.0, atol=1e-9)
+
+
+def test_participation_vector_of_a_double_pole() -> None:
+    """A 2-D null space (every 2x2 minor zero): a unit vector of it, not a zero vector."""
+    from robolobe.modal.plscf import _null_vectors
+
+    u = np.array([1.0, 2.0, -1.0]) / np.sqrt(6)
+    P = np.stack([np.outer(u, [1.0, 0.5, 2.0]), np.zeros((3, 3))]).astype(complex)
+    L = _null_vectors(P)
+    np.testing.assert_allclose(np.linalg.norm(L, axis=1), 1.0)
+    np.testing.assert_allclose(np.abs(np.einsum("pij,pj->pi", P, L)), 0.0, atol=1e-12)
+    assert _null_vectors(np.zeros((0, 3, 3), complex)).shape == (0, 3)

@@ -20,11 +20,49 @@ modal test engineer does with PolyMAX, done automatically and checked:
 - :mod:`~robolobe.modal.plots`: stabilization diagrams and FRF overlays.
 """
 
-from robolobe.modal.identify import CampaignModal, identify_campaign, identify_frfs
-from robolobe.modal.metrics import frac, mac, mac_matrix, nrmse
-from robolobe.modal.modal_csv import MODAL_COLUMNS, read_modal_csv, write_modal_csv
-from robolobe.modal.posture import IdentifySettings, PostureModal, identify_posture
-from robolobe.modal.synthesis import synthesize_frf
+from __future__ import annotations
+
+import importlib
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:
+    from robolobe.modal.identify import CampaignModal, identify_campaign, identify_frfs
+    from robolobe.modal.metrics import frac, mac, mac_matrix, nrmse
+    from robolobe.modal.modal_csv import MODAL_COLUMNS, read_modal_csv, write_modal_csv
+    from robolobe.modal.posture import IdentifySettings, PostureModal, identify_posture
+    from robolobe.modal.synthesis import synthesize_frf
+
+# names imported on first use: a worker process of the identification imports only
+# the per-posture modules, not pandas and the campaign code
+_WHERE = {
+    "CampaignModal": "identify",
+    "identify_campaign": "identify",
+    "identify_frfs": "identify",
+    "frac": "metrics",
+    "mac": "metrics",
+    "mac_matrix": "metrics",
+    "nrmse": "metrics",
+    "MODAL_COLUMNS": "modal_csv",
+    "read_modal_csv": "modal_csv",
+    "write_modal_csv": "modal_csv",
+    "IdentifySettings": "posture",
+    "PostureModal": "posture",
+    "identify_posture": "posture",
+    "synthesize_frf": "synthesis",
+}
+
+
+def __getattr__(name: str) -> Any:
+    if name in _WHERE:
+        value = getattr(importlib.import_module(f"robolobe.modal.{_WHERE[name]}"), name)
+        globals()[name] = value
+        return value
+    raise AttributeError(f"module 'robolobe.modal' has no attribute {name!r}")
+
+
+def __dir__() -> list[str]:
+    return sorted([*globals(), *_WHERE])
+
 
 __all__ = [
     "MODAL_COLUMNS",

@@ -27,11 +27,10 @@ driving-point residue from the LSFD covariance, about that of ``k``).
 
 from __future__ import annotations
 
-import functools
 import math
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
-from typing import Any, ParamSpec, TypeVar
+from typing import Any
 
 import numpy as np
 import pandas as pd
@@ -41,14 +40,15 @@ from scipy.optimize import linear_sum_assignment
 from robolobe._directions import AXES
 from robolobe.campaign import Campaign, TestHeader
 from robolobe.errors import InputError
+from robolobe.modal._pool import (
+    identify_item,
+    map_chunks,
+    refit_item,
+    with_one_blas_thread,
+)
 from robolobe.modal.metrics import frac, nrmse
 from robolobe.modal.modal_csv import MODAL_COLUMNS, Q_COLUMNS, validate_modal_frame
-from robolobe.modal.posture import (
-    IdentifySettings,
-    PostureModal,
-    identify_posture,
-    refit_posture,
-)
+from robolobe.modal.posture import IdentifySettings, PostureModal
 from robolobe.modal.quality import QualityIssue, check_campaign_grids
 from robolobe.modal.synthesis import poles_to_modal, synthesize_frf
 from robolobe.modal.tracking import (
@@ -67,8 +67,6 @@ __all__ = [
     "settings_from_test",
 ]
 
-P = ParamSpec("P")
-T = TypeVar("T")
 #: Extra columns of the modal table beyond FORMATS.md section 3.
 EXTRA_COLUMNS: tuple[str, ...] = ("source", "visibility", "k_rel_std")
 
@@ -136,79 +134,6 @@ def settings_from_test(test: Mapping[str, Any], **overrides: Any) -> IdentifySet
         kw["window_decay_per_s"] = header.decay_per_s
     kw.update(overrides)
     return IdentifySettings(**kw)
-
-
-def _identify_one(
-    pid: str, f: NDArray, h: NDArray, coh: NDArray | None, s: IdentifySettings
-) -> PostureModal:
-    return identify_posture(f, h, coherence=coh, settings=s, posture_id=pid)
-
-
-def one_blas_thread() -> Any:
-    """Context limiting BLAS to one thread.
-
-    The identification's linear algebra is many small solves: a multi-threaded
-    BLAS only adds synchronisation, and on a loaded machine (or beside other
-    workers) its spinning threads made one refinement residual 50x slower
-    (0.17 s vs 3 ms measured under a load average of 10).
-    """
-    from threadpoolctl import threadpool_limits
-
-    return threadpool_limits(limits=1, user_api="blas")
-
-
-def _map_chunks(
-    fn: Callable[[Any], PostureModal],
-    items: Sequence[Any],
-    n_jobs: int,
-    progress: Callable[[int], None] | None = None,
-    chunk: int = 8,
-) -> list[PostureModal]:
-    """``[fn(x) for x in items]``, in chunks over joblib workers (one BLAS thread each)."""
-    n = len(items)
-    if n_jobs == 1 or n < 4:
-        out = []
-        for x in items:
-            out.append(fn(x))
-            if progress is not None:
-                progress(1)
-        return out
-    from joblib import Parallel, delayed
-
-    def run_chunk(a: int) -> list[PostureModal]:
-        with one_blas_thread():
-            return [fn(x) for x in items[a : a + chunk]]
-
-    results: list[PostureModal] = []
-    gen = Parallel(n_jobs=n_jobs, return_as="generator")(
-        delayed(run_chunk)(a) for a in range(0, n, chunk)
-    )
-    for part in gen:
-        results.extend(part)
-        if progress is not None:
-            progress(len(part))
-    return results
-
-
-def _run_postures(
-    ids: Sequence[str],
-    freqs: Sequence[NDArray],
-    Hs: Sequence[NDArray],
-    cohs: Sequence[NDArray | None],
-    s: IdentifySettings,
-    n_jobs: int,
-    progress: Callable[[int], None] | None,
-) -> list[PostureModal]:
-    items = [(ids[i], freqs[i], Hs[i], cohs[i], s) for i in range(len(ids))]
-    return _map_chunks(_identify_args, items, n_jobs, progress)
-
-
-def _identify_args(a: tuple[Any, ...]) -> PostureModal:
-    return _identify_one(*a)
-
-
-def _refit_one(a: tuple[PostureModal, NDArray[np.complex128]]) -> PostureModal:
-    return refit_posture(a[0], a[1])
 
 
 def _choose_tracks(
@@ -321,7 +246,7 @@ def _recover(
             start_t.append(t)
         if starts:
             jobs.append((p, np.array(starts), start_t))
-    refits = _map_chunks(_refit_one, [(postures[p], st) for p, st, _ in jobs], n_jobs)
+    refits = map_chunks(refit_item, [(postures[p], st) for p, st, _ in jobs], n_jobs)
     for (p, starts_a, start_t), new in zip(jobs, refits, strict=True):
         pm = postures[p]
         # compare in the corrected domain: shift the starts like the poles
@@ -340,17 +265,6 @@ def _recover(
         labels[p] = lab
         recovered[p] = {int(i) for i in got}
     return recovered
-
-
-def with_one_blas_thread(fn: Callable[P, T]) -> Callable[P, T]:
-    """Decorator: run ``fn`` with BLAS limited to one thread (:func:`one_blas_thread`)."""
-
-    @functools.wraps(fn)
-    def inner(*args: P.args, **kwargs: P.kwargs) -> T:
-        with one_blas_thread():
-            return fn(*args, **kwargs)
-
-    return inner
 
 
 @with_one_blas_thread
@@ -441,7 +355,8 @@ def identify_frfs(
         else [None if c is None else np.asarray(c, dtype=float) for c in coherence]
     )
     issues: list[QualityIssue] = check_campaign_grids(ids, freqs)
-    postures = _run_postures(ids, freqs, Hs, cohs, s, n_jobs, progress)
+    items = [(ids[i], freqs[i], Hs[i], cohs[i], s) for i in range(n)]
+    postures = map_chunks(identify_item, items, n_jobs, progress)
     for pm in postures:
         issues.extend(pm.issues)
 

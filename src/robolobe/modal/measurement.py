@@ -29,7 +29,7 @@ import pandas as pd
 from numpy.typing import ArrayLike, NDArray
 
 from robolobe.errors import InputError
-from robolobe.modal.identify import with_one_blas_thread
+from robolobe.modal._pool import with_one_blas_thread
 from robolobe.modal.lsfd import LSFDResult, lsfd, modal_stiffness
 from robolobe.modal.plscf import plscf
 from robolobe.modal.posture import IdentifySettings, clean_poles, sign_issues

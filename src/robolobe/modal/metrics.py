@@ -109,4 +109,8 @@ def mac_matrix(phi1: ArrayLike, phi2: ArrayLike) -> NDArray[np.float64]:
     """
     a = np.atleast_2d(np.asarray(phi1, dtype=complex))
     b = np.atleast_2d(np.asarray(phi2, dtype=complex))
-    return mac(a[:, None, :], b[None, :, :])
+    num = np.abs(a.conj() @ b.T) ** 2
+    den = np.outer(np.sum(np.abs(a) ** 2, axis=1), np.sum(np.abs(b) ** 2, axis=1))
+    with np.errstate(invalid="ignore", divide="ignore"):
+        out = np.where(den > 0, num / np.where(den > 0, den, 1.0), np.nan)
+    return np.asarray(out, dtype=float)

@@ -143,13 +143,17 @@ def plscf(
     Y2 = Y.reshape(n_out * n_freq, -1)
     T = (Y2.conj().T @ Y2).real  # ((n+1)m, (n+1)m), summed over outputs
 
-    out: list[PoleSet] = []
+    lams: list[NDArray[np.complex128]] = []
+    vecs: list[NDArray[np.complex128] | None] = []
+    polys: list[NDArray[np.complex128]] = []  # m > 1: P(z) = sum z^r alpha_r^T at each pole
+    # Reduced normal matrices of every order from one Cholesky factor R_o = C_o C_o^T:
+    # C_o's leading blocks factor R_o's, so S_n^T R_n^-1 S_n = Z_n^T Z_n with Z = C^-1 S
+    # cut to the order, i.e. a running sum of the outer products of Z's rows.
+    Z = np.linalg.solve(np.linalg.cholesky(R), S)  # (O, n+1, (n+1)m)
+    ZtZ = np.cumsum(np.einsum("oia,oib->iab", Z, Z), axis=0)  # (n+1, (n+1)m, (n+1)m)
     for n in orders:
         na, nb = n + 1, (n + 1) * m
-        Rn = R[:, :na, :na]
-        Sn = S[:, :na, :nb]
-        RinvS = np.linalg.solve(Rn, Sn)  # (O, na, nb)
-        M = T[:nb, :nb] - Sn.reshape(-1, nb).T @ RinvS.reshape(-1, nb)
+        M = T[:nb, :nb] - ZtZ[n, :nb, :nb]
         M = 0.5 * (M + M.T)
         k = n * m
         try:
@@ -163,26 +167,84 @@ def plscf(
             comp[: k - m, m:] = np.eye(k - m)
         alpha_t = alpha_low.reshape(n, m, m).transpose(0, 2, 1)
         comp[k - m :, :] = -alpha_t.transpose(1, 0, 2).reshape(m, k)
-        zs, vecs = np.linalg.eig(comp)
+        # eigenvalues only (the eigenvectors cost ~1.6x more): L is the null vector of
+        # the m x m matrix polynomial at the pole, found for all orders at once below
+        zs = np.linalg.eigvals(comp)
         with np.errstate(divide="ignore", invalid="ignore"):
             lam = np.log(zs.astype(complex)) / dt
         keep = np.isfinite(lam) & (lam.imag > 0)
-        lam = lam[keep]
+        order_idx = np.argsort(lam[keep].imag)
+        zk = zs[keep][order_idx]
+        lams.append(lam[keep][order_idx])
         if m > 1:
-            vec = vecs[:m, keep].T  # participation vectors (n_p, m)
+            powers = zk[:, None] ** np.arange(n + 1)[None, :]  # (n_p, n + 1)
+            coef = np.concatenate([alpha_t.reshape(n, m * m), np.eye(m).reshape(1, m * m)])
+            polys.append((powers @ coef).reshape(-1, m, m))
+            vecs.append(None)
         else:
             # numerator values per output: beta_o = -R_o^-1 S_o A, A = [alpha_low; 1]
             A = np.concatenate([alpha_low[:, 0], [1.0]])
-            beta = -np.einsum("oab,b->oa", RinvS, A)  # (O, na)
-            zk = zs[keep]
+            beta = -np.linalg.solve(R[:, :na, :na], (S[:, :na, :nb] @ A)[..., None])[..., 0]
             powers = zk[:, None] ** np.arange(na)[None, :]  # (n_p, na)
             vec = (powers @ beta.T) / w.mean(axis=0)[None, :]  # undo output weights
-        order_idx = np.argsort(lam.imag)
-        lam = lam[order_idx]
-        vec = vec[order_idx]
-        norms = np.linalg.norm(vec, axis=1, keepdims=True)
-        vec = vec / np.where(norms > 0, norms, 1.0)
-        out.append(
-            PoleSet(order=n, poles=lam.astype(np.complex128), vectors=vec.astype(np.complex128))
+            norms = np.linalg.norm(vec, axis=1, keepdims=True)
+            vecs.append(vec / np.where(norms > 0, norms, 1.0))
+    n_v = m if m > 1 else n_out
+    if m > 1:
+        # participation vectors of every order in one batch
+        allv = _null_vectors(np.concatenate(polys)) if polys else np.zeros((0, m), complex)
+        cuts = np.cumsum([lam.size for lam in lams])[:-1]
+        vecs = list(np.split(allv, cuts))
+    return [
+        PoleSet(
+            order=n,
+            poles=lam.astype(np.complex128),
+            vectors=np.asarray(v, dtype=np.complex128).reshape(lam.size, n_v),
         )
-    return out
+        for n, lam, v in zip(orders, lams, vecs, strict=True)
+    ]
+
+
+def _null_vectors(P: NDArray[np.complex128]) -> NDArray[np.complex128]:
+    """Unit right null vectors ``L`` (``P L ~ 0``) of nearly singular m x m matrices.
+
+    Parameters
+    ----------
+    P : ndarray of complex, shape (n_p, m, m)
+        The matrix polynomial ``sum_r z^r alpha_r^T`` (``alpha_n = I``) at the
+        eigenvalues ``z`` of the block companion matrix.
+
+    Returns
+    -------
+    ndarray of complex, shape (n_p, m)
+        The first block of the companion's eigenvector, normalized (for m = 2, 3
+        orthogonal, bilinearly, to the rows; else the right singular vector of the
+        smallest singular value).
+    """
+    n_p, m, _ = P.shape
+    if n_p == 0:
+        return np.zeros((0, m), dtype=np.complex128)
+    if m == 3:
+        # orthogonal to two rows: their cross product; of the three pairs the longest
+        # product is the best conditioned (much cheaper than batched 3x3 SVDs)
+        c = np.stack(
+            [np.cross(P[:, 0], P[:, 1]), np.cross(P[:, 0], P[:, 2]), np.cross(P[:, 1], P[:, 2])],
+            axis=1,
+        )  # (n_p, 3 pairs, 3)
+        best = np.argmax(np.sum(np.abs(c) ** 2, axis=2), axis=1)
+        L = c[np.arange(n_p), best]
+    elif m == 2:
+        best = np.argmax(np.sum(np.abs(P) ** 2, axis=2), axis=1)  # the longer row
+        r = P[np.arange(n_p), best]
+        L = np.stack([-r[:, 1], r[:, 0]], axis=1)
+    else:
+        L = np.linalg.svd(P)[2][:, -1, :].conj()
+    nrm = np.linalg.norm(L, axis=1)
+    # rank <= m - 2 (a null space of dimension >= 2: all products ~0): any vector of it,
+    # from the SVD
+    scale = np.linalg.norm(P.reshape(n_p, -1), axis=1) ** (m - 1)
+    weak = ~(nrm > 1e-9 * scale)
+    if m in (2, 3) and weak.any():
+        L[weak] = np.linalg.svd(P[weak])[2][:, -1, :].conj()
+        nrm[weak] = np.linalg.norm(L[weak], axis=1)
+    return np.asarray(L / np.where(nrm > 0, nrm, 1.0)[:, None], dtype=np.complex128)

@@ -553,6 +553,8 @@ def refit_posture(pm: PostureModal, extra_poles: ArrayLike) -> PostureModal:
     Returns
     -------
     PostureModal
+        ``pm`` itself when extra poles were given and every one of them was
+        dropped (nothing new found; the residues are not fitted again).
     """
     extra = np.asarray(extra_poles, dtype=complex).reshape(-1)
     lam = np.concatenate([pm.poles_measured, extra])
@@ -569,6 +571,7 @@ def refit_posture(pm: PostureModal, extra_poles: ArrayLike) -> PostureModal:
         pm.selected,
         pm.settings,
         refine_only_extra=True,
+        base=pm,
     )
 
 
@@ -651,8 +654,13 @@ def _finish(
     selected: SelectedPoles | None,
     s: IdentifySettings,
     refine_only_extra: bool = False,
+    base: PostureModal | None = None,
 ) -> PostureModal:
-    """Refinement, LSFD, corrections, stiffness and visibility for a set of poles."""
+    """Refinement, LSFD, corrections, stiffness and visibility for a set of poles.
+
+    ``base``: returned as it is when ``n_extra`` extra poles were refined and all
+    were dropped (a refit that found nothing).
+    """
     if lam.size == 0:
         issues.append(
             QualityIssue(pid, "*", "poles", "warning", "no stable poles found in the band")
@@ -675,6 +683,8 @@ def _finish(
         keep = np.ones(lam.size, bool)
         if n_extra:
             keep[-n_extra:] = ~ref.at_bound[-n_extra:]
+            if base is not None and not keep[-n_extra:].any():
+                return base
         lam = ref.poles[keep]
     lam = clean_poles(lam, s, f)
     if lam.size == 0:

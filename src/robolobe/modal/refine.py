@@ -22,7 +22,7 @@ from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy.optimize import least_squares
+from scipy.optimize import least_squares, leastsq
 
 from robolobe.modal.lsfd import residue_basis
 
@@ -76,6 +76,16 @@ class _Projection:
         self.F, self.y, self.w2, self.lower, self.upper = F, y, w2, lower, upper
         self.sw = np.sqrt(w2)
         self._key: bytes | None = None
+        # Weights proportional across the FRFs (no coherence weighting: w_k = c_k w_0, as
+        # in a campaign read from frf.csv) give every FRF the same least-squares
+        # solution operator and projector: one normal matrix serves them all, and the
+        # Jacobian projects the 2J changed columns once instead of K J products.
+        self.sw0: NDArray[np.float64] | None = None
+        i0 = int(np.argmax(self.sw.sum(axis=0)))
+        ref = self.sw[:, i0]
+        c = self.sw.sum(axis=0) / ref.sum()
+        if np.max(np.abs(self.sw - ref[:, None] * c[None, :])) <= 1e-12 * np.max(ref):
+            self.sw0, self.c = ref, c
 
     def _solve(self, lam: NDArray[np.complex128]) -> None:
         key = lam.tobytes()
@@ -83,14 +93,25 @@ class _Projection:
             return
         B = residue_basis(self.F, lam, lower=self.lower, upper=self.upper)
         br = np.concatenate([B.real, B.imag], axis=0)  # (2F, P)
-        bw = self.w2.T[:, :, None] * br[None]  # (K, 2F, P)
-        A = np.matmul(bw.transpose(0, 2, 1), br)  # (K, P, P)
-        b = np.matmul(bw.transpose(0, 2, 1), self.y.T[:, :, None])[..., 0]
-        scale = np.sqrt(np.diagonal(A, axis1=1, axis2=2))
-        scale = np.where(scale > 0, scale, 1.0)
-        An = A / (scale[:, :, None] * scale[:, None, :]) + 1e-12 * np.eye(br.shape[1])[None]
-        x = np.linalg.solve(An, (b / scale)[..., None])[..., 0] / scale
-        self._key, self.br, self.An, self.scale, self.x = key, br, An, scale, x
+        eye = 1e-12 * np.eye(br.shape[1])
+        if self.sw0 is not None:
+            aw = self.sw0[:, None] * br  # (2F, P), the same for every FRF
+            A = aw.T @ aw
+            scale = np.sqrt(np.diagonal(A))
+            scale = np.where(scale > 0, scale, 1.0)
+            An = A / np.outer(scale, scale) + eye
+            b = aw.T @ (self.sw0[:, None] * self.y)  # (P, K)
+            x = (np.linalg.solve(An, b / scale[:, None]) / scale[:, None]).T  # (K, P)
+        else:
+            aw = self.sw.T[:, :, None] * br[None]  # (K, 2F, P)
+            awt = aw.transpose(0, 2, 1)
+            A = np.matmul(awt, aw)  # (K, P, P)
+            b = np.matmul(awt, (self.sw * self.y).T[:, :, None])[..., 0]
+            scale = np.sqrt(np.diagonal(A, axis1=1, axis2=2))
+            scale = np.where(scale > 0, scale, 1.0)
+            An = A / (scale[:, :, None] * scale[:, None, :]) + eye[None]
+            x = np.linalg.solve(An, (b / scale)[..., None])[..., 0] / scale
+        self._key, self.aw, self.An, self.scale, self.x = key, aw, An, scale, x
         self.r = self.sw * (self.y - br @ x.T)  # (2F, K)
 
     def resid(self, lam: NDArray[np.complex128]) -> NDArray[np.float64]:
@@ -112,13 +133,22 @@ class _Projection:
         c2r = np.concatenate([c2.real, c2.imag], axis=0)
         xa = self.x[:, 2 * owner]  # (K, J)
         xb = self.x[:, 2 * owner + 1]
+        J = owner.size
+        if self.sw0 is not None:
+            # P (sw_k dB x_k) = c_k (xa_k P(sw0 c1) + xb_k P(sw0 c2)), P shared by the FRFs
+            v = self.sw0[:, None] * np.concatenate([c1r, c2r], axis=1)  # (2F, 2J)
+            coef = np.linalg.solve(self.An, (self.aw.T @ v) / self.scale[:, None])
+            pv = v - self.aw @ (coef / self.scale[:, None])  # (2F, 2J)
+            ca, cb = self.c[:, None] * xa, self.c[:, None] * xb  # (K, J)
+            out = pv[:, None, :J] * ca[None] + pv[:, None, J:] * cb[None]  # (2F, K, J)
+            return np.asarray(-out.reshape(-1, J), dtype=float)
         # weighted changed-basis times solution, per FRF: (K, 2F, J)
         v = self.sw.T[:, :, None] * (c1r[None] * xa[:, None, :] + c2r[None] * xb[:, None, :])
-        aw = self.sw.T[:, :, None] * self.br[None]  # (K, 2F, P)
+        aw = self.aw
         rhs = np.matmul(aw.transpose(0, 2, 1), v) / self.scale[:, :, None]  # (K, P, J)
         coef = np.linalg.solve(self.An, rhs) / self.scale[:, :, None]
         pv = v - np.matmul(aw, coef)  # (K, 2F, J)
-        return np.asarray(-pv.transpose(1, 0, 2).reshape(-1, owner.size), dtype=float)
+        return np.asarray(-pv.transpose(1, 0, 2).reshape(-1, J), dtype=float)
 
 
 def refine_poles(
@@ -232,20 +262,42 @@ def refine_poles(
 
         if jacobian not in ("analytic", "fd"):
             raise ValueError(f"jacobian: expected 'analytic' or 'fd', found {jacobian!r}")
-        sol = least_squares(
-            fun,
-            p0,
-            jac=jac if jacobian == "analytic" else "2-point",
-            method="lm",
-            x_scale=np.concatenate([np.full(nf, 1e-3), np.full(nf, 0.1)]),
-            max_nfev=max_nfev * (2 * nf + 1) if jacobian == "fd" else max_nfev * 4,
-            diff_step=np.full(2 * nf, 1e-6),
-        )
-    except (ValueError, np.linalg.LinAlgError):
+        x_scale = np.concatenate([np.full(nf, 1e-3), np.full(nf, 0.1)])
+        if jacobian == "fd":
+            sol = least_squares(
+                fun,
+                p0,
+                jac="2-point",
+                method="lm",
+                x_scale=x_scale,
+                max_nfev=max_nfev * (2 * nf + 1),
+                diff_step=np.full(2 * nf, 1e-6),
+            )
+            x_opt, cost_opt, ok = sol.x, float(sol.cost), bool(sol.success)
+        else:
+            # MINPACK's lmder with least_squares(method="lm")'s settings (same iterates)
+            # without its per-call wrapping, which cost more than the residuals here
+            x_opt, _, info, _, ier = leastsq(
+                fun,
+                p0,
+                Dfun=jac,
+                full_output=True,
+                ftol=1e-8,
+                xtol=1e-8,
+                gtol=1e-8,
+                maxfev=max_nfev * 4,
+                factor=100.0,
+                diag=1.0 / x_scale,
+            )
+            r_opt = info["fvec"]
+            cost_opt, ok = 0.5 * float(r_opt @ r_opt), ier in (1, 2, 3, 4)
+    # TypeError: leastsq's 'improper input' (fewer residuals than parameters), which
+    # least_squares raises as a ValueError
+    except (ValueError, TypeError, np.linalg.LinAlgError):
         return RefineResult(lam0.astype(np.complex128), cost0, cost0, fr.copy(), False)
-    if not np.all(np.isfinite(sol.x)) or not np.isfinite(sol.cost) or sol.cost > cost0:
+    if not np.all(np.isfinite(x_opt)) or not np.isfinite(cost_opt) or cost_opt > cost0:
         return RefineResult(lam0.astype(np.complex128), cost0, cost0, np.zeros(n, bool), False)
-    x = sol.x
+    x = x_opt
     drift = np.abs(x[:nf] - p0[:nf]) > np.log1p(f_bound)
     zeta_out = x[nf:] > np.log(zeta_max)
     bad = drift | zeta_out
@@ -253,4 +305,4 @@ def refine_poles(
     x = np.where(np.concatenate([bad, bad]), p0, x)
     at_bound = np.zeros(n, bool)
     at_bound[fr] = bad
-    return RefineResult(to_poles(x), cost0, float(sol.cost), at_bound, bool(sol.success))
+    return RefineResult(to_poles(x), cost0, cost_opt, at_bound, ok)

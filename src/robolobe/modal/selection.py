@@ -111,6 +111,7 @@ class SelectedPoles:
 
 
 def _distance_matrix(poles: NDArray[np.complex128], vecs: NDArray[np.complex128]) -> NDArray:
+    """Pole distance ``|l_i - l_j| / max(|l_i|, |l_j|) + 1 - MAC_ij``, shape (n, n)."""
     dl = np.abs(poles[:, None] - poles[None, :])
     scale = np.maximum(np.abs(poles)[:, None], np.abs(poles)[None, :])
     d = dl / scale + 1.0 - mac_matrix(vecs, vecs)
@@ -165,9 +166,10 @@ def select_poles(
     n_v = diagram.vectors.shape[1]
     clusters: list[NDArray] = []
     if idx.size:
-        d = _distance_matrix(diagram.poles, diagram.vectors) if idx.size else None
-        assert d is not None
-        clusters = [c for c in _cluster(d, idx, diagram.order, s.d_max) if c.size]
+        # distances among the candidates only (the others never enter a cluster)
+        d = _distance_matrix(diagram.poles[idx], diagram.vectors[idx])
+        local = _cluster(d, np.arange(idx.size), diagram.order[idx], s.d_max)
+        clusters = [idx[c] for c in local if c.size]
     f_all, z_all = diagram.f_hz, diagram.zeta
     rows = []
     for c in clusters:
