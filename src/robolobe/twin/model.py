@@ -115,7 +115,16 @@ class Twin:
             Controller axis angles [rad].
         """
         s = self.system(q)
-        return compute_modes(s.M, s.K, s.C, s.J)
+        try:
+            return compute_modes(s.M, s.K, s.C, s.J)
+        except InputError as exc:
+            if exc.source:
+                raise
+            # name the robot file: an overdamped joint mode is a property of its values
+            raise InputError(
+                f"{exc.detail} (robot {self.robot.name!r}: lower the joint damping in the file)",
+                source=self.robot.source,
+            ) from None
 
     def receptance(
         self, q: ArrayLike, freq_hz: ArrayLike, *, method: Literal["solve", "modal"] = "solve"
