@@ -5,13 +5,16 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from robolobe.errors import InputError
 from robolobe.plan.lobes import DynamicsTolerance, _features, group_dynamics, waypoint_lobes
 from robolobe.sld.conditions import engagement_angles
 from robolobe.sld.directional import directional_factors
 from robolobe.sld.frf import ModalModel
+from robolobe.sld.material import get_material
 from robolobe.sld.zoa import zoa_lobes
 
 RPM = np.linspace(6000.0, 24000.0, 120)
+MAT = get_material("Al7075-T6")
 
 
 def models(n: int, spread: float, seed: int = 0) -> ModalModel:
@@ -181,3 +184,39 @@ def test_sharing_near_the_feed_direction_stays_within_one_percent(milling):
         n_steep += int(steep.sum())
     assert worst <= 0.01
     assert n_steep < 0.5 * n * speeds.size  # walls and steep flanks are the exception
+
+
+def test_own_lobes_reusing_a_result_equal_a_fresh_computation():
+    """The steep-wall split reuses the grouping and lobes: same table, groups and queries."""
+    from robolobe.plan.lobes import _FRF_CHUNK
+
+    n = _FRF_CHUNK + 37  # more than one FRF chunk
+    m = models(n, spread=0.05, seed=4)
+    kw = dict(
+        teeth=3, kt=MAT.kt, kr=MAT.kr, phi_entry=0.0, phi_exit=np.pi / 2,
+        rpm=np.linspace(4000.0, 24000.0, 300), immersion=0.5,
+    )  # fmt: skip
+    first = waypoint_lobes([m], **kw)
+    own = np.zeros(n, bool)
+    own[np.flatnonzero(first.table.group != np.arange(n))[:5]] = True  # members, not leaders
+    assert own.sum() == 5
+    fresh = waypoint_lobes([m], own=own, **kw)
+    reused = waypoint_lobes([m], own=own, reuse=first, **kw)
+    assert reused.n_groups == fresh.n_groups == first.n_groups + 5
+    np.testing.assert_array_equal(reused.table.group, fresh.table.group)
+    np.testing.assert_array_equal(reused.leader, fresh.leader)
+    np.testing.assert_array_equal(reused.table.a_lim, fresh.table.a_lim)
+    d0, d1 = reused.diagrams[0], fresh.diagrams[0]
+    assert d0.max_lobe == d1.max_lobe
+    np.testing.assert_array_equal(d0.depth, d1.depth)
+    rows = np.linspace(4100.0, 23900.0, 11)[None, :].repeat(n, 0)
+    g = reused.table.group
+    np.testing.assert_array_equal(reused.table.rows(rows, g), fresh.table.rows(rows, g))
+    # the chunked FRF synthesis is the whole-batch one, bit for bit
+    reps = m.take(fresh.leader)
+    om = reps.frequency_grid(shared=False)
+    whole = zoa_lobes(om, reps.frf(om), alpha=directional_factors(0.0, np.pi / 2, MAT.kr),
+                      teeth=3, kt=MAT.kt, rpm=kw["rpm"], max_lobe=None, immersion=0.5)  # fmt: skip
+    np.testing.assert_array_equal(whole.a_lim, d1.a_lim)
+    with pytest.raises(InputError):
+        waypoint_lobes([m], own=own, reuse=fresh, **kw)

@@ -165,3 +165,31 @@ def test_read_only_cache_dir_still_computes(tmp_path: Path) -> None:
     finally:
         for p in [tmp_path / "ro", *(tmp_path / "ro").rglob("*"), home]:
             p.chmod(0o755)
+
+
+def test_envelope_rows_equals_lobe_envelope_per_row() -> None:
+    """Exact queries (one speed row per entry, any order, off-grid) as the numpy reference."""
+    from robolobe.sld import _kernels
+    from robolobe.sld.lobes import lobe_envelope
+
+    m = _models(30, seed=11)
+    alpha = directional_factors(0.0, math.pi / 2, MAT.kr)
+    omega = m.frequency_grid(shared=False)
+    d = zoa_lobes(omega, m.frf(omega), alpha=alpha, teeth=3, kt=MAT.kt, rpm=[5e3, 2e4], jit=True)
+    rng = np.random.default_rng(3)
+    groups = rng.integers(0, 30, 50)
+    rows = rng.uniform(4000.0, 24000.0, (50, 7))
+    rows[:, 0] = 24000.0  # the grid's end, and a repeated speed
+    rows[:, 1] = 24000.0
+    got = _kernels.envelope_rows(
+        d.omega, d.depth, d.eps, groups, teeth=3, rpm=rows, max_lobe=d.max_lobe
+    )
+    # the reference one entry at a time (its one-row path searches each row exactly)
+    ref = np.stack(
+        [
+            lobe_envelope(d.omega[g], d.depth[g], d.eps[g], teeth=3, rpm=r, max_lobe=d.max_lobe)
+            for g, r in zip(groups, rows, strict=True)
+        ]
+    )
+    _compare(got, ref, 1e-12)
+    assert np.all(got[:, 0] == got[:, 1])

@@ -385,6 +385,7 @@ def cut_lobes(
     dynamics_tol: float | None = None,
     robust: bool | None = None,
     own: NDArray[np.bool_] | None = None,
+    reuse: GroupedLobes | None = None,
 ) -> tuple[
     ModalModel, NDArray[np.bool_], GroupedLobes, dict[str, float], FloatArray, RobustBound | None
 ]:
@@ -412,6 +413,9 @@ def cut_lobes(
         Overrides ``job.plan.robust``.
     own : ndarray of bool, shape (n,), optional
         Waypoints that get lobes of their own (see :func:`robolobe.plan.lobes.steep_members`).
+    reuse : GroupedLobes, optional
+        The result of the same call without ``own``: its grouping and lobes are
+        kept, only the added waypoints' lobes are computed (same result).
 
     Returns
     -------
@@ -460,6 +464,7 @@ def cut_lobes(
         tol=tol,
         window=None if bound is None else bound.window,
         own=own,
+        reuse=reuse,
     )
     timings["lobes"] = time.perf_counter() - t
     feed_angle = np.degrees(np.arctan2(f_use[:, 1], f_use[:, 0]))
@@ -579,7 +584,9 @@ def plan_path(
     n_split = int(steep.sum())
     if n_split:
         t_split = time.perf_counter()
-        _, _, grouped, _, _, _ = cut_lobes(job, modes, f_tcp, material, tool, rpm, own=steep)
+        _, _, grouped, _, _, _ = cut_lobes(
+            job, modes, f_tcp, material, tool, rpm, own=steep, reuse=grouped
+        )
         timings["lobes"] += time.perf_counter() - t_split
         outcome = schedule(grouped.table)
     timings["optimize"] = time.perf_counter() - t
