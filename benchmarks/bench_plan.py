@@ -77,7 +77,8 @@ def zigzag_gcode(n_target: int, width_mm: float, height_mm: float, step_mm: floa
 
 
 def _load() -> str:
-    return "load %.1f/%.1f" % os.getloadavg()[:2]
+    one, five = os.getloadavg()[:2]
+    return f"load {one:.1f}/{five:.1f}"
 
 
 @contextlib.contextmanager
