@@ -219,3 +219,39 @@ def test_degenerate_paths(tmp_path, pocket_job):
     assert res.summary["n_plunge"] == 2
     assert any("plunges" in n for n in res.summary["notes"])
     assert res.lobes.n_groups == 0
+
+
+@pytest.mark.parametrize("source_kind", ["twin", "builtin"])
+def test_modes_of_distinct_postures_in_chunks_equal_one_call(pocket, monkeypatch, source_kind):
+    """Each distinct posture predicted once, in chunks, expanded: the modes of one call."""
+    from robolobe.plan import pipeline
+    from robolobe.plan.modes import mode_source
+
+    robot = load_robot("A")
+    source, _ = mode_source(source_kind, robot, "A")
+    q = pocket.q[pocket.cut_index][:60]
+    q = np.concatenate([q, q[::-3], q[:5]])  # repeats, out of order
+    monkeypatch.setattr(pipeline, "_CHUNK", 16)
+    calls = []
+    inner = source.predict
+
+    def counted(x):
+        calls.append(len(x))
+        return inner(x)
+
+    monkeypatch.setattr(source, "predict", counted)
+    got = pipeline._predict_modes(source, q)
+    assert sum(calls) == 60
+    assert max(calls) <= 16
+    ref = inner(q)
+    for name in ("f_hz", "zeta", "k_N_per_m", "log_std", "extrapolation"):
+        a, b = getattr(got, name), getattr(ref, name)
+        if b is None:
+            assert a is None
+        else:
+            np.testing.assert_allclose(a, b, rtol=1e-12, atol=0.0)
+    for name in ("omega", "zeta", "residues"):
+        np.testing.assert_allclose(
+            getattr(got.model, name), getattr(ref.model, name), rtol=1e-12, atol=1e-300
+        )
+    assert got.source == ref.source
