@@ -261,3 +261,16 @@ def test_refinement_skipped_only_where_it_cannot_improve():
     # power binds at the top speed: a lower speed can buy depth, so it runs
     p = cons(power_W=KT * 0.01 * 3e-4 * 1.2e-3 * 24000.0 / 60.0)
     assert not optimize_schedule(tab, geom, p).nlp_status.startswith("not needed")
+
+
+def test_block_minimum_in_chunks_equals_the_full_grid():
+    from robolobe.plan.optimize import _block_min
+
+    rng = np.random.default_rng(2)
+    a = rng.uniform(1e-3, 5e-3, (30, 17))
+    a[3, 5] = np.inf
+    group = rng.integers(0, 30, 1000)
+    start = np.unique(np.r_[0, rng.integers(1, 1000, 40)])
+    ref = np.minimum.reduceat(a[group], start, axis=0)
+    for chunk in (1, 7, 64, 5000):
+        np.testing.assert_array_equal(_block_min(a, group, start, chunk), ref)

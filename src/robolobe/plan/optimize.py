@@ -719,8 +719,7 @@ def _blocks(ctx: _Ctx, n_blocks: int) -> _Blocks:
     # knot at the middle of the block's span of cutting length
     knots = 0.5 * (np.r_[0.0, s][start] + s[end])
     length = np.add.reduceat(ctx.geom.seg_m, start)
-    a_wp = ctx.lobes.a_lim[ctx.lobes.group]
-    a_blk = np.minimum.reduceat(a_wp, start, axis=0)
+    a_blk = _block_min(ctx.lobes.a_lim, ctx.lobes.group, start)
     # strictly increasing knots (blocks of zero length share a position)
     knots = np.maximum.accumulate(knots)
     bump = np.arange(knots.size) * 1e-12 * max(total, 1.0)
@@ -730,6 +729,24 @@ def _blocks(ctx: _Ctx, n_blocks: int) -> _Blocks:
     blk_of = np.repeat(np.arange(start.size), 2)
     edge_s, first = np.unique(pos, return_index=True)
     return _Blocks(start, knots + bump, length, a_blk, edge_s, blk_of[first].astype(np.int64))
+
+
+def _block_min(
+    a_lim: FloatArray, group: IntArray, start: IntArray, chunk: int = 8192
+) -> FloatArray:
+    """Per block of consecutive waypoints (first ``start``) the minimum of their grid rows.
+
+    In chunks of waypoints, so that no (n_cut, n_rpm) copy of the grid is formed.
+    """
+    n = group.size
+    out = np.full((start.size, a_lim.shape[1]), np.inf)
+    bid = np.repeat(np.arange(start.size), np.diff(np.r_[start, n]))
+    for c0 in range(0, n, chunk):
+        b = bid[c0 : c0 + chunk]
+        st = np.flatnonzero(np.r_[True, b[1:] != b[:-1]])
+        part = np.minimum.reduceat(a_lim[group[c0 : c0 + chunk]], st, axis=0)
+        out[b[st]] = np.minimum(out[b[st]], part)
+    return out
 
 
 def _search(ctx: _Ctx, max_blocks: int, n_depth: int) -> tuple[Schedule | None, _Blocks, str]:

@@ -735,8 +735,8 @@ def _stiffest_rotation(
         except (ReachabilityError, SingularityError) as exc:
             tried.append(f"{math.degrees(r):.0f} deg: {type(exc).__name__}")
             continue
-        a = grouped.table.a_lim[grouped.table.group][:, allowed]
-        val = float(np.min(np.max(a, axis=1)))
+        best_g = np.max(grouped.table.a_lim[:, allowed], axis=1)  # per group
+        val = float(np.min(best_g[grouped.table.group]))
         tried.append(f"{math.degrees(r):.0f} deg: {val * 1e3:.3g} mm")
         if val > best_val:
             best, best_val = float(r), val
@@ -795,19 +795,15 @@ def _result_table(
     g = grouped.table.group
     grp[ci] = np.where(plunge, -1, g)
     cols["dynamics_group"] = grp
-    a_grid = grouped.table.a_lim[g]
+    # per group, then per waypoint (not an (n_cut, n_rpm) copy of the grid)
     allowed = (grouped.table.rpm >= cons.rpm_min) & (grouped.table.rpm <= cons.rpm_hi)
+    a_low = grouped.table.a_lim[:, allowed].min(axis=1)
     amin = np.full(n, np.nan)
-    amin[ci] = (
-        np.where(
-            np.isfinite(a_grid[:, allowed].min(axis=1)), a_grid[:, allowed].min(axis=1), np.nan
-        )
-        * 1e3
-    )
+    amin[ci] = np.where(np.isfinite(a_low), a_low, np.nan)[g] * 1e3
     cols["a_min_mm"] = amin
     rb = np.full(n, np.nan)
-    jbest = np.argmax(np.where(allowed, a_grid, -np.inf), axis=1)
-    rb[ci] = np.where(plunge, np.nan, grouped.table.rpm[jbest])
+    jbest = np.argmax(np.where(allowed, grouped.table.a_lim, -np.inf), axis=1)
+    rb[ci] = np.where(plunge, np.nan, grouped.table.rpm[jbest][g])
     cols["rpm_best"] = rb
     alim = np.full(n, np.nan)
     alim[ci] = np.where(np.isfinite(best.a_lim_m), best.a_lim_m * 1e3, np.nan)
