@@ -220,16 +220,3 @@ def test_own_lobes_reusing_a_result_equal_a_fresh_computation():
     np.testing.assert_array_equal(whole.a_lim, d1.a_lim)
     with pytest.raises(InputError):
         waypoint_lobes([m], own=own, reuse=fresh, **kw)
-
-
-def test_grouping_with_neighbourhoods_asked_in_blocks_equals_one_by_one(monkeypatch):
-    from robolobe.plan import lobes
-
-    m = models(3000, spread=0.2, seed=5)
-    alpha = directional_factors(0.0, np.pi / 2, MAT.kr)
-    g, lead = group_dynamics(m, DynamicsTolerance(), alpha)
-    assert 20 < lead.size < 3000
-    monkeypatch.setattr(lobes, "_QUERY_BLOCK", 1)  # each leader's neighbourhood alone
-    g1, lead1 = group_dynamics(m, DynamicsTolerance(), alpha)
-    np.testing.assert_array_equal(g, g1)
-    np.testing.assert_array_equal(lead, lead1)

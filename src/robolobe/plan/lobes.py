@@ -55,7 +55,6 @@ FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
 
 _RADIUS = 0.75  # leader radius in tolerance units (plus the 0.25 cells: at most 1)
-_QUERY_BLOCK = 512  # rows whose neighbourhoods are asked for at once
 
 
 @dataclass(frozen=True)
@@ -200,21 +199,13 @@ def group_dynamics(
     label_u = np.full(fu.shape[0], -1, np.int64)
     leaders: list[int] = []
     tree = cKDTree(fu)
-    nu = fu.shape[0]
-    for b0 in range(0, nu, _QUERY_BLOCK):  # in path order; most rows are taken by earlier leaders
-        # the neighbourhoods of a block's still-free rows in one call (a leader's is the
-        # same whether asked alone or with others)
-        free = b0 + np.flatnonzero(label_u[b0 : b0 + _QUERY_BLOCK] < 0)
-        if free.size == 0:
+    for lead in range(fu.shape[0]):  # in path order; most rows are taken by earlier leaders
+        if label_u[lead] >= 0:
             continue
-        hoods = tree.query_ball_point(fu[free], _RADIUS, p=np.inf)
-        for lead, hood in zip(free.tolist(), hoods, strict=True):
-            if label_u[lead] >= 0:
-                continue
-            near = np.asarray(hood, dtype=np.int64)
-            near = near[label_u[near] < 0]
-            label_u[near] = len(leaders)
-            leaders.append(int(first[order][lead]))
+        near = np.asarray(tree.query_ball_point(fu[lead], _RADIUS, p=np.inf), dtype=np.int64)
+        near = near[label_u[near] < 0]
+        label_u[near] = len(leaders)
+        leaders.append(int(first[order][lead]))
     pos = np.empty_like(order)
     pos[order] = np.arange(order.size)
     group = label_u[pos[inv]]
