@@ -194,3 +194,23 @@ def test_cli_waypoint_options(tmp_path):
     full = plan_path(example("contour.apt"), load_job(job), refine=True).table
     got = pd.read_csv(tmp_path / "thin" / "waypoints.csv")
     assert len(got) == -(-len(full) // 5)
+
+
+def test_chosen_lobes_equal_a_candidate_by_candidate_search(result):
+    """The vectorised choice of lobes to plot is the plain loop's (the old code)."""
+    best, tab = result.outcome.best, result.lobes.table
+    g = tab.group
+    idx = np.flatnonzero(np.isfinite(best.margin) & (g < result.lobes.n_groups))
+    out = [int(idx[np.argmin(best.margin[idx])])]
+    order = idx[np.argsort(best.margin[idx], kind="stable")]
+    _, first = np.unique(g[order], return_index=True)
+    cand = order[np.sort(first)]
+    log_a = np.log(np.clip(tab.a_lim, 1e-9, 1e3))
+    while len(out) < 3:
+        shown = log_a[g[out]]
+        dist = np.array([np.min(np.mean(np.abs(shown - log_a[g[c]]), axis=1)) for c in cand])
+        j = int(np.argmax(dist))
+        if dist[j] < 0.05:
+            break
+        out.append(int(cand[j]))
+    assert report._chosen(result) == out

@@ -151,9 +151,11 @@ def _chosen(res: PlanResult, n: int = 3) -> list[int]:
     cand = order[np.sort(first)]
     with np.errstate(divide="ignore", invalid="ignore"):
         log_a = np.log(np.clip(tab.a_lim, 1e-9, 1e3))
+    rows = log_a[g[cand]]
+    dist = np.full(cand.size, np.inf)
     while len(out) < n:
-        shown = log_a[g[out]]
-        dist = np.array([np.min(np.mean(np.abs(shown - log_a[g[c]]), axis=1)) for c in cand])
+        # distance of each candidate to the nearest curve shown (updated by the newest)
+        dist = np.minimum(dist, np.mean(np.abs(rows - log_a[g[out[-1]]]), axis=1))
         j = int(np.argmax(dist)) if dist.size else -1
         if j < 0 or dist[j] < 0.05:
             break
