@@ -188,9 +188,9 @@ def test_sharing_near_the_feed_direction_stays_within_one_percent(milling):
 
 def test_own_lobes_reusing_a_result_equal_a_fresh_computation():
     """The steep-wall split reuses the grouping and lobes: same table, groups and queries."""
-    from robolobe.plan.lobes import _FRF_CHUNK
+    from robolobe.sld.zoa import FRF_CHUNK
 
-    n = _FRF_CHUNK + 37  # more than one FRF chunk
+    n = FRF_CHUNK + 37  # more than one FRF chunk
     m = models(n, spread=0.05, seed=4)
     kw = dict(
         teeth=3, kt=MAT.kt, kr=MAT.kr, phi_entry=0.0, phi_exit=np.pi / 2,

@@ -193,3 +193,27 @@ def test_envelope_rows_equals_lobe_envelope_per_row() -> None:
     )
     _compare(got, ref, 1e-12)
     assert np.all(got[:, 0] == got[:, 1])
+
+
+@pytest.mark.parametrize("jit", [True, False])
+def test_frf_synthesis_in_chunks_equals_the_whole_array(monkeypatch, jit: bool) -> None:
+    from robolobe.sld import zoa
+
+    monkeypatch.setattr(zoa, "FRF_CHUNK", 7)
+    m = _models(40, seed=5)
+    alpha = directional_factors(0.0, math.pi / 2, MAT.kr)
+    omega = m.frequency_grid(shared=False)
+    calls = []
+
+    def synth(a: int, b: int) -> np.ndarray:
+        calls.append(b - a)
+        return m.take(slice(a, b)).frf(omega[a:b])
+
+    kw = dict(alpha=alpha, teeth=3, kt=MAT.kt, rpm=np.linspace(2e3, 24e3, 300), max_lobe=None)
+    ref = zoa_lobes(omega, m.frf(omega), jit=jit, **kw)
+    got = zoa_lobes(omega, synth, jit=jit, **kw)
+    assert max(calls) == (7 if jit else 40)
+    assert sum(calls) == 40
+    assert got.max_lobe == ref.max_lobe
+    for name in ("a_lim", "depth", "eps", "complete_above_rpm"):
+        np.testing.assert_array_equal(getattr(got, name), getattr(ref, name))

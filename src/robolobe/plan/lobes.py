@@ -463,25 +463,20 @@ def waypoint_lobes(
     )
 
 
-#: Groups whose FRFs are formed at once (bounds the temporaries to a few MB).
-_FRF_CHUNK = 256
-
-
 def _leader_lobes(
     reps: ModalModel, zoa_args: dict[str, Any], *, max_lobe: int | None, jit: bool | None = None
 ) -> LobeDiagram:
-    """ZOA lobes of a batch of leaders, their FRFs formed in chunks.
+    """ZOA lobes of a batch of leaders, their FRFs synthesised chunk by chunk into the kernel.
 
     Each FRF is the same as from one call over the whole batch (the synthesis
-    is per batch entry); chunks keep the temporaries of the synthesis small.
+    is per batch entry); no array of all the leaders' FRFs is formed.
     """
     omega = reps.frequency_grid(shared=False)
-    n = reps.batch_shape[0]
-    frf = np.empty((n, omega.shape[-1], reps.dim, reps.dim), np.complex128)
-    for c0 in range(0, n, _FRF_CHUNK):
-        c1 = min(n, c0 + _FRF_CHUNK)
-        frf[c0:c1] = reps.take(slice(c0, c1)).frf(omega[c0:c1])
-    return zoa_lobes(omega, frf, max_lobe=max_lobe, jit=jit, **zoa_args)
+
+    def synth(start: int, stop: int) -> NDArray[np.complex128]:
+        return reps.take(slice(start, stop)).frf(omega[start:stop])
+
+    return zoa_lobes(omega, synth, max_lobe=max_lobe, jit=jit, **zoa_args)
 
 
 def _lobe_need(d: LobeDiagram, rpm_min: float) -> float:
