@@ -61,10 +61,10 @@ import numpy as np
 import pandas as pd
 from numpy.typing import NDArray
 
+from robolobe.campaign import Campaign, PostureFRF
 from robolobe.diagnose import DiagnoseSettings, Diagnosis, diagnose
 from robolobe.robots import RigidBody, Robot, load_robot
 from robolobe.robots.transforms import rotation_from_zyx
-from robolobe.twin.campaign import Campaign, PostureFRF
 from robolobe.twin.designs import TESTED_RANGES_DEG, space_filling_design
 from robolobe.twin.hammer import HammerTestSettings, simulate_hammer_test
 from robolobe.twin.system import nominal_system

@@ -41,9 +41,9 @@ from pathlib import Path
 
 import numpy as np
 import torch
+from tl_baselines import make_baselines
 
 from robolobe.robots import load_robot
-from robolobe.tl.baselines import make_baselines
 from robolobe.tl.dataset import TrustWarning
 from robolobe.tl.design import design_postures
 from robolobe.tl.estimator import ModalPredictor
@@ -58,10 +58,11 @@ PARAMS = ("f", "zeta", "k")
 
 def identified(key: str, ids, q, cache: Path, tag: str):
     """Simulated hammer tests + identification -> (dataset, freq, H, decay), cached."""
+    from robolobe.campaign import read_campaign, write_campaign
     from robolobe.modal.identify import identify_campaign
     from robolobe.modal.modal_csv import read_modal_csv, write_modal_csv
     from robolobe.tl.dataset import dataset_from_frame
-    from robolobe.twin.campaign import read_campaign, simulate_campaign, write_campaign
+    from robolobe.twin.campaign import simulate_campaign
 
     folder = cache / f"{key}-{tag}"
     if not (folder / "modal.csv").is_file():

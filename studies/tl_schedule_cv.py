@@ -15,10 +15,10 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 import numpy as np
+from tl_schedule import schedule_cv
 
 from robolobe.robots import load_robot
 from robolobe.tl.presets import PRESETS
-from robolobe.tl.schedule import schedule_cv
 from robolobe.tl.twin_data import twin_modal_dataset
 from robolobe.twin.designs import design_arrays, seed_design
 from robolobe.twin.model import Twin

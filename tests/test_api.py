@@ -50,7 +50,8 @@ def test_user_story_campaign_folder_to_written_plan(tmp_path) -> None:
 
     import numpy as np
 
-    from robolobe.twin.campaign import simulate_campaign, write_campaign
+    from robolobe.campaign import write_campaign
+    from robolobe.twin.campaign import simulate_campaign
     from robolobe.twin.designs import design_arrays, load_seed_design
 
     # the lab's part: hammer tests of robot B at the seed paper's 20 postures

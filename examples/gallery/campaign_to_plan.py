@@ -24,12 +24,13 @@ from pathlib import Path
 
 import numpy as np
 
+from robolobe.campaign import write_campaign
 from robolobe.modal import identify_campaign, write_modal_csv
 from robolobe.plan import load_job, plan_path, write_outputs
 from robolobe.robots import load_robot
 from robolobe.tl import TwinCalibration
 from robolobe.twin import Twin
-from robolobe.twin.campaign import simulate_campaign, write_campaign
+from robolobe.twin.campaign import simulate_campaign
 from robolobe.twin.designs import design_arrays, random_design
 
 out = Path(sys.argv[1] if len(sys.argv) > 1 else "gallery-out")

@@ -16,10 +16,11 @@ from pathlib import Path
 
 import numpy as np
 
+from robolobe.campaign import write_campaign
 from robolobe.diagnose import diagnose, write_report
 from robolobe.robots import load_robot
 from robolobe.twin import Twin
-from robolobe.twin.campaign import simulate_campaign, write_campaign
+from robolobe.twin.campaign import simulate_campaign
 from robolobe.twin.designs import design_arrays, random_design
 from robolobe.twin.effects import AddedMass
 

@@ -40,8 +40,8 @@ _API: dict[str, tuple[str, str]] = {
     "load_robot": ("robolobe.robots", "load_robot"),
     "Twin": ("robolobe.twin.model", "Twin"),
     # measured data and modal identification
-    "read_campaign": ("robolobe.twin.campaign", "read_campaign"),
-    "write_campaign": ("robolobe.twin.campaign", "write_campaign"),
+    "read_campaign": ("robolobe.campaign", "read_campaign"),
+    "write_campaign": ("robolobe.campaign", "write_campaign"),
     "identify": ("robolobe.modal.identify", "identify_campaign"),
     "read_modal_csv": ("robolobe.modal.modal_csv", "read_modal_csv"),
     # mode predictors (estimators: fit / predict / save)

@@ -10,8 +10,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from robolobe.campaign import Campaign, write_campaign
 from robolobe.diagnose.updated_model import load_updated_model
-from robolobe.twin.campaign import Campaign, write_campaign
 
 # the concealed-campaign generator is study code, independent of robolobe.twin.effects
 sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "studies"))

@@ -8,10 +8,10 @@ import numpy as np
 import pandas as pd
 import pytest
 
+from robolobe.campaign import Campaign, write_campaign
 from robolobe.cli import main as cli_main
 from robolobe.modal.modal_csv import MODAL_COLUMNS, read_modal_csv
 from robolobe.robots import load_robot
-from robolobe.twin.campaign import Campaign, write_campaign
 from robolobe.twin.designs import design_arrays, load_seed_design
 from robolobe.twin.model import Twin
 
@@ -167,7 +167,7 @@ def test_uff_acceleration_campaign_gives_the_same_modes(
     campaign_dir: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
     """The same campaign stored as UFF 58 accelerance (converted on reading) -> same table."""
-    from robolobe.twin.campaign import read_campaign
+    from robolobe.campaign import read_campaign
 
     uff = write_campaign(
         tmp_path / "uff", read_campaign(campaign_dir), fmt="uff", uff_quantity="acceleration"

@@ -9,9 +9,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from robolobe.campaign import read_campaign
 from robolobe.cli import main as cli_main
 from robolobe.robots import load_robot, save_robot
-from robolobe.twin.campaign import read_campaign
 from robolobe.twin.model import Twin
 
 REPO = Path(__file__).resolve().parents[2]

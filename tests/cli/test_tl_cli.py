@@ -6,11 +6,11 @@ import numpy as np
 import pandas as pd
 import pytest
 
+from robolobe.campaign import read_campaign, write_postures
 from robolobe.cli import main as cli_main
 from robolobe.modal.modal_csv import read_modal_csv, write_modal_csv
 from robolobe.robots import load_robot
 from robolobe.tl.twin_data import twin_modal_dataset
-from robolobe.twin.campaign import read_campaign, write_postures
 from robolobe.twin.designs import B_TEST_DEG, design_arrays, seed_design
 from robolobe.twin.model import Twin
 

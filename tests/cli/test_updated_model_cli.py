@@ -10,12 +10,12 @@ import numpy as np
 import pytest
 from typer.testing import CliRunner
 
+from robolobe.campaign import read_campaign
 from robolobe.cli.main import app
 from robolobe.errors import InputError
 from robolobe.plan.job import load_job
 from robolobe.robots import load_robot
 from robolobe.twin import Twin
-from robolobe.twin.campaign import read_campaign
 from robolobe.twin.effects import AddedMass, ToolMode
 from robolobe.twin.effects_file import effects_to_toml, read_effects
 

@@ -83,8 +83,13 @@ def test_start_grid_is_thinned() -> None:
         build=lambda p: (),
     )
     g = c.start_grid(64)
-    assert g.shape[1] == 3
-    assert len(g) <= 64
+    assert g.shape == (64, 3)  # 1000 grid points thinned evenly to 64
+    assert np.array_equal(g[0], [0.0, 0.0, 0.0])
+    assert np.array_equal(g[-1], [1.0, 1.0, 1.0])
+    assert len(np.unique(g, axis=0)) == 64
+    # every parameter keeps values across its range
+    assert all(len(np.unique(g[:, j])) >= 5 for j in range(3))
+    assert c.start_grid(2000).shape == (1000, 3)  # no thinning needed
 
 
 def test_requirement_messages() -> None:

@@ -9,10 +9,10 @@ import numpy as np
 import pytest
 from diagnose_reference import Case, P, make_campaign
 
+from robolobe.campaign import Campaign
 from robolobe.diagnose import DiagnoseSettings, diagnose, to_report, write_report
 from robolobe.errors import InputError
 from robolobe.robots import load_robot
-from robolobe.twin.campaign import Campaign
 
 FAMS = ("added_mass", "joint_stiffness", "sensor_delay", "gravity_stiffening")
 

@@ -140,8 +140,9 @@ def test_robot_reader(tmp_path: Path, robot: str, data: st.DataObject) -> None:
 def campaign_dir(tmp_path_factory: pytest.TempPathFactory) -> Path:
     import numpy as np
 
+    from robolobe.campaign import write_campaign
     from robolobe.robots import load_robot
-    from robolobe.twin.campaign import simulate_campaign, write_campaign
+    from robolobe.twin.campaign import simulate_campaign
     from robolobe.twin.model import Twin
 
     robot = load_robot("B")
@@ -164,7 +165,7 @@ def campaign_dir(tmp_path_factory: pytest.TempPathFactory) -> Path:
 @FUZZ
 @given(data=st.data())
 def test_campaign_reader(tmp_path: Path, campaign_dir: Path, data: st.DataObject) -> None:
-    from robolobe.twin.campaign import read_campaign
+    from robolobe.campaign import read_campaign
 
     target = tmp_path / "c"
     if target.exists():

@@ -124,8 +124,8 @@ def test_measurement_roving_hammer_signs_and_transfer_flag() -> None:
 def test_identify_refuses_absurd_values_without_traceback(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
+    from robolobe.campaign import Campaign, write_campaign
     from robolobe.cli import main as cli_main
-    from robolobe.twin.campaign import Campaign, write_campaign
 
     q, f, Hs, _ = _campaign(2, seed=1)
     q = np.radians([[-2, 21, -27, 5, 1, -29], [-60, 50, -120, 115, -66, -197]])

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import shutil
+from pathlib import Path
 
 import pandas as pd
 import pytest
@@ -46,13 +47,20 @@ def test_failures_do_not_stop_the_batch(tmp_path, job, paths):
         assert sorted(t["status"]) == ["error", "ok", "unreachable"]
 
 
-def test_process_pool_matches_sequential(job, paths):
-    seq = {r["path"]: r for r in batch_plan(paths[:1] * 2, job, workers=1, refine=False)}
-    par = list(batch_plan(paths[:1] * 2, job, workers=2, refine=False))
-    assert len(par) == 2
+def test_process_pool_matches_sequential(tmp_path, job, paths):
+    # two different plannable paths, so a mix-up of rows between workers shows
+    half = tmp_path / "pocket_half.nc"
+    lines = Path(paths[0]).read_text(encoding="utf-8").splitlines()
+    half.write_text("\n".join(lines[: len(lines) // 2]) + "\nM30\n", encoding="utf-8")
+    two = [paths[0], str(half)]
+    seq = {r["path"]: r for r in batch_plan(two, job, workers=1, refine=False)}
+    par = list(batch_plan(two, job, workers=2, refine=False))
+    assert [r["status"] for r in par] == ["ok", "ok"]
+    assert sorted(r["path"] for r in par) == sorted(two)
+    assert seq[two[0]]["n_waypoints"] != seq[two[1]]["n_waypoints"]
     for r in par:
-        assert r["depth_mm"] == seq[r["path"]]["depth_mm"]
-        assert r["mrr_cm3_per_min"] == seq[r["path"]]["mrr_cm3_per_min"]
+        for key in ("n_waypoints", "depth_mm", "mrr_cm3_per_min", "cycle_time_s", "min_margin"):
+            assert r[key] == seq[r["path"]][key], key
 
 
 def test_per_path_outputs(tmp_path, job, paths):

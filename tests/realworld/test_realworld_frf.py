@@ -24,9 +24,9 @@ import numpy as np
 import pandas as pd
 import pytest
 
+from robolobe.campaign.uff import read_uff_frf, read_uff_frfs
 from robolobe.cli import main as cli_main
 from robolobe.errors import InputError
-from robolobe.twin.uff import read_uff_frf, read_uff_frfs
 
 pyuff = pytest.importorskip("pyuff")
 
@@ -182,8 +182,8 @@ def test_beam_as_a_campaign_of_driving_points_reports_the_sign_problem(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
     """The same data declared as driving points (dir xx) of a 3-posture campaign."""
+    from robolobe.campaign import Campaign, write_campaign
     from robolobe.modal.modal_csv import read_modal_csv
-    from robolobe.twin.campaign import Campaign, write_campaign
 
     f = np.arange(1, 1001, dtype=float)
     H = np.full((3, f.size, 3, 3), np.nan + 0j)

@@ -129,3 +129,22 @@ def test_seed_postures_round_trip_through_ik(name: str, postures) -> None:
     r = load_robot(name)
     for q in np.radians(postures):
         np.testing.assert_allclose(nearest(r, tcp_pose(r, q), q), q, atol=1e-8)
+
+
+def test_as_postures_is_the_one_posture_array_validator() -> None:
+    import numpy as np
+    import pytest
+
+    from robolobe.errors import InputError
+    from robolobe.robots.limits import as_postures
+
+    assert as_postures(np.zeros(6)).shape == (1, 6)
+    assert as_postures([[0.1] * 6, [0.2] * 6]).shape == (2, 6)
+    with pytest.raises(InputError, match=r"q_rad: .*shape \(n, 6\).*found shape \(2, 5\)"):
+        as_postures(np.zeros((2, 5)))
+    with pytest.raises(InputError, match="posture 1"):
+        as_postures([[0.0] * 6, [0.0, np.nan, 0, 0, 0, 0]])
+    with pytest.raises(InputError, match=r"q_samples: .*n >= 1"):
+        as_postures(np.zeros((0, 6)), "q_samples")
+    with pytest.raises(InputError, match="non-numbers"):
+        as_postures([["a"] * 6])

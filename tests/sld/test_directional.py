@@ -84,10 +84,20 @@ def test_antiderivative_derivative() -> None:
     np.testing.assert_allclose(num, directional_matrix(phi, 0.4), atol=1e-8)
 
 
-def test_vectorised_shapes() -> None:
-    st = np.zeros((3, 1))
-    ex = np.linspace(0.5, PI, 4)
-    assert directional_factors(st, ex, 0.3).shape == (3, 4, 2, 2)
+def test_vectorised_equals_one_at_a_time() -> None:
+    st = np.array([[0.0], [0.2], [0.7]])
+    ex = np.linspace(0.9, PI, 4)
+    kr = 0.3
+    out = directional_factors(st, ex, kr)
+    assert out.shape == (3, 4, 2, 2)
+    for i in range(3):
+        for j in range(4):
+            one = directional_factors(st[i, 0], ex[j], kr)
+            np.testing.assert_array_equal(out[i, j], one)
+    # and each equals the integral of the directional matrix over the engagement
+    phi = np.linspace(st[1, 0], ex[2], 20001)
+    quad = np.trapezoid(directional_matrix(phi, kr), phi, axis=0)
+    np.testing.assert_allclose(out[1, 2], quad, rtol=1e-6, atol=1e-9)
 
 
 @pytest.mark.parametrize(("teeth", "m"), [(2, 10), (3, 17), (4, 40)])

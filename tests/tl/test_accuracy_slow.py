@@ -8,13 +8,19 @@ unchanged; stated 90 % intervals holding 85-95 % of held-out values.
 
 from __future__ import annotations
 
+import sys
 import warnings
+from pathlib import Path
 
 import numpy as np
 import pytest
 
 from robolobe.robots import load_robot
-from robolobe.tl.baselines import SourceOnly
+
+# study harness (studies/tl_baselines.py), not library code
+sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "studies"))
+from tl_baselines import SourceOnly
+
 from robolobe.tl.dataset import TrustWarning
 from robolobe.tl.estimator import ModalPredictor
 from robolobe.tl.evaluate import evaluate_prediction

@@ -2,10 +2,16 @@
 
 from __future__ import annotations
 
+import sys
+from pathlib import Path
+
 import numpy as np
 import pytest
 
-from robolobe.tl.baselines import AffineCorrection, GPResidual, SourceOnly, make_baselines
+# study harness (studies/tl_baselines.py), not library code
+sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "studies"))
+from tl_baselines import AffineCorrection, GPResidual, SourceOnly, make_baselines
+
 from robolobe.tl.estimator import ModalPredictor
 
 from .conftest import HI, LO, smooth_modal

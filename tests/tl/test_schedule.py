@@ -2,11 +2,17 @@
 
 from __future__ import annotations
 
+import sys
+from pathlib import Path
+
 import numpy as np
 
 from robolobe.tl.dataset import ModalDataset
 from robolobe.tl.presets import PRESETS
-from robolobe.tl.schedule import schedule_cv
+
+# study harness (studies/tl_schedule.py), not library code
+sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "studies"))
+from tl_schedule import schedule_cv
 
 from .conftest import HI, LO, smooth_modal
 

@@ -98,7 +98,7 @@ def test_shipped_design_is_current(key):
 
 
 def test_design_is_a_postures_csv(tmp_path):
-    from robolobe.twin.campaign import read_postures
+    from robolobe.campaign import read_postures
 
     d = seed_design("B")
     d.to_csv(tmp_path / "postures.csv", index=False)

@@ -118,10 +118,10 @@ def register(app: typer.Typer) -> None:
         import pandas as pd
 
         from robolobe._atomic import atomic_dir, atomic_path, check_output_dir, check_output_file
+        from robolobe.campaign import read_campaign
         from robolobe.cli._common import console, err_console, progress
         from robolobe.modal.identify import identify_campaign
         from robolobe.modal.modal_csv import write_modal_csv
-        from robolobe.twin.campaign import read_campaign
 
         check_output_file(output, "--output")
         if plots is not None:
@@ -282,11 +282,11 @@ def _identify_measurement(
     import numpy as np
 
     from robolobe._atomic import atomic_dir, atomic_path
+    from robolobe.campaign.uff import common_grid, read_uff_frfs
     from robolobe.cli._common import console, err_console
     from robolobe.modal.identify import settings_from_test
     from robolobe.modal.measurement import identify_measurement
     from robolobe.modal.posture import SIGN_CONVENTION
-    from robolobe.twin.uff import common_grid, read_uff_frfs
 
     if path.suffix.lower() not in (".uff", ".unv"):
         raise InputError(

@@ -9,12 +9,12 @@ from typing import Annotated
 import numpy as np
 import typer
 
+from robolobe._directions import AXES
 from robolobe.errors import InputError
 
 __all__ = ["parse_dirs", "register"]
 
-_AXES = "xyz"
-_ALL = tuple(r + e for r in _AXES for e in _AXES)
+_ALL = tuple(r + e for r in AXES for e in AXES)
 
 
 def parse_dirs(text: str) -> tuple[str, ...]:
@@ -110,9 +110,10 @@ def register(app: typer.Typer) -> None:
         from robolobe._atomic import check_output_dir
 
         check_output_dir(output, "--output")
+        from robolobe.campaign import read_postures, write_campaign
         from robolobe.cli._common import console, progress
         from robolobe.robots import load_robot
-        from robolobe.twin.campaign import read_postures, simulate_campaign, write_campaign
+        from robolobe.twin.campaign import simulate_campaign
         from robolobe.twin.hammer import HammerTestSettings
         from robolobe.twin.model import Twin
 

@@ -357,10 +357,10 @@ def register(app: typer.Typer) -> None:
         if frf is not None:
             check_output_dir(frf, "--frf")
 
+        from robolobe.campaign import read_postures
         from robolobe.modal.modal_csv import write_modal_csv
         from robolobe.tl.models import load_model
         from robolobe.tl.predict_io import prediction_frame, write_frf_campaign
-        from robolobe.twin.campaign import read_postures
 
         model = load_model(model_spec)
         label = getattr(model.robot, "name", model.robot)  # a corrected twin holds its Robot
@@ -405,9 +405,9 @@ def register(app: typer.Typer) -> None:
 
         check_output_file(output, "--output")
 
+        from robolobe.campaign import read_postures
         from robolobe.tl.design import design_postures
         from robolobe.tl.models import load_model
-        from robolobe.twin.campaign import read_postures
         from robolobe.twin.designs import TESTED_RANGES_DEG
 
         rob = _robot(robot)

@@ -2,13 +2,11 @@
 
 What the diagnosis takes from a campaign beyond the FRFs:
 
-- ``campaign.toml [test]``: ``window_end`` (value of the exponential window at
-  the end of the record, 1 = none) and ``duration_s`` (record length; default
-  ``1 / line spacing``), or directly ``window_decay_per_s``. Without them the
-  FRFs are taken as unwindowed (a quality note says so: a window would
-  otherwise look like extra damping).
-- ``postures.csv``: an optional column ``force_N``, the hammer's peak force of
-  the posture's records. Friction tests repeat a posture at several force
+- the test header's window decay (:attr:`robolobe.campaign.TestHeader.decay_per_s`).
+  Without a window in the header the FRFs are taken as unwindowed (a quality
+  note says so: a window would otherwise look like extra damping).
+- ``Campaign.force_N`` (the optional ``postures.csv`` column), the hammer's
+  peak force of the posture's records. Friction tests repeat a posture at several force
   levels under different posture ids; records with the same joint angles
   form one posture group for cross-validation.
 
@@ -19,29 +17,22 @@ onto the grid of the first posture inside the band, with a quality warning.
 from __future__ import annotations
 
 import logging
-import math
-import os
 import warnings
-from pathlib import Path
-from typing import Any
 
 import numpy as np
-import pandas as pd
 from numpy.typing import NDArray
 
+from robolobe.campaign import Campaign
 from robolobe.diagnose.noise import roughness_sigma
 from robolobe.diagnose.observations import Observations
 from robolobe.errors import InputError
 from robolobe.modal.quality import QualityIssue, check_campaign_grids, check_posture_frfs
-from robolobe.twin.campaign import Campaign
 
 __all__ = [
     "LOWEST_HZ",
     "USABLE_SHARE",
     "campaign_observations",
     "noisy_postures",
-    "read_force_levels",
-    "window_decay_from_test",
 ]
 
 log = logging.getLogger(__name__)
@@ -53,75 +44,6 @@ USABLE_SHARE = 0.8
 #: Lower edge of the default band [Hz]: below it a hammer test carries almost
 #: no response (the receptance estimate divides the accelerance by w^2).
 LOWEST_HZ = 1.0
-
-
-def window_decay_from_test(test: dict[str, Any], df_hz: float) -> float | None:
-    """Exponential-window decay rate [1/s] from a campaign's ``[test]`` table.
-
-    Parameters
-    ----------
-    test : dict
-        The ``[test]`` table.
-    df_hz : float
-        Line spacing of the FRFs [Hz] (record length ``1/df`` if
-        ``duration_s`` is not given).
-
-    Returns
-    -------
-    float or None
-        None if the table says nothing about a window.
-    """
-    if "window_decay_per_s" in test:
-        a = test["window_decay_per_s"]
-        if not isinstance(a, int | float) or not math.isfinite(a) or a < 0:
-            raise InputError(
-                f"expected a decay rate >= 0 1/s, found {a!r}",
-                source="campaign.toml[test.window_decay_per_s]",
-            )
-        return float(a)
-    if "window_end" not in test:
-        return None
-    we = test["window_end"]
-    if not isinstance(we, int | float) or not 0 < we <= 1:
-        raise InputError(
-            f"expected a window value in (0, 1], found {we!r}",
-            source="campaign.toml[test.window_end]",
-        )
-    dur = test.get("duration_s", 1.0 / df_hz)
-    if not isinstance(dur, int | float) or not dur > 0:
-        raise InputError(
-            f"expected a record length > 0 s, found {dur!r}",
-            source="campaign.toml[test.duration_s]",
-        )
-    return float(-math.log(we) / dur)
-
-
-def read_force_levels(
-    folder: str | os.PathLike[str], posture_ids: tuple[str, ...]
-) -> NDArray[np.float64] | None:
-    """The optional ``force_N`` column of ``postures.csv``, in posture order.
-
-    Returns
-    -------
-    ndarray, shape (n,), or None
-        None if the column is absent.
-    """
-    path = Path(folder) / "postures.csv"
-    if not path.is_file():
-        return None
-    df = pd.read_csv(path, dtype={"posture_id": str})
-    if "force_N" not in df.columns:
-        return None
-    vals = pd.to_numeric(df["force_N"], errors="coerce")
-    bad = ~np.isfinite(vals.to_numpy(dtype=float)) | (vals.to_numpy(dtype=float) <= 0)
-    if bad.any():
-        i = int(np.argmax(bad))
-        raise InputError(
-            f"expected a peak force > 0 N in column force_N, found {df['force_N'].iloc[i]!r}",
-            source=f"postures.csv:{i + 2}",
-        )
-    by_id = dict(zip(df["posture_id"].astype(str), vals.to_numpy(dtype=float), strict=True))
-    return np.array([by_id[p] for p in posture_ids], dtype=float)
 
 
 def noisy_postures(
@@ -279,12 +201,10 @@ def campaign_observations(
                 re = np.interp(f, g, h[:, i, j].real)
                 im = np.interp(f, g, h[:, i, j].imag)
                 H[k, :, i, j] = np.where(inside, re + 1j * im, np.nan)
-    df = float(np.median(np.diff(f)))
     decay = window_decay_per_s
     if decay is None:
-        decay = window_decay_from_test(dict(campaign.test), df)
-        if decay is None:
-            decay = 0.0
+        decay = campaign.test.decay_per_s
+        if not campaign.test.has_window:
             issues.append(
                 QualityIssue(
                     "*",

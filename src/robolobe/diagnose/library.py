@@ -36,9 +36,9 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from robolobe._directions import ALL_DIRS, AXES
 from robolobe.diagnose.calibration import CALIBRATION, calibration_candidate
 from robolobe.diagnose.candidate import NONE, Candidate, ParamSpec, Requirement
-from robolobe.diagnose.observations import DIRS
 from robolobe.errors import InputError
 from robolobe.robots import Robot
 from robolobe.twin.effects import (
@@ -83,8 +83,6 @@ FAMILIES: tuple[str, ...] = (
     "sensor_gain",
     "hammer_direction",
 )
-
-_AXES = "xyz"
 
 
 @dataclass(frozen=True)
@@ -140,12 +138,12 @@ def _axis_name(axis: tuple[float, ...]) -> str:
     a = np.asarray(axis)
     i = int(np.argmax(np.abs(a)))
     if abs(a[i]) > 0.999:
-        return ("-" if a[i] < 0 else "") + _AXES[i]
+        return ("-" if a[i] < 0 else "") + AXES[i]
     return "(" + ", ".join(f"{x:.2f}" for x in a) + ")"
 
 
 def _family(
-    robot: Robot, name: str, band_hz: tuple[float, float], directions: Sequence[str] = DIRS
+    robot: Robot, name: str, band_hz: tuple[float, float], directions: Sequence[str] = ALL_DIRS
 ) -> list[Candidate]:
     """All variants of one family."""
     lo_hz, hi_hz = band_hz
@@ -229,7 +227,7 @@ def _family(
         ee = robot.end_effector
         for d in ("x", "y", "z", "xyz"):
             req = Requirement(
-                any_of_directions=tuple(r + e for r in _AXES for e in _AXES if d in (r, e))
+                any_of_directions=tuple(r + e for r in AXES for e in AXES if d in (r, e))
                 if d != "xyz"
                 else (),
                 why=f"a tool mode along {d} shows only in FRFs involving {d}",
@@ -351,7 +349,7 @@ def _family(
         return [
             Candidate(
                 name,
-                tuple(ParamSpec(f"d{a}_m", -0.3, 0.3, g, "linear", null=0.0) for a in _AXES),
+                tuple(ParamSpec(f"d{a}_m", -0.3, 0.3, g, "linear", null=0.0) for a in AXES),
                 lambda p: (TcpOffset(offset_m=(float(p[0]), float(p[1]), float(p[2]))),),
                 description="the tested point is offset from the file's TCP (tool length)",
             )

@@ -35,7 +35,8 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.optimize import linear_sum_assignment
 
-from robolobe.diagnose.observations import DIRS, Observations, dir_index
+from robolobe._directions import ALL_DIRS, dir_index
+from robolobe.diagnose.observations import Observations
 from robolobe.diagnose.residuals import log_ratio
 
 __all__ = [
@@ -183,7 +184,7 @@ def mismatch_map(
     bands: list[BandScore] = []
     f = obs.freq_hz
     edges = np.arange(np.floor(f[0] / band_hz) * band_hz, f[-1] + band_hz, band_hz)
-    for d in DIRS:
+    for d in ALL_DIRS:
         i, j = dir_index(d)
         m = obs.mask[:, :, i, j]
         if not m.any():

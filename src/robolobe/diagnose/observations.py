@@ -18,39 +18,17 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from robolobe._directions import ALL_DIRS, dir_index
 from robolobe.diagnose.noise import variance_inflation
 from robolobe.errors import InputError
-from robolobe.twin.campaign import ALL_DIRS
 
 __all__ = [
-    "DIRS",
-    "DRIVING",
     "Observations",
-    "dir_index",
-    "dir_name",
 ]
-
-#: Direction names in (response, excitation) order, row-major over TCP axes.
-DIRS: tuple[str, ...] = ALL_DIRS
-#: Driving-point directions.
-DRIVING: tuple[str, ...] = ("xx", "yy", "zz")
-_AXES = "xyz"
 
 FloatArray = NDArray[np.float64]
 ComplexArray = NDArray[np.complex128]
 BoolArray = NDArray[np.bool_]
-
-
-def dir_index(name: str) -> tuple[int, int]:
-    """(response, excitation) axis indices of a direction name such as ``"xy"``."""
-    if len(name) != 2 or name[0] not in _AXES or name[1] not in _AXES:
-        raise InputError(f"direction: expected two letters of x, y, z, found {name!r}")
-    return _AXES.index(name[0]), _AXES.index(name[1])
-
-
-def dir_name(i: int, j: int) -> str:
-    """Direction name of response axis ``i`` and excitation axis ``j``."""
-    return _AXES[i] + _AXES[j]
 
 
 def _frozen(a: NDArray[np.generic]) -> NDArray[np.generic]:
@@ -167,9 +145,9 @@ class Observations:
 
     @property
     def directions(self) -> tuple[str, ...]:
-        """Directions measured in at least one record, in :data:`DIRS` order."""
+        """Directions measured in at least one record, in array order (response, excitation)."""
         m = np.asarray(self.dir_mask.any(axis=0))
-        return tuple(d for d in DIRS if bool(m[dir_index(d)]))
+        return tuple(d for d in ALL_DIRS if bool(m[dir_index(d)]))
 
     @property
     def inflation(self) -> float:

@@ -36,7 +36,8 @@ import numpy as np
 from numpy.typing import NDArray
 from threadpoolctl import threadpool_limits
 
-from robolobe.diagnose.campaign_data import campaign_observations, read_force_levels
+from robolobe.campaign import Campaign, read_campaign
+from robolobe.diagnose.campaign_data import campaign_observations
 from robolobe.diagnose.candidate import NONE
 from robolobe.diagnose.fitting import CandidateFit, fit_candidate
 from robolobe.diagnose.forward import ForwardResult, ForwardSettings, forward_select
@@ -51,7 +52,6 @@ from robolobe.errors import InputError
 from robolobe.modal.quality import QualityIssue
 from robolobe.robots import Robot, load_robot
 from robolobe.robots.limits import check_posture, within_limits
-from robolobe.twin.campaign import Campaign, read_campaign
 from robolobe.twin.effects import Effect
 
 __all__ = ["DiagnoseSettings", "Diagnosis", "diagnose"]
@@ -240,8 +240,8 @@ def diagnose(
         The nominal robot; default the one the campaign names.
     settings : DiagnoseSettings, optional
     force_N : ndarray, shape (n,), optional
-        Hammer force level of each posture [N]; default the ``force_N`` column
-        of ``postures.csv`` when reading a folder.
+        Hammer force level of each posture [N]; default the campaign's
+        ``force_N`` (the ``postures.csv`` column).
     progress : callable, optional
         ``progress(stage, done, total)`` for a progress display.
 
@@ -279,10 +279,10 @@ def _diagnose(
         folder = Path(campaign)
         # limits are checked below: postures outside them are left out, not fatal
         camp = read_campaign(folder, check_limits=False)
-        if force_N is None:
-            force_N = read_force_levels(folder, camp.posture_ids)
     else:
         camp = campaign
+    if force_N is None:
+        force_N = camp.force_N
     if robot is None:
         try:
             robot = load_robot(camp.robot)

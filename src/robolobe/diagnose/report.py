@@ -26,7 +26,7 @@ from matplotlib.colors import LogNorm
 from matplotlib.figure import Figure
 
 from robolobe._atomic import atomic_dir
-from robolobe.diagnose.observations import DRIVING, dir_index
+from robolobe._directions import DRIVING, dir_index
 from robolobe.diagnose.pipeline import Diagnosis
 from robolobe.diagnose.schema import DiagnosisReport, to_report
 

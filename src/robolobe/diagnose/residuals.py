@@ -33,7 +33,8 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from robolobe.diagnose.observations import DRIVING, Observations, dir_index
+from robolobe._directions import DRIVING, dir_index
+from robolobe.diagnose.observations import Observations
 from robolobe.modal.metrics import frac, nrmse
 
 __all__ = [

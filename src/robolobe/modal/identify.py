@@ -38,6 +38,8 @@ import pandas as pd
 from numpy.typing import ArrayLike, NDArray
 from scipy.optimize import linear_sum_assignment
 
+from robolobe._directions import AXES
+from robolobe.campaign import Campaign, TestHeader
 from robolobe.errors import InputError
 from robolobe.modal.metrics import frac, nrmse
 from robolobe.modal.modal_csv import MODAL_COLUMNS, Q_COLUMNS, validate_modal_frame
@@ -65,7 +67,6 @@ __all__ = [
     "settings_from_test",
 ]
 
-_AX = "xyz"
 P = ParamSpec("P")
 T = TypeVar("T")
 #: Extra columns of the modal table beyond FORMATS.md section 3.
@@ -116,48 +117,23 @@ class CampaignModal:
 def settings_from_test(test: Mapping[str, Any], **overrides: Any) -> IdentifySettings:
     """Identification settings with the window and record length of a campaign's ``[test]``.
 
-    ``window_end`` (value of the exponential window at the end of the
-    record) and ``duration_s`` (record length ``T``) give
-    ``window_decay_per_s = -ln(window_end) / T`` and enable the truncation
-    correction with ``record_length_s = T``. Keys absent: no correction.
-    ``overrides`` are passed to :class:`IdentifySettings` and win.
+    The window's decay rate is :attr:`robolobe.campaign.TestHeader.decay_per_s`
+    (``-ln(window_end) / duration_s``, or ``window_decay_per_s`` given
+    directly); ``duration_s`` (record length ``T``) also enables the
+    truncation correction with ``record_length_s = T``. Keys absent: no
+    correction. ``overrides`` are passed to :class:`IdentifySettings` and win.
+
+    Raises
+    ------
+    InputError
+        A value out of range, or ``window_end`` without ``duration_s``.
     """
+    header = TestHeader.from_mapping(test)
     kw: dict[str, Any] = {}
-    dur = test.get("duration_s")
-    wend = test.get("window_end")
-    if dur is not None:
-        try:
-            T = float(dur)
-        except (TypeError, ValueError):
-            raise InputError(
-                f"expected a number of seconds, found {dur!r}",
-                source="campaign.toml[test.duration_s]",
-            ) from None
-        if not (math.isfinite(T) and T > 0):
-            raise InputError(
-                f"expected a positive number of seconds, found {dur!r}",
-                source="campaign.toml[test.duration_s]",
-            )
-        kw["record_length_s"] = T
-        if wend is not None:
-            try:
-                we = float(wend)
-            except (TypeError, ValueError):
-                raise InputError(
-                    f"expected a number in (0, 1], found {wend!r}",
-                    source="campaign.toml[test.window_end]",
-                ) from None
-            if not 0 < we <= 1:
-                raise InputError(
-                    f"expected a number in (0, 1], found {wend!r}",
-                    source="campaign.toml[test.window_end]",
-                )
-            kw["window_decay_per_s"] = -math.log(we) / T
-    elif wend is not None:
-        raise InputError(
-            "window_end needs duration_s (the record length) to correct the damping",
-            source="campaign.toml[test]",
-        )
+    if header.duration_s is not None:
+        kw["record_length_s"] = header.duration_s
+    if header.has_window:
+        kw["window_decay_per_s"] = header.decay_per_s
     kw.update(overrides)
     return IdentifySettings(**kw)
 
@@ -483,7 +459,7 @@ def identify_frfs(
         raise InputError(
             f"expected 'rank' or 'track', found {numbering!r}", source="identify_frfs(numbering)"
         )
-    chosen = {_AX[d] * 2: _choose_tracks(postures, tr, d, s.n_modes, min_presence) for d in dirs}
+    chosen = {AXES[d] * 2: _choose_tracks(postures, tr, d, s.n_modes, min_presence) for d in dirs}
     recovered_modes = (
         _recover(postures, labels, chosen, q, n_neighbours, tracking, n_jobs) if recover else {}
     )
@@ -506,7 +482,7 @@ def identify_frfs(
         else:
             for d in vis_sets:
                 lst = []
-                for m_no, t in enumerate(chosen[_AX[d] * 2], start=1):
+                for m_no, t in enumerate(chosen[AXES[d] * 2], start=1):
                     hit = np.flatnonzero(labels[p] == t)
                     if hit.size:
                         lst.append((m_no, int(hit[0])))
@@ -519,7 +495,7 @@ def identify_frfs(
     for p, pm in enumerate(postures):
         q_deg = np.degrees(q[p])
         for d in dirs:
-            dname = _AX[d] * 2
+            dname = AXES[d] * 2
             if not pm.used[d, d]:
                 continue
             sel_modes: list[int] = []
@@ -602,18 +578,18 @@ def _fit_metrics(pm: PostureModal, d: int, modes: Sequence[int]) -> tuple[float,
 
 
 def identify_campaign(
-    campaign: Any,
+    campaign: Campaign,
     *,
     settings: IdentifySettings | None = None,
     overrides: Mapping[str, Any] | None = None,
     **kwargs: Any,
 ) -> CampaignModal:
-    """Identify a :class:`robolobe.twin.campaign.Campaign`.
+    """Identify a :class:`robolobe.campaign.Campaign`.
 
     Parameters
     ----------
     campaign : Campaign
-        As read by :func:`robolobe.twin.campaign.read_campaign`.
+        As read by :func:`robolobe.campaign.read_campaign`.
     settings : IdentifySettings, optional
         Default: :func:`settings_from_test` of ``campaign.test`` (window and
         record length), updated with ``overrides``.

@@ -4,7 +4,7 @@ A campaign (:mod:`robolobe.modal.identify`) holds the FRFs of a robot's TCP
 at many postures. A single structure tested with a roving hammer or a roving
 accelerometer gives instead FRFs between numbered nodes and directions, most
 of them transfer FRFs (response and excitation at different points), as in a
-UFF file with several references (:func:`robolobe.twin.uff.read_uff_frfs`).
+UFF file with several references (:func:`robolobe.campaign.uff.read_uff_frfs`).
 :func:`identify_measurement` finds the modes of such a set: pLSCF on all
 FRFs together (common denominator), stabilization diagram, clustering
 selection, pole refinement and LSFD residues, the same steps as a posture.

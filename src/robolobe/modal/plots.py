@@ -16,6 +16,7 @@ import pandas as pd
 from matplotlib.figure import Figure
 from numpy.typing import NDArray
 
+from robolobe._directions import AXES
 from robolobe.modal.measurement import MeasurementModal
 from robolobe.modal.posture import PostureModal
 from robolobe.modal.stabilization import StabilizationDiagram
@@ -29,7 +30,6 @@ __all__ = [
     "save_posture_plots",
 ]
 
-_AX = "xyz"
 _SAFE = re.compile(r"[^A-Za-z0-9_.\-]+")
 
 
@@ -140,7 +140,7 @@ def plot_stabilization(
         f", {len(others)} fitted, not written)" if others else ")"
     )
     curves = [
-        (pm.freq_hz, np.abs(pm.H[:, d, d]), f"|H_{_AX[d]}{_AX[d]}|")
+        (pm.freq_hz, np.abs(pm.H[:, d, d]), f"|H_{AXES[d]}{AXES[d]}|")
         for d in range(3)
         if pm.H.size and pm.used[d, d]
     ]
@@ -209,14 +209,12 @@ def plot_frf_overlay(pm: PostureModal, rows: pd.DataFrame, path: str | os.PathLi
     for k, d in enumerate(dirs):
         ax = fig.add_subplot(max(1, len(dirs)), 1, k + 1)
         ax.semilogy(f, np.abs(pm.H[:, d, d]), color="k", lw=1.0, label="measured")
-        g = rows[rows["dir"] == _AX[d] * 2]
+        g = rows[rows["dir"] == AXES[d] * 2]
         if len(g):
             fn = g["f_hz"].to_numpy(float)
             z = g["zeta"].to_numpy(float)
-            # damping as seen through the exponential window
-            wn = 2 * np.pi * fn
-            zw = (z * wn + decay) / wn
-            hp = synthesize_frf(fn, zw, g["k_N_per_m"].to_numpy(float), f)
+            # as seen through the exponential window
+            hp = synthesize_frf(fn, z, g["k_N_per_m"].to_numpy(float), f, window_decay_per_s=decay)
             ax.semilogy(
                 f,
                 np.abs(hp),
@@ -227,7 +225,7 @@ def plot_frf_overlay(pm: PostureModal, rows: pd.DataFrame, path: str | os.PathLi
             )
             for x in fn:
                 ax.axvline(x, color="tab:red", lw=0.5, alpha=0.4)
-        ax.set_ylabel(f"|H_{_AX[d]}{_AX[d]}| [m/N]")
+        ax.set_ylabel(f"|H_{AXES[d]}{AXES[d]}| [m/N]")
         ax.axvspan(f[0], pm.settings.fmin_hz, color="0.9")
         ax.axvspan(pm.settings.fmax_hz, f[-1] if f.size else pm.settings.fmax_hz, color="0.9")
         ax.legend(fontsize=7, loc="upper right")

@@ -44,6 +44,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from robolobe._directions import AXES
 from robolobe.errors import InputError
 from robolobe.modal.lsfd import LSFDResult, lsfd, modal_stiffness
 from robolobe.modal.metrics import frac, nrmse
@@ -69,7 +70,6 @@ __all__ = [
     "sign_issues",
 ]
 
-_AX = "xyz"
 #: One line stating the residue sign convention (printed by ``robolobe identify``).
 SIGN_CONVENTION = (
     "sign convention: H(w) = sum_r (w_r^2/k_r) / (w_r^2 - w^2 + 2i zeta_r w_r w); k > 0 for "
@@ -430,7 +430,7 @@ def _refuse_absurd(pid: str, h: NDArray[np.complex128]) -> None:
             prob = frf_value_problem(np.where(fin, col, 0.0))
             if prob is not None:
                 raise InputError(
-                    f"line {prob[0] + 1}: {prob[1]}", source=f"posture {pid!r} {_AX[r]}{_AX[e]}"
+                    f"line {prob[0] + 1}: {prob[1]}", source=f"posture {pid!r} {AXES[r]}{AXES[e]}"
                 )
 
 
@@ -735,7 +735,7 @@ def _finish(
     issues.extend(
         sign_issues(
             pid,
-            [_AX[d] * 2 for d in dpts],
+            [AXES[d] * 2 for d in dpts],
             f_true,
             np.array([np.where(vis_ok[d] & in_band, k[d], np.nan) for d in dpts]).reshape(
                 len(dpts), f_true.size

@@ -31,6 +31,8 @@ from typing import Literal
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from robolobe._directions import AXES
+
 __all__ = [
     "QualityIssue",
     "check_campaign_grids",
@@ -38,7 +40,6 @@ __all__ = [
     "usable_directions",
 ]
 
-_AX = "xyz"
 Severity = Literal["info", "warning", "error"]
 
 
@@ -81,7 +82,7 @@ def usable_directions(H: ArrayLike, issues: Sequence[QualityIssue] = ()) -> NDAr
             if iss.dir == "*":
                 ok[:] = False
             elif len(iss.dir) == 2:
-                ok[_AX.index(iss.dir[0]), _AX.index(iss.dir[1])] = False
+                ok[AXES.index(iss.dir[0]), AXES.index(iss.dir[1])] = False
     return np.asarray(ok)
 
 
@@ -180,12 +181,12 @@ def check_posture_frfs(
 
     finite = np.isfinite(h)
     for i in range(3):
-        d = _AX[i] * 2
+        d = AXES[i] * 2
         if not finite[:, i, i].any():
             out.append(QualityIssue(pid, d, "absent", "info", "driving point not measured"))
     for i in range(3):
         for j in range(3):
-            d = _AX[i] + _AX[j]
+            d = AXES[i] + AXES[j]
             n_bad = int(np.count_nonzero(~finite[:, i, j]))
             if 0 < n_bad < f.size:
                 first = float(f[np.argmax(~finite[:, i, j])])
@@ -215,7 +216,7 @@ def check_posture_frfs(
                         out.append(
                             QualityIssue(
                                 pid,
-                                _AX[i] + _AX[j],
+                                AXES[i] + AXES[j],
                                 "coherence",
                                 "warning",
                                 f"{100 * frac_bad:.0f} % of the lines in {lo:g}..{hi:g} Hz have "
@@ -235,10 +236,10 @@ def check_posture_frfs(
                     out.append(
                         QualityIssue(
                             pid,
-                            _AX[i] + _AX[j],
+                            AXES[i] + AXES[j],
                             "reciprocity",
                             "warning",
-                            f"H_{_AX[i]}{_AX[j]} and H_{_AX[j]}{_AX[i]} differ by "
+                            f"H_{AXES[i]}{AXES[j]} and H_{AXES[j]}{AXES[i]} differ by "
                             f"{100 * rel:.0f} % "
                             f"(RMS, expected <= {100 * reciprocity_tol:.0f} %): rotated sensor "
                             "axes or mislabelled channels?",
@@ -256,10 +257,10 @@ def check_posture_frfs(
             out.append(
                 QualityIssue(
                     pid,
-                    _AX[i] * 2,
+                    AXES[i] * 2,
                     "passivity",
                     "warning",
-                    f"Im H_{_AX[i]}{_AX[i]} > 0 on {100 * frac_pos:.0f} % of the band lines "
+                    f"Im H_{AXES[i]}{AXES[i]} > 0 on {100 * frac_pos:.0f} % of the band lines "
                     "(a driving-point receptance has Im <= 0): sign or direction error?",
                     frac_pos,
                 )

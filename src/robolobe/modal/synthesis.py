@@ -24,6 +24,8 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from robolobe._modal_frf import modal_stiffness_frf
+
 __all__ = [
     "modal_to_poles",
     "poles_to_modal",
@@ -38,9 +40,14 @@ def synthesize_frf(
     k_N_per_m: ArrayLike,
     freq_hz: ArrayLike,
     *,
+    window_decay_per_s: float = 0.0,
     ignore_nan: bool = False,
 ) -> NDArray[np.complex128]:
     """Receptance from natural frequencies, damping ratios and modal stiffnesses.
+
+    The modal-stiffness form, computed by the project's one kernel
+    (:func:`robolobe._modal_frf.modal_stiffness_frf`, also behind
+    :func:`robolobe.twin.frf.modal_receptance`).
 
     Parameters
     ----------
@@ -53,6 +60,9 @@ def synthesize_frf(
         directions).
     freq_hz : array_like, shape (n_freq,)
         Frequencies at which to evaluate, Hz.
+    window_decay_per_s : float, default 0
+        Decay rate of an exponential window, 1/s: the FRF as the windowed
+        measurement shows it (every pole moved left by it, residues kept).
     ignore_nan : bool, default False
         If True, modes whose ``f_hz``, ``zeta`` or ``k_N_per_m`` is NaN
         (absent modes) contribute nothing; otherwise NaN propagates.
@@ -63,22 +73,14 @@ def synthesize_frf(
         Receptance, m/N. The leading shape is the broadcast of the three
         parameter arrays without their last axis.
     """
-    fn = np.asarray(f_hz, dtype=float)
-    z = np.asarray(zeta, dtype=float)
-    k = np.asarray(k_N_per_m, dtype=float)
-    fn, z, k = np.broadcast_arrays(fn, z, k)
-    w = 2.0 * np.pi * np.asarray(freq_hz, dtype=float)
-    if w.ndim != 1:
-        raise ValueError(f"freq_hz: expected a 1-D array, found shape {w.shape}")
-    wr = 2.0 * np.pi * fn
-    num = wr**2 / k
-    den = wr[..., None] ** 2 - w**2 + 2j * z[..., None] * wr[..., None] * w
-    with np.errstate(invalid="ignore", divide="ignore"):
-        terms = num[..., None] / den  # (..., n_modes, n_freq)
-    if ignore_nan:
-        bad = ~(np.isfinite(fn) & np.isfinite(z) & np.isfinite(k))
-        terms = np.where(bad[..., None], 0.0, terms)
-    return np.asarray(terms.sum(axis=-2), dtype=np.complex128)
+    return modal_stiffness_frf(
+        f_hz,
+        zeta,
+        k_N_per_m,
+        freq_hz,
+        window_decay_per_s=float(window_decay_per_s),
+        ignore_nan=ignore_nan,
+    )
 
 
 def modal_to_poles(f_hz: ArrayLike, zeta: ArrayLike) -> NDArray[np.complex128]:

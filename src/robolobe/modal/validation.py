@@ -27,15 +27,13 @@ import pandas as pd
 from numpy.typing import ArrayLike, NDArray
 from scipy.optimize import linear_sum_assignment
 
+from robolobe._directions import AXES
+
 __all__ = [
     "AccuracyReport",
-    "StudyResult",
-    "accuracy_study",
     "compare_with_truth",
     "true_visibility",
 ]
-
-_AX = "xyz"
 
 
 def true_visibility(
@@ -169,7 +167,7 @@ def compare_with_truth(
     n_visible = 0
     for p, pid in enumerate(posture_ids):
         for dname in dirs:
-            d = _AX.index(dname[0])
+            d = AXES.index(dname[0])
             vis = V[p, d]
             visible = np.flatnonzero(vis >= visible_min)
             n_visible += visible.size
@@ -238,122 +236,3 @@ def compare_with_truth(
         extra=extra,
         n_visible=n_visible,
     )
-
-
-@dataclass(frozen=True)
-class StudyResult:
-    """Outcome of :func:`accuracy_study` for one robot.
-
-    Attributes
-    ----------
-    robot : str
-    n_postures : int
-    report : AccuracyReport
-    fit : pandas.DataFrame
-        FRAC / NRMSE per posture and direction (from :class:`CampaignModal`).
-    seconds_identify : float
-        Wall time of the identification.
-    n_recovered : int
-    issues : int
-        Number of data-quality findings (warnings and errors).
-    """
-
-    robot: str
-    n_postures: int
-    report: AccuracyReport
-    fit: pd.DataFrame
-    seconds_identify: float
-    n_recovered: int
-    issues: int
-
-
-def accuracy_study(
-    robot: str,
-    *,
-    n_postures: int | None,
-    rng: np.random.Generator,
-    noise: float = 1.0,
-    n_jobs: int = 1,
-    excite: str = "xyz",
-    use_coherence: bool = True,
-) -> StudyResult:
-    """Simulate a hammer-test campaign of a built-in robot and identify it.
-
-    The postures are the robot's shipped seed design (the first
-    ``n_postures`` of it, or all); each is tested with
-    :func:`robolobe.twin.hammer.simulate_hammer_test` (seed paper's test:
-    1024 Hz, 4 s, 5 impacts, exponential window to 5 %, noise scaled by
-    ``noise``) on the twin's receptance; the identified table is compared
-    with the twin's true modes (:meth:`Twin.modes`: ``f_hz``, ``zeta`` and
-    the undamped driving-point modal stiffness ``k_N_per_m``).
-
-    Parameters
-    ----------
-    robot : {"A", "B", "C"}
-    n_postures : int or None
-    rng : numpy.random.Generator
-    noise : float
-        Multiplier of the default force and acceleration noise.
-    n_jobs : int
-        Workers of the identification.
-    excite : str
-        Directions hit.
-    use_coherence : bool
-        Give the coherence to the identification (a campaign read from
-        ``frf.csv`` has none; ``robolobe identify`` then weights without it).
-
-    Returns
-    -------
-    StudyResult
-    """
-    import time
-
-    from robolobe.modal.identify import identify_frfs, settings_from_test
-    from robolobe.robots import load_robot
-    from robolobe.twin.designs import design_arrays, load_seed_design
-    from robolobe.twin.hammer import HammerTestSettings, simulate_hammer_test
-    from robolobe.twin.model import Twin
-
-    ids, q, _ = design_arrays(load_seed_design(robot))
-    if n_postures is not None:
-        ids, q = ids[:n_postures], q[:n_postures]
-    twin = Twin(load_robot(robot))
-    hs = HammerTestSettings(force_noise_n=0.2 * noise, accel_noise_m_per_s2=2e-3 * noise)
-    res = simulate_hammer_test(
-        lambda f: twin.receptance(q, f, method="modal"), rng=rng, settings=hs, excite=excite
-    )
-    keep = res.freq_hz <= 60.0
-    freq = res.freq_hz[keep]
-    H = np.asarray(res.H1)[:, keep]
-    coh = np.asarray(res.coherence)[:, keep]
-    s = settings_from_test({"duration_s": hs.duration_s, "window_end": hs.window_end})
-    t0 = time.perf_counter()
-    cm = identify_frfs(
-        ids,
-        q,
-        [freq] * len(ids),
-        list(H),
-        coherence=list(coh) if use_coherence else None,
-        settings=s,
-        n_jobs=n_jobs,
-    )
-    seconds = time.perf_counter() - t0
-    modes = twin.modes(q)
-    vis = true_visibility(
-        modes.poles,
-        modes.residues,
-        freq,
-        band_hz=(s.fmin_hz, s.fmax_hz),
-        window_decay_per_s=s.window_decay_per_s,
-    )
-    report = compare_with_truth(
-        cm.table,
-        ids,
-        modes.f_hz,
-        modes.zeta,
-        modes.k_N_per_m,
-        vis,
-        dirs=[_AX[d] * 2 for d in range(3) if _AX[d] in excite],
-    )
-    n_issues = sum(1 for i in cm.issues if i.severity != "info")
-    return StudyResult(robot, len(ids), report, cm.fit, seconds, cm.n_recovered, n_issues)

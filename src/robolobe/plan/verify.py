@@ -202,9 +202,9 @@ def _check_limits(robot: Robot, q: FloatArray, table: pd.DataFrame, where: str) 
 
 def _campaign_source(campaign: str | os.PathLike[str]) -> TwinSource:
     """Identify a hammer-test campaign and calibrate its robot file to it."""
+    from robolobe.campaign import read_campaign
     from robolobe.modal.identify import identify_campaign
     from robolobe.tl.graybox import TwinCalibration
-    from robolobe.twin.campaign import read_campaign
 
     camp = read_campaign(campaign)
     n = len(camp.posture_ids)

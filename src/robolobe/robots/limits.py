@@ -16,6 +16,7 @@ from robolobe.robots.model import LinearConstraint, Robot
 
 __all__ = [
     "TOL_RAD",
+    "as_postures",
     "check_posture",
     "constraint_label",
     "posture_violations",
@@ -29,6 +30,46 @@ FloatArray = NDArray[np.float64]
 
 TOL_RAD = 1e-9
 """Tolerance [rad] on every bound (round-off of degree/radian conversions)."""
+
+
+def as_postures(q_rad: ArrayLike, name: str = "q_rad") -> FloatArray:
+    """Joint angles as an ``(n, 6)`` float array, or an InputError naming ``name``.
+
+    The one validator of posture arrays given to the library (predictors,
+    calibration, planning).
+
+    Parameters
+    ----------
+    q_rad : array_like, shape (n, 6) or (6,)
+        Joint angles [rad]; one posture may be given as shape (6,).
+    name : str
+        The argument's name in messages.
+
+    Returns
+    -------
+    ndarray, shape (n, 6)
+
+    Raises
+    ------
+    InputError
+        Not numbers, a shape other than (n, 6) with n >= 1, or NaN/inf.
+    """
+    try:
+        q = np.array(q_rad, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise InputError(f"{name}: expected joint angles in rad, found non-numbers") from None
+    if q.ndim == 1:
+        q = q[None, :]
+    if q.ndim != 2 or q.shape[1] != 6 or len(q) == 0:
+        raise InputError(
+            f"{name}: expected joint angles in rad of shape (n, 6) with n >= 1, found shape "
+            f"{q.shape}"
+        )
+    bad = ~np.isfinite(q).all(axis=1)
+    if bad.any():
+        i = int(np.argmax(bad))
+        raise InputError(f"{name}: expected finite joint angles, found NaN or inf in posture {i}")
+    return q
 
 
 def _q(q: ArrayLike) -> FloatArray:

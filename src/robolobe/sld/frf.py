@@ -25,6 +25,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from robolobe._directions import AXES
 from robolobe.errors import InputError
 
 __all__ = ["ModalModel", "frequency_grid"]
@@ -32,7 +33,6 @@ __all__ = ["ModalModel", "frequency_grid"]
 FloatArray = NDArray[np.float64]
 ComplexArray = NDArray[np.complex128]
 
-_AXES = "xyz"
 _TWO_PI = 2.0 * np.pi
 
 
@@ -143,11 +143,11 @@ class ModalModel:
             raise InputError(f"dim: expected 1, 2 or 3, found {dim!r}")
         idx = []
         for d in directions:
-            if len(d) != 2 or d[0] not in _AXES[:dim] or d[1] not in _AXES[:dim]:
+            if len(d) != 2 or d[0] not in AXES[:dim] or d[1] not in AXES[:dim]:
                 raise InputError(
-                    f"direction: expected two letters of {_AXES[:dim]!r} (e.g. 'xx'), found {d!r}"
+                    f"direction: expected two letters of {AXES[:dim]!r} (e.g. 'xx'), found {d!r}"
                 )
-            idx.append((_AXES.index(d[0]), _AXES.index(d[1])))
+            idx.append((AXES.index(d[0]), AXES.index(d[1])))
         absent = ~(np.isfinite(f) & np.isfinite(z) & np.isfinite(k))
         if np.any(~absent & ((f <= 0) | (z <= 0) | (z >= 1) | (k == 0))):
             raise InputError("modal parameters: expected f_hz > 0, 0 < zeta < 1 and k_N_per_m != 0")

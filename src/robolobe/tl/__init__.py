@@ -3,14 +3,14 @@
 The seed paper's method (a 6 -> 5 x 32 ReLU -> 15 network per TCP direction,
 pretrained on robot A and transferred to B and C with the first three layers
 frozen), as a vectorized deep ensemble with calibrated spread, plus posture
-design, baselines and the seed's evaluation protocol.
+design and the seed's evaluation protocol (the baselines and the schedule
+study are study code: ``studies/tl_baselines.py``, ``studies/tl_schedule.py``).
 
 Modules: :mod:`~robolobe.tl.dataset` (modal datasets), :mod:`~robolobe.tl.preprocess`
 (features, scaling, augmentation), :mod:`~robolobe.tl.network`,
 :mod:`~robolobe.tl.training`, :mod:`~robolobe.tl.estimator` (``ModalPredictor``),
 :mod:`~robolobe.tl.presets`, :mod:`~robolobe.tl.models` (shipped A/B/C),
-:mod:`~robolobe.tl.baselines`, :mod:`~robolobe.tl.design`,
-:mod:`~robolobe.tl.evaluate`, :mod:`~robolobe.tl.schedule`,
+:mod:`~robolobe.tl.design`, :mod:`~robolobe.tl.evaluate`,
 :mod:`~robolobe.tl.twin_data`, :mod:`~robolobe.tl.predict_io`,
 :mod:`~robolobe.tl.graybox` (``TwinCalibration``: the physics-informed transfer),
 :mod:`~robolobe.tl.residual` (``CorrectedTwin``: the calibrated twin plus a

@@ -30,6 +30,7 @@ from scipy.special import ndtri
 
 from robolobe._atomic import atomic_path
 from robolobe.errors import InputError
+from robolobe.robots.limits import as_postures
 from robolobe.tl.dataset import (
     DRIVING_DIRECTIONS,
     ModalDataset,
@@ -152,17 +153,6 @@ class ModalPrediction:
         t = TargetTransform(self.kind, MinMax(np.zeros(1), np.ones(1))).pre(y_true)
         with np.errstate(invalid="ignore", divide="ignore"):
             return (t - self.center) / self.std
-
-
-def _as_q(q_rad: ArrayLike, name: str = "q_rad") -> FloatArray:
-    q = np.asarray(q_rad, dtype=float)
-    if q.ndim == 1:
-        q = q[None, :]
-    if q.ndim != 2 or q.shape[1] != 6:
-        raise InputError(f"{name}: expected shape (n, 6) joint angles in rad, found {q.shape}")
-    if not np.all(np.isfinite(q)):
-        raise InputError(f"{name}: expected finite joint angles, found NaN or inf")
-    return q
 
 
 class ModalPredictor:
@@ -401,7 +391,7 @@ class ModalPredictor:
         self
         """
         self._validate_params()
-        q = _as_q(q_rad)
+        q = as_postures(q_rad)
         dirs = tuple(self.directions)
         nd, nm = len(dirs), int(self.n_modes)
         yy = np.asarray(y, dtype=float)
@@ -558,7 +548,7 @@ class ModalPredictor:
             training range (0 inside the range, 0.1 = 10 % of a range beyond).
         """
         self._check_fitted()
-        q = _as_q(q_rad)
+        q = as_postures(q_rad)
         sc = self.angle_scaler_
         lo = (sc.lo - q) / sc.scale
         hi = (q - sc.hi) / sc.scale
@@ -584,7 +574,7 @@ class ModalPredictor:
         ModalPrediction
         """
         self._check_fitted()
-        q = _as_q(q_rad)
+        q = as_postures(q_rad)
         if warn:
             ex = self.extrapolation(q)
             far = ex > 0.10
@@ -621,7 +611,7 @@ class ModalPredictor:
         self, q_rad: ArrayLike, posture_ids: list[str] | None = None
     ) -> ModalDataset:
         """Predictions as a :class:`ModalDataset` (point values)."""
-        q = _as_q(q_rad)
+        q = as_postures(q_rad)
         ids = posture_ids or [f"p{i + 1}" for i in range(len(q))]
         pred = self.predict(q)
         return ModalDataset(tuple(ids), q, tuple(self.directions), pred.values)

@@ -68,16 +68,15 @@ def rebuild_frf(
     -------
     ndarray, shape (..., n_freq), complex [m/N]
     """
-    a = np.array(y, dtype=float)
-    if window_decay_per_s > 0:
-        w = 2.0 * np.pi * a[..., 0]
-        z = np.clip(a[..., 1], 0.0, 0.999)
-        lam = -z * w + 1j * w * np.sqrt(1.0 - z**2) - window_decay_per_s
-        w_new = np.abs(lam)
-        a[..., 0] = w_new / (2.0 * np.pi)
-        a[..., 1] = -lam.real / w_new
-        a[..., 2] = a[..., 2] * (w_new / w) ** 2  # same residue w^2 / k
-    return synthesize_frf(a[..., 0], a[..., 1], a[..., 2], freq_hz, ignore_nan=True)
+    a = np.asarray(y, dtype=float)
+    return synthesize_frf(
+        a[..., 0],
+        np.clip(a[..., 1], 0.0, 0.999),
+        a[..., 2],
+        freq_hz,
+        window_decay_per_s=window_decay_per_s,
+        ignore_nan=True,
+    )
 
 
 @dataclass(frozen=True, eq=False)

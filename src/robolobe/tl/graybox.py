@@ -61,6 +61,7 @@ from numpy.typing import ArrayLike, NDArray
 from scipy.optimize import least_squares
 
 from robolobe.errors import ConvergenceError, InputError
+from robolobe.robots.limits import as_postures
 from robolobe.robots.model import Robot
 from robolobe.tl.dataset import DRIVING_DIRECTIONS, ModalDataset, dataset_from_frame
 from robolobe.tl.estimator import ModalPrediction
@@ -662,9 +663,7 @@ class TwinCalibration:
             standard deviation of the log, shape (n, n_dir, n_modes, 3).
         """
         self._check_fitted()
-        q = np.asarray(q_rad, dtype=float)
-        if q.ndim != 2 or q.shape[1] != 6 or not np.all(np.isfinite(q)):
-            raise InputError(f"q_rad: expected finite angles of shape (n, 6), found {q.shape}")
+        q = as_postures(q_rad)
         dirs = tuple(directions) if directions is not None else self.directions_
         nm = int(n_modes) if n_modes is not None else self.n_modes_
         twin = ParametrizedTwin(self.base_robot_, q, self.groups_, directions=dirs, n_modes=nm)

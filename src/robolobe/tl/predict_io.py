@@ -52,7 +52,7 @@ def write_frf_campaign(
     Driving points only (the predicted directions); receptance in m/N on
     ``0, df, ..., fmax``.
     """
-    from robolobe.twin.campaign import Campaign, write_campaign
+    from robolobe.campaign import Campaign, write_campaign
 
     freq = np.arange(0.0, fmax_hz + 0.5 * df_hz, df_hz)
     q = np.asarray(q_rad, dtype=float)

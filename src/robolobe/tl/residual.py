@@ -53,6 +53,7 @@ from scipy.optimize import minimize
 
 from robolobe._atomic import atomic_path
 from robolobe.errors import InputError
+from robolobe.robots.limits import as_postures
 from robolobe.robots.model import Robot
 from robolobe.tl.dataset import ModalDataset
 from robolobe.tl.estimator import ModalPrediction
@@ -401,9 +402,7 @@ class CorrectedTwin:
             ``kind="log"``, shape (n, n_dir, n_modes, 3).
         """
         self._check_fitted()
-        q = np.asarray(q_rad, dtype=float)
-        if q.ndim != 2 or q.shape[1] != 6 or not np.all(np.isfinite(q)):
-            raise InputError(f"q_rad: expected finite angles of shape (n, 6), found {q.shape}")
+        q = as_postures(q_rad)
         if warn:
             rob = self.robot_
             out = np.any((q < rob.q_min - 1e-9) | (q > rob.q_max + 1e-9), axis=1)

@@ -182,8 +182,4 @@ def measured_frfs(
         for j, d in enumerate(directions):
             a = _AXIS[d]
             out[i, j] = pf.H[:, a, a]
-    test = camp.test
-    decay = 0.0
-    if test.get("window_end") and test.get("duration_s"):
-        decay = -float(np.log(float(test["window_end"]))) / float(test["duration_s"])
-    return freq, out, decay
+    return freq, out, camp.test.decay_per_s

@@ -4,8 +4,9 @@
 (:mod:`~robolobe.twin.effects`) and gives joint-space matrices, damped modes
 (:class:`~robolobe.twin.modes.Modes`) and the TCP receptance over any frequency
 grid. :mod:`~robolobe.twin.hammer` simulates impact tests on it,
-:mod:`~robolobe.twin.campaign` reads and writes campaigns (FORMATS.md section
-2), :mod:`~robolobe.twin.designs` makes seed-like posture designs.
+:mod:`~robolobe.twin.campaign` simulates whole campaigns (the data type and
+its files are :mod:`robolobe.campaign`), :mod:`~robolobe.twin.designs` makes
+seed-like posture designs.
 """
 
 from robolobe.twin.effects import EFFECTS, Effect, effect_from_dict, effect_to_dict

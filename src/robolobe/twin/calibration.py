@@ -49,6 +49,7 @@ from scipy.optimize import least_squares, linear_sum_assignment, lsq_linear
 
 from robolobe.errors import InputError
 from robolobe.robots import RigidBody, Robot, sample_postures
+from robolobe.robots.limits import as_postures
 from robolobe.robots.transforms import pose_from_xyz_zyx
 from robolobe.twin.designs import TESTED_RANGES_DEG
 from robolobe.twin.modes import (
@@ -539,9 +540,7 @@ def calibration_report(
         t = TARGETS.get(key, _GENERIC_TARGETS)
     else:
         t = targets
-    q = np.asarray(q_samples, dtype=np.float64)
-    if q.ndim != 2 or q.shape[-1] != 6 or len(q) == 0:
-        raise InputError(f"q_samples: expected shape (n, 6) with n >= 1, found {q.shape}")
+    q = as_postures(q_samples, "q_samples")
     s = nominal_system(robot, q)
     md = compute_modes(s.M, s.K, s.C, s.J)
     nm = t.n_modes

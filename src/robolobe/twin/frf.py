@@ -4,7 +4,8 @@
 ``H(w) = J (K - w^2 M + i w C)^-1 J^T`` [m/N], solved directly (batched over
 postures and frequencies). :func:`modal_receptance` is the driving-point
 modal form of DESIGN.md / FORMATS.md section 3,
-``H(w) = sum_r (w_r^2 / k_r) / (w_r^2 - w^2 + 2 i zeta_r w_r w)``.
+``H(w) = sum_r (w_r^2 / k_r) / (w_r^2 - w^2 + 2 i zeta_r w_r w)``, validated
+here and computed by the project's one kernel (:mod:`robolobe._modal_frf`).
 """
 
 from __future__ import annotations
@@ -12,6 +13,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from robolobe._modal_frf import modal_stiffness_frf
 from robolobe.errors import InputError
 from robolobe.twin.modes import _system_arrays
 
@@ -115,9 +117,4 @@ def modal_receptance(
         raise InputError("zeta: expected finite damping ratios >= 0")
     if np.any(np.isnan(kk)) or np.any(kk <= 0):
         raise InputError("k_N_per_m: expected modal stiffnesses > 0 N/m (inf allowed)")
-    w = _TWO_PI * _freq(freq_hz)
-    wr = _TWO_PI * fr[..., None, :]  # (..., 1, n_modes)
-    num = wr**2 / kk[..., None, :]
-    den = wr**2 - (w**2)[:, None] + 2j * ze[..., None, :] * wr * w[:, None]
-    out: ComplexArray = np.sum(num / den, axis=-1)
-    return out
+    return modal_stiffness_frf(fr, ze, kk, _freq(freq_hz))

@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 import pyuff
 
+from robolobe.campaign.uff import read_uff_frf, read_uff_frfs, write_uff_frf
 from robolobe.errors import InputError
-from robolobe.twin.uff import read_uff_frf, read_uff_frfs, write_uff_frf
 
 
 def _frf(n: int = 161, seed: int = 0) -> tuple[np.ndarray, np.ndarray]:

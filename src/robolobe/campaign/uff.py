@@ -56,6 +56,7 @@ from typing import Any, Literal
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from robolobe._directions import AXES
 from robolobe._frf_checks import frf_value_problem
 from robolobe.errors import InputError
 
@@ -77,7 +78,6 @@ UFF_QUANTITIES: dict[str, int] = {"displacement": 8, "velocity": 11, "accelerati
 """Ordinate (numerator) specific data type codes of UFF 58 per response quantity."""
 
 _UNITS = {"displacement": "m/N", "velocity": "m/s/N", "acceleration": "m/s^2/N"}
-_AXES = "xyz"
 
 
 def _sci_exact(v: float) -> bool:
@@ -139,14 +139,14 @@ def write_uff_frf(
                 continue
             if not np.all(np.isfinite(col)):
                 raise InputError(
-                    f"direction {_AXES[r] + _AXES[e]}: expected finite values or all NaN",
+                    f"direction {AXES[r] + AXES[e]}: expected finite values or all NaN",
                     source="write_uff_frf",
                 )
             sets.append(
                 pyuff.prepare_58(
                     binary=0,
                     id1=f"robolobe FRF {name}"[:80],
-                    id2=f"dir {_AXES[r]}{_AXES[e]} (response, excitation), TCP axes"[:80],
+                    id2=f"dir {AXES[r]}{AXES[e]} (response, excitation), TCP axes"[:80],
                     func_type=4,
                     rsp_ent_name="TCP",
                     rsp_node=1,

@@ -8,14 +8,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from robolobe.campaign import Campaign, PostureFRF, read_campaign, read_postures, write_campaign
 from robolobe.errors import InputError
-from robolobe.twin.campaign import (
-    Campaign,
-    PostureFRF,
-    read_campaign,
-    read_postures,
-    write_campaign,
-)
 
 # Robot B's test postures (seed paper Table 3): every B robot file must accept them.
 Q_DEG = np.array(
@@ -462,4 +456,64 @@ def test_non_finite_and_absurd_values(tmp_path, text, match):
     lines[11] = ",".join([pid, d, f, text, im])
     _put(out / "frf.csv", lines)
     with pytest.raises(InputError, match=match):
+        read_campaign(out)
+
+
+# ---------------------------------------------------------------- test header and force levels
+def test_test_header_is_one_typed_rule_for_the_window():
+    from robolobe.campaign import TestHeader
+    from robolobe.modal.identify import settings_from_test
+
+    h = TestHeader.from_mapping({"duration_s": 4.0, "window_end": 0.05, "operator": "x"})
+    assert h.decay_per_s == pytest.approx(-np.log(0.05) / 4.0, rel=1e-15)
+    assert h.has_window
+    assert dict(h) == {"duration_s": 4.0, "window_end": 0.05, "operator": "x"}
+    # identification takes the same number from the same rule
+    assert settings_from_test(h).window_decay_per_s == h.decay_per_s
+    direct = TestHeader.from_mapping({"window_decay_per_s": 0.7})
+    assert direct.decay_per_s == 0.7
+    assert direct.duration_s is None
+    none = TestHeader()
+    assert not none.has_window
+    assert none.decay_per_s == 0.0
+    assert len(none) == 0
+
+
+@pytest.mark.parametrize(
+    ("table", "key", "expect"),
+    [
+        ({"window_end": 0.05}, "test]", "needs duration_s"),
+        ({"duration_s": 4.0, "window_end": 1.5}, "test.window_end", "(0, 1]"),
+        ({"duration_s": -1.0}, "test.duration_s", "record length"),
+        ({"impacts": 2.5}, "test.impacts", "number of impacts"),
+        ({"coherence_min": "high"}, "test.coherence_min", "coherence"),
+        ({"duration_s": 4.0, "window_end": 0.1, "window_decay_per_s": 0.5}, "test]", "both"),
+    ],
+)
+def test_test_header_refuses_bad_values_by_key(tmp_path, table, key, expect):
+    import tomli_w
+
+    folder = _write(tmp_path)
+    (folder / "campaign.toml").write_text(tomli_w.dumps({"robot": "B", "test": table}))
+    with pytest.raises(InputError) as exc:
+        read_campaign(folder)
+    assert f"campaign.toml[{key}" in str(exc.value)
+    assert expect in str(exc.value)
+
+
+def test_force_levels_round_trip_and_bad_value_names_the_line(tmp_path):
+    c = _campaign()
+    c2 = Campaign(
+        c.robot, c.posture_ids, c.q_rad, c.frfs, test=c.test, force_N=np.array([200.0, 400, 800])
+    )
+    out = write_campaign(tmp_path / "camp", c2)
+    back = read_campaign(out)
+    assert back.force_N is not None
+    assert np.array_equal(back.force_N, [200.0, 400.0, 800.0])
+    assert read_campaign(write_campaign(tmp_path / "plain", c)).force_N is None
+    lines = _lines(out / "postures.csv")
+    assert lines[0].endswith(",force_N")
+    lines[2] = lines[2].rsplit(",", 1)[0] + ",-5"
+    _put(out / "postures.csv", lines)
+    with pytest.raises(InputError, match=r"postures.csv:3.*peak force > 0 N.*-5"):
         read_campaign(out)
