@@ -220,3 +220,29 @@ def test_own_lobes_reusing_a_result_equal_a_fresh_computation():
     np.testing.assert_array_equal(whole.a_lim, d1.a_lim)
     with pytest.raises(InputError):
         waypoint_lobes([m], own=own, reuse=fresh, **kw)
+
+
+def test_distinct_rows_by_hashing_equal_sorting(monkeypatch):
+    from robolobe.plan import lobes
+
+    rng = np.random.default_rng(9)
+    q = np.round(rng.normal(scale=3.0, size=(5000, 6)))
+    q = np.concatenate([q, q[rng.integers(0, 5000, 3000)], -q[:10] * 0.0])  # repeats, -0.0
+    first, inv = lobes._distinct_rows(q)
+    _, f_ref, i_ref = np.unique(q, axis=0, return_index=True, return_inverse=True)
+    i_ref = np.asarray(i_ref).ravel()
+    # the same partition, each class named by its first row
+    np.testing.assert_array_equal(np.sort(first), np.sort(f_ref))
+    np.testing.assert_array_equal(first[inv], f_ref[i_ref])
+    # a hash collision (forced: every row one class) falls back to sorting, same answer
+    import pandas
+
+    monkeypatch.setattr(pandas, "factorize", lambda h, sort=False: (np.zeros(h.size, int), None))
+    first1, inv1 = lobes._distinct_rows(q)
+    np.testing.assert_array_equal(first1[inv1], f_ref[i_ref])
+    monkeypatch.undo()
+    huge = q.copy()
+    huge[0, 0] = 2.0**60  # not a small integer cell: the sorting path
+    first2, inv2 = lobes._distinct_rows(huge)
+    _, f2, i2 = np.unique(huge, axis=0, return_index=True, return_inverse=True)
+    np.testing.assert_array_equal(first2[inv2], f2[np.asarray(i2).ravel()])

@@ -150,6 +150,38 @@ def _features(
     return np.concatenate(out, axis=1)
 
 
+def _distinct_rows(q: FloatArray) -> tuple[IntArray, IntArray]:
+    """First occurrence of each distinct row of ``q`` (n, F) and each row's distinct row.
+
+    By hashing the rows (integer cells: the rounded features) and factorising
+    the hashes in path order, verified row by row against each class's first
+    row; on a hash collision (or cells that are not small integers) by
+    sorting the rows (:func:`numpy.unique`). Either way the same partition.
+
+    Returns
+    -------
+    first : ndarray of int, shape (n_distinct,)
+        Row where each distinct row first occurs.
+    inverse : ndarray of int, shape (n,)
+        Index into ``first`` of each row.
+    """
+    import pandas as pd
+
+    if q.shape[0] and np.all(np.abs(q) < 2.0**52):
+        qi = q.astype(np.int64).view(np.uint64)
+        h = np.zeros(q.shape[0], np.uint64)
+        for c in range(q.shape[1]):  # polynomial hash, wrapping in 64 bits
+            h = h * np.uint64(0x100000001B3) + (qi[:, c] ^ np.uint64(0x9E3779B97F4A7C15))
+        codes, _ = pd.factorize(h, sort=False)
+        codes = np.asarray(codes, np.int64)
+        first = np.full(int(codes.max()) + 1, q.shape[0], np.int64)
+        np.minimum.at(first, codes, np.arange(q.shape[0]))
+        if np.array_equal(q, q[first[codes]]):
+            return first, codes
+    _, first, inv = np.unique(q, axis=0, return_index=True, return_inverse=True)
+    return np.asarray(first, np.int64), np.asarray(inv, np.int64).ravel()
+
+
 def group_dynamics(
     model: ModalModel, tol: DynamicsTolerance | None = None, alpha: FloatArray | None = None
 ) -> tuple[IntArray, IntArray]:
@@ -191,9 +223,7 @@ def group_dynamics(
         return np.zeros(n, np.int64), np.zeros(min(n, 1), np.int64)
     # near-duplicates first: cells 0.25 wide; leaders then take cells within 0.75 of
     # them, so every member lies within 0.25 + 0.75 = 1 of its leader
-    q = np.round(f * 4.0)
-    _, first, inv = np.unique(q, axis=0, return_index=True, return_inverse=True)
-    inv = np.asarray(inv).ravel()
+    first, inv = _distinct_rows(np.round(f * 4.0))
     order = np.argsort(first)  # unique rows in path order
     fu = f[first[order]]
     label_u = np.full(fu.shape[0], -1, np.int64)
