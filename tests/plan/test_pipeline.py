@@ -255,3 +255,29 @@ def test_modes_of_distinct_postures_in_chunks_equal_one_call(pocket, monkeypatch
             getattr(got.model, name), getattr(ref.model, name), rtol=1e-12, atol=1e-300
         )
     assert got.source == ref.source
+
+
+@pytest.mark.slow
+def test_compiled_and_reused_paths_plan_as_the_numpy_reference(tmp_path, pocket_job, monkeypatch):
+    """A zig-zag large enough for the compiled lobes, exact queries and the steep-wall
+    reuse plans the same depth and speeds (1e-9) as the numpy reference paths."""
+    from robolobe import _jit
+
+    lines = ["G90 G21 G17", "S18000 M3", "G0 X0. Y0. Z5.", "G1 Z-1. F1000."]
+    for k in range(16):
+        xs = np.linspace(0.0, 400.0, 160)[:: -1 if k % 2 else 1]
+        lines += [f"Y{10.0 * k:.3f}"] if k else []
+        lines += [f"X{x:.3f} F4000." for x in xs]
+    path = tmp_path / "zz.nc"
+    path.write_text("\n".join([*lines, "G0 Z5.", "M30"]) + "\n", encoding="utf-8")
+    pl = pocket_job.placement.copy()
+    pl[:3, 3] = [1.55, -0.15, 0.30]
+    job = pocket_job.replace(placement=pl, model="twin")
+    fast = plan_path(path, job)
+    assert fast.lobes.n_groups * fast.lobes.diagrams[0].omega.shape[-1] >= 1_000_000
+    monkeypatch.setitem(_jit._STATE, "ok", False)
+    ref = plan_path(path, job)
+    assert fast.outcome.best.method == ref.outcome.best.method
+    assert fast.outcome.best.depth_m == pytest.approx(ref.outcome.best.depth_m, rel=1e-9)
+    np.testing.assert_allclose(fast.outcome.best.rpm, ref.outcome.best.rpm, rtol=1e-9)
+    np.testing.assert_array_equal(fast.lobes.table.group, ref.lobes.table.group)
