@@ -195,8 +195,8 @@ def test_envelope_rows_equals_lobe_envelope_per_row() -> None:
     assert np.all(got[:, 0] == got[:, 1])
 
 
-@pytest.mark.parametrize("jit", [True, False])
-def test_frf_synthesis_in_chunks_equals_the_whole_array(monkeypatch, jit: bool) -> None:
+@pytest.mark.parametrize(("jit", "shuffled"), [(True, False), (True, True), (False, False)])
+def test_frf_synthesis_in_chunks_equals_the_whole_array(monkeypatch, jit, shuffled) -> None:
     from robolobe.sld import zoa
 
     monkeypatch.setattr(zoa, "FRF_CHUNK", 7)
@@ -209,7 +209,10 @@ def test_frf_synthesis_in_chunks_equals_the_whole_array(monkeypatch, jit: bool) 
         calls.append(b - a)
         return m.take(slice(a, b)).frf(omega[a:b])
 
-    kw = dict(alpha=alpha, teeth=3, kt=MAT.kt, rpm=np.linspace(2e3, 24e3, 300), max_lobe=None)
+    rpm = np.linspace(2e3, 24e3, 300)
+    if shuffled:
+        rpm = np.random.default_rng(1).permutation(rpm)
+    kw = dict(alpha=alpha, teeth=3, kt=MAT.kt, rpm=rpm, max_lobe=None)
     ref = zoa_lobes(omega, m.frf(omega), jit=jit, **kw)
     got = zoa_lobes(omega, synth, jit=jit, **kw)
     assert max(calls) == (7 if jit else 40)

@@ -374,6 +374,7 @@ def zoa_fused(
     kt: float,
     rpm: FloatArray,
     max_lobe: int,
+    out: tuple[FloatArray, FloatArray, FloatArray, FloatArray] | None = None,
 ) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
     """Depth, phase and envelope of a flat batch with the compiled kernel.
 
@@ -389,6 +390,9 @@ def zoa_fused(
         As in :func:`robolobe.sld.zoa.zoa_lobes`.
     rpm : ndarray, shape (n_speed,)
         Speeds [rpm], any order.
+    out : tuple of ndarray, optional
+        C-contiguous arrays of the four results' shapes to write into (with
+        ``rpm`` sorted; e.g. slices of a larger batch's results).
 
     Returns
     -------
@@ -402,10 +406,15 @@ def zoa_fused(
     """
     nb, nf = omega.shape
     s, order, uniform = _sorted_speeds(rpm)
-    depth = np.empty((nb, 2, nf))
-    eps = np.empty((nb, 2, nf))
-    env = np.empty((nb, s.size))
-    complete = np.empty(nb)
+    if out is not None:
+        depth, eps, env, complete = out
+        if not np.array_equal(order, np.arange(order.size)):
+            raise ValueError("zoa_fused: out= needs sorted speeds")
+    else:
+        depth = np.empty((nb, 2, nf))
+        eps = np.empty((nb, 2, nf))
+        env = np.empty((nb, s.size))
+        complete = np.empty(nb)
     with _LOCK:
         _zoa_batch(
             np.ascontiguousarray(omega, dtype=np.float64),

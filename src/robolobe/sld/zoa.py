@@ -292,7 +292,9 @@ def zoa_lobes(
             raise InputError(f"frf: the synthesis returned {g.shape}, expected {(nb, nf, 2, 2)}")
     if kern is not None and synth is not None:
         w_f, a_f = _flat(w, batch, (nf,)), _flat(a, batch, (2, 2))
-        parts = []
+        depth2, eps2 = np.empty((nb, 2, nf)), np.empty((nb, 2, nf))
+        env2, comp2 = np.empty((nb, r.size)), np.empty(nb)
+        r_sorted = bool(np.all(r[1:] > r[:-1]))  # else each chunk's envelope is unsorted
         for c0 in range(0, nb, FRF_CHUNK):
             c1 = min(nb, c0 + FRF_CHUNK)
             gc = np.ascontiguousarray(synth(c0, c1), dtype=np.complex128)
@@ -300,12 +302,20 @@ def zoa_lobes(
                 raise InputError(
                     f"frf: the synthesis returned {gc.shape}, expected {(c1 - c0, nf, 2, 2)}"
                 )
-            parts.append(
-                kern.zoa_fused(
-                    w_f[c0:c1], gc, a_f[c0:c1], teeth=int(teeth), kt=float(kt), rpm=r, max_lobe=k
-                )
+            into = (depth2[c0:c1], eps2[c0:c1], env2[c0:c1], comp2[c0:c1])
+            res = kern.zoa_fused(
+                w_f[c0:c1],
+                gc,
+                a_f[c0:c1],
+                teeth=int(teeth),
+                kt=float(kt),
+                rpm=r,
+                max_lobe=k,
+                out=into if r_sorted else None,
             )
-        depth2, eps2, env2, comp2 = (np.concatenate(x, axis=0) for x in zip(*parts, strict=True))
+            if not r_sorted:
+                for dst, src in zip(into, res, strict=True):
+                    dst[...] = src
     elif kern is not None:
         depth2, eps2, env2, comp2 = kern.zoa_fused(
             _flat(w, batch, (nf,)),
