@@ -191,6 +191,8 @@ def test_cli_waypoint_options(tmp_path):
         assert not (tmp_path / "pq").exists()
     r = runner.invoke(app, [*base, "-o", str(tmp_path / "thin"), "--waypoints-every", "5"])
     assert r.exit_code == 0, r.output
+    flat = " ".join(r.output.split())  # rich may wrap the line
+    assert "(waypoints.csv, summary.json)" in flat  # what was written, nothing else
     full = plan_path(example("contour.apt"), load_job(job), refine=True).table
     got = pd.read_csv(tmp_path / "thin" / "waypoints.csv")
     assert len(got) == -(-len(full) // 5)

@@ -54,7 +54,11 @@ def _print_summary(s: dict[str, Any], out: Path) -> None:
     console.print(t)
     for note in s.get("notes", []):
         err_console.print(f"[yellow]note:[/] {escape(note)}", highlight=False)
-    console.print(f"outputs in {out}/ (waypoints.csv, summary.json, plots/, report.html)")
+    from robolobe.plan.report import OUTPUTS
+
+    written = [n for n in OUTPUTS if (Path(out) / n).exists()]
+    names = ", ".join(n + "/" if (Path(out) / n).is_dir() else n for n in written)
+    console.print(f"outputs in {escape(str(out))}/ ({names})", highlight=False)
 
 
 # Toolpath reader options (job section [path]); a flag given here overrides the job.
