@@ -28,7 +28,10 @@ Three stages (REFERENCES.md section 5):
    pieces are written out as SX polynomials; ``nlp_scaling_method=none``,
    started from the search's answer). Waypoints enter the NLP when their
    margin is small (constraint generation: violated ones are added and the
-   NLP solved again).
+   NLP solved again). Bounded by iterations and rounds (not time: the
+   result does not depend on the load), and skipped where it cannot improve
+   on its start to first order (:func:`_refine_cannot_improve`; the outcome's
+   ``nlp_status`` then says why).
 3. **Verification.** Every candidate (refined, searched, best constant
    speed) is checked against the exact lobe boundary at every waypoint
    (:attr:`LobeTable.exact`); its depth becomes the largest one that passes
@@ -1203,7 +1206,7 @@ def optimize_schedule(
     n_depth : int
         Depth levels of the global search.
     refine : bool
-        Run the casadi/IPOPT refinement.
+        Run the casadi/IPOPT refinement (where it can improve on the search).
 
     Returns
     -------
