@@ -186,22 +186,46 @@ def test_sharing_near_the_feed_direction_stays_within_one_percent(milling):
     assert n_steep < 0.5 * n * speeds.size  # walls and steep flanks are the exception
 
 
-def test_own_lobes_reusing_a_result_equal_a_fresh_computation():
-    """The steep-wall split reuses the grouping and lobes: same table, groups and queries."""
+@pytest.mark.parametrize("extend", [True, False])
+def test_own_lobes_reusing_a_result_equal_a_fresh_computation(monkeypatch, extend):
+    """The steep-wall split reuses the grouping and lobes: same table, groups and queries.
+
+    ``extend``: the added waypoints lie inside the batch's frequency range (only
+    their lobes are computed); else one of them holds the lowest mode, which
+    changes every group's frequency grid (everything is computed afresh)."""
+    from robolobe.plan import lobes as lobes_mod
     from robolobe.sld.zoa import FRF_CHUNK
 
     n = FRF_CHUNK + 37  # more than one FRF chunk
     m = models(n, spread=0.05, seed=4)
     kw = dict(
         teeth=3, kt=MAT.kt, kr=MAT.kr, phi_entry=0.0, phi_exit=np.pi / 2,
-        rpm=np.linspace(4000.0, 24000.0, 300), immersion=0.5,
+        rpm=np.linspace(12000.0, 24000.0, 300), immersion=0.5,
     )  # fmt: skip
     first = waypoint_lobes([m], **kw)
+    members = np.flatnonzero(first.table.group != np.arange(n))  # members, not leaders
+    lowest = members[np.argmin(m.omega[members, 1])]
+    lead_low = m.omega[first.leader, 1].min()
+    members = members[members != lowest]
     own = np.zeros(n, bool)
-    own[np.flatnonzero(first.table.group != np.arange(n))[:5]] = True  # members, not leaders
+    own[members[:4]] = True
+    own[lowest if (not extend and m.omega[lowest, 1] < lead_low) else members[4]] = True
+    if not extend:
+        assert m.omega[lowest, 1] < lead_low
     assert own.sum() == 5
     fresh = waypoint_lobes([m], own=own, **kw)
+    sizes = []
+    inner = lobes_mod._leader_lobes
+
+    def counted(reps, *a, **k):
+        sizes.append(reps.batch_shape[0])
+        return inner(reps, *a, **k)
+
+    monkeypatch.setattr(lobes_mod, "_leader_lobes", counted)
     reused = waypoint_lobes([m], own=own, reuse=first, **kw)
+    monkeypatch.undo()
+    if extend:  # only the added waypoints' lobes were computed (no fallback)
+        assert sizes == [5]
     assert reused.n_groups == fresh.n_groups == first.n_groups + 5
     np.testing.assert_array_equal(reused.table.group, fresh.table.group)
     np.testing.assert_array_equal(reused.leader, fresh.leader)

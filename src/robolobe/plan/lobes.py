@@ -494,14 +494,22 @@ def waypoint_lobes(
 
 
 def _leader_lobes(
-    reps: ModalModel, zoa_args: dict[str, Any], *, max_lobe: int | None, jit: bool | None = None
+    reps: ModalModel,
+    zoa_args: dict[str, Any],
+    *,
+    max_lobe: int | None,
+    jit: bool | None = None,
+    omega: FloatArray | None = None,
 ) -> LobeDiagram:
     """ZOA lobes of a batch of leaders, their FRFs synthesised chunk by chunk into the kernel.
 
     Each FRF is the same as from one call over the whole batch (the synthesis
     is per batch entry); no array of all the leaders' FRFs is formed.
+    ``omega`` (n, n_freq): the frequency grids to use (default: the batch's own,
+    ``reps.frequency_grid(shared=False)``, whose range spans the whole batch).
     """
-    omega = reps.frequency_grid(shared=False)
+    if omega is None:
+        omega = reps.frequency_grid(shared=False)
 
     def synth(start: int, stop: int) -> NDArray[np.complex128]:
         return reps.take(slice(start, stop)).frf(omega[start:stop])
@@ -525,11 +533,14 @@ def _extend_diagrams(
 ) -> list[LobeDiagram]:
     """``reuse``'s diagrams with the lobes of the leaders after its groups appended.
 
-    The automatic lobe count is decided as :func:`robolobe.sld.zoa.zoa_lobes`
-    decides it over the whole batch; where that count differs from the one
-    ``reuse`` was computed with, everything is computed afresh.
+    The frequency grids are the whole batch's (their base range spans every
+    leader) and the automatic lobe count is decided as
+    :func:`robolobe.sld.zoa.zoa_lobes` decides it over the whole batch; where
+    either differs from what ``reuse`` was computed with, everything is
+    computed afresh.
     """
     new = leader[reuse.n_groups :]
+    n_prev = reuse.n_groups
     rpm = np.asarray(zoa_args["rpm"], dtype=np.float64)
     r_min = float(rpm.min())
     cap = int(zoa_args["max_lobe_cap"])
@@ -542,7 +553,12 @@ def _extend_diagrams(
         assert prev.omega is not None
         assert prev.complete_above_rpm is not None
         jit = leader.size * prev.omega.shape[-1] >= JIT_MIN_SAMPLES
-        extra = _leader_lobes(m.take(new), zoa_args, max_lobe=30, jit=jit)
+        grids = m.take(leader).frequency_grid(shared=False)
+        if grids.shape != (leader.size, prev.omega.shape[-1]) or not np.array_equal(
+            grids[:n_prev], prev.omega
+        ):  # the added leaders widen the grids' range: every group's grid changes
+            return [_leader_lobes(mm.take(leader), zoa_args, max_lobe=None) for mm in models]
+        extra = _leader_lobes(m.take(new), zoa_args, max_lobe=30, jit=jit, omega=grids[n_prev:])
         assert extra.omega is not None
         assert extra.complete_above_rpm is not None
         trig = prev.max_lobe > 30 or bool(np.any(prev.complete_above_rpm > r_min))
@@ -551,10 +567,10 @@ def _extend_diagrams(
         if trig:
             need = max(_lobe_need(prev, r_min), _lobe_need(extra, r_min))
             k = int(min(max(need, 30), cap))
-        if k != prev.max_lobe or prev.omega.shape[-1] != extra.omega.shape[-1]:
+        if k != prev.max_lobe:
             return [_leader_lobes(mm.take(leader), zoa_args, max_lobe=None) for mm in models]
         if k != 30:
-            extra = _leader_lobes(m.take(new), zoa_args, max_lobe=k, jit=jit)
+            extra = _leader_lobes(m.take(new), zoa_args, max_lobe=k, jit=jit, omega=grids[n_prev:])
 
         def cat(a: FloatArray | None, b: FloatArray | None) -> FloatArray:
             return np.concatenate([np.asarray(a), np.asarray(b)], axis=0)
