@@ -1,33 +1,46 @@
-"""Planner speed: one 10,000-waypoint path end to end, and batch throughput.
+"""Planner speed: a 10,000-waypoint path end to end, batch throughput, a million waypoints.
 
-    python benchmarks/bench_plan.py                 # both parts, full size
+    python benchmarks/bench_plan.py                 # parts path and batch, full size
     python benchmarks/bench_plan.py --part path     # 10k-waypoint path only
     python benchmarks/bench_plan.py --part batch --paths 40 --waypoints 1000
+    python benchmarks/bench_plan.py --part long     # 1e6 waypoints: time, peak RSS
 
-Part 1 plans a dense zig-zag finishing path (10,000 waypoints, 3-axis, tool
-down) on robot A with each mode source of ``--sources`` (default: the twin,
-the default source; the shipped tl network; the twin planned robustly) and
-writes the outputs without the HTML report; it prints the seconds per stage
-(read, IK, modes, FRFs, lobes, optimization, table, outputs) per source and
-side by side, and the number of distinct dynamics the lobes were computed
-for. Target (issues 6, 11): under 10 s on 2 cores.
+Part 1 (``path``) plans a dense zig-zag finishing path (10,000 waypoints,
+3-axis, tool down) on robot A with each mode source of ``--sources``
+(default: the twin, the default source; the shipped tl network; the twin
+planned robustly) and writes the outputs without the HTML report; it prints
+the seconds per stage (read, IK, modes, FRFs, lobes, optimization, table,
+outputs) per source, each as a share of the total and beside the same plan
+on the numpy reference paths (compiled kernels off, same process; whether
+the plan came out the same), then the sources side by side as ratios to the
+first, with the load average. Targets: < 10 s (issues 6, 11), < 2 s (issue 17).
 
-Part 2 plans ``--paths`` paths of ``--waypoints`` waypoints each (shifted
-copies of a pocket-like path) with 1 and then 2 worker processes and prints
-the throughput per worker and the scaling from 1 to 2 workers.
+Part 2 (``batch``) plans ``--paths`` paths of ``--waypoints`` waypoints each
+(shifted copies of a pocket-like path) with 1 and then 2 worker processes
+and prints the throughput per worker and the scaling from 1 to 2 workers.
+
+Part 3 (``long``, run alone so that the peak RSS is the plan's) plans a
+zig-zag of ``--waypoints-long`` waypoints (default 1e6) on the twin and
+writes the waypoints (``--format csv|parquet|none``, ``--every K`` thins
+them) without plots; it prints wall and CPU time per stage, the peak
+resident memory and the load average. Target (issues 16, 17): < 60 s and
+< 2 GB on 2 cores.
 
 The numbers are for the machine the script runs on; compare runs side by
-side on one machine (the ratio), not against a fixed threshold.
+side on one machine (the ratios), not against a fixed threshold.
 """
 
 from __future__ import annotations
 
 import argparse
+import contextlib
 import dataclasses
 import os
 import tempfile
 import time
+from collections.abc import Iterator
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -63,7 +76,37 @@ def zigzag_gcode(n_target: int, width_mm: float, height_mm: float, step_mm: floa
     return "\n".join(lines) + "\n"
 
 
-def part_path(n: int, tmp: Path, sources: list[str]) -> None:
+def _load() -> str:
+    one, five = os.getloadavg()[:2]
+    return f"load {one:.1f}/{five:.1f}"
+
+
+@contextlib.contextmanager
+def _numpy_paths() -> Iterator[None]:
+    """The numpy reference paths: compiled kernels off (as ``ROBOLOBE_NO_JIT=1``)."""
+    from robolobe import _jit
+
+    old = dict(_jit._STATE)
+    _jit._STATE["ok"] = False
+    try:
+        yield
+    finally:
+        _jit._STATE.clear()
+        _jit._STATE.update(old)
+
+
+def _timed_plan(path: Path, job: Any, out: Path) -> tuple[Any, dict[str, float]]:
+    t0 = time.perf_counter()
+    c0 = time.process_time()
+    res = plan_path(path, job)
+    t1 = time.perf_counter()
+    write_outputs(res, out, plots=True, html_report=False)
+    t2 = time.perf_counter()
+    st = {**res.timings, "outputs": t2 - t1, "total": t2 - t0, "cpu": time.process_time() - c0}
+    return res, st
+
+
+def part_path(n: int, tmp: Path, sources: list[str], reference: bool) -> None:
     path = tmp / "zigzag.nc"
     path.write_text(zigzag_gcode(n, 400.0, 300.0, 10.0), encoding="utf-8")
     base_job = load_job(EXAMPLES / "job_A_pocket.toml")
@@ -77,33 +120,84 @@ def part_path(n: int, tmp: Path, sources: list[str]) -> None:
         if mode == "robust":
             job = job.replace(plan=dataclasses.replace(job.plan, robust=True))
         plan_path(EXAMPLES / "pocket.nc", job)  # warm-up: imports, model load, casadi
-        t0 = time.perf_counter()
-        res = plan_path(path, job)
-        t1 = time.perf_counter()
-        write_outputs(res, tmp / "out", plots=True, html_report=False)
-        t2 = time.perf_counter()
+        res, st = _timed_plan(path, job, tmp / "out")
         s = res.summary
         print(
             f"path [{spec}: {s['mode_source']}]: {s['n_waypoints']} waypoints ({s['n_cut']} "
             f"cutting), {s['n_dynamics_groups']} distinct dynamics, cores: {os.cpu_count()}, "
-            f"load {os.getloadavg()[0]:.1f}"
+            f"{_load()}"
         )
-        for k, v in res.timings.items():
-            print(f"  {k:<10s} {v:7.3f} s")
-        print(f"  {'outputs':<10s} {t2 - t1:7.3f} s  (csv, json, 4 plots; no html)")
-        print(f"  {'total':<10s} {t2 - t0:7.3f} s  (target < 10 s)")
+        ref = None
+        if reference:
+            # the same plan on the numpy reference paths (no compiled kernels), same process
+            with _numpy_paths():
+                res_ref, ref = _timed_plan(path, job, tmp / "out_ref")
+            same = res_ref.outcome.best.depth_m == res.outcome.best.depth_m and np.array_equal(
+                res_ref.outcome.best.rpm, res.outcome.best.rpm
+            )
+            print(f"  reference: numpy paths (kernels off), {_load()}; same plan: {same}")
+        for k, v in st.items():
+            line = f"  {k:<10s} {v:7.3f} s  ({v / st['total']:5.1%} of total)"
+            if ref is not None and k in ref:
+                line += f"  numpy reference {ref[k]:7.3f} s (x{ref[k] / max(v, 1e-9):.2f})"
+            print(line)
+        print("  outputs: csv, json, 4 plots; no html. targets: < 10 s (issue 6), < 2 s (issue 17)")
         print(f"  lobes:     { {k: round(v, 3) for k, v in res.lobes.timings.items()} }")
         print(f"  optimizer: { {k: round(v, 3) for k, v in res.outcome.timings.items()} }")
         rng = f"{s['rpm_min']:.0f}-{s['rpm_max']:.0f} rpm"
-        print(f"  plan: {s['method']}, depth {s['depth_mm']} mm, {rng}")
-        stages[spec] = {**res.timings, "total": t2 - t0}
+        print(
+            f"  plan: {s['method']}, depth {s['depth_mm']} mm, {rng}; refinement: {s['nlp_status']}"
+        )
+        stages[spec] = st
     if len(stages) > 1:
         names = list(stages)
-        print("stage seconds side by side: " + " | ".join(names))
-        for k in stages[names[0]]:
-            print(
-                f"  {k:<10s} " + " | ".join(f"{stages[m].get(k, float('nan')):7.3f}" for m in names)
-            )
+        first = names[0]
+        print(
+            f"stage seconds side by side ({_load()}; ratio to {first} in brackets): "
+            + " | ".join(names)
+        )
+        for k in stages[first]:
+            cells = []
+            for m in names:
+                v = stages[m].get(k, float("nan"))
+                cells.append(f"{v:7.3f} (x{v / max(stages[first][k], 1e-9):4.2f})")
+            print(f"  {k:<10s} " + " | ".join(cells))
+
+
+def part_long(n: int, tmp: Path, fmt: str, every: int) -> None:
+    """A long zig-zag (``n`` waypoints) planned and written; wall, CPU, peak RSS, load."""
+    import resource
+
+    path = tmp / "long.nc"
+    path.write_text(zigzag_gcode(n, 400.0, 300.0, 10.0), encoding="utf-8")
+    job = load_job(EXAMPLES / "job_A_pocket.toml")
+    pl = job.placement.copy()
+    pl[:3, 3] = [1.55, -0.15, 0.30]
+    job = job.replace(placement=pl)
+    rss0 = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+    t0 = time.perf_counter()
+    c0 = time.process_time()
+    res = plan_path(path, job)
+    t1 = time.perf_counter()
+    write_outputs(
+        res, tmp / "out_long", plots=False, html_report=False, waypoints=fmt, waypoints_every=every
+    )
+    t2 = time.perf_counter()
+    rss = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+    s = res.summary
+    print(
+        f"long path: {s['n_waypoints']} waypoints ({s['n_cut']} cutting), "
+        f"{s['n_dynamics_groups']} distinct dynamics, cores {os.cpu_count()}, {_load()}"
+    )
+    for k, v in res.timings.items():
+        print(f"  {k:<10s} {v:7.2f} s  ({v / (t2 - t0):5.1%})")
+    sizes = {p.name: p.stat().st_size for p in (tmp / "out_long").iterdir() if p.is_file()}
+    print(f"  outputs    {t2 - t1:7.2f} s  (waypoints {fmt}, every {every}: {sizes} bytes)")
+    print(
+        f"  total      {t2 - t0:7.2f} s wall, {time.process_time() - c0:.2f} s CPU (target < 60 s)"
+    )
+    print(f"  peak RSS   {rss:7.0f} MB (before planning {rss0:.0f} MB; target < 2048 MB)")
+    print(f"  plan: {s['method']}, depth {s['depth_mm']} mm; refinement: {s['nlp_status']}")
 
 
 def part_batch(n_paths: int, n_wp: int, tmp: Path) -> None:
@@ -135,7 +229,7 @@ def part_batch(n_paths: int, n_wp: int, tmp: Path) -> None:
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--part", choices=("path", "batch", "all"), default="all")
+    ap.add_argument("--part", choices=("path", "batch", "long", "all"), default="all")
     ap.add_argument("--waypoints-path", type=int, default=10_000)
     ap.add_argument("--paths", type=int, default=200)
     ap.add_argument("--waypoints", type=int, default=1000)
@@ -144,13 +238,21 @@ def main() -> None:
         default="twin,builtin,twin+robust",
         help="Mode sources of part 1 (robot.model values; '+robust' plans robustly).",
     )
+    ap.add_argument(
+        "--no-reference", action="store_true", help="Part 1 without the numpy reference run."
+    )
+    ap.add_argument("--waypoints-long", type=int, default=1_000_000)
+    ap.add_argument("--format", default="csv", choices=("csv", "parquet", "none"))
+    ap.add_argument("--every", type=int, default=1, help="Long part: write every k-th waypoint.")
     args = ap.parse_args()
     with tempfile.TemporaryDirectory() as d:
         tmp = Path(d)
         if args.part in ("path", "all"):
-            part_path(args.waypoints_path, tmp, args.sources.split(","))
+            part_path(args.waypoints_path, tmp, args.sources.split(","), not args.no_reference)
         if args.part in ("batch", "all"):
             part_batch(args.paths, args.waypoints, tmp)
+        if args.part == "long":  # alone: the peak RSS is the process's
+            part_long(args.waypoints_long, tmp, args.format, args.every)
 
 
 if __name__ == "__main__":

@@ -5,13 +5,16 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from robolobe.errors import InputError
 from robolobe.plan.lobes import DynamicsTolerance, _features, group_dynamics, waypoint_lobes
 from robolobe.sld.conditions import engagement_angles
 from robolobe.sld.directional import directional_factors
 from robolobe.sld.frf import ModalModel
+from robolobe.sld.material import get_material
 from robolobe.sld.zoa import zoa_lobes
 
 RPM = np.linspace(6000.0, 24000.0, 120)
+MAT = get_material("Al7075-T6")
 
 
 def models(n: int, spread: float, seed: int = 0) -> ModalModel:
@@ -181,3 +184,89 @@ def test_sharing_near_the_feed_direction_stays_within_one_percent(milling):
         n_steep += int(steep.sum())
     assert worst <= 0.01
     assert n_steep < 0.5 * n * speeds.size  # walls and steep flanks are the exception
+
+
+@pytest.mark.parametrize("extend", [True, False])
+def test_own_lobes_reusing_a_result_equal_a_fresh_computation(monkeypatch, extend):
+    """The steep-wall split reuses the grouping and lobes: same table, groups and queries.
+
+    ``extend``: the added waypoints lie inside the batch's frequency range (only
+    their lobes are computed); else one of them holds the lowest mode, which
+    changes every group's frequency grid (everything is computed afresh)."""
+    from robolobe.plan import lobes as lobes_mod
+    from robolobe.sld.zoa import FRF_CHUNK
+
+    n = FRF_CHUNK + 37  # more than one FRF chunk
+    m = models(n, spread=0.05, seed=4)
+    kw = dict(
+        teeth=3, kt=MAT.kt, kr=MAT.kr, phi_entry=0.0, phi_exit=np.pi / 2,
+        rpm=np.linspace(12000.0, 24000.0, 300), immersion=0.5,
+    )  # fmt: skip
+    first = waypoint_lobes([m], **kw)
+    members = np.flatnonzero(first.table.group != np.arange(n))  # members, not leaders
+    lowest = members[np.argmin(m.omega[members, 1])]
+    lead_low = m.omega[first.leader, 1].min()
+    members = members[members != lowest]
+    own = np.zeros(n, bool)
+    own[members[:4]] = True
+    own[lowest if (not extend and m.omega[lowest, 1] < lead_low) else members[4]] = True
+    if not extend:
+        assert m.omega[lowest, 1] < lead_low
+    assert own.sum() == 5
+    fresh = waypoint_lobes([m], own=own, **kw)
+    sizes = []
+    inner = lobes_mod._leader_lobes
+
+    def counted(reps, *a, **k):
+        sizes.append(reps.batch_shape[0])
+        return inner(reps, *a, **k)
+
+    monkeypatch.setattr(lobes_mod, "_leader_lobes", counted)
+    reused = waypoint_lobes([m], own=own, reuse=first, **kw)
+    monkeypatch.undo()
+    if extend:  # only the added waypoints' lobes were computed (no fallback)
+        assert sizes == [5]
+    assert reused.n_groups == fresh.n_groups == first.n_groups + 5
+    np.testing.assert_array_equal(reused.table.group, fresh.table.group)
+    np.testing.assert_array_equal(reused.leader, fresh.leader)
+    np.testing.assert_array_equal(reused.table.a_lim, fresh.table.a_lim)
+    d0, d1 = reused.diagrams[0], fresh.diagrams[0]
+    assert d0.max_lobe == d1.max_lobe
+    np.testing.assert_array_equal(d0.depth, d1.depth)
+    rows = np.linspace(4100.0, 23900.0, 11)[None, :].repeat(n, 0)
+    g = reused.table.group
+    np.testing.assert_array_equal(reused.table.rows(rows, g), fresh.table.rows(rows, g))
+    # the chunked FRF synthesis is the whole-batch one, bit for bit
+    reps = m.take(fresh.leader)
+    om = reps.frequency_grid(shared=False)
+    whole = zoa_lobes(om, reps.frf(om), alpha=directional_factors(0.0, np.pi / 2, MAT.kr),
+                      teeth=3, kt=MAT.kt, rpm=kw["rpm"], max_lobe=None, immersion=0.5)  # fmt: skip
+    np.testing.assert_array_equal(whole.a_lim, d1.a_lim)
+    with pytest.raises(InputError):
+        waypoint_lobes([m], own=own, reuse=fresh, **kw)
+
+
+def test_distinct_rows_by_hashing_equal_sorting(monkeypatch):
+    from robolobe.plan import lobes
+
+    rng = np.random.default_rng(9)
+    q = np.round(rng.normal(scale=3.0, size=(5000, 6)))
+    q = np.concatenate([q, q[rng.integers(0, 5000, 3000)], -q[:10] * 0.0])  # repeats, -0.0
+    first, inv = lobes._distinct_rows(q)
+    _, f_ref, i_ref = np.unique(q, axis=0, return_index=True, return_inverse=True)
+    i_ref = np.asarray(i_ref).ravel()
+    # the same partition, each class named by its first row
+    np.testing.assert_array_equal(np.sort(first), np.sort(f_ref))
+    np.testing.assert_array_equal(first[inv], f_ref[i_ref])
+    # a hash collision (forced: every row one class) falls back to sorting, same answer
+    import pandas
+
+    monkeypatch.setattr(pandas, "factorize", lambda h, sort=False: (np.zeros(h.size, int), None))
+    first1, inv1 = lobes._distinct_rows(q)
+    np.testing.assert_array_equal(first1[inv1], f_ref[i_ref])
+    monkeypatch.undo()
+    huge = q.copy()
+    huge[0, 0] = 2.0**60  # not a small integer cell: the sorting path
+    first2, inv2 = lobes._distinct_rows(huge)
+    _, f2, i2 = np.unique(huge, axis=0, return_index=True, return_inverse=True)
+    np.testing.assert_array_equal(first2[inv2], f2[np.asarray(i2).ravel()])

@@ -233,3 +233,44 @@ def test_rate_fix_gives_feasible_lower_speeds():
         fixed = _rate_fix(u, dist, c)
         assert np.all(fixed <= u + 1e-9)
         assert _rate_ok(fixed, dist, c)
+
+
+def _rising(slope: float):
+    def a(n: np.ndarray) -> np.ndarray:
+        return 1e-3 * (1.0 + slope * (np.asarray(n) - 6000.0) / 18000.0)
+
+    return a
+
+
+def test_refinement_skipped_only_where_it_cannot_improve():
+    """At the top speed with limits that fall for lower speeds the NLP has nothing to gain:
+    it is skipped and the plan is the one without refinement; with a pocket below the top
+    speed, or power binding, it runs."""
+    geom = PathGeometry(np.full(40, 0.01), rapid_time_s=1.0)
+    group = np.repeat([0, 1], 20)
+    tab = table([_rising(0.5), _rising(0.8)], group)
+    out = optimize_schedule(tab, geom, cons())
+    assert out.nlp_status.startswith("not needed"), out.nlp_status
+    ref = optimize_schedule(tab, geom, cons(), refine=False)
+    assert out.best.depth_m == ref.best.depth_m
+    np.testing.assert_array_equal(out.best.rpm, ref.best.rpm)
+    assert np.all(out.best.rpm == 24000.0)
+    # a pocket below the top speed: the refinement runs
+    pocket = table([bump(15000.0, 1.0), bump(15200.0, 1.0)], group)
+    assert not optimize_schedule(pocket, geom, cons()).nlp_status.startswith("not needed")
+    # power binds at the top speed: a lower speed can buy depth, so it runs
+    p = cons(power_W=KT * 0.01 * 3e-4 * 1.2e-3 * 24000.0 / 60.0)
+    assert not optimize_schedule(tab, geom, p).nlp_status.startswith("not needed")
+
+
+def test_block_minimum_in_chunks_equals_the_full_grid():
+    from robolobe.plan.optimize import _block_min
+
+    rng = np.random.default_rng(2)
+    a = rng.uniform(1e-3, 5e-3, (30, 17))
+    a[3, 5] = np.inf
+    group = rng.integers(0, 30, 1000)
+    start = np.unique(np.r_[0, rng.integers(1, 1000, 40)])
+    ref = np.minimum.reduceat(a[group], start, axis=0)
+    for chunk in (1, 7, 64, 5000):
+        np.testing.assert_array_equal(_block_min(a, group, start, chunk), ref)

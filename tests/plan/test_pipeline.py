@@ -219,3 +219,65 @@ def test_degenerate_paths(tmp_path, pocket_job):
     assert res.summary["n_plunge"] == 2
     assert any("plunges" in n for n in res.summary["notes"])
     assert res.lobes.n_groups == 0
+
+
+@pytest.mark.parametrize("source_kind", ["twin", "builtin"])
+def test_modes_of_distinct_postures_in_chunks_equal_one_call(pocket, monkeypatch, source_kind):
+    """Each distinct posture predicted once, in chunks, expanded: the modes of one call."""
+    from robolobe.plan import pipeline
+    from robolobe.plan.modes import mode_source
+
+    robot = load_robot("A")
+    source, _ = mode_source(source_kind, robot, "A")
+    q = pocket.q[pocket.cut_index][:60]
+    q = np.concatenate([q, q[::-3], q[:5]])  # repeats, out of order
+    monkeypatch.setattr(pipeline, "_CHUNK", 16)
+    calls = []
+    inner = source.predict
+
+    def counted(x):
+        calls.append(len(x))
+        return inner(x)
+
+    monkeypatch.setattr(source, "predict", counted)
+    got = pipeline._predict_modes(source, q)
+    assert sum(calls) == 60
+    assert max(calls) <= 16
+    ref = inner(q)
+    for name in ("f_hz", "zeta", "k_N_per_m", "log_std", "extrapolation"):
+        a, b = getattr(got, name), getattr(ref, name)
+        if b is None:
+            assert a is None
+        else:
+            np.testing.assert_allclose(a, b, rtol=1e-12, atol=0.0)
+    for name in ("omega", "zeta", "residues"):
+        np.testing.assert_allclose(
+            getattr(got.model, name), getattr(ref.model, name), rtol=1e-12, atol=1e-300
+        )
+    assert got.source == ref.source
+
+
+@pytest.mark.slow
+def test_compiled_and_reused_paths_plan_as_the_numpy_reference(tmp_path, pocket_job, monkeypatch):
+    """A zig-zag large enough for the compiled lobes, exact queries and the steep-wall
+    reuse plans the same depth and speeds (1e-9) as the numpy reference paths."""
+    from robolobe import _jit
+
+    lines = ["G90 G21 G17", "S18000 M3", "G0 X0. Y0. Z5.", "G1 Z-1. F1000."]
+    for k in range(16):
+        xs = np.linspace(0.0, 400.0, 160)[:: -1 if k % 2 else 1]
+        lines += [f"Y{10.0 * k:.3f}"] if k else []
+        lines += [f"X{x:.3f} F4000." for x in xs]
+    path = tmp_path / "zz.nc"
+    path.write_text("\n".join([*lines, "G0 Z5.", "M30"]) + "\n", encoding="utf-8")
+    pl = pocket_job.placement.copy()
+    pl[:3, 3] = [1.55, -0.15, 0.30]
+    job = pocket_job.replace(placement=pl, model="twin")
+    fast = plan_path(path, job)
+    assert fast.lobes.n_groups * fast.lobes.diagrams[0].omega.shape[-1] >= 1_000_000
+    monkeypatch.setitem(_jit._STATE, "ok", False)
+    ref = plan_path(path, job)
+    assert fast.outcome.best.method == ref.outcome.best.method
+    assert fast.outcome.best.depth_m == pytest.approx(ref.outcome.best.depth_m, rel=1e-9)
+    np.testing.assert_allclose(fast.outcome.best.rpm, ref.outcome.best.rpm, rtol=1e-9)
+    np.testing.assert_array_equal(fast.lobes.table.group, ref.lobes.table.group)

@@ -13,6 +13,7 @@ import pandas as pd
 import pytest
 from matplotlib.image import imread as plt_imread
 
+from robolobe.errors import InputError
 from robolobe.plan import report
 from robolobe.plan.job import load_job
 from robolobe.plan.pipeline import plan_path
@@ -131,3 +132,87 @@ def test_report_renders_in_a_headless_browser(tmp_path, result):
     # a page of broken images is almost all white; four plots are not
     ink = float(np.mean(img[..., :3].mean(axis=-1) < 0.9))
     assert ink > 0.05, ink
+
+
+def test_thinned_waypoints_keep_the_tightest_of_each_block(tmp_path, result):
+    out = report.write_outputs(
+        result, tmp_path / "thin", plots=False, html_report=False, waypoints_every=7
+    )
+    full = result.table
+    got = pd.read_csv(out / "waypoints.csv")
+    assert len(got) == -(-len(full) // 7)
+    m = full["margin"].to_numpy()
+    for b in range(len(got)):  # independent check, block by block
+        blk = m[7 * b : 7 * b + 7]
+        want = 7 * b + (int(np.nanargmin(blk)) if np.any(np.isfinite(blk)) else 0)
+        assert got["line"].iloc[b] == full["line"].iloc[want]
+    assert np.nanmin(got["margin"]) == np.nanmin(m)  # the path's tightest waypoint is kept
+    # none: no table; a re-run replaces the set (no stale CSV)
+    report.write_outputs(result, out, plots=False, html_report=False, waypoints="none")
+    assert sorted(p.name for p in out.iterdir()) == ["summary.json"]
+    with pytest.raises(InputError):
+        report.write_outputs(result, out, waypoints="xlsx")
+    with pytest.raises(InputError):
+        report.write_outputs(result, out, waypoints_every=0)
+
+
+def test_parquet_waypoints_or_refusal_before_writing(tmp_path, result):
+    out = tmp_path / "pq"
+    try:
+        import pyarrow  # noqa: F401
+    except ImportError:
+        with pytest.raises(InputError, match="pyarrow"):
+            report.write_outputs(result, out, waypoints="parquet")
+        assert not out.exists()
+        return
+    report.write_outputs(result, out, plots=False, html_report=False, waypoints="parquet")
+    got = pd.read_parquet(out / "waypoints.parquet")
+    pd.testing.assert_frame_equal(got, result.table.reset_index(drop=True), check_dtype=False)
+
+
+def test_cli_waypoint_options(tmp_path):
+    """``plan --waypoints parquet`` without pyarrow is refused before planning (exit 2,
+    nothing written); ``--waypoints-every`` thins the CSV."""
+    from typer.testing import CliRunner
+
+    from robolobe.cli.main import app
+
+    job = tmp_path / "job.toml"
+    text = example("job_B_contour.toml").read_text(encoding="utf-8")
+    job.write_text(text.replace('model = "builtin"', 'model = "twin"'), encoding="utf-8")
+    base = ["plan", str(example("contour.apt")), "--job", str(job), "--no-plots", "--no-html"]
+    runner = CliRunner()
+    try:
+        import pyarrow  # noqa: F401
+    except ImportError:
+        r = runner.invoke(app, [*base, "-o", str(tmp_path / "pq"), "--waypoints", "parquet"])
+        assert r.exit_code == 2, r.output
+        assert "pyarrow" in r.output
+        assert not (tmp_path / "pq").exists()
+    r = runner.invoke(app, [*base, "-o", str(tmp_path / "thin"), "--waypoints-every", "5"])
+    assert r.exit_code == 0, r.output
+    flat = " ".join(r.output.split())  # rich may wrap the line
+    assert "(waypoints.csv, summary.json)" in flat  # what was written, nothing else
+    full = plan_path(example("contour.apt"), load_job(job), refine=True).table
+    got = pd.read_csv(tmp_path / "thin" / "waypoints.csv")
+    assert len(got) == -(-len(full) // 5)
+
+
+def test_chosen_lobes_equal_a_candidate_by_candidate_search(result):
+    """The vectorised choice of lobes to plot is the plain loop's (the old code)."""
+    best, tab = result.outcome.best, result.lobes.table
+    g = tab.group
+    idx = np.flatnonzero(np.isfinite(best.margin) & (g < result.lobes.n_groups))
+    out = [int(idx[np.argmin(best.margin[idx])])]
+    order = idx[np.argsort(best.margin[idx], kind="stable")]
+    _, first = np.unique(g[order], return_index=True)
+    cand = order[np.sort(first)]
+    log_a = np.log(np.clip(tab.a_lim, 1e-9, 1e3))
+    while len(out) < 3:
+        shown = log_a[g[out]]
+        dist = np.array([np.min(np.mean(np.abs(shown - log_a[g[c]]), axis=1)) for c in cand])
+        j = int(np.argmax(dist))
+        if dist[j] < 0.05:
+            break
+        out.append(int(cand[j]))
+    assert report._chosen(result) == out

@@ -165,3 +165,58 @@ def test_read_only_cache_dir_still_computes(tmp_path: Path) -> None:
     finally:
         for p in [tmp_path / "ro", *(tmp_path / "ro").rglob("*"), home]:
             p.chmod(0o755)
+
+
+def test_envelope_rows_equals_lobe_envelope_per_row() -> None:
+    """Exact queries (one speed row per entry, any order, off-grid) as the numpy reference."""
+    from robolobe.sld import _kernels
+    from robolobe.sld.lobes import lobe_envelope
+
+    m = _models(30, seed=11)
+    alpha = directional_factors(0.0, math.pi / 2, MAT.kr)
+    omega = m.frequency_grid(shared=False)
+    d = zoa_lobes(omega, m.frf(omega), alpha=alpha, teeth=3, kt=MAT.kt, rpm=[5e3, 2e4], jit=True)
+    rng = np.random.default_rng(3)
+    groups = rng.integers(0, 30, 50)
+    rows = rng.uniform(4000.0, 24000.0, (50, 7))
+    rows[:, 0] = 24000.0  # the grid's end, and a repeated speed
+    rows[:, 1] = 24000.0
+    got = _kernels.envelope_rows(
+        d.omega, d.depth, d.eps, groups, teeth=3, rpm=rows, max_lobe=d.max_lobe
+    )
+    # the reference one entry at a time (its one-row path searches each row exactly)
+    ref = np.stack(
+        [
+            lobe_envelope(d.omega[g], d.depth[g], d.eps[g], teeth=3, rpm=r, max_lobe=d.max_lobe)
+            for g, r in zip(groups, rows, strict=True)
+        ]
+    )
+    _compare(got, ref, 1e-12)
+    assert np.all(got[:, 0] == got[:, 1])
+
+
+@pytest.mark.parametrize(("jit", "shuffled"), [(True, False), (True, True), (False, False)])
+def test_frf_synthesis_in_chunks_equals_the_whole_array(monkeypatch, jit, shuffled) -> None:
+    from robolobe.sld import zoa
+
+    monkeypatch.setattr(zoa, "FRF_CHUNK", 7)
+    m = _models(40, seed=5)
+    alpha = directional_factors(0.0, math.pi / 2, MAT.kr)
+    omega = m.frequency_grid(shared=False)
+    calls = []
+
+    def synth(a: int, b: int) -> np.ndarray:
+        calls.append(b - a)
+        return m.take(slice(a, b)).frf(omega[a:b])
+
+    rpm = np.linspace(2e3, 24e3, 300)
+    if shuffled:
+        rpm = np.random.default_rng(1).permutation(rpm)
+    kw = dict(alpha=alpha, teeth=3, kt=MAT.kt, rpm=rpm, max_lobe=None)
+    ref = zoa_lobes(omega, m.frf(omega), jit=jit, **kw)
+    got = zoa_lobes(omega, synth, jit=jit, **kw)
+    assert max(calls) == (7 if jit else 40)
+    assert sum(calls) == 40
+    assert got.max_lobe == ref.max_lobe
+    for name in ("a_lim", "depth", "eps", "complete_above_rpm"):
+        np.testing.assert_array_equal(getattr(got, name), getattr(ref, name))

@@ -54,7 +54,11 @@ def _print_summary(s: dict[str, Any], out: Path) -> None:
     console.print(t)
     for note in s.get("notes", []):
         err_console.print(f"[yellow]note:[/] {escape(note)}", highlight=False)
-    console.print(f"outputs in {out}/ (waypoints.csv, summary.json, plots/, report.html)")
+    from robolobe.plan.report import OUTPUTS
+
+    written = [n for n in OUTPUTS if (Path(out) / n).exists()]
+    names = ", ".join(n + "/" if (Path(out) / n).is_dir() else n for n in written)
+    console.print(f"outputs in {escape(str(out))}/ ({names})", highlight=False)
 
 
 # Toolpath reader options (job section [path]); a flag given here overrides the job.
@@ -154,6 +158,24 @@ def register(app: typer.Typer) -> None:
             bool,
             typer.Option("--refine/--no-refine", help="casadi/IPOPT refinement of the search."),
         ] = True,
+        waypoints: Annotated[
+            str,
+            typer.Option(
+                "--waypoints",
+                help="The per-waypoint table: csv (waypoints.csv), parquet "
+                "(waypoints.parquet; needs pyarrow) or none (long paths). `robolobe verify` "
+                "reads the full waypoints.csv.",
+            ),
+        ] = "csv",
+        waypoints_every: Annotated[
+            int,
+            typer.Option(
+                "--waypoints-every",
+                min=1,
+                help="Thin the table: one row per block of K waypoints, the one with the "
+                "smallest margin (1: every waypoint).",
+            ),
+        ] = 1,
         units: _Units = None,
         tool_direction: _ToolDirection = None,
         coordinates: _Coordinates = None,
@@ -172,9 +194,15 @@ def register(app: typer.Typer) -> None:
         from robolobe._atomic import check_output_dir
         from robolobe.plan.job import load_job
         from robolobe.plan.pipeline import plan_path
-        from robolobe.plan.report import write_outputs
+        from robolobe.plan.report import WAYPOINT_FORMATS, require_pyarrow, write_outputs
 
         check_output_dir(output, "--output")
+        if waypoints not in WAYPOINT_FORMATS:
+            raise InputError(
+                f"--waypoints: expected one of {', '.join(WAYPOINT_FORMATS)}, found {waypoints!r}"
+            )
+        if waypoints == "parquet":
+            require_pyarrow("--waypoints parquet")
         if path is None and job is None:
             path, job = example_files()
             err_console.print(f"running the bundled example: {path.name} with {job.name}")
@@ -192,7 +220,14 @@ def register(app: typer.Typer) -> None:
         with status("planning ..."):
             res = plan_path(path, j, refine=refine)
         with status("writing outputs ..."):
-            write_outputs(res, output, plots=plots, html_report=html)
+            write_outputs(
+                res,
+                output,
+                plots=plots,
+                html_report=html,
+                waypoints=waypoints,
+                waypoints_every=waypoints_every,
+            )
         _print_summary(res.summary, output)
 
     @app.command(

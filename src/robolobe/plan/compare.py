@@ -66,7 +66,7 @@ def _placement_score(
     """Quality of a placement (higher is better), -inf when a waypoint fails."""
     try:
         poses, _ = tcp_targets(wp, robot, placement, rotation)
-        q = _postures(wp, robot, poses, source)
+        q, _ = _postures(wp, robot, poses, source)
     except (ReachabilityError, SingularityError, RobolobeError):
         return -math.inf
     wm = _wrist_measure(robot, q)

@@ -24,10 +24,13 @@ change the limit by several % per degree.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass, field
+from types import ModuleType
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -38,7 +41,7 @@ from robolobe.plan.optimize import LobeTable
 from robolobe.sld.directional import directional_factors
 from robolobe.sld.frf import ModalModel
 from robolobe.sld.lobes import LobeDiagram, lobe_envelope
-from robolobe.sld.zoa import zoa_lobes
+from robolobe.sld.zoa import JIT_MIN_SAMPLES, zoa_lobes
 
 __all__ = [
     "DynamicsTolerance",
@@ -147,6 +150,38 @@ def _features(
     return np.concatenate(out, axis=1)
 
 
+def _distinct_rows(q: FloatArray) -> tuple[IntArray, IntArray]:
+    """First occurrence of each distinct row of ``q`` (n, F) and each row's distinct row.
+
+    By hashing the rows (integer cells: the rounded features) and factorising
+    the hashes in path order, verified row by row against each class's first
+    row; on a hash collision (or cells that are not small integers) by
+    sorting the rows (:func:`numpy.unique`). Either way the same partition.
+
+    Returns
+    -------
+    first : ndarray of int, shape (n_distinct,)
+        Row where each distinct row first occurs.
+    inverse : ndarray of int, shape (n,)
+        Index into ``first`` of each row.
+    """
+    import pandas as pd
+
+    if q.shape[0] and np.all(np.abs(q) < 2.0**52):
+        qi = q.astype(np.int64).view(np.uint64)
+        h = np.zeros(q.shape[0], np.uint64)
+        for c in range(q.shape[1]):  # polynomial hash, wrapping in 64 bits
+            h = h * np.uint64(0x100000001B3) + (qi[:, c] ^ np.uint64(0x9E3779B97F4A7C15))
+        codes, _ = pd.factorize(h, sort=False)
+        codes = np.asarray(codes, np.int64)
+        first = np.full(int(codes.max()) + 1, q.shape[0], np.int64)
+        np.minimum.at(first, codes, np.arange(q.shape[0]))
+        if np.array_equal(q, q[first[codes]]):
+            return first, codes
+    _, first, inv = np.unique(q, axis=0, return_index=True, return_inverse=True)
+    return np.asarray(first, np.int64), np.asarray(inv, np.int64).ravel()
+
+
 def group_dynamics(
     model: ModalModel, tol: DynamicsTolerance | None = None, alpha: FloatArray | None = None
 ) -> tuple[IntArray, IntArray]:
@@ -188,9 +223,7 @@ def group_dynamics(
         return np.zeros(n, np.int64), np.zeros(min(n, 1), np.int64)
     # near-duplicates first: cells 0.25 wide; leaders then take cells within 0.75 of
     # them, so every member lies within 0.25 + 0.75 = 1 of its leader
-    q = np.round(f * 4.0)
-    _, first, inv = np.unique(q, axis=0, return_index=True, return_inverse=True)
-    inv = np.asarray(inv).ravel()
+    first, inv = _distinct_rows(np.round(f * 4.0))
     order = np.argsort(first)  # unique rows in path order
     fu = f[first[order]]
     label_u = np.full(fu.shape[0], -1, np.int64)
@@ -230,6 +263,9 @@ class GroupedLobes:
         Seconds spent grouping and computing lobes.
     window : ndarray, shape (n_groups,)
         Relative speed window of each group (0 without robust planning).
+    n_base : int
+        Groups formed by the tolerance; the ones after them are waypoints
+        given lobes of their own (``own``).
     """
 
     table: LobeTable
@@ -239,6 +275,11 @@ class GroupedLobes:
     message: str
     timings: dict[str, float] = field(default_factory=dict)
     window: FloatArray = field(default_factory=lambda: np.zeros(0))
+    n_base: int = -1
+
+    def __post_init__(self) -> None:
+        if self.n_base < 0:
+            object.__setattr__(self, "n_base", self.n_groups)
 
     @property
     def n_groups(self) -> int:
@@ -261,6 +302,7 @@ def waypoint_lobes(
     max_lobe_cap: int = 400,
     window: FloatArray | None = None,
     own: NDArray[np.bool_] | None = None,
+    reuse: GroupedLobes | None = None,
 ) -> GroupedLobes:
     """Lobes of every waypoint, computed once per group of equal dynamics.
 
@@ -293,6 +335,11 @@ def waypoint_lobes(
     own : ndarray of bool, shape (n,), optional
         Waypoints that get lobes of their own whatever the tolerance (e.g. those
         :func:`steep_members` finds next to a steep lobe wall).
+    reuse : GroupedLobes, optional
+        A result of this function for the same models and arguments without
+        ``own``: its grouping and lobes are kept and only the waypoints that
+        ``own`` adds are computed (the result is the same as without
+        ``reuse``).
 
     Returns
     -------
@@ -321,7 +368,16 @@ def waypoint_lobes(
                 np.concatenate([joined.zeta, m.zeta[idx_b]], axis=-1),
                 np.concatenate([joined.residues, m.residues[idx_b]], axis=-3),
             )
-        g_b, lead_b = group_dynamics(joined, tol, alpha)
+        if reuse is not None:
+            if reuse.n_base != reuse.n_groups or reuse.table.group.size != n:
+                raise InputError("reuse: expected a result without own lobes for the same path")
+            g_b = reuse.table.group[idx_b]
+            pos_b = np.full(n, -1, np.int64)
+            pos_b[idx_b] = np.arange(idx_b.size)
+            lead_b = pos_b[reuse.leader]
+        else:
+            g_b, lead_b = group_dynamics(joined, tol, alpha)
+        n_base = int(lead_b.size)
         if own is not None:
             force = np.asarray(own, bool)[idx_b]
             force[lead_b] = False  # leaders have their own lobes already
@@ -333,31 +389,29 @@ def waypoint_lobes(
     else:
         g_b = np.zeros(0, np.int64)
         leader = np.zeros(0, np.int64)
+        n_base = 0
     n_groups = leader.size
     t1 = time.perf_counter()
-    diagrams = []
-    for m in models if n_groups else ():
-        reps = m.take(leader)
-        omega = reps.frequency_grid(shared=False)
-        frf = reps.frf(omega)
-        diagrams.append(
-            zoa_lobes(
-                omega,
-                frf,
-                alpha=alpha,
-                teeth=teeth,
-                kt=kt,
-                rpm=rpm,
-                max_lobe=None,
-                immersion=immersion,
-                max_lobe_cap=max_lobe_cap,
-            )
-        )
+    zoa_args: dict[str, Any] = {
+        "alpha": alpha,
+        "teeth": teeth,
+        "kt": kt,
+        "rpm": rpm,
+        "immersion": immersion,
+        "max_lobe_cap": max_lobe_cap,
+    }
+    diagrams: list[LobeDiagram] = []
+    if n_groups and reuse is not None:
+        diagrams = _extend_diagrams(models, reuse, leader, zoa_args)
+    elif n_groups:
+        diagrams = [_leader_lobes(m.take(leader), zoa_args, max_lobe=None) for m in models]
     a_grid = np.full((n_groups + 1, rpm.size), np.inf)
     if n_groups:
         a_grid[:n_groups] = np.min(np.stack([d.a_lim for d in diagrams]), axis=0)
     group = np.full(n, n_groups, np.int64)  # last row: unbounded
     group[idx_b] = g_b
+
+    kern = _query_kernels(n_groups * (np.asarray(diagrams[0].depth).shape[-1] if diagrams else 0))
 
     def exact0(rows: FloatArray, groups: IntArray) -> FloatArray:
         out = np.full(rows.shape, np.inf)
@@ -369,6 +423,19 @@ def waypoint_lobes(
                 assert d.depth is not None
                 assert d.eps is not None
                 assert d.omega is not None
+                if kern is not None and np.ndim(d.omega) > 1:
+                    vals.append(
+                        kern.envelope_rows(
+                            d.omega,
+                            d.depth,
+                            d.eps,
+                            g,
+                            teeth=d.teeth,
+                            rpm=rows[sel],
+                            max_lobe=d.max_lobe,
+                        )
+                    )
+                    continue
                 om = d.omega[g] if np.ndim(d.omega) > 1 else d.omega
                 vals.append(
                     lobe_envelope(
@@ -422,7 +489,119 @@ def waypoint_lobes(
         message=diagrams[0].message if diagrams else "",
         timings={"grouping": t1 - t0, "zoa": t2 - t1},
         window=w_group[:n_groups],
+        n_base=n_base,
     )
+
+
+def _leader_lobes(
+    reps: ModalModel,
+    zoa_args: dict[str, Any],
+    *,
+    max_lobe: int | None,
+    jit: bool | None = None,
+    omega: FloatArray | None = None,
+) -> LobeDiagram:
+    """ZOA lobes of a batch of leaders, their FRFs synthesised chunk by chunk into the kernel.
+
+    Each FRF is the same as from one call over the whole batch (the synthesis
+    is per batch entry); no array of all the leaders' FRFs is formed.
+    ``omega`` (n, n_freq): the frequency grids to use (default: the batch's own,
+    ``reps.frequency_grid(shared=False)``, whose range spans the whole batch).
+    """
+    if omega is None:
+        omega = reps.frequency_grid(shared=False)
+
+    def synth(start: int, stop: int) -> NDArray[np.complex128]:
+        return reps.take(slice(start, stop)).frf(omega[start:stop])
+
+    return zoa_lobes(omega, synth, max_lobe=max_lobe, jit=jit, **zoa_args)
+
+
+def _lobe_need(d: LobeDiagram, rpm_min: float) -> float:
+    """Lobe count that reaches ``rpm_min`` from the diagram's highest live frequency."""
+    assert d.depth is not None
+    assert d.omega is not None
+    w = np.where(np.isfinite(d.depth), np.asarray(d.omega)[..., None, :], 0.0)
+    return float(np.ceil(w.max(initial=0.0) * 60.0 / (d.teeth * rpm_min * 2.0 * math.pi)))
+
+
+def _extend_diagrams(
+    models: Sequence[ModalModel],
+    reuse: GroupedLobes,
+    leader: IntArray,
+    zoa_args: dict[str, Any],
+) -> list[LobeDiagram]:
+    """``reuse``'s diagrams with the lobes of the leaders after its groups appended.
+
+    The frequency grids are the whole batch's (their base range spans every
+    leader) and the automatic lobe count is decided as
+    :func:`robolobe.sld.zoa.zoa_lobes` decides it over the whole batch; where
+    either differs from what ``reuse`` was computed with, everything is
+    computed afresh.
+    """
+    new = leader[reuse.n_groups :]
+    n_prev = reuse.n_groups
+    rpm = np.asarray(zoa_args["rpm"], dtype=np.float64)
+    r_min = float(rpm.min())
+    cap = int(zoa_args["max_lobe_cap"])
+    out = []
+    for m, prev in zip(models, reuse.diagrams, strict=True):
+        if new.size == 0:
+            out.append(prev)
+            continue
+        # the kernel or the numpy path as for the whole batch (they agree to rounding only)
+        assert prev.omega is not None
+        assert prev.complete_above_rpm is not None
+        jit = leader.size * prev.omega.shape[-1] >= JIT_MIN_SAMPLES
+        grids = m.take(leader).frequency_grid(shared=False)
+        if grids.shape != (leader.size, prev.omega.shape[-1]) or not np.array_equal(
+            grids[:n_prev], prev.omega
+        ):  # the added leaders widen the grids' range: every group's grid changes
+            return [_leader_lobes(mm.take(leader), zoa_args, max_lobe=None) for mm in models]
+        extra = _leader_lobes(m.take(new), zoa_args, max_lobe=30, jit=jit, omega=grids[n_prev:])
+        assert extra.omega is not None
+        assert extra.complete_above_rpm is not None
+        trig = prev.max_lobe > 30 or bool(np.any(prev.complete_above_rpm > r_min))
+        trig = trig or bool(np.any(extra.complete_above_rpm > r_min))
+        k = 30
+        if trig:
+            need = max(_lobe_need(prev, r_min), _lobe_need(extra, r_min))
+            k = int(min(max(need, 30), cap))
+        if k != prev.max_lobe:
+            return [_leader_lobes(mm.take(leader), zoa_args, max_lobe=None) for mm in models]
+        if k != 30:
+            extra = _leader_lobes(m.take(new), zoa_args, max_lobe=k, jit=jit, omega=grids[n_prev:])
+
+        def cat(a: FloatArray | None, b: FloatArray | None) -> FloatArray:
+            return np.concatenate([np.asarray(a), np.asarray(b)], axis=0)
+
+        out.append(
+            dataclasses.replace(
+                prev,
+                a_lim=cat(prev.a_lim, extra.a_lim),
+                omega=cat(prev.omega, extra.omega),
+                depth=cat(prev.depth, extra.depth),
+                eps=cat(prev.eps, extra.eps),
+                complete_above_rpm=cat(prev.complete_above_rpm, extra.complete_above_rpm),
+            )
+        )
+    return out
+
+
+def _query_kernels(samples: int) -> ModuleType | None:
+    """The compiled kernels for exact queries where :func:`zoa_lobes` takes them for the lobes.
+
+    (The same threshold, so that numba's start-up is paid only where it pays.)
+    """
+    from robolobe import _jit
+
+    if samples < JIT_MIN_SAMPLES:
+        return None
+    if not _jit.available():
+        return None
+    from robolobe.sld import _kernels
+
+    return _kernels
 
 
 def steep_members(

@@ -28,7 +28,10 @@ Three stages (REFERENCES.md section 5):
    pieces are written out as SX polynomials; ``nlp_scaling_method=none``,
    started from the search's answer). Waypoints enter the NLP when their
    margin is small (constraint generation: violated ones are added and the
-   NLP solved again).
+   NLP solved again). Bounded by iterations and rounds (not time: the
+   result does not depend on the load), and skipped where it cannot improve
+   on its start to first order (:func:`_refine_cannot_improve`; the outcome's
+   ``nlp_status`` then says why).
 3. **Verification.** Every candidate (refined, searched, best constant
    speed) is checked against the exact lobe boundary at every waypoint
    (:attr:`LobeTable.exact`); its depth becomes the largest one that passes
@@ -719,8 +722,7 @@ def _blocks(ctx: _Ctx, n_blocks: int) -> _Blocks:
     # knot at the middle of the block's span of cutting length
     knots = 0.5 * (np.r_[0.0, s][start] + s[end])
     length = np.add.reduceat(ctx.geom.seg_m, start)
-    a_wp = ctx.lobes.a_lim[ctx.lobes.group]
-    a_blk = np.minimum.reduceat(a_wp, start, axis=0)
+    a_blk = _block_min(ctx.lobes.a_lim, ctx.lobes.group, start)
     # strictly increasing knots (blocks of zero length share a position)
     knots = np.maximum.accumulate(knots)
     bump = np.arange(knots.size) * 1e-12 * max(total, 1.0)
@@ -730,6 +732,24 @@ def _blocks(ctx: _Ctx, n_blocks: int) -> _Blocks:
     blk_of = np.repeat(np.arange(start.size), 2)
     edge_s, first = np.unique(pos, return_index=True)
     return _Blocks(start, knots + bump, length, a_blk, edge_s, blk_of[first].astype(np.int64))
+
+
+def _block_min(
+    a_lim: FloatArray, group: IntArray, start: IntArray, chunk: int = 8192
+) -> FloatArray:
+    """Per block of consecutive waypoints (first ``start``) the minimum of their grid rows.
+
+    In chunks of waypoints, so that no (n_cut, n_rpm) copy of the grid is formed.
+    """
+    n = group.size
+    out = np.full((start.size, a_lim.shape[1]), np.inf)
+    bid = np.repeat(np.arange(start.size), np.diff(np.r_[start, n]))
+    for c0 in range(0, n, chunk):
+        b = bid[c0 : c0 + chunk]
+        st = np.flatnonzero(np.r_[True, b[1:] != b[:-1]])
+        part = np.minimum.reduceat(a_lim[group[c0 : c0 + chunk]], st, axis=0)
+        out[b[st]] = np.minimum(out[b[st]], part)
+    return out
 
 
 def _search(ctx: _Ctx, max_blocks: int, n_depth: int) -> tuple[Schedule | None, _Blocks, str]:
@@ -885,7 +905,7 @@ def _refine(
     *,
     max_rounds: int = 3,
     max_active: int = 600,
-    time_budget_s: float = 1.5,
+    max_iter: int = 100,
     n_bins: int = 8,
 ) -> tuple[Schedule | None, str]:
     """casadi/IPOPT refinement of knot speeds and depth, with constraint generation.
@@ -897,6 +917,9 @@ def _refine(
     Constraints: the B-spline boundary of each active waypoint,
     ``S_i(n_i) >= SF a``; power ``a u_k <= (a n)_max`` at the knots (which
     bounds every interpolated speed); the rate limit between knots.
+
+    Bounded by IPOPT iterations (``max_iter`` per round) and rounds, not by
+    time, so that the result does not depend on the machine or its load.
     """
     import casadi as ca
 
@@ -1015,7 +1038,7 @@ def _refine(
         "print_time": 0,
         "ipopt.sb": "yes",
         "ipopt.nlp_scaling_method": "none",
-        "ipopt.max_iter": 100,
+        "ipopt.max_iter": max_iter,
         "ipopt.tol": 1e-8,
         "ipopt.acceptable_tol": 1e-6,
         "ipopt.acceptable_iter": 5,
@@ -1038,7 +1061,6 @@ def _refine(
     status = "not run"
     best: Schedule | None = None
     n_piece = 0
-    t_start = time.perf_counter()
     for _round in range(max_rounds):
         idx = sorted(active)
         if idx:
@@ -1052,8 +1074,7 @@ def _refine(
         ubg = ubg_fixed + [np.inf] * len(idx)
         tb = time.perf_counter()
         nlp: dict[str, Any] = {"x": ca.vertcat(u, a), "f": obj, "g": g}
-        left = max(0.25, time_budget_s - (time.perf_counter() - t_start))
-        solver = ca.nlpsol("plan", "ipopt", nlp, cast(Any, {**opts, "ipopt.max_cpu_time": left}))
+        solver = ca.nlpsol("plan", "ipopt", nlp, cast(Any, opts))
         x0 = np.clip(x0, lbx, ubx)
         ts = time.perf_counter()
         res = solver(x0=x0, lbx=lbx, ubx=ubx, lbg=lbg, ubg=ubg)
@@ -1088,12 +1109,48 @@ def _refine(
         a_target = xs[-1] * 1e-3
         viol = np.flatnonzero(constrained & (cand.a_lim_m < sf * a_target * (1 - 1e-3)))
         new = [int(i) for i in viol[np.argsort(cand.a_lim_m[viol])] if int(i) not in active][:200]
-        if not new or time.perf_counter() - t_start > time_budget_s:
+        if not new:
             break
         active.update(new)
         # next round from the verified point (inside the exact boundary everywhere)
         x0 = np.r_[u_opt / 1000.0, 0.97 * cand.depth_m * 1e3]
     return best, status
+
+
+def _refine_cannot_improve(ctx: _Ctx, start: Schedule, rel: float = 1e-4) -> str:
+    """Why the refinement cannot improve on ``start`` (first order), or "" when it may.
+
+    The objective (depth over cycle time) improves only by a faster speed
+    somewhere or a larger depth. Where every waypoint already runs at the
+    highest usable speed, only the depth is left; it cannot grow when it sits
+    at its cap (depth_max, torque), or when the stability limit binds and, at
+    every binding waypoint, the limit falls for a slightly lower speed
+    (``rel`` of it), so that any allowed move lowers the depth. Power binds
+    only through ``a * n``: there a lower speed can buy depth, so the
+    refinement runs.
+    """
+    cons = ctx.cons
+    n = start.rpm
+    if n.size == 0 or not start.feasible or start.depth_m <= 0:
+        return ""
+    if np.any(n < cons.rpm_hi * (1 - 1e-9)):
+        return ""
+    a = start.depth_m
+    if a * float(n.max()) >= cons.power_product * (1 - 1e-9):
+        return ""
+    if a >= cons.depth_cap_m * (1 - 1e-9):
+        return "at the highest usable speed everywhere and the depth at its cap"
+    sf = cons.safety_factor
+    binding = np.flatnonzero(start.a_lim_m <= sf * a * (1 + 1e-6))
+    if binding.size == 0:
+        return ""
+    lower = ctx.lobes.rows((n[binding] * (1.0 - rel))[:, None], ctx.lobes.group[binding])[:, 0]
+    if np.all(lower < start.a_lim_m[binding]):
+        return (
+            "at the highest usable speed everywhere, and at the waypoints where stability "
+            "binds a lower speed lowers the limit"
+        )
+    return ""
 
 
 # ------------------------------------------------------------- limiting
@@ -1149,7 +1206,7 @@ def optimize_schedule(
     n_depth : int
         Depth levels of the global search.
     refine : bool
-        Run the casadi/IPOPT refinement.
+        Run the casadi/IPOPT refinement (where it can improve on the search).
 
     Returns
     -------
@@ -1188,10 +1245,14 @@ def optimize_schedule(
             start = search
             if constant is not None and _score(constant) > _score(search):
                 start = constant
-            try:
-                nlp, status = _refine(ctx, blk, start)
-            except RuntimeError as exc:  # casadi/IPOPT failures
-                nlp, status = None, f"failed: {exc}"
+            why_not = _refine_cannot_improve(ctx, start)
+            if why_not:
+                status = f"not needed: {why_not}"
+            else:
+                try:
+                    nlp, status = _refine(ctx, blk, start)
+                except RuntimeError as exc:  # casadi/IPOPT failures
+                    nlp, status = None, f"failed: {exc}"
             timings["refine"] = time.perf_counter() - t
     cands = [c for c in (nlp, search, constant) if c is not None and c.feasible]
     if not cands:

@@ -273,7 +273,8 @@ def _start_posture(robot: Robot, pose: FloatArray, source: ModeSource | None) ->
 
 def _postures(
     wp: pd.DataFrame, robot: Robot, poses: FloatArray, source: ModeSource | None
-) -> FloatArray:
+) -> tuple[FloatArray, FloatArray]:
+    """Postures along the path (n, 6) [rad] and their wrist measure (n,) (checked)."""
     try:
         q_ref = _start_posture(robot, poses[0], source)
     except ReachabilityError as exc:
@@ -310,13 +311,71 @@ def _postures(
                 f"{dp[i - 1] * 1e3:.1f} mm (a wrist flip or branch change near a singularity); "
                 "move the workpiece or change the tool rotation"
             )
-    return q
+    return q, wm
+
+
+#: Postures per chunk of the per-posture stages (wrist measure, modes): bounds
+#: their temporaries (the twin's ~10 kB per posture) whatever the path's length.
+_CHUNK = 16_384
 
 
 def _wrist_measure(robot: Robot, q: FloatArray) -> FloatArray:
-    frames = link_frames(robot, q)
-    axes, _ = joint_axes(robot, frames)  # (n, 6, 3)
-    return np.asarray(np.linalg.norm(np.cross(axes[:, 3], axes[:, 5]), axis=-1))
+    out = np.empty(q.shape[0])
+    for c0 in range(0, q.shape[0], _CHUNK):
+        frames = link_frames(robot, q[c0 : c0 + _CHUNK])
+        axes, _ = joint_axes(robot, frames)  # (m, 6, 3)
+        out[c0 : c0 + _CHUNK] = np.linalg.norm(np.cross(axes[:, 3], axes[:, 5]), axis=-1)
+    return out
+
+
+def _predict_modes(source: ModeSource, q: FloatArray) -> RobotModes:
+    """Modes at the postures ``q`` (n, 6): each distinct posture once, in chunks.
+
+    Postures that repeat exactly (a path that passes a point twice) are
+    predicted once; the source sees chunks of :data:`_CHUNK` postures, so its
+    temporaries stay bounded. Each posture's modes are those of a call with
+    all postures at once (sources predict per posture).
+    """
+    n = q.shape[0]
+    key = np.ascontiguousarray(q + 0.0).view(np.dtype((np.void, 6 * 8))).ravel()
+    _, first, inv = np.unique(key, return_index=True, return_inverse=True)
+    inv = np.asarray(inv).ravel()
+    if first.size == n and n <= _CHUNK:
+        return source.predict(q)
+    order = np.sort(first)  # distinct postures in path order
+    rank = np.empty(n, np.int64)
+    rank[order] = np.arange(order.size)
+    expand = rank[first[inv]]  # row of each posture among the distinct ones
+    uq = q[order]
+    parts = [source.predict(uq[c0 : c0 + _CHUNK]) for c0 in range(0, uq.shape[0], _CHUNK)]
+    return _concat_modes(parts, None if order.size == n else expand)
+
+
+def _concat_modes(parts: list[RobotModes], take: NDArray[np.int64] | None) -> RobotModes:
+    """One :class:`RobotModes` from consecutive batches, optionally rows ``take`` of it."""
+    import dataclasses
+
+    def cat(name: str, obj: Any = None) -> Any:
+        vals = [getattr(p if obj is None else obj(p), name) for p in parts]
+        if vals[0] is None:
+            return None
+        out = np.concatenate(vals, axis=0)
+        return out if take is None else out[take]
+
+    model = ModalModel(
+        cat("omega", lambda p: p.model),
+        cat("zeta", lambda p: p.model),
+        cat("residues", lambda p: p.model),
+    )
+    return dataclasses.replace(
+        parts[0],
+        f_hz=cat("f_hz"),
+        zeta=cat("zeta"),
+        k_N_per_m=cat("k_N_per_m"),
+        log_std=cat("log_std"),
+        model=model,
+        extrapolation=cat("extrapolation"),
+    )
 
 
 # --------------------------------------------------------------------- main
@@ -357,12 +416,11 @@ def _lobes_for_rotation(
     timings: dict[str, float] = {}
     t = time.perf_counter()
     poses, r_wp = tcp_targets(wp, robot, job.placement, rotation)
-    q = _postures(wp, robot, poses, source)
-    wm = _wrist_measure(robot, q)
+    q, wm = _postures(wp, robot, poses, source)
     timings["ik"] = time.perf_counter() - t
     t = time.perf_counter()
     ci = np.flatnonzero(cut)
-    modes = source.predict(q[ci])
+    modes = _predict_modes(source, q[ci])
     timings["modes"] = time.perf_counter() - t
     f_path = wp[["fx", "fy", "fz"]].to_numpy(dtype=np.float64)[ci]
     f_world = f_path @ r_wp.T
@@ -386,6 +444,7 @@ def cut_lobes(
     dynamics_tol: float | None = None,
     robust: bool | None = None,
     own: NDArray[np.bool_] | None = None,
+    reuse: GroupedLobes | None = None,
 ) -> tuple[
     ModalModel, NDArray[np.bool_], GroupedLobes, dict[str, float], FloatArray, RobustBound | None
 ]:
@@ -413,6 +472,9 @@ def cut_lobes(
         Overrides ``job.plan.robust``.
     own : ndarray of bool, shape (n,), optional
         Waypoints that get lobes of their own (see :func:`robolobe.plan.lobes.steep_members`).
+    reuse : GroupedLobes, optional
+        The result of the same call without ``own``: its grouping and lobes are
+        kept, only the added waypoints' lobes are computed (same result).
 
     Returns
     -------
@@ -461,6 +523,7 @@ def cut_lobes(
         tol=tol,
         window=None if bound is None else bound.window,
         own=own,
+        reuse=reuse,
     )
     timings["lobes"] = time.perf_counter() - t
     feed_angle = np.degrees(np.arctan2(f_use[:, 1], f_use[:, 0]))
@@ -580,7 +643,9 @@ def plan_path(
     n_split = int(steep.sum())
     if n_split:
         t_split = time.perf_counter()
-        _, _, grouped, _, _, _ = cut_lobes(job, modes, f_tcp, material, tool, rpm, own=steep)
+        _, _, grouped, _, _, _ = cut_lobes(
+            job, modes, f_tcp, material, tool, rpm, own=steep, reuse=grouped
+        )
         timings["lobes"] += time.perf_counter() - t_split
         outcome = schedule(grouped.table)
     timings["optimize"] = time.perf_counter() - t
@@ -671,8 +736,8 @@ def _stiffest_rotation(
         except (ReachabilityError, SingularityError) as exc:
             tried.append(f"{math.degrees(r):.0f} deg: {type(exc).__name__}")
             continue
-        a = grouped.table.a_lim[grouped.table.group][:, allowed]
-        val = float(np.min(np.max(a, axis=1)))
+        best_g = np.max(grouped.table.a_lim[:, allowed], axis=1)  # per group
+        val = float(np.min(best_g[grouped.table.group]))
         tried.append(f"{math.degrees(r):.0f} deg: {val * 1e3:.3g} mm")
         if val > best_val:
             best, best_val = float(r), val
@@ -731,19 +796,15 @@ def _result_table(
     g = grouped.table.group
     grp[ci] = np.where(plunge, -1, g)
     cols["dynamics_group"] = grp
-    a_grid = grouped.table.a_lim[g]
+    # per group, then per waypoint (not an (n_cut, n_rpm) copy of the grid)
     allowed = (grouped.table.rpm >= cons.rpm_min) & (grouped.table.rpm <= cons.rpm_hi)
+    a_low = grouped.table.a_lim[:, allowed].min(axis=1)
     amin = np.full(n, np.nan)
-    amin[ci] = (
-        np.where(
-            np.isfinite(a_grid[:, allowed].min(axis=1)), a_grid[:, allowed].min(axis=1), np.nan
-        )
-        * 1e3
-    )
+    amin[ci] = np.where(np.isfinite(a_low), a_low, np.nan)[g] * 1e3
     cols["a_min_mm"] = amin
     rb = np.full(n, np.nan)
-    jbest = np.argmax(np.where(allowed, a_grid, -np.inf), axis=1)
-    rb[ci] = np.where(plunge, np.nan, grouped.table.rpm[jbest])
+    jbest = np.argmax(np.where(allowed, grouped.table.a_lim, -np.inf), axis=1)
+    rb[ci] = np.where(plunge, np.nan, grouped.table.rpm[jbest][g])
     cols["rpm_best"] = rb
     alim = np.full(n, np.nan)
     alim[ci] = np.where(np.isfinite(best.a_lim_m), best.a_lim_m * 1e3, np.nan)

@@ -51,7 +51,15 @@ __all__ = [
 
 PLOTS: tuple[str, ...] = ("lobes", "speed_map", "path_margin", "speed_power")
 #: The top-level names a plan writes into its folder (replaced as a set).
-OUTPUTS: tuple[str, ...] = ("waypoints.csv", "summary.json", "plots", "report.html")
+OUTPUTS: tuple[str, ...] = (
+    "waypoints.csv",
+    "waypoints.parquet",
+    "summary.json",
+    "plots",
+    "report.html",
+)
+#: What ``write_outputs(waypoints=...)`` accepts.
+WAYPOINT_FORMATS: tuple[str, ...] = ("csv", "parquet", "none")
 
 
 def write_csv(df: pd.DataFrame, path: Path) -> None:
@@ -64,6 +72,52 @@ def write_csv(df: pd.DataFrame, path: Path) -> None:
         return
     table = pa.Table.from_pandas(df, preserve_index=False)
     pacsv.write_csv(table, path, write_options=pacsv.WriteOptions(quoting_style="needed"))
+
+
+def require_pyarrow(what: str) -> None:
+    """Refuse up front (before any work) when Parquet is asked for without pyarrow."""
+    try:
+        import pyarrow  # noqa: F401
+    except ImportError:
+        from robolobe.errors import InputError
+
+        raise InputError(
+            f"{what}: Parquet needs pyarrow (pip install 'robolobe[parquet]'), or write CSV"
+        ) from None
+
+
+def thin_rows(table: pd.DataFrame, every: int) -> pd.DataFrame:
+    """Every ``every``-th row of a plan's table, each the tightest of its block.
+
+    The rows are cut into blocks of ``every``; from each block the row with
+    the smallest margin is kept (the first row where no row cuts), so the
+    thinned table still holds the path's tightest waypoint. The ``line``
+    column tells where each row sits in the path.
+    """
+    if every <= 1 or len(table) == 0:
+        return table
+    n = len(table)
+    margin = table["margin"].to_numpy(dtype=np.float64)
+    key = np.where(np.isfinite(margin), margin, np.inf)
+    pad = (-n) % every
+    blocks = np.r_[key, np.full(pad, np.inf)].reshape(-1, every)
+    pick = np.argmin(blocks, axis=1) + np.arange(blocks.shape[0]) * every
+    return table.iloc[np.minimum(pick, n - 1)].reset_index(drop=True)
+
+
+def _write_waypoints(table: pd.DataFrame, folder: Path, fmt: str, every: int) -> None:
+    if fmt not in WAYPOINT_FORMATS:
+        from robolobe.errors import InputError
+
+        raise InputError(f"waypoints: expected one of {WAYPOINT_FORMATS}, found {fmt!r}")
+    if fmt == "none":
+        return
+    rows = thin_rows(table, every)
+    if fmt == "parquet":
+        require_pyarrow("waypoints")
+        rows.to_parquet(folder / "waypoints.parquet", index=False)
+    else:
+        write_csv(rows, folder / "waypoints.csv")
 
 
 def _png(fig: Figure) -> bytes:
@@ -97,9 +151,11 @@ def _chosen(res: PlanResult, n: int = 3) -> list[int]:
     cand = order[np.sort(first)]
     with np.errstate(divide="ignore", invalid="ignore"):
         log_a = np.log(np.clip(tab.a_lim, 1e-9, 1e3))
+    rows = log_a[g[cand]]
+    dist = np.full(cand.size, np.inf)
     while len(out) < n:
-        shown = log_a[g[out]]
-        dist = np.array([np.min(np.mean(np.abs(shown - log_a[g[c]]), axis=1)) for c in cand])
+        # distance of each candidate to the nearest curve shown (updated by the newest)
+        dist = np.minimum(dist, np.mean(np.abs(rows - log_a[g[out[-1]]]), axis=1))
         j = int(np.argmax(dist)) if dist.size else -1
         if j < 0 or dist[j] < 0.05:
             break
@@ -445,6 +501,8 @@ def write_outputs(
     *,
     plots: bool = True,
     html_report: bool = True,
+    waypoints: str = "csv",
+    waypoints_every: int = 1,
 ) -> Path:
     """Write the plan into ``out_dir`` atomically (see the module docstring).
 
@@ -457,6 +515,13 @@ def write_outputs(
         plan; other files are left alone.
     plots, html_report : bool
         Write the PNG plots and the HTML report.
+    waypoints : {"csv", "parquet", "none"}
+        The per-waypoint table as ``waypoints.csv``, ``waypoints.parquet``
+        (needs pyarrow; refused before anything is written) or not at all
+        (long paths: the summary and plots still cover every waypoint).
+    waypoints_every : int
+        Write one row per block of this many waypoints, the tightest of the
+        block (:func:`thin_rows`); 1 writes every waypoint.
 
     Returns
     -------
@@ -464,12 +529,18 @@ def write_outputs(
         ``out_dir``.
     """
     out = Path(out_dir)
+    if waypoints == "parquet":
+        require_pyarrow("waypoints")
+    if int(waypoints_every) < 1:
+        from robolobe.errors import InputError
+
+        raise InputError(f"waypoints_every: expected an integer >= 1, found {waypoints_every!r}")
     images: dict[str, bytes] = {}
     if plots or html_report:
         for name in PLOTS:
             images[name] = _png(_PLOTTERS[name](res))
     with atomic_dir(out, managed=OUTPUTS) as tmp:
-        write_csv(res.table, tmp / "waypoints.csv")
+        _write_waypoints(res.table, tmp, waypoints, int(waypoints_every))
         (tmp / "summary.json").write_text(
             json.dumps(res.summary, indent=2) + "\n", encoding="utf-8"
         )

@@ -374,6 +374,7 @@ def zoa_fused(
     kt: float,
     rpm: FloatArray,
     max_lobe: int,
+    out: tuple[FloatArray, FloatArray, FloatArray, FloatArray] | None = None,
 ) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
     """Depth, phase and envelope of a flat batch with the compiled kernel.
 
@@ -389,6 +390,9 @@ def zoa_fused(
         As in :func:`robolobe.sld.zoa.zoa_lobes`.
     rpm : ndarray, shape (n_speed,)
         Speeds [rpm], any order.
+    out : tuple of ndarray, optional
+        C-contiguous arrays of the four results' shapes to write into (with
+        ``rpm`` sorted; e.g. slices of a larger batch's results).
 
     Returns
     -------
@@ -402,10 +406,15 @@ def zoa_fused(
     """
     nb, nf = omega.shape
     s, order, uniform = _sorted_speeds(rpm)
-    depth = np.empty((nb, 2, nf))
-    eps = np.empty((nb, 2, nf))
-    env = np.empty((nb, s.size))
-    complete = np.empty(nb)
+    if out is not None:
+        depth, eps, env, complete = out
+        if not np.array_equal(order, np.arange(order.size)):
+            raise ValueError("zoa_fused: out= needs sorted speeds")
+    else:
+        depth = np.empty((nb, 2, nf))
+        eps = np.empty((nb, 2, nf))
+        env = np.empty((nb, s.size))
+        complete = np.empty(nb)
     with _LOCK:
         _zoa_batch(
             np.ascontiguousarray(omega, dtype=np.float64),
@@ -451,3 +460,80 @@ def envelope(
             complete,
         )
     return _unsort(env, order), complete
+
+
+@njit(parallel=True)
+def _rows_batch(
+    w: FloatArray,
+    depth: FloatArray,
+    eps: FloatArray,
+    groups: NDArray[np.int64],
+    teeth: int,
+    speeds: FloatArray,
+    k1: int,
+    out: FloatArray,
+) -> None:
+    """Envelope of group ``groups[r]`` at the speeds ``speeds[r]`` (any order), per row."""
+    m = speeds.shape[1]
+    for r in numba.prange(groups.shape[0]):
+        g = groups[r]
+        order = np.argsort(speeds[r], kind="mergesort")
+        s = np.empty(m)
+        for i in range(m):
+            s[i] = speeds[r, order[i]]
+        env = np.empty(m)
+        _env_row(w[g], depth[g], eps[g], teeth, s, False, k1, env)
+        for i in range(m):
+            out[r, order[i]] = env[i]
+
+
+def envelope_rows(
+    omega: FloatArray,
+    depth: FloatArray,
+    eps: FloatArray,
+    groups: NDArray[np.int64],
+    *,
+    teeth: int,
+    rpm: FloatArray,
+    max_lobe: int,
+) -> FloatArray:
+    """Envelope of some batch entries, each at its own speeds (exact queries).
+
+    The compiled counterpart of ``lobe_envelope(omega[groups], depth[groups],
+    eps[groups], rpm=rpm, ...)`` with one speed row per entry, without
+    gathering the entries' lobe data.
+
+    Parameters
+    ----------
+    omega : ndarray, shape (nb, n_freq)
+        Frequency grid per batch entry [rad/s].
+    depth, eps : ndarray, shape (nb, 2, n_freq)
+        Depth [m] and phase [rad] per branch.
+    groups : ndarray of int, shape (g,)
+        Batch entry of each row.
+    teeth, max_lobe : int
+        As in :func:`robolobe.sld.lobes.lobe_envelope`.
+    rpm : ndarray, shape (g, m)
+        Speeds [rpm] per row, any order.
+
+    Returns
+    -------
+    ndarray, shape (g, m)
+        Limiting depth [m] (``inf`` where no lobe up to ``max_lobe`` crosses).
+    """
+    s = np.ascontiguousarray(rpm, dtype=np.float64)
+    out = np.empty(s.shape)
+    if s.size == 0:
+        return out
+    with _LOCK:
+        _rows_batch(
+            np.ascontiguousarray(omega, dtype=np.float64),
+            np.ascontiguousarray(depth, dtype=np.float64),
+            np.ascontiguousarray(eps, dtype=np.float64),
+            np.ascontiguousarray(groups, dtype=np.int64),
+            int(teeth),
+            s,
+            int(max_lobe) + 1,
+            out,
+        )
+    return out

@@ -22,6 +22,7 @@ never jumps from one branch to the other.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 from types import ModuleType
 from typing import Any
@@ -186,9 +187,13 @@ def _complete_above(
     return np.asarray(np.where(relevant, n_next, 0.0).max(axis=(-1, -2)))
 
 
+#: Batch entries whose FRFs a synthesis callable forms at once (see :func:`zoa_lobes`).
+FRF_CHUNK = 256
+
+
 def zoa_lobes(
     omega: ArrayLike,
-    frf: ArrayLike,
+    frf: ArrayLike | Callable[[int, int], ComplexArray],
     *,
     alpha: ArrayLike,
     teeth: int,
@@ -205,8 +210,13 @@ def zoa_lobes(
     ----------
     omega : array_like, shape (n_freq,) or (..., n_freq)
         Sorted chatter-frequency grid [rad/s] (shared or per batch entry).
-    frf : array_like, shape (..., n_freq, 2, 2), complex
-        Tool-point receptance [m/N] in the feed frame.
+    frf : array_like, shape (..., n_freq, 2, 2), complex, or callable
+        Tool-point receptance [m/N] in the feed frame; or, with ``omega`` of
+        shape (nb, n_freq), a synthesis ``frf(start, stop)`` returning the
+        receptance of batch entries ``start:stop``, shape
+        (stop - start, n_freq, 2, 2): the compiled kernel then takes it in
+        chunks of :data:`FRF_CHUNK` entries (no array of all FRFs), the numpy
+        path at once. Same results either way.
     alpha : array_like, shape (2, 2) or (..., 2, 2)
         Directional factors.
     teeth : int
@@ -238,7 +248,16 @@ def zoa_lobes(
         ``a_lim`` of shape ``(..., n_speed)`` with the lobe data for queries.
     """
     w = np.asarray(omega, dtype=np.float64)
-    g = np.asarray(frf)
+    synth = frf if callable(frf) else None
+    if synth is not None:
+        if w.ndim != 2:
+            raise InputError(
+                f"omega: expected shape (nb, n_freq) with an FRF synthesis, found {w.shape}"
+            )
+        # a stand-in of the right shape for the checks (no memory)
+        g = np.broadcast_to(np.zeros((), np.complex128), (*w.shape, 2, 2))
+    else:
+        g = np.asarray(frf)
     if w.ndim < 1 or g.shape[-3:-2] != w.shape[-1:]:
         raise InputError(f"omega {w.shape} and frf {g.shape}: expected n_freq to match")
     if w.shape[-1] > 1 and np.any(w[..., 1:] < w[..., :-1]):
@@ -265,7 +284,39 @@ def zoa_lobes(
     if jit is None:  # numba's start-up (~0.5 s per process) pays only on large batches
         jit = nb * nf >= JIT_MIN_SAMPLES
     kern = _kernels() if jit else None
-    if kern is not None:
+    if synth is not None and nb == 0:
+        g, synth = np.zeros((0, nf, 2, 2), np.complex128), None
+    if synth is not None and kern is None:
+        g = np.asarray(synth(0, nb))
+        if g.shape != (nb, nf, 2, 2):
+            raise InputError(f"frf: the synthesis returned {g.shape}, expected {(nb, nf, 2, 2)}")
+    if kern is not None and synth is not None:
+        w_f, a_f = _flat(w, batch, (nf,)), _flat(a, batch, (2, 2))
+        depth2, eps2 = np.empty((nb, 2, nf)), np.empty((nb, 2, nf))
+        env2, comp2 = np.empty((nb, r.size)), np.empty(nb)
+        r_sorted = bool(np.all(r[1:] > r[:-1]))  # else each chunk's envelope is unsorted
+        for c0 in range(0, nb, FRF_CHUNK):
+            c1 = min(nb, c0 + FRF_CHUNK)
+            gc = np.ascontiguousarray(synth(c0, c1), dtype=np.complex128)
+            if gc.shape != (c1 - c0, nf, 2, 2):
+                raise InputError(
+                    f"frf: the synthesis returned {gc.shape}, expected {(c1 - c0, nf, 2, 2)}"
+                )
+            into = (depth2[c0:c1], eps2[c0:c1], env2[c0:c1], comp2[c0:c1])
+            res = kern.zoa_fused(
+                w_f[c0:c1],
+                gc,
+                a_f[c0:c1],
+                teeth=int(teeth),
+                kt=float(kt),
+                rpm=r,
+                max_lobe=k,
+                out=into if r_sorted else None,
+            )
+            if not r_sorted:
+                for dst, src in zip(into, res, strict=True):
+                    dst[...] = src
+    elif kern is not None:
         depth2, eps2, env2, comp2 = kern.zoa_fused(
             _flat(w, batch, (nf,)),
             _flat(g, batch, (nf, 2, 2)),
@@ -275,6 +326,7 @@ def zoa_lobes(
             rpm=r,
             max_lobe=k,
         )
+    if kern is not None:
         depth = depth2.reshape(*batch, 2, nf)
         eps = eps2.reshape(*batch, 2, nf)
         a_lim = env2.reshape(*batch, r.size)
