@@ -118,3 +118,14 @@ def test_dominant_direction_and_stiffness() -> None:
     d = md.dominant_direction()
     kd = np.take_along_axis(md.k_N_per_m, d[..., None, :], axis=-2)[..., 0, :]
     np.testing.assert_allclose(md.k_dominant_N_per_m(), kd)
+
+
+def test_overdamped_robot_is_refused_naming_its_file() -> None:
+    from robolobe.errors import InputError
+    from robolobe.robots import load_robot
+    from robolobe.twin import Twin
+
+    robot = load_robot("B")
+    heavy = robot.with_damping(robot.damping * 300)
+    with pytest.raises(InputError, match=r"built-in.*overdamped.*lower the joint damping"):
+        Twin(heavy).modes(np.zeros((1, 6)) + 0.3)
