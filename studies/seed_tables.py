@@ -97,11 +97,13 @@ def main() -> None:
         )
         m0 = [jt.body.mass_kg for jt in shipped.joints]
         m1 = [jt.body.mass_kg for jt in robot.joints]
+        e0, e1 = shipped.end_effector, robot.end_effector
+        assert e0 is not None and e1 is not None  # B and C carry a spindle
         print(
             "link masses [kg] file -> fit: "
             + ", ".join(f"{a:.0f}->{b:.0f}" for a, b in zip(m0, m1, strict=True))
             + f"; total {sum(m0):.0f} -> {sum(m1):.0f}; spindle "
-            f"{shipped.end_effector.mass_kg:.0f} -> {robot.end_effector.mass_kg:.0f}"
+            f"{e0.mass_kg:.0f} -> {e1.mass_kg:.0f}"
         )
         print("\n| posture | mode | f table | f twin | err % | zeta table % | zeta twin % "
               "| k table | k twin (rel.) |")  # fmt: skip
