@@ -98,7 +98,8 @@ def main() -> None:
         m0 = [jt.body.mass_kg for jt in shipped.joints]
         m1 = [jt.body.mass_kg for jt in robot.joints]
         e0, e1 = shipped.end_effector, robot.end_effector
-        assert e0 is not None and e1 is not None  # B and C carry a spindle
+        assert e0 is not None  # B and C carry a spindle
+        assert e1 is not None
         print(
             "link masses [kg] file -> fit: "
             + ", ".join(f"{a:.0f}->{b:.0f}" for a, b in zip(m0, m1, strict=True))
