@@ -996,12 +996,18 @@ def fit_seed_table(
     * a ridge on the log factors.
 
     Each table mode is matched to a twin mode per posture by the least
-    frequency and modal-stiffness misfit (Hungarian assignment). Starts are
-    uniform within 60 % of the bounds, plus ``x0`` if given.
+    frequency and modal-stiffness misfit (Hungarian assignment). A penalty
+    holds the total link mass to the robot file's (:data:`TOTAL_MASS_TOL`)
+    when masses are free. Starts: the prior, ``starts`` uniform within 60 %
+    of the bounds, ``x0`` if given, and (``by_posture``) the best solutions
+    of each posture fitted alone from the same starts; a single posture is
+    easy to fit, the joint problem's basins are hard to hit at random.
 
     Stage 2 (dampers): with the matched undamped modes, ``zeta_r = phi_r^T C
     phi_r / (2 w_r)`` (first order), the log of every damper is fitted to
-    the table's damping with a soft-L1 loss in ``log zeta`` (scale log 1.5).
+    the table's damping with a soft-L1 loss in ``log zeta`` (scale log 1.5),
+    no mode above 8 % and the unmatched modes below 42 Hz at
+    :data:`UNMATCHED_ZETA` or above (stage 1 judged their peaks at it).
 
     Parameters
     ----------
@@ -1021,6 +1027,9 @@ def fit_seed_table(
     refine : int
         Every start is first run for 40 evaluations; the ``refine`` best
         are then run to convergence.
+    by_posture : int
+        Solutions per posture (fitted alone) added to the starts of the
+        joint fit; 0 turns the seeding off.
 
     Returns
     -------
