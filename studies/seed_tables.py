@@ -17,7 +17,7 @@ For each of B and C prints
 Run from the repository root (a few minutes; ``--starts`` trades time for
 the chance of finding the best fit; ``--no-lopo`` skips step 3)::
 
-    python studies/seed_tables.py [--starts 12] [--no-lopo] [--json out.json]
+    python studies/seed_tables.py [--starts 12] [--no-lopo] [--mass-bound 0.7] [--json out.json]
 """
 
 from __future__ import annotations
@@ -32,8 +32,10 @@ import numpy as np
 from robolobe.robots import load_robot
 from robolobe.twin.calibration import (
     SEED_FIT_STARTS,
+    SeedFitForm,
     compare_to_table,
     fit_seed_table,
+    lopo_frequency_spread,
     seed_prior,
     value_verdicts,
 )
@@ -53,7 +55,14 @@ def main() -> None:
     ap.add_argument("--starts", type=int, default=SEED_FIT_STARTS // 2)
     ap.add_argument("--no-lopo", action="store_true")
     ap.add_argument("--json", default=None)
+    ap.add_argument(
+        "--mass-bound",
+        type=float,
+        default=0.7,
+        help="bound on the log factors of link and spindle masses (0 keeps them)",
+    )
     args = ap.parse_args()
+    form = SeedFitForm(link_mass_bound=args.mass_bound, ee_mass_bound=args.mass_bound)
     out: dict[str, object] = {}
     print("Copy errors visible in the tables alone:")
     for chk in table_checks():
@@ -68,12 +77,35 @@ def main() -> None:
               + f"; |f err| median {100 * np.median(np.abs(cs.f_err)):.1f} %, "
               f"max {100 * np.max(np.abs(cs.f_err)):.1f} %")  # fmt: skip
         t0 = time.perf_counter()
-        fit = fit_seed_table(seed_prior(name, shipped), t, starts=args.starts)
+        fit = fit_seed_table(seed_prior(name, shipped), t, form=form, starts=args.starts)
         robot = fit.robot
         c = compare_to_table(robot, t)
         print(f"\ntable fit ({args.starts} starts, {time.perf_counter() - t0:.0f} s, "
               f"load {os.getloadavg()[0]:.1f}):")  # fmt: skip
         print(f"twin modal stiffness / table (read as 1e5 N/m): {c.k_level:.2f}")
+        print(
+            "fitted springs [N m/rad]: joints "
+            + ", ".join(f"{v:.3g}" for v in robot.stiffness)
+            + "; tilt "
+            + "; ".join(
+                f"{j + 1}: {jt.tilt_stiffness_Nm_per_rad[0]:.3g}, "
+                f"{jt.tilt_stiffness_Nm_per_rad[1]:.3g}"
+                for j, jt in enumerate(robot.joints)
+                if jt.tilt_stiffness_Nm_per_rad is not None
+            )
+            + f"; mount {robot.mount_stiffness_Nm_per_rad}"
+        )
+        m0 = [jt.body.mass_kg for jt in shipped.joints]
+        m1 = [jt.body.mass_kg for jt in robot.joints]
+        e0, e1 = shipped.end_effector, robot.end_effector
+        assert e0 is not None  # B and C carry a spindle
+        assert e1 is not None
+        print(
+            "link masses [kg] file -> fit: "
+            + ", ".join(f"{a:.0f}->{b:.0f}" for a, b in zip(m0, m1, strict=True))
+            + f"; total {sum(m0):.0f} -> {sum(m1):.0f}; spindle "
+            f"{e0.mass_kg:.0f} -> {e1.mass_kg:.0f}"
+        )
         print("\n| posture | mode | f table | f twin | err % | zeta table % | zeta twin % "
               "| k table | k twin (rel.) |")  # fmt: skip
         print("|---|---|---|---|---|---|---|---|---|")
@@ -94,6 +126,10 @@ def main() -> None:
         print("posture variation of f per mode (max/min - 1), table vs twin: "
               + ", ".join(f"{100 * a:.0f}/{100 * b:.0f} %"
                           for a, b in zip(spread_t, spread_w, strict=True)))  # fmt: skip
+        spread = lopo_frequency_spread(seed_prior(name, shipped), t, fit.x, form=form)
+        print("what two postures can tell of the third (linearised at this fit, exact data, "
+              "prior x2.7 per factor): 1-sd f spread per held-out posture [%]: "
+              + "; ".join(" ".join(f"{100 * v:.1f}" for v in row) for row in spread))  # fmt: skip
         print("\nverdicts (values flagged by the tables or the fit):")
         verdicts = value_verdicts(name, c)
         for v in verdicts:
@@ -106,6 +142,8 @@ def main() -> None:
             "k_ratio": c.k_ratio.tolist(),
             "frac": c.frac.tolist(),
             "k_level": c.k_level,
+            "x": fit.x.tolist(),
+            "lopo_f_spread": spread.tolist(),
             "verdicts": [v.__dict__ for v in verdicts],
         }
         if not args.no_lopo:
@@ -116,7 +154,7 @@ def main() -> None:
             for held in range(3):
                 keep = tuple(p for p in range(3) if p != held)
                 t0 = time.perf_counter()
-                fit = fit_seed_table(prior, t, keep, starts=args.starts)
+                fit = fit_seed_table(prior, t, keep, form=form, starts=args.starts)
                 dt = time.perf_counter() - t0
                 ch = compare_to_table(fit.robot, t, (held,), k_level=fit.k_level)
                 e = np.abs(ch.f_err[0])

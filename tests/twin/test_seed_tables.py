@@ -69,3 +69,67 @@ def test_fit_recovers_a_known_twin_from_its_own_modes() -> None:
     fit = fit_seed_table(prior, synth, starts=0, x0=x0, refine=1)
     cf = compare_to_table(fit.robot, synth)
     assert np.median(np.abs(cf.f_err)) < 0.01
+
+
+def _model_b(mass_bound: float):  # type: ignore[no-untyped-def]
+    from robolobe.twin.calibration import SeedFitForm, _TableModel
+
+    form = SeedFitForm(link_mass_bound=mass_bound, ee_mass_bound=mass_bound)
+    t = SEED_TABLES["B"]
+    return _TableModel(seed_prior("B", load_robot("B")), t.postures_rad, form), form, t
+
+
+def test_eigen_sensitivities_of_springs_and_masses_match_differences() -> None:
+    from robolobe.twin.calibration import _mode_sensitivities
+
+    model, _, _ = _model_b(0.7)
+    rng = np.random.default_rng(3)
+    x = rng.uniform(0.3 * model.lower, 0.3 * model.upper)
+    _, _, phi, w = model.modes(x)
+    k = model.k0 * np.exp(x[model.slices["k"]])
+    dlf, dlk = _mode_sensitivities(model, x, 1, phi[1], w[1] ** 2, k)
+    h = 1e-6
+    for i in range(model.n_params - 1):
+        xp, xm = x.copy(), x.copy()
+        xp[i] += h
+        xm[i] -= h
+        fp, kp, _, _ = model.modes(xp)
+        fm, km, _, _ = model.modes(xm)
+        np.testing.assert_allclose(dlf[i], (fp[1] - fm[1]) / (2 * h), atol=1e-5)
+        np.testing.assert_allclose(dlk[i], (kp[1] - km[1]) / (2 * h), atol=1e-4)
+
+
+def test_stage_two_keeps_unmatched_modes_at_the_assumed_damping() -> None:
+    # stage 1 judged the peaks of unmatched modes at UNMATCHED_ZETA; the dampers of stage 2
+    # must not sharpen them (they did: 0.56 % at B posture 1, FRAC 0.74 -> 0.50)
+    from robolobe.twin.calibration import UNMATCHED_ZETA, _fit_table_damping, _match
+
+    model, _, t = _model_b(0.0)
+    x = np.zeros(model.n_params)
+    x[-1] = np.log(3.0)
+    c = _fit_table_damping(model, x, t, [0, 1, 2])
+    lf, lk, phi, w = model.modes(x)
+    for p in range(3):
+        m = _match(lf[p], lk[p], np.log(t.f_hz[p]), np.log(t.k_N_per_m[p]) + x[-1])
+        other = np.ones(lf.shape[1], dtype=bool)
+        other[m] = False
+        other &= lf[p] < np.log(42.0)
+        zeta = (phi[p] ** 2 / (2.0 * w[p])).T @ c
+        assert np.all(zeta[other] >= 0.8 * UNMATCHED_ZETA), zeta[other]
+
+
+def test_lopo_spread_grows_with_free_parameters_and_vanishes_with_a_tight_prior() -> None:
+    from robolobe.twin.calibration import lopo_frequency_spread
+
+    model, form_m, t = _model_b(0.7)
+    _, form_k, _ = _model_b(0.0)
+    prior = seed_prior("B", load_robot("B"))
+    x = np.zeros(model.n_params)
+    x[-1] = np.log(3.0)
+    s_k = lopo_frequency_spread(prior, t, x, form=form_k)
+    s_m = lopo_frequency_spread(prior, t, x, form=form_m)
+    assert s_k.shape == (3, 5)
+    # freeing the masses can only widen the prediction (fixing them is conditioning on them)
+    assert np.all(s_m >= s_k - 1e-9)
+    assert np.any(s_m > 1.05 * s_k)
+    assert np.all(lopo_frequency_spread(prior, t, x, form=form_m, prior_sd=1e-4) < 1e-3)

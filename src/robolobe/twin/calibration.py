@@ -585,6 +585,12 @@ K_WEIGHT = 2.0
 """Weight of a factor 1.5 in relative modal stiffness against 1 % in frequency."""
 FRAC_WEIGHT = 10.0
 """Weight of ``1 - FRAC`` (per posture) in the stage-1 residuals."""
+TOTAL_MASS_TOL = 0.05
+"""Scale of the penalty on the log of the fitted total link mass against the robot
+file's (the datasheet mass) when link masses are free; the end effector is not in it."""
+UNMATCHED_ZETA = 0.02
+"""Damping ratio assumed for twin modes no table mode is matched to (stage 1), and kept
+as a floor for them in stage 2, so that the fitted dampers do not sharpen their peaks."""
 EXTRA_PEAK = 0.15
 """Largest peak of an unmatched twin mode (2 % damping assumed) relative to the table's highest."""
 
@@ -655,6 +661,7 @@ class _TableModel:
         s = nominal_system(r, q)
         b = s.bodies
         self.nb = len(b.names)
+        self.body_mass = np.asarray(b.mass_kg, dtype=np.float64)
         self.nd = s.n_dof
         self.mb = np.einsum("b,pbki,pbkj->pbij", b.mass_kg, b.jv, b.jv) + np.einsum(
             "pbki,pbkl,pblj->pbij", b.jw, b.inertia_kgm2, b.jw
@@ -789,7 +796,6 @@ def _table_residuals(
     and the level, from eigen-sensitivities; masses fixed)."""
     lf, lk, phi, w = model.modes(x)
     ls = x[-1]
-    nd = model.nd
     lam = w**2
     k = model.k0 * np.exp(x[model.slices["k"]])
     out, rows = [], []
@@ -805,32 +811,27 @@ def _table_residuals(
         other[m] = False
         # other modes below 42 Hz must not add a peak the table lacks: at 2 % damping their
         # peak 1/(2 zeta k) stays below EXTRA_PEAK x the table's highest 1/(2 zeta_t k_t)
-        floor = ls - np.log(2.0 * 0.02 * EXTRA_PEAK) + np.min(k_t[p] + lz_t[p])
+        floor = ls - np.log(2.0 * UNMATCHED_ZETA * EXTRA_PEAK) + np.min(k_t[p] + lz_t[p])
         active = other & (lf[p] < np.log(42.0)) & (floor > lk[p])
         out.append(np.where(active, floor - lk[p], 0.0) / _LOG15)
         if jacobian:
-            ph = phi[p]  # (nd, modes), mass-normalised
-            dlam = k[:, None] * ph**2  # d lam_r / d x_i: (i, r)
-            dlf = 0.5 * dlam / lam[p][None, :]
-            u = model.j[p] @ ph  # (r,)
-            gap = lam[p][None, :] - lam[p][:, None]  # (s, r): lam_r - lam_s
-            np.fill_diagonal(gap, np.inf)
-            # du_r/dx_i = sum_s u_s k_i phi_is phi_ir / (lam_r - lam_s)
-            du = np.einsum("s,is,ir,sr->ir", u, ph, ph, 1.0 / gap) * k[:, None]
-            with np.errstate(divide="ignore", invalid="ignore"):
-                dlk = dlam / lam[p][None, :] - 2.0 * du / u[None, :]
-            dlk = np.nan_to_num(dlk)
-            jf = np.zeros((5, nd + 1))
-            jf[:, :nd] = (_soft_l1_slope(rf, 3.0) * a_f)[:, None] * dlf[:, m].T
-            jk = np.zeros((5, nd + 1))
-            jk[:, :nd] = (_soft_l1_slope(rk, 3.0) * a_k)[:, None] * dlk[:, m].T
-            jk[:, nd] = -_soft_l1_slope(rk, 3.0) * a_k
-            jp = np.zeros((lf.shape[1], nd + 1))
-            jp[:, :nd] = -dlk.T / _LOG15
-            jp[:, nd] = 1.0 / _LOG15
+            dlf, dlk = _mode_sensitivities(model, x, p, phi[p], lam[p], k)
+            npar = model.n_params
+            jf = np.zeros((5, npar))
+            jf[:, :-1] = (_soft_l1_slope(rf, 3.0) * a_f)[:, None] * dlf[:, m].T
+            jk = np.zeros((5, npar))
+            jk[:, :-1] = (_soft_l1_slope(rk, 3.0) * a_k)[:, None] * dlk[:, m].T
+            jk[:, -1] = -_soft_l1_slope(rk, 3.0) * a_k
+            jp = np.zeros((lf.shape[1], npar))
+            jp[:, :-1] = -dlk.T / _LOG15
+            jp[:, -1] = 1.0 / _LOG15
             jp[~active] = 0.0
             rows += [jf, jk, jp]
     out.append(np.sqrt(ridge) * x[:-1])
+    # the robot's total mass is known (datasheet) even where its distribution is not
+    sc = model.mass_scales(x)[:6]
+    total = float(model.body_mass[:6] @ sc)
+    out.append(np.array([np.log(total / model.body_mass[:6].sum()) / TOTAL_MASS_TOL]))
     fr = np.zeros(0)
     if with_frac:
         fr = FRAC_WEIGHT * (1.0 - _modal_frac(lf, lk, f_t, k_t, lz_t, ls))
@@ -838,20 +839,61 @@ def _table_residuals(
     res = np.concatenate(out)
     if not jacobian:
         return res
-    jr = np.zeros((model.n_params - 1, nd + 1))
-    jr[:nd, :nd] = np.sqrt(ridge) * np.eye(nd)
-    rows.append(jr)  # ridge on the (fixed, zero) mass factors has no column here
-    jfr = np.zeros((len(fr), nd + 1))  # FRAC rows: central differences
-    cols = [*range(nd), model.n_params - 1] if with_frac else []
-    for n, i in enumerate(cols):
+    jr = np.zeros((model.n_params - 1, model.n_params))
+    jr[:, :-1] = np.sqrt(ridge) * np.eye(model.n_params - 1)
+    rows.append(jr)
+    jm = np.zeros((1, model.n_params))
+    jm[0, model.slices["links"]] = model.body_mass[:6] * sc / total / TOTAL_MASS_TOL
+    rows.append(jm)
+    jfr = np.zeros((len(fr), model.n_params))  # FRAC rows: central differences
+    cols = [i for i in range(model.n_params) if model.upper[i] > model.lower[i]]
+    for i in cols if with_frac else []:
         for sign in (1.0, -1.0):
             xx = x.copy()
             xx[i] += sign * 1e-5
             lf2, lk2, _, _ = model.modes(xx)
             v = FRAC_WEIGHT * (1.0 - _modal_frac(lf2, lk2, f_t, k_t, lz_t, xx[-1]))
-            jfr[:, n] += sign * v / 2e-5
+            jfr[:, i] += sign * v / 2e-5
     rows.append(jfr)
     return res, np.concatenate(rows)
+
+
+def _mode_sensitivities(
+    model: _TableModel, x: FloatArray, p: int, ph: FloatArray, lam: FloatArray, k: FloatArray
+) -> tuple[FloatArray, FloatArray]:
+    """Derivatives of ``log f_r`` and ``log k_r`` (along the table direction) at posture
+    ``p`` with respect to every parameter but the level, shape (n_params - 1, modes) each.
+
+    First-order eigen-sensitivities of ``K phi = lam M phi`` (mass-normalised
+    ``ph``, shape (nd, modes)): a log factor on spring i gives ``dK = k_i e_i
+    e_i^T``, one on body b's mass ``dM = M_b``.
+    """
+    nd = model.nd
+    sc = model.mass_scales(x)
+    # dK_i and dM_b projected on the modes: (param, s, r)
+    pk = k[:, None, None] * ph[:, :, None] * ph[:, None, :]
+    mb = np.einsum("b,bij->bij", sc, model.mb[p])
+    pm = np.einsum("is,bij,jr->bsr", ph, mb, ph)
+    links, ee = model.slices["links"], model.slices["ee"]
+    dk = np.zeros((model.n_params - 1, *pk.shape[1:]))
+    dm = np.zeros_like(dk)
+    dk[:nd] = pk
+    dm[links] = pm[:6]
+    if model.nb > 6:
+        dm[ee] = pm[6:7]
+    # d lam_r = phi_r^T (dK - lam_r dM) phi_r
+    diag = np.einsum("ass->as", dk) - lam[None, :] * np.einsum("ass->as", dm)
+    u = model.j[p] @ ph
+    gap = lam[None, :] - lam[:, None]  # (s, r): lam_r - lam_s
+    np.fill_diagonal(gap, np.inf)
+    # du_r = sum_{s != r} u_s phi_s^T (dK - lam_r dM) phi_r / (lam_r - lam_s)
+    #        - u_r / 2 phi_r^T dM phi_r
+    coup = dk - lam[None, None, :] * dm
+    du = np.einsum("s,asr,sr->ar", u, coup, 1.0 / gap) - 0.5 * u[None, :] * np.einsum("ass->as", dm)
+    dlf = 0.5 * diag / lam[None, :]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        dlk = diag / lam[None, :] - 2.0 * du / u[None, :]
+    return dlf, np.nan_to_num(dlk)
 
 
 _FRAC_GRID_HZ = np.arange(2.0, 40.0 + 1e-9, 0.25)
@@ -870,7 +912,7 @@ def _modal_frac(
     from robolobe.modal.metrics import frac
     from robolobe.twin.frf import modal_receptance
 
-    z = np.full(lf.shape, 0.02)
+    z = np.full(lf.shape, UNMATCHED_ZETA)
     for p in range(f_t.shape[0]):
         m = _match(lf[p], lk[p], f_t[p], k_t[p] + ls)
         z[p, m] = np.exp(lz_t[p])
@@ -878,6 +920,52 @@ def _modal_frac(
     ht = modal_receptance(np.exp(f_t), np.exp(lz_t), np.exp(k_t), _FRAC_GRID_HZ)
     out: FloatArray = np.asarray(frac(h, ht, axis=-1), dtype=np.float64)
     return out
+
+
+def _stage1(
+    model: _TableModel,
+    f_t: FloatArray,
+    k_t: FloatArray,
+    lz_t: FloatArray,
+    ridge: float,
+    cands: list[FloatArray],
+    refine: int,
+    with_frac: bool,
+) -> list[tuple[float, FloatArray]]:
+    """Stage 1 of :func:`fit_seed_table` from the starts ``cands``.
+
+    Every start is run for 40 evaluations (without the FRAC term, whose
+    Jacobian is by differences); the ``refine`` best are run to convergence
+    (with it if ``with_frac``). Returns ``(cost, x)`` of the refined ones,
+    best first; ``x`` has all parameters (fixed ones at 0).
+    """
+    free = model.upper > model.lower  # a zero bound fixes the parameter at 0
+
+    def full(y: FloatArray) -> FloatArray:
+        x = np.zeros(model.n_params)
+        x[free] = y
+        return x
+
+    def resid(y: FloatArray, wf: bool) -> FloatArray:
+        r = _table_residuals(model, full(y), f_t, k_t, lz_t, ridge, with_frac=wf)
+        assert isinstance(r, np.ndarray)
+        return r
+
+    def jac(y: FloatArray, wf: bool) -> FloatArray:
+        out = _table_residuals(model, full(y), f_t, k_t, lz_t, ridge, jacobian=True, with_frac=wf)
+        assert isinstance(out, tuple)
+        return out[1][:, free]
+
+    def solve(c: FloatArray, nfev: int, wf: bool) -> Any:
+        return least_squares(
+            resid, np.clip(c[free], model.lower[free], model.upper[free]), jac=jac,
+            max_nfev=nfev, bounds=(model.lower[free], model.upper[free]), args=(wf,),
+        )  # fmt: skip
+
+    scout = sorted((solve(c, 40, False) for c in cands), key=lambda sol: float(sol.cost))
+    out = [solve(full(sc.x), 300, with_frac) for sc in scout[:refine]]
+    out.sort(key=lambda sol: float(sol.cost))
+    return [(float(sol.cost), full(sol.x)) for sol in out]
 
 
 def fit_seed_table(
@@ -891,6 +979,7 @@ def fit_seed_table(
     ridge: float = 0.0025,
     x0: ArrayLike | None = None,
     refine: int = 8,
+    by_posture: int = 3,
 ) -> SeedFit:
     """Fit springs, dampers and masses to a seed table (robust, multi-start).
 
@@ -906,12 +995,18 @@ def fit_seed_table(
     * a ridge on the log factors.
 
     Each table mode is matched to a twin mode per posture by the least
-    frequency and modal-stiffness misfit (Hungarian assignment). Starts are
-    uniform within 60 % of the bounds, plus ``x0`` if given.
+    frequency and modal-stiffness misfit (Hungarian assignment). A penalty
+    holds the total link mass to the robot file's (:data:`TOTAL_MASS_TOL`)
+    when masses are free. Starts: the prior, ``starts`` uniform within 60 %
+    of the bounds, ``x0`` if given, and (``by_posture``) the best solutions
+    of each posture fitted alone from the same starts; a single posture is
+    easy to fit, the joint problem's basins are hard to hit at random.
 
     Stage 2 (dampers): with the matched undamped modes, ``zeta_r = phi_r^T C
     phi_r / (2 w_r)`` (first order), the log of every damper is fitted to
-    the table's damping with a soft-L1 loss in ``log zeta`` (scale log 1.5).
+    the table's damping with a soft-L1 loss in ``log zeta`` (scale log 1.5),
+    no mode above 8 % and the unmatched modes below 42 Hz at
+    :data:`UNMATCHED_ZETA` or above (stage 1 judged their peaks at it).
 
     Parameters
     ----------
@@ -931,6 +1026,9 @@ def fit_seed_table(
     refine : int
         Every start is first run for 40 evaluations; the ``refine`` best
         are then run to convergence.
+    by_posture : int
+        Solutions per posture (fitted alone) added to the starts of the
+        joint fit; 0 turns the seeding off.
 
     Returns
     -------
@@ -946,57 +1044,29 @@ def fit_seed_table(
     lz_t = np.log(table.zeta[idx])
     rng = np.random.default_rng(seed)
     cands = [rng.uniform(0.6 * model.lower, 0.6 * model.upper) for _ in range(starts)]
+    cands.insert(0, np.zeros(model.n_params))  # the prior itself
     for c in cands:
         c[-1] = np.log(np.sqrt(fm.k_level_range[0] * fm.k_level_range[1]))
     if x0 is not None:
         cands.insert(0, np.clip(np.asarray(x0, dtype=np.float64), model.lower, model.upper))
 
-    free = model.upper > model.lower  # a zero bound fixes the parameter at 0
-
-    def full(y: FloatArray) -> FloatArray:
-        x = np.zeros(model.n_params)
-        x[free] = y
-        return x
-
-    def resid(y: FloatArray, with_frac: bool) -> FloatArray:
-        r = _table_residuals(model, full(y), f_t, k_t, lz_t, ridge, with_frac=with_frac)
-        assert isinstance(r, np.ndarray)
-        return r
-
-    analytic = bool(
-        np.array_equal(np.flatnonzero(free), np.r_[np.arange(model.nd), model.n_params - 1])
-    )
-
-    def jac(y: FloatArray, with_frac: bool) -> FloatArray:
-        out = _table_residuals(
-            model, full(y), f_t, k_t, lz_t, ridge, jacobian=True, with_frac=with_frac
-        )
-        assert isinstance(out, tuple)
-        return out[1]
-
-    def solve(c: FloatArray, nfev: int, with_frac: bool) -> Any:
-        return least_squares(
-            resid, c, jac=jac if analytic else "2-point",
-            max_nfev=nfev,
-            bounds=(model.lower[free], model.upper[free]), args=(with_frac,),
-        )  # fmt: skip
-
-    # explore every start briefly (without the FRAC term, whose Jacobian is by
-    # differences), refine the most promising ones with it
-    scout = sorted((solve(c[free], 40, False) for c in cands), key=lambda sol: float(sol.cost))
-    best = None
-    for sc in scout[:refine]:
-        sol = solve(sc.x, 300, True)
-        if best is None or sol.cost < best.cost:
-            best = sol
-    assert best is not None
-    x = full(best.x)
+    if by_posture and len(idx) > 1:
+        # every posture alone is easy to fit; its best solutions are the joint fit's
+        # most promising starts (the joint problem's basins are hard to hit at random)
+        pool: list[FloatArray] = []
+        for i, p in enumerate(idx):
+            mp = _TableModel(robot, table.postures_rad[[p]], fm)
+            sols = _stage1(mp, f_t[[i]], k_t[[i]], lz_t[[i]], ridge, cands, refine, False)
+            pool += [xs for _, xs in sols[:by_posture]]
+        cands = pool + cands
+    sols = _stage1(model, f_t, k_t, lz_t, ridge, cands, refine, True)
+    cost, x = sols[0]
     damping = _fit_table_damping(model, x, table, idx)
     return SeedFit(
         robot=model.robot(x, damping),
         postures=tuple(idx),
         k_level=float(np.exp(x[-1])),
-        cost=float(best.cost),
+        cost=cost,
         x=x,
     )
 
@@ -1008,15 +1078,21 @@ def _fit_table_damping(
     lf, lk, phi, w = model.modes(x)
     f_t = np.log(table.f_hz[idx])
     k_t = np.log(table.k_N_per_m[idx]) + x[-1]
-    rows, target, every = [], [], []
+    rows, target, every, others = [], [], [], []
     for p in range(len(idx)):
         every.append((phi[p] ** 2 / (2.0 * w[p])).T)
         m = _match(lf[p], lk[p], f_t[p], k_t[p])
         ph = phi[p][:, m]  # (nd, 5)
         rows.append((ph**2 / (2.0 * w[p, m])).T)  # zeta_r = sum_i c_i row_ri
         target.append(np.log(table.zeta[idx[p]]))
+        other = np.ones(lf.shape[1], dtype=bool)
+        other[m] = False
+        other &= lf[p] < np.log(42.0)
+        others.append(every[-1][other])
     a = np.concatenate(rows)
     a_all = np.concatenate(every)
+    # stage 1 judged the unmatched modes' peaks at UNMATCHED_ZETA; keep them there or above
+    a_other = np.concatenate(others)
     lt = np.concatenate(target)
     # prior: every DOF's own oscillator at 2 % damping
     m_diag = np.einsum("b,pbii->pi", model.mass_scales(x), model.mb).mean(axis=0)
@@ -1028,11 +1104,68 @@ def _fit_table_damping(
         z = a @ c
         # no mode of the twin beyond 8 % damping (robot modes: 0.2-7 %, REFERENCES.md)
         over = np.maximum(0.0, np.log(np.maximum(a_all @ c, 1e-12) / 0.08)) / _LOG15
+        under = np.maximum(0.0, np.log(UNMATCHED_ZETA / np.maximum(a_other @ c, 1e-12))) / _LOG15
         r = _soft_l1((np.log(np.maximum(z, 1e-12)) - lt) / _LOG15, 1.0)
-        return np.concatenate([r, 3.0 * over, 0.05 * s])
+        return np.concatenate([r, 3.0 * over, 3.0 * under, 0.05 * s])
 
     sol = least_squares(resid, np.zeros(len(c0)), bounds=(-5, 5))
     out: FloatArray = c0 * np.exp(sol.x)
+    return out
+
+
+def lopo_frequency_spread(
+    robot: Robot,
+    table: SeedTable,
+    x: FloatArray,
+    *,
+    form: SeedFitForm | None = None,
+    prior_sd: float = 1.0,
+) -> FloatArray:
+    """How well two postures determine the third's frequencies, linearised at ``x``.
+
+    For each held-out posture: the Gaussian posterior of the free log factors
+    given the other two postures' table values (frequency with a 1 % error,
+    relative modal stiffness with a factor 1.5, the level free) and a prior
+    ``N(0, prior_sd^2)`` on every log factor, propagated to the held-out
+    posture's matched modes. A spread of several per cent means that
+    leave-one-posture-out cannot test the model to a few per cent with this
+    many parameters, whatever the fit does.
+
+    Parameters
+    ----------
+    robot : Robot
+        The prior of the fit (:func:`seed_prior`).
+    table : SeedTable
+    x : ndarray, shape (n_params,)
+        Parameters of a three-posture fit (:attr:`SeedFit.x`).
+    form : SeedFitForm, optional
+        The form of that fit.
+    prior_sd : float
+        Prior standard deviation of each log factor.
+
+    Returns
+    -------
+    ndarray, shape (3, 5)
+        One standard deviation of ``log f`` (about the relative error) per
+        held-out posture and table mode.
+    """
+    fm = SeedFitForm() if form is None else form
+    model = _TableModel(robot, table.postures_rad, fm)
+    lf, lk, phi, w = model.modes(x)
+    k = model.k0 * np.exp(x[model.slices["k"]])
+    free = np.append((model.upper > model.lower)[:-1], True)
+    rf, rk = [], []
+    for p in range(3):
+        m = _match(lf[p], lk[p], np.log(table.f_hz[p]), np.log(table.k_N_per_m[p]) + x[-1])
+        dlf, dlk = _mode_sensitivities(model, x, p, phi[p], w[p] ** 2, k)
+        rf.append(np.hstack([dlf[:, m].T, np.zeros((5, 1))])[:, free])
+        rk.append(np.hstack([dlk[:, m].T, -np.ones((5, 1))])[:, free])
+    out = np.zeros((3, 5))
+    for held in range(3):
+        keep = [p for p in range(3) if p != held]
+        a = np.vstack([rf[p] / 0.01 for p in keep] + [rk[p] / _LOG15 for p in keep])
+        cov = np.linalg.inv(a.T @ a + np.eye(a.shape[1]) / prior_sd**2)
+        out[held] = np.sqrt(np.einsum("ri,ij,rj->r", rf[held], cov, rf[held]))
     return out
 
 
