@@ -119,8 +119,10 @@ def test_coupled_spread_is_that_of_the_direction_that_sees_the_mode():
 
 def test_job_round_trip_keeps_unset_robust_and_set_spreads():
     job = load_job(example("job_B_contour.toml"))
+    assert job.plan.robust is None  # the bundled job leaves it unset
     d = job_to_dict(job)
-    d["plan"].pop("robust")
+    assert "robust" not in d["plan"]
+    assert "spread_k_pct" not in d["plan"]
     d["plan"]["spread_k_pct"] = 7.0
     back = job_from_dict(d)
     assert back.plan.robust is None
@@ -129,7 +131,8 @@ def test_job_round_trip_keeps_unset_robust_and_set_spreads():
     again = job_from_dict(job_to_dict(back))
     assert again.plan.robust is None
     assert again.plan.spread_set == (False, False, True)
-    assert "robust" not in job_to_dict(back)["plan"]
+    forced = job_to_dict(job.replace(plan=dataclasses.replace(job.plan, robust=False)))
+    assert forced["plan"]["robust"] is False
 
 
 def test_corrected_twin_source_is_the_calibrated_twin_with_its_correction(corrected_b):
@@ -171,8 +174,9 @@ def test_a_job_naming_the_transfer_output_plans_robustly_on_its_spread(corrected
     src, note = mode_source(str(path), load_robot("B"), "B")
     assert isinstance(src, CorrectedTwinSource)
     assert not note
-    job = load_job(example("job_B_contour.toml")).replace(model=str(path))
-    auto = job.replace(plan=dataclasses.replace(job.plan, robust=None))
+    # the bundled job leaves plan.robust unset, as a user's copy of it does
+    auto = load_job(example("job_B_contour.toml")).replace(model=str(path))
+    assert auto.plan.robust is None
     res = plan_path(example("contour.apt"), auto, refine=False)
     s = res.summary
     assert s["robust"] is True
@@ -182,7 +186,8 @@ def test_a_job_naming_the_transfer_output_plans_robustly_on_its_spread(corrected
     assert b["confidence_pct"] == pytest.approx(97.72, abs=0.01)
     assert b["spread_pct_median"]["f"] > 0
     assert any("robust by default" in n for n in s["notes"])
-    # the job's robust = false (the bundled file says so) plans on the nominal modes
+    # robust = false in the job plans on the nominal modes
+    job = auto.replace(plan=dataclasses.replace(auto.plan, robust=False))
     plain = plan_path(example("contour.apt"), job, refine=False)
     assert plain.summary["robust"] is False
     assert plain.summary["robust_bound"] is None
