@@ -195,3 +195,19 @@ def test_a_job_naming_the_transfer_output_plans_robustly_on_its_spread(corrected
     # and a twin job with robust unset stays a nominal plan
     twin = auto.replace(model="twin")
     assert plan_path(example("contour.apt"), twin, refine=False).summary["robust"] is False
+
+
+def test_verify_on_the_transfer_output_reproduces_its_plan(corrected_b, tmp_path):
+    from robolobe.plan import write_outputs
+    from robolobe.plan.verify import verify_plan
+
+    job = load_job(example("job_B_contour.toml")).replace(model=str(corrected_b["path"]))
+    job = job.replace(plan=dataclasses.replace(job.plan, robust=False))
+    res = plan_path(example("contour.apt"), job, refine=False)
+    write_outputs(res, tmp_path / "p", plots=False, html_report=False)
+    v = verify_plan(tmp_path / "p", model=corrected_b["path"], job=job)
+    assert v.mode_source.startswith("corrected twin")
+    t = v.table
+    ok = np.isfinite(t["a_lim_plan_mm"])
+    assert ok.sum() > 5
+    np.testing.assert_allclose(t["a_lim_mm"][ok], t["a_lim_plan_mm"][ok], rtol=0, atol=1e-9)

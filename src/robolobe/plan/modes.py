@@ -49,6 +49,7 @@ __all__ = [
     "TwinSource",
     "as_mode_source",
     "mode_source",
+    "model_file_source",
     "plan_bound",
 ]
 
@@ -521,10 +522,11 @@ def as_mode_source(modes: object) -> ModeSource:
     modes : object
         A mode source (``PredictorSource``, ``TwinSource`` or anything with
         ``name`` and ``predict(q) -> RobotModes``); a :class:`Robot` (its
-        twin); a fitted ``TwinCalibration`` (the calibrated twin with its
-        residual spread); or a fitted ``ModalPredictor`` / ``CorrectedTwin``
-        (anything whose ``predict(q)`` returns a ``ModalPrediction`` and that
-        has ``extrapolation(q)``).
+        twin); a fitted ``CorrectedTwin`` (:class:`CorrectedTwinSource`:
+        coupled, with its calibrated spread); a fitted ``TwinCalibration``
+        (the calibrated twin with its residual spread); or a fitted
+        ``ModalPredictor`` (anything whose ``predict(q)`` returns a
+        ``ModalPrediction`` and that has ``extrapolation(q)``).
 
     Returns
     -------
@@ -569,7 +571,9 @@ def mode_source(
     ----------
     model : str
         ``"twin"`` (the robot file's own modes: the default), ``"builtin"``
-        (the shipped tl model of A, B or C) or the path of a tl model file.
+        (the shipped tl model of A, B or C) or the path of a tl model file (a
+        corrected twin from ``robolobe transfer --robot R`` becomes a
+        :class:`CorrectedTwinSource`, a network a :class:`PredictorSource`).
     robot : Robot
     robot_key : str
         ``"A"``, ``"B"``, ``"C"`` or the robot file.
@@ -608,9 +612,17 @@ def mode_source(
             logger.info(note)
             return TwinSource(robot), note
         return PredictorSource(pred, f"tl model {robot_key} (shipped)"), ""
-    pred = load_model(Path(model))
+    return model_file_source(load_model(Path(model)), Path(model).name), ""
+
+
+def model_file_source(pred: object, file_name: str) -> ModeSource:
+    """The mode source of a loaded model file (:func:`robolobe.tl.models.load_model`).
+
+    A corrected twin becomes a :class:`CorrectedTwinSource`, a network a
+    :class:`PredictorSource`; ``file_name`` names it in reports.
+    """
     from robolobe.tl.residual import CorrectedTwin
 
     if isinstance(pred, CorrectedTwin):
-        return CorrectedTwinSource(pred, f"corrected twin {Path(model).name}"), ""
-    return PredictorSource(pred, f"tl model {Path(model).name}"), ""
+        return CorrectedTwinSource(pred, f"corrected twin {file_name}")
+    return PredictorSource(pred, f"tl model {file_name}")
