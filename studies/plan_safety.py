@@ -394,6 +394,34 @@ def summarize(rows: list[dict[str, Any]]) -> str:
                 f"{beyond.mean():.1f} / {beyond.max():.1f} | {inside.mean():.1f} | {mm:.3f} | "
                 f"{mrr:.3f} | {cyc:.3f} |"
             )
+    # the default predictor planned robustly, by robot and material
+    dflt = [
+        r
+        for r in rows
+        if r["source"] == DEFAULT_SOURCE and r["robust"] and r.get("feasible") and "mrr_rel" in r
+    ]
+    if dflt:
+        lines += [
+            "",
+            f"{DEFAULT_SOURCE} (default), robust, by robot and material:",
+            "",
+            "| robot | material | runs | runs with chatter | min true margin | median MRR / oracle "
+            "| lowest MRR / oracle |",
+            "|---|---|---|---|---|---|---|",
+        ]
+        for key in sorted({r["robot"] for r in dflt}):
+            for mat in ("al", "steel"):
+                rr = [r for r in dflt if r["robot"] == key and r["material"] == mat]
+                if not rr:
+                    continue
+                mrr = [r["mrr_rel"] for r in rr]
+                lines.append(
+                    f"| {key} | {mat} | {len(rr)} | {sum(r['pct_beyond'] > 0 for r in rr)} | "
+                    f"{min(r['min_true_margin'] for r in rr):.3f} | {np.median(mrr):.3f} | "
+                    f"{min(mrr):.3f} |"
+                )
+        how = sorted({str(r.get("spread_from")) for r in dflt})
+        lines.append(f"\nspread used: {'; '.join(how)}")
     errors = [r for r in rows if "error" in r]
     for r in errors:
         lines.append(f"\nfailed: draw {r['draw']} {r['robot']}: {r['error']}")
