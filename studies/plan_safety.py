@@ -20,12 +20,17 @@ is drawn from the robot file:
 20 hammer tests at postures from ``design_postures`` (its own seed per draw)
 are simulated on the truth with noise (:func:`robolobe.twin.campaign.simulate_campaign`),
 identified (:func:`robolobe.modal.identify.identify_campaign`), and turned
-into predictors: the robot A network transferred (the seed's method) and the
-robot file's twin calibrated (``transfer --method twin-calibration``'s
-:class:`robolobe.tl.graybox.TwinCalibration`; spread from the fit alone,
-:func:`calibrated_spread`). The calibrated robot is also saved as a robot TOML and loaded back
-("calibrated file": what a job naming ``transfer --method twin-calibration``'s
-output gets; its robust plans take the job's assumed spread). The bundled
+into predictors: the robot A network transferred (the seed's method); the
+default predictor made as a user makes it (``modal.csv`` written,
+``robolobe transfer modal.csv --robot R -o R_pred.npz`` run through the CLI,
+no ``--method``: a :class:`robolobe.tl.residual.CorrectedTwin`) and named in
+the job (``robot.model = "R_pred.npz"``; its robust row leaves
+``plan.robust`` unset, so the job plans robustly on the model's own
+calibrated spread, as a user's job does); that model's twin calibration
+("calibrated twin", with a spread from the fit alone, :func:`calibrated_spread`);
+and the calibrated robot saved as a robot TOML and loaded back ("calibrated
+file": what a job naming ``transfer --method twin-calibration``'s output
+gets; its robust plans take the job's assumed spread). The bundled
 jobs reachable on the robot (aluminium and steel) are planned with each
 source, plain and robust, and every plan is verified on
 the concealed truth with :func:`robolobe.plan.verify.verify_plan` (every
@@ -64,6 +69,7 @@ from scipy.spatial.transform import Rotation
 
 from robolobe.errors import InfeasibleError, ReachabilityError, SingularityError
 from robolobe.modal.identify import identify_campaign
+from robolobe.modal.modal_csv import write_modal_csv
 from robolobe.plan import load_job, plan_path, write_outputs
 from robolobe.plan.modes import PredictorSource, TwinSource
 from robolobe.plan.verify import verify_plan
@@ -75,6 +81,7 @@ from robolobe.tl.design import design_postures
 from robolobe.tl.estimator import transfer
 from robolobe.tl.graybox import DEFAULT_PARAMS, TwinCalibration, twin_values
 from robolobe.tl.models import load_model
+from robolobe.tl.residual import CorrectedTwin
 from robolobe.tl.twin_params import COM_UNIT_M, apply_parameters
 from robolobe.twin import Twin
 from robolobe.twin.campaign import simulate_campaign
@@ -94,7 +101,9 @@ JOBS = (
     ("slot.src", "job_A_slot_steel.toml", "steel"),
     ("face.mod", "job_C_face_ti_lowspeed.toml", "steel"),
 )
-SOURCES = ("nominal file", "network", "calibrated twin", "calibrated file")
+SOURCES = ("nominal file", "network", "calibrated twin", "calibrated file", "corrected twin")
+#: The default predictor (``robolobe transfer modal.csv --robot R -o OUT.npz``).
+DEFAULT_SOURCE = "corrected twin"
 
 
 def _physical_shape_error(robot: Robot, rng: np.random.Generator, e: float) -> Robot:
@@ -161,7 +170,24 @@ def hammer_tests(base: Robot, truth: Robot, key: str, draw: int) -> tuple[Any, n
     return identify_campaign(camp).table, q
 
 
-def predictors(base: Robot, modal: Any, draw: int) -> dict[str, Any]:
+def default_transfer(modal: Any, spec: str, folder: Path) -> Path:
+    """What a user runs: ``robolobe transfer modal.csv --robot R -o R_pred.npz`` (no --method)."""
+    from typer.testing import CliRunner
+
+    from robolobe.cli.main import app
+
+    csv = folder / "modal.csv"
+    write_modal_csv(csv, modal)
+    out = folder / "R_pred.npz"
+    res = CliRunner().invoke(app, ["transfer", str(csv), "--robot", spec, "-o", str(out)])
+    if res.exit_code != 0 or not out.is_file():
+        raise RuntimeError(
+            f"transfer failed ({res.exit_code}): {res.output[-300:]} {res.exception!r}"
+        ) from res.exception
+    return out
+
+
+def predictors(base: Robot, modal: Any, draw: int, spec: str, folder: Path) -> dict[str, Any]:
     """Mode sources of a user with these hammer tests."""
     out: dict[str, Any] = {"nominal file": TwinSource(base)}
     ds = dataset_from_frame(modal, directions=("xx", "yy"), n_modes=5)  # may have gaps (NaN)
@@ -175,7 +201,13 @@ def predictors(base: Robot, modal: Any, draw: int) -> dict[str, Any]:
         out["network"] = None
         out["_network_error"] = f"{type(exc).__name__}: {exc}"[:300]
     t1 = time.perf_counter()
-    cal = TwinCalibration(robot=base, random_state=draw).fit(modal)
+    # the default predictor, made and named as a user does; its calibration is the
+    # "calibrated twin" (the same fit, the one `transfer --method twin-calibration` makes)
+    model_file = default_transfer(modal, spec, folder)
+    out["corrected twin"] = str(model_file)
+    ct = load_model(model_file)
+    assert isinstance(ct, CorrectedTwin)
+    cal = ct.calibration_
     spread = calibrated_spread(cal, ds.q_rad)
     src = TwinSource(cal.robot_, spread=spread)
     src.name = "calibrated twin"
@@ -188,6 +220,12 @@ def predictors(base: Robot, modal: Any, draw: int) -> dict[str, Any]:
     out["calibrated file"].name = "calibrated robot file"
     out["_times"] = {"network_s": t1 - t0, "calibration_s": time.perf_counter() - t1}
     out["_spread"] = spread
+    summ = ct.summary()
+    out["_corrected"] = {
+        q: int(((summ["quantity"] == q) & (summ["alpha"] > 0)).sum()) for q in ("f", "zeta", "k")
+    }
+    sp = ct.planning_spread(ds.q_rad)
+    out["_planning_spread"] = [float(np.nanmedian(sp[..., c])) for c in range(3)]
     return out
 
 
@@ -223,12 +261,14 @@ def run_one(draw: int, key: str, jobs: str) -> list[dict[str, Any]]:
         t0 = time.perf_counter()
         modal, _ = hammer_tests(base, truth, key, draw)
         t_id = time.perf_counter() - t0
-        srcs = predictors(base, modal, draw)
+        srcs = predictors(base, modal, draw, spec, tmp)
         print(
             f"draw {draw} {key}: identify {t_id:.0f} s, network "
-            f"{srcs['_times']['network_s']:.0f} s, calibration "
+            f"{srcs['_times']['network_s']:.0f} s, transfer (default) "
             f"{srcs['_times']['calibration_s']:.0f} s, calibrated spread "
-            f"f/zeta/k {np.round(srcs['_spread'], 4).tolist()}",
+            f"f/zeta/k {np.round(srcs['_spread'], 4).tolist()}, corrected twin: outputs "
+            f"corrected {srcs['_corrected']}, planning spread (median) "
+            f"{np.round(srcs['_planning_spread'], 4).tolist()}",
             flush=True,
         )
         for path, job_name, mat in JOBS:
@@ -241,7 +281,16 @@ def run_one(draw: int, key: str, jobs: str) -> list[dict[str, Any]]:
                 print(f"  network skipped: {srcs['_network_error']}", flush=True)
             oracle = None
             for name, robust, src in runs:
-                jj = j.replace(plan=dataclasses.replace(j.plan, robust=robust))
+                if name == DEFAULT_SOURCE:
+                    # the job names the transfer's output; robust: the job leaves
+                    # plan.robust unset (a calibrated spread then plans robustly)
+                    jj = j.replace(model=src)
+                    jj = jj.replace(
+                        plan=dataclasses.replace(jj.plan, robust=None if robust else False)
+                    )
+                    src = None
+                else:
+                    jj = j.replace(plan=dataclasses.replace(j.plan, robust=robust))
                 head = {"draw": draw, "robot": key, "job": job_name, "material": mat}
                 head |= {"source": name, "robust": robust}
                 t1 = time.perf_counter()
@@ -270,6 +319,9 @@ def run_one(draw: int, key: str, jobs: str) -> list[dict[str, Any]]:
                     "pct_inside_sf": v.summary["pct_inside_safety_factor"],
                     "min_true_margin": v.min_margin,
                     "sf": v.safety_factor,
+                    "robust_plan": bool(s["robust"]),
+                    "spread_from": (s.get("robust_bound") or {}).get("spread_from"),
+                    "confidence_pct": (s.get("robust_bound") or {}).get("confidence_pct"),
                 }
                 if name == "oracle":
                     oracle = row
@@ -342,6 +394,34 @@ def summarize(rows: list[dict[str, Any]]) -> str:
                 f"{beyond.mean():.1f} / {beyond.max():.1f} | {inside.mean():.1f} | {mm:.3f} | "
                 f"{mrr:.3f} | {cyc:.3f} |"
             )
+    # the default predictor planned robustly, by robot and material
+    dflt = [
+        r
+        for r in rows
+        if r["source"] == DEFAULT_SOURCE and r["robust"] and r.get("feasible") and "mrr_rel" in r
+    ]
+    if dflt:
+        lines += [
+            "",
+            f"{DEFAULT_SOURCE} (default), robust, by robot and material:",
+            "",
+            "| robot | material | runs | runs with chatter | min true margin | median MRR / oracle "
+            "| lowest MRR / oracle |",
+            "|---|---|---|---|---|---|---|",
+        ]
+        for key in sorted({r["robot"] for r in dflt}):
+            for mat in ("al", "steel"):
+                rr = [r for r in dflt if r["robot"] == key and r["material"] == mat]
+                if not rr:
+                    continue
+                mrr = [r["mrr_rel"] for r in rr]
+                lines.append(
+                    f"| {key} | {mat} | {len(rr)} | {sum(r['pct_beyond'] > 0 for r in rr)} | "
+                    f"{min(r['min_true_margin'] for r in rr):.3f} | {np.median(mrr):.3f} | "
+                    f"{min(mrr):.3f} |"
+                )
+        how = sorted({str(r.get("spread_from")) for r in dflt})
+        lines.append(f"\nspread used: {'; '.join(how)}")
     errors = [r for r in rows if "error" in r]
     for r in errors:
         lines.append(f"\nfailed: draw {r['draw']} {r['robot']}: {r['error']}")

@@ -217,4 +217,8 @@ def test_default_transfer_makes_a_corrected_twin_a_job_plans_on(tmp_path, b_moda
     )
     assert r.returncode == 0, r.stderr
     summary = json.loads((tmp_path / "plan_out" / "summary.json").read_text())
-    assert summary["mode_source"] == f"tl model {out.name}"
+    assert summary["mode_source"] == f"corrected twin {out.name}"
+    # the bundled job leaves plan.robust unset: robust on the model's calibrated spread
+    assert summary["robust"] is True
+    assert summary["robust_by_default"] is True
+    assert "calibrated prediction-error spread" in summary["robust_bound"]["spread_from"]

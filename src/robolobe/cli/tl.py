@@ -59,13 +59,17 @@ def _robot(spec: str | None) -> Any:
 
 
 def _load_dataset(
-    path: Path, directions: tuple[str, ...], robot_spec: str | None, min_postures: int
+    path: Path,
+    directions: tuple[str, ...],
+    robot_spec: str | None,
+    min_postures: int,
+    n_modes: int = 5,
 ) -> Any:
     from robolobe.modal.modal_csv import read_modal_csv
     from robolobe.tl.dataset import check_dataset, dataset_from_frame
 
     df = read_modal_csv(path)
-    ds = dataset_from_frame(df, directions=directions, n_modes=5, source=str(path))
+    ds = dataset_from_frame(df, directions=directions, n_modes=n_modes, source=str(path))
     robot = _robot(robot_spec)
     check_dataset(
         ds,
@@ -96,6 +100,8 @@ def _calibrate(
     modal_csv: Path, output: Path, robot: str | None, method: str, params: str, seed: int
 ) -> None:
     """``transfer --method corrected-twin | twin-calibration``: fit, write, report."""
+    import pandas as pd
+
     from robolobe.modal.modal_csv import read_modal_csv
     from robolobe.tl.graybox import TwinCalibration
     from robolobe.tl.residual import CorrectedTwin
@@ -122,7 +128,11 @@ def _calibrate(
         df = read_modal_csv(modal_csv)
         present = set(df["dir"].astype(str).str.lower()) if "dir" in df.columns else set()
         dirs = tuple(d for d in ("xx", "yy", "zz") if d in present) or ("xx", "yy")
-        _load_dataset(modal_csv, dirs, robot, 5)  # joint limits, duplicates, missing modes
+        # joint limits, duplicates, missing modes; the twin calibration takes as many modes
+        # per direction as the tests found (a small robot may have fewer than five)
+        modes = pd.to_numeric(df.loc[df["dir"].astype(str).str.lower().isin(dirs), "mode"])
+        n_modes = int(min(5, modes.max())) if len(modes) else 5
+        _load_dataset(modal_csv, dirs, robot, 5, n_modes)
         t0 = time.perf_counter()
         if method == "twin-calibration":
             with status("calibrating the twin"):

@@ -65,10 +65,12 @@ Example (all keys; defaults shown where a key is optional)::
     speed = "scheduled"          # "scheduled" | "constant"
     max_rate_rpm_per_s = 2000    # or max_rate_rpm_per_mm (at most one; none: free)
     robust = false               # plan on the lower bound of the prediction spread
+                                 # (unset: robust when robot.model carries a calibrated
+                                 # spread, i.e. a `robolobe transfer --robot R` model)
     k_sigma = 2.0                # width of that bound in standard deviations
     spread_f_pct = 0.5           # 1-sigma spread robust plans assume where the mode
     spread_zeta_pct = 10.0       #   source has none (the twin): frequency, damping,
-    spread_k_pct = 5.0           #   stiffness
+    spread_k_pct = 5.0           #   stiffness; a key set here overrides the source's
     n_rpm = 300                  # speed grid of the lobes
     dynamics_tol_pct = 0.3       # waypoints whose modes agree within this share lobes
 
@@ -256,7 +258,7 @@ class _PlanSpec(_Spec):
     speed: Literal["scheduled", "constant"] = "scheduled"
     max_rate_rpm_per_s: PosNum | None = None
     max_rate_rpm_per_mm: PosNum | None = None
-    robust: bool = False
+    robust: bool | None = None
     k_sigma: NonNegNum = 2.0
     spread_f_pct: Annotated[float, Field(ge=0, le=30, allow_inf_nan=False, strict=True)] = 0.5
     spread_zeta_pct: Annotated[float, Field(ge=0, le=30, allow_inf_nan=False, strict=True)] = 10.0
@@ -444,8 +446,10 @@ class PlanSpec:
         Speed scheduled along the path, or one speed for the whole path.
     max_rate_rpm_per_s, max_rate_rpm_per_m : float or None
         Maximum rate of change of the speed [rpm/s] or [rpm/m] (at most one).
-    robust : bool
-        Plan on the lower bound of the prediction spread.
+    robust : bool or None
+        Plan on the lower bound of the prediction spread; None (the job does
+        not say): robust when the mode source carries a calibrated spread
+        (:func:`robolobe.plan.modes.plan_bound`).
     k_sigma : float
         Width of that lower bound in standard deviations.
     assumed_spread : (float, float, float)
@@ -453,6 +457,9 @@ class PlanSpec:
         the mode source has none (the twin); job keys ``spread_f_pct``,
         ``spread_zeta_pct``, ``spread_k_pct`` (1 sigma, default 0.5, 10, 5 %: the
         identification accuracy a calibrated twin reaches).
+    spread_set : (bool, bool, bool)
+        Which of those keys the job sets: a set key overrides the source's
+        own spread of that quantity.
     n_rpm : int
         Number of points of the speed grid.
     dynamics_tol : float
@@ -468,13 +475,14 @@ class PlanSpec:
     speed: Literal["scheduled", "constant"] = "scheduled"
     max_rate_rpm_per_s: float | None = None
     max_rate_rpm_per_m: float | None = None
-    robust: bool = False
+    robust: bool | None = None
     k_sigma: float = 2.0
     assumed_spread: tuple[float, float, float] = (
         math.log1p(0.005),
         math.log1p(0.10),
         math.log1p(0.05),
     )
+    spread_set: tuple[bool, bool, bool] = (False, False, False)
     n_rpm: int = 300
     dynamics_tol: float = 0.003
 
@@ -688,6 +696,11 @@ def job_from_dict(d: dict[str, Any], source: str = "<dict>", base_dir: Path | No
             math.log1p(p.spread_zeta_pct / 100.0),
             math.log1p(p.spread_k_pct / 100.0),
         ),
+        spread_set=(
+            "spread_f_pct" in p.model_fields_set,
+            "spread_zeta_pct" in p.model_fields_set,
+            "spread_k_pct" in p.model_fields_set,
+        ),
         n_rpm=p.n_rpm,
         dynamics_tol=p.dynamics_tol_pct / 100.0,
     )
@@ -794,11 +807,20 @@ def job_to_dict(job: Job) -> dict[str, Any]:
         "depth_min_mm": _clean(pl.depth_min_m * 1e3),
         "depth_max_mm": _clean(pl.depth_max_m * 1e3),
         "speed": pl.speed,
-        "robust": pl.robust,
         "k_sigma": _clean(pl.k_sigma),
         "n_rpm": pl.n_rpm,
         "dynamics_tol_pct": _clean(pl.dynamics_tol * 100.0),
     }
+    if pl.robust is not None:
+        plan["robust"] = pl.robust
+    for key, val, given in zip(
+        ("spread_f_pct", "spread_zeta_pct", "spread_k_pct"),
+        pl.assumed_spread,
+        pl.spread_set,
+        strict=True,
+    ):
+        if given:
+            plan[key] = _clean(math.expm1(val) * 100.0)
     if pl.max_rate_rpm_per_s is not None:
         plan["max_rate_rpm_per_s"] = _clean(pl.max_rate_rpm_per_s)
     if pl.max_rate_rpm_per_m is not None:

@@ -12,6 +12,11 @@ receptance for the tool-point FRF.
 - :class:`TwinSource`: the exact nominal modes of the robot file
   (:meth:`robolobe.twin.model.Twin.modes`), coupled 3x3 residues from the
   mode shapes, no spread.
+- :class:`CorrectedTwinSource`: a :class:`robolobe.tl.residual.CorrectedTwin`
+  (``robolobe transfer modal.csv --robot R -o OUT.npz``): the calibrated
+  twin's coupled modes with the learned correction, and the spread of its
+  prediction error (:meth:`~robolobe.tl.residual.CorrectedTwin.planning_spread`),
+  which robust planning uses by default.
 
 :func:`mode_source` picks one from a job's ``robot.model``; the default is the
 twin: the shipped networks miss their own robot's twin by 3-15 % in
@@ -36,6 +41,7 @@ from robolobe.sld.frf import ModalModel
 from robolobe.twin.effects import Effect
 
 __all__ = [
+    "CorrectedTwinSource",
     "ModeSource",
     "PredictorSource",
     "RobotModes",
@@ -43,6 +49,8 @@ __all__ = [
     "TwinSource",
     "as_mode_source",
     "mode_source",
+    "model_file_source",
+    "plan_bound",
 ]
 
 logger = logging.getLogger(__name__)
@@ -91,8 +99,14 @@ class RobotModes:
     extrapolation: FloatArray | None
     source: str
     shapes_coupled: bool = False
+    spread_calibrated: bool = False
 
-    def robust(self, k_sigma: float, assumed: Sequence[float] = ()) -> RobustBound | None:
+    def robust(
+        self,
+        k_sigma: float,
+        assumed: Sequence[float] = (),
+        override: Sequence[bool] = (False, False, False),
+    ) -> RobustBound | None:
         """The robust bound of these modes: stiffness and damping lowered, a speed window.
 
         Each visible mode's stiffness and damping are lowered by ``k_sigma``
@@ -113,6 +127,9 @@ class RobotModes:
         assumed : (float, float, float)
             Spread (std of log f, log zeta, log k) used where the source has
             none (the twin); empty: no bound without a source spread.
+        override : (bool, bool, bool)
+            Per quantity: take ``assumed`` instead of the source's spread (the
+            job set that ``spread_*_pct`` key).
 
         Returns
         -------
@@ -124,7 +141,17 @@ class RobotModes:
         n, nd, m = self.f_hz.shape
         if self.log_std is not None and np.any(self.log_std > 0):
             std = np.clip(np.nan_to_num(self.log_std, nan=0.0, posinf=0.0), 0.0, MAX_LOG_STD)
-            how = f"{self.source}'s prediction spread"
+            kind = "calibrated prediction-error spread" if self.spread_calibrated else "spread"
+            how = f"{self.source}'s {kind}"
+            over = [bool(o) for o in override][:3] if len(assumed) == 3 else []
+            if any(over):
+                a = np.clip(np.asarray(assumed, dtype=np.float64), 0.0, MAX_LOG_STD)
+                names = []
+                for c, name in enumerate(("f", "zeta", "k")):
+                    if c < len(over) and over[c]:
+                        std[..., c] = a[c]
+                        names.append(name)
+                how += f" (the job's spread for {', '.join(names)})"
         elif len(assumed) == 3 and any(a > 0 for a in assumed):
             std = np.broadcast_to(
                 np.clip(np.asarray(assumed, dtype=np.float64), 0.0, MAX_LOG_STD), (n, nd, m, 3)
@@ -137,8 +164,12 @@ class RobotModes:
         s = np.where(visible[..., None], s, 0.0)
         model = self.model
         if self.shapes_coupled:
-            # one set of modes seen in all directions: a mode's spread is its largest
-            sm = s.max(axis=1)  # (n, m, 3)
+            # one set of modes seen in all directions: a mode's spread is that of the
+            # direction that sees it most (smallest stiffness); a direction that barely
+            # sees a mode knows its stiffness there poorly, which is not the mode's spread
+            kv = np.where(visible, np.abs(self.k_N_per_m), np.inf)
+            most = np.argmin(kv, axis=1)  # (n, m)
+            sm = np.take_along_axis(s, most[:, None, :, None], axis=1)[:, 0]  # (n, m, 3)
             f_scale = np.ones((n, m))
             z_scale = np.exp(-sm[..., 1])
             r_scale = np.exp(sm[..., 2])
@@ -159,12 +190,15 @@ class RobotModes:
         )
         matter = peak >= 0.05 * peak.max(axis=1, keepdims=True)
         window = np.minimum(np.max(np.where(matter, sm[..., 0], 0.0), axis=1), MAX_WINDOW)
+        # the spread stated: what was applied to the modes that matter
+        used = sm[matter] / k_sigma if np.any(matter) else np.zeros((1, 3))
         return RobustBound(
             model=lowered,
             window=np.asarray(window, dtype=np.float64),
             k_sigma=float(k_sigma),
-            std_max=np.asarray(std.reshape(-1, 3).max(axis=0), dtype=np.float64),
+            std_max=np.asarray(used.max(axis=0), dtype=np.float64),
             how=how,
+            std_median=np.asarray(np.median(used, axis=0), dtype=np.float64),
         )
 
 
@@ -180,9 +214,12 @@ class RobustBound:
         Relative half-width of the speed window (frequency uncertainty).
     k_sigma : float
     std_max : ndarray, shape (3,)
-        Largest spread used (std of log f, log zeta, log k).
+        Largest spread used (std of log f, log zeta, log k) over the modes
+        that matter (peak compliance at least 5 % of the posture's largest).
     how : str
         Where the spread came from.
+    std_median : ndarray, shape (3,) or None
+        Median of that spread over the same modes and postures.
     """
 
     model: ModalModel
@@ -190,6 +227,7 @@ class RobustBound:
     k_sigma: float
     std_max: FloatArray
     how: str
+    std_median: FloatArray | None = None
 
     @property
     def confidence(self) -> float:
@@ -210,6 +248,16 @@ class RobustBound:
             ),
             "stiffness_lowered_to_pct": round(100.0 * math.exp(-ks * sk), 2),
             "damping_lowered_to_pct": round(100.0 * math.exp(-ks * sz), 2),
+            "spread_pct_median": None
+            if self.std_median is None
+            else {
+                q: round(100.0 * math.expm1(float(v)), 3)
+                for q, v in zip(("f", "zeta", "k"), self.std_median, strict=True)
+            },
+            "spread_pct_max": {
+                q: round(100.0 * math.expm1(float(v)), 3)
+                for q, v in zip(("f", "zeta", "k"), self.std_max, strict=True)
+            },
             "statement": (
                 f"each mode's frequency within "
                 f"+-{100 * min(math.exp(ks * sf) - 1, MAX_WINDOW):.2g} %, "
@@ -219,6 +267,41 @@ class RobustBound:
                 "normal in log)"
             ),
         }
+
+
+def plan_bound(
+    plan: object, modes: RobotModes, robust: bool | None = None
+) -> tuple[RobustBound | None, bool]:
+    """The robust bound a job's plan settings ask for on these modes.
+
+    Parameters
+    ----------
+    plan : PlanSpec
+        The job's ``plan`` (``robust``, ``k_sigma``, ``assumed_spread``,
+        ``spread_set``).
+    modes : RobotModes
+    robust : bool, optional
+        Overrides ``plan.robust``.
+
+    Returns
+    -------
+    bound : RobustBound or None
+    robust : bool
+        Whether the plan is robust: ``plan.robust`` when set, else (the job
+        does not say) whether the modes carry a calibrated spread
+        (:attr:`RobotModes.spread_calibrated`, a ``CorrectedTwin``).
+    """
+    want = getattr(plan, "robust", None) if robust is None else robust
+    if want is None:
+        want = bool(modes.spread_calibrated)
+    if not want:
+        return None, False
+    bound = modes.robust(
+        float(getattr(plan, "k_sigma", 2.0)),
+        tuple(getattr(plan, "assumed_spread", ())),
+        tuple(getattr(plan, "spread_set", (False, False, False))),
+    )
+    return bound, True
 
 
 def _directional(f: FloatArray, z: FloatArray, k: FloatArray) -> ModalModel:
@@ -345,6 +428,92 @@ class TwinSource:
         )
 
 
+class CorrectedTwinSource:
+    """Modes of a fitted :class:`robolobe.tl.residual.CorrectedTwin`, coupled, with spread.
+
+    The calibrated twin's modes (mode shapes, hence the cross terms a feed
+    direction between the axes sees) with the learned correction: each twin
+    mode's frequency and damping moved by the correction of the tested
+    directions (weighted by how much of the process each uses,
+    ``alpha_``), its stiffness at each tested direction by that direction's
+    (the shape's component scaled, so ``k = omega^2 / u^2`` takes the
+    corrected value). The spread is the model's
+    :meth:`~robolobe.tl.residual.CorrectedTwin.planning_spread` (the error of
+    the prediction, posture by posture), marked as calibrated: a job that
+    leaves ``plan.robust`` unset plans robustly on it.
+
+    Parameters
+    ----------
+    model : CorrectedTwin
+        Fitted.
+    name : str, optional
+        Description for reports.
+    """
+
+    def __init__(self, model: object, name: str | None = None) -> None:
+        from robolobe.tl.residual import CorrectedTwin
+        from robolobe.twin.model import Twin
+
+        if not isinstance(model, CorrectedTwin) or not hasattr(model, "calibration_"):
+            raise InputError("modes: expected a fitted CorrectedTwin")
+        self.model = model
+        self.twin = Twin(model.robot_)
+        self.name = name or f"corrected twin of {model.robot_name}"
+
+    def predict(self, q_rad: ArrayLike) -> RobotModes:
+        from robolobe.tl.twin_params import K_MAX
+
+        q = np.asarray(q_rad, dtype=np.float64).reshape(-1, 6)
+        ct = self.model
+        md = self.twin.modes(q)
+        f = np.asarray(md.f_hz, dtype=np.float64)  # (n, m)
+        z = np.asarray(md.zeta, dtype=np.float64)
+        u = np.asarray(md.tcp_shapes, dtype=np.float64)  # (n, 3, m)
+        k = np.asarray(md.k_N_per_m, dtype=np.float64)  # (n, 3, m)
+        n, m = f.shape
+        dirs = tuple(ct.directions_)
+        mm = min(m, int(ct.n_modes_))
+        mean, _ = ct.correction(q)  # (n, n_dir, n_modes, 3), twin mode order
+        alpha = np.asarray(ct.alpha_)[:, :mm]  # (n_dir, mm, 3)
+        d_f = np.zeros((n, m))
+        d_z = np.zeros((n, m))
+        for c, out in ((0, d_f), (1, d_z)):
+            w = alpha[..., c]
+            wsum = w.sum(axis=0)
+            num = np.einsum("jm,njm->nm", w, mean[:, :, :mm, c])
+            out[:, :mm] = np.where(wsum > 0, num / np.where(wsum > 0, wsum, 1.0), 0.0)
+        d_k = np.zeros((n, 3, m))
+        visible = np.isfinite(k) & (np.abs(k) < K_MAX)
+        for j, d in enumerate(dirs):
+            ax = _DIRS.index(d)
+            d_k[:, ax, :mm] = np.where(visible[:, ax, :mm], mean[:, j, :mm, 2], 0.0)
+        f_new = f * np.exp(d_f)
+        z_new = z * np.exp(d_z)
+        # k = omega^2 / u^2 per direction: keep it at its corrected value
+        u_new = u * np.exp(d_f[:, None, :] - 0.5 * d_k)
+        k_new = k * np.exp(d_k)
+        keep = np.isfinite(f_new) & (f_new > 0) & (z_new > 0) & (z_new < 1)
+        model = ModalModel.from_shapes(
+            2 * np.pi * np.where(keep, f_new, 1.0),
+            np.where(keep, z_new, 0.05),
+            np.swapaxes(np.where(keep[:, None, :], u_new, 0.0), -1, -2),
+        )
+        std = np.zeros((n, 3, m, 3))
+        sp = ct.planning_spread(q, directions=_DIRS, n_modes=m)  # (n, 3, m, 3)
+        std[:] = np.nan_to_num(sp, nan=0.0, posinf=0.0)
+        return RobotModes(
+            f_hz=np.broadcast_to(f_new[:, None, :], (n, 3, m)).copy(),
+            zeta=np.broadcast_to(z_new[:, None, :], (n, 3, m)).copy(),
+            k_N_per_m=k_new,
+            log_std=std,
+            model=model,
+            extrapolation=ct.extrapolation(q),
+            source=self.name,
+            shapes_coupled=True,
+            spread_calibrated=True,
+        )
+
+
 def as_mode_source(modes: object) -> ModeSource:
     """Any mode predictor as the planner's mode source.
 
@@ -353,10 +522,11 @@ def as_mode_source(modes: object) -> ModeSource:
     modes : object
         A mode source (``PredictorSource``, ``TwinSource`` or anything with
         ``name`` and ``predict(q) -> RobotModes``); a :class:`Robot` (its
-        twin); a fitted ``TwinCalibration`` (the calibrated twin with its
-        residual spread); or a fitted ``ModalPredictor`` / ``CorrectedTwin``
-        (anything whose ``predict(q)`` returns a ``ModalPrediction`` and that
-        has ``extrapolation(q)``).
+        twin); a fitted ``CorrectedTwin`` (:class:`CorrectedTwinSource`:
+        coupled, with its calibrated spread); a fitted ``TwinCalibration``
+        (the calibrated twin with its residual spread); or a fitted
+        ``ModalPredictor`` (anything whose ``predict(q)`` returns a
+        ``ModalPrediction`` and that has ``extrapolation(q)``).
 
     Returns
     -------
@@ -367,8 +537,12 @@ def as_mode_source(modes: object) -> ModeSource:
     InputError
         For anything else, or an estimator that is not fitted.
     """
-    if isinstance(modes, PredictorSource | TwinSource):
+    if isinstance(modes, PredictorSource | TwinSource | CorrectedTwinSource):
         return modes
+    from robolobe.tl.residual import CorrectedTwin
+
+    if isinstance(modes, CorrectedTwin):
+        return CorrectedTwinSource(modes)
     if isinstance(modes, Robot):
         return TwinSource(modes)
     robot = getattr(modes, "robot_", None)
@@ -397,7 +571,9 @@ def mode_source(
     ----------
     model : str
         ``"twin"`` (the robot file's own modes: the default), ``"builtin"``
-        (the shipped tl model of A, B or C) or the path of a tl model file.
+        (the shipped tl model of A, B or C) or the path of a tl model file (a
+        corrected twin from ``robolobe transfer --robot R`` becomes a
+        :class:`CorrectedTwinSource`, a network a :class:`PredictorSource`).
     robot : Robot
     robot_key : str
         ``"A"``, ``"B"``, ``"C"`` or the robot file.
@@ -436,5 +612,17 @@ def mode_source(
             logger.info(note)
             return TwinSource(robot), note
         return PredictorSource(pred, f"tl model {robot_key} (shipped)"), ""
-    pred = load_model(Path(model))
-    return PredictorSource(pred, f"tl model {Path(model).name}"), ""
+    return model_file_source(load_model(Path(model)), Path(model).name), ""
+
+
+def model_file_source(pred: object, file_name: str) -> ModeSource:
+    """The mode source of a loaded model file (:func:`robolobe.tl.models.load_model`).
+
+    A corrected twin becomes a :class:`CorrectedTwinSource`, a network a
+    :class:`PredictorSource`; ``file_name`` names it in reports.
+    """
+    from robolobe.tl.residual import CorrectedTwin
+
+    if isinstance(pred, CorrectedTwin):
+        return CorrectedTwinSource(pred, f"corrected twin {file_name}")
+    return PredictorSource(pred, f"tl model {file_name}")

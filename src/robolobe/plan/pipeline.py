@@ -50,6 +50,7 @@ from robolobe.plan.modes import (
     RobustBound,
     as_mode_source,
     mode_source,
+    plan_bound,
 )
 from robolobe.plan.optimize import Constraints, PathGeometry, PlanOutcome, optimize_schedule
 from robolobe.plan.paths import read_toolpath, segment_lengths, validate_waypoints
@@ -495,8 +496,7 @@ def cut_lobes(
     f_use = np.where(plunge[:, None], [[1.0, 0.0, 0.0]], f_tcp)
     rot = feed_frame(f_use, (0.0, 0.0, -1.0), rotation="cw")
     models = [tool_point_model(rot, modes.model, tool)]
-    use_robust = job.plan.robust if robust is None else robust
-    bound = modes.robust(job.plan.k_sigma, job.plan.assumed_spread) if use_robust else None
+    bound, _ = plan_bound(job.plan, modes, robust)
     if bound is not None:
         models.append(tool_point_model(rot, bound.model, tool))
     timings["frf"] = time.perf_counter() - t
@@ -972,13 +972,19 @@ def _summary(
             f"{n_plunge} cutting moves run along the tool axis (plunges): the lateral (ZOA) "
             "stability model does not apply to them and they do not limit the depth"
         )
-    if job.plan.robust and bound is None:
+    robust = bool(job.plan.robust) or bound is not None
+    if robust and bound is None:
         notes.append(
             "robust mode: neither the mode source nor the job gives a spread (k_sigma or the "
             "spread_*_pct keys are 0); planned on the nominal modes"
         )
     elif bound is not None:
-        notes.append("robust plan: " + str(bound.describe()["statement"]))
+        why = (
+            " (plan.robust not set: robust by default on a calibrated spread)"
+            if job.plan.robust is None
+            else ""
+        )
+        notes.append("robust plan" + why + ": " + str(bound.describe()["statement"]))
     return {
         "robolobe_version": robolobe.__version__,
         "job": job.name,
@@ -995,8 +1001,9 @@ def _summary(
         "n_plunge": int(np.sum(table["limiting"] == "plunge")),
         "n_dynamics_groups": grouped.n_groups,
         "speed_mode": job.plan.speed,
-        "robust": job.plan.robust,
-        "k_sigma": job.plan.k_sigma if job.plan.robust else None,
+        "robust": robust,
+        "robust_by_default": robust and job.plan.robust is None,
+        "k_sigma": job.plan.k_sigma if robust else None,
         "robust_bound": bound.describe() if bound is not None else None,
         "safety_factor": cons.safety_factor,
         "method": best.method,

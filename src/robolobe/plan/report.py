@@ -430,8 +430,13 @@ def render_html(
         ("Method", f"{s['method']} (IPOPT: {s['nlp_status']})"),
     ]
     if s.get("robust"):
-        conf = s.get("confidence")
-        rows.append(("Robust plan", str(conf) if conf else f"k_sigma {s.get('k_sigma')}"))
+        rb = s.get("robust_bound") or {}
+        text = str(rb.get("statement") or f"k_sigma {s.get('k_sigma')}")
+        if rb.get("spread_from"):
+            text += f"; spread: {rb['spread_from']}"
+        if s.get("robust_by_default"):
+            text += " (robust by default: the job does not set plan.robust)"
+        rows.append(("Robust plan", text))
     for key, name in (
         ("vs_best_constant_speed", "best constant speed"),
         ("vs_programmed_speed", "programmed speed"),

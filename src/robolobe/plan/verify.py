@@ -30,7 +30,7 @@ from numpy.typing import NDArray
 
 from robolobe.errors import InputError
 from robolobe.plan.job import Job, load_job
-from robolobe.plan.modes import ModeSource, PredictorSource, TwinSource
+from robolobe.plan.modes import ModeSource, TwinSource, model_file_source
 from robolobe.plan.pipeline import (
     _tool_model,
     cut_lobes,
@@ -296,7 +296,7 @@ def verify_plan(
 
             pred = load_model(str(model) if str(model).upper() in ("A", "B", "C") else Path(model))
             _check_limits(load_robot(j.robot), q, sub, where)
-            source = PredictorSource(pred, f"tl model {Path(str(model)).name}")
+            source = model_file_source(pred, Path(str(model)).name)
         else:
             assert campaign is not None
             source = _campaign_source(campaign)
