@@ -55,6 +55,7 @@ def test_every_gallery_script_has_a_page_in_the_nav() -> None:
         assert f"gallery/{name}.md" in nav, f"docs/gallery/{name}.md is not in mkdocs.yml's nav"
 
 
+@pytest.mark.slow
 def test_docs_build_strict(tmp_path: Path) -> None:
     needed = ("mkdocs", "material", "mkdocstrings", "mkdocstrings_handlers")
     missing = [m for m in needed if importlib.util.find_spec(m) is None]

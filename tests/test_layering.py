@@ -82,6 +82,7 @@ def test_every_package_is_in_the_layering() -> None:
     assert packages <= set(ALLOWED), packages - set(ALLOWED)
 
 
+@pytest.mark.slow
 def test_no_package_imports_one_it_must_not_know() -> None:
     assert _violations() == []
 

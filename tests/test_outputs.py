@@ -120,6 +120,7 @@ def test_cli_simulate_output_that_is_a_file_is_refused_before_work(tmp_path: Pat
     assert f.read_text() == "x"
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(
     "args",
     [

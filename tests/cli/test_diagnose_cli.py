@@ -34,6 +34,7 @@ def mass_campaign(tmp_path_factory: pytest.TempPathFactory) -> Path:
     return write_campaign(path, camp)
 
 
+@pytest.mark.slow
 def test_diagnose_writes_json_report_and_updated_model(mass_campaign: Path, tmp_path: Path) -> None:
     out = tmp_path / "d.json"
     r = _run(
@@ -60,6 +61,7 @@ def test_diagnose_writes_json_report_and_updated_model(mass_campaign: Path, tmp_
     assert ee is not None
 
 
+@pytest.mark.slow
 def test_missing_robot_file_is_a_clear_error(mass_campaign: Path, tmp_path: Path) -> None:
     bad = tmp_path / "camp"
     bad.mkdir()
@@ -74,6 +76,7 @@ def test_missing_robot_file_is_a_clear_error(mass_campaign: Path, tmp_path: Path
     assert not (tmp_path / "d.json").exists()
 
 
+@pytest.mark.slow
 def test_posture_outside_limits_is_left_out_and_said(mass_campaign: Path, tmp_path: Path) -> None:
     bad = tmp_path / "camp"
     bad.mkdir()
@@ -96,6 +99,7 @@ def test_posture_outside_limits_is_left_out_and_said(mass_campaign: Path, tmp_pa
     assert "Data warnings" in rep["summary"]
 
 
+@pytest.mark.slow
 def test_missing_folder_and_bad_options(tmp_path: Path, mass_campaign: Path) -> None:
     r = _run(str(tmp_path / "nope"), "--json", str(tmp_path / "d.json"))
     assert r.returncode == 2
@@ -108,6 +112,7 @@ def test_missing_folder_and_bad_options(tmp_path: Path, mass_campaign: Path) -> 
     assert "--band-hz" in r.stderr
 
 
+@pytest.mark.slow
 def test_directions_missing_for_a_candidate_are_reported(tmp_path: Path) -> None:
     camp = make_campaign(Case("B", (), "null", 0.0, 5, seed=4))
     H = np.stack([f.H for f in camp.frfs])
@@ -127,6 +132,7 @@ def test_directions_missing_for_a_candidate_are_reported(tmp_path: Path) -> None
     assert rep["verdict"] in ("none", "unexplained") or "tool_mode" in rep["verdict"]
 
 
+@pytest.mark.slow
 def test_band_wider_than_the_data_is_cut_and_said(mass_campaign: Path, tmp_path: Path) -> None:
     out = tmp_path / "d.json"
     r = _run(

@@ -6,7 +6,10 @@ import subprocess
 import sys
 from pathlib import Path
 
+import pytest
 
+
+@pytest.mark.slow
 def test_error_line_keeps_bracketed_key_paths(tmp_path: Path) -> None:
     robot = tmp_path / "bad.toml"
     robot.write_text(

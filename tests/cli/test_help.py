@@ -69,6 +69,7 @@ def test_help_brackets_found_somewhere() -> None:
     assert "[s]" in all_help
 
 
+@pytest.mark.slow
 def test_help_imports_no_heavy_module() -> None:
     """``--help`` of every command without torch, matplotlib, casadi & co. (fast help)."""
     code = (

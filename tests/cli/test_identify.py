@@ -36,6 +36,7 @@ def campaign_dir(tmp_path_factory: pytest.TempPathFactory) -> Path:
     return write_campaign(tmp_path_factory.mktemp("camp") / "B", camp)
 
 
+@pytest.mark.slow
 def test_identify_writes_modal_csv_and_plots(
     campaign_dir: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:

@@ -42,6 +42,7 @@ def twin_job(tmp_path: Path, name: str = "job_A_pocket.toml", **plan: str) -> Pa
     return p
 
 
+@pytest.mark.slow
 def test_plan_without_arguments_runs_the_bundled_example(tmp_path):
     r = run(["plan"], tmp_path)
     assert r.returncode == 0, r.stderr
@@ -54,6 +55,7 @@ def test_plan_without_arguments_runs_the_bundled_example(tmp_path):
     assert "minimum margin" in r.stdout
 
 
+@pytest.mark.slow
 def test_bad_path_exit_2_one_line_nothing_written(tmp_path):
     bad = tmp_path / "bad.nc"
     bad.write_text("G0 X0 Y0\nG1 X10 Y0 F100\nG81 Z-5 R1\n", encoding="utf-8")
@@ -67,6 +69,7 @@ def test_bad_path_exit_2_one_line_nothing_written(tmp_path):
     assert not (tmp_path / "out").exists()
 
 
+@pytest.mark.slow
 def test_infeasible_job_exit_3(tmp_path):
     job = twin_job(tmp_path, depth_min_mm="14.0")
     r = run(["plan", str(EX / "pocket.nc"), "--job", str(job), "-o", "out"], tmp_path)
@@ -76,6 +79,7 @@ def test_infeasible_job_exit_3(tmp_path):
     assert not (tmp_path / "out").exists()
 
 
+@pytest.mark.slow
 def test_compare_and_batch(tmp_path):
     job = twin_job(tmp_path)
     r = run(
@@ -118,6 +122,7 @@ def test_help_lists_units():
     assert "Exit code 3" in shown
 
 
+@pytest.mark.slow
 def test_plan_needs_both_path_and_job(tmp_path):
     r = run(["plan", str(EX / "pocket.nc")], tmp_path)
     assert r.returncode == 2

@@ -54,6 +54,7 @@ def _frac(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return num / (np.sum(np.abs(a) ** 2, axis=-1) * np.sum(np.abs(b) ** 2, axis=-1))
 
 
+@pytest.mark.slow
 def test_simulated_campaign_on_b(tmp_path, postures, capsys):
     out = tmp_path / "camp"
     _run("B", "--postures", str(postures), "-o", str(out), "--seed", "3")
@@ -154,6 +155,7 @@ def _subprocess(*args: str) -> subprocess.CompletedProcess[str]:
     )
 
 
+@pytest.mark.slow
 def test_bad_postures_file_exits_2_without_output(tmp_path):
     bad = tmp_path / "bad.csv"
     bad.write_text(B_POSTURES.replace("T3,23,", "T3,230,"))

@@ -151,6 +151,7 @@ def test_missing_modes_warn_and_extrapolation_warns(tmp_path, b_modal, run):
     assert "outside the training range" in res.output
 
 
+@pytest.mark.slow
 def test_design_tests_and_augment(tmp_path, run):
     out = tmp_path / "d.csv"
     res = run(["design-tests", "C", "--n", "6", "-o", str(out)])

@@ -73,6 +73,7 @@ def test_bad_effects_file_is_one_line_error(tmp_path: Path) -> None:
     assert not (tmp_path / "c").exists()
 
 
+@pytest.mark.slow
 def test_job_effects_need_the_twin_and_change_the_plan(tmp_path: Path) -> None:
     job_text = (EXAMPLES / "job_A_pocket.toml").read_text()
     eff = tmp_path / "effects.toml"

@@ -11,6 +11,7 @@ from robolobe.diagnose.candidate import Candidate, ParamSpec, Requirement
 from robolobe.diagnose.fitting import fit_candidate
 
 
+@pytest.mark.slow
 def test_recovers_added_mass_with_honest_uncertainty(toy: SimpleNamespace) -> None:
     obs = toy.obs((("mass", 40.0),), sigma=0.02)
     fit = fit_candidate(toy.candidates()[1], toy.model, obs)

@@ -18,6 +18,7 @@ def test_every_twin_effect_has_a_family() -> None:
     assert set(FAMILIES) == {"none", "file_parameters", *EFFECTS}
 
 
+@pytest.mark.slow
 def test_every_candidate_builds_at_its_grid_and_bounds() -> None:
     r = load_robot("B")
     cands, skipped = build_library(r, directions=ALL, n_force_levels=3, band_hz=(2.0, 40.0))

@@ -23,6 +23,7 @@ def mass_diagnosis():  # type: ignore[no-untyped-def]
     return diagnose(camp, robot=load_robot("B"), settings=DiagnoseSettings(families=FAMS))
 
 
+@pytest.mark.slow
 def test_names_added_mass_and_improves_the_fit(mass_diagnosis) -> None:  # type: ignore[no-untyped-def]
     d = mass_diagnosis
     assert d.verdict == "added_mass"
@@ -43,6 +44,7 @@ def test_names_added_mass_and_improves_the_fit(mass_diagnosis) -> None:  # type:
     assert d.window_decay_per_s == pytest.approx(-np.log(0.05) / 4.0)
 
 
+@pytest.mark.slow
 def test_json_schema_holds_the_required_keys(mass_diagnosis) -> None:  # type: ignore[no-untyped-def]
     rep = json.loads(to_report(mass_diagnosis).model_dump_json())
     for key in ("verdict", "candidates", "fit_before", "fit_after", "summary", "untestable"):
@@ -62,6 +64,7 @@ def test_json_schema_holds_the_required_keys(mass_diagnosis) -> None:  # type: i
     assert rep["parameters"][0]["std"] > 0
 
 
+@pytest.mark.slow
 def test_report_folder(mass_diagnosis, tmp_path: Path) -> None:  # type: ignore[no-untyped-def]
     out = write_report(mass_diagnosis, tmp_path / "rep")
     for name in ("index.html", "mismatch_map.png", "frf_overlays.png", "ranking.png", "modes.png"):
@@ -71,6 +74,7 @@ def test_report_folder(mass_diagnosis, tmp_path: Path) -> None:  # type: ignore[
     assert "mismatch_map.png" in html
 
 
+@pytest.mark.slow
 def test_null_campaign_gives_none() -> None:
     camp = make_campaign(Case("B", (), "null", 0.0, 8, seed=11))
     d = diagnose(camp, robot=load_robot("B"), settings=DiagnoseSettings(families=FAMS))
@@ -80,6 +84,7 @@ def test_null_campaign_gives_none() -> None:
     np.testing.assert_allclose(d.fit_after.frac, d.fit_before.frac)
 
 
+@pytest.mark.slow
 def test_friction_needs_force_levels() -> None:
     camp = make_campaign(Case("B", (), "null", 0.0, 6, seed=5))
     d = diagnose(
@@ -92,6 +97,7 @@ def test_friction_needs_force_levels() -> None:
     assert "friction_damping" in d.summary  # "Not tested: ..."
 
 
+@pytest.mark.slow
 def test_postures_outside_the_robots_limits_are_left_out_with_a_warning() -> None:
     camp = make_campaign(Case("B", (), "null", 0.0, 5, seed=1))
     q = camp.q_rad.copy()

@@ -30,6 +30,7 @@ def _select(toy: SimpleNamespace, effects: tuple, seed: int = 0):  # type: ignor
     return select(fits, toy.model, obs, obs, SelectionSettings(n_folds=4))
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(
     ("effects", "name"),
     [((("mass", 25.0),), "added_mass"), ((("delay", 0.002),), "sensor_delay")],
@@ -67,6 +68,7 @@ def _mass_kx(p: np.ndarray) -> tuple:  # type: ignore[type-arg]
     return (("mass", float(p[0])), ("kx", float(p[1])))
 
 
+@pytest.mark.slow
 def test_simplest_of_equally_good_candidates_is_named(toy: SimpleNamespace) -> None:
     from robolobe.diagnose.candidate import Candidate, ParamSpec
 

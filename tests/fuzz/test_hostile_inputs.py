@@ -180,6 +180,7 @@ def test_campaign_reader(tmp_path: Path, campaign_dir: Path, data: st.DataObject
     _check(read_campaign, f)
 
 
+@pytest.mark.slow
 @FUZZ
 @given(text=st.text(max_size=300))
 def test_random_text_everywhere(tmp_path: Path, text: str) -> None:

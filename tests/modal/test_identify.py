@@ -54,6 +54,7 @@ def test_campaign_table_numbering_and_accuracy() -> None:
         identify_frfs(ids, q, [f] * n, Hs, numbering="nope")
 
 
+@pytest.mark.slow
 def test_parallel_equals_serial() -> None:
     n = 8
     q, f, Hs, _ = _campaign(n, seed=3)

@@ -47,6 +47,7 @@ def test_failures_do_not_stop_the_batch(tmp_path, job, paths):
         assert sorted(t["status"]) == ["error", "ok", "unreachable"]
 
 
+@pytest.mark.slow
 def test_process_pool_matches_sequential(tmp_path, job, paths):
     # two different plannable paths, so a mix-up of rows between workers shows
     half = tmp_path / "pocket_half.nc"
@@ -63,12 +64,14 @@ def test_process_pool_matches_sequential(tmp_path, job, paths):
             assert r[key] == seq[r["path"]][key], key
 
 
+@pytest.mark.slow
 def test_per_path_outputs(tmp_path, job, paths):
     row = plan_one(paths[0], job, out_dir=str(tmp_path / "o"), refine=False)
     assert row["status"] == "ok"
     assert (tmp_path / "o" / "pocket" / "waypoints.csv").exists()
 
 
+@pytest.mark.slow
 def test_dask_local_cluster_on_loopback(job, paths):
     distributed = pytest.importorskip("distributed")
     with distributed.LocalCluster(

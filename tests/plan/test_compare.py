@@ -21,6 +21,7 @@ def job():
     return load_job(example("job_A_pocket.toml")).replace(model="twin")
 
 
+@pytest.mark.slow
 def test_compare_adjusts_placement_and_writes(tmp_path, job):
     cmp = compare_robots(example("pocket.nc"), job, ["A", "C"], refine=False)
     t = cmp.table.set_index("robot")

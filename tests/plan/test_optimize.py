@@ -74,6 +74,7 @@ def test_single_pocket_matches_the_analytic_optimum():
     assert out.constant.depth_m == pytest.approx(best.depth_m, rel=1e-3)
 
 
+@pytest.mark.slow
 def test_schedule_switches_pockets_and_beats_constant_speed():
     f0, f1 = bump(10000.0, 2.0), bump(18000.0, 2.0)
     n = 200

@@ -86,6 +86,7 @@ def test_truncated_file_is_warned(tmp_path, ext, cut_at, what):
     assert any(what in w and "truncated" in w for w in df.attrs["warnings"])
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("ext", EXTS)
 def test_cut_anywhere_never_tracebacks(tmp_path, ext):
     data = GOOD[ext].encode()

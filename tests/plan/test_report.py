@@ -78,6 +78,7 @@ def test_failure_leaves_nothing_half_written(tmp_path, result, monkeypatch):
     assert not any(p.name.startswith(".o3.") for p in tmp_path.iterdir())
 
 
+@pytest.mark.slow
 def test_rerun_without_plots_replaces_the_whole_set(tmp_path, result):
     out = report.write_outputs(result, tmp_path / "o3")
     (out / "mine.txt").write_text("kept")
@@ -114,6 +115,7 @@ def test_lobes_show_distinct_dynamics(result):
     assert best.margin[chosen[0]] == pytest.approx(np.nanmin(best.margin))
 
 
+@pytest.mark.slow
 @pytest.mark.skipif(shutil.which("chromium") is None, reason="Debian's chromium is not installed")
 def test_report_renders_in_a_headless_browser(tmp_path, result):
     out = report.write_outputs(result, tmp_path / "o5")

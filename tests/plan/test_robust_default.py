@@ -135,6 +135,7 @@ def test_job_round_trip_keeps_unset_robust_and_set_spreads():
     assert forced["plan"]["robust"] is False
 
 
+@pytest.mark.slow
 def test_corrected_twin_source_is_the_calibrated_twin_with_its_correction(corrected_b):
     ct, q = corrected_b["model"], corrected_b["q"][:5]
     src = as_mode_source(ct)
@@ -169,6 +170,7 @@ def test_corrected_twin_source_is_the_calibrated_twin_with_its_correction(correc
     assert np.all(m.log_std[vis] > 0)
 
 
+@pytest.mark.slow
 def test_a_job_naming_the_transfer_output_plans_robustly_on_its_spread(corrected_b):
     path = corrected_b["path"]
     src, note = mode_source(str(path), load_robot("B"), "B")
@@ -197,6 +199,7 @@ def test_a_job_naming_the_transfer_output_plans_robustly_on_its_spread(corrected
     assert plan_path(example("contour.apt"), twin, refine=False).summary["robust"] is False
 
 
+@pytest.mark.slow
 def test_verify_on_the_transfer_output_reproduces_its_plan(corrected_b, tmp_path):
     from robolobe.plan import write_outputs
     from robolobe.plan.verify import verify_plan

@@ -235,6 +235,7 @@ def _random_path(robot: Robot, rng: np.random.Generator, n: int) -> np.ndarray:
     return path[within_limits(robot, path)]
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name", ["A", "B", "C"])
 def test_compiled_continuity_equals_numpy_loop(
     name: str, rng: np.random.Generator, monkeypatch: pytest.MonkeyPatch

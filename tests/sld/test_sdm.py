@@ -87,6 +87,7 @@ def _sdm_lobe_minimum(model: ModalModel, cond: CuttingConditions, rpm: np.ndarra
     return float(lobes.a_lim.min())
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("lobe", [0, 1])
 def test_sdm_matches_zoa_for_slotting(iso_2dof: ModalModel, lobe: int) -> None:
     # REFERENCES.md section 3: 2-DOF isotropic slot, ZOA 0.047925 mm, converged
@@ -107,6 +108,7 @@ def test_sdm_matches_zoa_for_slotting(iso_2dof: ModalModel, lobe: int) -> None:
     assert float(a[40].min()) == pytest.approx(float(crit.depth), rel=5e-3)
 
 
+@pytest.mark.slow
 def test_sdm_converged_in_intervals(iso_2dof: ModalModel) -> None:
     # first-order SD converges as 1/m^2 (Insperger, Stepan & Turi 2008): the
     # error ratio between m = 20 and m = 40 is ~4, and m = 40 is within 0.3 %

@@ -17,6 +17,7 @@ def robot_c():
     return load_robot("C")
 
 
+@pytest.mark.slow
 def test_designed_postures_are_feasible_and_cover_better_than_random(robot_c):
     box = design_box_deg(robot_c, TESTED_RANGES_DEG["C"])
     d = design_postures(
@@ -60,6 +61,7 @@ def test_bad_requests(robot_c):
         design_postures(robot_c, 3, rng=np.random.default_rng(0), criterion="spread")
 
 
+@pytest.mark.slow
 def test_spread_criterion_uses_the_model(robot_c):
     from robolobe.tl.models import load_model
 

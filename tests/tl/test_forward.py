@@ -52,6 +52,7 @@ def test_bad_layers_refused() -> None:
         ArrayMLP.from_arrays(arrays).predict_numpy(np.zeros((4, 5)))
 
 
+@pytest.mark.slow
 def test_loading_and_predicting_do_not_import_torch() -> None:
     code = (
         "import sys, numpy as np\n"

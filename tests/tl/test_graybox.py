@@ -35,17 +35,22 @@ THETA_TRUE = np.r_[np.log(FACTORS), np.log(LINK_MASS), COM_OFFSET_M.ravel() / CO
 
 
 @pytest.fixture(scope="module")
-def setup():
+def truth():
+    return apply_parameters(load_robot("B"), DEFAULT_PARAMS, THETA_TRUE)
+
+
+@pytest.fixture(scope="module")
+def setup(truth):
     ids, q, roles = design_arrays(seed_design("B"))
     roles = np.asarray(roles)
     base = load_robot("B")
-    truth = apply_parameters(base, DEFAULT_PARAMS, THETA_TRUE)
     ds = twin_modal_dataset(Twin(truth), ids, q, noise=None)
     train = roles == "train"
     model = TwinCalibration(robot=base).fit(ds.subset(train).to_frame())
     return {"base": base, "truth": truth, "q": q, "test": roles == "test", "model": model}
 
 
+@pytest.mark.slow
 def test_recovers_factors_noise_free(setup):
     fit = setup["model"]
     got = np.concatenate([fit.factors_[g] for g in GROUPS])
@@ -61,6 +66,7 @@ def test_recovers_factors_noise_free(setup):
     np.testing.assert_allclose(fit.robot_.stiffness, setup["truth"].stiffness, rtol=0.01)
 
 
+@pytest.mark.slow
 def test_predicts_held_out_postures(setup):
     q = setup["q"][setup["test"]]
     pred = setup["model"].predict(q)
@@ -86,16 +92,16 @@ def test_noisy_data_close_and_spread_consistent():
     assert np.all(err < 5 * fit.param_std_[:6] + 1e-3)
 
 
-def test_too_few_postures(setup):
+def test_too_few_postures(truth):
     ids, q, _ = design_arrays(seed_design("B"))
-    ds = twin_modal_dataset(Twin(setup["truth"]), ids[:4], q[:4], noise=None)
+    ds = twin_modal_dataset(Twin(truth), ids[:4], q[:4], noise=None)
     with pytest.raises(InputError, match="at least 5 postures"):
         TwinCalibration(robot="B").fit(ds.to_frame())
 
 
-def test_missing_column(setup):
+def test_missing_column(truth):
     ids, q, _ = design_arrays(seed_design("B"))
-    df = twin_modal_dataset(Twin(setup["truth"]), ids[:8], q[:8], noise=None).to_frame()
+    df = twin_modal_dataset(Twin(truth), ids[:8], q[:8], noise=None).to_frame()
     with pytest.raises(InputError, match="zeta"):
         TwinCalibration(robot="B").fit(df.drop(columns=["zeta"]))
     with pytest.raises(InputError, match="dir"):
@@ -113,6 +119,7 @@ def test_bad_params():
         TwinCalibration(robot="B").predict(np.zeros((1, 6)))
 
 
+@pytest.mark.slow
 def test_save_round_trip(setup, tmp_path):
     fit = setup["model"]
     path = fit.save(tmp_path / "B_calibrated.toml")
@@ -124,6 +131,7 @@ def test_save_round_trip(setup, tmp_path):
     )
 
 
+@pytest.mark.slow
 def test_cli_transfer_twin_calibration(setup, tmp_path):
     from typer.testing import CliRunner
 
@@ -154,6 +162,7 @@ def test_cli_transfer_twin_calibration(setup, tmp_path):
     assert "Traceback" not in bad.stderr
 
 
+@pytest.mark.slow
 def test_cli_bad_params_group(setup, tmp_path):
     from robolobe.modal.modal_csv import write_modal_csv
 
@@ -183,6 +192,7 @@ def exact_file_campaign():
     return ds.subset(np.asarray(roles) == "train")
 
 
+@pytest.mark.slow
 def test_exact_file_campaign_keeps_every_parameter_at_the_file(exact_file_campaign):
     """Hammer tests of the robot the file describes: nothing may wander off the file.
 
@@ -211,6 +221,7 @@ def test_prior_std_validated():
         TwinCalibration(robot="B", prior_std={"masses": 0.1})._validate()
 
 
+@pytest.mark.slow
 def test_spread_propagation_matches_finite_differences(setup):
     """The analytic first-order spread equals a finite-difference propagation."""
     from robolobe.tl.twin_params import ParametrizedTwin

@@ -24,6 +24,7 @@ def test_paper_shapes_and_independent_members():
     assert not torch.equal(out[1], out2[1])
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("n_frozen", [0, 2])
 def test_manual_gradient_equals_autograd(n_frozen):
     g = torch.Generator().manual_seed(1)

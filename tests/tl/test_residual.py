@@ -76,6 +76,7 @@ def test_correction_beats_the_calibrated_twin_where_its_form_is_wrong(gravity_ca
     assert cover(pred) >= cover(twin_pred) - 0.05
 
 
+@pytest.mark.slow
 def test_save_load_and_load_model(exact_file_case, tmp_path):
     model = exact_file_case["model"]
     path = model.save(tmp_path / "B_pred.npz")
@@ -108,6 +109,7 @@ def exact_file_case():
     return {"base": base, "cal": cal, "model": model, "q_test": _postures(base, 20, 5)}
 
 
+@pytest.mark.slow
 def test_no_correction_where_the_twin_has_nothing_to_miss(exact_file_case):
     """The correction must shrink to nothing when the twin's form is right."""
     model, cal, q_test = (exact_file_case[k] for k in ("model", "cal", "q_test"))
@@ -119,6 +121,7 @@ def test_no_correction_where_the_twin_has_nothing_to_miss(exact_file_case):
     assert np.median(np.abs(shift[..., 2])) < 0.01
 
 
+@pytest.mark.slow
 def test_not_fitted_and_bad_input():
     with pytest.raises(InputError, match="not fitted"):
         CorrectedTwin(robot="B").predict(np.zeros((1, 6)))

@@ -89,6 +89,7 @@ def test_frequencies_depend_on_posture(report: CalibrationReport) -> None:
         assert m.f_spread >= 0.2
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name", ["A", "B", "C"])
 def test_shipped_values_are_the_procedure_output(
     name: str, monkeypatch: pytest.MonkeyPatch
