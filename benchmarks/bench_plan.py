@@ -8,7 +8,10 @@
 Part 1 (``path``) plans a dense zig-zag finishing path (10,000 waypoints,
 3-axis, tool down) on robot A with each mode source of ``--sources``
 (default: the twin, the default source; the shipped tl network; the twin
-planned robustly) and writes the outputs without the HTML report; it prints
+planned robustly; ``corrected``: a corrected twin of A, what ``robolobe
+transfer modal.csv --robot A`` makes, fitted before the timing to 20
+simulated hammer tests and planned robustly on its own spread, the default
+for a robot with tests) and writes the outputs without the HTML report; it prints
 the seconds per stage (read, IK, modes, FRFs, lobes, optimization, table,
 outputs) per source, each as a share of the total and beside the same plan
 on the numpy reference paths (compiled kernels off, same process; whether
@@ -106,6 +109,27 @@ def _timed_plan(path: Path, job: Any, out: Path) -> tuple[Any, dict[str, float]]
     return res, st
 
 
+def _corrected_model(tmp: Path) -> str:
+    """A corrected twin of robot A fitted to 20 designed postures (not timed): its .npz."""
+    from robolobe.robots import load_robot
+    from robolobe.tl.design import design_postures
+    from robolobe.tl.residual import CorrectedTwin
+    from robolobe.tl.twin_data import twin_modal_dataset
+    from robolobe.twin import Twin
+    from robolobe.twin.designs import TESTED_RANGES_DEG
+
+    robot = load_robot("A")
+    rng = np.random.default_rng(2026)
+    q = design_postures(robot, 20, rng=rng, ranges_deg=TESTED_RANGES_DEG["A"]).q_rad
+    ds = twin_modal_dataset(Twin(robot), [f"P{i}" for i in range(len(q))], q, rng=rng)
+    t0 = time.perf_counter()
+    model = CorrectedTwin(robot="A").fit_dataset(ds)
+    out = tmp / "A_pred.npz"
+    model.save(out)
+    print(f"corrected twin of A fitted to {len(q)} postures in {time.perf_counter() - t0:.1f} s")
+    return str(out)
+
+
 def part_path(n: int, tmp: Path, sources: list[str], reference: bool) -> None:
     path = tmp / "zigzag.nc"
     path.write_text(zigzag_gcode(n, 400.0, 300.0, 10.0), encoding="utf-8")
@@ -116,6 +140,8 @@ def part_path(n: int, tmp: Path, sources: list[str], reference: bool) -> None:
     stages: dict[str, dict[str, float]] = {}
     for spec in sources:
         model, _, mode = spec.partition("+")
+        if model == "corrected":
+            model = _corrected_model(tmp)
         job = base_job.replace(model=model)
         if mode == "robust":
             job = job.replace(plan=dataclasses.replace(job.plan, robust=True))
@@ -123,8 +149,9 @@ def part_path(n: int, tmp: Path, sources: list[str], reference: bool) -> None:
         res, st = _timed_plan(path, job, tmp / "out")
         s = res.summary
         print(
-            f"path [{spec}: {s['mode_source']}]: {s['n_waypoints']} waypoints ({s['n_cut']} "
-            f"cutting), {s['n_dynamics_groups']} distinct dynamics, cores: {os.cpu_count()}, "
+            f"path [{spec}: {s['mode_source']}, robust {s['robust']}]: {s['n_waypoints']} "
+            f"waypoints ({s['n_cut']} cutting), {s['n_dynamics_groups']} distinct dynamics, "
+            f"cores: {os.cpu_count()}, "
             f"{_load()}"
         )
         ref = None
@@ -235,7 +262,7 @@ def main() -> None:
     ap.add_argument("--waypoints", type=int, default=1000)
     ap.add_argument(
         "--sources",
-        default="twin,builtin,twin+robust",
+        default="twin,builtin,twin+robust,corrected",
         help="Mode sources of part 1 (robot.model values; '+robust' plans robustly).",
     )
     ap.add_argument(
