@@ -10,11 +10,9 @@ from robolobe.plan.optimize import (
     Constraints,
     LobeTable,
     PathGeometry,
-    _rate_fix,
-    _rate_ok,
-    _window_min,
     optimize_schedule,
 )
+from robolobe.plan.optimize._common import _rate_fix, _rate_ok, _window_min
 
 RPM = np.linspace(6000.0, 24000.0, 181)  # 100 rpm steps
 KT = 800e6
@@ -265,7 +263,7 @@ def test_refinement_skipped_only_where_it_cannot_improve():
 
 
 def test_block_minimum_in_chunks_equals_the_full_grid():
-    from robolobe.plan.optimize import _block_min
+    from robolobe.plan.optimize._search import _block_min
 
     rng = np.random.default_rng(2)
     a = rng.uniform(1e-3, 5e-3, (30, 17))
