@@ -78,7 +78,7 @@ from robolobe.robots.io import save_robot
 from robolobe.robots.model import RigidBody, Robot
 from robolobe.tl.dataset import dataset_from_frame
 from robolobe.tl.design import design_postures
-from robolobe.tl.estimator import transfer
+from robolobe.tl.estimator import transfer_network
 from robolobe.tl.graybox import DEFAULT_PARAMS, TwinCalibration, twin_values
 from robolobe.tl.models import load_model
 from robolobe.tl.residual import CorrectedTwin
@@ -195,7 +195,9 @@ def predictors(base: Robot, modal: Any, draw: int, spec: str, folder: Path) -> d
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
-            net = transfer(load_model("A"), ds.q_rad, ds.y, robot=base.name, random_state=draw)
+            net = transfer_network(
+                load_model("A"), ds.q_rad, ds.y, robot=base.name, random_state=draw
+            )
         out["network"] = PredictorSource(net, "network transferred from A")
     except Exception as exc:  # e.g. fewer than 5 modes per direction (README)
         out["network"] = None

@@ -72,7 +72,7 @@ from robolobe.robots import load_robot
 from robolobe.robots.model import Robot
 from robolobe.tl.concealed import concealed_robot
 from robolobe.tl.design import design_postures
-from robolobe.tl.estimator import transfer
+from robolobe.tl.estimator import transfer_network
 from robolobe.tl.evaluate import evaluate_prediction
 from robolobe.tl.graybox import TwinCalibration, twin_values
 from robolobe.tl.models import load_model
@@ -248,7 +248,7 @@ def _one(src, form, rep, key, data, file_error, beta, tool_offset_m, case_kinds)
         t0 = time.perf_counter()
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
-            net = transfer(src, tr.q_rad, tr.y, robot=key, random_state=rep)
+            net = transfer_network(src, tr.q_rad, tr.y, robot=key, random_state=rep)
             pn = net.predict(q[test], warn=False)
             pn_ws = net.predict(q_ws, warn=False).values
         res["network"] = score(pn.values, pn.interval(0.9), y_true, meas)

@@ -7,7 +7,7 @@ nothing until a name is used)::
 
     campaign = rl.read_campaign("camp")                  # hammer tests (CSV or UFF 58)
     modal = rl.identify(campaign)                        # modal parameters per posture
-    model = rl.CorrectedTwin(robot="B").fit(modal.table) # calibrated twin + correction
+    model = rl.transfer(modal.table, robot="B")          # calibrated twin + correction
     job = rl.load_job("job_B_contour.toml")
     plan = rl.plan_path("contour.apt", job, modes=model)
     rl.write_plan(plan, "out")                           # waypoints, summary, plots, report
@@ -49,6 +49,7 @@ _API: dict[str, tuple[str, str]] = {
     "TwinCalibration": ("robolobe.tl.graybox", "TwinCalibration"),
     "ModalPredictor": ("robolobe.tl.estimator", "ModalPredictor"),
     "load_model": ("robolobe.tl.models", "load_model"),
+    "transfer": ("robolobe.tl.transfer", "transfer"),
     # stability lobes
     "stability_lobes": ("robolobe.sld", "stability_lobes"),
     # planning

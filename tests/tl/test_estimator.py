@@ -10,7 +10,7 @@ import pytest
 
 from robolobe.errors import InputError
 from robolobe.tl.dataset import TrustWarning
-from robolobe.tl.estimator import ModalPredictor, transfer
+from robolobe.tl.estimator import ModalPredictor, transfer_network
 
 from .conftest import HI, LO, smooth_modal
 
@@ -60,7 +60,7 @@ def test_fit_learns_a_smooth_map(source):
 def test_transfer_keeps_the_first_three_layers_bitwise(source):
     rng = np.random.default_rng(1)
     q = rng.uniform(LO, HI, size=(12, 6))
-    tgt = transfer(source, q, smooth_modal(q, 0.3), robot="T", epochs=20)
+    tgt = transfer_network(source, q, smooth_modal(q, 0.3), robot="T", epochs=20)
     assert tgt.n_frozen_used_ == 3
     assert tgt.lineage_ == ["S", "T"]
     src_w = source.net_.to_arrays()
@@ -76,8 +76,8 @@ def test_same_seed_same_model_and_save_load_round_trip(tmp_path, source):
     rng = np.random.default_rng(2)
     q = rng.uniform(LO, HI, size=(10, 6))
     y = smooth_modal(q, 0.2)
-    a = transfer(source, q, y, epochs=10, random_state=7)
-    b = transfer(source, q, y, epochs=10, random_state=7)
+    a = transfer_network(source, q, y, epochs=10, random_state=7)
+    b = transfer_network(source, q, y, epochs=10, random_state=7)
     np.testing.assert_array_equal(a.net_.to_arrays()["W5"], b.net_.to_arrays()["W5"])
     path = a.save(tmp_path / "m.npz")
     with zipfile.ZipFile(path) as z:  # plain arrays only: loadable without pickle
@@ -112,7 +112,7 @@ def test_missing_values_masked_or_interpolated():
 def test_interval_levels_and_cv_calibration_factor(source):
     rng = np.random.default_rng(4)
     q = rng.uniform(LO, HI, size=(15, 6))
-    m = transfer(source, q, smooth_modal(q, 0.1), epochs=15)
+    m = transfer_network(source, q, smooth_modal(q, 0.1), epochs=15)
     assert m.calibration_.shape == (2, 3)
     assert np.all(m.calibration_ > 0)
     # the factor makes exactly ~90 % of the cross-validated values fall inside

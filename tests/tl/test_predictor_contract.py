@@ -114,3 +114,27 @@ def test_prediction_shape_units_and_determinism(name: str, data, fitted) -> None
 def test_bad_postures_are_refused(name: str, fitted, q, what) -> None:
     with pytest.raises(InputError):
         fitted[name].predict(q)
+
+
+@pytest.mark.filterwarnings("ignore::robolobe.tl.dataset.TrustWarning")
+def test_transfer_policy_lives_in_the_library(data) -> None:
+    """``robolobe.transfer`` picks the predictor as ``robolobe transfer`` does."""
+    import robolobe as rl
+    from robolobe.tl.transfer import default_method
+
+    assert default_method("B", None, None) == "corrected-twin"
+    assert default_method("B", "A", None) == "network"
+    assert default_method(None, None, "twin-calibration") == "twin-calibration"
+    with pytest.raises(InputError, match="robot"):
+        default_method(None, None, None)
+    with pytest.raises(InputError, match="expected one of"):
+        default_method("B", None, "gp")
+    ds, q_new = data
+    df = ds.to_frame()
+    with pytest.raises(InputError, match="robot file to calibrate"):
+        rl.transfer(df, method="twin-calibration")
+    with pytest.raises(InputError, match="at least"):
+        rl.transfer(df.iloc[:10], robot="B", method="twin-calibration")
+    model = rl.transfer(df, robot="B", method="twin-calibration", params=("stiffness",))
+    assert isinstance(model, TwinCalibration)
+    assert model.predict(q_new).values.shape == (len(q_new), len(DIRS), N_MODES, 3)

@@ -19,7 +19,6 @@ from robolobe.errors import InputError
 __all__ = ["register"]
 
 _MIN_TRAIN = 15
-_MIN_TRANSFER = 8
 
 
 @contextmanager
@@ -100,11 +99,9 @@ def _calibrate(
     modal_csv: Path, output: Path, robot: str | None, method: str, params: str, seed: int
 ) -> None:
     """``transfer --method corrected-twin | twin-calibration``: fit, write, report."""
-    import pandas as pd
-
-    from robolobe.modal.modal_csv import read_modal_csv
     from robolobe.tl.graybox import TwinCalibration
     from robolobe.tl.residual import CorrectedTwin
+    from robolobe.tl.transfer import transfer
 
     if robot is None:
         raise InputError(
@@ -125,26 +122,17 @@ def _calibrate(
     rob = _robot(robot)
     groups = tuple(g.strip() for g in params.split(",") if g.strip())
     with _shown_warnings():
-        df = read_modal_csv(modal_csv)
-        present = set(df["dir"].astype(str).str.lower()) if "dir" in df.columns else set()
-        dirs = tuple(d for d in ("xx", "yy", "zz") if d in present) or ("xx", "yy")
-        # joint limits, duplicates, missing modes; the twin calibration takes as many modes
-        # per direction as the tests found (a small robot may have fewer than five)
-        modes = pd.to_numeric(df.loc[df["dir"].astype(str).str.lower().isin(dirs), "mode"])
-        n_modes = int(min(5, modes.max())) if len(modes) else 5
-        _load_dataset(modal_csv, dirs, robot, 5, n_modes)
         t0 = time.perf_counter()
-        if method == "twin-calibration":
-            with status("calibrating the twin"):
-                cal = TwinCalibration(robot=rob, params=groups, random_state=seed).fit(df)
-            cal.save(output)
-        else:
-            with status("calibrating the twin and learning its correction"):
-                model = CorrectedTwin(
-                    robot=rob, calibration={"params": groups}, random_state=seed
-                ).fit(df)
-            cal = model.calibration_
-            model.save(output)
+        what = (
+            "calibrating the twin"
+            if method == "twin-calibration"
+            else "calibrating the twin and learning its correction"
+        )
+        with status(what):
+            model = transfer(modal_csv, robot=rob, method=method, params=groups, random_state=seed)
+        model.save(output)
+        cal = model.calibration_ if isinstance(model, CorrectedTwin) else model
+        assert isinstance(cal, TwinCalibration)
     console.print(
         f"[bold]{output}[/]: {cal.n_postures_} postures, {cal.n_matched_} modes matched "
         f"({cal.n_unmatched_} not), residual RMS f/zeta/k = "
@@ -158,7 +146,7 @@ def _calibrate(
             )
         else:
             console.print(f"  {row['param']}: x{row['value']:.3f} (+- {row['std']:.3f})")
-    if method == "corrected-twin":
+    if isinstance(model, CorrectedTwin):
         summ = model.summary()
         for q in ("f", "zeta", "k"):
             part = summ[(summ["quantity"] == q) & (summ["n"] > 0)]
@@ -289,50 +277,35 @@ def register(app: typer.Typer) -> None:
 
         check_output_file(output, "--output")
 
-        from robolobe.tl.estimator import transfer
-        from robolobe.tl.models import load_model
+        from robolobe.tl.transfer import default_method, transfer
 
-        methods = ("corrected-twin", "twin-calibration", "network")
-        if method is None:
-            if source is not None:
-                method = "network"
-            elif robot is not None:
-                method = "corrected-twin"
-            else:
-                raise InputError(
-                    "expected --robot (the robot file to calibrate: the default predictor) or "
-                    "--from (a network to transfer)",
-                    source="--robot",
-                )
-        if method not in methods:
-            raise InputError(
-                f"expected one of {', '.join(methods)}, found {method!r}", source="--method"
-            )
+        try:
+            method = default_method(robot, source, method)
+        except InputError as exc:  # name the options, not the arguments
+            where = "--method" if method is not None else "--robot"
+            raise InputError(exc.detail.replace("a robot (", "--robot ("), where) from None
         if method != "network":
             _calibrate(modal_csv, output, robot, method, params, seed)
             return
         if source is None:
             raise InputError("expected a source model with --method network", source="--from")
-        from robolobe.tl.estimator import ModalPredictor
-
-        src = load_model(source)
-        if not isinstance(src, ModalPredictor):
-            raise InputError(
-                f"expected a network model to transfer, found a corrected twin ({source})",
-                source="--from",
-            )
         with _shown_warnings():
-            ds = _load_dataset(modal_csv, tuple(src.directions), robot, _MIN_TRANSFER)
-            kw: dict[str, Any] = {
-                "n_frozen": frozen,
-                "random_state": seed,
-                "robot": robot or modal_csv.stem,
-            }
-            if epochs is not None:
-                kw["epochs"] = epochs
             t0 = time.perf_counter()
-            with status(f"transferring to {ds.n_postures} postures"):
-                model = transfer(src, ds.q_rad, ds.y, **kw)
+            with status("transferring the network"):
+                try:
+                    model = transfer(
+                        modal_csv,
+                        robot=robot,
+                        source=source,
+                        method="network",
+                        n_frozen=frozen,
+                        epochs=epochs,
+                        random_state=seed,
+                    )
+                except InputError as exc:
+                    if exc.source == "source":
+                        raise InputError(exc.detail, "--from") from None
+                    raise
             model.save(output)
         _summary(model, time.perf_counter() - t0, output)
 

@@ -19,11 +19,12 @@ learned correction, the default predictor of ``robolobe transfer``),
 """
 
 from robolobe.tl.dataset import ModalDataset, TrustWarning, dataset_from_frame
-from robolobe.tl.estimator import ModalPrediction, ModalPredictor, transfer
+from robolobe.tl.estimator import ModalPrediction, ModalPredictor, transfer_network
 from robolobe.tl.graybox import TwinCalibration
 from robolobe.tl.models import load_model
 from robolobe.tl.presets import DEFAULT_PRESET, PRESETS
 from robolobe.tl.residual import CorrectedTwin
+from robolobe.tl.transfer import transfer
 
 __all__ = [
     "DEFAULT_PRESET",
@@ -37,4 +38,5 @@ __all__ = [
     "dataset_from_frame",
     "load_model",
     "transfer",
+    "transfer_network",
 ]

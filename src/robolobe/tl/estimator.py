@@ -49,7 +49,7 @@ from robolobe.tl.preprocess import (
 )
 from robolobe.tl.training import TrainHistory, train_ensemble
 
-__all__ = ["MODEL_FORMAT", "ModalPrediction", "ModalPredictor", "transfer"]
+__all__ = ["MODEL_FORMAT", "ModalPrediction", "ModalPredictor", "transfer_network"]
 
 MODEL_FORMAT = "robolobe-tl/1"
 FloatArray = NDArray[np.float64]
@@ -721,7 +721,7 @@ class ModalPredictor:
         )
 
 
-def transfer(
+def transfer_network(
     source: ModalPredictor, q_rad: ArrayLike, y: ArrayLike, **params: Any
 ) -> ModalPredictor:
     """The seed's transfer: a copy of ``source``'s settings, refitted on a new robot.

@@ -1,0 +1,193 @@
+"""Make a robot's mode predictor from a few hammer tests: the one transfer policy.
+
+:func:`transfer` is what ``robolobe transfer`` runs and what
+``robolobe.transfer`` is in Python. Which predictor it makes (the default is
+the best validated one, studies/tl_graybox.py and studies/plan_safety.py):
+
+- ``robot`` given, no ``source``: ``"corrected-twin"``, the robot file's twin
+  calibrated to the tests plus a cross-validated learned correction
+  (:class:`~robolobe.tl.residual.CorrectedTwin`; plans robustly on its own
+  calibrated spread);
+- ``method="twin-calibration"``: the calibrated robot file alone
+  (:class:`~robolobe.tl.graybox.TwinCalibration`);
+- ``source`` given (a network, e.g. the shipped ``"A"``): ``"network"``, the
+  seed paper's transfer with frozen layers
+  (:func:`~robolobe.tl.estimator.transfer_network`).
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+from robolobe.errors import InputError
+from robolobe.robots import Robot, load_robot
+from robolobe.tl.dataset import ModalDataset, check_dataset, dataset_from_frame
+from robolobe.tl.estimator import ModalPredictor, transfer_network
+from robolobe.tl.graybox import DEFAULT_PARAMS, TwinCalibration
+from robolobe.tl.residual import CorrectedTwin
+
+__all__ = ["METHODS", "MIN_POSTURES", "default_method", "transfer"]
+
+METHODS: tuple[str, ...] = ("corrected-twin", "twin-calibration", "network")
+"""The predictors :func:`transfer` makes."""
+MIN_POSTURES: dict[str, int] = {"corrected-twin": 5, "twin-calibration": 5, "network": 8}
+"""Fewest tested postures each method accepts."""
+
+
+def default_method(robot: object | None, source: object | None, method: str | None) -> str:
+    """The method :func:`transfer` uses for these arguments (the policy, stated once).
+
+    Raises
+    ------
+    InputError
+        Neither a robot nor a source, or an unknown method.
+    """
+    if method is None:
+        if source is not None:
+            return "network"
+        if robot is not None:
+            return "corrected-twin"
+        raise InputError(
+            "expected a robot (the robot file to calibrate: the default predictor) or a "
+            "source network to transfer",
+            source="robot",
+        )
+    if method not in METHODS:
+        raise InputError(f"expected one of {', '.join(METHODS)}, found {method!r}", "method")
+    return method
+
+
+def _frame(modal: pd.DataFrame | str | os.PathLike[str]) -> tuple[pd.DataFrame, str]:
+    if isinstance(modal, pd.DataFrame):
+        return modal, "modal dataset"
+    from robolobe.modal.modal_csv import read_modal_csv
+
+    return read_modal_csv(modal), os.fspath(modal)
+
+
+def _dataset(
+    df: pd.DataFrame,
+    name: str,
+    directions: Sequence[str],
+    n_modes: int,
+    robot: Robot | None,
+    min_postures: int,
+) -> ModalDataset:
+    """The tests as a dataset, checked: enough postures, inside the robot's limits."""
+    ds = dataset_from_frame(df, directions=tuple(directions), n_modes=n_modes, source=name)
+    check_dataset(
+        ds,
+        min_postures=min_postures,
+        q_min_rad=None if robot is None else robot.q_min,
+        q_max_rad=None if robot is None else robot.q_max,
+        source=name,
+    )
+    return ds
+
+
+def transfer(
+    modal: pd.DataFrame | str | os.PathLike[str],
+    *,
+    robot: Robot | str | os.PathLike[str] | None = None,
+    source: ModalPredictor | str | os.PathLike[str] | None = None,
+    method: str | None = None,
+    params: Sequence[str] = DEFAULT_PARAMS,
+    n_frozen: int = 3,
+    epochs: int | None = None,
+    random_state: int = 0,
+) -> CorrectedTwin | TwinCalibration | ModalPredictor:
+    """Fit a robot's mode predictor to its hammer tests.
+
+    Parameters
+    ----------
+    modal : pandas.DataFrame or path
+        The tests' modal dataset (a ``modal.csv`` as ``robolobe identify``
+        writes it, or its frame).
+    robot : Robot or str or path, optional
+        The robot: ``"A"``, ``"B"``, ``"C"`` or a robot file. The file to
+        calibrate for the twin methods; for ``"network"`` the label and the
+        joint-limit check.
+    source : ModalPredictor or str or path, optional
+        A fitted network to transfer from (``"A"``: the shipped one).
+    method : {"corrected-twin", "twin-calibration", "network"}, optional
+        Default: :func:`default_method`.
+    params : sequence of str
+        Twin methods: the parameter groups to calibrate
+        (:data:`robolobe.tl.graybox.DEFAULT_PARAMS`).
+    n_frozen : int
+        Network: frozen layers (the seed: 3).
+    epochs : int, optional
+        Network: training epochs (default: the source's).
+    random_state : int
+        Seed of the random starts and of the network's training.
+
+    Returns
+    -------
+    CorrectedTwin or TwinCalibration or ModalPredictor
+        Fitted; ``save(path)`` writes it (``.npz``; the calibration a robot
+        ``.toml``).
+
+    Raises
+    ------
+    InputError
+        No robot for a twin method, a source that is no network, too few
+        postures, postures outside the robot's limits, a bad dataset.
+    """
+    method = default_method(robot, source, method)
+    df, name = _frame(modal)
+    rob = None
+    if robot is not None:
+        rob = robot if isinstance(robot, Robot) else load_robot(robot)
+    if method == "network":
+        if source is None:
+            raise InputError("expected a source network for method 'network'", source="source")
+        if isinstance(source, ModalPredictor):
+            src = source
+        else:
+            from robolobe.tl.models import load_model
+
+            loaded = load_model(os.fspath(source))
+            if not isinstance(loaded, ModalPredictor):
+                raise InputError(
+                    f"expected a network model to transfer, found a corrected twin ({source})",
+                    source="source",
+                )
+            src = loaded
+        ds = _dataset(df, name, src.directions, 5, rob, MIN_POSTURES["network"])
+        kw: dict[str, Any] = {"n_frozen": n_frozen, "random_state": random_state}
+        # the label is how the robot was named (a built-in key or a file), so that a
+        # prediction's campaign can name it again; a Robot object gives its name
+        if isinstance(robot, str | os.PathLike):
+            kw["robot"] = os.fspath(robot)
+        else:
+            kw["robot"] = rob.name if rob is not None else Path(name).stem
+        if epochs is not None:
+            kw["epochs"] = epochs
+        return transfer_network(src, ds.q_rad, ds.y, **kw)
+    if rob is None:
+        raise InputError(
+            f"expected the robot file to calibrate (A, B, C or a .toml) for method {method!r}",
+            source="robot",
+        )
+    present = set(df["dir"].astype(str).str.lower()) if "dir" in df.columns else set()
+    dirs = tuple(d for d in ("xx", "yy", "zz") if d in present) or ("xx", "yy")
+    # the twin methods take as many modes per direction as the tests found (a small
+    # robot may have fewer than five)
+    n_modes = 5
+    if "mode" in df.columns:
+        modes = pd.to_numeric(df.loc[df["dir"].astype(str).str.lower().isin(dirs), "mode"])
+        if len(modes) and np.isfinite(modes.max()):
+            n_modes = int(min(5, modes.max()))
+    _dataset(df, name, dirs, n_modes, rob, MIN_POSTURES[method])
+    groups = tuple(params)
+    if method == "twin-calibration":
+        return TwinCalibration(robot=rob, params=groups, random_state=random_state).fit(df)
+    return CorrectedTwin(robot=rob, calibration={"params": groups}, random_state=random_state).fit(
+        df
+    )
