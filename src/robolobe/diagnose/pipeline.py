@@ -34,8 +34,8 @@ from pathlib import Path
 
 import numpy as np
 from numpy.typing import NDArray
-from threadpoolctl import threadpool_limits
 
+from robolobe._threads import one_blas_thread
 from robolobe.campaign import Campaign, read_campaign
 from robolobe.diagnose.campaign_data import campaign_observations
 from robolobe.diagnose.candidate import NONE
@@ -257,7 +257,7 @@ def diagnose(
     """
     # the fits' matrices are small or tall and thin: threaded BLAS only adds contention
     # (a 52000 x 19 product took 3 s instead of 0.03 s on a loaded 2-core machine)
-    with threadpool_limits(limits=1, user_api="blas"):
+    with one_blas_thread():
         return _diagnose(
             campaign, robot=robot, settings=settings, force_N=force_N, progress=progress
         )

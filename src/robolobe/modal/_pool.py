@@ -3,43 +3,19 @@ module and :mod:`robolobe.modal.posture`, not pandas or the campaign code)."""
 
 from __future__ import annotations
 
-import functools
 from collections.abc import Callable, Sequence
 from typing import Any, ParamSpec, TypeVar
 
 import numpy as np
 from numpy.typing import NDArray
 
+from robolobe._threads import one_blas_thread, with_one_blas_thread
 from robolobe.modal.posture import PostureModal, identify_posture, refit_posture
 
-__all__ = ["identify_item", "map_chunks", "one_blas_thread", "refit_item", "with_one_blas_thread"]
+__all__ = ["identify_item", "map_chunks", "refit_item", "with_one_blas_thread"]
 
 P = ParamSpec("P")
 T = TypeVar("T")
-
-
-def one_blas_thread() -> Any:
-    """Context limiting BLAS to one thread.
-
-    The identification's linear algebra is many small solves: a multi-threaded
-    BLAS only adds synchronisation, and on a loaded machine (or beside other
-    workers) its spinning threads made one refinement residual 50x slower
-    (0.17 s vs 3 ms measured under a load average of 10).
-    """
-    from threadpoolctl import threadpool_limits
-
-    return threadpool_limits(limits=1, user_api="blas")
-
-
-def with_one_blas_thread(fn: Callable[P, T]) -> Callable[P, T]:
-    """Decorator: run ``fn`` with BLAS limited to one thread (:func:`one_blas_thread`)."""
-
-    @functools.wraps(fn)
-    def inner(*args: P.args, **kwargs: P.kwargs) -> T:
-        with one_blas_thread():
-            return fn(*args, **kwargs)
-
-    return inner
 
 
 def identify_item(a: tuple[Any, ...]) -> PostureModal:

@@ -30,8 +30,8 @@ from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from threadpoolctl import threadpool_limits
 
+from robolobe._threads import one_blas_thread
 from robolobe.errors import ConvergenceError, InputError
 from robolobe.sld.conditions import CuttingConditions
 from robolobe.sld.directional import directional_factors, interval_directional_average
@@ -244,7 +244,7 @@ def _radius(sys: SdmSystem, depth: FloatArray, rpm: FloatArray) -> FloatArray:
         y = np.concatenate([xn, qi, y[:, nx : dim - 2]], axis=1)
     # Many small dense eigenproblems: BLAS threads only contend here (50-100x slower on a
     # loaded 2-core machine for 100x100 matrices), so run them single-threaded.
-    with threadpool_limits(limits=1, user_api="blas"):
+    with one_blas_thread():
         ev = np.linalg.eigvals(y)
     return np.asarray(np.abs(ev).max(axis=-1))
 

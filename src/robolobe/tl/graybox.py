@@ -60,6 +60,7 @@ import pandas as pd
 from numpy.typing import ArrayLike, NDArray
 from scipy.optimize import least_squares
 
+from robolobe._threads import one_blas_thread, with_one_blas_thread
 from robolobe.errors import ConvergenceError, InputError
 from robolobe.robots.limits import as_postures
 from robolobe.robots.model import Robot
@@ -409,6 +410,10 @@ class TwinCalibration:
 
     def fit_dataset(self, ds: ModalDataset) -> TwinCalibration:
         """Calibrate on a :class:`~robolobe.tl.dataset.ModalDataset` (NaN = not seen)."""
+        with one_blas_thread():
+            return self._fit_dataset(ds)
+
+    def _fit_dataset(self, ds: ModalDataset) -> TwinCalibration:
         base, groups = self._validate()
         if ds.n_postures < self.min_postures:
             raise InputError(
@@ -633,6 +638,7 @@ class TwinCalibration:
         if not hasattr(self, "robot_"):
             raise InputError("this TwinCalibration is not fitted yet: call fit()")
 
+    @with_one_blas_thread
     def predict(
         self,
         q_rad: ArrayLike,

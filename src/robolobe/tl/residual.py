@@ -52,6 +52,7 @@ from numpy.typing import ArrayLike, NDArray
 from scipy.optimize import minimize
 
 from robolobe._atomic import atomic_path
+from robolobe._threads import one_blas_thread, with_one_blas_thread
 from robolobe.errors import InputError
 from robolobe.robots.limits import as_postures
 from robolobe.robots.model import Robot
@@ -212,6 +213,10 @@ class CorrectedTwin:
 
     def fit_dataset(self, ds: ModalDataset) -> CorrectedTwin:
         """Fit on a :class:`~robolobe.tl.dataset.ModalDataset` (NaN = not seen)."""
+        with one_blas_thread():
+            return self._fit_dataset(ds)
+
+    def _fit_dataset(self, ds: ModalDataset) -> CorrectedTwin:
         if ds.n_postures < self.min_postures:
             raise InputError(
                 f"expected at least {self.min_postures} postures for a corrected twin, found "
@@ -370,6 +375,7 @@ class CorrectedTwin:
                     std[:, j, m, c] = self.loo_rmse_[j, m, c] * np.sqrt(ratio)
         return mean, std
 
+    @with_one_blas_thread
     def predict(
         self,
         q_rad: ArrayLike,
@@ -439,6 +445,7 @@ class CorrectedTwin:
             std = np.zeros_like(center)
         return ModalPrediction(directions=dirs, center=center, std=std, kind="log")
 
+    @with_one_blas_thread
     def planning_spread(
         self,
         q_rad: ArrayLike,
