@@ -47,6 +47,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.optimize import least_squares, linear_sum_assignment, lsq_linear
 
+from robolobe._threads import with_one_blas_thread
 from robolobe.errors import InputError
 from robolobe.robots import RigidBody, Robot, sample_postures
 from robolobe.robots.limits import as_postures
@@ -362,6 +363,7 @@ def fit_damping(
     return c
 
 
+@with_one_blas_thread
 def calibrate(
     robot: Robot,
     q: ArrayLike,
@@ -968,6 +970,7 @@ def _stage1(
     return [(float(sol.cost), full(sol.x)) for sol in out]
 
 
+@with_one_blas_thread
 def fit_seed_table(
     robot: Robot,
     table: SeedTable,
