@@ -166,7 +166,9 @@ def roughness_sigma(
     d2 = np.concatenate([np.take(d2, [0], axis=ax), d2, np.take(d2, [-1], axis=ax)], axis=ax)
     pad = [(0, 0)] * d2.ndim
     pad[ax] = (half, half)
-    padded = np.pad(d2, pad, mode="edge")
+    # NaN padding: windows at the band's ends take the median of the lines they hold
+    # (edge padding let one line's value stand for half a window there)
+    padded = np.pad(d2, pad, mode="constant", constant_values=np.nan)
     win = np.lib.stride_tricks.sliding_window_view(padded, 2 * half + 1, axis=ax)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", RuntimeWarning)  # all-NaN windows (absent dirs)

@@ -18,6 +18,18 @@ noise of ``log H_meas`` (:mod:`robolobe.diagnose.noise`). Why this form:
 - a frequency shift of a peak gives a bounded residual (a complex
   difference grows with the peak height and makes fits start-dependent).
 
+Where the recording is dominated by its noise (relative noise ``sigma``
+above :data:`NOISY_SIGMA`: cross FRFs far above the modes, deep
+anti-resonances, the anti-aliasing roll-off) the log is the wrong scale: the
+measured value is the noise itself, and a model whose true value lies 100x
+below it would miss by ``log(100) / sigma`` ~ 5-9 noise deviations however
+right it is. There the residual is the linear relative difference
+``(H_model / H_meas - 1) / sigma`` (equal to the log form to first order
+where both are small, so the switch is continuous in the region that
+matters): a model below the noise misses by ~``1 / sigma`` (about one noise
+deviation), a model *above* the recorded level still misses by its full
+excess. Which points are noisy is decided by the data alone.
+
 Fits use a soft-L1 loss with scale ``F_SCALE`` (quadratic for residuals of a
 few noise deviations, linear beyond), so a model zero that sits a line
 away from the measured anti-resonance does not dominate a fit. The
@@ -52,10 +64,30 @@ __all__ = [
 F_SCALE = 3.0
 #: Bound on |log ratio| (a model FRF of zero or inf would give inf).
 _LOG_CAP = 20.0
+#: Relative noise above which a point counts as noise-dominated (linear residual).
+NOISY_SIGMA = 0.25
+
+
+def _ratio_residual(
+    ratio: NDArray[np.complex128], noisy: NDArray[np.bool_]
+) -> NDArray[np.complex128]:
+    """``log(ratio)`` (real part capped), or ``ratio - 1`` where ``noisy`` (module notes)."""
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        lr = np.log(ratio)
+    re = np.clip(
+        np.nan_to_num(lr.real, nan=_LOG_CAP, posinf=_LOG_CAP, neginf=-_LOG_CAP), -_LOG_CAP, _LOG_CAP
+    )
+    im = np.nan_to_num(lr.imag, nan=np.pi)
+    lin = np.nan_to_num(ratio - 1.0, nan=_LOG_CAP, posinf=_LOG_CAP, neginf=-_LOG_CAP)
+    lin = np.clip(lin.real, -_LOG_CAP, _LOG_CAP) + 1j * np.clip(lin.imag, -_LOG_CAP, _LOG_CAP)
+    return np.where(noisy, lin, re + 1j * im)
 
 
 def log_ratio(H_model: NDArray[np.complexfloating], obs: Observations) -> NDArray[np.complex128]:
     """``log(H_model / H_meas)`` on measured points, NaN elsewhere.
+
+    On noise-dominated points (``sigma > NOISY_SIGMA``) the linear relative
+    difference ``H_model / H_meas - 1`` instead (module notes).
 
     Parameters
     ----------
@@ -72,10 +104,7 @@ def log_ratio(H_model: NDArray[np.complexfloating], obs: Observations) -> NDArra
     if Hp.shape != obs.H.shape:
         raise ValueError(f"H_model: expected shape {obs.H.shape}, found {Hp.shape}")
     with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        lr = np.log(Hp / obs.H)
-    re = np.nan_to_num(lr.real, nan=_LOG_CAP, posinf=_LOG_CAP, neginf=-_LOG_CAP)
-    im = np.nan_to_num(lr.imag, nan=np.pi)
-    out = np.clip(re, -_LOG_CAP, _LOG_CAP) + 1j * im
+        out = _ratio_residual(Hp / obs.H, np.nan_to_num(obs.sigma) > NOISY_SIGMA)
     return np.where(obs.mask, out, np.nan + 0j)
 
 
@@ -90,20 +119,17 @@ def residual_vector(H_model: NDArray[np.complexfloating], obs: Observations) -> 
     Returns
     -------
     ndarray, shape (2 m,)
-        Real parts then imaginary parts of ``log(H_model/H_meas)/sigma`` over
+        Real parts then imaginary parts of ``log(H_model/H_meas)/sigma`` (the
+        linear form on noise-dominated points, :func:`log_ratio`) over
         the ``m`` measured points (order of ``obs.H_measured``).
     """
     Hp = np.asarray(H_model)
     if Hp.shape != obs.H.shape:
         raise ValueError(f"H_model: expected shape {obs.H.shape}, found {Hp.shape}")
-    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        lr = np.log(Hp[obs.mask] / obs.H_measured)
-    re = np.clip(
-        np.nan_to_num(lr.real, nan=_LOG_CAP, posinf=_LOG_CAP, neginf=-_LOG_CAP), -_LOG_CAP, _LOG_CAP
-    )
-    im = np.nan_to_num(lr.imag, nan=np.pi)
     w = obs.inv_sigma_measured
-    return np.concatenate([re * w, im * w])
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        lr = _ratio_residual(Hp[obs.mask] / obs.H_measured, w < 1.0 / NOISY_SIGMA)
+    return np.concatenate([lr.real * w, lr.imag * w])
 
 
 def _rho(r: NDArray[np.float64]) -> NDArray[np.float64]:
