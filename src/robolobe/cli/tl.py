@@ -57,6 +57,15 @@ def _robot(spec: str | None) -> Any:
     return load_robot(spec)
 
 
+#: The arguments of :func:`robolobe.tl.transfer.transfer` and their CLI options.
+_TRANSFER_OPTIONS = {"robot": "--robot", "source": "--from", "method": "--method"}
+
+
+def _as_option_error(exc: InputError) -> InputError:
+    """The library's error with the argument named as the command's option."""
+    return InputError(exc.detail, _TRANSFER_OPTIONS.get(exc.source or "", exc.source))
+
+
 def _load_dataset(
     path: Path,
     directions: tuple[str, ...],
@@ -65,19 +74,10 @@ def _load_dataset(
     n_modes: int = 5,
 ) -> Any:
     from robolobe.modal.modal_csv import read_modal_csv
-    from robolobe.tl.dataset import check_dataset, dataset_from_frame
+    from robolobe.tl.transfer import checked_dataset
 
     df = read_modal_csv(path)
-    ds = dataset_from_frame(df, directions=directions, n_modes=n_modes, source=str(path))
-    robot = _robot(robot_spec)
-    check_dataset(
-        ds,
-        min_postures=min_postures,
-        q_min_rad=None if robot is None else robot.q_min,
-        q_max_rad=None if robot is None else robot.q_max,
-        source=str(path),
-    )
-    return ds
+    return checked_dataset(df, str(path), directions, n_modes, _robot(robot_spec), min_postures)
 
 
 def _summary(model: Any, seconds: float, out: Path) -> None:
@@ -281,9 +281,8 @@ def register(app: typer.Typer) -> None:
 
         try:
             method = default_method(robot, source, method)
-        except InputError as exc:  # name the options, not the arguments
-            where = "--method" if method is not None else "--robot"
-            raise InputError(exc.detail.replace("a robot (", "--robot ("), where) from None
+        except InputError as exc:
+            raise _as_option_error(exc) from None
         if method != "network":
             _calibrate(modal_csv, output, robot, method, params, seed)
             return
@@ -303,9 +302,7 @@ def register(app: typer.Typer) -> None:
                         random_state=seed,
                     )
                 except InputError as exc:
-                    if exc.source == "source":
-                        raise InputError(exc.detail, "--from") from None
-                    raise
+                    raise _as_option_error(exc) from None
             model.save(output)
         _summary(model, time.perf_counter() - t0, output)
 

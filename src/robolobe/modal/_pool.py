@@ -4,18 +4,15 @@ module and :mod:`robolobe.modal.posture`, not pandas or the campaign code)."""
 from __future__ import annotations
 
 from collections.abc import Callable, Sequence
-from typing import Any, ParamSpec, TypeVar
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
-from robolobe._threads import one_blas_thread, with_one_blas_thread
+from robolobe._threads import one_blas_thread
 from robolobe.modal.posture import PostureModal, identify_posture, refit_posture
 
-__all__ = ["identify_item", "map_chunks", "refit_item", "with_one_blas_thread"]
-
-P = ParamSpec("P")
-T = TypeVar("T")
+__all__ = ["identify_item", "map_chunks", "refit_item"]
 
 
 def identify_item(a: tuple[Any, ...]) -> PostureModal:

@@ -28,8 +28,8 @@ import numpy as np
 import pandas as pd
 from numpy.typing import ArrayLike, NDArray
 
+from robolobe._threads import with_one_blas_thread
 from robolobe.errors import InputError
-from robolobe.modal._pool import with_one_blas_thread
 from robolobe.modal.lsfd import LSFDResult, lsfd, modal_stiffness
 from robolobe.modal.plscf import plscf
 from robolobe.modal.posture import IdentifySettings, clean_poles, sign_issues

@@ -32,7 +32,7 @@ from robolobe.tl.estimator import ModalPredictor, transfer_network
 from robolobe.tl.graybox import DEFAULT_PARAMS, TwinCalibration
 from robolobe.tl.residual import CorrectedTwin
 
-__all__ = ["METHODS", "MIN_POSTURES", "default_method", "transfer"]
+__all__ = ["METHODS", "MIN_POSTURES", "checked_dataset", "default_method", "transfer"]
 
 METHODS: tuple[str, ...] = ("corrected-twin", "twin-calibration", "network")
 """The predictors :func:`transfer` makes."""
@@ -71,7 +71,7 @@ def _frame(modal: pd.DataFrame | str | os.PathLike[str]) -> tuple[pd.DataFrame, 
     return read_modal_csv(modal), os.fspath(modal)
 
 
-def _dataset(
+def checked_dataset(
     df: pd.DataFrame,
     name: str,
     directions: Sequence[str],
@@ -79,7 +79,29 @@ def _dataset(
     robot: Robot | None,
     min_postures: int,
 ) -> ModalDataset:
-    """The tests as a dataset, checked: enough postures, inside the robot's limits."""
+    """The tests as a dataset, checked: enough postures, inside the robot's limits.
+
+    Parameters
+    ----------
+    df : pandas.DataFrame
+        A modal dataset frame (``modal.csv``).
+    name : str
+        The data's name in messages (its file).
+    directions : sequence of str
+        Driving-point directions kept.
+    n_modes : int
+        Modes per direction.
+    robot : Robot, optional
+        Postures are checked against its joint limits.
+    min_postures : int
+        Fewest postures accepted.
+
+    Raises
+    ------
+    InputError
+        Too few postures, postures outside the limits, repeated postures, a
+        mode no posture has; a TrustWarning for missing values.
+    """
     ds = dataset_from_frame(df, directions=tuple(directions), n_modes=n_modes, source=name)
     check_dataset(
         ds,
@@ -159,7 +181,7 @@ def transfer(
                     source="source",
                 )
             src = loaded
-        ds = _dataset(df, name, src.directions, 5, rob, MIN_POSTURES["network"])
+        ds = checked_dataset(df, name, src.directions, 5, rob, MIN_POSTURES["network"])
         kw: dict[str, Any] = {"n_frozen": n_frozen, "random_state": random_state}
         # the label is how the robot was named (a built-in key or a file), so that a
         # prediction's campaign can name it again; a Robot object gives its name
@@ -184,7 +206,7 @@ def transfer(
         modes = pd.to_numeric(df.loc[df["dir"].astype(str).str.lower().isin(dirs), "mode"])
         if len(modes) and np.isfinite(modes.max()):
             n_modes = int(min(5, modes.max()))
-    _dataset(df, name, dirs, n_modes, rob, MIN_POSTURES[method])
+    checked_dataset(df, name, dirs, n_modes, rob, MIN_POSTURES[method])
     groups = tuple(params)
     if method == "twin-calibration":
         return TwinCalibration(robot=rob, params=groups, random_state=random_state).fit(df)
