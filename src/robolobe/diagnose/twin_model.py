@@ -37,7 +37,9 @@ from robolobe.diagnose.observations import Observations
 from robolobe.errors import InputError
 from robolobe.robots import Robot
 from robolobe.twin.effects import Effect, FrictionDamping
+from robolobe.twin._poles import state_space_eig
 from robolobe.twin.model import Twin
+from robolobe.twin.modes import damped_poles
 
 __all__ = [
     "TwinModel",
@@ -58,6 +60,10 @@ def state_space_poles(
 ) -> tuple[ComplexArray, ComplexArray, ComplexArray]:
     """All 2n poles of ``M x'' + C x' + K x = 0`` with their TCP shapes.
 
+    The twin's one state-space eigen-solve (:mod:`robolobe.twin._poles`),
+    every pole kept (complex pairs and real ones: the receptance is exact
+    also for an overdamped mode).
+
     Parameters
     ----------
     M, K, C : ndarray, shape (..., n, n)
@@ -72,15 +78,8 @@ def state_space_poles(
     a : ndarray of complex, shape (..., 2n)
         Modal normalisation ``2 lambda_r phi_r^T M phi_r + phi_r^T C phi_r``.
     """
-    n = M.shape[-1]
-    batch = M.shape[:-2]
-    Minv = np.linalg.inv(M)
-    A = np.zeros((*batch, 2 * n, 2 * n))
-    A[..., :n, n:] = np.eye(n)
-    A[..., n:, :n] = -Minv @ K
-    A[..., n:, n:] = -Minv @ C
-    lam, V = np.linalg.eig(A)  # (..., 2n), (..., 2n, 2n)
-    phi = V[..., :n, :]  # (..., n, 2n)
+    lam, phi = state_space_eig(M, K, C, vectors=True)
+    assert phi is not None
     a = 2 * lam * np.sum(phi * (M @ phi), axis=-2) + np.sum(phi * (C @ phi), axis=-2)
     return lam, J @ phi, a
 
@@ -124,7 +123,10 @@ def pole_residue_receptance(
 def twin_modes(
     twin: Twin, q_rad: NDArray[np.float64]
 ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
-    """Underdamped modes of ``twin`` at postures ``q`` (overdamped poles left out).
+    """Underdamped modes of ``twin`` at postures ``q`` (overdamped modes left out).
+
+    The twin's poles with the ``overdamped="drop"`` policy
+    (:func:`robolobe.twin.modes.damped_poles`).
 
     Parameters
     ----------
@@ -142,21 +144,18 @@ def twin_modes(
         Magnitude of the TCP shape ``|J phi|`` (scaled to unit norm).
     """
     sm = twin.system(q_rad)
-    lam, u, _ = state_space_poles(sm.M, sm.K, sm.C, sm.J)
-    keep = lam.imag > 1e-9 * np.abs(lam)
-    m = int(keep.sum(axis=-1).max(initial=0))
-    n = lam.shape[0]
-    f = np.full((n, m), np.nan)
-    z = np.full((n, m), np.nan)
-    sh = np.full((n, m, 3), np.nan)
-    for k in range(n):
-        idx = np.flatnonzero(keep[k])
-        idx = idx[np.argsort(np.abs(lam[k, idx]))]
-        w = np.abs(lam[k, idx])
-        f[k, : idx.size] = w / (2 * np.pi)
-        z[k, : idx.size] = -lam[k, idx].real / w
-        v = np.abs(u[k][:, idx]).T
-        sh[k, : idx.size] = v / np.maximum(np.linalg.norm(v, axis=1, keepdims=True), 1e-300)
+    lam, psi = damped_poles(sm.M, sm.K, sm.C, vectors=True, overdamped="drop")
+    assert psi is not None
+    # dropped (nan) slots last, the rest rising
+    order = np.argsort(np.where(np.isfinite(lam), np.abs(lam), np.inf), axis=-1, kind="stable")
+    lam = np.take_along_axis(lam, order, axis=-1)
+    u = np.take_along_axis(sm.J @ psi, order[:, None, :], axis=-1)
+    m = int(np.isfinite(lam).sum(axis=-1).max(initial=0))
+    w = np.abs(lam[:, :m])
+    f = w / (2 * np.pi)
+    z = -lam[:, :m].real / w
+    v = np.abs(np.swapaxes(u[..., :m], -1, -2))  # (n, m, 3)
+    sh = v / np.maximum(np.linalg.norm(v, axis=-1, keepdims=True), 1e-300)
     return f, z, sh
 
 

@@ -30,6 +30,7 @@ from robolobe.errors import InputError
 from robolobe.robots import Robot
 from robolobe.twin.effects import Effect
 from robolobe.twin.frf import _freq, receptance
+from robolobe.twin._poles import OverdampedPolicy
 from robolobe.twin.modes import Modes, compute_modes
 from robolobe.twin.system import SystemMatrices, nominal_system
 
@@ -104,7 +105,7 @@ class Twin:
         """Mass matrix, shape (..., n, n) (joint DOFs first) [kg m^2 for joints]."""
         return self.system(q).M
 
-    def modes(self, q: ArrayLike) -> Modes:
+    def modes(self, q: ArrayLike, *, overdamped: OverdampedPolicy = "raise") -> Modes:
         """Modes at postures ``q`` (:func:`robolobe.twin.modes.compute_modes`).
 
         Measurement effects do not act on modes (they change the FRF only).
@@ -113,10 +114,15 @@ class Twin:
         ----------
         q : array_like, shape (..., 6)
             Controller axis angles [rad].
+        overdamped : {"raise", "drop"}
+            Policy for an overdamped mode (real poles): ``"raise"`` (default)
+            refuses naming the robot file; ``"drop"`` leaves ``nan`` in its
+            damped quantities (frequency, damping, poles), for callers that
+            need the resonant modes only.
         """
         s = self.system(q)
         try:
-            return compute_modes(s.M, s.K, s.C, s.J)
+            return compute_modes(s.M, s.K, s.C, s.J, overdamped=overdamped)
         except InputError as exc:
             if exc.source:
                 raise

@@ -33,12 +33,14 @@ frequency crossings could the pairing swap two nearly equal modes.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
+from functools import cached_property
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from robolobe.errors import InputError
+from robolobe.twin._poles import OverdampedPolicy, modal_poles, pole_vectors
 
 __all__ = [
     "SEEN_RATIO",
@@ -224,7 +226,8 @@ class Modes:
     poles : ndarray, shape (..., n), complex
         ``lambda_r`` [rad/s], upper half plane.
     residues : ndarray, shape (..., n, p, p), complex
-        TCP receptance residues [m/(N s)] of the poles (see :meth:`frf`).
+        TCP receptance residues [m/(N s)] of the poles (see :meth:`frf`);
+        computed on first use (the eigenvectors are only paid for then).
     f_undamped_hz : ndarray, shape (..., n)
         Natural frequencies of the undamped problem [Hz].
     shapes : ndarray, shape (..., n_dof, n)
@@ -235,17 +238,43 @@ class Modes:
     k_N_per_m : ndarray, shape (..., p, n)
         Modal stiffness per TCP direction ``w0_r^2 / u_d,r^2`` [N/m]; ``inf``
         where the mode does not move the TCP in that direction.
+
+    Notes
+    -----
+    With ``compute_modes(..., overdamped="drop")`` an overdamped mode keeps
+    its slot with ``nan`` in the damped quantities (``f_hz``, ``zeta``,
+    ``omega_d``, ``poles``, ``residues``); its undamped quantities are
+    finite. :meth:`frf` refuses such modes.
     """
 
     f_hz: FloatArray
     zeta: FloatArray
     omega_d: FloatArray
     poles: ComplexArray
-    residues: ComplexArray
     f_undamped_hz: FloatArray
     shapes: FloatArray
     tcp_shapes: FloatArray
     k_N_per_m: FloatArray
+    #: (M, K, C, J) the residues are computed from on first use
+    _system: tuple[FloatArray, FloatArray, FloatArray, FloatArray] = field(repr=False)
+
+    @cached_property
+    def residues(self) -> ComplexArray:
+        """TCP receptance residues [m/(N s)], shape (..., n, p, p), complex.
+
+        ``R_r = (J psi_r)(J psi_r)^T / a_r`` with ``a_r = psi_r^T (2 lambda_r M
+        + C) psi_r`` (plain transpose); ``nan`` for dropped overdamped modes.
+        """
+        m, k, c, j = self._system
+        lam = self.poles
+        psi = pole_vectors(m, k, c, lam)
+        a = 2.0 * lam * np.einsum("...ir,...ij,...jr->...r", psi, m, psi) + np.einsum(
+            "...ir,...ij,...jr->...r", psi, c, psi
+        )
+        uc = j @ psi  # (..., p, n)
+        with np.errstate(invalid="ignore"):  # nan for dropped overdamped modes
+            out: ComplexArray = np.einsum("...ir,...jr->...rij", uc, uc) / a[..., :, None, None]
+        return out
 
     @property
     def n_modes(self) -> int:
@@ -270,6 +299,12 @@ class Modes:
         ndarray, shape (..., n_freq, p, p), complex
             ``sum_r R_r/(i w - lambda_r) + conj(R_r)/(i w - conj(lambda_r))`` [m/N].
         """
+        if not np.all(np.isfinite(self.poles)):
+            raise InputError(
+                "modes: expected underdamped modes only to synthesise the FRF, found "
+                "overdamped modes left out (overdamped='drop'); use the twin's "
+                "receptance (method 'solve') instead"
+            )
         iw = 1j * _TWO_PI * np.asarray(freq_hz, dtype=np.float64)
         lam = self.poles[..., None, :]  # (..., 1, n)
         g1 = 1.0 / (iw[:, None] - lam)  # (..., n_freq, n)
@@ -316,50 +351,54 @@ class Modes:
 
 
 def damped_poles(
-    M: FloatArray, K: FloatArray, C: FloatArray, *, vectors: bool = False
+    M: FloatArray,
+    K: FloatArray,
+    C: FloatArray,
+    *,
+    vectors: bool = False,
+    overdamped: OverdampedPolicy = "raise",
 ) -> tuple[ComplexArray, ComplexArray | None]:
     """Upper-half-plane poles of ``(M, C, K)`` by rising ``|lambda|``.
+
+    The state-space eigen-solve of :mod:`robolobe.twin._poles`
+    (:func:`~robolobe.twin._poles.modal_poles`), batched over postures.
 
     Parameters
     ----------
     M, K, C : ndarray, shape (..., n, n)
     vectors : bool
-        Also return the displacement part of the state-space eigenvectors
-        (shape (..., n, n), column r for pole r); without them only the
+        Also return the displacement eigenvectors (shape (..., n, n), column r
+        for pole r, unit 2-norm, phase arbitrary); without them only the
         eigenvalues are computed (faster).
+    overdamped : {"raise", "drop"}
+        Policy for an overdamped mode (real poles): refuse, or leave ``nan``
+        in its slot (and in its vector).
+
+    Returns
+    -------
+    lam : ndarray of complex, shape (..., n)
+        Poles [rad/s].
+    psi : ndarray of complex, shape (..., n, n) or None
 
     Raises
     ------
     InputError
-        On an overdamped mode (real poles).
+        On an overdamped mode (real poles) under ``overdamped="raise"``.
     """
-    n = M.shape[-1]
-    m_inv = np.linalg.inv(M)
-    s = np.zeros((*M.shape[:-2], 2 * n, 2 * n))
-    s[..., :n, n:] = np.eye(n)
-    s[..., n:, :n] = -m_inv @ K
-    s[..., n:, n:] = -m_inv @ C
-    if vectors:
-        lam_all, vec_all = np.linalg.eig(s)
-    else:
-        lam_all, vec_all = np.linalg.eigvals(s), None
-    # upper-half-plane poles: the n with largest imaginary part
-    order = np.argsort(-lam_all.imag, axis=-1, kind="stable")[..., :n]
-    lam = np.take_along_axis(lam_all, order, axis=-1)
-    if np.any(lam.imag <= 0.0):
-        raise InputError(
-            "damping: expected an underdamped system (complex pole pairs), found an "
-            "overdamped mode (real poles); reduce the damping"
-        )
-    by_w = np.argsort(np.abs(lam), axis=-1, kind="stable")
-    lam = np.take_along_axis(lam, by_w, axis=-1)
-    if vec_all is None:
+    lam = modal_poles(M, K, C, overdamped=overdamped)
+    if not vectors:
         return lam, None
-    psi = np.take_along_axis(vec_all[..., :n, :], order[..., None, :], axis=-1)
-    return lam, np.take_along_axis(psi, by_w[..., None, :], axis=-1)
+    return lam, pole_vectors(M, K, C, lam)
 
 
-def compute_modes(M: ArrayLike, K: ArrayLike, C: ArrayLike, J: ArrayLike) -> Modes:
+def compute_modes(
+    M: ArrayLike,
+    K: ArrayLike,
+    C: ArrayLike,
+    J: ArrayLike,
+    *,
+    overdamped: OverdampedPolicy = "raise",
+) -> Modes:
     """Damped and undamped modes of ``(M, C, K)`` seen through ``J``.
 
     Parameters
@@ -373,6 +412,10 @@ def compute_modes(M: ArrayLike, K: ArrayLike, C: ArrayLike, J: ArrayLike) -> Mod
     J : array_like, shape (..., p, n)
         Output (and input) Jacobian, typically the translational TCP
         Jacobian in the TCP frame [m/rad].
+    overdamped : {"raise", "drop"}
+        Policy for an overdamped mode (real poles, no resonance):
+        ``"raise"`` (default) refuses; ``"drop"`` keeps the mode's slot
+        with ``nan`` damped quantities (see :class:`Modes`).
 
     Returns
     -------
@@ -383,7 +426,8 @@ def compute_modes(M: ArrayLike, K: ArrayLike, C: ArrayLike, J: ArrayLike) -> Mod
     ------
     InputError
         On wrong shapes, non-finite entries, a mass or stiffness matrix that is
-        not positive definite, or an overdamped mode (real poles).
+        not positive definite, or an overdamped mode (real poles) under
+        ``overdamped="raise"``.
     """
     m, k, c, j = _system_arrays(M, K, C, J)
     _symmetric("C", c)
@@ -395,25 +439,18 @@ def compute_modes(M: ArrayLike, K: ArrayLike, C: ArrayLike, J: ArrayLike) -> Mod
     with np.errstate(divide="ignore"):
         k_modal = (w0**2)[..., None, :] / u**2
 
-    # -- damped problem: first-order (state-space) eigenvalues
-    lam, psi = damped_poles(m, k, c, vectors=True)
-    assert psi is not None
-    # a_r = psi^T (2 lambda M + C) psi (plain transpose, not Hermitian)
-    a = 2.0 * lam * np.einsum("...ir,...ij,...jr->...r", psi, m, psi) + np.einsum(
-        "...ir,...ij,...jr->...r", psi, c, psi
-    )
-    uc = j @ psi  # (..., p, n)
-    residues = np.einsum("...ir,...jr->...rij", uc, uc) / a[..., :, None, None]
-
+    # -- damped problem: first-order (state-space) eigenvalues; the residues
+    #    (eigenvectors) on first use
+    lam = modal_poles(m, k, c, overdamped=overdamped)
     w = np.abs(lam)
     return Modes(
         f_hz=w / _TWO_PI,
         zeta=-lam.real / w,
         omega_d=lam.imag.copy(),
         poles=lam,
-        residues=residues,
         f_undamped_hz=w0 / _TWO_PI,
         shapes=phi,
         tcp_shapes=u,
         k_N_per_m=k_modal,
+        _system=(m, k, c, j),
     )
