@@ -190,7 +190,7 @@ def pole_vectors(
 
     Two steps of inverse iteration from a fixed start vector, shifted
     ``1e-14 |lambda|`` off the pole (so that ``Q`` stays invertible; should it
-    still be singular to rounding, the shift grows 100-fold, up to 1e-10).
+    still be singular to rounding, the shift grows to 1e-12, then 1e-10).
     The vectors agree with LAPACK's (``numpy.linalg.eig`` of the state
     matrix) to ~1e-12 of their scale; the residues to ~1e-10 relative.
 
@@ -207,8 +207,8 @@ def pole_vectors(
     """
     bad = ~np.isfinite(lam)
     lam0 = np.where(bad, 0.0, lam)[..., :, None, None]  # (..., m, 1, 1)
-    shift = _SHIFT
-    while True:
+    shifts = (_SHIFT, 1e-12, 1e-10)
+    for i, shift in enumerate(shifts):
         # shifted off the pole: a pole exact to rounding can make LU's last pivot
         # exactly 0 (a few per thousand); the vector moves by ~100 x the shift
         s = lam0 * (1.0 + shift)
@@ -220,8 +220,7 @@ def pole_vectors(
                 x = x / np.linalg.norm(x, axis=-2, keepdims=True)
             break
         except np.linalg.LinAlgError:
-            if shift >= 1e-11:
+            if i == len(shifts) - 1:
                 raise
-            shift *= 100.0
     psi = np.swapaxes(x[..., 0], -1, -2)  # (..., n, m)
     return np.asarray(np.where(bad[..., None, :], np.nan + 0j, psi), dtype=np.complex128)
