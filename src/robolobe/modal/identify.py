@@ -35,9 +35,9 @@ from typing import Any
 import numpy as np
 import pandas as pd
 from numpy.typing import ArrayLike, NDArray
-from scipy.optimize import linear_sum_assignment
 
 from robolobe._directions import AXES
+from robolobe._matching import match_modes
 from robolobe._threads import with_one_blas_thread
 from robolobe.campaign import Campaign, TestHeader
 from robolobe.errors import InputError
@@ -172,13 +172,11 @@ def _relabel(
         return np.full(new.f_hz.size, -1, dtype=np.int64)
     c = np.abs(new.f_hz[:, None] - ref_f[None, :]) / ref_f[None, :]
     # an extra may only claim a mode that is not one of the old ones
-    cc = np.where(c <= 0.05, c, 1e6)
-    cc[:, : old.f_hz.size] = np.where(c[:, : old.f_hz.size] <= 0.01, c[:, : old.f_hz.size], 1e6)
-    rows, cols = linear_sum_assignment(cc)
+    cc = np.where(c <= 0.05, c, np.inf)
+    cc[:, : old.f_hz.size] = np.where(c[:, : old.f_hz.size] <= 0.01, c[:, : old.f_hz.size], np.inf)
+    rows, cols = match_modes(cc)
     lab = np.full(new.f_hz.size, -1, dtype=np.int64)
-    for r, col in zip(rows, cols, strict=True):
-        if cc[r, col] < 1e6:
-            lab[r] = ref_t[col]
+    lab[rows] = ref_t[cols]
     return lab
 
 

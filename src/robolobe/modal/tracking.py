@@ -13,7 +13,7 @@ residue (shape amplitude) together, with an assignment step:
    (the track's latest state along the path to the root, plus tracks
    started elsewhere) by an order-preserving alignment with gaps (a mode
    hidden at one posture leaves a gap, modes do not swap; or, optionally,
-   by :func:`scipy.optimize.linear_sum_assignment`) on
+   by the project's gated assignment :func:`robolobe._matching.match_modes`) on
 
        c = (ln(f_i / f_t) / f_scale)^2 + (ln(zeta_i / zeta_t) / zeta_scale)^2
            + ((1 - MAC(u_i, u_t)) / mac_scale)^2 + (ln(|u_i| / |u_t|) / amp_scale)^2
@@ -31,10 +31,10 @@ from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy.optimize import linear_sum_assignment
 from scipy.sparse.csgraph import breadth_first_order, minimum_spanning_tree
 from scipy.spatial.distance import cdist
 
+from robolobe._matching import match_modes
 from robolobe.errors import InputError
 from robolobe.modal.metrics import mac
 
@@ -210,7 +210,10 @@ def _align(cost: NDArray[np.float64], gap: float, big: float) -> list[tuple[int,
 
     Minimizes the sum of the costs of the pairs plus ``gap`` for every
     element left unpaired (Needleman-Wunsch); pairs of cost ``>= big`` are
-    not allowed.
+    not allowed. Not :func:`robolobe._matching.match_modes` on purpose: the
+    pairs may not cross (modes keep their frequency order between
+    neighbouring postures), and leaving a mode unpaired has a price, so a
+    poor pair can lose to two gaps.
     """
     n, m = cost.shape
     D = np.zeros((n + 1, m + 1))
@@ -332,12 +335,8 @@ def track_modes(
                 pairs = _align(cc[np.ix_(oi, ot)], s.gap_cost, big)
                 pairs = [(int(oi[a]), int(ot[b])) for a, b in pairs]
             else:
-                rows, cols = linear_sum_assignment(cc)
-                pairs = [
-                    (int(r), int(col))
-                    for r, col in zip(rows, cols, strict=True)
-                    if cc[r, col] < big
-                ]
+                rows, cols = match_modes(c, gate=s.gate)
+                pairs = [(int(r), int(col)) for r, col in zip(rows, cols, strict=True)]
             for r, col in pairs:
                 labels[p][r] = tracks[col]
         for j in np.flatnonzero(labels[p] < 0).tolist():

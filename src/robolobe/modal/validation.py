@@ -11,7 +11,7 @@ FRF, ``|R_r,dd| / (sigma_r + window decay)``, is at least ``visible_min``
 the band.
 
 Matching, per posture and direction: identified rows and true modes are
-paired by :func:`scipy.optimize.linear_sum_assignment` on the relative
+paired by the gated assignment :func:`robolobe._matching.match_modes` on the relative
 frequency difference, pairs above ``f_tol`` (5 %) forbidden. A visible true
 mode left unpaired is *missed*; an identified row that pairs with no true
 mode at all (visible or not) is *spurious*.
@@ -25,9 +25,9 @@ from dataclasses import dataclass
 import numpy as np
 import pandas as pd
 from numpy.typing import ArrayLike, NDArray
-from scipy.optimize import linear_sum_assignment
 
 from robolobe._directions import AXES
+from robolobe._matching import match_modes
 
 __all__ = [
     "AccuracyReport",
@@ -179,9 +179,9 @@ def compare_with_truth(
             fe = g["f_hz"].to_numpy(float)
             c = np.abs(fe[:, None] - F[p][None, :]) / F[p][None, :]
             # visible true modes are preferred partners
-            cost = np.where(c <= f_tol, c + np.where(vis >= visible_min, 0.0, 0.5)[None, :], 1e6)
-            rows, cols = linear_sum_assignment(cost)
-            pair = {int(i): int(j) for i, j in zip(rows, cols, strict=True) if cost[i, j] < 1e6}
+            cost = np.where(c <= f_tol, c + np.where(vis >= visible_min, 0.0, 0.5)[None, :], np.inf)
+            rows, cols = match_modes(cost)
+            pair = {int(i): int(j) for i, j in zip(rows, cols, strict=True)}
             got = set(pair.values())
             for i, (_, row) in enumerate(g.iterrows()):
                 if i not in pair:

@@ -47,8 +47,6 @@ error and measurement scatter).
 
 from __future__ import annotations
 
-import functools
-import itertools
 import math
 import os
 from collections.abc import Sequence
@@ -60,6 +58,7 @@ import pandas as pd
 from numpy.typing import ArrayLike, NDArray
 from scipy.optimize import least_squares
 
+from robolobe._matching import match_modes
 from robolobe._threads import one_blas_thread, with_one_blas_thread
 from robolobe.errors import ConvergenceError, InputError
 from robolobe.robots.limits import as_postures
@@ -134,21 +133,6 @@ def twin_values(
 
     q = np.asarray(q_rad, dtype=float)
     return modal_values(Twin(robot).modes(q), directions, n_modes)
-
-
-@functools.lru_cache(maxsize=8)
-def _injective_maps(n_from: int, n_to: int) -> NDArray[np.intp]:
-    """Every injective map of ``n_from`` items onto ``n_to``, shape (n_maps, n_from)."""
-    if n_from > n_to:
-        raise InputError(
-            f"expected at most {n_to} measured modes per direction (the twin's modes), "
-            f"found {n_from}"
-        )
-    if math.perm(n_to, n_from) > 50_000:
-        raise InputError(f"too many modes to match: {n_from} measured onto {n_to}")
-    return np.array(list(itertools.permutations(range(n_to), n_from)), dtype=np.intp).reshape(
-        -1, n_from
-    )
 
 
 def modal_frame_dataset(modal_df: pd.DataFrame) -> ModalDataset:
@@ -368,28 +352,29 @@ class TwinCalibration:
 
         Per posture and direction the assignment of least total cost
         ``|log f_meas / f_twin| + match_k_weight * min(|log k_meas / k_twin|, 3)``
-        (a linear sum assignment), found for all of them at once by trying
-        every injective map of the measured modes onto the twin's (720 for
-        5 onto 6). Returns ``(posture, direction, measured mode, twin mode)``
-        index arrays of the pairs within ``tol`` in log frequency.
+        (:func:`robolobe._matching.match_modes`; absent measured modes take no
+        part). Returns ``(posture, direction, measured mode, twin mode)``
+        index arrays of the pairs within ``tol`` in log frequency: the gate is
+        applied after the assignment, on the frequency term alone, so that a
+        mode whose best partner is too far is left out rather than pushing
+        its neighbours onto other twin modes.
         """
         tol = self.match_tol if tol is None else tol
         y = np.asarray(ds.y)
         nm, nt = y.shape[2], model.shape[2]
-        perms = _injective_maps(nm, nt)
+        if nm > nt:
+            raise InputError(
+                f"expected at most {nt} measured modes per direction (the twin's modes), found {nm}"
+            )
         present = np.isfinite(y[..., 0])  # (n, nd, nm)
         with np.errstate(invalid="ignore", divide="ignore"):
             df = np.abs(np.log(y[..., :, None, 0] / model[..., None, :, 0]))  # (n, nd, nm, nt)
             dk = np.abs(np.log(y[..., :, None, 2] / model[..., None, :, 2]))
         dk = np.where(np.isfinite(dk), np.minimum(dk, 3.0), 0.0)
-        cost = np.where(present[..., None], df + self.match_k_weight * dk, 0.0)
-        rows = np.arange(perms.shape[1])
-        total = cost[..., rows, perms].sum(axis=-1)  # (n, nd, n_maps)
-        best = perms[np.argmin(total, axis=-1)]  # (n, nd, nm) twin mode per measured mode
-        df_best = np.take_along_axis(df, best[..., None], axis=-1)[..., 0]
-        ok = present & (df_best <= tol)
-        ii, jj, mm = np.nonzero(ok)
-        idx = (ii, jj, mm, best[ii, jj, mm])
+        cost = np.where(present[..., None], df + self.match_k_weight * dk, np.nan)
+        ii, jj, mm, tt = match_modes(cost)
+        ok = df[ii, jj, mm, tt] <= tol
+        idx = (ii[ok], jj[ok], mm[ok], tt[ok])
         return tuple(np.asarray(a, dtype=np.intp) for a in idx), int(present.sum() - ok.sum())
 
     # --------------------------------------------------------------- fit

@@ -156,9 +156,7 @@ def modal_poles(
         On an overdamped mode under ``"raise"``, or an unknown policy.
     """
     if overdamped not in OVERDAMPED_POLICIES:
-        raise InputError(
-            f"overdamped: expected one of {OVERDAMPED_POLICIES}, found {overdamped!r}"
-        )
+        raise InputError(f"overdamped: expected one of {OVERDAMPED_POLICIES}, found {overdamped!r}")
     n = M.shape[-1]
     lam_all, _ = state_space_eig(M, K, C)
     size = np.abs(lam_all)
@@ -183,9 +181,7 @@ def modal_poles(
     return np.asarray(lam, dtype=np.complex128)
 
 
-def pole_vectors(
-    M: FloatArray, K: FloatArray, C: FloatArray, lam: ComplexArray
-) -> ComplexArray:
+def pole_vectors(M: FloatArray, K: FloatArray, C: FloatArray, lam: ComplexArray) -> ComplexArray:
     """Displacement eigenvectors of known poles: null vectors of ``lambda^2 M + lambda C + K``.
 
     Two steps of inverse iteration from a fixed start vector, shifted

@@ -45,8 +45,9 @@ from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy.optimize import least_squares, linear_sum_assignment, lsq_linear
+from scipy.optimize import least_squares, lsq_linear
 
+from robolobe._matching import match_modes
 from robolobe._threads import with_one_blas_thread
 from robolobe.errors import InputError
 from robolobe.robots import RigidBody, Robot, sample_postures
@@ -738,8 +739,10 @@ class _TableModel:
 def _match(lf: FloatArray, lk: FloatArray, f_t: FloatArray, k_t: FloatArray) -> NDArray[np.intp]:
     """Twin mode index for each table mode (one posture): least frequency and level misfit."""
     cost = ((lf[None, :] - f_t[:, None]) / 0.03) ** 2 + ((lk[None, :] - k_t[:, None]) / 0.7) ** 2
-    _, cols = linear_sum_assignment(cost)
-    return np.asarray(cols, dtype=np.intp)
+    rows, cols = match_modes(cost)
+    if rows.size != f_t.size:
+        raise InputError(f"seed table: expected finite modes to match, found {f_t}, {k_t}")
+    return cols
 
 
 @dataclass(frozen=True)

@@ -28,9 +28,9 @@ from numpy.typing import ArrayLike, NDArray
 
 from robolobe.errors import InputError
 from robolobe.robots import Robot
+from robolobe.twin._poles import OverdampedPolicy
 from robolobe.twin.effects import Effect
 from robolobe.twin.frf import _freq, receptance
-from robolobe.twin._poles import OverdampedPolicy
 from robolobe.twin.modes import Modes, compute_modes
 from robolobe.twin.system import SystemMatrices, nominal_system
 
