@@ -14,7 +14,11 @@ solved, both batched over postures:
   the complex shapes ``psi_r`` normalised by ``a_r = psi_r^T (2 lambda_r M + C)
   psi_r`` the TCP residues are ``R_r = (J psi_r)(J psi_r)^T / a_r`` and the
   receptance is exactly ``H(w) = sum_r R_r/(i w - lambda_r) + conj(R_r)/(i w -
-  conj(lambda_r))`` (:meth:`Modes.frf`).
+  conj(lambda_r))`` (:meth:`Modes.frf`). The poles come from the project's one
+  state-space eigen-solve (:mod:`robolobe.twin._poles`), with its explicit
+  policy for an overdamped mode (``overdamped="raise"`` refuses, ``"drop"``
+  leaves ``nan`` in the mode's damped quantities); the residues are computed
+  on first use.
 
 * **Undamped.** ``K phi = w0^2 M phi`` gives real, mass-normalised shapes
   (``phi^T M phi = I``) and the modal stiffness per TCP direction
