@@ -40,6 +40,8 @@ def _assign(cost: NDArray[np.float64], gate: float) -> tuple[IntArray, IntArray]
     lo, hi = float(vals.min()), float(vals.max())
     # one forbidden pair costs more than any two admissible pairings differ
     big = hi + (hi - lo + 1.0) * (min(cost.shape) + 1)
+    if not np.isfinite(big):
+        raise InputError(f"cost: expected admissible costs of magnitude < 1e300, found {hi:.3g}")
     rows, cols = linear_sum_assignment(np.where(ok, cost, big))
     keep = ok[rows, cols]
     return np.asarray(rows[keep], dtype=np.intp), np.asarray(cols[keep], dtype=np.intp)

@@ -36,10 +36,9 @@ from numpy.typing import NDArray
 from robolobe.diagnose.observations import Observations
 from robolobe.errors import InputError
 from robolobe.robots import Robot
-from robolobe.twin._poles import state_space_eig
 from robolobe.twin.effects import Effect, FrictionDamping
 from robolobe.twin.model import Twin
-from robolobe.twin.modes import damped_poles
+from robolobe.twin.modes import damped_poles, state_space_eig
 
 __all__ = [
     "TwinModel",

@@ -44,15 +44,17 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from robolobe.errors import InputError
-from robolobe.twin._poles import OverdampedPolicy, modal_poles, pole_vectors
+from robolobe.twin._poles import OverdampedPolicy, modal_poles, pole_vectors, state_space_eig
 
 __all__ = [
     "SEEN_RATIO",
     "Modes",
+    "OverdampedPolicy",
     "compute_modes",
     "damped_poles",
     "lowest_seen",
     "seen_mask",
+    "state_space_eig",
     "undamped_modes",
 ]
 
