@@ -46,6 +46,18 @@ def modal_stiffness_frf(
     -------
     ndarray, shape (..., n_freq), complex
         Receptance [m/N].
+
+    Examples
+    --------
+    At 0 Hz the receptance is the static compliance ``sum(1 / k)``; at a
+    natural frequency one mode gives ``-i / (2 zeta k)``:
+
+    >>> h = modal_stiffness_frf([10.0, 30.0], [0.02, 0.05], [1e6, 4e6], [0.0, 10.0])
+    >>> round(h[0].real * 1e6, 6)
+    1.25
+    >>> h1 = modal_stiffness_frf([10.0], [0.02], [1e6], [10.0])[0]
+    >>> round(h1.real * 1e6, 6), round(h1.imag * 1e6, 6)
+    (0.0, -25.0)
     """
     fn, z, k = np.broadcast_arrays(
         np.asarray(f_hz, dtype=float), np.asarray(zeta, dtype=float), np.asarray(k_N_per_m, float)

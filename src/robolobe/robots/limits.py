@@ -53,6 +53,15 @@ def as_postures(q_rad: ArrayLike, name: str = "q_rad") -> FloatArray:
     ------
     InputError
         Not numbers, a shape other than (n, 6) with n >= 1, or NaN/inf.
+
+    Examples
+    --------
+    >>> as_postures([0.0, 0.5, -0.5, 0.0, 0.3, 0.0]).shape
+    (1, 6)
+    >>> as_postures([[0.0, 0.5, -0.5]], name="q_test")
+    Traceback (most recent call last):
+    ...
+    robolobe.errors.InputError: q_test: expected joint angles in rad of shape (n, 6) ... (1, 3)
     """
     try:
         q = np.array(q_rad, dtype=np.float64)
