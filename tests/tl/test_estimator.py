@@ -159,4 +159,5 @@ def test_bare_estimator_is_the_shipped_preset():
     for key, value in PRESETS[DEFAULT_PRESET].items():
         assert bare[key] == value, key
     paper = ModalPredictor(**PRESETS["paper"]).get_params()
-    assert paper["features"] == "angles" and paper["augment_copies"] == 4
+    assert paper["features"] == "angles"
+    assert paper["augment_copies"] == 4

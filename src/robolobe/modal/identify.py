@@ -40,9 +40,9 @@ from scipy.optimize import linear_sum_assignment
 from robolobe._directions import AXES
 from robolobe._threads import with_one_blas_thread
 from robolobe.campaign import Campaign, TestHeader
+from robolobe.campaign.metrics import frac, nrmse
 from robolobe.errors import InputError
 from robolobe.modal._pool import identify_item, map_chunks, refit_item
-from robolobe.modal.metrics import frac, nrmse
 from robolobe.modal.modal_csv import MODAL_COLUMNS, Q_COLUMNS, validate_modal_frame
 from robolobe.modal.posture import IdentifySettings, PostureModal
 from robolobe.modal.quality import QualityIssue, check_campaign_grids

@@ -29,8 +29,8 @@ from numpy.typing import NDArray
 from scipy.cluster.hierarchy import fcluster, linkage
 from scipy.spatial.distance import squareform
 
+from robolobe.campaign.metrics import mac_matrix
 from robolobe.errors import InputError
-from robolobe.modal.metrics import mac_matrix
 from robolobe.modal.stabilization import StabilizationDiagram
 from robolobe.modal.synthesis import modal_to_poles
 

@@ -20,8 +20,8 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
+from robolobe.campaign.metrics import mac
 from robolobe.errors import InputError
-from robolobe.modal.metrics import mac
 from robolobe.modal.plscf import PoleSet
 
 __all__ = ["StabilizationCriteria", "StabilizationDiagram", "stabilization_diagram"]
