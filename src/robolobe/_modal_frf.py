@@ -1,6 +1,6 @@
 """The modal-stiffness FRF kernel, shared by the twin and modal identification.
 
-One formula, one implementation (FORMATS.md section 3, DESIGN.md)::
+One formula, one implementation (docs/guide/modal.md, docs/guide/physics.md)::
 
     H(w) = sum_r (w_r^2 / k_r) / (w_r'^2 - w^2 + 2 i sigma_r' w)
 

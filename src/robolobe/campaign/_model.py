@@ -1,4 +1,4 @@
-"""Measured data: the hammer-test campaign and its test header (FORMATS.md section 2).
+"""Measured data: the hammer-test campaign and its test header (docs/guide/campaign.md).
 
 The data model only; reading and writing live in :mod:`robolobe.campaign._io`,
 UFF 58 in :mod:`robolobe.campaign.uff`.
@@ -151,7 +151,7 @@ class TestHeader(Mapping[str, Any]):
 
         ``window_decay_per_s`` if given, else ``-ln(window_end) / duration_s``,
         else 0 (no window). Identified damping is corrected by it
-        (REFERENCES.md, exponential window).
+        (docs/references.md, exponential window).
         """
         if self.window_decay_per_s is not None:
             return float(self.window_decay_per_s)

@@ -1,6 +1,6 @@
-"""robolobe.modal: modal identification from hammer-test campaigns (DESIGN.md).
+"""robolobe.modal: modal identification from hammer-test campaigns (docs/guide/physics.md).
 
-From a campaign (FORMATS.md section 2) to a modal dataset (section 3), what a
+From a campaign (docs/guide/campaign.md) to a modal dataset (section 3), what a
 modal test engineer does with PolyMAX, done automatically and checked:
 
 - :mod:`~robolobe.modal.quality`: FRF checks per posture and direction;

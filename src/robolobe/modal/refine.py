@@ -10,7 +10,7 @@ linear LSFD solve for each trial set of poles (variable projection, Golub &
 Pereyra). With noise-based weights this is close to the maximum-likelihood
 estimate that PolyMAX-plus / MLMM refine to; it removes most of the bias of
 the linearized pLSCF damping estimates, which matters for light damping
-under an exponential window (REFERENCES.md section 4).
+under an exponential window (docs/references.md: modal identification).
 
 Each pole is parametrized by ``ln w_r`` and ``ln sigma_r`` and kept within
 ``f_bound`` (relative) of its start, with ``0 < zeta < zeta_max``.

@@ -17,7 +17,7 @@ Following Reynders, Houbrechts and De Roeck (2012), "Fully automated
    median damping of its members (and the member vector nearest to them).
 
 No nearest-pole picking: with close modes that picks wrong poles
-(REFERENCES.md section 4).
+(docs/references.md: modal identification).
 """
 
 from __future__ import annotations

@@ -2,7 +2,7 @@
 
 Every function takes controller axis angles ``q`` [rad] of shape ``(..., 6)``
 and broadcasts over the leading dimensions. DH angles are
-``theta = coupling @ q + theta_offset`` (FORMATS.md section 1).
+``theta = coupling @ q + theta_offset`` (docs/guide/robots.md).
 
 Frames (``link_frames``): index 0 = base (DH frame 0), 1..6 = DH frames 1..6
 (6 = flange), 7 = TCP (flange @ tool). Link i's body is given in frame i.
@@ -253,7 +253,7 @@ def tcp_jacobian(
         Controller axis angles [rad].
     expressed_in : {"tcp", "world"}
         Axes the velocity is expressed in. The translational TCP Jacobian in
-        the TCP frame (FORMATS.md section 1) is ``tcp_jacobian(r, q)[..., :3, :]``.
+        the TCP frame (docs/guide/robots.md) is ``tcp_jacobian(r, q)[..., :3, :]``.
 
     Returns
     -------

@@ -6,7 +6,7 @@ not seen) and measured driving-point FRFs:
 * percent error per posture, direction, mode and parameter,
   ``100 |pred - true| / true``, on the values that are known;
 * the FRF rebuilt from the predicted modes with the modal-stiffness form of
-  FORMATS.md section 3, compared with the measured FRF on the analysis band
+  docs/guide/modal.md, compared with the measured FRF on the analysis band
   by FRAC and NRMSE (seed eqs. 5-6, :mod:`robolobe.campaign.metrics`). A
   measured H1 carries the exponential window of the test, which moves every
   pole left by ``-ln(window_end) / T`` (0.75 1/s for the seed's 4 s records
