@@ -7,13 +7,15 @@ One formula, one implementation (docs/guide/modal.md, docs/guide/physics.md)::
 with ``sigma_r' = zeta_r w_r + a`` and ``w_r'^2 = sigma_r'^2 + w_r^2 (1 - zeta_r^2)``:
 each pole ``lambda_r`` moved left by the decay ``a`` of an exponential window
 with its residue kept (``a = 0``: the plain modal form). Callers validate;
-this module imports no robolobe package, so every layer may use it.
+this module imports only robolobe.errors, so every layer may use it.
 """
 
 from __future__ import annotations
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
+
+from robolobe.errors import InputError
 
 __all__ = ["modal_stiffness_frf"]
 
@@ -64,7 +66,7 @@ def modal_stiffness_frf(
     )
     w = 2.0 * np.pi * np.asarray(freq_hz, dtype=float)
     if w.ndim != 1:
-        raise ValueError(f"freq_hz: expected a 1-D array, found shape {w.shape}")
+        raise InputError(f"freq_hz: expected a 1-D array, found shape {w.shape}")
     wr = 2.0 * np.pi * fn
     with np.errstate(invalid="ignore", divide="ignore"):
         num = wr**2 / k

@@ -84,7 +84,7 @@ def as_postures(q_rad: ArrayLike, name: str = "q_rad") -> FloatArray:
 def _q(q: ArrayLike) -> FloatArray:
     arr = np.asarray(q, dtype=np.float64)
     if arr.ndim == 0 or arr.shape[-1] != 6:
-        raise ValueError(f"q: expected shape (..., 6), found {arr.shape}")
+        raise InputError(f"q: expected shape (..., 6), found {arr.shape}")
     return arr
 
 
@@ -160,7 +160,7 @@ def posture_violations(robot: Robot, q: ArrayLike) -> list[str]:
     """
     arr = _q(q)
     if arr.shape != (6,):
-        raise ValueError(f"q: expected shape (6,), found {arr.shape}")
+        raise InputError(f"q: expected shape (6,), found {arr.shape}")
     out = []
     if not np.all(np.isfinite(arr)):
         out.append(f"expected finite angles, found {np.degrees(arr).tolist()}")
