@@ -31,11 +31,7 @@ ALLOWED: dict[str, set[str]] = {
 }
 
 #: Known breaches, each with the issue that removes it. Keep this short.
-KNOWN: dict[tuple[str, str], str] = {
-    # the seed-table fit (issue 12) scores its shape with modal's FRAC; it
-    # belongs with the study, or FRAC in a measured-data layer (issue 15)
-    ("twin/calibration.py", "modal"): "issues 12, 15",
-}
+KNOWN: dict[tuple[str, str], str] = {}
 
 
 def _imports(path: Path, src: Path = SRC) -> list[tuple[int, str]]:

@@ -12,7 +12,7 @@ nothing until a name is used)::
     plan = rl.plan_path("contour.apt", job, modes=model)
     rl.write_plan(plan, "out")                           # waypoints, summary, plots, report
 
-Subpackages (each owns one concept, DESIGN.md): :mod:`robolobe.robots`,
+Subpackages (each owns one concept, docs/guide/physics.md): :mod:`robolobe.robots`,
 :mod:`robolobe.campaign` (measured data), :mod:`robolobe.twin`,
 :mod:`robolobe.modal`, :mod:`robolobe.tl`, :mod:`robolobe.sld`,
 :mod:`robolobe.plan`, :mod:`robolobe.diagnose`, :mod:`robolobe.cli`.

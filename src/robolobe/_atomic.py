@@ -1,6 +1,6 @@
 """Outputs: checked before any work, written atomically, honouring the umask.
 
-A failed run leaves no half-written result (DESIGN.md, conventions): files
+A failed run leaves no half-written result (docs/guide/physics.md, conventions): files
 are written to a temporary name beside the target and renamed; a folder of
 results is assembled in a temporary folder and moved in as a set. Output
 paths are checked before a command starts its work

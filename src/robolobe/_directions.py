@@ -27,6 +27,11 @@ def dir_index(name: str) -> tuple[int, int]:
     ------
     InputError
         If ``name`` is not two letters from x, y, z (lower case).
+
+    Examples
+    --------
+    >>> dir_index("xy"), dir_name(2, 2)
+    ((0, 1), 'zz')
     """
     if len(name) != 2 or name[0] not in AXES or name[1] not in AXES:
         raise InputError(f"direction: expected two letters of x, y, z, found {name!r}")

@@ -5,8 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from robolobe.campaign.metrics import mac
 from robolobe.errors import InputError
-from robolobe.modal.metrics import mac
 from robolobe.modal.plscf import plscf
 
 from ._systems import make_system

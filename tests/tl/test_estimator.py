@@ -149,3 +149,15 @@ def test_log_std_is_the_relative_spread(kind):
     p = ModalPrediction(("xx",), center, np.full(center.shape, eps), kind)
     bumped = tt.post(center + eps)
     np.testing.assert_allclose(p.log_std, np.abs(np.log(bumped / y)), rtol=5e-3)
+
+
+def test_bare_estimator_is_the_shipped_preset():
+    """`robolobe train` (default preset) and a bare ModalPredictor() make the same model."""
+    from robolobe.tl.presets import DEFAULT_PRESET, PRESETS
+
+    bare = ModalPredictor().get_params()
+    for key, value in PRESETS[DEFAULT_PRESET].items():
+        assert bare[key] == value, key
+    paper = ModalPredictor(**PRESETS["paper"]).get_params()
+    assert paper["features"] == "angles"
+    assert paper["augment_copies"] == 4

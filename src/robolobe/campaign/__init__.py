@@ -2,7 +2,7 @@
 
 The bottom layer for anything measured: :class:`Campaign` (postures, FRFs
 per posture, the typed :class:`TestHeader`, optional hammer force levels),
-its folder format (FORMATS.md section 2: CSV or UFF 58) and UFF 58 files
+its folder format (docs/guide/campaign.md: CSV or UFF 58) and UFF 58 files
 (:mod:`robolobe.campaign.uff`). Simulation of campaigns lives in
 :mod:`robolobe.twin.campaign` and returns this type; identification
 (:mod:`robolobe.modal`) and diagnosis take it.

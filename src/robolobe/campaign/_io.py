@@ -1,4 +1,4 @@
-"""Reading and writing hammer-test campaigns (FORMATS.md section 2).
+"""Reading and writing hammer-test campaigns (docs/guide/campaign.md).
 
 ::
 
@@ -505,7 +505,7 @@ def _write_frf_csv(path: Path, campaign: Campaign) -> None:
 
 # ------------------------------------------------------------------ public I/O
 def read_campaign(path: str | os.PathLike[str], *, check_limits: bool = True) -> Campaign:
-    """Read a campaign folder (FORMATS.md section 2).
+    """Read a campaign folder (docs/guide/campaign.md).
 
     Parameters
     ----------

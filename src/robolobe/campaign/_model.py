@@ -1,4 +1,4 @@
-"""Measured data: the hammer-test campaign and its test header (FORMATS.md section 2).
+"""Measured data: the hammer-test campaign and its test header (docs/guide/campaign.md).
 
 The data model only; reading and writing live in :mod:`robolobe.campaign._io`,
 UFF 58 in :mod:`robolobe.campaign.uff`.
@@ -6,6 +6,7 @@ UFF 58 in :mod:`robolobe.campaign.uff`.
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Iterable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
@@ -150,7 +151,7 @@ class TestHeader(Mapping[str, Any]):
 
         ``window_decay_per_s`` if given, else ``-ln(window_end) / duration_s``,
         else 0 (no window). Identified damping is corrected by it
-        (REFERENCES.md, exponential window).
+        (docs/references.md, exponential window).
         """
         if self.window_decay_per_s is not None:
             return float(self.window_decay_per_s)
@@ -158,23 +159,25 @@ class TestHeader(Mapping[str, Any]):
             return -math.log(self.window_end) / self.duration_s
         return 0.0
 
+    @functools.cached_property
     def _items(self) -> dict[str, Any]:
+        # built once: the header is frozen (cached_property writes __dict__ directly)
         out = {k: getattr(self, k) for k in TEST_KEYS if getattr(self, k) is not None}
         out.update(self.extra)
         return out
 
     def __getitem__(self, key: str) -> Any:
-        return self._items()[key]
+        return self._items[key]
 
     def __iter__(self) -> Iterator[str]:
-        return iter(self._items())
+        return iter(self._items)
 
     def __len__(self) -> int:
-        return len(self._items())
+        return len(self._items)
 
     def __eq__(self, other: object) -> bool:
         if isinstance(other, Mapping):
-            return self._items() == dict(other)
+            return self._items == dict(other)
         return NotImplemented
 
     __hash__ = None  # type: ignore[assignment]

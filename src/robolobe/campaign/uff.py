@@ -1,7 +1,7 @@
 """FRFs of one posture as UFF (universal file format) dataset 58 files.
 
 A hammer campaign may come as ``frf/<posture_id>.uff`` files beside
-``postures.csv`` (FORMATS.md section 2), one file per posture holding one
+``postures.csv`` (docs/guide/campaign.md), one file per posture holding one
 dataset 58 record per direction. Reading and writing go through `pyuff`.
 
 What is written

@@ -46,8 +46,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from robolobe._directions import DRIVING, dir_index
+from robolobe.campaign.metrics import frac, nrmse
 from robolobe.diagnose.observations import Observations
-from robolobe.modal.metrics import frac, nrmse
 
 __all__ = [
     "F_SCALE",

@@ -1,6 +1,6 @@
-"""robolobe.modal: modal identification from hammer-test campaigns (DESIGN.md).
+"""robolobe.modal: modal identification from hammer-test campaigns (docs/guide/physics.md).
 
-From a campaign (FORMATS.md section 2) to a modal dataset (section 3), what a
+From a campaign (docs/guide/campaign.md) to a modal dataset (section 3), what a
 modal test engineer does with PolyMAX, done automatically and checked:
 
 - :mod:`~robolobe.modal.quality`: FRF checks per posture and direction;
@@ -13,8 +13,8 @@ modal test engineer does with PolyMAX, done automatically and checked:
   truncation corrections);
 - :mod:`~robolobe.modal.tracking`, :mod:`~robolobe.modal.identify`: tracking
   across postures, neighbour recovery, the modal table;
-- :mod:`~robolobe.modal.synthesis`, :mod:`~robolobe.modal.metrics`: FRF
-  synthesis, FRAC, NRMSE, MAC;
+- :mod:`~robolobe.modal.synthesis`: FRF synthesis (FRAC, NRMSE and MAC
+  live with the measured data, :mod:`robolobe.campaign.metrics`);
 - :mod:`~robolobe.modal.modal_csv`: reading and writing ``modal.csv``;
 - :mod:`~robolobe.modal.validation`: accuracy against known modes;
 - :mod:`~robolobe.modal.plots`: stabilization diagrams and FRF overlays.
@@ -27,7 +27,6 @@ from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:
     from robolobe.modal.identify import CampaignModal, identify_campaign, identify_frfs
-    from robolobe.modal.metrics import frac, mac, mac_matrix, nrmse
     from robolobe.modal.modal_csv import MODAL_COLUMNS, read_modal_csv, write_modal_csv
     from robolobe.modal.posture import IdentifySettings, PostureModal, identify_posture
     from robolobe.modal.synthesis import synthesize_frf
@@ -38,10 +37,6 @@ _WHERE = {
     "CampaignModal": "identify",
     "identify_campaign": "identify",
     "identify_frfs": "identify",
-    "frac": "metrics",
-    "mac": "metrics",
-    "mac_matrix": "metrics",
-    "nrmse": "metrics",
     "MODAL_COLUMNS": "modal_csv",
     "read_modal_csv": "modal_csv",
     "write_modal_csv": "modal_csv",
@@ -69,13 +64,9 @@ __all__ = [
     "CampaignModal",
     "IdentifySettings",
     "PostureModal",
-    "frac",
     "identify_campaign",
     "identify_frfs",
     "identify_posture",
-    "mac",
-    "mac_matrix",
-    "nrmse",
     "read_modal_csv",
     "synthesize_frf",
     "write_modal_csv",

@@ -14,7 +14,7 @@ Steps (:func:`identify_frfs`, :func:`identify_campaign`):
    starting from the median pole of the nearest postures that have it;
    it is kept if the refined pole stays within 5 % of that start and its
    term is visible at the driving point.
-5. The rows of ``modal.csv`` (FORMATS.md section 3) plus FRAC / NRMSE of the
+5. The rows of ``modal.csv`` (docs/guide/modal.md) plus FRAC / NRMSE of the
    FRF synthesized from those rows against the measured FRF, per posture and
    direction, on the analysis band.
 
@@ -40,9 +40,9 @@ from robolobe._directions import AXES
 from robolobe._matching import match_modes
 from robolobe._threads import with_one_blas_thread
 from robolobe.campaign import Campaign, TestHeader
+from robolobe.campaign.metrics import frac, nrmse
 from robolobe.errors import InputError
 from robolobe.modal._pool import identify_item, map_chunks, refit_item
-from robolobe.modal.metrics import frac, nrmse
 from robolobe.modal.modal_csv import MODAL_COLUMNS, Q_COLUMNS, validate_modal_frame
 from robolobe.modal.posture import IdentifySettings, PostureModal
 from robolobe.modal.quality import QualityIssue, check_campaign_grids
@@ -63,7 +63,7 @@ __all__ = [
     "settings_from_test",
 ]
 
-#: Extra columns of the modal table beyond FORMATS.md section 3.
+#: Extra columns of the modal table beyond docs/guide/modal.md.
 EXTRA_COLUMNS: tuple[str, ...] = ("source", "visibility", "k_rel_std")
 
 
@@ -309,8 +309,8 @@ def identify_frfs(
         rows had 90th-percentile stiffness errors of ~16 %, up to 100 %).
     numbering : {"rank", "track"}
         ``"rank"``: at each posture the modes that are visible at some
-        driving point are numbered 1, 2, ... by rising frequency (FORMATS.md
-        section 3; a mode hidden at one driving point does not shift the
+        driving point are numbered 1, 2, ... by rising frequency (docs/guide/modal.md);
+        a mode hidden at one driving point does not shift the
         numbers of the others, since it is still seen at another; tracking
         and neighbour recovery find modes hidden at all of them); each
         direction gets its first ``n_modes`` visible modes, so with more

@@ -12,7 +12,7 @@ conversion to receptance. All unknowns are complex, estimated as pairs of
 real numbers by weighted linear least squares; one small normal-equation
 solve per FRF, batched over FRFs (no loop over frequencies).
 
-Modal stiffness of mode ``r`` at driving point ``d`` (REFERENCES.md section 4):
+Modal stiffness of mode ``r`` at driving point ``d`` (docs/references.md: modal identification):
 ``k_r,d = Re( w_r^2 / (2 i w_d R_r,dd) )``.
 """
 

@@ -1,4 +1,4 @@
-"""Read and write the modal dataset ``modal.csv`` (FORMATS.md section 3).
+"""Read and write the modal dataset ``modal.csv`` (docs/guide/modal.md).
 
 One row per posture, direction and mode::
 

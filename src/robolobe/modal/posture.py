@@ -45,9 +45,9 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from robolobe._directions import AXES
+from robolobe.campaign.metrics import frac, nrmse
 from robolobe.errors import InputError
 from robolobe.modal.lsfd import LSFDResult, lsfd, modal_stiffness
-from robolobe.modal.metrics import frac, nrmse
 from robolobe.modal.plscf import plscf
 from robolobe.modal.quality import QualityIssue, check_posture_frfs, usable_directions
 from robolobe.modal.refine import refine_poles

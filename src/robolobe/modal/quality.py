@@ -108,7 +108,7 @@ def check_posture_frfs(
         Analysis band, Hz.
     coherence : array_like, shape (n_freq, 3, 3), optional
     coherence_min : float
-        Coherence below this counts as a bad line (REFERENCES.md: 0.9).
+        Coherence below this counts as a bad line (docs/references.md: 0.9).
     reciprocity_tol : float
         Largest accepted relative RMS difference between ``H_ij`` and ``H_ji``.
 

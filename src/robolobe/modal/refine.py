@@ -10,7 +10,7 @@ linear LSFD solve for each trial set of poles (variable projection, Golub &
 Pereyra). With noise-based weights this is close to the maximum-likelihood
 estimate that PolyMAX-plus / MLMM refine to; it removes most of the bias of
 the linearized pLSCF damping estimates, which matters for light damping
-under an exponential window (REFERENCES.md section 4).
+under an exponential window (docs/references.md: modal identification).
 
 Each pole is parametrized by ``ln w_r`` and ``ln sigma_r`` and kept within
 ``f_bound`` (relative) of its start, with ``0 < zeta < zeta_max``.
@@ -24,6 +24,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.optimize import least_squares, leastsq
 
+from robolobe.errors import InputError
 from robolobe.modal.lsfd import residue_basis
 
 __all__ = ["RefineResult", "refine_poles"]
@@ -261,7 +262,7 @@ def refine_poles(
             return resid(to_poles(p))
 
         if jacobian not in ("analytic", "fd"):
-            raise ValueError(f"jacobian: expected 'analytic' or 'fd', found {jacobian!r}")
+            raise InputError(f"jacobian: expected 'analytic' or 'fd', found {jacobian!r}")
         x_scale = np.concatenate([np.full(nf, 1e-3), np.full(nf, 0.1)])
         if jacobian == "fd":
             sol = least_squares(

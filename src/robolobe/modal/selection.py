@@ -17,7 +17,7 @@ Following Reynders, Houbrechts and De Roeck (2012), "Fully automated
    median damping of its members (and the member vector nearest to them).
 
 No nearest-pole picking: with close modes that picks wrong poles
-(REFERENCES.md section 4).
+(docs/references.md: modal identification).
 """
 
 from __future__ import annotations
@@ -29,8 +29,8 @@ from numpy.typing import NDArray
 from scipy.cluster.hierarchy import fcluster, linkage
 from scipy.spatial.distance import squareform
 
+from robolobe.campaign.metrics import mac_matrix
 from robolobe.errors import InputError
-from robolobe.modal.metrics import mac_matrix
 from robolobe.modal.stabilization import StabilizationDiagram
 from robolobe.modal.synthesis import modal_to_poles
 

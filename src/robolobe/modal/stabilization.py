@@ -7,7 +7,7 @@ the diagram (the closest in frequency among those within the hard limits):
 - stable in damping: ``|zeta_n - zeta_{n-1}| / zeta_{n-1} <= zeta_tol`` (5 %),
 - stable in shape: ``MAC(v_n, v_{n-1}) >= mac_min`` (0.98),
 
-(REFERENCES.md section 4), and it is *physical* when ``0 < zeta < zeta_max``
+(docs/references.md: modal identification), and it is *physical* when ``0 < zeta < zeta_max``
 and its frequency lies in the band. Shapes are the participation vectors of
 pLSCF (or, with one reference, the numerator values across the outputs).
 """
@@ -20,8 +20,8 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
+from robolobe.campaign.metrics import mac
 from robolobe.errors import InputError
-from robolobe.modal.metrics import mac
 from robolobe.modal.plscf import PoleSet
 
 __all__ = ["StabilizationCriteria", "StabilizationDiagram", "stabilization_diagram"]

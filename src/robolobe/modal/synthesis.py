@@ -2,7 +2,7 @@
 
 Two forms:
 
-- modal-stiffness form (FORMATS.md section 3, DESIGN.md), one direction::
+- modal-stiffness form (docs/guide/modal.md, docs/guide/physics.md), one direction::
 
       H(w) = sum_r (w_r^2 / k_r) / (w_r^2 - w^2 + 2 i zeta_r w_r w)
 
@@ -16,7 +16,7 @@ Two forms:
   with ``lambda_r = -zeta_r w_r + i w_r sqrt(1 - zeta_r^2)``.
 
 For a lightly damped mode the two agree when
-``R_r = w_r^2 / (2 i w_d k_r)`` (REFERENCES.md section 4).
+``R_r = w_r^2 / (2 i w_d k_r)`` (docs/references.md: modal identification).
 """
 
 from __future__ import annotations

@@ -35,8 +35,8 @@ from scipy.sparse.csgraph import breadth_first_order, minimum_spanning_tree
 from scipy.spatial.distance import cdist
 
 from robolobe._matching import match_modes
+from robolobe.campaign.metrics import mac
 from robolobe.errors import InputError
-from robolobe.modal.metrics import mac
 
 __all__ = [
     "ModeTracks",

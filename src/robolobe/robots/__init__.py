@@ -1,7 +1,7 @@
 """Robots: description files, kinematics (FK, Jacobians), inverse kinematics, limits.
 
 The built-in robots "A" (KUKA KR 300 R2700-2), "B" (Comau NJ 650-2.7) and "C"
-(ABB IRB 4400/60) and any user file of FORMATS.md section 1 load with
+(ABB IRB 4400/60) and any user file of docs/guide/robots.md load with
 :func:`load_robot`. Angles are radians; ``q`` are the controller's axis angles
 (DH angles follow through ``Robot.coupling``).
 

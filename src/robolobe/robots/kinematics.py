@@ -2,7 +2,7 @@
 
 Every function takes controller axis angles ``q`` [rad] of shape ``(..., 6)``
 and broadcasts over the leading dimensions. DH angles are
-``theta = coupling @ q + theta_offset`` (FORMATS.md section 1).
+``theta = coupling @ q + theta_offset`` (docs/guide/robots.md).
 
 Frames (``link_frames``): index 0 = base (DH frame 0), 1..6 = DH frames 1..6
 (6 = flange), 7 = TCP (flange @ tool). Link i's body is given in frame i.
@@ -190,7 +190,7 @@ def frame_jacobians(robot: Robot, q: ArrayLike, points_m: ArrayLike | None = Non
     frames = link_frames(robot, q)
     pts = np.zeros((7, 3)) if points_m is None else np.asarray(points_m, dtype=np.float64)
     if pts.shape != (7, 3):
-        raise ValueError(f"points_m: expected shape (7, 3), found {pts.shape}")
+        raise InputError(f"points_m: expected shape (7, 3), found {pts.shape}")
     fr = frames[..., 1:, :, :]  # (..., 7, 4, 4)
     p = (fr[..., :3, :3] @ pts[..., None])[..., 0] + fr[..., :3, 3]  # (..., 7, 3)
     z, o = joint_axes(robot, frames)  # (..., 6, 3)
@@ -230,13 +230,13 @@ def point_jacobian(
         the frame's angular velocity, per unit dq (coupling included).
     """
     if not 1 <= int(frame) <= 7:
-        raise ValueError(f"frame: expected 1..7, found {frame}")
+        raise InputError(f"frame: expected 1..7, found {frame}")
     k = int(frame) - 1
     pts = np.zeros((7, 3))
     if point_m is not None:
         pt = np.asarray(point_m, dtype=np.float64)
         if pt.shape != (3,):
-            raise ValueError(f"point_m: expected shape (3,), found {pt.shape}")
+            raise InputError(f"point_m: expected shape (3,), found {pt.shape}")
         pts[k] = pt
     return frame_jacobians(robot, q, pts)[..., k, :, :]
 
@@ -253,14 +253,14 @@ def tcp_jacobian(
         Controller axis angles [rad].
     expressed_in : {"tcp", "world"}
         Axes the velocity is expressed in. The translational TCP Jacobian in
-        the TCP frame (FORMATS.md section 1) is ``tcp_jacobian(r, q)[..., :3, :]``.
+        the TCP frame (docs/guide/robots.md) is ``tcp_jacobian(r, q)[..., :3, :]``.
 
     Returns
     -------
     ndarray, shape (..., 6, 6)
     """
     if expressed_in not in ("world", "tcp"):
-        raise ValueError(f"expressed_in: expected 'world' or 'tcp', found {expressed_in!r}")
+        raise InputError(f"expressed_in: expected 'world' or 'tcp', found {expressed_in!r}")
     jac = point_jacobian(robot, q, TCP_FRAME)
     if expressed_in == "world":
         return jac

@@ -53,6 +53,15 @@ def as_postures(q_rad: ArrayLike, name: str = "q_rad") -> FloatArray:
     ------
     InputError
         Not numbers, a shape other than (n, 6) with n >= 1, or NaN/inf.
+
+    Examples
+    --------
+    >>> as_postures([0.0, 0.5, -0.5, 0.0, 0.3, 0.0]).shape
+    (1, 6)
+    >>> as_postures([[0.0, 0.5, -0.5]], name="q_test")
+    Traceback (most recent call last):
+    ...
+    robolobe.errors.InputError: q_test: expected joint angles in rad of shape (n, 6) ... (1, 3)
     """
     try:
         q = np.array(q_rad, dtype=np.float64)
@@ -75,7 +84,7 @@ def as_postures(q_rad: ArrayLike, name: str = "q_rad") -> FloatArray:
 def _q(q: ArrayLike) -> FloatArray:
     arr = np.asarray(q, dtype=np.float64)
     if arr.ndim == 0 or arr.shape[-1] != 6:
-        raise ValueError(f"q: expected shape (..., 6), found {arr.shape}")
+        raise InputError(f"q: expected shape (..., 6), found {arr.shape}")
     return arr
 
 
@@ -151,7 +160,7 @@ def posture_violations(robot: Robot, q: ArrayLike) -> list[str]:
     """
     arr = _q(q)
     if arr.shape != (6,):
-        raise ValueError(f"q: expected shape (6,), found {arr.shape}")
+        raise InputError(f"q: expected shape (6,), found {arr.shape}")
     out = []
     if not np.all(np.isfinite(arr)):
         out.append(f"expected finite angles, found {np.degrees(arr).tolist()}")

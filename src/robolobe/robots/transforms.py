@@ -1,7 +1,7 @@
 """Small rigid-transform helpers (4x4 homogeneous matrices, ZYX angles).
 
 Conventions: a pose is a 4x4 matrix ``[[R, p], [0, 1]]``; ZYX angles
-``(a, b, c)`` give ``R = Rz(a) @ Ry(b) @ Rx(c)`` (FORMATS.md section 1; KUKA
+``(a, b, c)`` give ``R = Rz(a) @ Ry(b) @ Rx(c)`` (docs/guide/robots.md; KUKA
 A, B, C). All functions broadcast over leading dimensions.
 """
 

@@ -1,4 +1,4 @@
-"""robolobe.tl: posture -> modal parameters by transfer learning (DESIGN.md).
+"""robolobe.tl: posture -> modal parameters by transfer learning (docs/guide/physics.md).
 
 The seed paper's method (a 6 -> 5 x 32 ReLU -> 15 network per TCP direction,
 pretrained on robot A and transferred to B and C with the first three layers

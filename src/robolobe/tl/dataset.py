@@ -1,7 +1,7 @@
 """Modal datasets: postures -> per direction ``n_modes`` x (frequency, damping, stiffness).
 
-A :class:`ModalDataset` is the array form of ``modal.csv`` (FORMATS.md
-section 3) that the learning side works on: postures ``q_rad (n, 6)`` and,
+A :class:`ModalDataset` is the array form of ``modal.csv`` (docs/guide/modal.md) that
+the learning side works on: postures ``q_rad (n, 6)`` and,
 per driving-point direction (``xx``, ``yy``, optionally ``zz``) and mode
 (1 = lowest frequency), the natural frequency, the damping ratio and the
 modal stiffness. A mode that the file does not list is NaN.
@@ -146,7 +146,7 @@ class ModalDataset:
         )
 
     def to_frame(self, extra: dict[str, FloatArray] | None = None) -> pd.DataFrame:
-        """The ``modal.csv`` frame (FORMATS.md section 3); missing modes are left out.
+        """The ``modal.csv`` frame (docs/guide/modal.md); missing modes are left out.
 
         Parameters
         ----------

@@ -166,21 +166,28 @@ class ModalPredictor:
         Modes per direction (the seed: 5).
     hidden : sequence of int, default (32, 32, 32, 32, 32)
         Hidden layer widths (the seed: 5 x 32 ReLU).
-    features : {"angles", "trig", "trig5", "dh5"}, default "angles"
-        Network inputs: min-max-scaled angles (seed), sin/cos of each joint,
-        of joints 2-6, or of the DH angles 2-6 (see
+    features : {"angles", "trig", "trig5", "dh5"}, default "trig5"
+        Network inputs: min-max-scaled angles (the seed), sin/cos of each
+        joint, of joints 2-6, or of the DH angles 2-6 (see
         :func:`robolobe.tl.preprocess.features`).
-    target_transform : {"minmax", "log"}, default "minmax"
-        Targets min-max-scaled (seed) or logged first.
+    target_transform : {"minmax", "log", "flex"}, default "flex"
+        Targets min-max-scaled (the seed), logged first, or log frequency /
+        log damping / sqrt-compliance.
     epochs, batch_size, learning_rate : int, int, float
         Adam on the MSE (seed: 500, 8, 1e-3).
-    augment_delta : float, default 0.10
-        Seed eq. 1 on the min-max-scaled angles; 0 disables augmentation.
-    augment_copies : int, default 4
-        Augmented copies per posture (drawn once per member).
-    missing : {"interpolate", "mask"}, default "interpolate"
+    augment_delta : float, default 0.0
+        Seed eq. 1 on the min-max-scaled angles (the seed: 0.10); 0 disables
+        augmentation.
+    augment_copies : int, default 0
+        Augmented copies per posture (drawn once per member; the seed: 4).
+    missing : {"interpolate", "mask"}, default "mask"
         Missing values: the seed's linear interpolation along the posture
         order, or left out of the loss.
+
+    The defaults are the ``"improved"`` preset of
+    :mod:`robolobe.tl.presets`, the shipped models' settings (chosen by
+    studies/tl_accuracy.py); ``ModalPredictor(**PRESETS["paper"])`` is the
+    seed's method as published.
     n_members : int, default 5
         Ensemble members per direction (1 = no spread).
     source : ModalPredictor, optional
@@ -243,14 +250,14 @@ class ModalPredictor:
         directions: tuple[str, ...] | list[str] = ("xx", "yy"),
         n_modes: int = 5,
         hidden: tuple[int, ...] | list[int] = (32, 32, 32, 32, 32),
-        features: str = "angles",
-        target_transform: str = "minmax",
+        features: str = "trig5",
+        target_transform: str = "flex",
         epochs: int = 500,
         batch_size: int = 8,
         learning_rate: float = 1e-3,
-        augment_delta: float = 0.10,
-        augment_copies: int = 4,
-        missing: str = "interpolate",
+        augment_delta: float = 0.0,
+        augment_copies: int = 0,
+        missing: str = "mask",
         n_members: int = 5,
         source: ModalPredictor | None = None,
         n_frozen: int = 3,

@@ -6,8 +6,8 @@ not seen) and measured driving-point FRFs:
 * percent error per posture, direction, mode and parameter,
   ``100 |pred - true| / true``, on the values that are known;
 * the FRF rebuilt from the predicted modes with the modal-stiffness form of
-  FORMATS.md section 3, compared with the measured FRF on the analysis band
-  by FRAC and NRMSE (seed eqs. 5-6, :mod:`robolobe.modal.metrics`). A
+  docs/guide/modal.md, compared with the measured FRF on the analysis band
+  by FRAC and NRMSE (seed eqs. 5-6, :mod:`robolobe.campaign.metrics`). A
   measured H1 carries the exponential window of the test, which moves every
   pole left by ``-ln(window_end) / T`` (0.75 1/s for the seed's 4 s records
   windowed to 0.05: it doubles the damping of an 8 Hz mode); the rebuilt FRF
@@ -25,7 +25,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from robolobe.modal.metrics import frac, nrmse
+from robolobe.campaign.metrics import frac, nrmse
 from robolobe.modal.synthesis import synthesize_frf
 
 __all__ = ["Evaluation", "evaluate_prediction", "percent_errors", "rebuild_frf"]

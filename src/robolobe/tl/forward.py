@@ -18,6 +18,8 @@ from collections.abc import Sequence
 import numpy as np
 from numpy.typing import NDArray
 
+from robolobe.errors import InputError
+
 __all__ = ["ArrayMLP"]
 
 
@@ -54,21 +56,21 @@ class ArrayMLP:
         """
         n_layers = sum(1 for k in arrays if k.startswith("W") and k[1:].isdigit())
         if n_layers < 1:
-            raise ValueError("weights: expected arrays W0, b0, ..., found none")
+            raise InputError("weights: expected arrays W0, b0, ..., found none")
         ws, bs = [], []
         for i in range(n_layers):
             if f"W{i}" not in arrays or f"b{i}" not in arrays:
-                raise ValueError(f"weights: layer {i}: expected W{i} and b{i}")
+                raise InputError(f"weights: layer {i}: expected W{i} and b{i}")
             ws.append(np.asarray(arrays[f"W{i}"], dtype=np.float32))
             bs.append(np.asarray(arrays[f"b{i}"], dtype=np.float32))
         if ws[0].ndim != 3:
-            raise ValueError(f"weights: layer 0: expected 3 axes, found shape {ws[0].shape}")
+            raise InputError(f"weights: layer 0: expected 3 axes, found shape {ws[0].shape}")
         n_models = ws[0].shape[0]
         sizes = [ws[0].shape[1]] + [w.shape[2] if w.ndim == 3 else -1 for w in ws]
         for i in range(n_layers):
             want_w = (n_models, sizes[i], sizes[i + 1])
             if ws[i].shape != want_w or bs[i].shape != (n_models, sizes[i + 1]):
-                raise ValueError(
+                raise InputError(
                     f"weights: layer {i}: expected shapes {want_w} and "
                     f"{(n_models, sizes[i + 1])}, found {ws[i].shape} and {bs[i].shape}"
                 )
@@ -103,7 +105,7 @@ class ArrayMLP:
         if h.ndim == 2:
             h = np.broadcast_to(h, (self.n_models, *h.shape))
         if h.ndim != 3 or h.shape[0] != self.n_models or h.shape[2] != self.sizes[0]:
-            raise ValueError(
+            raise InputError(
                 f"x: expected shape (batch, {self.sizes[0]}) or "
                 f"({self.n_models}, batch, {self.sizes[0]}), found {np.shape(x)}"
             )

@@ -26,6 +26,8 @@ import numpy as np
 import torch
 from numpy.typing import NDArray
 
+from robolobe.errors import InputError
+
 __all__ = ["EnsembleMLP"]
 
 
@@ -47,7 +49,7 @@ class EnsembleMLP(torch.nn.Module):
     ) -> None:
         super().__init__()
         if len(sizes) < 2 or min(sizes) < 1 or n_models < 1:
-            raise ValueError(f"sizes: expected >= 2 positive widths, found {tuple(sizes)}")
+            raise InputError(f"sizes: expected >= 2 positive widths, found {tuple(sizes)}")
         self.n_models = int(n_models)
         self.sizes = tuple(int(s) for s in sizes)
         self._offsets: list[tuple[int, int, int]] = []  # (w_start, b_start, b_end)
@@ -76,7 +78,7 @@ class EnsembleMLP(torch.nn.Module):
     def frozen_size(self, n_frozen: int) -> int:
         """Length of the prefix of ``theta`` holding the first ``n_frozen`` layers."""
         if not 0 <= n_frozen <= self.n_layers:
-            raise ValueError(f"n_frozen: expected 0..{self.n_layers}, found {n_frozen}")
+            raise InputError(f"n_frozen: expected 0..{self.n_layers}, found {n_frozen}")
         return 0 if n_frozen == 0 else self._offsets[n_frozen - 1][2]
 
     def weight_views(self, flat: torch.Tensor) -> list[torch.Tensor]:

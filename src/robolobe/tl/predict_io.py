@@ -25,7 +25,7 @@ SPREAD_COLUMNS: tuple[str, ...] = tuple(
 def prediction_frame(
     posture_ids: Sequence[str], q_rad: ArrayLike, pred: ModalPrediction
 ) -> pd.DataFrame:
-    """The predicted ``modal.csv`` frame (FORMATS.md section 3 + :data:`SPREAD_COLUMNS`)."""
+    """The predicted ``modal.csv`` frame (docs/guide/modal.md + :data:`SPREAD_COLUMNS`)."""
     q = np.asarray(q_rad, dtype=float)
     ds = ModalDataset(tuple(posture_ids), q, pred.directions, pred.values)
     lo, hi = pred.interval(0.9)
@@ -47,7 +47,7 @@ def write_frf_campaign(
     fmax_hz: float = 40.0,
     df_hz: float = 0.25,
 ) -> Path:
-    """Write the FRFs rebuilt from the predictions as a campaign folder (FORMATS.md 2).
+    """Write the FRFs rebuilt from the predictions as a campaign folder (docs/guide/campaign.md).
 
     Driving points only (the predicted directions); receptance in m/N on
     ``0, df, ..., fmax``.

@@ -26,6 +26,8 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import NDArray
 
+from robolobe.errors import InputError
+
 if TYPE_CHECKING:  # torch is imported by the functions that train (not on load)
     import torch
 
@@ -202,20 +204,20 @@ def train_ensemble(
 
     n_models, n, _ = x.shape
     if x_val is not None and (y_val is None or mask_val is None):
-        raise ValueError("x_val: expected y_val and mask_val with it")
+        raise InputError("x_val: expected y_val and mask_val with it")
     if n_models != net.n_models:
-        raise ValueError(f"x: expected {net.n_models} models, found {n_models}")
+        raise InputError(f"x: expected {net.n_models} models, found {n_models}")
     if epochs < 1 or batch_size < 1 or not learning_rate > 0:
-        raise ValueError("epochs, batch_size and learning_rate must be positive")
+        raise InputError("epochs, batch_size and learning_rate must be positive")
     if rows is None:
         rows = torch.ones((n_models, n), dtype=torch.bool)
     counts = rows.sum(dim=1)
     if int(counts.min()) < 1:
-        raise ValueError("rows: every model needs at least one training row")
+        raise InputError("rows: every model needs at least one training row")
     length = int(counts.max())
     start = net.frozen_size(n_frozen)
     if start >= net.theta.numel():
-        raise ValueError(f"n_frozen: {n_frozen} leaves nothing to train")
+        raise InputError(f"n_frozen: {n_frozen} leaves nothing to train")
     x = x.to(torch.float32)
     y = y.to(torch.float32)
     mask = mask.to(torch.float32)

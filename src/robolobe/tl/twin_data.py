@@ -13,7 +13,7 @@ A mode not seen is missing (NaN) in that direction, as in an identified
 ``modal.csv``.
 
 Identification noise (``noise=True``) multiplies each value by a log-normal
-factor with the scatter that simulated identification reaches (REFERENCES.md
+factor with the scatter that simulated identification reaches (docs/references.md
 section 4: f within 0.2 %, damping within 2-7 %, driving-point k within
 2.5-4.5 %, 90th percentiles): relative standard deviations 0.1 %, 3 % and
 2 %. With ``noise=False`` the dataset holds the twin's exact values.

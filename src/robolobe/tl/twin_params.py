@@ -2,7 +2,7 @@
 
 A robot file is a prior: joint stiffnesses and dampings are rarely
 published, and link masses, centres of mass and the spindle mass of B and C
-are estimates (FORMATS.md section 1). The groups here are what
+are estimates (docs/guide/robots.md). The groups here are what
 :class:`robolobe.tl.graybox.TwinCalibration` can correct, each as a vector
 ``theta`` that is 0 for the robot file:
 
@@ -23,8 +23,8 @@ computed once, and the mass matrix is reassembled from them (a moved centre
 of mass changes a body's linear Jacobian by ``-[R d]_x Jw``). It gives the same
 modes as ``Twin(apply_parameters(robot, groups, theta)).modes(q)`` (tested to
 1e-9) about three times faster, which is what makes the 37-parameter fit
-quick. A robot file with the optional tilt or mount compliances (FORMATS.md
-section 1 extension, README "Robot description") keeps those DOFs at their
+quick. A robot file with the optional tilt or mount compliances (docs/guide/robots.md
+extension, README "Robot description") keeps those DOFs at their
 file values: the groups act on the six joint springs and dampers and on the
 bodies, the extra DOFs move the bodies as in the twin.
 """

@@ -914,7 +914,7 @@ def _modal_frac(
 ) -> FloatArray:
     """FRAC per posture of the twin's modal receptance (undamped modes; the damping of
     the matched table mode, 2 % for the others) against the table's, 2-40 Hz."""
-    from robolobe.modal.metrics import frac
+    from robolobe.campaign.metrics import frac
     from robolobe.twin.frf import modal_receptance
 
     z = np.full(lf.shape, UNMATCHED_ZETA)
@@ -1238,7 +1238,7 @@ def compare_to_table(
     -------
     TableComparison
     """
-    from robolobe.modal.metrics import frac
+    from robolobe.campaign.metrics import frac
     from robolobe.twin.frf import modal_receptance, receptance
 
     idx = list(postures)

@@ -1,6 +1,6 @@
 """Posture designs for hammer campaigns, mirroring the seed paper.
 
-REFERENCES.md section 1: robot A was tested in ~254 postures over its tested
+docs/references.md: seed paper in numbers: robot A was tested in ~254 postures over its tested
 joint ranges; robot B in 25 (20 for training, the 5 of the paper's Table 3
 for testing); robot C in 20 one-sided training postures (mostly negative
 q1), then 4 added on the other side (Table 5), and tested in the 5 of

@@ -1,6 +1,6 @@
 """Joint-space mass, stiffness and damping of the flexible-joint model.
 
-The nominal model (FORMATS.md section 1): rigid links 1..6 plus the end
+The nominal model (docs/guide/robots.md): rigid links 1..6 plus the end
 effector, elastic joints with diagonal stiffness ``K`` and viscous damping
 ``C`` on the controller axes q, motor side held fixed. The mass matrix with
 respect to q (i.e. through the robot's ``coupling``) is

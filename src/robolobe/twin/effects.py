@@ -1,4 +1,4 @@
-"""Optional physics effects that the nominal twin leaves out (REFERENCES.md section 6).
+"""Optional physics effects that the nominal twin leaves out (docs/references.md: missing physics).
 
 Each effect is a frozen dataclass with one to three physical parameters (and
 perhaps a setting such as a joint index or a direction), a snake_case

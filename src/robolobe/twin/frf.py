@@ -1,9 +1,9 @@
 """TCP receptance of the flexible-joint model, and FRFs from modal parameters.
 
-:func:`receptance` is the definition of FORMATS.md section 1,
+:func:`receptance` is the definition of docs/guide/robots.md,
 ``H(w) = J (K - w^2 M + i w C)^-1 J^T`` [m/N], solved directly (batched over
 postures and frequencies). :func:`modal_receptance` is the driving-point
-modal form of DESIGN.md / FORMATS.md section 3,
+modal form of docs/guide/physics.md / docs/guide/modal.md,
 ``H(w) = sum_r (w_r^2 / k_r) / (w_r^2 - w^2 + 2 i zeta_r w_r w)``, validated
 here and computed by the project's one kernel (:mod:`robolobe._modal_frf`).
 """

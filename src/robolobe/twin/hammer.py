@@ -3,7 +3,8 @@
 A modal hammer hits the tool in +x, +y and +z (TCP axes); a triaxial
 accelerometer at the TCP records the response; each excitation direction is
 hit ``impacts`` times and the spectra are averaged into H1, H2 and the
-coherence (REFERENCES.md sections 1 and 4). Defaults mirror the seed: 1024 Hz
+coherence (docs/references.md: seed paper in numbers, modal identification).
+Defaults mirror the seed: 1024 Hz
 sampling, 4 s records (0.25 Hz resolution), 5 impacts.
 
 How the signals are made (no loop over frequencies)
@@ -127,7 +128,7 @@ class HammerTestSettings:
         Range of the second hit's peak relative to the first (uniform).
     double_hit_limit : float
         An impact whose second-to-first force peak ratio exceeds this is a
-        double hit (REFERENCES.md section 4: ~0.002 clean, 0.01-0.03 works).
+        double hit (docs/references.md: modal identification: ~0.002 clean, 0.01-0.03 works).
     reject_double_hits : bool
         Leave double hits out of the averages (if every impact of a direction
         is a double hit, all are kept and a warning is logged).
@@ -335,7 +336,7 @@ def correct_window_damping(
     A pole ``lambda = -zeta w + i w sqrt(1 - zeta^2)`` identified from
     windowed data has its real part shifted by ``-decay_per_s``; the true
     pole keeps the damped frequency and has ``sigma_true = sigma_est +
-    decay_per_s`` (``= sigma_est - ln(window_end) / T``, REFERENCES.md
+    decay_per_s`` (``= sigma_est - ln(window_end) / T``, docs/references.md
     section 4; ``sigma`` the negative real part).
 
     Parameters

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from robolobe.modal.metrics import frac, mac, mac_matrix, nrmse
+from robolobe.campaign.metrics import frac, mac, mac_matrix, nrmse
 
 
 def test_frac_hand_values() -> None:

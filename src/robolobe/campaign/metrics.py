@@ -1,6 +1,6 @@
 """FRF and shape similarity metrics: FRAC, NRMSE (as in the seed paper) and MAC.
 
-- FRAC (seed eq. 5, REFERENCES.md section 4)::
+- FRAC (seed eq. 5, docs/references.md: modal identification)::
 
       FRAC = |sum_w Hp Hm*|^2 / (sum_w |Hp|^2  sum_w |Hm|^2)
 
