@@ -162,7 +162,7 @@ def test_overdamped_policy_raise_and_drop() -> None:
         md.frf([1.0, 2.0])
     # the diagnosis' list leaves it out; its receptance keeps all four poles (exact)
     f = np.linspace(0.0, 5.0, 11)
-    h = pole_residue_receptance(M, K, C, J, 2j * np.pi * f)
+    h = pole_residue_receptance(M, K, C, J, np.asarray(2j * np.pi * f, dtype=np.complex128))
     np.testing.assert_allclose(h, receptance(M, K, C, J, f), rtol=1e-12, atol=1e-15)
 
 
