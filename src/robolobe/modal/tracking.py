@@ -1,7 +1,7 @@
 """Mode tracking across postures: consistent mode identities over a campaign.
 
 One triaxial sensor gives 3-component shapes, so MAC alone is ambiguous
-(REFERENCES.md section 4). Modes are paired on frequency, damping, shape and
+(docs/references.md: modal identification). Modes are paired on frequency, damping, shape and
 residue (shape amplitude) together, with an assignment step:
 
 1. Postures are linked by a minimum spanning tree of their distances: the

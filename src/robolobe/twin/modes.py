@@ -1,7 +1,7 @@
 """Modes of the flexible-joint model: poles, damping, shapes, modal stiffness.
 
 The linear model is ``M x'' + C x' + K x = J^T f``, response ``y = J x``
-(FORMATS.md section 1: x the joint deflections, J the translational TCP
+(docs/guide/robots.md: x the joint deflections, J the translational TCP
 Jacobian in the TCP frame, y the TCP displacement). Two eigenproblems are
 solved, both batched over postures:
 
@@ -22,7 +22,7 @@ solved, both batched over postures:
 
 * **Undamped.** ``K phi = w0^2 M phi`` gives real, mass-normalised shapes
   (``phi^T M phi = I``) and the modal stiffness per TCP direction
-  ``k_r,d = w0_r^2 / u_d,r^2`` with ``u = J phi`` (DESIGN.md). This is the
+  ``k_r,d = w0_r^2 / u_d,r^2`` with ``u = J phi`` (docs/guide/physics.md). This is the
   driving-point modal stiffness of the modal form
   ``H_dd ~ sum_r (w_r^2/k_r) / (w_r^2 - w^2 + 2 i zeta_r w_r w)``; it is exact
   for proportional damping and within O(zeta^2) otherwise.
@@ -324,7 +324,7 @@ class Modes:
     def k_from_residues(self) -> FloatArray:
         """Driving-point modal stiffness from the complex residues [N/m].
 
-        ``k_r,d = Re(w_r^2 / (2 i w_d,r R_r,dd))`` (REFERENCES.md section 4):
+        ``k_r,d = Re(w_r^2 / (2 i w_d,r R_r,dd))`` (docs/references.md: modal identification):
         what a pole-residue identification of the driving-point FRF returns.
 
         Returns
