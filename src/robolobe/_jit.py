@@ -29,6 +29,11 @@ def available() -> bool:
         if os.environ.get("ROBOLOBE_NO_JIT", "").strip() not in ("", "0"):
             _STATE["ok"] = False
         else:
+            # The parallel kernels run short regions, tens per plan; OpenMP's default
+            # of spinning idle threads after each (numba's 'omp' layer) cost ~8 ms CPU
+            # per call, more than many a call's work. Idle threads sleep instead
+            # (unless the user chose otherwise); set before numba starts its threads.
+            os.environ.setdefault("OMP_WAIT_POLICY", "passive")
             try:
                 import numba  # noqa: F401
             except ImportError:

@@ -270,3 +270,82 @@ def test_distinct_rows_by_hashing_equal_sorting(monkeypatch):
     first2, inv2 = lobes._distinct_rows(huge)
     _, f2, i2 = np.unique(huge, axis=0, return_index=True, return_inverse=True)
     np.testing.assert_array_equal(first2[inv2], f2[np.asarray(i2).ravel()])
+
+
+def test_compiled_grouping_equals_the_tree_loop():
+    """The compiled leader clustering forms the groups of the cKDTree loop, ties included."""
+    from robolobe import _jit
+    from robolobe.plan import lobes as lobes_mod
+
+    if not _jit.available():
+        pytest.skip("numba not installed")
+    from robolobe.plan import _group_kernels
+
+    rng = np.random.default_rng(7)
+    for _ in range(60):
+        n, nf = int(rng.integers(1, 300)), int(rng.integers(1, 6))
+        # features on a 0.25 lattice: distances of exactly the radius (0.75) occur
+        f = np.round(rng.uniform(0.0, rng.uniform(0.5, 6.0), (n, nf)) * 4.0) / 4.0
+        ref = lobes_mod._leaders_tree(f)
+        got = _group_kernels.leaders(f, lobes_mod._RADIUS)
+        np.testing.assert_array_equal(got[0], ref[0])
+        np.testing.assert_array_equal(got[1], ref[1])
+    m = models(400, spread=0.2, seed=3)
+    alpha = directional_factors(0.0, np.pi / 2, MAT.kr)
+    g0, l0 = group_dynamics(m, alpha=alpha, compiled=False)
+    g1, l1 = group_dynamics(m, alpha=alpha, compiled=True)
+    assert 1 < l0.size < 400
+    np.testing.assert_array_equal(g0, g1)
+    np.testing.assert_array_equal(l0, l1)
+
+
+def test_kept_query_answers_equal_fresh_ones(monkeypatch):
+    """Exact queries are answered once; after the split the kept groups' answers are reused."""
+    from robolobe import _jit
+    from robolobe.plan import lobes as lobes_mod
+    from robolobe.sld import zoa
+
+    if not _jit.available():
+        pytest.skip("numba not installed")
+    from robolobe.sld import _kernels
+
+    monkeypatch.setattr(lobes_mod, "JIT_MIN_SAMPLES", 0)  # the kernel paths on a small batch
+    monkeypatch.setattr(zoa, "JIT_MIN_SAMPLES", 0)
+    n = 120
+    m = models(n, spread=0.05, seed=4)
+    kw = dict(
+        teeth=3, kt=MAT.kt, kr=MAT.kr, phi_entry=0.0, phi_exit=np.pi / 2,
+        rpm=np.linspace(12000.0, 24000.0, 300), immersion=0.5,
+    )  # fmt: skip
+    first = waypoint_lobes([m], **kw)
+    assert first.query_compiled
+    members = np.flatnonzero(first.table.group != np.arange(n))
+    own = np.zeros(n, bool)
+    own[members[:3]] = True
+    rows = np.linspace(12100.0, 23900.0, 7)[None, :].repeat(n, 0)
+    g = first.table.group
+    a_first = first.table.rows(rows, g)
+    rows_seen = []
+    inner = _kernels.envelope_rows
+
+    def counted(*a, **k):
+        rows_seen.append(len(a[3]))
+        return inner(*a, **k)
+
+    monkeypatch.setattr(_kernels, "envelope_rows", counted)
+    again = first.table.rows(rows, g)
+    assert rows_seen == []  # kept
+    np.testing.assert_array_equal(again, a_first)
+    reused = waypoint_lobes([m], own=own, reuse=first, **kw)
+    g2 = reused.table.group
+    got_old = reused.table.rows(rows, g)  # the earlier groups, asked as before
+    assert rows_seen == []  # from the first result's answers
+    got = reused.table.rows(rows, g2)  # other rows of the earlier groups: computed
+    n_calls = len(rows_seen)
+    np.testing.assert_array_equal(reused.table.rows(rows, g2), got)
+    assert len(rows_seen) == n_calls
+    fresh = waypoint_lobes([m], own=own, **kw)
+    assert fresh.query_compiled
+    np.testing.assert_array_equal(got, fresh.table.rows(rows, g2))
+    np.testing.assert_array_equal(got_old, fresh.table.rows(rows, g))
+    np.testing.assert_array_equal(got_old, a_first)

@@ -27,7 +27,7 @@ from __future__ import annotations
 import dataclasses
 import math
 import time
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from types import ModuleType
 from typing import Any
@@ -55,6 +55,8 @@ FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
 
 _RADIUS = 0.75  # leader radius in tolerance units (plus the 0.25 cells: at most 1)
+#: Exact-query answers kept per :class:`GroupedLobes` (each a (groups, speeds) array).
+_MEMO = 32
 
 
 @dataclass(frozen=True)
@@ -183,7 +185,11 @@ def _distinct_rows(q: FloatArray) -> tuple[IntArray, IntArray]:
 
 
 def group_dynamics(
-    model: ModalModel, tol: DynamicsTolerance | None = None, alpha: FloatArray | None = None
+    model: ModalModel,
+    tol: DynamicsTolerance | None = None,
+    alpha: FloatArray | None = None,
+    *,
+    compiled: bool | None = None,
 ) -> tuple[IntArray, IntArray]:
     """Group a batch of modal models whose parameters agree within ``tol``.
 
@@ -199,6 +205,9 @@ def group_dynamics(
     alpha : ndarray, shape (2, 2), optional
         Directional factors of the cut (feed-frame models): adds the oriented
         size of each mode to the features (see :func:`_features`).
+    compiled : bool, optional
+        Cluster with the compiled kernel (True), the cKDTree loop (False), or
+        the kernel from :data:`JIT_MIN_ROWS` distinct rows on (None). Same groups.
 
     Returns
     -------
@@ -226,6 +235,39 @@ def group_dynamics(
     first, inv = _distinct_rows(np.round(f * 4.0))
     order = np.argsort(first)  # unique rows in path order
     fu = f[first[order]]
+    label_u, lead_u = _leaders(fu, compiled)
+    pos = np.empty_like(order)
+    pos[order] = np.arange(order.size)
+    group = label_u[pos[inv]]
+    return group.astype(np.int64), first[order][lead_u].astype(np.int64)
+
+
+#: Distinct rows from which :func:`group_dynamics` clusters with the compiled kernel
+#: by default (below, the tree loop is quick and numba's start-up would cost more).
+JIT_MIN_ROWS = 2_000
+
+
+def _leaders(fu: FloatArray, compiled: bool | None) -> tuple[IntArray, IntArray]:
+    """Leader clustering of ``fu`` (m, F) in row order: (label per row, leader rows).
+
+    Compiled (:mod:`robolobe.plan._group_kernels`) where numba is available and
+    ``compiled`` allows (None: from :data:`JIT_MIN_ROWS` rows on), else
+    :func:`_leaders_tree`; the same groups either way.
+    """
+    from robolobe import _jit
+
+    if compiled is None:
+        compiled = fu.shape[0] >= JIT_MIN_ROWS
+    if compiled and _jit.available():
+        from robolobe.plan import _group_kernels
+
+        return _group_kernels.leaders(fu, _RADIUS)
+    return _leaders_tree(fu)
+
+
+def _leaders_tree(fu: FloatArray) -> tuple[IntArray, IntArray]:
+    """Leader clustering with a cKDTree: each leader, in row order, takes every row not
+    yet grouped within :data:`_RADIUS` (max norm). The reference of the compiled kernel."""
     label_u = np.full(fu.shape[0], -1, np.int64)
     leaders: list[int] = []
     tree = cKDTree(fu)
@@ -235,11 +277,8 @@ def group_dynamics(
         near = np.asarray(tree.query_ball_point(fu[lead], _RADIUS, p=np.inf), dtype=np.int64)
         near = near[label_u[near] < 0]
         label_u[near] = len(leaders)
-        leaders.append(int(first[order][lead]))
-    pos = np.empty_like(order)
-    pos[order] = np.arange(order.size)
-    group = label_u[pos[inv]]
-    return group.astype(np.int64), np.asarray(leaders, dtype=np.int64)
+        leaders.append(lead)
+    return label_u, np.asarray(leaders, dtype=np.int64)
 
 
 @dataclass(frozen=True, eq=False)
@@ -266,6 +305,12 @@ class GroupedLobes:
     n_base : int
         Groups formed by the tolerance; the ones after them are waypoints
         given lobes of their own (``own``).
+    query : callable, optional
+        ``query(rows, groups)``: the exact limit of groups ``groups`` (g,), all
+        below ``n_groups``, at speeds ``rows`` (g, m) [rpm], without the
+        robust window; answers are kept (:data:`_MEMO`).
+    query_compiled : bool
+        Whether ``query`` runs the compiled kernel.
     """
 
     table: LobeTable
@@ -276,6 +321,8 @@ class GroupedLobes:
     timings: dict[str, float] = field(default_factory=dict)
     window: FloatArray = field(default_factory=lambda: np.zeros(0))
     n_base: int = -1
+    query: Callable[[FloatArray, IntArray], FloatArray] | None = field(default=None, repr=False)
+    query_compiled: bool = False
 
     def __post_init__(self) -> None:
         if self.n_base < 0:
@@ -413,36 +460,62 @@ def waypoint_lobes(
 
     kern = _query_kernels(n_groups * (np.asarray(diagrams[0].depth).shape[-1] if diagrams else 0))
 
+    def lobes_at(rows: FloatArray, g: IntArray) -> FloatArray:
+        vals = []
+        for d in diagrams:
+            assert d.depth is not None
+            assert d.eps is not None
+            assert d.omega is not None
+            if kern is not None and np.ndim(d.omega) > 1:
+                vals.append(
+                    kern.envelope_rows(
+                        d.omega, d.depth, d.eps, g, teeth=d.teeth, rpm=rows, max_lobe=d.max_lobe
+                    )
+                )
+                continue
+            om = d.omega[g] if np.ndim(d.omega) > 1 else d.omega
+            vals.append(
+                lobe_envelope(
+                    om, d.depth[g], d.eps[g], teeth=d.teeth, rpm=rows, max_lobe=d.max_lobe
+                )
+            )
+        return np.asarray(np.min(np.stack(vals), axis=0))
+
+    # The optimizer asks the same questions more than once (the constant and the
+    # searched schedule verified at the same speeds; the schedule made again after
+    # the steep-wall split): the answers are kept. After the split, the groups of
+    # ``reuse`` have the same lobes, so their answers come from its queries (the
+    # kernel computes each row on its own: the same values).
+    memo: dict[tuple[tuple[int, ...], bytes, bytes], FloatArray] = {}
+    n_prev = reuse.n_groups if reuse is not None else 0
+    prev = reuse.query if reuse is not None and reuse.query_compiled == (kern is not None) else None
+    prev = prev if kern is not None else None
+
+    def query(rows: FloatArray, g: IntArray) -> FloatArray:
+        rows = np.ascontiguousarray(rows, dtype=np.float64)
+        g = np.ascontiguousarray(g, dtype=np.int64)
+        key = (rows.shape, rows.tobytes(), g.tobytes())
+        val = memo.get(key)
+        if val is not None:
+            return val
+        old = g < n_prev
+        if prev is not None and np.all(old):
+            val = prev(rows, g)
+        elif prev is not None and np.any(old):
+            val = np.empty(rows.shape)
+            val[old] = prev(rows[old], g[old])
+            val[~old] = lobes_at(rows[~old], g[~old])
+        else:
+            val = lobes_at(rows, g)
+        if len(memo) < _MEMO:
+            memo[key] = val
+        return val
+
     def exact0(rows: FloatArray, groups: IntArray) -> FloatArray:
         out = np.full(rows.shape, np.inf)
         sel = groups < n_groups  # the last row is the unbounded one
         if np.any(sel):
-            g = groups[sel]
-            vals = []
-            for d in diagrams:
-                assert d.depth is not None
-                assert d.eps is not None
-                assert d.omega is not None
-                if kern is not None and np.ndim(d.omega) > 1:
-                    vals.append(
-                        kern.envelope_rows(
-                            d.omega,
-                            d.depth,
-                            d.eps,
-                            g,
-                            teeth=d.teeth,
-                            rpm=rows[sel],
-                            max_lobe=d.max_lobe,
-                        )
-                    )
-                    continue
-                om = d.omega[g] if np.ndim(d.omega) > 1 else d.omega
-                vals.append(
-                    lobe_envelope(
-                        om, d.depth[g], d.eps[g], teeth=d.teeth, rpm=rows[sel], max_lobe=d.max_lobe
-                    )
-                )
-            out[sel] = np.min(np.stack(vals), axis=0)
+            out[sel] = query(rows[sel], groups[sel])
         return out
 
     w_group = np.zeros(n_groups + 1)
@@ -490,6 +563,8 @@ def waypoint_lobes(
         timings={"grouping": t1 - t0, "zoa": t2 - t1},
         window=w_group[:n_groups],
         n_base=n_base,
+        query=query if n_groups else None,
+        query_compiled=kern is not None,
     )
 
 
