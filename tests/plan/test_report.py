@@ -218,3 +218,32 @@ def test_chosen_lobes_equal_a_candidate_by_candidate_search(result):
             break
         out.append(int(cand[j]))
     assert report._chosen(result) == out
+
+
+def test_margin_runs_colour_every_move_as_the_norm_does():
+    """The path plot joins moves of one colour class: each move keeps BoundaryNorm's colour."""
+    from matplotlib.colors import BoundaryNorm
+
+    from robolobe.plan.report import _margin_classes, _runs
+
+    sf = 1.3
+    bounds = [0.0, 1.0, sf, 1.1 * sf, 1.5 * sf, 2.0 * sf, 4.0 * sf]
+    rng = np.random.default_rng(2)
+    m = rng.choice([*bounds, 0.5, 1.2, 1.5, 3.0, 9.0, np.inf, np.nan], 400)
+    m[:5] = np.nan
+    cls = _margin_classes(m, bounds)
+    norm = BoundaryNorm(bounds, 6)
+    fin = np.isfinite(m)
+    # BoundaryNorm's bin, with values at or above the last bound its 'over' (N) bin
+    ref = np.asarray(norm(np.where(fin, m, 0.0)).filled(6))
+    np.testing.assert_array_equal(cls[fin], np.minimum(ref[fin], 6))
+    assert np.all(cls[~fin] == -1)
+    x = np.arange(m.size + 1.0)
+    lines, run_cls = _runs(x, 2 * x, cls)
+    # expanded back to moves: every drawn move once, in its own class
+    per_move = np.full(m.size, -1)
+    for line, c in zip(lines, run_cls, strict=True):
+        i0 = int(line[0, 0])
+        per_move[i0 : i0 + len(line) - 1] = c
+        np.testing.assert_array_equal(line[:, 1], 2 * line[:, 0])
+    np.testing.assert_array_equal(per_move, cls)

@@ -29,6 +29,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import pandas as pd
+from numpy.typing import NDArray
 
 from robolobe._atomic import atomic_dir
 from robolobe.plan.pipeline import PlanResult
@@ -60,6 +61,9 @@ OUTPUTS: tuple[str, ...] = (
 )
 #: What ``write_outputs(waypoints=...)`` accepts.
 WAYPOINT_FORMATS: tuple[str, ...] = ("csv", "parquet", "none")
+
+FloatArray = NDArray[np.float64]
+IntArray = NDArray[np.int64]
 
 
 def write_csv(df: pd.DataFrame, path: Path) -> None:
@@ -127,6 +131,51 @@ def _png(fig: Figure) -> bytes:
     buf = io.BytesIO()
     fig.savefig(buf, format="png", dpi=110)
     return buf.getvalue()
+
+
+def _margins(
+    fig: Figure,
+    *,
+    left: float,
+    right: float = 0.981,
+    bottom: float = 0.122,
+    top: float = 0.924,
+    hspace: float | None = None,
+) -> None:
+    """Fixed margins (figure fractions) where ``tight_layout`` would measure every label.
+
+    The values are what ``tight_layout`` chose on the bundled plans, with room
+    for five-digit tick labels; measuring them cost about 40 % of a plot.
+    """
+    fig.subplots_adjust(left=left, right=right, bottom=bottom, top=top, hspace=hspace)
+
+
+def _runs(x: FloatArray, y: FloatArray, cls: IntArray) -> tuple[list[FloatArray], IntArray]:
+    """Polylines through consecutive moves of one class: the moves ``i -> i + 1`` of
+    class ``cls[i]`` (-1: not drawn) joined while the class stays the same.
+
+    Returns each run's (k, 2) vertices and its class.
+    """
+    if cls.size == 0:
+        return [], np.zeros(0, np.int64)
+    cut = np.flatnonzero(np.diff(cls)) + 1
+    starts = np.r_[0, cut]
+    stops = np.r_[cut, cls.size]
+    keep = cls[starts] >= 0
+    xy = np.column_stack([x, y])
+    lines = [xy[a : b + 1] for a, b in zip(starts[keep], stops[keep], strict=True)]
+    return lines, cls[starts[keep]]
+
+
+def _margin_classes(margin: FloatArray, bounds: list[float]) -> IntArray:
+    """Colour class of each margin as ``BoundaryNorm(bounds)`` bins it (-1: NaN, not drawn).
+
+    ``len(bounds) - 1`` is the 'over' class (at or above the last bound).
+    """
+    m = np.asarray(margin, dtype=np.float64)
+    fin = np.isfinite(m)
+    cls = np.maximum(np.searchsorted(bounds, np.where(fin, m, 0.0), side="right") - 1, 0)
+    return np.where(fin, cls, -1).astype(np.int64)
 
 
 def _chosen(res: PlanResult, n: int = 3) -> list[int]:
@@ -203,7 +252,7 @@ def plot_lobes(res: PlanResult) -> Figure:
     ax.set_ylabel("limiting depth a_lim [mm]")
     ax.set_title("Stability lobes at the tightest waypoints (dots: planned speed and depth)")
     ax.legend(fontsize=8, loc="upper left", framealpha=0.9)
-    fig.tight_layout()
+    _margins(fig, left=0.09)
     return fig
 
 
@@ -247,7 +296,7 @@ def plot_speed_map(res: PlanResult, max_rows: int = 1500) -> Figure:
     ax.set_ylabel("spindle speed [rpm]")
     ax.set_title(f"Stability map at depth {best.depth_m * 1e3:.3g} mm")
     ax.legend(fontsize=7, loc="upper right")
-    fig.tight_layout()
+    _margins(fig, left=0.115)
     return fig
 
 
@@ -266,21 +315,25 @@ def plot_path_margin(res: PlanResult) -> Figure:
     ax = fig.add_subplot()
     ax.plot(x, y, color="0.75", lw=0.6, ls="--", zorder=1, label="rapid / non-cutting")
     # A move ends at its row: segment i-1 -> i carries row i's margin.
-    seg = np.stack([np.column_stack([x[:-1], y[:-1]]), np.column_stack([x[1:], y[1:]])], axis=1)
-    cut = np.isfinite(margin[1:])
     # Classes an engineer reads at a glance: below the safety factor (the
     # plan's own limit) is red, at it orange, then more and more spare depth.
     bounds = [0.0, 1.0, sf, 1.1 * sf, 1.5 * sf, 2.0 * sf, 4.0 * sf]
-    cmap = ListedColormap(
-        ["#8b0000", "#e34a33", "#fdae61", "#fee08b", "#a6d96a", "#1a9850"]
-    ).with_extremes(over="#006837")
+    colors = ["#8b0000", "#e34a33", "#fdae61", "#fee08b", "#a6d96a", "#1a9850"]
+    cmap = ListedColormap(colors).with_extremes(over="#006837")
     norm = BoundaryNorm(bounds, cmap.N)
-    lc = LineCollection(seg[cut], cmap=cmap, norm=norm, linewidths=2.4, zorder=2)
-    lc.set_array(margin[1:][cut])
+    m = margin[1:]
+    # the class of each move (its colour), consecutive moves of a class drawn as one
+    # line: the same picture as one segment per move, without a path object per move
+    lines, run_cls = _runs(x, y, _margin_classes(m, bounds))
+    lc = LineCollection(lines, colors=[cmap(c) for c in run_cls], linewidths=2.4, zorder=2)
     ax.add_collection(lc)
     k = res.summary["min_margin_at"]["waypoint"]
     ax.plot(x[k], y[k], "kx", ms=10, mew=2, zorder=3, label="tightest waypoint")
-    cb = fig.colorbar(lc, ax=ax, extend="max", ticks=bounds, spacing="uniform")
+    from matplotlib.cm import ScalarMappable
+
+    cb = fig.colorbar(
+        ScalarMappable(norm=norm, cmap=cmap), ax=ax, extend="max", ticks=bounds, spacing="uniform"
+    )
     cb.ax.set_yticklabels(["0", "1 (chatter)", f"{sf:g} (SF)", *(f"{b:.2f}" for b in bounds[3:])])
     cb.set_label("margin = limiting depth / planned depth")
     ax.set_aspect("equal", adjustable="datalim")
@@ -289,7 +342,7 @@ def plot_path_margin(res: PlanResult) -> Figure:
     ax.set_ylabel("y [mm]")
     ax.set_title("Path (top view) coloured by stability margin")
     ax.legend(fontsize=8, loc="best")
-    fig.tight_layout()
+    _margins(fig, left=0.1, right=0.945, bottom=0.106, top=0.934)
     return fig
 
 
@@ -314,7 +367,7 @@ def plot_speed_power(res: PlanResult) -> Figure:
     ax2.set_xlabel("cutting length along the path [mm]")
     ax2.legend(fontsize=7)
     ax1.set_title("Spindle speed and cutting power along the path")
-    fig.tight_layout()
+    _margins(fig, left=0.115, bottom=0.117, top=0.927, hspace=0.11)
     return fig
 
 
