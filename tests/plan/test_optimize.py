@@ -273,3 +273,76 @@ def test_block_minimum_in_chunks_equals_the_full_grid():
     ref = np.minimum.reduceat(a[group], start, axis=0)
     for chunk in (1, 7, 64, 5000):
         np.testing.assert_array_equal(_block_min(a, group, start, chunk), ref)
+
+
+@pytest.mark.parametrize(
+    "kw",
+    [
+        {},
+        {"max_rate_rpm_per_m": 40000.0},
+        {"max_rate_rpm_per_s": 3000.0},
+        {"constant_speed": True},
+        {"power_W": 9000.0, "safety_factor": 1.3},
+    ],
+)
+def test_compiled_search_equals_the_numpy_search(monkeypatch, kw):
+    """The search's dynamic program compiled gives the numpy path's schedule bit for bit."""
+    from robolobe import _jit
+    from robolobe.plan.optimize import _search
+
+    if not _jit.available():
+        pytest.skip("numba not installed")
+    rng = np.random.default_rng(5)
+    funcs = [bump(c, h) for c, h in zip(rng.uniform(7000, 23000, 6), rng.uniform(0.5, 3, 6))]
+    n = 700
+    group = np.repeat(np.arange(6), -(-n // 6))[:n]
+    rng.shuffle(group[: n // 3])
+    geom = PathGeometry(rng.uniform(0.001, 0.006, n))
+    c = cons(**kw)
+    out = {}
+    for compiled in (False, True):
+        monkeypatch.setattr(_search, "COMPILED_DP", compiled)
+        out[compiled] = optimize_schedule(table(funcs, group), geom, c, refine=False)
+    a, b = out[False], out[True]
+    assert (a.search is None) == (b.search is None)
+    if a.search is not None:
+        assert b.search is not None
+        assert a.search.depth_m == b.search.depth_m
+        np.testing.assert_array_equal(a.search.rpm, b.search.rpm)
+        np.testing.assert_array_equal(a.search.knots_rpm, b.search.knots_rpm)
+    assert a.best.depth_m == b.best.depth_m
+    np.testing.assert_array_equal(a.best.rpm, b.best.rpm)
+
+
+def test_compiled_dp_windows_equal_the_sparse_table():
+    """The monotone-queue window minimum of the kernel is the sparse table's, block by block."""
+    from robolobe import _jit
+
+    if not _jit.available():
+        pytest.skip("numba not installed")
+    from robolobe.plan.optimize import _dp_kernels
+    from robolobe.plan.optimize._common import _rate_windows
+
+    rng = np.random.default_rng(9)
+    kb, nj = 40, RPM.size
+    a_blk = rng.uniform(0.5e-3, 3e-3, (kb, nj))
+    length = rng.uniform(0.001, 0.01, kb)
+    inv_n = 60.0 / (1e-4 * 3 * RPM)
+    sf_d = np.geomspace(1e-4, 3e-3, 7)
+    ok = rng.random((7, nj)) > 0.1
+    for kw in ({"max_rate_rpm_per_m": 20000.0}, {"max_rate_rpm_per_s": 800.0}, {}):
+        c = cons(**kw)
+        wins = [_rate_windows(RPM, float(d), c) for d in rng.uniform(0.0005, 0.02, kb - 1)]
+        lo = np.array([w[0] for w in wins])
+        hi = np.array([w[1] for w in wins])
+        assert _dp_kernels.monotone(lo, hi)
+        v = np.where((a_blk[0] >= sf_d[:, None]) & ok, length[0] * inv_n, np.inf)
+        ref_vals = [v[3].copy()]
+        for b in range(1, kb):
+            cost = np.where((a_blk[b] >= sf_d[:, None]) & ok, length[b] * inv_n, np.inf)
+            v = cost + _window_min(v, lo[b - 1], hi[b - 1])
+            ref_vals.append(v[3].copy())
+        got, _ = _dp_kernels.dp(a_blk, length, inv_n, sf_d, ok, lo, hi)
+        np.testing.assert_array_equal(got, v)
+        _, kept = _dp_kernels.dp(a_blk, length, inv_n, sf_d[3:4], ok[3:4], lo, hi, keep=True)
+        np.testing.assert_array_equal(kept, np.array(ref_vals))

@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import logging
 import math
+import sys
+from types import ModuleType
 
 import numpy as np
 from numpy.typing import NDArray
@@ -168,6 +170,25 @@ def _block_min(
     return out
 
 
+#: Whether the search runs its dynamic program compiled: None where numba is running
+#: already (its start-up paid by the lobe kernels, so it costs nothing here), True
+#: wherever numba is available, False never. The same values either way.
+COMPILED_DP: bool | None = None
+
+
+def _dp_kernels() -> ModuleType | None:
+    """The compiled dynamic program (:mod:`._dp_kernels`) where :data:`COMPILED_DP` allows."""
+    if COMPILED_DP is False or (COMPILED_DP is None and "numba" not in sys.modules):
+        return None
+    from robolobe import _jit
+
+    if not _jit.available():
+        return None
+    from robolobe.plan.optimize import _dp_kernels as kern
+
+    return kern
+
+
 def _search(ctx: _Ctx, max_blocks: int, n_depth: int) -> tuple[Schedule | None, _Blocks, str]:
     """Dynamic program over blocks x speeds, vectorised over a ladder of depths."""
     cons, lobes = ctx.cons, ctx.lobes
@@ -201,11 +222,20 @@ def _search(ctx: _Ctx, max_blocks: int, n_depth: int) -> tuple[Schedule | None, 
         feas = (blk.a_blk[b][None, :] >= sf_d[d_sel]) & base_ok[d_sel]
         return np.where(feas, blk.length[b] * inv_n[None, :], np.inf)
 
-    v = cost(0, slice(None))
     windows = [_rate_windows(rpm, float(d), cons) for d in dist]
-    for b in range(1, kb):
-        lo, hi = windows[b - 1]
-        v = cost(b, slice(None)) + _window_min(v, lo, hi)
+    kern = _dp_kernels()
+    if kern is not None:
+        lo_all = np.array([w[0] for w in windows], np.int64).reshape(-1, rpm.size)
+        hi_all = np.array([w[1] for w in windows], np.int64).reshape(-1, rpm.size)
+        if not kern.monotone(lo_all, hi_all):
+            kern = None
+    if kern is not None:
+        v, _ = kern.dp(blk.a_blk, blk.length, inv_n, sf_d[:, 0], base_ok, lo_all, hi_all)
+    else:
+        v = cost(0, slice(None))
+        for b in range(1, kb):
+            lo, hi = windows[b - 1]
+            v = cost(b, slice(None)) + _window_min(v, lo, hi)
     total = v.min(axis=1) + ctx.geom.rapid_time_s
     score = np.where(np.isfinite(total), depths / total, -np.inf)
     if not np.any(np.isfinite(score)):
@@ -220,15 +250,18 @@ def _search(ctx: _Ctx, max_blocks: int, n_depth: int) -> tuple[Schedule | None, 
         ok_f = ctx.allowed[None, :] & (
             fine[:, None] * rpm[None, :] <= cons.power_product * (1 + 1e-12)
         )
-        vf = np.where(
-            (blk.a_blk[0][None, :] >= sf_f) & ok_f, blk.length[0] * inv_n[None, :], np.inf
-        )
-        for b in range(1, kb):
-            lo, hi = windows[b - 1]
-            cb = np.where(
-                (blk.a_blk[b][None, :] >= sf_f) & ok_f, blk.length[b] * inv_n[None, :], np.inf
+        if kern is not None:
+            vf, _ = kern.dp(blk.a_blk, blk.length, inv_n, sf_f[:, 0], ok_f, lo_all, hi_all)
+        else:
+            vf = np.where(
+                (blk.a_blk[0][None, :] >= sf_f) & ok_f, blk.length[0] * inv_n[None, :], np.inf
             )
-            vf = cb + _window_min(vf, lo, hi)
+            for b in range(1, kb):
+                lo, hi = windows[b - 1]
+                cb = np.where(
+                    (blk.a_blk[b][None, :] >= sf_f) & ok_f, blk.length[b] * inv_n[None, :], np.inf
+                )
+                vf = cb + _window_min(vf, lo, hi)
         tf = vf.min(axis=1) + ctx.geom.rapid_time_s
         sc_f = np.where(np.isfinite(tf), fine / tf, -np.inf)
         if np.max(sc_f) > score[d_best]:
@@ -239,13 +272,21 @@ def _search(ctx: _Ctx, max_blocks: int, n_depth: int) -> tuple[Schedule | None, 
             )
             d_best = depths.size - fine.size + int(np.argmax(sc_f))
     # second pass at the chosen depth, keeping the values for backtracking
-    vals = np.empty((kb, rpm.size))
-    vb = cost(0, slice(d_best, d_best + 1))[0]
-    vals[0] = vb
-    for b in range(1, kb):
-        lo, hi = windows[b - 1]
-        vb = cost(b, slice(d_best, d_best + 1))[0] + _window_min(vb[None, :], lo, hi)[0]
-        vals[b] = vb
+    if kern is not None:
+        one = slice(d_best, d_best + 1)
+        _, kept = kern.dp(
+            blk.a_blk, blk.length, inv_n, sf_d[one, 0], base_ok[one], lo_all, hi_all, keep=True
+        )
+        assert kept is not None
+        vals = kept
+    else:
+        vals = np.empty((kb, rpm.size))
+        vb = cost(0, slice(d_best, d_best + 1))[0]
+        vals[0] = vb
+        for b in range(1, kb):
+            lo, hi = windows[b - 1]
+            vb = cost(b, slice(d_best, d_best + 1))[0] + _window_min(vb[None, :], lo, hi)[0]
+            vals[b] = vb
     j = np.empty(kb, np.int64)
     j[-1] = int(np.argmin(vals[-1]))
     for b in range(kb - 2, -1, -1):
