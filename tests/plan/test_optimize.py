@@ -293,8 +293,8 @@ def test_compiled_search_equals_the_numpy_search(monkeypatch, kw):
     if not _jit.available():
         pytest.skip("numba not installed")
     rng = np.random.default_rng(5)
-    centres = [8000.0, 19000.0, 11000.0, 22000.0, 15000.0, 9000.0]
-    funcs = [bump(c, 2.0 + 0.3 * rng.random()) for c in centres]
+    centres = [10000.0, 19000.0, 12000.0, 21000.0, 15000.0, 11000.0]
+    funcs = [bump(c, 2.5 + 0.3 * rng.random()) for c in centres]
     n = 700
     group = np.repeat(np.arange(6), -(-n // 6))[:n]  # one pocket per sixth of the path
     geom = PathGeometry(rng.uniform(0.001, 0.006, n))
