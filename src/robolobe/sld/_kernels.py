@@ -222,11 +222,13 @@ def _env_row(
     uniform: bool,
     k1: int,
     env: FloatArray,
+    complete: bool = True,
 ) -> float:
     """Envelope of one waypoint's lobes on the sorted speeds ``s`` (into ``env``).
 
     Returns the speed above which lobes ``k >= k1`` cannot lower the
-    envelope (as :func:`robolobe.sld.zoa._complete_above`).
+    envelope (as :func:`robolobe.sld.zoa._complete_above`); 0 without
+    ``complete`` (exact queries need only the envelope).
 
     Pieces are visited in rising depth bands (the first below twice the
     smallest depth, each next one twice as high) until the band's lower edge
@@ -238,7 +240,7 @@ def _env_row(
     for jj in range(ns):
         env[jj] = np.inf
     if nf < 2 or ns == 0:
-        return _complete(w, depth, eps, teeth, k1, env)
+        return _complete(w, depth, eps, teeth, k1, env) if complete else 0.0
     c = 60.0 / teeth
     # the finite segments (branch j, interval i) and their lower depth, compacted
     seg = np.empty(2 * (nf - 1), dtype=np.int64)
@@ -279,7 +281,7 @@ def _env_row(
         for jj in range(ns):
             top = max(top, env[jj])
         hi = 2.0 * hi
-    return _complete(w, depth, eps, teeth, k1, env)
+    return _complete(w, depth, eps, teeth, k1, env) if complete else 0.0
 
 
 @njit()
@@ -482,7 +484,7 @@ def _rows_batch(
         for i in range(m):
             s[i] = speeds[r, order[i]]
         env = np.empty(m)
-        _env_row(w[g], depth[g], eps[g], teeth, s, False, k1, env)
+        _env_row(w[g], depth[g], eps[g], teeth, s, False, k1, env, False)
         for i in range(m):
             out[r, order[i]] = env[i]
 
