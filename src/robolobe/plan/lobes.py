@@ -25,6 +25,7 @@ change the limit by several % per degree.
 from __future__ import annotations
 
 import dataclasses
+import functools
 import math
 import time
 from collections.abc import Callable, Sequence
@@ -290,8 +291,10 @@ class GroupedLobes:
     table : LobeTable
         For the optimizer (one row per group, plus an unbounded row for
         waypoints without lateral chatter, e.g. plunges).
-    diagrams : tuple of LobeDiagram
-        One per scenario (nominal first), batch shape (n_groups,).
+    parts : tuple of tuple of LobeDiagram
+        The lobes as computed: per part (consecutive groups: those of a
+        result that was reused, then the groups added to it) one diagram per
+        scenario. :attr:`diagrams` joins them.
     leader : ndarray of int, shape (n_groups,)
         Waypoint (index into the models given) that stands for each group.
     valid : bool
@@ -314,7 +317,7 @@ class GroupedLobes:
     """
 
     table: LobeTable
-    diagrams: tuple[LobeDiagram, ...]
+    parts: tuple[tuple[LobeDiagram, ...], ...]
     leader: IntArray
     valid: bool
     message: str
@@ -332,6 +335,11 @@ class GroupedLobes:
     def n_groups(self) -> int:
         """Number of distinct dynamics (lobe computations per scenario)."""
         return int(self.leader.size)
+
+    @functools.cached_property
+    def diagrams(self) -> tuple[LobeDiagram, ...]:
+        """One diagram per scenario (nominal first), batch shape (n_groups,)."""
+        return tuple(_joined(list(p)) for p in zip(*self.parts, strict=True))
 
 
 def waypoint_lobes(
@@ -447,20 +455,32 @@ def waypoint_lobes(
         "immersion": immersion,
         "max_lobe_cap": max_lobe_cap,
     }
-    diagrams: list[LobeDiagram] = []
+    parts: list[list[LobeDiagram]] = []  # per part, one diagram per scenario
     if n_groups and reuse is not None:
-        diagrams = _extend_diagrams(models, reuse, leader, zoa_args)
+        parts = _extend_diagrams(models, reuse, leader, zoa_args)
     elif n_groups:
-        diagrams = [_leader_lobes(m.take(leader), zoa_args, max_lobe=None) for m in models]
+        parts = [[_leader_lobes(m.take(leader), zoa_args, max_lobe=None) for m in models]]
     a_grid = np.full((n_groups + 1, rpm.size), np.inf)
-    if n_groups:
-        a_grid[:n_groups] = np.min(np.stack([d.a_lim for d in diagrams]), axis=0)
+    start = 0
+    for part in parts:
+        stop = start + part[0].a_lim.shape[0]
+        a_grid[start:stop] = np.min(np.stack([d.a_lim for d in part]), axis=0)
+        start = stop
     group = np.full(n, n_groups, np.int64)  # last row: unbounded
     group[idx_b] = g_b
+    first_part = parts[0] if parts else []
+    merged: list[list[LobeDiagram]] = []  # the parts joined, formed when needed
 
-    kern = _query_kernels(n_groups * (np.asarray(diagrams[0].depth).shape[-1] if diagrams else 0))
+    def whole() -> list[LobeDiagram]:
+        if not merged:
+            merged.append([_joined(list(p)) for p in zip(*parts, strict=True)])
+        return merged[0]
 
-    def lobes_at(rows: FloatArray, g: IntArray) -> FloatArray:
+    kern = _query_kernels(
+        n_groups * (np.asarray(first_part[0].depth).shape[-1] if first_part else 0)
+    )
+
+    def lobes_at(rows: FloatArray, g: IntArray, diagrams: list[LobeDiagram]) -> FloatArray:
         vals = []
         for d in diagrams:
             assert d.depth is not None
@@ -499,14 +519,17 @@ def waypoint_lobes(
         if val is not None:
             return val
         old = g < n_prev
-        if prev is not None and np.all(old):
-            val = prev(rows, g)
-        elif prev is not None and np.any(old):
+        if prev is not None and len(parts) == 2:
+            # the kernel computes each row on its own: the added groups from their own lobes
             val = np.empty(rows.shape)
-            val[old] = prev(rows[old], g[old])
-            val[~old] = lobes_at(rows[~old], g[~old])
+            if np.any(old):
+                val[old] = prev(rows[old], g[old])
+            if not np.all(old):
+                val[~old] = lobes_at(rows[~old], g[~old] - n_prev, parts[1])
+        elif len(parts) == 1:
+            val = lobes_at(rows, g, parts[0])
         else:
-            val = lobes_at(rows, g)
+            val = lobes_at(rows, g, whole())
         if len(memo) < _MEMO:
             memo[key] = val
         return val
@@ -556,10 +579,10 @@ def waypoint_lobes(
     t2 = time.perf_counter()
     return GroupedLobes(
         table=LobeTable(rpm=rpm, a_lim=a_grid, group=group, exact=exact),
-        diagrams=tuple(diagrams),
+        parts=tuple(tuple(p) for p in parts),
         leader=leader,
-        valid=diagrams[0].valid if diagrams else True,
-        message=diagrams[0].message if diagrams else "",
+        valid=first_part[0].valid if first_part else True,
+        message=first_part[0].message if first_part else "",
         timings={"grouping": t1 - t0, "zoa": t2 - t1},
         window=w_group[:n_groups],
         n_base=n_base,
@@ -605,25 +628,31 @@ def _extend_diagrams(
     reuse: GroupedLobes,
     leader: IntArray,
     zoa_args: dict[str, Any],
-) -> list[LobeDiagram]:
-    """``reuse``'s diagrams with the lobes of the leaders after its groups appended.
+) -> list[list[LobeDiagram]]:
+    """``reuse``'s lobes and those of the leaders after its groups, as parts.
 
-    The frequency grids are the whole batch's (their base range spans every
-    leader) and the automatic lobe count is decided as
-    :func:`robolobe.sld.zoa.zoa_lobes` decides it over the whole batch; where
-    either differs from what ``reuse`` was computed with, everything is
-    computed afresh.
+    Returns ``[reuse's diagrams, the added leaders' diagrams]`` (one per
+    scenario each; :func:`_joined` joins them), or one part when nothing was
+    added or everything was computed afresh. The frequency grids are the
+    whole batch's (their base range spans every leader) and the automatic
+    lobe count is decided as :func:`robolobe.sld.zoa.zoa_lobes` decides it
+    over the whole batch; where either differs from what ``reuse`` was
+    computed with, everything is computed afresh.
     """
     new = leader[reuse.n_groups :]
     n_prev = reuse.n_groups
+    prev_all = list(reuse.diagrams)
+    if new.size == 0:
+        return [prev_all]
     rpm = np.asarray(zoa_args["rpm"], dtype=np.float64)
     r_min = float(rpm.min())
     cap = int(zoa_args["max_lobe_cap"])
+
+    def afresh() -> list[list[LobeDiagram]]:
+        return [[_leader_lobes(mm.take(leader), zoa_args, max_lobe=None) for mm in models]]
+
     out = []
-    for m, prev in zip(models, reuse.diagrams, strict=True):
-        if new.size == 0:
-            out.append(prev)
-            continue
+    for m, prev in zip(models, prev_all, strict=True):
         # the kernel or the numpy path as for the whole batch (they agree to rounding only)
         assert prev.omega is not None
         assert prev.complete_above_rpm is not None
@@ -632,7 +661,7 @@ def _extend_diagrams(
         if grids.shape != (leader.size, prev.omega.shape[-1]) or not np.array_equal(
             grids[:n_prev], prev.omega
         ):  # the added leaders widen the grids' range: every group's grid changes
-            return [_leader_lobes(mm.take(leader), zoa_args, max_lobe=None) for mm in models]
+            return afresh()
         extra = _leader_lobes(m.take(new), zoa_args, max_lobe=30, jit=jit, omega=grids[n_prev:])
         assert extra.omega is not None
         assert extra.complete_above_rpm is not None
@@ -643,24 +672,29 @@ def _extend_diagrams(
             need = max(_lobe_need(prev, r_min), _lobe_need(extra, r_min))
             k = int(min(max(need, 30), cap))
         if k != prev.max_lobe:
-            return [_leader_lobes(mm.take(leader), zoa_args, max_lobe=None) for mm in models]
+            return afresh()
         if k != 30:
             extra = _leader_lobes(m.take(new), zoa_args, max_lobe=k, jit=jit, omega=grids[n_prev:])
+        out.append(extra)
+    return [prev_all, out]
 
-        def cat(a: FloatArray | None, b: FloatArray | None) -> FloatArray:
-            return np.concatenate([np.asarray(a), np.asarray(b)], axis=0)
 
-        out.append(
-            dataclasses.replace(
-                prev,
-                a_lim=cat(prev.a_lim, extra.a_lim),
-                omega=cat(prev.omega, extra.omega),
-                depth=cat(prev.depth, extra.depth),
-                eps=cat(prev.eps, extra.eps),
-                complete_above_rpm=cat(prev.complete_above_rpm, extra.complete_above_rpm),
-            )
-        )
-    return out
+def _joined(parts: list[LobeDiagram]) -> LobeDiagram:
+    """Diagrams of consecutive batches (same speeds, lobe count, scenario) as one."""
+    if len(parts) == 1:
+        return parts[0]
+
+    def cat(name: str) -> FloatArray:
+        return np.concatenate([np.asarray(getattr(d, name)) for d in parts], axis=0)
+
+    return dataclasses.replace(
+        parts[0],
+        a_lim=cat("a_lim"),
+        omega=cat("omega"),
+        depth=cat("depth"),
+        eps=cat("eps"),
+        complete_above_rpm=cat("complete_above_rpm"),
+    )
 
 
 def _query_kernels(samples: int) -> ModuleType | None:
