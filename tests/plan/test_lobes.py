@@ -196,7 +196,8 @@ def test_own_lobes_reusing_a_result_equal_a_fresh_computation(monkeypatch, exten
     from robolobe.plan import lobes as lobes_mod
     from robolobe.sld.zoa import FRF_CHUNK
 
-    n = FRF_CHUNK + 37  # more than one FRF chunk
+    n = 293  # more than one FRF chunk
+    assert n > FRF_CHUNK
     m = models(n, spread=0.05, seed=4)
     kw = dict(
         teeth=3, kt=MAT.kt, kr=MAT.kr, phi_entry=0.0, phi_exit=np.pi / 2,
