@@ -56,8 +56,8 @@ FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
 
 _RADIUS = 0.75  # leader radius in tolerance units (plus the 0.25 cells: at most 1)
-#: Exact-query answers kept per :class:`GroupedLobes` (each a (groups, speeds) array).
-_MEMO = 32
+#: Bytes of exact-query answers kept per :class:`GroupedLobes` (later answers are not kept).
+_MEMO_BYTES = 64 << 20
 
 
 @dataclass(frozen=True)
@@ -311,7 +311,7 @@ class GroupedLobes:
     query : callable, optional
         ``query(rows, groups)``: the exact limit of groups ``groups`` (g,), all
         below ``n_groups``, at speeds ``rows`` (g, m) [rpm], without the
-        robust window; answers are kept (:data:`_MEMO`).
+        robust window; answers are kept (up to :data:`_MEMO_BYTES`).
     query_compiled : bool
         Whether ``query`` runs the compiled kernel.
     """
@@ -507,6 +507,7 @@ def waypoint_lobes(
     # ``reuse`` have the same lobes, so their answers come from its queries (the
     # kernel computes each row on its own: the same values).
     memo: dict[tuple[tuple[int, ...], bytes, bytes], FloatArray] = {}
+    memo_bytes = [0]
     n_prev = reuse.n_groups if reuse is not None else 0
     prev = reuse.query if reuse is not None and reuse.query_compiled == (kern is not None) else None
     prev = prev if kern is not None else None
@@ -514,8 +515,11 @@ def waypoint_lobes(
     def query(rows: FloatArray, g: IntArray) -> FloatArray:
         rows = np.ascontiguousarray(rows, dtype=np.float64)
         g = np.ascontiguousarray(g, dtype=np.int64)
-        key = (rows.shape, rows.tobytes(), g.tobytes())
-        val = memo.get(key)
+        # large questions (robust windows: many shifted speeds) are neither kept nor
+        # looked up: the key would copy them
+        small = rows.nbytes <= _MEMO_BYTES // 8
+        key = (rows.shape, rows.tobytes(), g.tobytes()) if small else None
+        val = memo.get(key) if key is not None else None
         if val is not None:
             return val
         old = g < n_prev
@@ -530,8 +534,9 @@ def waypoint_lobes(
             val = lobes_at(rows, g, parts[0])
         else:
             val = lobes_at(rows, g, whole())
-        if len(memo) < _MEMO:
+        if key is not None and memo_bytes[0] + val.nbytes <= _MEMO_BYTES:
             memo[key] = val
+            memo_bytes[0] += val.nbytes
         return val
 
     def exact0(rows: FloatArray, groups: IntArray) -> FloatArray:
