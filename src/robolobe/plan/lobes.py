@@ -259,7 +259,8 @@ def _leaders(fu: FloatArray, compiled: bool | None) -> tuple[IntArray, IntArray]
 
     if compiled is None:
         compiled = fu.shape[0] >= JIT_MIN_ROWS
-    if compiled and _jit.available():
+    # non-finite features (degenerate modes) keep the tree loop's handling of NaN
+    if compiled and bool(np.all(np.isfinite(fu))) and _jit.available():
         from robolobe.plan import _group_kernels
 
         return _group_kernels.leaders(fu, _RADIUS)
