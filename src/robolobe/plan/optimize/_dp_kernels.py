@@ -73,12 +73,17 @@ def _dp(
 
 
 def monotone(lo: IntArray, hi: IntArray) -> bool:
-    """Whether every window's ends rise with the speed and the window is not empty."""
+    """Whether every window lies on the grid, is not empty and its ends rise with the speed.
+
+    (What the kernel's queue needs; it does not check indices.)
+    """
+    nj = lo.shape[-1]
     return bool(
         np.all(np.diff(lo, axis=-1) >= 0)
         and np.all(np.diff(hi, axis=-1) >= 0)
         and np.all(lo <= hi)
         and np.all(lo >= 0)
+        and np.all(hi < nj)
     )
 
 
