@@ -1,9 +1,9 @@
-"""Stability lobes for milling (DESIGN.md: the ``sld`` package).
+"""Stability lobes for milling (docs/guide/physics.md: the ``sld`` package).
 
 Cutters, materials, cutting conditions, directional factors, the batched
 zero-order solution (Altintas & Budak 1995), the semi-discretization reference
 (Insperger & Stepan), lobe envelopes and plots. Formulas and check values:
-REFERENCES.md section 3.
+docs/references.md: stability lobes.
 
 Typical use::
 

@@ -19,7 +19,7 @@ def engagement_angles(immersion: float, milling: str) -> tuple[float, float]:
     Up milling starts at ``phi_st = 0`` and leaves at
     ``phi_ex = acos(1 - 2 a_e/D)``; down milling starts at
     ``phi_st = acos(2 a_e/D - 1)`` and leaves at ``phi_ex = pi``
-    (REFERENCES.md section 3). Slotting (``a_e/D = 1``) is ``(0, pi)`` for both.
+    (docs/references.md: stability lobes). Slotting (``a_e/D = 1``) is ``(0, pi)`` for both.
 
     Parameters
     ----------

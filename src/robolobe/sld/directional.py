@@ -15,7 +15,7 @@ The dynamic force of one tooth at angle ``phi`` is
               [ (1 - cos2phi) - Kr sin2phi,   sin2phi - Kr (1 + cos2phi)]]
 
 and the zero-order factors are its integrals over the cut,
-``alpha = int_{phi_st}^{phi_ex} A(phi) dphi`` (REFERENCES.md section 3)::
+``alpha = int_{phi_st}^{phi_ex} A(phi) dphi`` (docs/references.md: stability lobes)::
 
     a_xx = 1/2 [ cos2phi - 2 Kr phi + Kr sin2phi ]
     a_xy = 1/2 [ -sin2phi - 2 phi + Kr cos2phi ]

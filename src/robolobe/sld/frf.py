@@ -7,7 +7,7 @@ A :class:`ModalModel` is a set of real (proportionally damped) modes seen at
 
 with a residue matrix ``A_r`` (``d x d``, [1/kg]) per mode. A mode with
 mass-normalised shape ``u`` has ``A_r = u u^T``; a driving-point modal
-stiffness ``k_r`` in one direction (FORMATS.md section 3) is
+stiffness ``k_r`` in one direction (docs/guide/modal.md) is
 ``A_r[d, d] = w_r^2 / k_r``. Everything is batched: arrays carry a leading
 batch shape ``(...)`` (waypoints, postures) before the mode axis.
 
@@ -103,7 +103,7 @@ class ModalModel:
         *,
         dim: int = 2,
     ) -> ModalModel:
-        """Modes given per direction with a modal stiffness (FORMATS.md section 3).
+        """Modes given per direction with a modal stiffness (docs/guide/modal.md).
 
         Each mode ``r`` adds ``w_r^2 / k_r`` to the entry named by
         ``directions[r]`` (``"xx"``, ``"yy"``, ``"zz"``; a cross entry such as

@@ -12,7 +12,7 @@ and ``yx``, reciprocity; its ``k_N_per_m`` may be negative). ``mode`` counts
 from 1 within each ``dir``; ``f_hz`` is the natural frequency [Hz], ``zeta``
 the damping ratio (fraction) and ``k_N_per_m`` the modal stiffness [N/m], so
 that ``H_dd(w) = sum_r (w_r^2 / k_r) / (w_r^2 - w^2 + 2 i zeta_r w_r w)``
-(FORMATS.md section 3). Blank lines and lines starting with ``#`` are
+(docs/guide/modal.md). Blank lines and lines starting with ``#`` are
 skipped; extra columns are ignored.
 
 Lobes file (CSV): ``rpm,a_lim_mm`` (the envelope; ``inf`` where no lobe

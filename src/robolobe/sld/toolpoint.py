@@ -3,7 +3,7 @@
 The robot's receptance at the TCP (posture dependent) is a 3x3 matrix in the
 TCP frame; the spindle/holder/tool adds its own modes in the tool's x/y
 directions (here taken as the TCP x/y axes). For the stability solvers the
-sum is expressed in the feed frame (DESIGN.md, physics)::
+sum is expressed in the feed frame (docs/guide/physics.md, physics)::
 
     H_f = R^T H R,   R = [e_feed, e_normal, e_axis]   (columns in the TCP frame)
 

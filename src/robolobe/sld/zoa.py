@@ -6,7 +6,7 @@ receptance in the feed frame, cross terms included), the characteristic
 equation ``det(I + Lambda G0) = 0`` gives ``Lambda = -1 / mu`` for each
 eigenvalue ``mu`` of ``G0`` (closed-form quadratic
 ``mu^2 - tr(G0) mu + det(G0) = 0``). With Altintas' formulas
-(REFERENCES.md section 3), ``Lambda_R (1 + kappa^2) = |Lambda|^2 / Lambda_R``
+(docs/references.md: stability lobes), ``Lambda_R (1 + kappa^2) = |Lambda|^2 / Lambda_R``
 and ``kappa = Lambda_I / Lambda_R``, this becomes ::
 
     a_lim = -2 pi Lambda_R (1 + kappa^2) / (N Kt) = 2 pi / (N Kt Re mu)

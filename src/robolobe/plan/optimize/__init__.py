@@ -15,7 +15,7 @@ cutting waypoint ``i``:
 - rate: ``|dn/ds| <= r_mm`` or ``|dn/dt| <= r_s`` along the cutting length
   (rapids in between are not credited); or one speed for all (``constant``).
 
-Three stages (REFERENCES.md section 5):
+Three stages (docs/references.md: planning):
 
 1. **Global search.** A dynamic program over blocks of the path x the speed
    grid, vectorised over a ladder of depths (sliding-window minima by a
