@@ -61,10 +61,10 @@ def main() -> None:
     exists = ok & np.all(count >= 1, axis=-1)
     t_br = time.perf_counter() - t0
     t0 = time.perf_counter()
-    ref, _ = _continuity_numpy(robot, base, count, exists, np.ones(6), q[0].copy())
+    ref, _, _ = _continuity_numpy(robot, base, count, exists, np.ones(6), q[0].copy())
     t_loop = time.perf_counter() - t0
     t0 = time.perf_counter()
-    comp, _ = _continuity(robot, base, count, exists, np.ones(6), q[0].copy())
+    comp, _, _ = _continuity(robot, base, count, exists, np.ones(6), q[0].copy())
     t_comp = time.perf_counter() - t0
     diff = float(np.max(np.abs(comp - ref)))
     dp, da = pose_error(tcp_pose(robot, got), poses)

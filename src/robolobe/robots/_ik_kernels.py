@@ -34,6 +34,7 @@ def continuity(
     prev: FloatArray,
     out: FloatArray,
     good: NDArray[np.bool_],
+    branch: NDArray[np.int64],
 ) -> None:
     """Nearest valid solution per waypoint, each relative to the previous one.
 
@@ -52,6 +53,8 @@ def continuity(
         Chosen postures [rad] (NaN where none is valid).
     good : ndarray of bool, shape (n,)
         Whether a valid solution existed; a failing waypoint leaves ``prev``.
+    branch : ndarray of int, shape (n,)
+        Branch (index along axis 1 of ``base``) of each chosen posture; -1 where none.
     """
     n = base.shape[0]
     nc = coeffs.shape[0]
@@ -60,6 +63,7 @@ def continuity(
     for i in range(n):
         dbest = np.inf
         found = False
+        bbest = -1
         for b in range(base.shape[1]):
             if not exists[i, b]:
                 continue
@@ -84,8 +88,10 @@ def continuity(
             if not found or d < dbest:
                 found = True
                 dbest = d
+                bbest = b
                 best[:] = cand
         good[i] = found
+        branch[i] = bbest
         if found:
             out[i] = best
             prev[:] = best
