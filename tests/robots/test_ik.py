@@ -329,8 +329,10 @@ def test_lazy_fk_check_matches_checking_every_branch(
     fast = ik_batch(r, poses, path[0])
     real = ik_mod._branches_unchecked
 
-    def broken(robot: Robot, P: np.ndarray, q_ref: object) -> tuple[np.ndarray, np.ndarray]:
-        q, ok = real(robot, P, q_ref)
+    def broken(
+        robot: Robot, P: np.ndarray, q_ref: object, compiled: bool = False
+    ) -> tuple[np.ndarray, np.ndarray]:
+        q, ok = real(robot, P, q_ref, compiled=compiled)
         q = q.copy()
         q[10, :, 0] += 0.3  # every branch of pose 10 misses its pose: must be refused
         return q, ok
@@ -340,9 +342,36 @@ def test_lazy_fk_check_matches_checking_every_branch(
         ik_batch(r, poses, path[0])
 
     # every branch checked first (ik_branches), then chosen: the same postures
-    def checked(robot: Robot, P: np.ndarray, q_ref: object) -> tuple[np.ndarray, np.ndarray]:
-        q, ok = real(robot, P, q_ref)
+    def checked(
+        robot: Robot, P: np.ndarray, q_ref: object, compiled: bool = False
+    ) -> tuple[np.ndarray, np.ndarray]:
+        q, ok = real(robot, P, q_ref, compiled=compiled)
         return q, ok & ik_mod._reproduces(robot, q, ok, P[:, None])
 
     monkeypatch.setattr(ik_mod, "_branches_unchecked", checked)
     np.testing.assert_array_equal(ik_batch(r, poses, path[0]), fast)
+
+
+@pytest.mark.parametrize("name", ["A", "B", "C", "example"])
+def test_compiled_closed_form_equals_numpy(name: str, rng: np.random.Generator) -> None:
+    """The compiled closed form gives the numpy reference's branches to rounding
+    (angles modulo 2*pi), the same existing branches, at singular and unreachable poses too."""
+    import importlib
+
+    from robolobe import _jit
+
+    if not _jit.available():
+        pytest.skip("numba not available (or ROBOLOBE_NO_JIT set): no compiled kernel")
+    ik_mod = importlib.import_module("robolobe.robots.ik")
+    r = load_robot(EXAMPLE if name == "example" else name)
+    q = sample_postures(r, 400, rng)
+    q[:20, 4] = 0.0  # wrist singular: theta4 from the reference
+    poses = tcp_pose(r, q)
+    poses[20:30, :3, 3] = [9.0, 0.0, 1.0]  # out of reach: no branch
+    ref, ok_ref = ik_mod._branches_unchecked(r, poses, q[0], compiled=False)
+    got, ok = ik_mod._branches_unchecked(r, poses, q[0], compiled=True)
+    np.testing.assert_array_equal(ok, ok_ref)
+    assert not ok[20:30].any()
+    d = np.abs(np.mod(got - ref + np.pi, 2 * np.pi) - np.pi)[ok]
+    assert d.max() < 1e-9
+    np.testing.assert_array_equal(np.isnan(got), np.isnan(ref))

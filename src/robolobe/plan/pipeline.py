@@ -347,36 +347,64 @@ def _predict_modes(source: ModeSource, q: FloatArray) -> RobotModes:
     rank = np.empty(n, np.int64)
     rank[order] = np.arange(order.size)
     expand = rank[first[inv]]  # row of each posture among the distinct ones
+    del key, first, inv, rank
     uq = q[order]
-    parts = [source.predict(uq[c0 : c0 + _CHUNK]) for c0 in range(0, uq.shape[0], _CHUNK)]
-    return _concat_modes(parts, None if order.size == n else expand)
+    filled = _ModesFill(uq.shape[0])
+    for c0 in range(0, uq.shape[0], _CHUNK):
+        filled.put(c0, source.predict(uq[c0 : c0 + _CHUNK]))
+    return filled.result(None if order.size == n else expand)
 
 
-def _concat_modes(parts: list[RobotModes], take: NDArray[np.int64] | None) -> RobotModes:
-    """One :class:`RobotModes` from consecutive batches, optionally rows ``take`` of it."""
-    import dataclasses
+class _ModesFill:
+    """One :class:`RobotModes` filled batch by batch into arrays allocated once.
 
-    def cat(name: str, obj: Any = None) -> Any:
-        vals = [getattr(p if obj is None else obj(p), name) for p in parts]
-        if vals[0] is None:
-            return None
-        out = np.concatenate(vals, axis=0)
-        return out if take is None else out[take]
+    (Concatenating the batches at the end would hold every posture's modes twice.)
+    """
 
-    model = ModalModel(
-        cat("omega", lambda p: p.model),
-        cat("zeta", lambda p: p.model),
-        cat("residues", lambda p: p.model),
-    )
-    return dataclasses.replace(
-        parts[0],
-        f_hz=cat("f_hz"),
-        zeta=cat("zeta"),
-        k_N_per_m=cat("k_N_per_m"),
-        log_std=cat("log_std"),
-        model=model,
-        extrapolation=cat("extrapolation"),
-    )
+    _NAMES = ("f_hz", "zeta", "k_N_per_m", "log_std", "extrapolation")
+    _MODEL = ("omega", "zeta", "residues")
+
+    def __init__(self, n: int) -> None:
+        self.n = n
+        self.first: RobotModes | None = None
+        self.arrays: dict[str, Any] = {}
+
+    def _put(self, key: str, c0: int, val: Any) -> None:
+        if val is None:
+            self.arrays[key] = None
+            return
+        val = np.asarray(val)
+        if key not in self.arrays:
+            self.arrays[key] = np.empty((self.n, *val.shape[1:]), dtype=val.dtype)
+        self.arrays[key][c0 : c0 + val.shape[0]] = val
+
+    def put(self, c0: int, part: RobotModes) -> None:
+        """Batch ``part`` holds the postures from row ``c0`` on."""
+        if self.first is None:
+            self.first = part
+        for name in self._NAMES:
+            self._put(name, c0, getattr(part, name))
+        for name in self._MODEL:
+            self._put("model." + name, c0, getattr(part.model, name))
+
+    def result(self, take: NDArray[np.int64] | None) -> RobotModes:
+        """The filled modes, optionally rows ``take`` of them."""
+        import dataclasses
+
+        assert self.first is not None
+        a = self.arrays
+        if take is not None:
+            a = {k: None if v is None else v[take] for k, v in a.items()}
+        model = ModalModel(a["model.omega"], a["model.zeta"], a["model.residues"])
+        return dataclasses.replace(
+            self.first,
+            f_hz=a["f_hz"],
+            zeta=a["zeta"],
+            k_N_per_m=a["k_N_per_m"],
+            log_std=a["log_std"],
+            model=model,
+            extrapolation=a["extrapolation"],
+        )
 
 
 # --------------------------------------------------------------------- main
@@ -406,7 +434,6 @@ def _lobes_for_rotation(
     FloatArray,
     FloatArray,
     RobotModes,
-    ModalModel,
     NDArray[np.bool_],
     GroupedLobes,
     dict[str, float],
@@ -418,20 +445,20 @@ def _lobes_for_rotation(
     t = time.perf_counter()
     poses, r_wp = tcp_targets(wp, robot, job.placement, rotation)
     q, wm = _postures(wp, robot, poses, source)
+    ci = np.flatnonzero(cut)
+    f_path = wp[["fx", "fy", "fz"]].to_numpy(dtype=np.float64)[ci]
+    f_tcp = np.einsum("nji,nj->ni", poses[ci, :3, :3], f_path @ r_wp.T)
+    del poses, f_path  # (n, 4, 4): not needed past here
     timings["ik"] = time.perf_counter() - t
     t = time.perf_counter()
-    ci = np.flatnonzero(cut)
     modes = _predict_modes(source, q[ci])
     timings["modes"] = time.perf_counter() - t
-    f_path = wp[["fx", "fy", "fz"]].to_numpy(dtype=np.float64)[ci]
-    f_world = f_path @ r_wp.T
-    r_tcp = poses[ci, :3, :3]
-    f_tcp = np.einsum("nji,nj->ni", r_tcp, f_world)
-    model0, plunge, grouped, t_lobes, feed_angle, bound = cut_lobes(
+    # the nominal tool-point models (the caller does not keep them: ~1 kB per waypoint)
+    _, plunge, grouped, t_lobes, feed_angle, bound = cut_lobes(
         job, modes, f_tcp, material, tool, rpm
     )
     timings.update(t_lobes)
-    return q, wm, modes, model0, plunge, grouped, timings, feed_angle, bound, f_tcp
+    return q, wm, modes, plunge, grouped, timings, feed_angle, bound, f_tcp
 
 
 def cut_lobes(
@@ -609,7 +636,7 @@ def plan_path(
         rotation, rot_note = _stiffest_rotation(
             job, wp, robot, source, cut, material, tool, rpm, cons
         )
-    q, wm, modes, _model0, plunge, grouped, t_stage, feed_angle, bound, f_tcp = _lobes_for_rotation(
+    q, wm, modes, plunge, grouped, t_stage, feed_angle, bound, f_tcp = _lobes_for_rotation(
         job, wp, robot, source, rotation, cut, material, tool, rpm
     )
     timings.update(t_stage)

@@ -324,9 +324,13 @@ def ik_branches(
 
 
 def _branches_unchecked(
-    robot: Robot, P: FloatArray, q_ref: ArrayLike | None
+    robot: Robot, P: FloatArray, q_ref: ArrayLike | None, *, compiled: bool = False
 ) -> tuple[FloatArray, BoolArray]:
-    """:func:`ik_branches` before the FK check: ``ok`` says only that a branch exists."""
+    """:func:`ik_branches` before the FK check: ``ok`` says only that a branch exists.
+
+    ``compiled`` (and numba available): :func:`robolobe.robots._ik_kernels.closed_form`
+    for one ``q_ref`` (6,) (equal to :func:`_closed_form` to rounding).
+    """
     g = _geometry(robot)
     if not g.closed_form:
         raise ReachabilityError(f"closed-form IK does not apply to {robot.name!r}: {g.reason}")
@@ -334,9 +338,72 @@ def _branches_unchecked(
     if q_ref is not None:
         qr = np.broadcast_to(np.asarray(q_ref, dtype=np.float64), (P.shape[0], 6))
         th_ref = qr @ robot.coupling.T + robot.theta_offset
-    br = _closed_form(robot, P, th_ref)
-    q = (br.theta - robot.theta_offset) @ g.c_inv.T
-    return q, br.ok
+    from robolobe import _jit
+
+    if compiled and _jit.available() and (q_ref is None or np.ndim(q_ref) == 1):
+        theta = _closed_form_compiled(robot, P, None if th_ref is None else th_ref[0])
+        ok = np.all(np.isfinite(theta), axis=-1)
+    else:
+        br = _closed_form(robot, P, th_ref)
+        theta, ok = br.theta, br.ok
+    q = (theta - robot.theta_offset) @ g.c_inv.T
+    return q, ok
+
+
+@functools.lru_cache(maxsize=64)
+def _kernel_constants(robot: Robot) -> tuple[FloatArray, ...]:
+    """The arrays :func:`robolobe.robots._ik_kernels.closed_form` takes besides the poses."""
+    g = _geometry(robot)
+    w, p = g.w, g.p
+    kk = np.empty((6, 3, 3))
+    for i in range(6):
+        k = w[i]
+        kx = np.array([[0.0, -k[2], k[1]], [k[2], 0.0, -k[0]], [-k[1], k[0], 0.0]])
+        kk[i] = kx @ kx  # as in _rot
+    u = g.wrist - p[2]
+    vv = p[1] - p[2]
+    u_p = u - w[2] * np.dot(u, w[2])
+    v_p = vv - w[2] * np.dot(vv, w[2])
+    nu, nv = np.linalg.norm(u_p), np.linalg.norm(v_p)
+    if nv < 1e-12:  # as in _closed_form
+        raise ReachabilityError("axes 2 and 3 coincide; closed-form IK does not apply")
+    th0 = math.atan2(float(np.dot(w[2], np.cross(u_p, v_p))), float(np.dot(u_p, v_p)))
+    a45 = float(np.dot(w[3], w[4]))
+    w5u = float(np.dot(w[4], w[5]))
+    usual = abs(a45) < 1e-12 and abs(w5u) < 1e-12
+    consts = np.array(
+        [g.scale, nu, nv, th0, float(np.dot(w[2], u - vv)), a45, w5u, 1.0 if usual else 0.0]
+    )
+    perp = np.cross(w[5], [1.0, 0.0, 0.0])
+    if np.linalg.norm(perp) < 0.1:
+        perp = np.cross(w[5], [0.0, 1.0, 0.0])
+    perp /= np.linalg.norm(perp)
+    base_inv = np.ascontiguousarray(inv_pose(robot.base))
+    return base_inv, np.ascontiguousarray(g.m_inv), np.ascontiguousarray(w), kk, \
+        np.ascontiguousarray(p), np.ascontiguousarray(g.wrist), consts, perp  # fmt: skip
+
+
+def _closed_form_compiled(robot: Robot, P: FloatArray, th_ref: FloatArray | None) -> FloatArray:
+    """DH angles (n, 8, 6) of the 8 branches (NaN where none), compiled."""
+    from robolobe.robots import _ik_kernels
+
+    base_inv, m_inv, w, kk, p, wrist, consts, perp = _kernel_constants(robot)
+    theta = np.empty((P.shape[0], 8, 6))
+    _ik_kernels.closed_form(
+        np.ascontiguousarray(P, dtype=np.float64),
+        base_inv,
+        m_inv,
+        w,
+        kk,
+        p,
+        wrist,
+        consts,
+        perp,
+        np.zeros(6) if th_ref is None else np.ascontiguousarray(th_ref, dtype=np.float64),
+        np.ascontiguousarray(robot.theta_offset, dtype=np.float64),
+        theta,
+    )
+    return theta
 
 
 def _reproduces(robot: Robot, q: FloatArray, ok: BoolArray, P: FloatArray) -> BoolArray:
@@ -667,7 +734,7 @@ def ik_batch(
     for c0 in range(0, n, _IK_CHUNK):  # chunks bound the memory (~1 kB per pose)
         c1 = min(n, c0 + _IK_CHUNK)
         pc = P[c0:c1]
-        q8, ok = _branches_unchecked(robot, pc, ref)
+        q8, ok = _branches_unchecked(robot, pc, ref, compiled=compiled)
         # Choose among the branches that exist, then FK-check only the chosen one:
         # if it reproduces its pose it is also the nearest of the checked branches
         # (a subset holding it), so the result is that of checking all 8 first. A
