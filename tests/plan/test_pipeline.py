@@ -221,9 +221,13 @@ def test_degenerate_paths(tmp_path, pocket_job):
     assert res.lobes.n_groups == 0
 
 
+@pytest.mark.parametrize("threads", [1, 2])
 @pytest.mark.parametrize("source_kind", ["twin", "builtin"])
-def test_modes_of_distinct_postures_in_chunks_equal_one_call(pocket, monkeypatch, source_kind):
-    """Each distinct posture predicted once, in chunks, expanded: the modes of one call."""
+def test_modes_of_distinct_postures_in_chunks_equal_one_call(
+    pocket, monkeypatch, source_kind, threads
+):
+    """Each distinct posture predicted once, in chunks (on one or two threads),
+    expanded: the modes of one call."""
     from robolobe.plan import pipeline
     from robolobe.plan.modes import mode_source
 
@@ -232,6 +236,7 @@ def test_modes_of_distinct_postures_in_chunks_equal_one_call(pocket, monkeypatch
     q = pocket.q[pocket.cut_index][:60]
     q = np.concatenate([q, q[::-3], q[:5]])  # repeats, out of order
     monkeypatch.setattr(pipeline, "_CHUNK", 16)
+    monkeypatch.setattr(pipeline, "_THREADS", threads)
     calls = []
     inner = source.predict
 

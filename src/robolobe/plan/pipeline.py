@@ -318,6 +318,9 @@ def _postures(
 #: Postures per chunk of the per-posture stages (wrist measure, modes): bounds
 #: their temporaries (the twin's ~10 kB per posture) whatever the path's length.
 _CHUNK = 16_384
+#: Threads predicting modes chunk by chunk on a long path (each holds one chunk's
+#: temporaries); the chunks' results do not depend on it.
+_THREADS = min(2, os.cpu_count() or 1)
 
 
 def _wrist_measure(robot: Robot, q: FloatArray) -> FloatArray:
@@ -334,8 +337,9 @@ def _predict_modes(source: ModeSource, q: FloatArray) -> RobotModes:
 
     Postures that repeat exactly (a path that passes a point twice) are
     predicted once; the source sees chunks of :data:`_CHUNK` postures, so its
-    temporaries stay bounded. Each posture's modes are those of a call with
-    all postures at once (sources predict per posture).
+    temporaries stay bounded, on up to :data:`_THREADS` threads after the first
+    chunk. Each posture's modes are those of a call with all postures at once
+    (sources predict per posture).
     """
     n = q.shape[0]
     key = np.ascontiguousarray(q + 0.0).view(np.dtype((np.void, 6 * 8))).ravel()
@@ -350,8 +354,23 @@ def _predict_modes(source: ModeSource, q: FloatArray) -> RobotModes:
     del key, first, inv, rank
     uq = q[order]
     filled = _ModesFill(uq.shape[0])
-    for c0 in range(0, uq.shape[0], _CHUNK):
-        filled.put(c0, source.predict(uq[c0 : c0 + _CHUNK]))
+    # the first chunk alone (a source's lazy set-up happens once), the rest on the
+    # cores: numpy releases the GIL in the per-posture linear algebra
+    filled.put(0, source.predict(uq[:_CHUNK]))
+    rest = list(range(_CHUNK, uq.shape[0], _CHUNK))
+    workers = min(_THREADS, len(rest))
+    if workers > 1:
+        from concurrent.futures import ThreadPoolExecutor
+
+        from robolobe._threads import one_blas_thread
+
+        with one_blas_thread(), ThreadPoolExecutor(workers) as ex:
+            parts = ex.map(lambda c0: source.predict(uq[c0 : c0 + _CHUNK]), rest)
+            for c0, part in zip(rest, parts, strict=True):
+                filled.put(c0, part)
+    else:
+        for c0 in rest:
+            filled.put(c0, source.predict(uq[c0 : c0 + _CHUNK]))
     return filled.result(None if order.size == n else expand)
 
 
