@@ -33,9 +33,10 @@ import logging
 import math
 import os
 import time
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, overload
 
 import numpy as np
 import pandas as pd
@@ -439,6 +440,31 @@ def _feed_lateral(f_tcp: FloatArray) -> FloatArray:
     return np.asarray(np.linalg.norm(f_tcp[:, :2], axis=1))
 
 
+class _Labels(Sequence[str]):
+    """``file:line`` of each cutting waypoint, made when asked (messages name a few).
+
+    Parameters
+    ----------
+    source : ndarray of str, shape (n,)
+    line : ndarray of int, shape (n,)
+    """
+
+    def __init__(self, source: NDArray[Any], line: NDArray[Any]) -> None:
+        self.source, self.line = source, line
+
+    def __len__(self) -> int:
+        return int(self.line.shape[0])
+
+    @overload
+    def __getitem__(self, i: int) -> str: ...
+    @overload
+    def __getitem__(self, i: slice) -> list[str]: ...
+    def __getitem__(self, i: int | slice) -> str | list[str]:
+        if isinstance(i, slice):
+            return [self[j] for j in range(*i.indices(len(self)))]
+        return f"{self.source[i]}:{int(self.line[i])}"
+
+
 def _lobes_for_rotation(
     job: Job,
     wp: pd.DataFrame,
@@ -668,9 +694,7 @@ def plan_path(
     prog = wp["rpm_programmed"].to_numpy(dtype=np.float64)[ci]
     if job.cut.programmed_rpm is not None:
         prog = np.where(np.isfinite(prog), prog, job.cut.programmed_rpm)
-    src_col = wp["source"].to_numpy()[ci]
-    line_col = wp["line"].to_numpy()[ci]
-    labels = [f"{a}:{int(b)}" for a, b in zip(src_col, line_col, strict=True)]
+    labels = _Labels(wp["source"].to_numpy()[ci], wp["line"].to_numpy()[ci])
 
     def schedule(table: Any) -> PlanOutcome:
         return optimize_schedule(
@@ -878,7 +902,8 @@ def _result_table(
         wp["motion"].to_numpy() == "cut", cons.feed_per_rev_m * rpm_all * 1e3, np.nan
     )
     cols["rpm_programmed"] = wp["rpm_programmed"].to_numpy()
-    return pd.DataFrame(cols)
+    # the columns as they are (not consolidated into one block: a copy of the table)
+    return pd.DataFrame(cols, copy=False)
 
 
 def waypoints_hash(table: pd.DataFrame) -> str:
