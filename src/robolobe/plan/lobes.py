@@ -231,6 +231,7 @@ def group_dynamics(
     # them, so every member lies within 0.25 + 0.75 = 1 of its leader
     cells = f * 4.0
     first, inv = _distinct_rows(np.round(cells, out=cells))
+    del cells
     order = np.argsort(first)  # unique rows in path order
     fu = f[first[order]]
     label_u = np.full(fu.shape[0], -1, np.int64)

@@ -506,6 +506,60 @@ def _lobes_for_rotation(
     return q, wm, modes, plunge, grouped, timings, feed_angle, bound, f_tcp
 
 
+def _tool_point_models(
+    rot: FloatArray, robot_model: ModalModel, tool: ModalModel | None
+) -> ModalModel:
+    """:func:`~robolobe.sld.toolpoint.tool_point_model` per waypoint, in chunks.
+
+    Chunks of :data:`_CHUNK` waypoints (on up to :data:`_THREADS` threads)
+    written into arrays allocated once: the rotation's temporaries stay
+    bounded (~1.7 kB per waypoint at once otherwise); each waypoint's model is
+    that of one call over all of them (the model is per waypoint).
+
+    Parameters
+    ----------
+    rot : ndarray, shape (n, 3, 3)
+        Feed frames (:func:`~robolobe.sld.toolpoint.feed_frame`).
+    robot_model : ModalModel
+        TCP-frame robot modes, dim 3, batch (n,).
+    tool : ModalModel or None
+
+    Returns
+    -------
+    ModalModel
+        Feed-frame models, dim 2, batch (n,).
+    """
+    n = rot.shape[0]
+    if n <= _CHUNK or rot.shape != (n, 3, 3) or robot_model.batch_shape != (n,):
+        return tool_point_model(rot, robot_model, tool)
+
+    def part(c0: int) -> ModalModel:
+        rows = slice(c0, c0 + _CHUNK)
+        return tool_point_model(rot[rows], robot_model.take(rows), tool)
+
+    first = part(0)
+    w = np.empty((n, *first.omega.shape[1:]), first.omega.dtype)
+    z = np.empty((n, *first.zeta.shape[1:]), first.zeta.dtype)
+    a = np.empty((n, *first.residues.shape[1:]), first.residues.dtype)
+
+    def put(c0: int, m: ModalModel) -> None:
+        c1 = c0 + m.omega.shape[0]
+        w[c0:c1], z[c0:c1], a[c0:c1] = m.omega, m.zeta, m.residues
+
+    put(0, first)
+    rest = list(range(_CHUNK, n, _CHUNK))
+    if _THREADS > 1 and len(rest) > 1:
+        from concurrent.futures import ThreadPoolExecutor
+
+        with ThreadPoolExecutor(_THREADS) as ex:
+            for c0, m in zip(rest, ex.map(part, rest), strict=True):
+                put(c0, m)
+    else:
+        for c0 in rest:
+            put(c0, part(c0))
+    return ModalModel(w, z, a)
+
+
 def cut_lobes(
     job: Job,
     modes: RobotModes,
@@ -567,10 +621,10 @@ def cut_lobes(
     plunge = _feed_lateral(f_tcp) < PLUNGE_LATERAL
     f_use = np.where(plunge[:, None], [[1.0, 0.0, 0.0]], f_tcp)
     rot = feed_frame(f_use, (0.0, 0.0, -1.0), rotation="cw")
-    models = [tool_point_model(rot, modes.model, tool)]
+    models = [_tool_point_models(rot, modes.model, tool)]
     bound, _ = plan_bound(job.plan, modes, robust)
     if bound is not None:
-        models.append(tool_point_model(rot, bound.model, tool))
+        models.append(_tool_point_models(rot, bound.model, tool))
     timings["frf"] = time.perf_counter() - t
     t = time.perf_counter()
     st, ex = engagement_angles(job.radial_immersion, job.cut.milling)
