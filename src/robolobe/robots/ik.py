@@ -774,9 +774,10 @@ def _raise_failures(robot: Robot, P: FloatArray, fails: list[tuple[int, str]], n
 
 _IK_CHUNK = 8192
 _N_REPORT = 5
-#: Path length from which :func:`ik_batch` takes the compiled continuity: below,
-#: numba's start-up in a fresh process (~0.5 s) costs more than the Python
-#: loop it replaces (~35 us per pose).
+#: Path length from which :func:`ik_batch` takes the compiled closed form and
+#: continuity: below, loading them in a fresh process (~0.3-0.5 s) costs more than
+#: they save (~14 us per pose over the numpy closed form and the
+#: speculate-and-check continuity).
 JIT_MIN_POSES = 15_000
 
 
