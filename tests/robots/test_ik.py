@@ -352,6 +352,7 @@ def test_lazy_fk_check_matches_checking_every_branch(
     np.testing.assert_array_equal(ik_batch(r, poses, path[0]), fast)
 
 
+@pytest.mark.slow  # compiles the kernel in a fresh cache (~7 s)
 @pytest.mark.parametrize("name", ["A", "B", "C", "example"])
 def test_compiled_closed_form_equals_numpy(name: str, rng: np.random.Generator) -> None:
     """The compiled closed form gives the numpy reference's branches to rounding
