@@ -221,9 +221,13 @@ def test_degenerate_paths(tmp_path, pocket_job):
     assert res.lobes.n_groups == 0
 
 
+@pytest.mark.parametrize("threads", [1, 2])
 @pytest.mark.parametrize("source_kind", ["twin", "builtin"])
-def test_modes_of_distinct_postures_in_chunks_equal_one_call(pocket, monkeypatch, source_kind):
-    """Each distinct posture predicted once, in chunks, expanded: the modes of one call."""
+def test_modes_of_distinct_postures_in_chunks_equal_one_call(
+    pocket, monkeypatch, source_kind, threads
+):
+    """Each distinct posture predicted once, in chunks (on one or two threads),
+    expanded: the modes of one call."""
     from robolobe.plan import pipeline
     from robolobe.plan.modes import mode_source
 
@@ -232,6 +236,7 @@ def test_modes_of_distinct_postures_in_chunks_equal_one_call(pocket, monkeypatch
     q = pocket.q[pocket.cut_index][:60]
     q = np.concatenate([q, q[::-3], q[:5]])  # repeats, out of order
     monkeypatch.setattr(pipeline, "_CHUNK", 16)
+    monkeypatch.setattr(pipeline, "_THREADS", threads)
     calls = []
     inner = source.predict
 
@@ -281,3 +286,26 @@ def test_compiled_and_reused_paths_plan_as_the_numpy_reference(tmp_path, pocket_
     assert fast.outcome.best.depth_m == pytest.approx(ref.outcome.best.depth_m, rel=1e-9)
     np.testing.assert_allclose(fast.outcome.best.rpm, ref.outcome.best.rpm, rtol=1e-9)
     np.testing.assert_array_equal(fast.lobes.table.group, ref.lobes.table.group)
+
+
+@pytest.mark.parametrize("threads", [1, 2])
+def test_tool_point_models_in_chunks_equal_one_call(pocket, pocket_job, monkeypatch, threads):
+    """The feed-frame models of a long path, made chunk by chunk (one or two threads),
+    are those of one call over every waypoint, bit for bit."""
+    from robolobe.plan import pipeline
+    from robolobe.sld.toolpoint import feed_frame, tool_point_model
+
+    model = pocket.modes.model
+    n = model.batch_shape[0]
+    f = np.random.default_rng(3).normal(size=(n, 3))
+    f[:, 2] *= 0.1
+    rot = feed_frame(f / np.linalg.norm(f, axis=1, keepdims=True), (0.0, 0.0, -1.0), rotation="cw")
+    tool = pipeline._tool_model(pocket_job)
+    assert tool is not None
+    ref = tool_point_model(rot, model, tool)
+    monkeypatch.setattr(pipeline, "_CHUNK", 16)
+    monkeypatch.setattr(pipeline, "_THREADS", threads)
+    got = pipeline._tool_point_models(rot, model, tool)
+    assert n > 3 * 16
+    for name in ("omega", "zeta", "residues"):
+        np.testing.assert_array_equal(getattr(got, name), getattr(ref, name))

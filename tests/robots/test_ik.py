@@ -278,3 +278,101 @@ def test_unreachable_count_and_first_indices() -> None:
     assert "out of reach" in msg
     assert "8 of 11 waypoints" in msg
     assert "the first: 1, 3, 4, 6, 7, ..." in msg
+
+
+@pytest.mark.parametrize("name", ["A", "B", "C", "example"])
+def test_vectorized_continuity_equals_loop(name: str, rng: np.random.Generator) -> None:
+    """The speculate-and-check continuity picks exactly what the per-pose loop picks.
+
+    On a smooth path, a path with jumps that switch branches every few poses
+    (many speculation passes, then the loop fallback), and poses out of reach.
+    """
+    import importlib
+
+    ik_mod = importlib.import_module("robolobe.robots.ik")
+    r = load_robot(EXAMPLE if name == "example" else name)
+    smooth = _random_path(r, rng, 600)
+    jumpy = smooth.copy()
+    jumpy[::7] = sample_postures(r, jumpy[::7].shape[0], rng)  # far postures: branch changes
+    poses = tcp_pose(r, np.concatenate([smooth, jumpy]))
+    far = np.eye(4)
+    far[:3, 3] = [9.0, 0.0, 1.0]
+    poses[[5, 6, 300, 900]] = far  # no solution: skipped, the next one follows the last good
+    q8, ok = ik_branches(r, poses, smooth[0])
+    base, count = ik_mod._turn_base(r, q8, ok)
+    exists = ok & np.all(count >= 1, axis=-1)
+    wts = np.array([1.0, 2.0, 1.5, 0.5, 1.0, 0.7])
+    p_ref, p_vec = smooth[0].copy(), smooth[0].copy()
+    ref = ik_mod._continuity_numpy(r, base, count, exists, wts, p_ref)
+    got = ik_mod._continuity_vectorized(r, base, count, exists, wts, p_vec)
+    np.testing.assert_array_equal(got[0], ref[0])  # NaN where no solution, in both
+    np.testing.assert_array_equal(got[1], ref[1])
+    np.testing.assert_array_equal(got[2], ref[2])
+    np.testing.assert_array_equal(p_vec, p_ref)
+    assert not ref[1][[5, 6, 300, 900]].any()
+    assert ref[1].sum() == len(poses) - 4
+    # the path changes branch (the speculation was wrong at times)
+    assert np.unique(ref[2][ref[1]]).size > 1
+
+
+def test_lazy_fk_check_matches_checking_every_branch(
+    rng: np.random.Generator, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """ik_batch checks only the chosen branch; a chosen branch that fails the check
+    makes the chunk be chosen again among checked branches (same result as checking all)."""
+    import importlib
+
+    ik_mod = importlib.import_module("robolobe.robots.ik")
+    r = load_robot("A")
+    path = _random_path(r, rng, 400)
+    poses = tcp_pose(r, path)
+    fast = ik_batch(r, poses, path[0])
+    real = ik_mod._branches_unchecked
+
+    def broken(
+        robot: Robot, P: np.ndarray, q_ref: object, compiled: bool = False
+    ) -> tuple[np.ndarray, np.ndarray]:
+        q, ok = real(robot, P, q_ref, compiled=compiled)
+        q = q.copy()
+        q[10, :, 0] += 0.3  # every branch of pose 10 misses its pose: must be refused
+        return q, ok
+
+    monkeypatch.setattr(ik_mod, "_branches_unchecked", broken)
+    with pytest.raises(ReachabilityError, match=r"waypoint 10: .*out of reach"):
+        ik_batch(r, poses, path[0])
+
+    # every branch checked first (ik_branches), then chosen: the same postures
+    def checked(
+        robot: Robot, P: np.ndarray, q_ref: object, compiled: bool = False
+    ) -> tuple[np.ndarray, np.ndarray]:
+        q, ok = real(robot, P, q_ref, compiled=compiled)
+        return q, ok & ik_mod._reproduces(robot, q, ok, P[:, None])
+
+    monkeypatch.setattr(ik_mod, "_branches_unchecked", checked)
+    np.testing.assert_array_equal(ik_batch(r, poses, path[0]), fast)
+
+
+@pytest.mark.slow  # compiles the kernel in a fresh cache (~7 s)
+@pytest.mark.parametrize("name", ["A", "B", "C", "example"])
+def test_compiled_closed_form_equals_numpy(name: str, rng: np.random.Generator) -> None:
+    """The compiled closed form gives the numpy reference's branches to rounding
+    (angles modulo 2*pi), the same existing branches, at singular and unreachable poses too."""
+    import importlib
+
+    from robolobe import _jit
+
+    if not _jit.available():
+        pytest.skip("numba not available (or ROBOLOBE_NO_JIT set): no compiled kernel")
+    ik_mod = importlib.import_module("robolobe.robots.ik")
+    r = load_robot(EXAMPLE if name == "example" else name)
+    q = sample_postures(r, 400, rng)
+    q[:20, 4] = 0.0  # wrist singular: theta4 from the reference
+    poses = tcp_pose(r, q)
+    poses[20:30, :3, 3] = [9.0, 0.0, 1.0]  # out of reach: no branch
+    ref, ok_ref = ik_mod._branches_unchecked(r, poses, q[0], compiled=False)
+    got, ok = ik_mod._branches_unchecked(r, poses, q[0], compiled=True)
+    np.testing.assert_array_equal(ok, ok_ref)
+    assert not ok[20:30].any()
+    d = np.abs(np.mod(got - ref + np.pi, 2 * np.pi) - np.pi)[ok]
+    assert d.max() < 1e-9
+    np.testing.assert_array_equal(np.isnan(got), np.isnan(ref))

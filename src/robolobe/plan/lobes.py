@@ -127,30 +127,32 @@ def _features(
     weight = np.sqrt(peak / np.maximum(peak.max(axis=1, keepdims=True), 1e-300))
     trs = np.maximum(tr, 1e-300)
     tol_f = np.where(w < 2 * np.pi * tol.f_low_hz, max(tol.freq_low, tol.freq), tol.freq)
-    feats = [
-        np.log(w) / np.maximum(tol_f, 1e-15),
-        np.log(z) / max(tol.damping, 1e-15),
-        np.log(trs) / max(tol.residue, 1e-15),
-    ]
-    for i in range(model.dim):
-        for j in range(i, model.dim):
-            if i == j and i == model.dim - 1:
-                continue  # the last diagonal share follows from the others
-            # a mode's direction relative to the feed: sin/cos products of its angle, to
-            # a quarter of the size tolerance (0.5 % -> 0.3 deg): near the feed or normal
-            # direction the limit moves by several % per degree
-            feats.append(a[:, :, i, j] / trs / max(tol.residue / 4.0, 1e-15))
-    out = [f * weight for f in feats]
-    if alpha is not None and model.dim == 2:
+    pairs = [(i, j) for i in range(model.dim) for j in range(i, model.dim)]
+    pairs = pairs[:-1]  # the last diagonal share follows from the others
+    with_alpha = alpha is not None and model.dim == 2
+    m = model.n_modes
+    # (h-long, issue 16/17 memory: each block written into one array as it is made,
+    # not a list of blocks, their weighted copies and their concatenation; same values)
+    out = np.empty((w.shape[0], (3 + len(pairs) + 2 * with_alpha) * m))
+    out[:, 0:m] = np.log(w) / np.maximum(tol_f, 1e-15) * weight
+    out[:, m : 2 * m] = np.log(z) / max(tol.damping, 1e-15) * weight
+    out[:, 2 * m : 3 * m] = np.log(trs) / max(tol.residue, 1e-15) * weight
+    for k, (i, j) in enumerate(pairs, start=3):
+        # a mode's direction relative to the feed: sin/cos products of its angle, to
+        # a quarter of the size tolerance (0.5 % -> 0.3 deg): near the feed or normal
+        # direction the limit moves by several % per degree
+        out[:, k * m : (k + 1) * m] = a[:, :, i, j] / trs / max(tol.residue / 4.0, 1e-15) * weight
+    if with_alpha:
         # the cut sees mode r through tr(alpha A_r): its limit goes as 1 / that, so its
         # log (relative to the mode's size) is compared to the residue tolerance, with the
         # mode's own weight: near a sign change it varies without bound and splits groups
         # finely there, which is where the limit is most sensitive
         ori = np.einsum("ij,nmji->nm", np.asarray(alpha, dtype=np.float64), a) / trs
         mag = np.log(np.maximum(np.abs(ori), 1e-12)) / max(tol.residue, 1e-15)
-        out.append(mag * weight)
-        out.append(np.sign(ori) * weight / max(tol.residue, 1e-15))
-    return np.concatenate(out, axis=1)
+        k = 3 + len(pairs)
+        out[:, k * m : (k + 1) * m] = mag * weight
+        out[:, (k + 1) * m :] = np.sign(ori) * weight / max(tol.residue, 1e-15)
+    return out
 
 
 def _distinct_rows(q: FloatArray) -> tuple[IntArray, IntArray]:
@@ -171,15 +173,19 @@ def _distinct_rows(q: FloatArray) -> tuple[IntArray, IntArray]:
     import pandas as pd
 
     if q.shape[0] and np.all(np.abs(q) < 2.0**52):
-        qi = q.astype(np.int64).view(np.uint64)
         h = np.zeros(q.shape[0], np.uint64)
         for c in range(q.shape[1]):  # polynomial hash, wrapping in 64 bits
-            h = h * np.uint64(0x100000001B3) + (qi[:, c] ^ np.uint64(0x9E3779B97F4A7C15))
+            qi = q[:, c].astype(np.int64).view(np.uint64)  # (a column at a time: memory)
+            h = h * np.uint64(0x100000001B3) + (qi ^ np.uint64(0x9E3779B97F4A7C15))
         codes, _ = pd.factorize(h, sort=False)
         codes = np.asarray(codes, np.int64)
         first = np.full(int(codes.max()) + 1, q.shape[0], np.int64)
         np.minimum.at(first, codes, np.arange(q.shape[0]))
-        if np.array_equal(q, q[first[codes]]):
+        step = 65_536  # verified in blocks (no copy of all rows)
+        if all(
+            np.array_equal(q[s : s + step], q[first[codes[s : s + step]]])
+            for s in range(0, q.shape[0], step)
+        ):
             return first, codes
     _, first, inv = np.unique(q, axis=0, return_index=True, return_inverse=True)
     return np.asarray(first, np.int64), np.asarray(inv, np.int64).ravel()
@@ -233,7 +239,9 @@ def group_dynamics(
         return np.zeros(n, np.int64), np.zeros(min(n, 1), np.int64)
     # near-duplicates first: cells 0.25 wide; leaders then take cells within 0.75 of
     # them, so every member lies within 0.25 + 0.75 = 1 of its leader
-    first, inv = _distinct_rows(np.round(f * 4.0))
+    cells = f * 4.0
+    first, inv = _distinct_rows(np.round(cells, out=cells))
+    del cells
     order = np.argsort(first)  # unique rows in path order
     fu = f[first[order]]
     label_u, lead_u = _leaders(fu, compiled)
@@ -416,14 +424,6 @@ def waypoint_lobes(
     alpha = directional_factors(phi_entry, phi_exit, kr)
     rpm = np.asarray(rpm, dtype=np.float64)
     if idx_b.size:
-        # group on all scenarios together so that a group is uniform in each
-        joined = nominal.take(idx_b)
-        for m in models[1:]:
-            joined = ModalModel(
-                np.concatenate([joined.omega, m.omega[idx_b]], axis=-1),
-                np.concatenate([joined.zeta, m.zeta[idx_b]], axis=-1),
-                np.concatenate([joined.residues, m.residues[idx_b]], axis=-3),
-            )
         if reuse is not None:
             if reuse.n_base != reuse.n_groups or reuse.table.group.size != n:
                 raise InputError("reuse: expected a result without own lobes for the same path")
@@ -432,7 +432,17 @@ def waypoint_lobes(
             pos_b[idx_b] = np.arange(idx_b.size)
             lead_b = pos_b[reuse.leader]
         else:
+            # group on all scenarios together so that a group is uniform in each
+            # (h-long: built only here, and no copy of a lone nominal without plunges)
+            joined = nominal if idx_b.size == n else nominal.take(idx_b)
+            for m in models[1:]:
+                joined = ModalModel(
+                    np.concatenate([joined.omega, m.omega[idx_b]], axis=-1),
+                    np.concatenate([joined.zeta, m.zeta[idx_b]], axis=-1),
+                    np.concatenate([joined.residues, m.residues[idx_b]], axis=-3),
+                )
             g_b, lead_b = group_dynamics(joined, tol, alpha)
+            del joined
         n_base = int(lead_b.size)
         if own is not None:
             force = np.asarray(own, bool)[idx_b]

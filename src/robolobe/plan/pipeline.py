@@ -33,9 +33,10 @@ import logging
 import math
 import os
 import time
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, overload
 
 import numpy as np
 import pandas as pd
@@ -318,6 +319,9 @@ def _postures(
 #: Postures per chunk of the per-posture stages (wrist measure, modes): bounds
 #: their temporaries (the twin's ~10 kB per posture) whatever the path's length.
 _CHUNK = 16_384
+#: Threads predicting modes chunk by chunk on a long path (each holds one chunk's
+#: temporaries); the chunks' results do not depend on it.
+_THREADS = min(2, os.cpu_count() or 1)
 
 
 def _wrist_measure(robot: Robot, q: FloatArray) -> FloatArray:
@@ -334,8 +338,9 @@ def _predict_modes(source: ModeSource, q: FloatArray) -> RobotModes:
 
     Postures that repeat exactly (a path that passes a point twice) are
     predicted once; the source sees chunks of :data:`_CHUNK` postures, so its
-    temporaries stay bounded. Each posture's modes are those of a call with
-    all postures at once (sources predict per posture).
+    temporaries stay bounded, on up to :data:`_THREADS` threads after the first
+    chunk. Each posture's modes are those of a call with all postures at once
+    (sources predict per posture).
     """
     n = q.shape[0]
     key = np.ascontiguousarray(q + 0.0).view(np.dtype((np.void, 6 * 8))).ravel()
@@ -347,36 +352,79 @@ def _predict_modes(source: ModeSource, q: FloatArray) -> RobotModes:
     rank = np.empty(n, np.int64)
     rank[order] = np.arange(order.size)
     expand = rank[first[inv]]  # row of each posture among the distinct ones
+    del key, first, inv, rank
     uq = q[order]
-    parts = [source.predict(uq[c0 : c0 + _CHUNK]) for c0 in range(0, uq.shape[0], _CHUNK)]
-    return _concat_modes(parts, None if order.size == n else expand)
+    filled = _ModesFill(uq.shape[0])
+    # the first chunk alone (a source's lazy set-up happens once), the rest on the
+    # cores: numpy releases the GIL in the per-posture linear algebra
+    filled.put(0, source.predict(uq[:_CHUNK]))
+    rest = list(range(_CHUNK, uq.shape[0], _CHUNK))
+    workers = min(_THREADS, len(rest))
+    if workers > 1:
+        from concurrent.futures import ThreadPoolExecutor
+
+        from robolobe._threads import one_blas_thread
+
+        with one_blas_thread(), ThreadPoolExecutor(workers) as ex:
+            parts = ex.map(lambda c0: source.predict(uq[c0 : c0 + _CHUNK]), rest)
+            for c0, part in zip(rest, parts, strict=True):
+                filled.put(c0, part)
+    else:
+        for c0 in rest:
+            filled.put(c0, source.predict(uq[c0 : c0 + _CHUNK]))
+    return filled.result(None if order.size == n else expand)
 
 
-def _concat_modes(parts: list[RobotModes], take: NDArray[np.int64] | None) -> RobotModes:
-    """One :class:`RobotModes` from consecutive batches, optionally rows ``take`` of it."""
-    import dataclasses
+class _ModesFill:
+    """One :class:`RobotModes` filled batch by batch into arrays allocated once.
 
-    def cat(name: str, obj: Any = None) -> Any:
-        vals = [getattr(p if obj is None else obj(p), name) for p in parts]
-        if vals[0] is None:
-            return None
-        out = np.concatenate(vals, axis=0)
-        return out if take is None else out[take]
+    (Concatenating the batches at the end would hold every posture's modes twice.)
+    """
 
-    model = ModalModel(
-        cat("omega", lambda p: p.model),
-        cat("zeta", lambda p: p.model),
-        cat("residues", lambda p: p.model),
-    )
-    return dataclasses.replace(
-        parts[0],
-        f_hz=cat("f_hz"),
-        zeta=cat("zeta"),
-        k_N_per_m=cat("k_N_per_m"),
-        log_std=cat("log_std"),
-        model=model,
-        extrapolation=cat("extrapolation"),
-    )
+    _NAMES = ("f_hz", "zeta", "k_N_per_m", "log_std", "extrapolation")
+    _MODEL = ("omega", "zeta", "residues")
+
+    def __init__(self, n: int) -> None:
+        self.n = n
+        self.first: RobotModes | None = None
+        self.arrays: dict[str, Any] = {}
+
+    def _put(self, key: str, c0: int, val: Any) -> None:
+        if val is None:
+            self.arrays[key] = None
+            return
+        val = np.asarray(val)
+        if key not in self.arrays:
+            self.arrays[key] = np.empty((self.n, *val.shape[1:]), dtype=val.dtype)
+        self.arrays[key][c0 : c0 + val.shape[0]] = val
+
+    def put(self, c0: int, part: RobotModes) -> None:
+        """Batch ``part`` holds the postures from row ``c0`` on."""
+        if self.first is None:
+            self.first = part
+        for name in self._NAMES:
+            self._put(name, c0, getattr(part, name))
+        for name in self._MODEL:
+            self._put("model." + name, c0, getattr(part.model, name))
+
+    def result(self, take: NDArray[np.int64] | None) -> RobotModes:
+        """The filled modes, optionally rows ``take`` of them."""
+        import dataclasses
+
+        assert self.first is not None
+        a = self.arrays
+        if take is not None:
+            a = {k: None if v is None else v[take] for k, v in a.items()}
+        model = ModalModel(a["model.omega"], a["model.zeta"], a["model.residues"])
+        return dataclasses.replace(
+            self.first,
+            f_hz=a["f_hz"],
+            zeta=a["zeta"],
+            k_N_per_m=a["k_N_per_m"],
+            log_std=a["log_std"],
+            model=model,
+            extrapolation=a["extrapolation"],
+        )
 
 
 # --------------------------------------------------------------------- main
@@ -390,6 +438,31 @@ def _read(
 
 def _feed_lateral(f_tcp: FloatArray) -> FloatArray:
     return np.asarray(np.linalg.norm(f_tcp[:, :2], axis=1))
+
+
+class _Labels(Sequence[str]):
+    """``file:line`` of each cutting waypoint, made when asked (messages name a few).
+
+    Parameters
+    ----------
+    source : ndarray of str, shape (n,)
+    line : ndarray of int, shape (n,)
+    """
+
+    def __init__(self, source: NDArray[Any], line: NDArray[Any]) -> None:
+        self.source, self.line = source, line
+
+    def __len__(self) -> int:
+        return int(self.line.shape[0])
+
+    @overload
+    def __getitem__(self, i: int) -> str: ...
+    @overload
+    def __getitem__(self, i: slice) -> list[str]: ...
+    def __getitem__(self, i: int | slice) -> str | list[str]:
+        if isinstance(i, slice):
+            return [self[j] for j in range(*i.indices(len(self)))]
+        return f"{self.source[i]}:{int(self.line[i])}"
 
 
 def _lobes_for_rotation(
@@ -406,7 +479,6 @@ def _lobes_for_rotation(
     FloatArray,
     FloatArray,
     RobotModes,
-    ModalModel,
     NDArray[np.bool_],
     GroupedLobes,
     dict[str, float],
@@ -418,20 +490,74 @@ def _lobes_for_rotation(
     t = time.perf_counter()
     poses, r_wp = tcp_targets(wp, robot, job.placement, rotation)
     q, wm = _postures(wp, robot, poses, source)
+    ci = np.flatnonzero(cut)
+    f_path = wp[["fx", "fy", "fz"]].to_numpy(dtype=np.float64)[ci]
+    f_tcp = np.einsum("nji,nj->ni", poses[ci, :3, :3], f_path @ r_wp.T)
+    del poses, f_path  # (n, 4, 4): not needed past here
     timings["ik"] = time.perf_counter() - t
     t = time.perf_counter()
-    ci = np.flatnonzero(cut)
     modes = _predict_modes(source, q[ci])
     timings["modes"] = time.perf_counter() - t
-    f_path = wp[["fx", "fy", "fz"]].to_numpy(dtype=np.float64)[ci]
-    f_world = f_path @ r_wp.T
-    r_tcp = poses[ci, :3, :3]
-    f_tcp = np.einsum("nji,nj->ni", r_tcp, f_world)
-    model0, plunge, grouped, t_lobes, feed_angle, bound = cut_lobes(
+    # the nominal tool-point models (the caller does not keep them: ~1 kB per waypoint)
+    _, plunge, grouped, t_lobes, feed_angle, bound = cut_lobes(
         job, modes, f_tcp, material, tool, rpm
     )
     timings.update(t_lobes)
-    return q, wm, modes, model0, plunge, grouped, timings, feed_angle, bound, f_tcp
+    return q, wm, modes, plunge, grouped, timings, feed_angle, bound, f_tcp
+
+
+def _tool_point_models(
+    rot: FloatArray, robot_model: ModalModel, tool: ModalModel | None
+) -> ModalModel:
+    """:func:`~robolobe.sld.toolpoint.tool_point_model` per waypoint, in chunks.
+
+    Chunks of :data:`_CHUNK` waypoints (on up to :data:`_THREADS` threads)
+    written into arrays allocated once: the rotation's temporaries stay
+    bounded (~1.7 kB per waypoint at once otherwise); each waypoint's model is
+    that of one call over all of them (the model is per waypoint).
+
+    Parameters
+    ----------
+    rot : ndarray, shape (n, 3, 3)
+        Feed frames (:func:`~robolobe.sld.toolpoint.feed_frame`).
+    robot_model : ModalModel
+        TCP-frame robot modes, dim 3, batch (n,).
+    tool : ModalModel or None
+
+    Returns
+    -------
+    ModalModel
+        Feed-frame models, dim 2, batch (n,).
+    """
+    n = rot.shape[0]
+    if n <= _CHUNK or rot.shape != (n, 3, 3) or robot_model.batch_shape != (n,):
+        return tool_point_model(rot, robot_model, tool)
+
+    def part(c0: int) -> ModalModel:
+        rows = slice(c0, c0 + _CHUNK)
+        return tool_point_model(rot[rows], robot_model.take(rows), tool)
+
+    first = part(0)
+    w = np.empty((n, *first.omega.shape[1:]), first.omega.dtype)
+    z = np.empty((n, *first.zeta.shape[1:]), first.zeta.dtype)
+    a = np.empty((n, *first.residues.shape[1:]), first.residues.dtype)
+
+    def put(c0: int, m: ModalModel) -> None:
+        c1 = c0 + m.omega.shape[0]
+        w[c0:c1], z[c0:c1], a[c0:c1] = m.omega, m.zeta, m.residues
+
+    put(0, first)
+    rest = list(range(_CHUNK, n, _CHUNK))
+    if _THREADS > 1 and len(rest) > 1:
+        from concurrent.futures import ThreadPoolExecutor
+
+        with ThreadPoolExecutor(_THREADS) as ex:
+            for c0, m in zip(rest, ex.map(part, rest), strict=True):
+                put(c0, m)
+    else:
+        for c0 in rest:
+            put(c0, part(c0))
+    return ModalModel(w, z, a)
 
 
 def cut_lobes(
@@ -495,10 +621,10 @@ def cut_lobes(
     plunge = _feed_lateral(f_tcp) < PLUNGE_LATERAL
     f_use = np.where(plunge[:, None], [[1.0, 0.0, 0.0]], f_tcp)
     rot = feed_frame(f_use, (0.0, 0.0, -1.0), rotation="cw")
-    models = [tool_point_model(rot, modes.model, tool)]
+    models = [_tool_point_models(rot, modes.model, tool)]
     bound, _ = plan_bound(job.plan, modes, robust)
     if bound is not None:
-        models.append(tool_point_model(rot, bound.model, tool))
+        models.append(_tool_point_models(rot, bound.model, tool))
     timings["frf"] = time.perf_counter() - t
     t = time.perf_counter()
     st, ex = engagement_angles(job.radial_immersion, job.cut.milling)
@@ -609,7 +735,7 @@ def plan_path(
         rotation, rot_note = _stiffest_rotation(
             job, wp, robot, source, cut, material, tool, rpm, cons
         )
-    q, wm, modes, _model0, plunge, grouped, t_stage, feed_angle, bound, f_tcp = _lobes_for_rotation(
+    q, wm, modes, plunge, grouped, t_stage, feed_angle, bound, f_tcp = _lobes_for_rotation(
         job, wp, robot, source, rotation, cut, material, tool, rpm
     )
     timings.update(t_stage)
@@ -622,9 +748,7 @@ def plan_path(
     prog = wp["rpm_programmed"].to_numpy(dtype=np.float64)[ci]
     if job.cut.programmed_rpm is not None:
         prog = np.where(np.isfinite(prog), prog, job.cut.programmed_rpm)
-    src_col = wp["source"].to_numpy()[ci]
-    line_col = wp["line"].to_numpy()[ci]
-    labels = [f"{a}:{int(b)}" for a, b in zip(src_col, line_col, strict=True)]
+    labels = _Labels(wp["source"].to_numpy()[ci], wp["line"].to_numpy()[ci])
 
     def schedule(table: Any) -> PlanOutcome:
         return optimize_schedule(
@@ -832,7 +956,8 @@ def _result_table(
         wp["motion"].to_numpy() == "cut", cons.feed_per_rev_m * rpm_all * 1e3, np.nan
     )
     cols["rpm_programmed"] = wp["rpm_programmed"].to_numpy()
-    return pd.DataFrame(cols)
+    # the columns as they are (not consolidated into one block: a copy of the table)
+    return pd.DataFrame(cols, copy=False)
 
 
 def waypoints_hash(table: pd.DataFrame) -> str:

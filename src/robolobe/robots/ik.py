@@ -318,21 +318,101 @@ def ik_branches(
     ok : ndarray of bool, shape (n, 8)
         Branch exists and reproduces the pose (checked by FK).
     """
+    P = np.asarray(poses, dtype=np.float64)
+    q, ok = _branches_unchecked(robot, P, q_ref)
+    return q, ok & _reproduces(robot, q, ok, P[:, None])
+
+
+def _branches_unchecked(
+    robot: Robot, P: FloatArray, q_ref: ArrayLike | None, *, compiled: bool = False
+) -> tuple[FloatArray, BoolArray]:
+    """:func:`ik_branches` before the FK check: ``ok`` says only that a branch exists.
+
+    ``compiled`` (and numba available): :func:`robolobe.robots._ik_kernels.closed_form`
+    for one ``q_ref`` (6,) (equal to :func:`_closed_form` to rounding).
+    """
     g = _geometry(robot)
     if not g.closed_form:
         raise ReachabilityError(f"closed-form IK does not apply to {robot.name!r}: {g.reason}")
-    P = np.asarray(poses, dtype=np.float64)
     th_ref = None
     if q_ref is not None:
         qr = np.broadcast_to(np.asarray(q_ref, dtype=np.float64), (P.shape[0], 6))
         th_ref = qr @ robot.coupling.T + robot.theta_offset
-    br = _closed_form(robot, P, th_ref)
-    q = (br.theta - robot.theta_offset) @ g.c_inv.T
-    ok = br.ok.copy()
-    if np.any(ok):
-        dp, da = pose_error(tcp_pose(robot, np.where(ok[..., None], q, 0.0)), P[:, None])
-        ok &= (dp < _POS_TOL_M * max(1.0, _reach(robot))) & (da < _ROT_TOL_RAD)
+    from robolobe import _jit
+
+    if compiled and _jit.available() and (q_ref is None or np.ndim(q_ref) == 1):
+        theta = _closed_form_compiled(robot, P, None if th_ref is None else th_ref[0])
+        ok = np.all(np.isfinite(theta), axis=-1)
+    else:
+        br = _closed_form(robot, P, th_ref)
+        theta, ok = br.theta, br.ok
+    q = (theta - robot.theta_offset) @ g.c_inv.T
     return q, ok
+
+
+@functools.lru_cache(maxsize=64)
+def _kernel_constants(robot: Robot) -> tuple[FloatArray, ...]:
+    """The arrays :func:`robolobe.robots._ik_kernels.closed_form` takes besides the poses."""
+    g = _geometry(robot)
+    w, p = g.w, g.p
+    kk = np.empty((6, 3, 3))
+    for i in range(6):
+        k = w[i]
+        kx = np.array([[0.0, -k[2], k[1]], [k[2], 0.0, -k[0]], [-k[1], k[0], 0.0]])
+        kk[i] = kx @ kx  # as in _rot
+    u = g.wrist - p[2]
+    vv = p[1] - p[2]
+    u_p = u - w[2] * np.dot(u, w[2])
+    v_p = vv - w[2] * np.dot(vv, w[2])
+    nu, nv = np.linalg.norm(u_p), np.linalg.norm(v_p)
+    if nv < 1e-12:  # as in _closed_form
+        raise ReachabilityError("axes 2 and 3 coincide; closed-form IK does not apply")
+    th0 = math.atan2(float(np.dot(w[2], np.cross(u_p, v_p))), float(np.dot(u_p, v_p)))
+    a45 = float(np.dot(w[3], w[4]))
+    w5u = float(np.dot(w[4], w[5]))
+    usual = abs(a45) < 1e-12 and abs(w5u) < 1e-12
+    consts = np.array(
+        [g.scale, nu, nv, th0, float(np.dot(w[2], u - vv)), a45, w5u, 1.0 if usual else 0.0]
+    )
+    perp = np.cross(w[5], [1.0, 0.0, 0.0])
+    if np.linalg.norm(perp) < 0.1:
+        perp = np.cross(w[5], [0.0, 1.0, 0.0])
+    perp /= np.linalg.norm(perp)
+    base_inv = np.ascontiguousarray(inv_pose(robot.base))
+    return base_inv, np.ascontiguousarray(g.m_inv), np.ascontiguousarray(w), kk, \
+        np.ascontiguousarray(p), np.ascontiguousarray(g.wrist), consts, perp  # fmt: skip
+
+
+def _closed_form_compiled(robot: Robot, P: FloatArray, th_ref: FloatArray | None) -> FloatArray:
+    """DH angles (n, 8, 6) of the 8 branches (NaN where none), compiled."""
+    from robolobe.robots import _ik_kernels
+
+    base_inv, m_inv, w, kk, p, wrist, consts, perp = _kernel_constants(robot)
+    theta = np.empty((P.shape[0], 8, 6))
+    _ik_kernels.closed_form(
+        np.ascontiguousarray(P, dtype=np.float64),
+        base_inv,
+        m_inv,
+        w,
+        kk,
+        p,
+        wrist,
+        consts,
+        perp,
+        np.zeros(6) if th_ref is None else np.ascontiguousarray(th_ref, dtype=np.float64),
+        np.ascontiguousarray(robot.theta_offset, dtype=np.float64),
+        theta,
+    )
+    return theta
+
+
+def _reproduces(robot: Robot, q: FloatArray, ok: BoolArray, P: FloatArray) -> BoolArray:
+    """Which postures ``q`` (..., 6) with ``ok`` reach their poses ``P`` (..., 4, 4) (FK check)."""
+    out = np.zeros(ok.shape, dtype=bool)
+    if np.any(ok):
+        dp, da = pose_error(tcp_pose(robot, np.where(ok[..., None], q, 0.0)), P)
+        out = ok & (dp < _POS_TOL_M * max(1.0, _reach(robot))) & (da < _ROT_TOL_RAD)
+    return out
 
 
 def _reach(robot: Robot) -> float:
@@ -653,13 +733,22 @@ def ik_batch(
     compiled = n >= JIT_MIN_POSES
     for c0 in range(0, n, _IK_CHUNK):  # chunks bound the memory (~1 kB per pose)
         c1 = min(n, c0 + _IK_CHUNK)
-        q8, ok = ik_branches(robot, P[c0:c1], ref)
-        base, count = _turn_base(robot, q8, ok)  # (m, 8, 6) each
-        exists = ok & np.all(count >= 1, axis=-1)  # (m, 8)
-        if continuity:
-            q, good = _continuity(robot, base, count, exists, wts, prev, compiled=compiled)
-        else:
-            q, good = _pick(robot, base, count, exists, wts, np.broadcast_to(ref, (c1 - c0, 6)))
+        pc = P[c0:c1]
+        q8, ok = _branches_unchecked(robot, pc, ref, compiled=compiled)
+        # Choose among the branches that exist, then FK-check only the chosen one:
+        # if it reproduces its pose it is also the nearest of the checked branches
+        # (a subset holding it), so the result is that of checking all 8 first. A
+        # chunk where a chosen branch fails the check, or a pose has no solution,
+        # is chosen again with every branch checked (same ``prev`` to start from).
+        prev0 = prev.copy()
+        q, good, b = _choose(robot, q8, ok, wts, prev, ref, continuity, compiled)
+        rows = np.flatnonzero(good)
+        if rows.size < good.size or not np.all(
+            _reproduces(robot, q8[rows, b[rows]], ok[rows, b[rows]], pc[rows])
+        ):
+            prev[:] = prev0
+            ok = ok & _reproduces(robot, q8, ok, pc[:, None])
+            q, good, _ = _choose(robot, q8, ok, wts, prev, ref, continuity, compiled)
         out[c0:c1] = q
         bad = np.flatnonzero(~good)
         n_fail += bad.size
@@ -685,9 +774,10 @@ def _raise_failures(robot: Robot, P: FloatArray, fails: list[tuple[int, str]], n
 
 _IK_CHUNK = 8192
 _N_REPORT = 5
-#: Path length from which :func:`ik_batch` takes the compiled continuity: below,
-#: numba's start-up in a fresh process (~0.5 s) costs more than the Python
-#: loop it replaces (~35 us per pose).
+#: Path length from which :func:`ik_batch` takes the compiled closed form and
+#: continuity: below, loading them in a fresh process (~0.3-0.5 s) costs more than
+#: they save (~14 us per pose over the numpy closed form and the
+#: speculate-and-check continuity).
 JIT_MIN_POSES = 15_000
 
 
@@ -698,11 +788,12 @@ def _pick(
     exists: BoolArray,
     wts: FloatArray,
     target: FloatArray,
-) -> tuple[FloatArray, BoolArray]:
+) -> tuple[FloatArray, BoolArray, NDArray[np.int_]]:
     """Per pose the valid branch (and in-limit 2*pi turn) nearest ``target`` (m, 6).
 
     Per joint the turn nearest the target is taken (the distance is separable).
-    Returns the postures (m, 6) [rad] and whether any branch was valid (m,).
+    Returns the postures (m, 6) [rad], whether any branch was valid (m,) and
+    the chosen branch (m,) (-1 where none).
     """
     k = np.clip(np.round((target[:, None, :] - base) / _TWO_PI), 0, np.maximum(count - 1, 0))
     cand = base + _TWO_PI * k
@@ -711,7 +802,7 @@ def _pick(
     best = np.argmin(d, axis=1)
     q = cand[np.arange(len(cand)), best]
     good = np.asarray(valid.any(axis=1), dtype=bool)
-    return np.where(good[:, None], q, np.nan), good
+    return np.where(good[:, None], q, np.nan), good, np.where(good, best, -1)
 
 
 def _continuity_numpy(
@@ -721,17 +812,86 @@ def _continuity_numpy(
     exists: BoolArray,
     wts: FloatArray,
     prev: FloatArray,
-) -> tuple[FloatArray, BoolArray]:
+) -> tuple[FloatArray, BoolArray, NDArray[np.int64]]:
     """Reference of :func:`_continuity`: a Python loop of :func:`_pick` (``prev`` updated)."""
     m = base.shape[0]
     out = np.empty((m, 6))
     good = np.zeros(m, dtype=bool)
+    branch = np.full(m, -1, dtype=np.int64)
     for i in range(m):  # sequential by nature; each step is an (8, 6) vector op
-        qi, gi = _pick(robot, base[i : i + 1], count[i : i + 1], exists[i : i + 1], wts, prev[None])
-        out[i], good[i] = qi[0], gi[0]
+        qi, gi, bi = _pick(
+            robot, base[i : i + 1], count[i : i + 1], exists[i : i + 1], wts, prev[None]
+        )
+        out[i], good[i], branch[i] = qi[0], gi[0], bi[0]
         if gi[0]:
             prev[:] = qi[0]
-    return out, good
+    return out, good, branch
+
+
+#: Speculation passes per chunk in :func:`_continuity_vectorized` before the rest
+#: of the chunk is done pose by pose (a path that switches branches very often).
+_MAX_PASSES = 16
+
+
+def _continuity_vectorized(
+    robot: Robot,
+    base: FloatArray,
+    count: NDArray[np.int_],
+    exists: BoolArray,
+    wts: FloatArray,
+    prev: FloatArray,
+) -> tuple[FloatArray, BoolArray, NDArray[np.int64]]:
+    """:func:`_continuity_numpy`'s result without its per-pose loop (``prev`` updated).
+
+    Speculate that the path stays on the branch it takes at its first pose,
+    each joint on the 2*pi turn that continues the previous pose's (an
+    unwrap), then check every pose at once: :func:`_pick` with the speculated
+    previous posture as the target. Up to the first pose where the check
+    differs, the targets were the true previous postures (by induction), so
+    those poses and that one are exact; speculation restarts after it. A path
+    that keeps its branch takes one or two passes; after :data:`_MAX_PASSES`
+    the rest of the chunk goes pose by pose.
+    """
+    m = base.shape[0]
+    out = np.empty((m, 6))
+    good = np.zeros(m, dtype=bool)
+    branch = np.full(m, -1, dtype=np.int64)
+    s = 0
+    passes = 0
+    while s < m:
+        if passes == _MAX_PASSES:
+            o, g, b = _continuity_numpy(robot, base[s:], count[s:], exists[s:], wts, prev)
+            out[s:], good[s:], branch[s:] = o, g, b
+            break
+        passes += 1
+        q0, g0, b0 = _pick(robot, base[s : s + 1], count[s : s + 1], exists[s : s + 1], wts,
+                           prev[None])  # fmt: skip
+        out[s], good[s], branch[s] = q0[0], g0[0], b0[0]
+        if not g0[0]:
+            s += 1
+            continue
+        prev[:] = q0[0]
+        if s + 1 == m:
+            break
+        # speculation: branch b0 on, each joint continued by unwrapping from q0
+        bb = int(b0[0])
+        v = base[s + 1 :, bb]  # (r, 6)
+        cont = np.unwrap(np.vstack([q0[0][None], v]), axis=0)[1:]
+        kmax = np.maximum(count[s + 1 :, bb] - 1, 0)
+        k = np.clip(np.round((cont - v) / _TWO_PI), 0, kmax)
+        spec = v + _TWO_PI * k  # (r, 6)
+        target = np.vstack([q0[0][None], spec[:-1]])
+        qp, gp, bp = _pick(robot, base[s + 1 :], count[s + 1 :], exists[s + 1 :], wts, target)
+        same = gp & (bp == bb) & np.all(qp == spec, axis=1)
+        r = same.size if bool(same.all()) else int(np.argmin(same)) + 1  # rows settled
+        out[s + 1 : s + 1 + r] = qp[:r]
+        good[s + 1 : s + 1 + r] = gp[:r]
+        branch[s + 1 : s + 1 + r] = bp[:r]
+        last = np.flatnonzero(gp[:r])
+        if last.size:
+            prev[:] = qp[last[-1]]
+        s += 1 + r
+    return out, good, branch
 
 
 def _continuity(
@@ -743,17 +903,18 @@ def _continuity(
     prev: FloatArray,
     *,
     compiled: bool = True,
-) -> tuple[FloatArray, BoolArray]:
+) -> tuple[FloatArray, BoolArray, NDArray[np.int64]]:
     """Along a path, each pose's valid solution nearest the previous one (``prev`` updated).
 
     Returns the postures (m, 6) [rad] (NaN where none is valid; such a pose
-    leaves ``prev`` as it was) and whether each pose had a valid solution.
-    Compiled (``compiled`` and numba available), else :func:`_continuity_numpy`.
+    leaves ``prev`` as it was), whether each pose had a valid solution and
+    the branch chosen (-1 where none).
+    Compiled (``compiled`` and numba available), else :func:`_continuity_vectorized`.
     """
     from robolobe import _jit
 
     if not (compiled and _jit.available()):
-        return _continuity_numpy(robot, base, count, exists, wts, prev)
+        return _continuity_vectorized(robot, base, count, exists, wts, prev)
     from robolobe.robots import _ik_kernels
     from robolobe.robots.limits import TOL_RAD
 
@@ -761,6 +922,7 @@ def _continuity(
     m = base.shape[0]
     out = np.empty((m, 6))
     good = np.zeros(m, dtype=bool)
+    branch = np.empty(m, dtype=np.int64)
     _ik_kernels.continuity(
         np.ascontiguousarray(base, dtype=np.float64),
         np.ascontiguousarray(count, dtype=np.int64),
@@ -773,8 +935,31 @@ def _continuity(
         prev,
         out,
         good,
+        branch,
     )
-    return out, good
+    return out, good, branch
+
+
+def _choose(
+    robot: Robot,
+    q8: FloatArray,
+    ok: BoolArray,
+    wts: FloatArray,
+    prev: FloatArray,
+    ref: FloatArray,
+    continuity: bool,
+    compiled: bool,
+) -> tuple[FloatArray, BoolArray, NDArray[np.int_]]:
+    """One chunk's postures from its branches ``q8`` (m, 8, 6) with ``ok`` (m, 8).
+
+    Along the path (``continuity``, ``prev`` updated) or each nearest ``ref``;
+    returns postures (m, 6), whether each had a valid branch (m,) and the branch (m,).
+    """
+    base, count = _turn_base(robot, q8, ok)  # (m, 8, 6) each
+    exists = ok & np.all(count >= 1, axis=-1)  # (m, 8)
+    if continuity:
+        return _continuity(robot, base, count, exists, wts, prev, compiled=compiled)
+    return _pick(robot, base, count, exists, wts, np.broadcast_to(ref, (q8.shape[0], 6)))
 
 
 def _turn_base(robot: Robot, q8: FloatArray, ok: BoolArray) -> tuple[FloatArray, NDArray[np.int_]]:
