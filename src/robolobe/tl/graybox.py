@@ -89,7 +89,7 @@ DEFAULT_PARAMS = ("stiffness", "damping", "ee_mass", "link_mass", "link_com")
 _FIRST_STAGE = ("stiffness", "damping", "ee_mass", "link_mass")
 #: Prior standard deviation of each group's parameters, in ``theta`` units
 #: (log factor, or 0.1 m for centres of mass): joint stiffness x0.5-2 and
-#: damping x0.4-2.5 at two sigma (rarely published, FORMATS.md section 1);
+#: damping x0.4-2.5 at two sigma (rarely published, docs/guide/robots.md);
 #: spindle and link masses +-10 %; centres of mass +-5 cm per axis.
 PRIOR_STD: dict[str, float] = {
     "stiffness": math.log(2.0) / 2,
