@@ -31,6 +31,7 @@ import numpy as np
 
 from robolobe.robots import load_robot
 from robolobe.twin.calibration import (
+    LITERATURE_K_BOUNDS,
     SEED_FIT_STARTS,
     SeedFitForm,
     compare_to_table,
@@ -61,14 +62,31 @@ def main() -> None:
         default=0.7,
         help="bound on the log factors of link and spindle masses (0 keeps them)",
     )
+    ap.add_argument(
+        "--load-joints",
+        default="2,3,4,5,6",
+        help="1-based joints with load-dependent stiffness (comma list; '' for none)",
+    )
+    ap.add_argument(
+        "--free-bounds",
+        action="store_true",
+        help="log-factor bounds only, no literature bounds on the springs",
+    )
+    ap.add_argument("--robots", default="B,C")
     args = ap.parse_args()
-    form = SeedFitForm(link_mass_bound=args.mass_bound, ee_mass_bound=args.mass_bound)
+    load = tuple(int(j) - 1 for j in args.load_joints.split(",") if j.strip())
+    form = SeedFitForm(
+        link_mass_bound=args.mass_bound,
+        ee_mass_bound=args.mass_bound,
+        load_joints=load,
+        k_bounds_Nm_per_rad=None if args.free_bounds else LITERATURE_K_BOUNDS,
+    )
     out: dict[str, object] = {}
     print("Copy errors visible in the tables alone:")
     for chk in table_checks():
         print(f"  {chk.robot} posture {chk.posture} mode {chk.mode} {chk.quantity}: "
               f"{chk.kind}: {chk.detail}")  # fmt: skip
-    for name in ("B", "C"):
+    for name in args.robots.split(","):
         t = SEED_TABLES[name]
         shipped = load_robot(name)
         cs = compare_to_table(shipped, t)
@@ -94,6 +112,8 @@ def main() -> None:
                 if jt.tilt_stiffness_Nm_per_rad is not None
             )
             + f"; mount {robot.mount_stiffness_Nm_per_rad}"
+            + "; load stiffening [per kN m] "
+            + ", ".join(f"{1e3 * v:.3g}" for v in robot.load_stiffening)
         )
         m0 = [jt.body.mass_kg for jt in shipped.joints]
         m1 = [jt.body.mass_kg for jt in robot.joints]

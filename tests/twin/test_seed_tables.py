@@ -71,22 +71,27 @@ def test_fit_recovers_a_known_twin_from_its_own_modes() -> None:
     assert np.median(np.abs(cf.f_err)) < 0.01
 
 
-def _model_b(mass_bound: float):  # type: ignore[no-untyped-def]
+def _model_b(mass_bound: float, load_joints: tuple[int, ...] = ()):  # type: ignore[no-untyped-def]
     from robolobe.twin.calibration import SeedFitForm, _TableModel
 
-    form = SeedFitForm(link_mass_bound=mass_bound, ee_mass_bound=mass_bound)
+    form = SeedFitForm(
+        link_mass_bound=mass_bound, ee_mass_bound=mass_bound, load_joints=load_joints
+    )
     t = SEED_TABLES["B"]
     return _TableModel(seed_prior("B", load_robot("B")), t.postures_rad, form), form, t
 
 
-def test_eigen_sensitivities_of_springs_and_masses_match_differences() -> None:
+@pytest.mark.parametrize("load_joints", [(), (1, 2, 4)])
+def test_eigen_sensitivities_of_springs_and_masses_match_differences(
+    load_joints: tuple[int, ...],
+) -> None:
     from robolobe.twin.calibration import _mode_sensitivities
 
-    model, _, _ = _model_b(0.7)
+    model, _, _ = _model_b(0.7, load_joints)
     rng = np.random.default_rng(3)
     x = rng.uniform(0.3 * model.lower, 0.3 * model.upper)
     _, _, phi, w = model.modes(x)
-    k = model.k0 * np.exp(x[model.slices["k"]])
+    k = model.stiffness(x)[1]
     dlf, dlk = _mode_sensitivities(model, x, 1, phi[1], w[1] ** 2, k)
     h = 1e-6
     for i in range(model.n_params - 1):
