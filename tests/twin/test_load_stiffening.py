@@ -12,7 +12,10 @@ from robolobe.robots import link_frames, load_robot, robot_to_toml, robots_allcl
 from robolobe.twin.model import Twin
 from robolobe.twin.system import nominal_system
 
-Q = np.radians([[-2, 21, -27, 5, 1, -29], [-60, 50, -120, 115, -66, -197], [23, -28, -101, -82, 124, 168]])  # fmt: skip
+# seed Table 3 postures 1-3 of robot B [deg]
+Q = np.radians(
+    [[-2, 21, -27, 5, 1, -29], [-60, 50, -120, 115, -66, -197], [23, -28, -101, -82, 124, 168]]
+)
 S = np.array([0.0, 2e-4, 1e-4, 5e-4, 3e-4, 1e-3])  # [1/(N m)]
 
 
@@ -58,7 +61,9 @@ def test_without_the_key_the_springs_are_constant() -> None:
         r = load_robot(name)
         assert not r.has_load_stiffening
         k = nominal_system(r, Q).K
-        np.testing.assert_array_equal(k[:, :6, :6], np.broadcast_to(np.diag(r.stiffness), (3, 6, 6)))
+        np.testing.assert_array_equal(
+            k[:, :6, :6], np.broadcast_to(np.diag(r.stiffness), (3, 6, 6))
+        )
 
 
 def test_file_round_trip_and_comparison(tmp_path: Path) -> None:

@@ -49,9 +49,12 @@ def test_verdicts_cover_every_value_and_name_the_copy_errors(name: str) -> None:
 
 
 @pytest.mark.slow
-def test_fit_recovers_a_known_twin_from_its_own_modes() -> None:
+@pytest.mark.parametrize("load", [False, True])
+def test_fit_recovers_a_known_twin_from_its_own_modes(load: bool) -> None:
     # data the fit did not make: the exact damped modes of a known compliant robot at the
     # table's postures, written as a table; the fit starts 0.2 (log) away from the truth
+    from robolobe.twin.calibration import SeedFitForm
+
     prior = seed_prior("B", load_robot("B"))
     rng = np.random.default_rng(5)
     truth = prior.with_damping(prior.damping)
@@ -59,16 +62,57 @@ def test_fit_recovers_a_known_twin_from_its_own_modes() -> None:
         k = 3.0 * prior.stiffness[j] * np.exp(rng.normal(0.0, 0.5, 2))
         truth = truth.with_tilt(j, k, 2e-4 * k)
     truth = truth.with_mount(1e5 * np.exp(rng.normal(0.0, 0.5, 2)), (60.0, 60.0))
+    form = SeedFitForm()
+    if load:  # axes 2 and 5 stiffen with their gravity torque (x1.2-2 at these postures)
+        truth = truth.with_load_stiffening([0, 1e-4, 0, 0, 2e-3, 0])
+        form = SeedFitForm(load_joints=(1, 4))
     t = SEED_TABLES["B"]
     c = compare_to_table(truth, t)
     ema = t.ema.copy()
     ema[0], ema[1], ema[2] = c.f_hz, 100 * c.zeta, c.k_N_per_m / 1e5
     synth = dataclasses.replace(t, ema=ema)
-    x0 = seed_parameters("B", truth)
+    x0 = seed_parameters("B", truth, form)
     x0[:-1] += rng.normal(0.0, 0.2, x0.size - 1) * (x0[:-1] != 0)
-    fit = fit_seed_table(prior, synth, starts=0, x0=x0, refine=1)
+    fit = fit_seed_table(prior, synth, form=form, starts=0, x0=x0, refine=1)
     cf = compare_to_table(fit.robot, synth)
     assert np.median(np.abs(cf.f_err)) < 0.01
+    if load:
+        assert fit.robot.has_load_stiffening
+
+
+def test_fit_model_and_robot_file_have_the_same_physics() -> None:
+    # the fit's own fast model (springs at each posture incl. load stiffening, masses) and
+    # the robot it writes, assembled by the twin, give the same undamped modes
+    from robolobe.twin.calibration import LITERATURE_K_BOUNDS
+    from robolobe.twin.modes import undamped_modes
+    from robolobe.twin.system import nominal_system
+
+    model, _, t = _model_b(0.3, (1, 2, 3, 4, 5))
+    rng = np.random.default_rng(11)
+    x = rng.uniform(0.5 * model.lower, 0.5 * model.upper)
+    lf, _, _, _ = model.modes(x)
+    r = model.robot(x)
+    assert r.has_load_stiffening
+    s = nominal_system(r, t.postures_rad)
+    w, _ = undamped_modes(s.M, s.K)
+    np.testing.assert_allclose(np.exp(lf), w / (2 * np.pi), rtol=1e-9)
+    # literature bounds: the fit's box maps onto the springs' absolute ranges
+    from robolobe.twin.calibration import SeedFitForm, _TableModel
+
+    form = SeedFitForm(k_bounds_Nm_per_rad=LITERATURE_K_BOUNDS)
+    m2 = _TableModel(seed_prior("B", load_robot("B")), t.postures_rad, form)
+    for x_edge, col in ((m2.lower, 0), (m2.upper, 1)):
+        x = np.where(np.isfinite(x_edge), x_edge, 0.0)
+        rr = m2.robot(x)
+        np.testing.assert_allclose(rr.stiffness[:3], LITERATURE_K_BOUNDS[0][col])
+        np.testing.assert_allclose(rr.stiffness[3:], LITERATURE_K_BOUNDS[1][col])
+        np.testing.assert_allclose(
+            rr.joints[1].tilt_stiffness_Nm_per_rad, LITERATURE_K_BOUNDS[2][col]
+        )
+        np.testing.assert_allclose(
+            rr.joints[4].tilt_stiffness_Nm_per_rad, LITERATURE_K_BOUNDS[3][col]
+        )
+        np.testing.assert_allclose(rr.mount_stiffness_Nm_per_rad, LITERATURE_K_BOUNDS[4][col])
 
 
 def _model_b(mass_bound: float, load_joints: tuple[int, ...] = ()):  # type: ignore[no-untyped-def]

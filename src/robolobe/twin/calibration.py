@@ -53,6 +53,7 @@ from robolobe.robots import RigidBody, Robot, sample_postures
 from robolobe.robots.limits import as_postures
 from robolobe.robots.transforms import pose_from_xyz_zyx
 from robolobe.twin.designs import TESTED_RANGES_DEG
+from robolobe.twin.dynamics import GRAVITY_M_PER_S2
 from robolobe.twin.modes import (
     SEEN_RATIO,
     compute_modes,
@@ -60,7 +61,6 @@ from robolobe.twin.modes import (
     seen_mask,
     undamped_modes,
 )
-from robolobe.twin.dynamics import GRAVITY_M_PER_S2
 from robolobe.twin.seed_tables import SeedTable
 from robolobe.twin.system import load_stiffened, nominal_system
 
@@ -613,7 +613,8 @@ class SeedFitForm:
     ``tilt_joints`` (prior ``tilt_prior`` x the joint's stiffness), the two
     mount stiffnesses (prior ``mount_prior_Nm_per_rad``), the end-effector
     mass and inertia, each link's mass and inertia (the B and C masses are
-    estimates), and the level ``log(k_twin / k_table)`` of modal stiffness.
+    estimates), the load stiffening of the joints in ``load_joints`` (linear,
+    not log) and the level ``log(k_twin / k_table)`` of modal stiffness.
 
     Attributes
     ----------
@@ -1078,7 +1079,7 @@ def fit_seed_table(
 ) -> SeedFit:
     """Fit springs, dampers and masses to a seed table (robust, multi-start).
 
-    Stage 1 (springs, masses, level): least squares with a soft-L1 loss
+    Stage 1 (springs, masses, load stiffening, level): least squares with a soft-L1 loss
     (``f_scale`` 3: residuals beyond ~3 % in frequency or a factor ~2 in
     modal stiffness count linearly, so a copy error pulls little) over
 
