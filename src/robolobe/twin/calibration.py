@@ -688,7 +688,9 @@ class _TableModel:
     weighted sum of per-body mass matrices and ``K`` diagonal.
     """
 
-    def __init__(self, robot: Robot, q: FloatArray, form: SeedFitForm) -> None:
+    def __init__(
+        self, robot: Robot, q: FloatArray, form: SeedFitForm, tau_ref: FloatArray | None = None
+    ) -> None:
         r = robot
         for j in form.tilt_joints:
             r = r.with_tilt(j, (1.0, 1.0), (0.0, 0.0))
@@ -718,7 +720,11 @@ class _TableModel:
         self.tau_b = np.einsum("b,k,pbkj->pbj", b.mass_kg, g, b.jv[..., :6])
         self.load = np.array(form.load_joints, dtype=np.intp)
         nl = len(self.load)
-        self.tau_ref = np.maximum(np.abs(self.tau_b.sum(axis=1))[:, self.load].max(axis=0), 1.0)
+        # scale of the load parameters [N m]: the largest gravity torque at these postures,
+        # or the caller's (a sub-model of one posture shares its parent's)
+        if tau_ref is None:
+            tau_ref = np.maximum(np.abs(self.tau_b.sum(axis=1))[:, self.load].max(axis=0), 1.0)
+        self.tau_ref = np.asarray(tau_ref, dtype=np.float64)
         ns = self.nd
         self.slices = {
             "k": slice(0, ns),
@@ -847,16 +853,16 @@ class SeedFit:
 
 def _soft_l1(r: FloatArray, scale: float) -> FloatArray:
     """Residuals whose squares are the soft-L1 cost ``2 s^2 (sqrt(1 + (r/s)^2) - 1)``."""
-    out: FloatArray = np.sign(r) * scale * np.sqrt(2.0 * (np.sqrt(1.0 + (r / scale) ** 2) - 1.0))
+    z = r / scale
+    # sqrt(1 + z^2) - 1 = z^2 / (sqrt(1 + z^2) + 1): no cancellation near r = 0
+    out: FloatArray = scale * np.sqrt(2.0) * z / np.sqrt(np.sqrt(1.0 + z**2) + 1.0)
     return out
 
 
 def _soft_l1_slope(r: FloatArray, scale: float) -> FloatArray:
     """Derivative of :func:`_soft_l1` with respect to ``r``."""
-    rho = _soft_l1(r, scale)
     g = np.sqrt(1.0 + (r / scale) ** 2)
-    small = np.abs(r) < 1e-8 * scale
-    out: FloatArray = np.where(small, 1.0, r / (g * np.where(small, 1.0, rho)))
+    out: FloatArray = np.sqrt((g + 1.0) / 2.0) / g
     return out
 
 
@@ -1151,7 +1157,7 @@ def fit_seed_table(
         # most promising starts (the joint problem's basins are hard to hit at random)
         pool: list[FloatArray] = []
         for i, p in enumerate(idx):
-            mp = _TableModel(robot, table.postures_rad[[p]], fm)
+            mp = _TableModel(robot, table.postures_rad[[p]], fm, model.tau_ref)
             sols = _stage1(mp, f_t[[i]], k_t[[i]], lz_t[[i]], ridge, cands, refine, False)
             pool += [xs for _, xs in sols[:by_posture]]
         cands = pool + cands
@@ -1486,7 +1492,7 @@ def seed_parameters(name: str, robot: Robot, form: SeedFitForm | None = None) ->
     from robolobe.twin.seed_tables import SEED_TABLES
 
     fm = SeedFitForm() if form is None else form
-    model = _TableModel(seed_prior(name, robot), SEED_TABLES[name].postures_rad[:1], fm)
+    model = _TableModel(seed_prior(name, robot), SEED_TABLES[name].postures_rad, fm)
     k = list(robot.stiffness)
     for j in fm.tilt_joints:
         ks = robot.joints[j].tilt_stiffness_Nm_per_rad
