@@ -182,3 +182,21 @@ def test_lopo_spread_grows_with_free_parameters_and_vanishes_with_a_tight_prior(
     assert np.all(s_m >= s_k - 1e-9)
     assert np.any(s_m > 1.05 * s_k)
     assert np.all(lopo_frequency_spread(prior, t, x, form=form_m, prior_sd=1e-4) < 1e-3)
+
+
+def test_robust_residual_has_a_finite_slope_at_tiny_residuals() -> None:
+    # the cancelling form sqrt(1 + z^2) - 1 gave rho = 0 for |r| ~ 3e-8 and an infinite slope
+    from robolobe.twin.calibration import _soft_l1, _soft_l1_slope
+
+    r = np.array([-40.0, -3.0, -2.9e-8, 0.0, 3e-8, 1e-4, 2.0, 50.0])
+    s = 3.0
+    slope = _soft_l1_slope(r, s)
+    assert np.all(np.isfinite(slope))
+    h = 1e-6
+    np.testing.assert_allclose(
+        slope, (_soft_l1(r + h, s) - _soft_l1(r - h, s)) / (2 * h), atol=1e-8
+    )
+    # the cost it encodes, 2 s^2 (sqrt(1 + (r/s)^2) - 1), evaluated where it does not cancel
+    big = np.abs(r) > 1e-3
+    cost = 2 * s**2 * (np.sqrt(1 + (r[big] / s) ** 2) - 1)
+    np.testing.assert_allclose(_soft_l1(r[big], s) ** 2, cost, rtol=1e-12)
