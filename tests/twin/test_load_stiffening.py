@@ -2,10 +2,14 @@
 
 from __future__ import annotations
 
+import subprocess
+import sys
+import tomllib
 from pathlib import Path
 
 import numpy as np
 import pytest
+import tomli_w
 
 from robolobe.errors import InputError
 from robolobe.robots import link_frames, load_robot, robot_to_toml, robots_allclose
@@ -93,14 +97,8 @@ def test_the_six_spring_calibration_refuses_load_dependent_springs() -> None:
 @pytest.mark.slow
 @pytest.mark.parametrize("value", [-0.5, 1e3])
 def test_cli_refuses_a_bad_key_in_one_line_with_exit_2(tmp_path: Path, value: float) -> None:
-    import subprocess
-    import sys
-    import tomllib
-
     d = tomllib.loads(robot_to_toml(load_robot("B")))
     d["joints"][1]["load_stiffening_per_kNm"] = value
-    import tomli_w
-
     robot = tmp_path / "bad.toml"
     robot.write_text(tomli_w.dumps(d))
     out = tmp_path / "campaign"
