@@ -200,3 +200,36 @@ def test_robust_residual_has_a_finite_slope_at_tiny_residuals() -> None:
     big = np.abs(r) > 1e-3
     cost = 2 * s**2 * (np.sqrt(1 + (r[big] / s) ** 2) - 1)
     np.testing.assert_allclose(_soft_l1(r[big], s) ** 2, cost, rtol=1e-12)
+
+
+def test_springs_stiffened_past_the_literature_bound_are_penalised_with_exact_slopes() -> None:
+    from robolobe.twin.calibration import LITERATURE_K_BOUNDS, SeedFitForm, _table_residuals
+    from robolobe.twin.calibration import _TableModel as Model
+
+    t = SEED_TABLES["C"]
+    form = SeedFitForm(
+        link_mass_bound=0.3, ee_mass_bound=0.3, load_joints=(1, 2, 4, 5),
+        k_bounds_Nm_per_rad=LITERATURE_K_BOUNDS,
+    )  # fmt: skip
+    model = Model(seed_prior("C", load_robot("C")), t.postures_rad, form)
+    rng = np.random.default_rng(4)
+    x = rng.uniform(0.3 * model.lower, 0.3 * model.upper)
+    x[5] = model.upper[5] - 0.2  # joint 6 near its 1e6 bound ...
+    x[model.slices["load"]] = [0.1, 0.1, 0.1, 2.5]  # ... and stiffened x~3 by its load
+    args = (np.log(t.f_hz), np.log(t.k_N_per_m), np.log(t.zeta), 0.0025)
+    r, jac = _table_residuals(model, x, *args, jacobian=True, with_frac=False)
+    k6 = model.stiffness(x)[:, 5]
+    over = np.log(k6 / 1e6)
+    assert np.all(over > 0)
+    n_pen = 3 * 4  # postures x load joints, the last rows without FRAC
+    np.testing.assert_allclose(r[-n_pen:][3::4], over / 0.01, rtol=1e-12)
+    h = 1e-6
+    for i in range(model.n_params):
+        xp, xm = x.copy(), x.copy()
+        xp[i] += h
+        xm[i] -= h
+        rp = _table_residuals(model, xp, *args, with_frac=False)
+        rm = _table_residuals(model, xm, *args, with_frac=False)
+        np.testing.assert_allclose(
+            jac[-n_pen:, i], (rp[-n_pen:] - rm[-n_pen:]) / (2 * h), atol=1e-4, rtol=1e-5
+        )

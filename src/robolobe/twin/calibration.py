@@ -739,6 +739,7 @@ class _TableModel:
         )  # fmt: skip
         self.lower, self.upper = lo, -lo
         self.upper[self.slices["load"]] = form.load_max
+        self.k_hi = np.full(6, np.inf)  # upper bound of the joint springs under load [N m/rad]
         if form.k_bounds_Nm_per_rad is not None:
             kb = np.array(form.k_bounds_Nm_per_rad, dtype=np.float64)
             lo_k = np.concatenate([np.repeat(kb[0:2, 0], 3), np.zeros(ns - 6)])
@@ -752,6 +753,7 @@ class _TableModel:
                 lo_k[i : i + 2], hi_k[i : i + 2] = kb[4]
             self.lower[:ns] = np.log(lo_k / self.k0)
             self.upper[:ns] = np.log(hi_k / self.k0)
+            self.k_hi = hi_k[:6].copy()
         self.lower[-1], self.upper[-1] = np.log(form.k_level_range)
 
     def stiffness(self, x: FloatArray) -> FloatArray:
@@ -917,6 +919,11 @@ def _table_residuals(
     sc = model.mass_scales(x)[:6]
     total = float(model.body_mass[:6] @ sc)
     out.append(np.array([np.log(total / model.body_mass[:6].sum()) / TOTAL_MASS_TOL]))
+    # a spring stiffened by its load stays within the bound too (the literature values are
+    # springs under load): log(k_eff / k_hi) > 0 costs as 1 % in frequency per 0.01
+    lj = model.load[np.isfinite(model.k_hi[model.load])]
+    over = np.log(k[:, lj] / model.k_hi[lj]) if len(lj) else np.zeros((0, 0))
+    out.append((np.maximum(over, 0.0) / 0.01).ravel())
     fr = np.zeros(0)
     if with_frac:
         fr = FRAC_WEIGHT * (1.0 - _modal_frac(lf, lk, f_t, k_t, lz_t, ls))
@@ -930,6 +937,28 @@ def _table_residuals(
     jm = np.zeros((1, model.n_params))
     jm[0, model.slices["links"]] = model.body_mass[:6] * sc / total / TOTAL_MASS_TOL
     rows.append(jm)
+    jb = np.zeros((over.size, model.n_params))
+    if over.size:
+        pos = list(model.load)
+        scall = model.mass_scales(x)
+        y = x[model.slices["load"]]
+        row = 0
+        for p in range(over.shape[0]):
+            tau_b = model.tau_b[p] * scall[:, None]  # (nb, 6)
+            tau = tau_b.sum(axis=0)
+            for jj, j in enumerate(lj):
+                if over[p, jj] > 0:
+                    i = pos.index(j)
+                    r_ = model.tau_ref[i]
+                    g = 1.0 + y[i] * abs(tau[j]) / r_  # k_eff = k0 g
+                    jb[row, j] = 1.0 / 0.01
+                    jb[row, model.slices["load"].start + i] = abs(tau[j]) / r_ / g / 0.01
+                    dmass = y[i] * np.sign(tau[j]) * tau_b[:, j] / r_ / g / 0.01
+                    jb[row, model.slices["links"]] = dmass[:6]
+                    if model.nb > 6:
+                        jb[row, model.slices["ee"]] = dmass[6]
+                row += 1
+    rows.append(jb)
     jfr = np.zeros((len(fr), model.n_params))  # FRAC rows: central differences
     cols = [i for i in range(model.n_params) if model.upper[i] > model.lower[i]]
     for i in cols if with_frac else []:
