@@ -165,6 +165,13 @@ BROKEN = [
                                         mount_stiffness_Nm_per_rad=[1e6, 1e6],
                                         mount_damping_Nms_per_rad=[1.0, 1.0]),
      r"end_effector\.mount_stiffness_Nm_per_rad: expected an end effector with mass"),
+    # load-dependent joint stiffness
+    (_mutate_joint(1, "load_stiffening_per_kNm", -0.1),
+     r"\[\[joints\]\]\[2\]\.load_stiffening_per_kNm: expected a non-negative number"),
+    (_mutate_joint(2, "load_stiffening_per_kNm", 500.0),
+     r"\[\[joints\]\]\[3\]\.load_stiffening_per_kNm: expected a number <= 100"),
+    (_mutate_joint(2, "load_stiffening_per_kNm", "soft"),
+     r"\[\[joints\]\]\[3\]\.load_stiffening_per_kNm: expected a number, found 'soft'"),
 ]  # fmt: skip
 
 

@@ -49,9 +49,12 @@ def test_verdicts_cover_every_value_and_name_the_copy_errors(name: str) -> None:
 
 
 @pytest.mark.slow
-def test_fit_recovers_a_known_twin_from_its_own_modes() -> None:
+@pytest.mark.parametrize("load", [False, True])
+def test_fit_recovers_a_known_twin_from_its_own_modes(load: bool) -> None:
     # data the fit did not make: the exact damped modes of a known compliant robot at the
     # table's postures, written as a table; the fit starts 0.2 (log) away from the truth
+    from robolobe.twin.calibration import SeedFitForm
+
     prior = seed_prior("B", load_robot("B"))
     rng = np.random.default_rng(5)
     truth = prior.with_damping(prior.damping)
@@ -59,34 +62,80 @@ def test_fit_recovers_a_known_twin_from_its_own_modes() -> None:
         k = 3.0 * prior.stiffness[j] * np.exp(rng.normal(0.0, 0.5, 2))
         truth = truth.with_tilt(j, k, 2e-4 * k)
     truth = truth.with_mount(1e5 * np.exp(rng.normal(0.0, 0.5, 2)), (60.0, 60.0))
+    form = SeedFitForm()
+    if load:  # axes 2 and 5 stiffen with their gravity torque (x1.2-2 at these postures)
+        truth = truth.with_load_stiffening([0, 1e-4, 0, 0, 2e-3, 0])
+        form = SeedFitForm(load_joints=(1, 4))
     t = SEED_TABLES["B"]
     c = compare_to_table(truth, t)
     ema = t.ema.copy()
     ema[0], ema[1], ema[2] = c.f_hz, 100 * c.zeta, c.k_N_per_m / 1e5
     synth = dataclasses.replace(t, ema=ema)
-    x0 = seed_parameters("B", truth)
+    x0 = seed_parameters("B", truth, form)
     x0[:-1] += rng.normal(0.0, 0.2, x0.size - 1) * (x0[:-1] != 0)
-    fit = fit_seed_table(prior, synth, starts=0, x0=x0, refine=1)
+    fit = fit_seed_table(prior, synth, form=form, starts=0, x0=x0, refine=1)
     cf = compare_to_table(fit.robot, synth)
     assert np.median(np.abs(cf.f_err)) < 0.01
+    if load:
+        assert fit.robot.has_load_stiffening
 
 
-def _model_b(mass_bound: float):  # type: ignore[no-untyped-def]
+def test_fit_model_and_robot_file_have_the_same_physics() -> None:
+    # the fit's own fast model (springs at each posture incl. load stiffening, masses) and
+    # the robot it writes, assembled by the twin, give the same undamped modes
+    from robolobe.twin.calibration import LITERATURE_K_BOUNDS
+    from robolobe.twin.modes import undamped_modes
+    from robolobe.twin.system import nominal_system
+
+    model, _, t = _model_b(0.3, (1, 2, 3, 4, 5))
+    rng = np.random.default_rng(11)
+    x = rng.uniform(0.5 * model.lower, 0.5 * model.upper)
+    lf, _, _, _ = model.modes(x)
+    r = model.robot(x)
+    assert r.has_load_stiffening
+    s = nominal_system(r, t.postures_rad)
+    w, _ = undamped_modes(s.M, s.K)
+    np.testing.assert_allclose(np.exp(lf), w / (2 * np.pi), rtol=1e-9)
+    # literature bounds: the fit's box maps onto the springs' absolute ranges
     from robolobe.twin.calibration import SeedFitForm, _TableModel
 
-    form = SeedFitForm(link_mass_bound=mass_bound, ee_mass_bound=mass_bound)
+    form = SeedFitForm(k_bounds_Nm_per_rad=LITERATURE_K_BOUNDS)
+    m2 = _TableModel(seed_prior("B", load_robot("B")), t.postures_rad, form)
+    for x_edge, col in ((m2.lower, 0), (m2.upper, 1)):
+        x = np.where(np.isfinite(x_edge), x_edge, 0.0)
+        rr = m2.robot(x)
+        np.testing.assert_allclose(rr.stiffness[:3], LITERATURE_K_BOUNDS[0][col])
+        np.testing.assert_allclose(rr.stiffness[3:], LITERATURE_K_BOUNDS[1][col])
+        np.testing.assert_allclose(
+            rr.joints[1].tilt_stiffness_Nm_per_rad, LITERATURE_K_BOUNDS[2][col]
+        )
+        np.testing.assert_allclose(
+            rr.joints[4].tilt_stiffness_Nm_per_rad, LITERATURE_K_BOUNDS[3][col]
+        )
+        np.testing.assert_allclose(rr.mount_stiffness_Nm_per_rad, LITERATURE_K_BOUNDS[4][col])
+
+
+def _model_b(mass_bound: float, load_joints: tuple[int, ...] = ()):  # type: ignore[no-untyped-def]
+    from robolobe.twin.calibration import SeedFitForm, _TableModel
+
+    form = SeedFitForm(
+        link_mass_bound=mass_bound, ee_mass_bound=mass_bound, load_joints=load_joints
+    )
     t = SEED_TABLES["B"]
     return _TableModel(seed_prior("B", load_robot("B")), t.postures_rad, form), form, t
 
 
-def test_eigen_sensitivities_of_springs_and_masses_match_differences() -> None:
+@pytest.mark.parametrize("load_joints", [(), (1, 2, 4)])
+def test_eigen_sensitivities_of_springs_and_masses_match_differences(
+    load_joints: tuple[int, ...],
+) -> None:
     from robolobe.twin.calibration import _mode_sensitivities
 
-    model, _, _ = _model_b(0.7)
+    model, _, _ = _model_b(0.7, load_joints)
     rng = np.random.default_rng(3)
     x = rng.uniform(0.3 * model.lower, 0.3 * model.upper)
     _, _, phi, w = model.modes(x)
-    k = model.k0 * np.exp(x[model.slices["k"]])
+    k = model.stiffness(x)[1]
     dlf, dlk = _mode_sensitivities(model, x, 1, phi[1], w[1] ** 2, k)
     h = 1e-6
     for i in range(model.n_params - 1):
@@ -133,3 +182,54 @@ def test_lopo_spread_grows_with_free_parameters_and_vanishes_with_a_tight_prior(
     assert np.all(s_m >= s_k - 1e-9)
     assert np.any(s_m > 1.05 * s_k)
     assert np.all(lopo_frequency_spread(prior, t, x, form=form_m, prior_sd=1e-4) < 1e-3)
+
+
+def test_robust_residual_has_a_finite_slope_at_tiny_residuals() -> None:
+    # the cancelling form sqrt(1 + z^2) - 1 gave rho = 0 for |r| ~ 3e-8 and an infinite slope
+    from robolobe.twin.calibration import _soft_l1, _soft_l1_slope
+
+    r = np.array([-40.0, -3.0, -2.9e-8, 0.0, 3e-8, 1e-4, 2.0, 50.0])
+    s = 3.0
+    slope = _soft_l1_slope(r, s)
+    assert np.all(np.isfinite(slope))
+    h = 1e-6
+    np.testing.assert_allclose(
+        slope, (_soft_l1(r + h, s) - _soft_l1(r - h, s)) / (2 * h), atol=1e-8
+    )
+    # the cost it encodes, 2 s^2 (sqrt(1 + (r/s)^2) - 1), evaluated where it does not cancel
+    big = np.abs(r) > 1e-3
+    cost = 2 * s**2 * (np.sqrt(1 + (r[big] / s) ** 2) - 1)
+    np.testing.assert_allclose(_soft_l1(r[big], s) ** 2, cost, rtol=1e-12)
+
+
+def test_springs_stiffened_past_the_literature_bound_are_penalised_with_exact_slopes() -> None:
+    from robolobe.twin.calibration import LITERATURE_K_BOUNDS, SeedFitForm, _table_residuals
+    from robolobe.twin.calibration import _TableModel as Model
+
+    t = SEED_TABLES["C"]
+    form = SeedFitForm(
+        link_mass_bound=0.3, ee_mass_bound=0.3, load_joints=(1, 2, 4, 5),
+        k_bounds_Nm_per_rad=LITERATURE_K_BOUNDS,
+    )  # fmt: skip
+    model = Model(seed_prior("C", load_robot("C")), t.postures_rad, form)
+    rng = np.random.default_rng(4)
+    x = rng.uniform(0.3 * model.lower, 0.3 * model.upper)
+    x[5] = model.upper[5] - 0.2  # joint 6 near its 1e6 bound ...
+    x[model.slices["load"]] = [0.1, 0.1, 0.1, 2.5]  # ... and stiffened x~3 by its load
+    args = (np.log(t.f_hz), np.log(t.k_N_per_m), np.log(t.zeta), 0.0025)
+    r, jac = _table_residuals(model, x, *args, jacobian=True, with_frac=False)
+    k6 = model.stiffness(x)[:, 5]
+    over = np.log(k6 / 1e6)
+    assert np.all(over > 0)
+    n_pen = 3 * 4  # postures x load joints, the last rows without FRAC
+    np.testing.assert_allclose(r[-n_pen:][3::4], over / 0.01, rtol=1e-12)
+    h = 1e-6
+    for i in range(model.n_params):
+        xp, xm = x.copy(), x.copy()
+        xp[i] += h
+        xm[i] -= h
+        rp = _table_residuals(model, xp, *args, with_frac=False)
+        rm = _table_residuals(model, xm, *args, with_frac=False)
+        np.testing.assert_allclose(
+            jac[-n_pen:, i], (rp[-n_pen:] - rm[-n_pen:]) / (2 * h), atol=1e-4, rtol=1e-5
+        )

@@ -65,6 +65,8 @@ _TiltK = Annotated[float, Field(gt=0, le=1e12, allow_inf_nan=False, strict=True)
 _TiltC = Annotated[float, Field(ge=0, le=1e9, allow_inf_nan=False, strict=True)]
 PairK = Annotated[list[_TiltK], Field(min_length=2, max_length=2)]
 PairC = Annotated[list[_TiltC], Field(min_length=2, max_length=2)]
+# load-dependent joint stiffness: relative stiffening per kN m of gravity torque, [0, 100]
+_LoadS = Annotated[float, Field(ge=0, le=100, allow_inf_nan=False, strict=True)]
 
 
 class _Spec(BaseModel):
@@ -114,6 +116,7 @@ class _JointSpec(_Spec):
     damping_Nms_per_rad: NonNegNum
     tilt_stiffness_Nm_per_rad: PairK | None = None
     tilt_damping_Nms_per_rad: PairC | None = None
+    load_stiffening_per_kNm: _LoadS = 0.0
 
 
 class _RobotSpec(_Spec):
@@ -282,6 +285,7 @@ def _build(d: dict[str, Any], source: str, where: str) -> Robot:
                 damping_Nms_per_rad=j.damping_Nms_per_rad,
                 tilt_stiffness_Nm_per_rad=_opt_pair(j.tilt_stiffness_Nm_per_rad),
                 tilt_damping_Nms_per_rad=_opt_pair(j.tilt_damping_Nms_per_rad),
+                load_stiffening_per_Nm=j.load_stiffening_per_kNm / 1e3,
             )
         )
     ee = None if spec.end_effector is None else _body(spec.end_effector, "end_effector", where)
@@ -468,6 +472,11 @@ def robot_to_dict(robot: Robot) -> dict[str, Any]:
                     "tilt_damping_Nms_per_rad": _pair_out(j.tilt_damping_Nms_per_rad),
                 }
                 if j.has_tilt
+                else {}
+            ),
+            **(
+                {"load_stiffening_per_kNm": _clean(j.load_stiffening_per_Nm * 1e3)}
+                if j.load_stiffening_per_Nm > 0
                 else {}
             ),
         }

@@ -122,6 +122,14 @@ class Joint:
     tilt_damping_Nms_per_rad : tuple of 2 floats or None
         Viscous dampers [N m s/rad] of the two tilt springs; given exactly
         when ``tilt_stiffness_Nm_per_rad`` is.
+    load_stiffening_per_Nm : float
+        Optional load-dependent gear stiffness [1/(N m)], >= 0: at posture q
+        the joint spring is ``stiffness_Nm_per_rad (1 + load_stiffening_per_Nm
+        |tau_g(q)|)`` with ``tau_g`` the gravity torque on the axis
+        (:func:`robolobe.twin.system.load_stiffened`). Reducers are softer
+        near zero torque (lost motion, the first segment of Harmonic Drive
+        and RV torsional-rigidity curves) and stiffen under load. 0 (the
+        default, FORMATS.md section 1): a constant spring.
     """
 
     a_m: float
@@ -135,10 +143,15 @@ class Joint:
     damping_Nms_per_rad: float
     tilt_stiffness_Nm_per_rad: tuple[float, float] | None = None
     tilt_damping_Nms_per_rad: tuple[float, float] | None = None
+    load_stiffening_per_Nm: float = 0.0
 
     def __post_init__(self) -> None:
         for name in _JOINT_SCALARS:
             object.__setattr__(self, name, float(getattr(self, name)))
+        ls = float(self.load_stiffening_per_Nm)
+        if not (math.isfinite(ls) and ls >= 0.0):
+            raise ValueError(f"load_stiffening_per_Nm: expected a finite number >= 0, found {ls}")
+        object.__setattr__(self, "load_stiffening_per_Nm", ls)
         ks, cs = _pair(self.tilt_stiffness_Nm_per_rad), _pair(self.tilt_damping_Nms_per_rad)
         if (ks is None) != (cs is None):
             raise ValueError(
@@ -309,6 +322,16 @@ class Robot:
         return tuple(i for i, j in enumerate(self.joints) if j.has_tilt)
 
     @property
+    def load_stiffening(self) -> FloatArray:
+        """Load-dependent stiffening of the joint springs [1/(N m)], shape (6,)."""
+        return self._vec("load_stiffening_per_Nm")
+
+    @property
+    def has_load_stiffening(self) -> bool:
+        """Whether any joint spring depends on the gravity torque (posture)."""
+        return any(j.load_stiffening_per_Nm > 0 for j in self.joints)
+
+    @property
     def has_mount(self) -> bool:
         """Whether the end-effector mount is compliant."""
         return self.mount_stiffness_Nm_per_rad is not None
@@ -356,6 +379,10 @@ class Robot:
     def with_damping(self, c: ArrayLike) -> Robot:
         """Copy with joint damping ``c`` [N m s/rad], shape (6,)."""
         return self._with_joint_values("damping_Nms_per_rad", c)
+
+    def with_load_stiffening(self, s: ArrayLike) -> Robot:
+        """Copy with load-dependent stiffening ``s`` [1/(N m)] per joint, shape (6,)."""
+        return self._with_joint_values("load_stiffening_per_Nm", s)
 
     def with_tilt(
         self, joint: int, stiffness: ArrayLike | None, damping: ArrayLike | None
@@ -436,6 +463,10 @@ def robots_allclose(a: Robot, b: Robot, *, rtol: float = 1e-9, atol: float = 1e-
         for name in ("tilt_stiffness_Nm_per_rad", "tilt_damping_Nms_per_rad"):
             if not _pairs_close(getattr(ja, name), getattr(jb, name), rtol, atol):
                 return False
+        if not np.isclose(
+            ja.load_stiffening_per_Nm, jb.load_stiffening_per_Nm, rtol=rtol, atol=atol
+        ):
+            return False
     for name in ("mount_stiffness_Nm_per_rad", "mount_damping_Nms_per_rad"):
         if not _pairs_close(getattr(a, name), getattr(b, name), rtol, atol):
             return False

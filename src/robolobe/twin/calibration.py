@@ -54,6 +54,7 @@ from robolobe.robots import RigidBody, Robot, sample_postures
 from robolobe.robots.limits import as_postures
 from robolobe.robots.transforms import pose_from_xyz_zyx
 from robolobe.twin.designs import TESTED_RANGES_DEG
+from robolobe.twin.dynamics import GRAVITY_M_PER_S2
 from robolobe.twin.modes import (
     SEEN_RATIO,
     compute_modes,
@@ -62,7 +63,7 @@ from robolobe.twin.modes import (
     undamped_modes,
 )
 from robolobe.twin.seed_tables import SeedTable
-from robolobe.twin.system import nominal_system
+from robolobe.twin.system import load_stiffened, nominal_system
 
 __all__ = [
     "END_EFFECTORS",
@@ -285,6 +286,12 @@ def fit_stiffness(
     if not max_factor > 1.0 or not seen_margin > 1.0:
         raise InputError(
             f"max_factor, seen_margin: expected numbers > 1, found {max_factor!r}, {seen_margin!r}"
+        )
+    if robot.has_load_stiffening:
+        # the springs below are one diagonal for all postures
+        raise InputError(
+            "robot: expected constant joint springs, found load_stiffening_per_kNm "
+            "(fit such a robot with fit_seed_table)"
         )
     s = nominal_system(robot, q)
     target = np.log(np.asarray(targets.f_anchor_hz, dtype=np.float64))
@@ -607,7 +614,8 @@ class SeedFitForm:
     ``tilt_joints`` (prior ``tilt_prior`` x the joint's stiffness), the two
     mount stiffnesses (prior ``mount_prior_Nm_per_rad``), the end-effector
     mass and inertia, each link's mass and inertia (the B and C masses are
-    estimates), and the level ``log(k_twin / k_table)`` of modal stiffness.
+    estimates), the load stiffening of the joints in ``load_joints`` (linear,
+    not log) and the level ``log(k_twin / k_table)`` of modal stiffness.
 
     Attributes
     ----------
@@ -630,6 +638,19 @@ class SeedFitForm:
     frame : {"tcp", "world"}
         Whether ``direction`` is an axis of the TCP frame (the twin's FRF
         convention) or of the robot base (world) frame.
+    load_joints : tuple of int
+        0-based joints whose spring stiffens with the gravity torque it
+        holds (:func:`robolobe.twin.system.load_stiffened`); the parameter
+        of each is its relative stiffening ``y`` at the largest gravity
+        torque of the fitted postures (prior masses), ``0 <= y <= load_max``.
+    load_max : float
+        Largest relative stiffening (3: a stiffness ratio of 4 between no
+        load and that torque, about the K3/K1 of reducer catalogue curves).
+    k_bounds_Nm_per_rad : tuple of 4 pairs, optional
+        Absolute bounds [N m/rad] on the springs, replacing
+        ``stiffness_bound`` for them: axes 1-3, axes 4-6, tilt of axes 1-3
+        and of axes 4-5 (then also at least the axes' lower bound), mount.
+        None: log-factor bounds only.
     """
 
     tilt_joints: tuple[int, ...] = (0, 1, 2, 3, 4)
@@ -642,6 +663,22 @@ class SeedFitForm:
     direction: int = 1
     frame: str = "tcp"
     k_level_range: tuple[float, float] = (0.05, 150.0)
+    load_joints: tuple[int, ...] = ()
+    load_max: float = 3.0
+    k_bounds_Nm_per_rad: tuple[tuple[float, float], ...] | None = None
+
+
+LITERATURE_K_BOUNDS: tuple[tuple[float, float], ...] = (
+    (1.0e6, 2.0e7),  # axes 1-3
+    (1.0e5, 1.0e6),  # axes 4-6
+    (1.0e6, 1.0e9),  # tilt of axes 1-3 (bearings: not softer than the axis)
+    (1.0e5, 1.0e9),  # tilt of axes 4-5
+    (1.0e5, 1.0e8),  # spindle mount
+)
+"""Bounds [N m/rad] of :attr:`SeedFitForm.k_bounds_Nm_per_rad` from the literature:
+axes 1-3 ~1e6-1e7 (KUKA KR500: 2.3-8.6e6, x1.5 for the 650 kg class), wrist 1e5-1e6
+(REFERENCES.md section 2), tilt at least the axis's lower bound, a spindle mount at
+least 1e5 (a stiffer bracket than any wrist axis)."""
 
 
 class _TableModel:
@@ -652,13 +689,16 @@ class _TableModel:
     weighted sum of per-body mass matrices and ``K`` diagonal.
     """
 
-    def __init__(self, robot: Robot, q: FloatArray, form: SeedFitForm) -> None:
+    def __init__(
+        self, robot: Robot, q: FloatArray, form: SeedFitForm, tau_ref: FloatArray | None = None
+    ) -> None:
         r = robot
         for j in form.tilt_joints:
             r = r.with_tilt(j, (1.0, 1.0), (0.0, 0.0))
         r = r.with_mount((1.0, 1.0), (0.0, 0.0)) if form.mount else r.with_mount(None, None)
         for j in set(range(6)) - set(form.tilt_joints):
             r = r.with_tilt(j, None, None)
+        r = r.with_load_stiffening(np.zeros(6))
         self.base = r
         self.form = form
         s = nominal_system(r, q)
@@ -675,16 +715,57 @@ class _TableModel:
         tilt = np.repeat(form.tilt_prior * k6[list(form.tilt_joints)], 2)
         mount = [form.mount_prior_Nm_per_rad] * (2 if form.mount else 0)
         self.k0 = np.concatenate([k6, tilt, mount])
-        ns, nm = self.nd, self.nb
-        self.slices = {"k": slice(0, ns), "ee": slice(ns, ns + 1), "links": slice(ns + 1, ns + 7)}
-        self.n_params = ns + 7 + 1  # + level
-        del nm
+        # gravity torque of each body on the six axes at the prior masses, (p, nb, 6):
+        # the torque is linear in the mass factors
+        g = np.array([0.0, 0.0, -GRAVITY_M_PER_S2])
+        self.tau_b = np.einsum("b,k,pbkj->pbj", b.mass_kg, g, b.jv[..., :6])
+        self.load = np.array(form.load_joints, dtype=np.intp)
+        nl = len(self.load)
+        # scale of the load parameters [N m]: the largest gravity torque at these postures,
+        # or the caller's (a sub-model of one posture shares its parent's)
+        if tau_ref is None:
+            tau_ref = np.maximum(np.abs(self.tau_b.sum(axis=1))[:, self.load].max(axis=0), 1.0)
+        self.tau_ref = np.asarray(tau_ref, dtype=np.float64)
+        ns = self.nd
+        self.slices = {
+            "k": slice(0, ns),
+            "ee": slice(ns, ns + 1),
+            "links": slice(ns + 1, ns + 7),
+            "load": slice(ns + 7, ns + 7 + nl),
+        }
+        self.n_params = ns + 7 + nl + 1  # + level
         lo = np.concatenate(
             [np.full(ns, -form.stiffness_bound), [-form.ee_mass_bound],
-             np.full(6, -form.link_mass_bound), [-3.0]]
+             np.full(6, -form.link_mass_bound), np.zeros(nl), [-3.0]]
         )  # fmt: skip
         self.lower, self.upper = lo, -lo
+        self.upper[self.slices["load"]] = form.load_max
+        self.k_hi = np.full(6, np.inf)  # upper bound of the joint springs under load [N m/rad]
+        if form.k_bounds_Nm_per_rad is not None:
+            kb = np.array(form.k_bounds_Nm_per_rad, dtype=np.float64)
+            lo_k = np.concatenate([np.repeat(kb[0:2, 0], 3), np.zeros(ns - 6)])
+            hi_k = np.concatenate([np.repeat(kb[0:2, 1], 3), np.zeros(ns - 6)])
+            i = 6
+            for jt in form.tilt_joints:
+                row = kb[2] if jt < 3 else kb[3]
+                lo_k[i : i + 2], hi_k[i : i + 2] = row[0], row[1]
+                i += 2
+            if form.mount:
+                lo_k[i : i + 2], hi_k[i : i + 2] = kb[4]
+            self.lower[:ns] = np.log(lo_k / self.k0)
+            self.upper[:ns] = np.log(hi_k / self.k0)
+            self.k_hi = hi_k[:6].copy()
         self.lower[-1], self.upper[-1] = np.log(form.k_level_range)
+
+    def stiffness(self, x: FloatArray) -> FloatArray:
+        """Spring of every DOF at every posture [N m/rad], shape (p, nd)."""
+        k = self.k0 * np.exp(x[self.slices["k"]])
+        out = np.repeat(k[None, :], self.tau_b.shape[0], axis=0)
+        if len(self.load):
+            tau = np.einsum("b,pbj->pj", self.mass_scales(x), self.tau_b)[:, self.load]
+            s = x[self.slices["load"]] / self.tau_ref
+            out[:, self.load] = load_stiffened(k[self.load], s, tau)
+        return out
 
     def mass_scales(self, x: FloatArray) -> FloatArray:
         sc = np.ones(self.nb)
@@ -695,7 +776,7 @@ class _TableModel:
 
     def matrices(self, x: FloatArray) -> tuple[FloatArray, FloatArray]:
         m = np.einsum("b,pbij->pij", self.mass_scales(x), self.mb)
-        return m, np.diag(self.k0 * np.exp(x[self.slices["k"]]))
+        return m, self.stiffness(x)[:, :, None] * np.eye(self.nd)
 
     def modes(self, x: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
         """log f [Hz], log k_dir [N/m], shapes phi (p, nd, nd), w [rad/s]."""
@@ -717,6 +798,10 @@ class _TableModel:
             i += 2
         if self.form.mount:
             r = r.with_mount(k[i : i + 2], c[i : i + 2])
+        if len(self.load):
+            s = np.zeros(6)
+            s[self.load] = x[self.slices["load"]] / self.tau_ref
+            r = r.with_load_stiffening(s)
         sc = self.mass_scales(x)
         joints = tuple(
             dataclasses.replace(
@@ -773,16 +858,16 @@ class SeedFit:
 
 def _soft_l1(r: FloatArray, scale: float) -> FloatArray:
     """Residuals whose squares are the soft-L1 cost ``2 s^2 (sqrt(1 + (r/s)^2) - 1)``."""
-    out: FloatArray = np.sign(r) * scale * np.sqrt(2.0 * (np.sqrt(1.0 + (r / scale) ** 2) - 1.0))
+    z = r / scale
+    # sqrt(1 + z^2) - 1 = z^2 / (sqrt(1 + z^2) + 1): no cancellation near r = 0
+    out: FloatArray = scale * np.sqrt(2.0) * z / np.sqrt(np.sqrt(1.0 + z**2) + 1.0)
     return out
 
 
 def _soft_l1_slope(r: FloatArray, scale: float) -> FloatArray:
     """Derivative of :func:`_soft_l1` with respect to ``r``."""
-    rho = _soft_l1(r, scale)
     g = np.sqrt(1.0 + (r / scale) ** 2)
-    small = np.abs(r) < 1e-8 * scale
-    out: FloatArray = np.where(small, 1.0, r / (g * np.where(small, 1.0, rho)))
+    out: FloatArray = np.sqrt((g + 1.0) / 2.0) / g
     return out
 
 
@@ -802,7 +887,7 @@ def _table_residuals(
     lf, lk, phi, w = model.modes(x)
     ls = x[-1]
     lam = w**2
-    k = model.k0 * np.exp(x[model.slices["k"]])
+    k = model.stiffness(x)
     out, rows = [], []
     a_f, a_k = 1.0 / 0.01, K_WEIGHT / _LOG15  # 1 % in f = 1; a factor 1.5 in k = K_WEIGHT
     for p in range(f_t.shape[0]):
@@ -820,7 +905,7 @@ def _table_residuals(
         active = other & (lf[p] < np.log(42.0)) & (floor > lk[p])
         out.append(np.where(active, floor - lk[p], 0.0) / _LOG15)
         if jacobian:
-            dlf, dlk = _mode_sensitivities(model, x, p, phi[p], lam[p], k)
+            dlf, dlk = _mode_sensitivities(model, x, p, phi[p], lam[p], k[p])
             npar = model.n_params
             jf = np.zeros((5, npar))
             jf[:, :-1] = (_soft_l1_slope(rf, 3.0) * a_f)[:, None] * dlf[:, m].T
@@ -837,6 +922,11 @@ def _table_residuals(
     sc = model.mass_scales(x)[:6]
     total = float(model.body_mass[:6] @ sc)
     out.append(np.array([np.log(total / model.body_mass[:6].sum()) / TOTAL_MASS_TOL]))
+    # a spring stiffened by its load stays within the bound too (the literature values are
+    # springs under load): log(k_eff / k_hi) > 0 costs as 1 % in frequency per 0.01
+    lj = model.load[np.isfinite(model.k_hi[model.load])]
+    over = np.log(k[:, lj] / model.k_hi[lj]) if len(lj) else np.zeros((0, 0))
+    out.append((np.maximum(over, 0.0) / 0.01).ravel())
     fr = np.zeros(0)
     if with_frac:
         fr = FRAC_WEIGHT * (1.0 - _modal_frac(lf, lk, f_t, k_t, lz_t, ls))
@@ -850,6 +940,28 @@ def _table_residuals(
     jm = np.zeros((1, model.n_params))
     jm[0, model.slices["links"]] = model.body_mass[:6] * sc / total / TOTAL_MASS_TOL
     rows.append(jm)
+    jb = np.zeros((over.size, model.n_params))
+    if over.size:
+        pos = list(model.load)
+        scall = model.mass_scales(x)
+        y = x[model.slices["load"]]
+        row = 0
+        for p in range(over.shape[0]):
+            tau_b = model.tau_b[p] * scall[:, None]  # (nb, 6)
+            tau = tau_b.sum(axis=0)
+            for jj, j in enumerate(lj):
+                if over[p, jj] > 0:
+                    i = pos.index(j)
+                    r_ = model.tau_ref[i]
+                    g = 1.0 + y[i] * abs(tau[j]) / r_  # k_eff = k0 g
+                    jb[row, j] = 1.0 / 0.01
+                    jb[row, model.slices["load"].start + i] = abs(tau[j]) / r_ / g / 0.01
+                    dmass = y[i] * np.sign(tau[j]) * tau_b[:, j] / r_ / g / 0.01
+                    jb[row, model.slices["links"]] = dmass[:6]
+                    if model.nb > 6:
+                        jb[row, model.slices["ee"]] = dmass[6]
+                row += 1
+    rows.append(jb)
     jfr = np.zeros((len(fr), model.n_params))  # FRAC rows: central differences
     cols = [i for i in range(model.n_params) if model.upper[i] > model.lower[i]]
     for i in cols if with_frac else []:
@@ -870,8 +982,11 @@ def _mode_sensitivities(
     ``p`` with respect to every parameter but the level, shape (n_params - 1, modes) each.
 
     First-order eigen-sensitivities of ``K phi = lam M phi`` (mass-normalised
-    ``ph``, shape (nd, modes)): a log factor on spring i gives ``dK = k_i e_i
-    e_i^T``, one on body b's mass ``dM = M_b``.
+    ``ph``, shape (nd, modes); ``k`` the springs at this posture, shape (nd,)):
+    a log factor on spring i gives ``dK = k_i e_i e_i^T``, one on body b's
+    mass ``dM = M_b`` (and, with load stiffening, ``dK`` through the gravity
+    torque), a load parameter ``y_j`` gives ``dK = k0_j |tau_j| / tau_ref_j
+    e_j e_j^T``.
     """
     nd = model.nd
     sc = model.mass_scales(x)
@@ -886,6 +1001,19 @@ def _mode_sensitivities(
     dm[links] = pm[:6]
     if model.nb > 6:
         dm[ee] = pm[6:7]
+    if len(model.load):
+        lj = model.load
+        k0 = (model.k0 * np.exp(x[model.slices["k"]]))[lj]
+        tau_b = model.tau_b[p][:, lj] * sc[:, None]  # (nb, nl): d tau / d log(mass factor)
+        tau = tau_b.sum(axis=0)
+        y = x[model.slices["load"]]
+        pp = ph[lj][:, :, None] * ph[lj][:, None, :]  # (nl, s, r)
+        dk[model.slices["load"]] = (k0 * np.abs(tau) / model.tau_ref)[:, None, None] * pp
+        dmass = tau_b * (k0 * y * np.sign(tau) / model.tau_ref)[None, :]  # (nb, nl)
+        proj = np.einsum("bj,jsr->bsr", dmass, pp)
+        dk[links] += proj[:6]
+        if model.nb > 6:
+            dk[ee] += proj[6:7]
     # d lam_r = phi_r^T (dK - lam_r dM) phi_r
     diag = np.einsum("ass->as", dk) - lam[None, :] * np.einsum("ass->as", dm)
     u = model.j[p] @ ph
@@ -989,7 +1117,7 @@ def fit_seed_table(
 ) -> SeedFit:
     """Fit springs, dampers and masses to a seed table (robust, multi-start).
 
-    Stage 1 (springs, masses, level): least squares with a soft-L1 loss
+    Stage 1 (springs, masses, load stiffening, level): least squares with a soft-L1 loss
     (``f_scale`` 3: residuals beyond ~3 % in frequency or a factor ~2 in
     modal stiffness count linearly, so a copy error pulls little) over
 
@@ -1061,7 +1189,7 @@ def fit_seed_table(
         # most promising starts (the joint problem's basins are hard to hit at random)
         pool: list[FloatArray] = []
         for i, p in enumerate(idx):
-            mp = _TableModel(robot, table.postures_rad[[p]], fm)
+            mp = _TableModel(robot, table.postures_rad[[p]], fm, model.tau_ref)
             sols = _stage1(mp, f_t[[i]], k_t[[i]], lz_t[[i]], ridge, cands, refine, False)
             pool += [xs for _, xs in sols[:by_posture]]
         cands = pool + cands
@@ -1158,12 +1286,12 @@ def lopo_frequency_spread(
     fm = SeedFitForm() if form is None else form
     model = _TableModel(robot, table.postures_rad, fm)
     lf, lk, phi, w = model.modes(x)
-    k = model.k0 * np.exp(x[model.slices["k"]])
+    k = model.stiffness(x)
     free = np.append((model.upper > model.lower)[:-1], True)
     rf, rk = [], []
     for p in range(3):
         m = _match(lf[p], lk[p], np.log(table.f_hz[p]), np.log(table.k_N_per_m[p]) + x[-1])
-        dlf, dlk = _mode_sensitivities(model, x, p, phi[p], w[p] ** 2, k)
+        dlf, dlk = _mode_sensitivities(model, x, p, phi[p], w[p] ** 2, k[p])
         rf.append(np.hstack([dlf[:, m].T, np.zeros((5, 1))])[:, free])
         rk.append(np.hstack([dlk[:, m].T, -np.ones((5, 1))])[:, free])
     out = np.zeros((3, 5))
@@ -1396,7 +1524,7 @@ def seed_parameters(name: str, robot: Robot, form: SeedFitForm | None = None) ->
     from robolobe.twin.seed_tables import SEED_TABLES
 
     fm = SeedFitForm() if form is None else form
-    model = _TableModel(seed_prior(name, robot), SEED_TABLES[name].postures_rad[:1], fm)
+    model = _TableModel(seed_prior(name, robot), SEED_TABLES[name].postures_rad, fm)
     k = list(robot.stiffness)
     for j in fm.tilt_joints:
         ks = robot.joints[j].tilt_stiffness_Nm_per_rad
@@ -1409,5 +1537,6 @@ def seed_parameters(name: str, robot: Robot, form: SeedFitForm | None = None) ->
         k += list(robot.mount_stiffness_Nm_per_rad)
     x = np.zeros(model.n_params)
     x[model.slices["k"]] = np.log(np.asarray(k) / model.k0)
+    x[model.slices["load"]] = robot.load_stiffening[model.load] * model.tau_ref
     x[-1] = np.log(compare_to_table(robot, SEED_TABLES[name]).k_level)
     return x

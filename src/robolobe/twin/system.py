@@ -24,9 +24,9 @@ from numpy.typing import ArrayLike, NDArray
 
 from robolobe.robots import Robot, link_frames, point_jacobian
 from robolobe.robots.kinematics import TCP_FRAME, joint_axes
-from robolobe.twin.dynamics import BodySet, _q, robot_bodies
+from robolobe.twin.dynamics import BodySet, _q, gravity_torques, robot_bodies
 
-__all__ = ["JOINT_DOFS", "SystemMatrices", "compliance_dofs", "nominal_system"]
+__all__ = ["JOINT_DOFS", "SystemMatrices", "compliance_dofs", "load_stiffened", "nominal_system"]
 
 FloatArray = NDArray[np.float64]
 
@@ -251,6 +251,39 @@ def compliance_dofs(mats: SystemMatrices) -> SystemMatrices:
     return out.replace(C=big_c)
 
 
+def load_stiffened(k: ArrayLike, s: ArrayLike, tau: ArrayLike) -> FloatArray:
+    """Joint springs that stiffen with the gravity torque they hold.
+
+    ``k (1 + s |tau|)``: the tangent stiffness of a reducer whose
+    torsional-rigidity curve is soft near zero torque (lost motion, backlash
+    closing) and stiffer under load: the shape of the torsional-rigidity
+    curves in Harmonic Drive and RV reducer catalogues (segments K1 < K2 < K3
+    from no load to rated torque, K3 about 1.5-3 x K1), and the "gravity /
+    load-dependent gear stiffness" of REFERENCES.md section 6. The linear
+    form is the simplest one a few postures can identify; the diagnosis
+    effect :class:`robolobe.twin.effects.GravityStiffening` is the same law
+    with one coefficient for several joints.
+
+    Parameters
+    ----------
+    k : array_like, shape (..., 6)
+        Springs at zero load [N m/rad].
+    s : array_like, shape (..., 6)
+        Stiffening per unit torque [1/(N m)], >= 0.
+    tau : array_like, shape (..., 6)
+        Gravity torque held by each axis [N m]
+        (:func:`robolobe.twin.dynamics.gravity_torques`).
+
+    Returns
+    -------
+    ndarray, shape (..., 6)
+        [N m/rad].
+    """
+    kk = np.asarray(k, dtype=np.float64)
+    out: FloatArray = kk * (1.0 + np.asarray(s, dtype=np.float64) * np.abs(tau))
+    return out
+
+
 def nominal_system(robot: Robot, q: ArrayLike) -> SystemMatrices:
     """The model of FORMATS.md section 1 at postures q, with the robot's compliances.
 
@@ -263,19 +296,25 @@ def nominal_system(robot: Robot, q: ArrayLike) -> SystemMatrices:
     Returns
     -------
     SystemMatrices
-        Six joint DOFs, ``K = diag(stiffness)``, ``C = diag(damping)``, then
-        the optional tilt and mount DOFs of :func:`compliance_dofs`.
+        Six joint DOFs, ``K = diag(stiffness)`` (stiffened by the gravity
+        torque where a joint has ``load_stiffening_per_Nm``,
+        :func:`load_stiffened`), ``C = diag(damping)``, then the optional tilt
+        and mount DOFs of :func:`compliance_dofs`.
     """
     qq = _q(q)
     batch = qq.shape[:-1]
     frames = link_frames(robot, qq)
     tcp = point_jacobian(robot, qq, TCP_FRAME)
+    bodies = robot_bodies(robot, qq, frames)
+    k = np.broadcast_to(robot.stiffness, (*batch, 6))
+    if robot.has_load_stiffening:
+        k = load_stiffened(k, robot.load_stiffening, gravity_torques(robot, qq, bodies))
     mats = SystemMatrices(
         robot=robot,
         q=qq,
         frames=frames,
-        bodies=robot_bodies(robot, qq, frames),
-        K=np.broadcast_to(np.diag(robot.stiffness), (*batch, 6, 6)).copy(),
+        bodies=bodies,
+        K=k[..., :, None] * np.eye(6),
         C=np.broadcast_to(np.diag(robot.damping), (*batch, 6, 6)).copy(),
         tcp_jv=tcp[..., :3, :],
         tcp_jw=tcp[..., 3:, :],
