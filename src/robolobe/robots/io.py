@@ -1,4 +1,4 @@
-"""Robot description files (``format = "robolobe-robot/1"``, FORMATS.md section 1).
+"""Robot description files (``format = "robolobe-robot/1"``, docs/guide/robots.md).
 
 :func:`load_robot` reads a built-in robot ("A", "B", "C") or a TOML file,
 validates it (pydantic at the file edge) and returns a :class:`Robot`.
@@ -331,7 +331,7 @@ def robot_from_dict(d: dict[str, Any], source: str) -> Robot:
     Parameters
     ----------
     d : dict
-        The parsed TOML document (FORMATS.md section 1).
+        The parsed TOML document (docs/guide/robots.md).
     source : str
         Where it came from (file name); prefixes error messages and is stored
         in :attr:`Robot.source`.
@@ -425,7 +425,7 @@ def _body_dict(body: RigidBody) -> dict[str, Any]:
 
 
 def robot_to_dict(robot: Robot) -> dict[str, Any]:
-    """The file content (FORMATS.md section 1) of ``robot`` as a dict."""
+    """The file content (docs/guide/robots.md) of ``robot`` as a dict."""
     kin: dict[str, Any] = {"convention": robot.convention}
     if not np.allclose(robot.base, np.eye(4), rtol=0, atol=0):
         kin["base"] = _pose_dict(robot.base)

@@ -1,4 +1,4 @@
-"""Data model of a serial 6-axis arm with elastic joints (FORMATS.md section 1).
+"""Data model of a serial 6-axis arm with elastic joints (docs/guide/robots.md).
 
 All quantities are SI and radians. Instances are frozen; their arrays are
 read-only. Build them with :func:`robolobe.robots.io.load_robot` (files) or
@@ -103,7 +103,7 @@ class Joint:
     ----------
     a_m, alpha_rad, d_m, theta_offset_rad : float
         DH parameters [m, rad] (for modified DH, ``a_m``/``alpha_rad`` hold
-        a_{i-1}/alpha_{i-1}, FORMATS.md section 1).
+        a_{i-1}/alpha_{i-1}, docs/guide/robots.md).
     q_min_rad, q_max_rad : float
         Joint limits of the controller axis angle q_i [rad].
     body : RigidBody
@@ -118,7 +118,7 @@ class Joint:
         springs [N m/rad] about DH axis x_i (perpendicular to the joint axis)
         and about ``z_joint x x_i``, through the joint axis point; they tilt
         link i and everything distal to it. None: the joint is rigid in tilt
-        (the nominal model of FORMATS.md section 1).
+        (the nominal model of docs/guide/robots.md).
     tilt_damping_Nms_per_rad : tuple of 2 floats or None
         Viscous dampers [N m s/rad] of the two tilt springs; given exactly
         when ``tilt_stiffness_Nm_per_rad`` is.
@@ -129,7 +129,7 @@ class Joint:
         (:func:`robolobe.twin.system.load_stiffened`). Reducers are softer
         near zero torque (lost motion, the first segment of Harmonic Drive
         and RV torsional-rigidity curves) and stiffen under load. 0 (the
-        default, FORMATS.md section 1): a constant spring.
+        default, docs/guide/robots.md): a constant spring.
     """
 
     a_m: float
@@ -218,7 +218,7 @@ class Robot:
         Optional compliant end-effector mount (spindle bracket/flange joint):
         rotational springs [N m/rad] about the flange (DH frame 6) x and y
         axes through the flange centre; they tilt the end effector and the
-        TCP. None: rigid mount (FORMATS.md section 1). Needs an end effector.
+        TCP. None: rigid mount (docs/guide/robots.md). Needs an end effector.
     mount_damping_Nms_per_rad : tuple of 2 floats or None
         Their viscous dampers [N m s/rad]; given exactly when the stiffness is.
     """

@@ -333,7 +333,7 @@ def robot_findings(robot: Robot) -> list[Finding]:
     Returns
     -------
     list of Finding
-        Key paths are those of the robot file (FORMATS.md section 1), joints
+        Key paths are those of the robot file (docs/guide/robots.md), joints
         counted from 1.
     """
     out: list[Finding] = []

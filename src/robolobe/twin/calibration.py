@@ -3,7 +3,7 @@
 Robots A, B and C need joint stiffness, damping and an end effector that no
 public source gives for these arms. This module holds the procedure that set
 them (reproducible from a seed, :func:`calibrate_builtin`) and the report that
-checks them against the seed paper's ranges (REFERENCES.md section 1):
+checks them against the seed paper's ranges (docs/references.md: seed paper in numbers):
 
 1. Postures are drawn uniformly within the seed's tested joint ranges
    (Table 2, :data:`robolobe.twin.designs.TESTED_RANGES_DEG`), clipped to the
@@ -131,7 +131,10 @@ TARGETS: dict[str, CalibrationTargets] = {
         k_band_N_per_m=(1e4, 3e6),
         f_anchor_hz=(7.5, 10.5, 15.0, 22.0, 32.0),
         zeta_target=0.02,
-        source="(est.) like B: the seed gives no table for A (REFERENCES.md section 1)",
+        source=(
+            "(est.) like B: the seed gives no table for A "
+            "(docs/references.md: seed paper in numbers)"
+        ),
     ),
     "B": CalibrationTargets(
         f_band_hz=(5.0, 40.0),
@@ -150,7 +153,7 @@ TARGETS: dict[str, CalibrationTargets] = {
         source="seed Table 7 (C): mean f of postures 1-3 and mean zeta",
     ),
 }
-"""Calibration targets per built-in robot (bands: REFERENCES.md section 1)."""
+"""Calibration targets per built-in robot (bands: docs/references.md: seed paper in numbers)."""
 
 _GENERIC_TARGETS = CalibrationTargets(
     f_band_hz=(5.0, 40.0),
@@ -158,11 +161,11 @@ _GENERIC_TARGETS = CalibrationTargets(
     k_band_N_per_m=(1e4, 3e6),
     f_anchor_hz=(7.5, 11.0, 15.0, 21.0, 31.0),
     zeta_target=0.02,
-    source="REFERENCES.md section 1 (five modes in 5-40 Hz)",
+    source="docs/references.md: seed paper in numbers (five modes in 5-40 Hz)",
 )
 
 PRIOR_STIFFNESS: dict[str, tuple[float, ...]] = {
-    # KUKA KR500 joint stiffness from modal testing (REFERENCES.md section 2)
+    # KUKA KR500 joint stiffness from modal testing (docs/references.md: robots)
     "A": (2.3e6, 8.6e6, 2.8e6, 3.0e6, 0.2e6, 0.9e6),
     # x1.5 on axes 1-3 and 5 (650 kg class)
     "B": (3.45e6, 12.9e6, 4.2e6, 3.0e6, 0.3e6, 0.9e6),
@@ -677,7 +680,7 @@ LITERATURE_K_BOUNDS: tuple[tuple[float, float], ...] = (
 )
 """Bounds [N m/rad] of :attr:`SeedFitForm.k_bounds_Nm_per_rad` from the literature:
 axes 1-3 ~1e6-1e7 (KUKA KR500: 2.3-8.6e6, x1.5 for the 650 kg class), wrist 1e5-1e6
-(REFERENCES.md section 2), tilt at least the axis's lower bound, a spindle mount at
+(docs/references.md: robots), tilt at least the axis's lower bound, a spindle mount at
 least 1e5 (a stiffer bracket than any wrist axis)."""
 
 
@@ -1236,7 +1239,7 @@ def _fit_table_damping(
     def resid(s: FloatArray) -> FloatArray:
         c = c0 * np.exp(s)
         z = a @ c
-        # no mode of the twin beyond 8 % damping (robot modes: 0.2-7 %, REFERENCES.md)
+        # no mode of the twin beyond 8 % damping (robot modes: 0.2-7 %, docs/references.md)
         over = np.maximum(0.0, np.log(np.maximum(a_all @ c, 1e-12) / 0.08)) / _LOG15
         under = np.maximum(0.0, np.log(UNMATCHED_ZETA / np.maximum(a_other @ c, 1e-12))) / _LOG15
         r = _soft_l1((np.log(np.maximum(z, 1e-12)) - lt) / _LOG15, 1.0)

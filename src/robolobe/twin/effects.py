@@ -41,7 +41,7 @@ from robolobe.robots.kinematics import joint_axes
 from robolobe.robots.transforms import rotation_from_zyx, skew
 from robolobe.twin.dynamics import gravity_torques
 from robolobe.twin.modes import undamped_modes
-from robolobe.twin.system import SystemMatrices
+from robolobe.twin.system import SystemMatrices, load_stiffened
 
 __all__ = [
     "EFFECTS",
@@ -320,7 +320,8 @@ class GravityStiffening(Effect):
         k0 = mats.robot.stiffness
         idx = np.array(self.joints) - 1
         big_k = mats.K.copy()
-        big_k[..., idx, idx] += k0[idx] * self.beta * np.abs(tau[..., idx]) / self.tau_ref_Nm
+        s = self.beta / self.tau_ref_Nm
+        big_k[..., idx, idx] += load_stiffened(k0[idx], s, tau[..., idx]) - k0[idx]
         return mats.replace(K=big_k)
 
 

@@ -1,6 +1,6 @@
 """The digital twin: a robot plus optional physics effects.
 
-``Twin(robot)`` is the nominal model of FORMATS.md section 1;
+``Twin(robot)`` is the nominal model of docs/guide/robots.md;
 ``Twin(robot, effects)`` adds effects from :mod:`robolobe.twin.effects`,
 applied by stage: robot-level changes, joint stiffness/damping terms, extra
 structural DOFs, a tool attachment at the TCP, then measurement effects on

@@ -175,7 +175,7 @@ def compliance_dofs(mats: SystemMatrices) -> SystemMatrices:
       through the joint's axis point; turns links i..6, the end effector and
       the TCP. These are the non-actuated rotational virtual joints of VJM
       stiffness models (bearing and gearbox tilt; Klimchik et al.,
-      REFERENCES.md), DOFs ``tilt<i>x``, ``tilt<i>y``.
+      docs/references.md), DOFs ``tilt<i>x``, ``tilt<i>y``.
     * mount (``Robot.mount_stiffness_Nm_per_rad``): about the flange (DH frame
       6) x and y axes through its origin; turns the end effector and the TCP.
       DOFs ``mount_x``, ``mount_y``.
@@ -259,7 +259,7 @@ def load_stiffened(k: ArrayLike, s: ArrayLike, tau: ArrayLike) -> FloatArray:
     closing) and stiffer under load: the shape of the torsional-rigidity
     curves in Harmonic Drive and RV reducer catalogues (segments K1 < K2 < K3
     from no load to rated torque, K3 about 1.5-3 x K1), and the "gravity /
-    load-dependent gear stiffness" of REFERENCES.md section 6. The linear
+    load-dependent gear stiffness" of docs/references.md: missing physics. The linear
     form is the simplest one a few postures can identify; the diagnosis
     effect :class:`robolobe.twin.effects.GravityStiffening` is the same law
     with one coefficient for several joints.
@@ -285,7 +285,7 @@ def load_stiffened(k: ArrayLike, s: ArrayLike, tau: ArrayLike) -> FloatArray:
 
 
 def nominal_system(robot: Robot, q: ArrayLike) -> SystemMatrices:
-    """The model of FORMATS.md section 1 at postures q, with the robot's compliances.
+    """The model of docs/guide/robots.md at postures q, with the robot's compliances.
 
     Parameters
     ----------
