@@ -183,11 +183,6 @@ class ModalPredictor:
     missing : {"interpolate", "mask"}, default "mask"
         Missing values: the seed's linear interpolation along the posture
         order, or left out of the loss.
-
-    The defaults are the ``"improved"`` preset of
-    :mod:`robolobe.tl.presets`, the shipped models' settings (chosen by
-    studies/tl_accuracy.py); ``ModalPredictor(**PRESETS["paper"])`` is the
-    seed's method as published.
     n_members : int, default 5
         Ensemble members per direction (1 = no spread).
     source : ModalPredictor, optional
@@ -212,6 +207,13 @@ class ModalPredictor:
     random_state : int, default 0
         Seed of every random draw (initial weights, augmentation, shuffles,
         folds).
+
+    Notes
+    -----
+    The defaults are the ``"improved"`` preset of
+    :mod:`robolobe.tl.presets`, the shipped models' settings (chosen by
+    studies/tl_accuracy.py); ``ModalPredictor(**PRESETS["paper"])`` is the
+    seed's method as published.
 
     Attributes
     ----------
