@@ -33,10 +33,10 @@ import logging
 import math
 import os
 import time
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, overload
+from typing import Any, cast, overload
 
 import numpy as np
 import pandas as pd
@@ -113,8 +113,6 @@ class PlanResult:
         Row of each cutting waypoint in ``table``.
     q : ndarray, shape (n, 6)
         Postures [rad].
-    modes : RobotModes
-        Robot modes at the cutting waypoints.
     geom : PathGeometry
         Cutting lengths and rapid time.
     summary : dict
@@ -132,7 +130,6 @@ class PlanResult:
     lobes: GroupedLobes
     cut_index: NDArray[np.int64]
     q: FloatArray
-    modes: RobotModes
     geom: PathGeometry
     summary: dict[str, Any]
     timings: dict[str, float] = field(default_factory=dict)
@@ -478,14 +475,21 @@ def _lobes_for_rotation(
 ) -> tuple[
     FloatArray,
     FloatArray,
-    RobotModes,
+    RobotModes | _ModeColumns,
     NDArray[np.bool_],
     GroupedLobes,
     dict[str, float],
     FloatArray,
     RobustBound | None,
-    FloatArray,
+    Callable[[NDArray[np.bool_], GroupedLobes], GroupedLobes],
 ]:
+    """Postures, modes (or their table columns), lobes of the path at one tool rotation.
+
+    The last item, ``split(own, reuse)``, gives the lobes again with ``own``
+    waypoints on lobes of their own (:func:`cut_lobes`'s ``own``/``reuse``).
+    A path of at least :data:`_STREAM_MIN` cutting waypoints is streamed
+    (:func:`_streamed_lobes`) unless the plan is robust.
+    """
     timings: dict[str, float] = {}
     t = time.perf_counter()
     poses, r_wp = tcp_targets(wp, robot, job.placement, rotation)
@@ -495,6 +499,12 @@ def _lobes_for_rotation(
     f_tcp = np.einsum("nji,nj->ni", poses[ci, :3, :3], f_path @ r_wp.T)
     del poses, f_path  # (n, 4, 4): not needed past here
     timings["ik"] = time.perf_counter() - t
+    if ci.size >= _STREAM_MIN:
+        streamed = _streamed_lobes(job, source, q[ci], f_tcp, material, tool, rpm)
+        if streamed is not None:
+            cols, plunge, grouped, t_lobes, feed_angle, split_s = streamed
+            timings.update(t_lobes)
+            return q, wm, cols, plunge, grouped, timings, feed_angle, None, split_s
     t = time.perf_counter()
     modes = _predict_modes(source, q[ci])
     timings["modes"] = time.perf_counter() - t
@@ -503,7 +513,169 @@ def _lobes_for_rotation(
         job, modes, f_tcp, material, tool, rpm
     )
     timings.update(t_lobes)
-    return q, wm, modes, plunge, grouped, timings, feed_angle, bound, f_tcp
+
+    def split(own: NDArray[np.bool_], reuse: GroupedLobes) -> GroupedLobes:
+        return cut_lobes(job, modes, f_tcp, material, tool, rpm, own=own, reuse=reuse)[2]
+
+    return q, wm, modes, plunge, grouped, timings, feed_angle, bound, split
+
+
+#: Cutting waypoints from which a nominal plan streams the modes (:func:`_streamed_lobes`).
+_STREAM_MIN = 4 * _CHUNK
+
+
+@dataclass(frozen=True)
+class _ModeColumns:
+    """What the result table and the summary read of the robot modes (n, 3, n_modes) / (n,).
+
+    (A streamed plan keeps these, not the models.)
+    """
+
+    f_hz: FloatArray
+    zeta: FloatArray
+    k_N_per_m: FloatArray
+    extrapolation: FloatArray | None
+
+
+class _StreamedModels:
+    """Nominal feed-frame tool-point models of the cutting waypoints, made when taken.
+
+    Stands for the :class:`ModalModel` of all of them (dim 2, batch (n,)) in
+    :func:`~robolobe.plan.lobes.waypoint_lobes`, which takes only the
+    leaders': each taken model is that of the whole batch (modes and models
+    are per waypoint).
+
+    Parameters
+    ----------
+    source : ModeSource
+    q : ndarray, shape (n, 6)
+        Cutting postures [rad].
+    f_use : ndarray, shape (n, 3)
+        Feed directions in the TCP frame (plunges replaced, as in :func:`cut_lobes`).
+    tool : ModalModel or None
+    """
+
+    dim = 2
+
+    def __init__(
+        self, source: ModeSource, q: FloatArray, f_use: FloatArray, tool: ModalModel | None
+    ) -> None:
+        self.source, self.q, self.f_use, self.tool = source, q, f_use, tool
+        self.batch_shape = (int(q.shape[0]),)
+
+    def take(self, index: Any) -> ModalModel:
+        """The models of waypoints ``index``."""
+        modes = _predict_modes(self.source, self.q[index])
+        rot = feed_frame(self.f_use[index], (0.0, 0.0, -1.0), rotation="cw")
+        return _tool_point_models(rot, modes.model, self.tool)
+
+
+def _streamed_lobes(
+    job: Job,
+    source: ModeSource,
+    q: FloatArray,
+    f_tcp: FloatArray,
+    material: Material,
+    tool: ModalModel | None,
+    rpm: FloatArray,
+) -> (
+    tuple[
+        _ModeColumns,
+        NDArray[np.bool_],
+        GroupedLobes,
+        dict[str, float],
+        FloatArray,
+        Callable[[NDArray[np.bool_], GroupedLobes], GroupedLobes],
+    ]
+    | None
+):
+    """:func:`cut_lobes` for a long path without keeping every waypoint's models.
+
+    Chunks of :data:`_CHUNK` cutting waypoints (on up to :data:`_THREADS`
+    threads) pass through the modes, the feed-frame models and the grouping
+    features; only the features and the modes' table columns are kept, and
+    the leaders' models are made again for their lobes
+    (:class:`_StreamedModels`). The same groups, lobes and columns as
+    :func:`cut_lobes` after :func:`_predict_modes` (every step is per
+    waypoint).
+
+    Returns
+    -------
+    tuple or None
+        The table's mode columns, the plunge mask, the grouped lobes, the
+        timings (``modes`` covers the feed-frame models and the features too,
+        ``frf`` is 0), the feed angles [deg] and ``split(own, reuse)`` (the
+        steep-wall split, as :func:`cut_lobes` with ``own``/``reuse``); None
+        for a robust plan (its bound needs every waypoint's modes at once:
+        the caller plans in memory).
+    """
+    from robolobe.plan.lobes import _features
+    from robolobe.sld.directional import directional_factors
+
+    t = time.perf_counter()
+    n = q.shape[0]
+    plunge = _feed_lateral(f_tcp) < PLUNGE_LATERAL
+    f_use = np.where(plunge[:, None], [[1.0, 0.0, 0.0]], f_tcp)
+    args = _lobe_args(job, material, rpm)
+    tol = args["tol"]
+    alpha = directional_factors(args["phi_entry"], args["phi_exit"], args["kr"])
+    n_before = np.r_[0, np.cumsum(~plunge)]  # bounded waypoints before each row
+
+    def work(c0: int) -> tuple[RobotModes, FloatArray]:
+        rows = slice(c0, c0 + _CHUNK)
+        md = source.predict(q[rows])
+        rot = feed_frame(f_use[rows], (0.0, 0.0, -1.0), rotation="cw")
+        model = tool_point_model(rot, md.model, tool)
+        b = ~plunge[rows]
+        return md, _features(model if b.all() else model.take(np.flatnonzero(b)), tol, alpha)
+
+    md0, f0 = work(0)  # alone: a source's lazy set-up happens once
+    if plan_bound(job.plan, md0, None)[1]:
+        return None
+    # held here only until waypoint_lobes takes it over (it frees it after grouping)
+    held = [np.empty((int(n_before[-1]), f0.shape[1]))]
+    m = md0.f_hz.shape[1:]
+    cols = _ModeColumns(
+        np.empty((n, *m)),
+        np.empty((n, *m)),
+        np.empty((n, *m)),
+        None if md0.extrapolation is None else np.empty(n),
+    )
+
+    def put(c0: int, md: RobotModes, f: FloatArray) -> None:
+        c1 = c0 + md.f_hz.shape[0]
+        cols.f_hz[c0:c1], cols.zeta[c0:c1], cols.k_N_per_m[c0:c1] = md.f_hz, md.zeta, md.k_N_per_m
+        if cols.extrapolation is not None:
+            cols.extrapolation[c0:c1] = md.extrapolation
+        held[0][n_before[c0] : n_before[c1]] = f
+
+    put(0, md0, f0)
+    del md0, f0
+    rest = list(range(_CHUNK, n, _CHUNK))
+    if _THREADS > 1 and len(rest) > 1:
+        from concurrent.futures import ThreadPoolExecutor
+
+        from robolobe._threads import one_blas_thread
+
+        with one_blas_thread(), ThreadPoolExecutor(_THREADS) as ex:
+            for c0, (md, f) in zip(rest, ex.map(work, rest), strict=True):
+                put(c0, md, f)
+                del md, f
+    else:
+        for c0 in rest:
+            put(c0, *work(c0))
+    timings = {"modes": time.perf_counter() - t, "frf": 0.0}
+    t = time.perf_counter()
+    # waypoint_lobes needs only dim, batch_shape and take of the models given features
+    models = cast("ModalModel", _StreamedModels(source, q, f_use, tool))
+    grouped = waypoint_lobes([models], unbounded=plunge, features=held.pop(), **args)
+    timings["lobes"] = time.perf_counter() - t
+    feed_angle = np.degrees(np.arctan2(f_use[:, 1], f_use[:, 0]))
+
+    def split(own: NDArray[np.bool_], reuse: GroupedLobes) -> GroupedLobes:
+        return waypoint_lobes([models], unbounded=plunge, own=own, reuse=reuse, **args)
+
+    return cols, plunge, grouped, timings, feed_angle, split
 
 
 def _tool_point_models(
@@ -558,6 +730,31 @@ def _tool_point_models(
         for c0 in rest:
             put(c0, part(c0))
     return ModalModel(w, z, a)
+
+
+def _lobe_args(
+    job: Job, material: Material, rpm: FloatArray, dynamics_tol: float | None = None
+) -> dict[str, Any]:
+    """The job's arguments of :func:`~robolobe.plan.lobes.waypoint_lobes` (cut, grid, tolerance)."""
+    st, ex = engagement_angles(job.radial_immersion, job.cut.milling)
+    dt = job.plan.dynamics_tol if dynamics_tol is None else dynamics_tol
+    tol = DynamicsTolerance(
+        freq=dt,
+        damping=10 * dt,
+        residue=7 * dt,
+        freq_low=10 * dt / 3,
+        f_low_hz=0.5 * job.spindle.rpm_min * job.tool.teeth / 60.0,
+    )
+    return {
+        "teeth": job.tool.teeth,
+        "kt": material.kt,
+        "kr": material.kr,
+        "phi_entry": st,
+        "phi_exit": ex,
+        "rpm": rpm,
+        "immersion": job.radial_immersion,
+        "tol": tol,
+    }
 
 
 def cut_lobes(
@@ -627,29 +824,13 @@ def cut_lobes(
         models.append(_tool_point_models(rot, bound.model, tool))
     timings["frf"] = time.perf_counter() - t
     t = time.perf_counter()
-    st, ex = engagement_angles(job.radial_immersion, job.cut.milling)
-    dt = job.plan.dynamics_tol if dynamics_tol is None else dynamics_tol
-    tol = DynamicsTolerance(
-        freq=dt,
-        damping=10 * dt,
-        residue=7 * dt,
-        freq_low=10 * dt / 3,
-        f_low_hz=0.5 * job.spindle.rpm_min * job.tool.teeth / 60.0,
-    )
     grouped = waypoint_lobes(
         models,
-        teeth=job.tool.teeth,
-        kt=material.kt,
-        kr=material.kr,
-        phi_entry=st,
-        phi_exit=ex,
-        rpm=rpm,
-        immersion=job.radial_immersion,
         unbounded=plunge,
-        tol=tol,
         window=None if bound is None else bound.window,
         own=own,
         reuse=reuse,
+        **_lobe_args(job, material, rpm, dynamics_tol),
     )
     timings["lobes"] = time.perf_counter() - t
     feed_angle = np.degrees(np.arctan2(f_use[:, 1], f_use[:, 0]))
@@ -735,7 +916,7 @@ def plan_path(
         rotation, rot_note = _stiffest_rotation(
             job, wp, robot, source, cut, material, tool, rpm, cons
         )
-    q, wm, modes, plunge, grouped, t_stage, feed_angle, bound, f_tcp = _lobes_for_rotation(
+    q, wm, modes, plunge, grouped, t_stage, feed_angle, bound, split = _lobes_for_rotation(
         job, wp, robot, source, rotation, cut, material, tool, rpm
     )
     timings.update(t_stage)
@@ -767,9 +948,7 @@ def plan_path(
     n_split = int(steep.sum())
     if n_split:
         t_split = time.perf_counter()
-        _, _, grouped, _, _, _ = cut_lobes(
-            job, modes, f_tcp, material, tool, rpm, own=steep, reuse=grouped
-        )
+        grouped = split(steep, grouped)
         timings["lobes"] += time.perf_counter() - t_split
         outcome = schedule(grouped.table)
     timings["optimize"] = time.perf_counter() - t
@@ -818,7 +997,6 @@ def plan_path(
         lobes=grouped,
         cut_index=ci.astype(np.int64),
         q=q,
-        modes=modes,
         geom=geom,
         summary=summary,
         timings=timings,
@@ -877,7 +1055,7 @@ def _result_table(
     wp: pd.DataFrame,
     q: FloatArray,
     wm: FloatArray,
-    modes: RobotModes,
+    modes: RobotModes | _ModeColumns,
     grouped: GroupedLobes,
     outcome: PlanOutcome,
     ci: NDArray[np.int64],
@@ -1069,7 +1247,7 @@ def _summary(
     grouped: GroupedLobes,
     outcome: PlanOutcome,
     ci: NDArray[np.int64],
-    modes: RobotModes,
+    modes: RobotModes | _ModeColumns,
     cons: Constraints,
     geom: PathGeometry,
     bound: RobustBound | None = None,
