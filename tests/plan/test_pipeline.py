@@ -334,6 +334,7 @@ def test_streamed_long_path_plans_as_in_memory(tmp_path, pocket_job, monkeypatch
     job = pocket_job.replace(placement=pl, model="twin")
     monkeypatch.setattr(pipeline, "_THREADS", threads)
     monkeypatch.setattr(pipeline, "_CHUNK", 97)  # chunks that do not divide the path
+    monkeypatch.setattr(pipeline, "_STREAM_CHUNK", 89)
     monkeypatch.setattr(lobes_mod, "_BLOCK", 101)  # the in-place compaction in blocks
     ref = plan_path(path, job)
     calls = []

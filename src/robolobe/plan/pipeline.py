@@ -500,7 +500,7 @@ def _lobes_for_rotation(
     del poses, f_path  # (n, 4, 4): not needed past here
     timings["ik"] = time.perf_counter() - t
     if ci.size >= _STREAM_MIN:
-        streamed = _streamed_lobes(job, source, q[ci], f_tcp, material, tool, rpm)
+        streamed = _streamed_lobes(job, source, q[ci], f_tcp, material, tool, rpm, ci, len(wp))
         if streamed is not None:
             cols, plunge, grouped, t_lobes, feed_angle, split_s = streamed
             timings.update(t_lobes)
@@ -522,19 +522,37 @@ def _lobes_for_rotation(
 
 #: Cutting waypoints from which a nominal plan streams the modes (:func:`_streamed_lobes`).
 _STREAM_MIN = 4 * _CHUNK
+#: Waypoints per chunk of the streamed pass: each thread holds one chunk's temporaries
+#: (the twin's ~10 kB per posture), which add to the peak.
+_STREAM_CHUNK = _CHUNK // 2
 
 
 @dataclass(frozen=True)
 class _ModeColumns:
-    """What the result table and the summary read of the robot modes (n, 3, n_modes) / (n,).
+    """What the result table and the summary read of the robot modes (a streamed plan
+    keeps these, not the models).
 
-    (A streamed plan keeps these, not the models.)
+    Attributes
+    ----------
+    columns : dict of str to ndarray, shape (n_waypoints,)
+        The table's mode columns ``f{r}_{d}_hz``, ``zeta{r}_{d}``,
+        ``k{r}_{d}_N_per_m`` in the table's order (NaN off the cut), made
+        once: the table takes them as they are.
+    extrapolation : ndarray, shape (n_cut,) or None
     """
 
-    f_hz: FloatArray
-    zeta: FloatArray
-    k_N_per_m: FloatArray
+    columns: dict[str, FloatArray]
     extrapolation: FloatArray | None
+
+
+def _mode_column_names(m: int) -> list[tuple[str, int, int, str]]:
+    """(column, direction, mode, quantity) of the result table's mode columns, in order."""
+    out = []
+    for d, dn in enumerate("xyz"):
+        for r in range(m):
+            for name, unit in (("f", "_hz"), ("zeta", ""), ("k", "_N_per_m")):
+                out.append((f"{name}{r + 1}_{dn}{unit}", d, r, name))
+    return out
 
 
 class _StreamedModels:
@@ -578,6 +596,8 @@ def _streamed_lobes(
     material: Material,
     tool: ModalModel | None,
     rpm: FloatArray,
+    cut_rows: NDArray[np.int64],
+    n_rows: int,
 ) -> (
     tuple[
         _ModeColumns,
@@ -591,13 +611,14 @@ def _streamed_lobes(
 ):
     """:func:`cut_lobes` for a long path without keeping every waypoint's models.
 
-    Chunks of :data:`_CHUNK` cutting waypoints (on up to :data:`_THREADS`
+    Chunks of :data:`_STREAM_CHUNK` cutting waypoints (on up to :data:`_THREADS`
     threads) pass through the modes, the feed-frame models and the grouping
     features; only the features and the modes' table columns are kept, and
     the leaders' models are made again for their lobes
     (:class:`_StreamedModels`). The same groups, lobes and columns as
     :func:`cut_lobes` after :func:`_predict_modes` (every step is per
-    waypoint).
+    waypoint). ``cut_rows`` (n,): the waypoint table's row of each cutting
+    waypoint, of ``n_rows``.
 
     Returns
     -------
@@ -622,7 +643,7 @@ def _streamed_lobes(
     n_before = np.r_[0, np.cumsum(~plunge)]  # bounded waypoints before each row
 
     def work(c0: int) -> tuple[RobotModes, FloatArray]:
-        rows = slice(c0, c0 + _CHUNK)
+        rows = slice(c0, c0 + _STREAM_CHUNK)
         md = source.predict(q[rows])
         rot = feed_frame(f_use[rows], (0.0, 0.0, -1.0), rotation="cw")
         model = tool_point_model(rot, md.model, tool)
@@ -634,24 +655,25 @@ def _streamed_lobes(
         return None
     # held here only until waypoint_lobes takes it over (it frees it after grouping)
     held = [np.empty((int(n_before[-1]), f0.shape[1]))]
-    m = md0.f_hz.shape[1:]
+    names = _mode_column_names(md0.f_hz.shape[-1])
     cols = _ModeColumns(
-        np.empty((n, *m)),
-        np.empty((n, *m)),
-        np.empty((n, *m)),
+        {c: np.full(n_rows, np.nan) for c, *_ in names},
         None if md0.extrapolation is None else np.empty(n),
     )
 
     def put(c0: int, md: RobotModes, f: FloatArray) -> None:
         c1 = c0 + md.f_hz.shape[0]
-        cols.f_hz[c0:c1], cols.zeta[c0:c1], cols.k_N_per_m[c0:c1] = md.f_hz, md.zeta, md.k_N_per_m
+        rows = cut_rows[c0:c1]
+        arrs = {"f": md.f_hz, "zeta": md.zeta, "k": md.k_N_per_m}
+        for c, d, r, name in names:
+            cols.columns[c][rows] = arrs[name][:, d, r]
         if cols.extrapolation is not None:
             cols.extrapolation[c0:c1] = md.extrapolation
         held[0][n_before[c0] : n_before[c1]] = f
 
     put(0, md0, f0)
     del md0, f0
-    rest = list(range(_CHUNK, n, _CHUNK))
+    rest = list(range(_STREAM_CHUNK, n, _STREAM_CHUNK))
     if _THREADS > 1 and len(rest) > 1:
         from concurrent.futures import ThreadPoolExecutor
 
@@ -1082,14 +1104,14 @@ def _result_table(
     fa = np.full(n, np.nan)
     fa[ci] = np.where(plunge, np.nan, feed_angle)
     cols["feed_angle_deg"] = fa
-    m = modes.f_hz.shape[-1]
-    for d, dn in enumerate("xyz"):
-        for r in range(m):
-            for name, arr in (("f", modes.f_hz), ("zeta", modes.zeta), ("k", modes.k_N_per_m)):
-                v = np.full(n, np.nan)
-                v[ci] = arr[:, d, r]
-                unit = {"f": "_hz", "zeta": "", "k": "_N_per_m"}[name]
-                cols[f"{name}{r + 1}_{dn}{unit}"] = v
+    if isinstance(modes, _ModeColumns):
+        cols.update(modes.columns)  # made whole while streaming (not copied)
+    else:
+        arrs = {"f": modes.f_hz, "zeta": modes.zeta, "k": modes.k_N_per_m}
+        for c, d, r, name in _mode_column_names(modes.f_hz.shape[-1]):
+            v = np.full(n, np.nan)
+            v[ci] = arrs[name][:, d, r]
+            cols[c] = v
     ex = np.full(n, np.nan)
     if modes.extrapolation is not None:
         ex[ci] = modes.extrapolation
