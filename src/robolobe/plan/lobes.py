@@ -851,11 +851,14 @@ def steep_members(
     if cand.size == 0:
         return out
     t = np.linspace(-1.0, 1.0, 9)
-    r = np.asarray(rpm, dtype=np.float64)[cand, None] * (1.0 + shift * t)
-    r = np.clip(r, tab.rpm[0], tab.rpm[-1])
-    a = tab.rows(r, g[cand])
-    with np.errstate(invalid="ignore", divide="ignore"):
-        var = np.max(a, axis=1) / np.min(a, axis=1)
-    out[cand] = ~(var <= ratio)  # NaN (inf / inf) counts as steep
-    out[cand] &= np.isfinite(np.min(a, axis=1))
+    rpm = np.asarray(rpm, dtype=np.float64)
+    # in blocks: the (n, 9) speeds and limits of a long path at once would add to its peak
+    # memory (each row's limits are its own: the same values)
+    for s in range(0, cand.size, _BLOCK):
+        c = cand[s : s + _BLOCK]
+        r = np.clip(rpm[c, None] * (1.0 + shift * t), tab.rpm[0], tab.rpm[-1])
+        a = tab.rows(r, g[c])
+        with np.errstate(invalid="ignore", divide="ignore"):
+            var = np.max(a, axis=1) / np.min(a, axis=1)
+        out[c] = ~(var <= ratio) & np.isfinite(np.min(a, axis=1))  # NaN (inf/inf): steep
     return out

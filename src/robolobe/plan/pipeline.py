@@ -580,12 +580,41 @@ class _StreamedModels:
     ) -> None:
         self.source, self.q, self.f_use, self.tool = source, q, f_use, tool
         self.batch_shape = (int(q.shape[0]),)
+        # the last models taken: the lobes take the leaders', the steep-wall split
+        # takes them again with a few more (only those are made)
+        self._last: tuple[NDArray[np.int64], ModalModel] | None = None
+
+    def _make(self, idx: NDArray[np.int64]) -> ModalModel:
+        modes = _predict_modes(self.source, self.q[idx])
+        rot = feed_frame(self.f_use[idx], (0.0, 0.0, -1.0), rotation="cw")
+        return _tool_point_models(rot, modes.model, self.tool)
 
     def take(self, index: Any) -> ModalModel:
-        """The models of waypoints ``index``."""
-        modes = _predict_modes(self.source, self.q[index])
-        rot = feed_frame(self.f_use[index], (0.0, 0.0, -1.0), rotation="cw")
-        return _tool_point_models(rot, modes.model, self.tool)
+        """The models of waypoints ``index`` (int, slice or array of int)."""
+        idx = np.atleast_1d(np.arange(self.batch_shape[0])[index]).astype(np.int64)
+        out = None
+        if self._last is not None:
+            known, model = self._last
+            kidx = pd.Index(known)
+            if kidx.is_unique:
+                pos = np.asarray(kidx.get_indexer(pd.Index(idx)), np.int64)
+                have = pos >= 0
+                if np.all(have):
+                    out = model.take(pos)
+                elif np.any(have):
+                    new = self._make(idx[~have])
+                    old = model.take(pos[have])
+                    arrays = []
+                    for name in ("omega", "zeta", "residues"):
+                        a_old, a_new = getattr(old, name), getattr(new, name)
+                        a = np.empty((idx.size, *a_old.shape[1:]), a_old.dtype)
+                        a[have], a[~have] = a_old, a_new
+                        arrays.append(a)
+                    out = ModalModel(*arrays)
+        if out is None:
+            out = self._make(idx)
+        self._last = (idx, out)
+        return out
 
 
 def _streamed_lobes(
