@@ -336,7 +336,17 @@ def test_streamed_long_path_plans_as_in_memory(tmp_path, pocket_job, monkeypatch
     monkeypatch.setattr(pipeline, "_CHUNK", 97)  # chunks that do not divide the path
     monkeypatch.setattr(pipeline, "_STREAM_CHUNK", 89)
     monkeypatch.setattr(lobes_mod, "_BLOCK", 101)  # the in-place compaction in blocks
+    inner_predict = TwinSource.predict
+
+    def predict(self, q_rad):  # one direction's frequency differs on part of the path
+        md = inner_predict(self, q_rad)
+        md.f_hz[:, 1, 0] += np.where(np.asarray(q_rad)[:, 0] < 0.07, 1.0, 0.0)
+        return md
+
+    monkeypatch.setattr(TwinSource, "predict", predict)
     ref = plan_path(path, job)
+    col_x, col_y = ref.table["f1_x_hz"].to_numpy(), ref.table["f1_y_hz"].to_numpy()
+    assert 0 < np.sum(col_x != col_y) < np.sum(np.isfinite(col_x))  # the column un-shares
     calls = []
     inner = pipeline._streamed_lobes
 

@@ -500,7 +500,8 @@ def _lobes_for_rotation(
     del poses, f_path  # (n, 4, 4): not needed past here
     timings["ik"] = time.perf_counter() - t
     if ci.size >= _STREAM_MIN:
-        streamed = _streamed_lobes(job, source, q[ci], f_tcp, material, tool, rpm, ci, len(wp))
+        q_cut = q if ci.size == q.shape[0] else q[ci]  # (not a copy of every posture)
+        streamed = _streamed_lobes(job, source, q_cut, f_tcp, material, tool, rpm, ci, len(wp))
         if streamed is not None:
             cols, plunge, grouped, t_lobes, feed_angle, split_s = streamed
             timings.update(t_lobes)
@@ -685,17 +686,29 @@ def _streamed_lobes(
     # held here only until waypoint_lobes takes it over (it frees it after grouping)
     held = [np.empty((int(n_before[-1]), f0.shape[1]))]
     names = _mode_column_names(md0.f_hz.shape[-1])
-    cols = _ModeColumns(
-        {c: np.full(n_rows, np.nan) for c, *_ in names},
-        None if md0.extrapolation is None else np.empty(n),
-    )
+    # a quantity the same bit for bit in every direction (the twin's coupled modes'
+    # frequency and damping) is one array in the three columns while it stays so
+    # (the table shares it: pandas copies on write)
+    first = {(r, name): c for c, d, r, name in reversed(names)}  # direction x's column
+    base = {c: first[(r, name)] for c, d, r, name in names}
+    shared = {c for c, d, r, name in names if d > 0 and name != "k"}
+    columns: dict[str, FloatArray] = {}
+    for c, *_ in names:
+        columns[c] = columns[base[c]] if c in shared else np.full(n_rows, np.nan)
+    cols = _ModeColumns(columns, None if md0.extrapolation is None else np.empty(n))
 
     def put(c0: int, md: RobotModes, f: FloatArray) -> None:
         c1 = c0 + md.f_hz.shape[0]
         rows = cut_rows[c0:c1]
         arrs = {"f": md.f_hz, "zeta": md.zeta, "k": md.k_N_per_m}
-        for c, d, r, name in names:
-            cols.columns[c][rows] = arrs[name][:, d, r]
+        for c, d, r, name in names:  # direction x (a shared column's base) first
+            v = arrs[name][:, d, r]
+            if c in shared:
+                if np.array_equal(v.view(np.int64), arrs[name][:, 0, r].view(np.int64)):
+                    continue
+                shared.discard(c)  # differs here: a column of its own from now on
+                columns[c] = columns[base[c]].copy()
+            columns[c][rows] = v
         if cols.extrapolation is not None:
             cols.extrapolation[c0:c1] = md.extrapolation
         held[0][n_before[c0] : n_before[c1]] = f
