@@ -174,11 +174,16 @@ def _distinct_rows(q: FloatArray | _Cells) -> tuple[IntArray, IntArray]:
     import pandas as pd
 
     col = q.column if isinstance(q, _Cells) else (lambda c: q[:, c])
-    if q.shape[0] and all(np.all(np.abs(col(c)) < 2.0**52) for c in range(q.shape[1])):
-        h = np.zeros(q.shape[0], np.uint64)
-        for c in range(q.shape[1]):  # polynomial hash, wrapping in 64 bits
-            qi = col(c).astype(np.int64).view(np.uint64)  # (a column at a time: memory)
-            h = h * np.uint64(0x100000001B3) + (qi ^ np.uint64(0x9E3779B97F4A7C15))
+    h = np.zeros(q.shape[0], np.uint64)
+    small = q.shape[0] > 0
+    for c in range(q.shape[1] if small else 0):  # polynomial hash, wrapping in 64 bits
+        qc = col(c)  # (a column at a time: memory)
+        if not np.all(np.abs(qc) < 2.0**52):  # not small integers: sort instead
+            small = False
+            break
+        qi = qc.astype(np.int64).view(np.uint64)
+        h = h * np.uint64(0x100000001B3) + (qi ^ np.uint64(0x9E3779B97F4A7C15))
+    if small:
         codes, _ = pd.factorize(h, sort=False)
         codes = np.asarray(codes, np.int64)
         first = np.full(int(codes.max()) + 1, q.shape[0], np.int64)
