@@ -1115,6 +1115,14 @@ def _stiffest_rotation(
 
 
 # ------------------------------------------------------------------ outputs
+def _string_column(col: pd.Series) -> Any:
+    """A string column for the result table: its own array when pandas stores it as
+    strings (immutable, shared without a copy), else its values as before."""
+    if isinstance(col.dtype, pd.StringDtype):
+        return col.array
+    return col.to_numpy()
+
+
 def _result_table(
     wp: pd.DataFrame,
     q: FloatArray,
@@ -1131,10 +1139,14 @@ def _result_table(
 ) -> pd.DataFrame:
     n = len(wp)
     best = outcome.best
+    # the masks once, from the string column (not an object array of it per use)
+    is_cut = (wp["motion"] == "cut").to_numpy(dtype=bool)
+    is_rapid = (wp["motion"] == "rapid").to_numpy(dtype=bool)
     cols: dict[str, Any] = {
-        "source": wp["source"].to_numpy(),
+        # the waypoint table's own string arrays (immutable: shared, not converted)
+        "source": _string_column(wp["source"]),
         "line": wp["line"].to_numpy(),
-        "motion": wp["motion"].to_numpy(),
+        "motion": _string_column(wp["motion"]),
         "x_mm": wp["x_m"].to_numpy() * 1e3,
         "y_mm": wp["y_m"].to_numpy() * 1e3,
         "z_mm": wp["z_m"].to_numpy() * 1e3,
@@ -1176,27 +1188,25 @@ def _result_table(
     alim[ci] = np.where(np.isfinite(best.a_lim_m), best.a_lim_m * 1e3, np.nan)
     cols["a_lim_mm"] = alim
     # speed along the whole path: the schedule at each waypoint's cutting length
-    s_all = np.cumsum(np.where(wp["motion"].to_numpy() == "cut", seg, 0.0))
+    s_all = np.cumsum(np.where(is_cut, seg, 0.0))
     if best.knots_rpm.size >= 2:
         rpm_all = np.interp(s_all, best.knots_s_m, best.knots_rpm)
     else:
         rpm_all = np.full(n, float(best.rpm[0]))
     rpm_all[ci] = best.rpm
     cols["rpm"] = rpm_all
-    cols["depth_mm"] = np.where(wp["motion"].to_numpy() == "cut", best.depth_m * 1e3, np.nan)
+    cols["depth_mm"] = np.where(is_cut, best.depth_m * 1e3, np.nan)
     mg = np.full(n, np.nan)
     mg[ci] = np.where(np.isfinite(best.margin), best.margin, np.nan)
     cols["margin"] = mg
     lim = np.full(n, "", dtype=object)
     lim[ci] = np.where(plunge, "plunge", outcome.limiting)
-    lim[wp["motion"].to_numpy() == "rapid"] = "rapid"
+    lim[is_rapid] = "rapid"
     cols["limiting"] = lim
     pw = np.full(n, np.nan)
     pw[ci] = outcome.power_W * 1e-3
     cols["power_kW"] = pw
-    cols["feed_mm_per_min"] = np.where(
-        wp["motion"].to_numpy() == "cut", cons.feed_per_rev_m * rpm_all * 1e3, np.nan
-    )
+    cols["feed_mm_per_min"] = np.where(is_cut, cons.feed_per_rev_m * rpm_all * 1e3, np.nan)
     cols["rpm_programmed"] = wp["rpm_programmed"].to_numpy()
     # the columns as they are (not consolidated into one block: a copy of the table)
     return pd.DataFrame(cols, copy=False)
