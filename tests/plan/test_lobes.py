@@ -350,3 +350,30 @@ def test_kept_query_answers_equal_fresh_ones(monkeypatch):
     np.testing.assert_array_equal(got, fresh.table.rows(rows, g2))
     np.testing.assert_array_equal(got_old, fresh.table.rows(rows, g))
     np.testing.assert_array_equal(got_old, a_first)
+
+
+def test_group_features_in_place_equal_plain_copies(monkeypatch):
+    """Grouping that compacts its features in place (useful columns, then distinct
+    rows, in blocks) and rounds the cells block by block forms the groups that the
+    plain copies form (fancy-indexed features, cells sorted by numpy.unique, the
+    cKDTree leaders)."""
+    from robolobe.plan import lobes
+
+    rng = np.random.default_rng(7)
+    n = 1500
+    f = np.cumsum(rng.normal(scale=0.3, size=(n, 9)), axis=0)
+    f[:, 2] = 0.1 * rng.random(n)  # a column that cannot split a group: left out
+    f[600:700] = f[100:200]  # exact repeats
+    keep = np.ptp(f, axis=0) > lobes._RADIUS
+    f2 = f[:, keep]
+    _, first, inv = np.unique(np.round(f2 * 4.0), axis=0, return_index=True, return_inverse=True)
+    order = np.argsort(first)
+    label_u, lead_u = lobes._leaders_tree(f2[first[order]])
+    pos = np.empty_like(order)
+    pos[order] = np.arange(order.size)
+    want_group, want_lead = label_u[pos[np.ravel(inv)]], first[order][lead_u]
+    monkeypatch.setattr(lobes, "_BLOCK", 97)
+    group, lead = lobes.group_features(f.copy(), DynamicsTolerance(), compiled=False)
+    assert 1 < lead.size < n
+    np.testing.assert_array_equal(group, want_group)
+    np.testing.assert_array_equal(lead, want_lead)

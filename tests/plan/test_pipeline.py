@@ -295,7 +295,8 @@ def test_tool_point_models_in_chunks_equal_one_call(pocket, pocket_job, monkeypa
     from robolobe.plan import pipeline
     from robolobe.sld.toolpoint import feed_frame, tool_point_model
 
-    model = pocket.modes.model
+    source = TwinSource(load_robot("A"))
+    model = source.predict(pocket.q[pocket.cut_index]).model
     n = model.batch_shape[0]
     f = np.random.default_rng(3).normal(size=(n, 3))
     f[:, 2] *= 0.1
@@ -309,3 +310,67 @@ def test_tool_point_models_in_chunks_equal_one_call(pocket, pocket_job, monkeypa
     assert n > 3 * 16
     for name in ("omega", "zeta", "residues"):
         np.testing.assert_array_equal(getattr(got, name), getattr(ref, name))
+
+
+@pytest.mark.parametrize("threads", [1, 2])
+def test_streamed_long_path_plans_as_in_memory(tmp_path, pocket_job, monkeypatch, threads):
+    """A path long enough to be streamed (modes, feed-frame models and grouping features
+    chunk by chunk, only the leaders' models made again) plans bit for bit as in memory:
+    groups, leaders, depth, every speed and every column of the table, the steep-wall
+    split included; a robust plan is not streamed."""
+    from robolobe.plan import lobes as lobes_mod
+    from robolobe.plan import pipeline
+
+    lines = ["G90 G21 G17", "S18000 M3", "G0 X0. Y0. Z5.", "G1 Z-1. F1000."]
+    for k in range(6):
+        xs = np.linspace(0.0, 300.0, 200)[:: -1 if k % 2 else 1]
+        lines += [f"Y{8.0 * k:.3f}"] if k else []
+        lines += [f"X{x:.3f} F4000." for x in xs]
+        lines += ["G1 Z-1.5 F500.", "G1 Z-1. F500."]  # plunges: unbounded rows
+    path = tmp_path / "zz.nc"
+    path.write_text("\n".join([*lines, "G0 Z5.", "M30"]) + "\n", encoding="utf-8")
+    pl = pocket_job.placement.copy()
+    pl[:3, 3] = [1.55, -0.15, 0.30]
+    job = pocket_job.replace(placement=pl, model="twin")
+    monkeypatch.setattr(pipeline, "_THREADS", threads)
+    monkeypatch.setattr(pipeline, "_CHUNK", 97)  # chunks that do not divide the path
+    monkeypatch.setattr(pipeline, "_STREAM_CHUNK", 89)
+    monkeypatch.setattr(lobes_mod, "_BLOCK", 101)  # the in-place compaction in blocks
+    inner_predict = TwinSource.predict
+
+    def predict(self, q_rad):  # one direction's frequency differs on part of the path
+        md = inner_predict(self, q_rad)
+        md.f_hz[:, 1, 0] += np.where(np.asarray(q_rad)[:, 0] < 0.07, 1.0, 0.0)
+        return md
+
+    monkeypatch.setattr(TwinSource, "predict", predict)
+    ref = plan_path(path, job)
+    col_x, col_y = ref.table["f1_x_hz"].to_numpy(), ref.table["f1_y_hz"].to_numpy()
+    assert 0 < np.sum(col_x != col_y) < np.sum(np.isfinite(col_x))  # the column un-shares
+    calls = []
+    inner = pipeline._streamed_lobes
+
+    def counted(*a, **k):
+        out = inner(*a, **k)
+        calls.append(out is not None)
+        return out
+
+    monkeypatch.setattr(pipeline, "_streamed_lobes", counted)
+    monkeypatch.setattr(pipeline, "_STREAM_MIN", 500)
+    got = plan_path(path, job)
+    assert calls == [True]
+    assert int(np.sum(got.table["limiting"] == "plunge")) >= 5
+    assert got.lobes.n_groups > 10
+    np.testing.assert_array_equal(got.lobes.table.group, ref.lobes.table.group)
+    np.testing.assert_array_equal(got.lobes.leader, ref.lobes.leader)
+    np.testing.assert_array_equal(got.lobes.table.a_lim, ref.lobes.table.a_lim)
+    assert got.outcome.best.depth_m == ref.outcome.best.depth_m
+    np.testing.assert_array_equal(got.outcome.best.rpm, ref.outcome.best.rpm)
+    assert list(got.table.columns) == list(ref.table.columns)
+    for c in ref.table.columns:
+        np.testing.assert_array_equal(got.table[c].to_numpy(), ref.table[c].to_numpy(), err_msg=c)
+    # robust: the bound needs every posture's modes at once -> planned in memory
+    calls.clear()
+    rob = plan_path(path, job.replace(plan=dataclasses.replace(job.plan, robust=True)))
+    assert calls == [False]
+    assert rob.summary["robust"]

@@ -48,6 +48,7 @@ __all__ = [
     "DynamicsTolerance",
     "GroupedLobes",
     "group_dynamics",
+    "group_features",
     "steep_members",
     "waypoint_lobes",
 ]
@@ -155,7 +156,7 @@ def _features(
     return out
 
 
-def _distinct_rows(q: FloatArray) -> tuple[IntArray, IntArray]:
+def _distinct_rows(q: FloatArray | _Cells) -> tuple[IntArray, IntArray]:
     """First occurrence of each distinct row of ``q`` (n, F) and each row's distinct row.
 
     By hashing the rows (integer cells: the rounded features) and factorising
@@ -172,11 +173,17 @@ def _distinct_rows(q: FloatArray) -> tuple[IntArray, IntArray]:
     """
     import pandas as pd
 
-    if q.shape[0] and np.all(np.abs(q) < 2.0**52):
-        h = np.zeros(q.shape[0], np.uint64)
-        for c in range(q.shape[1]):  # polynomial hash, wrapping in 64 bits
-            qi = q[:, c].astype(np.int64).view(np.uint64)  # (a column at a time: memory)
-            h = h * np.uint64(0x100000001B3) + (qi ^ np.uint64(0x9E3779B97F4A7C15))
+    col = q.column if isinstance(q, _Cells) else (lambda c: q[:, c])
+    h = np.zeros(q.shape[0], np.uint64)
+    small = q.shape[0] > 0
+    for c in range(q.shape[1] if small else 0):  # polynomial hash, wrapping in 64 bits
+        qc = col(c)  # (a column at a time: memory)
+        if not np.all(np.abs(qc) < 2.0**52):  # not small integers: sort instead
+            small = False
+            break
+        qi = qc.astype(np.int64).view(np.uint64)
+        h = h * np.uint64(0x100000001B3) + (qi ^ np.uint64(0x9E3779B97F4A7C15))
+    if small:
         codes, _ = pd.factorize(h, sort=False)
         codes = np.asarray(codes, np.int64)
         first = np.full(int(codes.max()) + 1, q.shape[0], np.int64)
@@ -187,7 +194,8 @@ def _distinct_rows(q: FloatArray) -> tuple[IntArray, IntArray]:
             for s in range(0, q.shape[0], step)
         ):
             return first, codes
-    _, first, inv = np.unique(q, axis=0, return_index=True, return_inverse=True)
+    qa = q.all() if isinstance(q, _Cells) else q
+    _, first, inv = np.unique(qa, axis=0, return_index=True, return_inverse=True)
     return np.asarray(first, np.int64), np.asarray(inv, np.int64).ravel()
 
 
@@ -224,8 +232,20 @@ def group_dynamics(
         Index of each group's leader (a member whose dynamics stand for it).
     """
     tol = tol or DynamicsTolerance()
-    n = int(np.prod(model.batch_shape)) if model.batch_shape else 1
-    f = _features(model, tol, alpha)
+    return group_features(_features(model, tol, alpha), tol, compiled=compiled)
+
+
+def group_features(
+    f: FloatArray, tol: DynamicsTolerance, *, compiled: bool | None = None
+) -> tuple[IntArray, IntArray]:
+    """:func:`group_dynamics` from the scaled features (:func:`_features`) of the batch.
+
+    ``f`` (n, F) is consumed: it is overwritten (its useful columns and
+    distinct rows compacted into it in place, so that grouping a long path
+    holds no second copy of its features). Same groups as
+    :func:`group_dynamics`.
+    """
+    n = f.shape[0]
     if tol.exact:
         _, first, inv = np.unique(f, axis=0, return_index=True, return_inverse=True)
         order = np.argsort(first)
@@ -234,21 +254,76 @@ def group_dynamics(
         return remap[np.asarray(inv).ravel()].astype(np.int64), first[order].astype(np.int64)
     # a feature whose range over the batch is within the radius can never split a group
     # (max norm): leave it out
-    f = f[:, np.ptp(f, axis=0) > _RADIUS] if n else f
+    if n:
+        f = _compact(f, cols=np.flatnonzero(np.ptp(f, axis=0) > _RADIUS))
     if f.shape[1] == 0:
         return np.zeros(n, np.int64), np.zeros(min(n, 1), np.int64)
     # near-duplicates first: cells 0.25 wide; leaders then take cells within 0.75 of
     # them, so every member lies within 0.25 + 0.75 = 1 of its leader
-    cells = f * 4.0
-    first, inv = _distinct_rows(np.round(cells, out=cells))
-    del cells
+    first, inv = _distinct_rows(_Cells(f))
     order = np.argsort(first)  # unique rows in path order
-    fu = f[first[order]]
+    keep = first[order]  # increasing
+    fu = _compact(f, rows=keep)
     label_u, lead_u = _leaders(fu, compiled)
     pos = np.empty_like(order)
     pos[order] = np.arange(order.size)
     group = label_u[pos[inv]]
-    return group.astype(np.int64), first[order][lead_u].astype(np.int64)
+    return group.astype(np.int64), keep[lead_u].astype(np.int64)
+
+
+#: Rows per block of the in-place compaction and the chunked cells.
+_BLOCK = 65_536
+
+
+def _compact(
+    f: FloatArray, *, cols: IntArray | None = None, rows: IntArray | None = None
+) -> FloatArray:
+    """``f[:, cols]`` or ``f[rows]`` (``rows`` increasing) written into ``f``'s own memory.
+
+    Block by block in row order: the rows written never reach rows not yet read
+    (each block is copied out first), so the result equals the fancy-indexed
+    copy, without a second array of the size of ``f``. ``f`` is overwritten.
+    """
+    if not f.flags.c_contiguous:
+        return f[:, cols] if cols is not None else f[rows]
+    n, k = f.shape
+    flat = f.reshape(-1)
+    if cols is not None:
+        k2 = int(cols.size)
+        for s in range(0, n, _BLOCK):
+            blk = f[s : s + _BLOCK][:, cols]  # a copy
+            flat[s * k2 : s * k2 + blk.size] = blk.reshape(-1)
+        return flat[: n * k2].reshape(n, k2)
+    assert rows is not None
+    m = int(rows.size)
+    for s in range(0, m, _BLOCK):
+        blk = f[rows[s : s + _BLOCK]]  # a copy; rows[i] >= i: never a row already written
+        flat[s * k : s * k + blk.size] = blk.reshape(-1)
+    return flat[: m * k].reshape(m, k)
+
+
+class _Cells:
+    """The rounded cells ``round(4 f)`` of features ``f`` (n, F), made block by block.
+
+    Indexing gives the same values as indexing the full array of cells.
+    """
+
+    def __init__(self, f: FloatArray) -> None:
+        self.f = f
+        self.shape = f.shape
+
+    def __getitem__(self, idx: Any) -> FloatArray:
+        c = self.f[idx] * 4.0
+        return np.round(c, out=c)
+
+    def column(self, c: int) -> FloatArray:
+        """Column ``c`` of the cells."""
+        col = self.f[:, c] * 4.0
+        return np.round(col, out=col)
+
+    def all(self) -> FloatArray:
+        """All cells (the fallback on a hash collision)."""
+        return self[:]
 
 
 #: Distinct rows from which :func:`group_dynamics` clusters with the compiled kernel
@@ -367,6 +442,7 @@ def waypoint_lobes(
     window: FloatArray | None = None,
     own: NDArray[np.bool_] | None = None,
     reuse: GroupedLobes | None = None,
+    features: FloatArray | None = None,
 ) -> GroupedLobes:
     """Lobes of every waypoint, computed once per group of equal dynamics.
 
@@ -404,6 +480,13 @@ def waypoint_lobes(
         ``own``: its grouping and lobes are kept and only the waypoints that
         ``own`` adds are computed (the result is the same as without
         ``reuse``).
+    features : ndarray, shape (n_bounded, F), optional
+        The grouping features (:func:`_features` with ``tol`` and the cut's
+        directional factors) of the waypoints that are not ``unbounded``, made
+        beforehand (e.g. chunk by chunk along a long path, whose models are
+        then only made for the leaders: ``models`` need only ``dim``,
+        ``batch_shape`` and ``take``); one scenario only. Consumed
+        (:func:`group_features`). Same groups as from the models.
 
     Returns
     -------
@@ -431,6 +514,14 @@ def waypoint_lobes(
             pos_b = np.full(n, -1, np.int64)
             pos_b[idx_b] = np.arange(idx_b.size)
             lead_b = pos_b[reuse.leader]
+        elif features is not None:
+            if len(models) != 1 or features.shape[0] != idx_b.size:
+                raise InputError(
+                    f"features: expected one scenario and {idx_b.size} rows, found "
+                    f"{len(models)} scenarios and {features.shape[0]} rows"
+                )
+            g_b, lead_b = group_features(features, tol or DynamicsTolerance())
+            features = None  # consumed: not held through the lobes
         else:
             # group on all scenarios together so that a group is uniform in each
             # (h-long: built only here, and no copy of a lone nominal without plunges)
@@ -765,11 +856,14 @@ def steep_members(
     if cand.size == 0:
         return out
     t = np.linspace(-1.0, 1.0, 9)
-    r = np.asarray(rpm, dtype=np.float64)[cand, None] * (1.0 + shift * t)
-    r = np.clip(r, tab.rpm[0], tab.rpm[-1])
-    a = tab.rows(r, g[cand])
-    with np.errstate(invalid="ignore", divide="ignore"):
-        var = np.max(a, axis=1) / np.min(a, axis=1)
-    out[cand] = ~(var <= ratio)  # NaN (inf / inf) counts as steep
-    out[cand] &= np.isfinite(np.min(a, axis=1))
+    rpm = np.asarray(rpm, dtype=np.float64)
+    # in blocks: the (n, 9) speeds and limits of a long path at once would add to its peak
+    # memory (each row's limits are its own: the same values)
+    for s in range(0, cand.size, _BLOCK):
+        c = cand[s : s + _BLOCK]
+        r = np.clip(rpm[c, None] * (1.0 + shift * t), tab.rpm[0], tab.rpm[-1])
+        a = tab.rows(r, g[c])
+        with np.errstate(invalid="ignore", divide="ignore"):
+            var = np.max(a, axis=1) / np.min(a, axis=1)
+        out[c] = ~(var <= ratio) & np.isfinite(np.min(a, axis=1))  # NaN (inf/inf): steep
     return out

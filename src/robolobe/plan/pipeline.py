@@ -33,10 +33,10 @@ import logging
 import math
 import os
 import time
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, overload
+from typing import Any, cast, overload
 
 import numpy as np
 import pandas as pd
@@ -113,8 +113,6 @@ class PlanResult:
         Row of each cutting waypoint in ``table``.
     q : ndarray, shape (n, 6)
         Postures [rad].
-    modes : RobotModes
-        Robot modes at the cutting waypoints.
     geom : PathGeometry
         Cutting lengths and rapid time.
     summary : dict
@@ -132,7 +130,6 @@ class PlanResult:
     lobes: GroupedLobes
     cut_index: NDArray[np.int64]
     q: FloatArray
-    modes: RobotModes
     geom: PathGeometry
     summary: dict[str, Any]
     timings: dict[str, float] = field(default_factory=dict)
@@ -478,14 +475,21 @@ def _lobes_for_rotation(
 ) -> tuple[
     FloatArray,
     FloatArray,
-    RobotModes,
+    RobotModes | _ModeColumns,
     NDArray[np.bool_],
     GroupedLobes,
     dict[str, float],
     FloatArray,
     RobustBound | None,
-    FloatArray,
+    Callable[[NDArray[np.bool_], GroupedLobes], GroupedLobes],
 ]:
+    """Postures, modes (or their table columns), lobes of the path at one tool rotation.
+
+    The last item, ``split(own, reuse)``, gives the lobes again with ``own``
+    waypoints on lobes of their own (:func:`cut_lobes`'s ``own``/``reuse``).
+    A path of at least :data:`_STREAM_MIN` cutting waypoints is streamed
+    (:func:`_streamed_lobes`) unless the plan is robust.
+    """
     timings: dict[str, float] = {}
     t = time.perf_counter()
     poses, r_wp = tcp_targets(wp, robot, job.placement, rotation)
@@ -495,6 +499,13 @@ def _lobes_for_rotation(
     f_tcp = np.einsum("nji,nj->ni", poses[ci, :3, :3], f_path @ r_wp.T)
     del poses, f_path  # (n, 4, 4): not needed past here
     timings["ik"] = time.perf_counter() - t
+    if ci.size >= _STREAM_MIN:
+        q_cut = q if ci.size == q.shape[0] else q[ci]  # (not a copy of every posture)
+        streamed = _streamed_lobes(job, source, q_cut, f_tcp, material, tool, rpm, ci, len(wp))
+        if streamed is not None:
+            cols, plunge, grouped, t_lobes, feed_angle, split_s = streamed
+            timings.update(t_lobes)
+            return q, wm, cols, plunge, grouped, timings, feed_angle, None, split_s
     t = time.perf_counter()
     modes = _predict_modes(source, q[ci])
     timings["modes"] = time.perf_counter() - t
@@ -503,7 +514,232 @@ def _lobes_for_rotation(
         job, modes, f_tcp, material, tool, rpm
     )
     timings.update(t_lobes)
-    return q, wm, modes, plunge, grouped, timings, feed_angle, bound, f_tcp
+
+    def split(own: NDArray[np.bool_], reuse: GroupedLobes) -> GroupedLobes:
+        return cut_lobes(job, modes, f_tcp, material, tool, rpm, own=own, reuse=reuse)[2]
+
+    return q, wm, modes, plunge, grouped, timings, feed_angle, bound, split
+
+
+#: Cutting waypoints from which a nominal plan streams the modes (:func:`_streamed_lobes`).
+_STREAM_MIN = 4 * _CHUNK
+#: Waypoints per chunk of the streamed pass: each thread holds one chunk's temporaries
+#: (the twin's ~10 kB per posture), which add to the peak.
+_STREAM_CHUNK = _CHUNK // 2
+
+
+@dataclass(frozen=True)
+class _ModeColumns:
+    """What the result table and the summary read of the robot modes (a streamed plan
+    keeps these, not the models).
+
+    Attributes
+    ----------
+    columns : dict of str to ndarray, shape (n_waypoints,)
+        The table's mode columns ``f{r}_{d}_hz``, ``zeta{r}_{d}``,
+        ``k{r}_{d}_N_per_m`` in the table's order (NaN off the cut), made
+        once: the table takes them as they are.
+    extrapolation : ndarray, shape (n_cut,) or None
+    """
+
+    columns: dict[str, FloatArray]
+    extrapolation: FloatArray | None
+
+
+def _mode_column_names(m: int) -> list[tuple[str, int, int, str]]:
+    """(column, direction, mode, quantity) of the result table's mode columns, in order."""
+    out = []
+    for d, dn in enumerate("xyz"):
+        for r in range(m):
+            for name, unit in (("f", "_hz"), ("zeta", ""), ("k", "_N_per_m")):
+                out.append((f"{name}{r + 1}_{dn}{unit}", d, r, name))
+    return out
+
+
+class _StreamedModels:
+    """Nominal feed-frame tool-point models of the cutting waypoints, made when taken.
+
+    Stands for the :class:`ModalModel` of all of them (dim 2, batch (n,)) in
+    :func:`~robolobe.plan.lobes.waypoint_lobes`, which takes only the
+    leaders': each taken model is that of the whole batch (modes and models
+    are per waypoint).
+
+    Parameters
+    ----------
+    source : ModeSource
+    q : ndarray, shape (n, 6)
+        Cutting postures [rad].
+    f_use : ndarray, shape (n, 3)
+        Feed directions in the TCP frame (plunges replaced, as in :func:`cut_lobes`).
+    tool : ModalModel or None
+    """
+
+    dim = 2
+
+    def __init__(
+        self, source: ModeSource, q: FloatArray, f_use: FloatArray, tool: ModalModel | None
+    ) -> None:
+        self.source, self.q, self.f_use, self.tool = source, q, f_use, tool
+        self.batch_shape = (int(q.shape[0]),)
+        # the last models taken: the lobes take the leaders', the steep-wall split
+        # takes them again with a few more (only those are made)
+        self._last: tuple[NDArray[np.int64], ModalModel] | None = None
+
+    def _make(self, idx: NDArray[np.int64]) -> ModalModel:
+        modes = _predict_modes(self.source, self.q[idx])
+        rot = feed_frame(self.f_use[idx], (0.0, 0.0, -1.0), rotation="cw")
+        return _tool_point_models(rot, modes.model, self.tool)
+
+    def take(self, index: Any) -> ModalModel:
+        """The models of waypoints ``index`` (int, slice or array of int)."""
+        idx = np.atleast_1d(np.arange(self.batch_shape[0])[index]).astype(np.int64)
+        out = None
+        if self._last is not None:
+            known, model = self._last
+            kidx = pd.Index(known)
+            if kidx.is_unique:
+                pos = np.asarray(kidx.get_indexer(pd.Index(idx)), np.int64)
+                have = pos >= 0
+                if np.all(have):
+                    out = model.take(pos)
+                elif np.any(have):
+                    new = self._make(idx[~have])
+                    old = model.take(pos[have])
+                    arrays = []
+                    for name in ("omega", "zeta", "residues"):
+                        a_old, a_new = getattr(old, name), getattr(new, name)
+                        a = np.empty((idx.size, *a_old.shape[1:]), a_old.dtype)
+                        a[have], a[~have] = a_old, a_new
+                        arrays.append(a)
+                    out = ModalModel(*arrays)
+        if out is None:
+            out = self._make(idx)
+        self._last = (idx, out)
+        return out
+
+
+def _streamed_lobes(
+    job: Job,
+    source: ModeSource,
+    q: FloatArray,
+    f_tcp: FloatArray,
+    material: Material,
+    tool: ModalModel | None,
+    rpm: FloatArray,
+    cut_rows: NDArray[np.int64],
+    n_rows: int,
+) -> (
+    tuple[
+        _ModeColumns,
+        NDArray[np.bool_],
+        GroupedLobes,
+        dict[str, float],
+        FloatArray,
+        Callable[[NDArray[np.bool_], GroupedLobes], GroupedLobes],
+    ]
+    | None
+):
+    """:func:`cut_lobes` for a long path without keeping every waypoint's models.
+
+    Chunks of :data:`_STREAM_CHUNK` cutting waypoints (on up to :data:`_THREADS`
+    threads) pass through the modes, the feed-frame models and the grouping
+    features; only the features and the modes' table columns are kept, and
+    the leaders' models are made again for their lobes
+    (:class:`_StreamedModels`). The same groups, lobes and columns as
+    :func:`cut_lobes` after :func:`_predict_modes` (every step is per
+    waypoint). ``cut_rows`` (n,): the waypoint table's row of each cutting
+    waypoint, of ``n_rows``.
+
+    Returns
+    -------
+    tuple or None
+        The table's mode columns, the plunge mask, the grouped lobes, the
+        timings (``modes`` covers the feed-frame models and the features too,
+        ``frf`` is 0), the feed angles [deg] and ``split(own, reuse)`` (the
+        steep-wall split, as :func:`cut_lobes` with ``own``/``reuse``); None
+        for a robust plan (its bound needs every waypoint's modes at once:
+        the caller plans in memory).
+    """
+    from robolobe.plan.lobes import _features
+    from robolobe.sld.directional import directional_factors
+
+    t = time.perf_counter()
+    n = q.shape[0]
+    plunge = _feed_lateral(f_tcp) < PLUNGE_LATERAL
+    f_use = np.where(plunge[:, None], [[1.0, 0.0, 0.0]], f_tcp)
+    args = _lobe_args(job, material, rpm)
+    tol = args["tol"]
+    alpha = directional_factors(args["phi_entry"], args["phi_exit"], args["kr"])
+    n_before = np.r_[0, np.cumsum(~plunge)]  # bounded waypoints before each row
+
+    def work(c0: int) -> tuple[RobotModes, FloatArray]:
+        rows = slice(c0, c0 + _STREAM_CHUNK)
+        md = source.predict(q[rows])
+        rot = feed_frame(f_use[rows], (0.0, 0.0, -1.0), rotation="cw")
+        model = tool_point_model(rot, md.model, tool)
+        b = ~plunge[rows]
+        return md, _features(model if b.all() else model.take(np.flatnonzero(b)), tol, alpha)
+
+    md0, f0 = work(0)  # alone: a source's lazy set-up happens once
+    if plan_bound(job.plan, md0, None)[1]:
+        return None
+    # held here only until waypoint_lobes takes it over (it frees it after grouping)
+    held = [np.empty((int(n_before[-1]), f0.shape[1]))]
+    names = _mode_column_names(md0.f_hz.shape[-1])
+    # a quantity the same bit for bit in every direction (the twin's coupled modes'
+    # frequency and damping) is one array in the three columns while it stays so
+    # (the table shares it: pandas copies on write)
+    first = {(r, name): c for c, d, r, name in reversed(names)}  # direction x's column
+    base = {c: first[(r, name)] for c, d, r, name in names}
+    shared = {c for c, d, r, name in names if d > 0 and name != "k"}
+    columns: dict[str, FloatArray] = {}
+    for c, *_ in names:
+        columns[c] = columns[base[c]] if c in shared else np.full(n_rows, np.nan)
+    cols = _ModeColumns(columns, None if md0.extrapolation is None else np.empty(n))
+
+    def put(c0: int, md: RobotModes, f: FloatArray) -> None:
+        c1 = c0 + md.f_hz.shape[0]
+        rows = cut_rows[c0:c1]
+        arrs = {"f": md.f_hz, "zeta": md.zeta, "k": md.k_N_per_m}
+        for c, d, r, name in names:  # direction x (a shared column's base) first
+            v = arrs[name][:, d, r]
+            if c in shared:
+                if np.array_equal(v.view(np.int64), arrs[name][:, 0, r].view(np.int64)):
+                    continue
+                shared.discard(c)  # differs here: a column of its own from now on
+                columns[c] = columns[base[c]].copy()
+            columns[c][rows] = v
+        if cols.extrapolation is not None:
+            cols.extrapolation[c0:c1] = md.extrapolation
+        held[0][n_before[c0] : n_before[c1]] = f
+
+    put(0, md0, f0)
+    del md0, f0
+    rest = list(range(_STREAM_CHUNK, n, _STREAM_CHUNK))
+    if _THREADS > 1 and len(rest) > 1:
+        from concurrent.futures import ThreadPoolExecutor
+
+        from robolobe._threads import one_blas_thread
+
+        with one_blas_thread(), ThreadPoolExecutor(_THREADS) as ex:
+            for c0, (md, f) in zip(rest, ex.map(work, rest), strict=True):
+                put(c0, md, f)
+                del md, f
+    else:
+        for c0 in rest:
+            put(c0, *work(c0))
+    timings = {"modes": time.perf_counter() - t, "frf": 0.0}
+    t = time.perf_counter()
+    # waypoint_lobes needs only dim, batch_shape and take of the models given features
+    models = cast("ModalModel", _StreamedModels(source, q, f_use, tool))
+    grouped = waypoint_lobes([models], unbounded=plunge, features=held.pop(), **args)
+    timings["lobes"] = time.perf_counter() - t
+    feed_angle = np.degrees(np.arctan2(f_use[:, 1], f_use[:, 0]))
+
+    def split(own: NDArray[np.bool_], reuse: GroupedLobes) -> GroupedLobes:
+        return waypoint_lobes([models], unbounded=plunge, own=own, reuse=reuse, **args)
+
+    return cols, plunge, grouped, timings, feed_angle, split
 
 
 def _tool_point_models(
@@ -558,6 +794,31 @@ def _tool_point_models(
         for c0 in rest:
             put(c0, part(c0))
     return ModalModel(w, z, a)
+
+
+def _lobe_args(
+    job: Job, material: Material, rpm: FloatArray, dynamics_tol: float | None = None
+) -> dict[str, Any]:
+    """The job's arguments of :func:`~robolobe.plan.lobes.waypoint_lobes` (cut, grid, tolerance)."""
+    st, ex = engagement_angles(job.radial_immersion, job.cut.milling)
+    dt = job.plan.dynamics_tol if dynamics_tol is None else dynamics_tol
+    tol = DynamicsTolerance(
+        freq=dt,
+        damping=10 * dt,
+        residue=7 * dt,
+        freq_low=10 * dt / 3,
+        f_low_hz=0.5 * job.spindle.rpm_min * job.tool.teeth / 60.0,
+    )
+    return {
+        "teeth": job.tool.teeth,
+        "kt": material.kt,
+        "kr": material.kr,
+        "phi_entry": st,
+        "phi_exit": ex,
+        "rpm": rpm,
+        "immersion": job.radial_immersion,
+        "tol": tol,
+    }
 
 
 def cut_lobes(
@@ -627,29 +888,13 @@ def cut_lobes(
         models.append(_tool_point_models(rot, bound.model, tool))
     timings["frf"] = time.perf_counter() - t
     t = time.perf_counter()
-    st, ex = engagement_angles(job.radial_immersion, job.cut.milling)
-    dt = job.plan.dynamics_tol if dynamics_tol is None else dynamics_tol
-    tol = DynamicsTolerance(
-        freq=dt,
-        damping=10 * dt,
-        residue=7 * dt,
-        freq_low=10 * dt / 3,
-        f_low_hz=0.5 * job.spindle.rpm_min * job.tool.teeth / 60.0,
-    )
     grouped = waypoint_lobes(
         models,
-        teeth=job.tool.teeth,
-        kt=material.kt,
-        kr=material.kr,
-        phi_entry=st,
-        phi_exit=ex,
-        rpm=rpm,
-        immersion=job.radial_immersion,
         unbounded=plunge,
-        tol=tol,
         window=None if bound is None else bound.window,
         own=own,
         reuse=reuse,
+        **_lobe_args(job, material, rpm, dynamics_tol),
     )
     timings["lobes"] = time.perf_counter() - t
     feed_angle = np.degrees(np.arctan2(f_use[:, 1], f_use[:, 0]))
@@ -735,7 +980,7 @@ def plan_path(
         rotation, rot_note = _stiffest_rotation(
             job, wp, robot, source, cut, material, tool, rpm, cons
         )
-    q, wm, modes, plunge, grouped, t_stage, feed_angle, bound, f_tcp = _lobes_for_rotation(
+    q, wm, modes, plunge, grouped, t_stage, feed_angle, bound, split = _lobes_for_rotation(
         job, wp, robot, source, rotation, cut, material, tool, rpm
     )
     timings.update(t_stage)
@@ -767,9 +1012,7 @@ def plan_path(
     n_split = int(steep.sum())
     if n_split:
         t_split = time.perf_counter()
-        _, _, grouped, _, _, _ = cut_lobes(
-            job, modes, f_tcp, material, tool, rpm, own=steep, reuse=grouped
-        )
+        grouped = split(steep, grouped)
         timings["lobes"] += time.perf_counter() - t_split
         outcome = schedule(grouped.table)
     timings["optimize"] = time.perf_counter() - t
@@ -818,7 +1061,6 @@ def plan_path(
         lobes=grouped,
         cut_index=ci.astype(np.int64),
         q=q,
-        modes=modes,
         geom=geom,
         summary=summary,
         timings=timings,
@@ -873,11 +1115,19 @@ def _stiffest_rotation(
 
 
 # ------------------------------------------------------------------ outputs
+def _string_column(col: pd.Series) -> Any:
+    """A string column for the result table: its own array when pandas stores it as
+    strings (immutable, shared without a copy), else its values as before."""
+    if isinstance(col.dtype, pd.StringDtype):
+        return col.array
+    return col.to_numpy()
+
+
 def _result_table(
     wp: pd.DataFrame,
     q: FloatArray,
     wm: FloatArray,
-    modes: RobotModes,
+    modes: RobotModes | _ModeColumns,
     grouped: GroupedLobes,
     outcome: PlanOutcome,
     ci: NDArray[np.int64],
@@ -889,10 +1139,14 @@ def _result_table(
 ) -> pd.DataFrame:
     n = len(wp)
     best = outcome.best
+    # the masks once, from the string column (not an object array of it per use)
+    is_cut = (wp["motion"] == "cut").to_numpy(dtype=bool)
+    is_rapid = (wp["motion"] == "rapid").to_numpy(dtype=bool)
     cols: dict[str, Any] = {
-        "source": wp["source"].to_numpy(),
+        # the waypoint table's own string arrays (immutable: shared, not converted)
+        "source": _string_column(wp["source"]),
         "line": wp["line"].to_numpy(),
-        "motion": wp["motion"].to_numpy(),
+        "motion": _string_column(wp["motion"]),
         "x_mm": wp["x_m"].to_numpy() * 1e3,
         "y_mm": wp["y_m"].to_numpy() * 1e3,
         "z_mm": wp["z_m"].to_numpy() * 1e3,
@@ -904,14 +1158,14 @@ def _result_table(
     fa = np.full(n, np.nan)
     fa[ci] = np.where(plunge, np.nan, feed_angle)
     cols["feed_angle_deg"] = fa
-    m = modes.f_hz.shape[-1]
-    for d, dn in enumerate("xyz"):
-        for r in range(m):
-            for name, arr in (("f", modes.f_hz), ("zeta", modes.zeta), ("k", modes.k_N_per_m)):
-                v = np.full(n, np.nan)
-                v[ci] = arr[:, d, r]
-                unit = {"f": "_hz", "zeta": "", "k": "_N_per_m"}[name]
-                cols[f"{name}{r + 1}_{dn}{unit}"] = v
+    if isinstance(modes, _ModeColumns):
+        cols.update(modes.columns)  # made whole while streaming (not copied)
+    else:
+        arrs = {"f": modes.f_hz, "zeta": modes.zeta, "k": modes.k_N_per_m}
+        for c, d, r, name in _mode_column_names(modes.f_hz.shape[-1]):
+            v = np.full(n, np.nan)
+            v[ci] = arrs[name][:, d, r]
+            cols[c] = v
     ex = np.full(n, np.nan)
     if modes.extrapolation is not None:
         ex[ci] = modes.extrapolation
@@ -934,27 +1188,25 @@ def _result_table(
     alim[ci] = np.where(np.isfinite(best.a_lim_m), best.a_lim_m * 1e3, np.nan)
     cols["a_lim_mm"] = alim
     # speed along the whole path: the schedule at each waypoint's cutting length
-    s_all = np.cumsum(np.where(wp["motion"].to_numpy() == "cut", seg, 0.0))
+    s_all = np.cumsum(np.where(is_cut, seg, 0.0))
     if best.knots_rpm.size >= 2:
         rpm_all = np.interp(s_all, best.knots_s_m, best.knots_rpm)
     else:
         rpm_all = np.full(n, float(best.rpm[0]))
     rpm_all[ci] = best.rpm
     cols["rpm"] = rpm_all
-    cols["depth_mm"] = np.where(wp["motion"].to_numpy() == "cut", best.depth_m * 1e3, np.nan)
+    cols["depth_mm"] = np.where(is_cut, best.depth_m * 1e3, np.nan)
     mg = np.full(n, np.nan)
     mg[ci] = np.where(np.isfinite(best.margin), best.margin, np.nan)
     cols["margin"] = mg
     lim = np.full(n, "", dtype=object)
     lim[ci] = np.where(plunge, "plunge", outcome.limiting)
-    lim[wp["motion"].to_numpy() == "rapid"] = "rapid"
+    lim[is_rapid] = "rapid"
     cols["limiting"] = lim
     pw = np.full(n, np.nan)
     pw[ci] = outcome.power_W * 1e-3
     cols["power_kW"] = pw
-    cols["feed_mm_per_min"] = np.where(
-        wp["motion"].to_numpy() == "cut", cons.feed_per_rev_m * rpm_all * 1e3, np.nan
-    )
+    cols["feed_mm_per_min"] = np.where(is_cut, cons.feed_per_rev_m * rpm_all * 1e3, np.nan)
     cols["rpm_programmed"] = wp["rpm_programmed"].to_numpy()
     # the columns as they are (not consolidated into one block: a copy of the table)
     return pd.DataFrame(cols, copy=False)
@@ -1069,7 +1321,7 @@ def _summary(
     grouped: GroupedLobes,
     outcome: PlanOutcome,
     ci: NDArray[np.int64],
-    modes: RobotModes,
+    modes: RobotModes | _ModeColumns,
     cons: Constraints,
     geom: PathGeometry,
     bound: RobustBound | None = None,
