@@ -169,7 +169,14 @@ def joint_axes(robot: Robot, frames: FloatArray) -> tuple[FloatArray, FloatArray
     return frames[..., sl, :3, 2], frames[..., sl, :3, 3]
 
 
-def frame_jacobians(robot: Robot, q: ArrayLike, points_m: ArrayLike | None = None) -> FloatArray:
+def frame_jacobians(
+    robot: Robot,
+    q: ArrayLike,
+    points_m: ArrayLike | None = None,
+    *,
+    point_frames: ArrayLike | None = None,
+    frames: FloatArray | None = None,
+) -> FloatArray:
     """Geometric Jacobians of points fixed in frames 1..7, all at once.
 
     Parameters
@@ -177,30 +184,39 @@ def frame_jacobians(robot: Robot, q: ArrayLike, points_m: ArrayLike | None = Non
     robot : Robot
     q : array_like, shape (..., 6)
         Controller axis angles [rad].
-    points_m : array_like, shape (7, 3), optional
-        Point [m] in each of frames 1..7 (row k for frame k+1); origins if
-        omitted (e.g. pass the link COMs to get the COM Jacobians).
+    points_m : array_like, shape (m, 3), optional
+        Points [m], row k fixed in frame ``point_frames[k]``; default: the
+        origins of frames 1..7 (pass the link COMs to get the COM Jacobians).
+    point_frames : array_like of int, shape (m,), optional
+        Frame of each point, 1..6 = DH frames, 7 = TCP; default 1..7 (then
+        ``m`` must be 7).
+    frames : ndarray, shape (..., 8, 4, 4), optional
+        ``link_frames(robot, q)`` if already computed.
 
     Returns
     -------
-    ndarray, shape (..., 7, 6, 6)
+    ndarray, shape (..., m, 6, 6)
         World-frame ``[v; w]`` Jacobians with respect to q (coupling
-        included); entry k belongs to frame k+1.
+        included); entry k belongs to point k.
     """
-    frames = link_frames(robot, q)
+    if frames is None:
+        frames = link_frames(robot, q)
     pts = np.zeros((7, 3)) if points_m is None else np.asarray(points_m, dtype=np.float64)
-    if pts.shape != (7, 3):
-        raise InputError(f"points_m: expected shape (7, 3), found {pts.shape}")
-    fr = frames[..., 1:, :, :]  # (..., 7, 4, 4)
+    fidx = np.arange(1, 8) if point_frames is None else np.asarray(point_frames, dtype=np.intp)
+    if fidx.ndim != 1 or np.any((fidx < 1) | (fidx > 7)):
+        raise InputError(f"point_frames: expected frame numbers 1..7, found {fidx.tolist()}")
+    if pts.shape != (fidx.size, 3):
+        raise InputError(f"points_m: expected shape ({fidx.size}, 3), found {pts.shape}")
+    fr = frames[..., fidx, :, :]  # (..., m, 4, 4)
     p = (fr[..., :3, :3] @ pts[..., None])[..., 0] + fr[..., :3, 3]  # (..., 7, 3)
     z, o = joint_axes(robot, frames)  # (..., 6, 3)
     # lever[..., k, j] = p_k - o_j
-    lever = p[..., :, None, :] - o[..., None, :, :]  # (..., 7, 6, 3)
+    lever = p[..., :, None, :] - o[..., None, :, :]  # (..., m, 6, 3)
     zb = np.broadcast_to(z[..., None, :, :], lever.shape)
     jv = np.cross(zb, lever)
-    # joint j (0-based) moves frame k+1 (0-based k) iff j <= k
-    mask = (np.arange(6)[None, :] <= np.arange(7)[:, None]).astype(np.float64)  # (7, 6)
-    jt = np.empty((*lever.shape[:-1], 6))  # (..., 7, 6, 6) as [k, j, row]
+    # joint j (0-based) moves frame f iff j <= f - 1
+    mask = (np.arange(6)[None, :] <= (fidx - 1)[:, None]).astype(np.float64)  # (m, 6)
+    jt = np.empty((*lever.shape[:-1], 6))  # (..., m, 6, 6) as [k, j, row]
     jt[..., :3] = jv
     jt[..., 3:] = zb
     jt = jt * mask[..., None]

@@ -162,7 +162,36 @@ def robot_bodies(robot: Robot, q: ArrayLike, frames: FloatArray | None = None) -
     BodySet
         6 or 7 bodies (the end effector only if the robot has one), 6 DOFs.
     """
-    qq = _q(q)
+    return _bodies(robot, _q(q), frames, with_tcp=False)[0]
+
+
+def bodies_and_tcp_jacobian(
+    robot: Robot, q: ArrayLike, frames: FloatArray | None = None
+) -> tuple[BodySet, FloatArray]:
+    """:func:`robot_bodies` and the TCP origin's Jacobian in one kinematic pass.
+
+    Parameters
+    ----------
+    robot : Robot
+    q : array_like, shape (..., 6)
+        Controller axis angles [rad].
+    frames : ndarray, shape (..., 8, 4, 4), optional
+        ``link_frames(robot, q)`` if already computed.
+
+    Returns
+    -------
+    bodies : BodySet
+    tcp_jacobian : ndarray, shape (..., 6, 6)
+        World-frame ``[v; w]`` of the TCP origin (``point_jacobian(robot, q, 7)``).
+    """
+    bodies, tcp = _bodies(robot, _q(q), frames, with_tcp=True)
+    assert tcp is not None
+    return bodies, tcp
+
+
+def _bodies(
+    robot: Robot, qq: FloatArray, frames: FloatArray | None, *, with_tcp: bool
+) -> tuple[BodySet, FloatArray | None]:
     fr = link_frames(robot, qq) if frames is None else frames
     bodies = [j.body for j in robot.joints]
     names = [f"link{i + 1}" for i in range(6)]
@@ -174,12 +203,16 @@ def robot_bodies(robot: Robot, q: ArrayLike, frames: FloatArray | None = None) -
         names.append("end_effector")
         pts[6] = robot.end_effector.com_m
     nb = len(bodies)
-    jac = frame_jacobians(robot, qq, pts)[..., :nb, :, :]  # (..., nb, 6, 6)
+    # one pass over the kinematics: the seven COM points, then the TCP origin
+    pts8 = np.vstack([pts, np.zeros((1, 3))]) if with_tcp else pts
+    frame_of = np.arange(1, 9 if with_tcp else 8).clip(max=7)
+    jac_all = frame_jacobians(robot, qq, pts8, point_frames=frame_of, frames=fr)
+    jac = jac_all[..., :nb, :, :]  # (..., nb, 6, 6)
     rot = fr[..., 1 : nb + 1, :3, :3]  # frames 1..6 (links), 7 (TCP = end effector)
     com = (rot @ pts[:nb, :, None])[..., 0] + fr[..., 1 : nb + 1, :3, 3]
     inertia_local = np.stack([b.inertia_kgm2 for b in bodies])  # (nb, 3, 3)
     inertia = rot @ inertia_local @ np.swapaxes(rot, -1, -2)
-    return BodySet(
+    body_set = BodySet(
         names=tuple(names),
         mass_kg=np.array([b.mass_kg for b in bodies]),
         com_m=com,
@@ -187,6 +220,7 @@ def robot_bodies(robot: Robot, q: ArrayLike, frames: FloatArray | None = None) -
         jv=jac[..., :3, :],
         jw=jac[..., 3:, :],
     )
+    return body_set, (jac_all[..., 7, :, :] if with_tcp else None)
 
 
 def mass_matrix(robot: Robot, q: ArrayLike) -> FloatArray:

@@ -22,9 +22,9 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from robolobe.robots import Robot, link_frames, point_jacobian
+from robolobe.robots import Robot, link_frames
 from robolobe.robots.kinematics import TCP_FRAME, joint_axes
-from robolobe.twin.dynamics import BodySet, _q, gravity_torques, robot_bodies
+from robolobe.twin.dynamics import BodySet, _q, bodies_and_tcp_jacobian, gravity_torques
 
 __all__ = ["JOINT_DOFS", "SystemMatrices", "compliance_dofs", "load_stiffened", "nominal_system"]
 
@@ -304,8 +304,7 @@ def nominal_system(robot: Robot, q: ArrayLike) -> SystemMatrices:
     qq = _q(q)
     batch = qq.shape[:-1]
     frames = link_frames(robot, qq)
-    tcp = point_jacobian(robot, qq, TCP_FRAME)
-    bodies = robot_bodies(robot, qq, frames)
+    bodies, tcp = bodies_and_tcp_jacobian(robot, qq, frames)
     k = np.broadcast_to(robot.stiffness, (*batch, 6))
     if robot.has_load_stiffening:
         k = load_stiffened(k, robot.load_stiffening, gravity_torques(robot, qq, bodies))
