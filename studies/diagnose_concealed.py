@@ -95,7 +95,8 @@ def main(argv: list[str] | None = None) -> int:
         print(
             f"[{i + 1}/{len(cases)}] {c.robot} {c.label} (file off {c.file_error:g}): "
             f"{r.verdict} [{'; '.join(r.closest) or '-'}] {tag}, misfit {r.misfit_x_noise:.1f}x "
-            f"noise, FRAC {r.frac_before:.3f} -> {r.frac_after:.3f}, {r.seconds:.0f} s",
+            f"noise, FRAC {r.frac_before:.3f} -> {r.frac_after:.3f}, {r.seconds:.0f} s wall, "
+            f"{r.cpu_seconds:.0f} s CPU, load {os.getloadavg()[0]:.1f}",
             flush=True,
         )
     df = results_frame(results)
@@ -109,8 +110,9 @@ def main(argv: list[str] | None = None) -> int:
             print(f"\nseed table of {rb}: {r.verdict}\n  {r.summary}", flush=True)
         results_frame(rows).to_csv(a.out / "seed_tables.csv", index=False)
     print(
-        f"\ntotal {time.perf_counter() - t0:.0f} s; median {df['seconds'].median():.0f} s per "
-        f"case; load average {os.getloadavg()[0]:.1f}; wrote {a.out}/cases.csv"
+        f"\ntotal {time.perf_counter() - t0:.0f} s; median per case {df['seconds'].median():.0f} s "
+        f"wall, {df['cpu_seconds'].median():.0f} s CPU (max {df['cpu_seconds'].max():.0f} s); "
+        f"load average {os.getloadavg()[0]:.1f}; wrote {a.out}/cases.csv"
     )
     return 0
 

@@ -4,7 +4,14 @@ Round 1 is the one-candidate selection of :func:`robolobe.diagnose.selection.sel
 over the whole library (the file calibration included). If it names a
 candidate, that candidate joins the model and round 2 fits every remaining
 candidate *on top of it* (the earlier ones fixed at their fit), selects
-again, and so on. Fixed earlier steps hide an effect they have partly
+again, and so on. Round 2 fits the whole remaining library: how well a
+candidate fits the nominal model says nothing about how it fits on top of a
+large effect (next to a 24 Hz tool mode that puts the nominal model at 15x
+the noise, a gravity stiffening ranked 40th of 46 by round-1 BIC, below
+``none``, and a screen by the round-1 ranking never tried it again). Later
+rounds fit the ``screen_k`` candidates best by the previous round's BIC
+(on top of all but the latest step), the file calibration and ``none``.
+Fixed earlier steps hide an effect they have partly
 absorbed (the file calibration's stiffness factors take up part of a
 gravity stiffening, and the gravity term on top of them then gains too
 little), so from round 2 on the round's winner and the next
@@ -97,8 +104,8 @@ class ForwardSettings:
         stopped a calibrated file at 0.86x on robot C before its gravity
         stiffening was tried).
     screen_k : int
-        Candidates refitted in rounds after the first: those that improved
-        the nominal model's BIC most in round 1 (and the file calibration).
+        Candidates refitted in rounds after the second: those best by BIC in
+        the previous round (and the file calibration; round 2 fits all).
     max_misfit_x_noise : float
         Above this held-out misfit (either measure) the recordings are unexplained.
     joint_max_nfev : int
@@ -377,11 +384,11 @@ def _joint_round(
 
 
 def _screen(
-    remaining: Sequence[Candidate], round1: Sequence[CandidateFit], k: int
+    remaining: Sequence[Candidate], previous: Sequence[CandidateFit], k: int
 ) -> list[Candidate]:
-    """``none``, the calibration and the ``k`` remaining candidates best by round-1 BIC."""
+    """``none``, the calibration and the ``k`` remaining candidates best by the previous BIC."""
     labels = {c.label for c in remaining}
-    ranked = [f for f in sorted(round1, key=lambda f: f.bic) if f.candidate.label in labels]
+    ranked = [f for f in sorted(previous, key=lambda f: f.bic) if f.candidate.label in labels]
     keep = {f.candidate.label for f in ranked if f.candidate.require_identifiable}
     top = [f.candidate.label for f in ranked if f.candidate.label in keep][:k]
     return [c for c in remaining if c.name == NONE or not c.require_identifiable or c.label in top]
@@ -428,6 +435,7 @@ def forward_select(
     rounds: list[Selection] = []
     rejected: list[str] = []
     round1: list[CandidateFit] = []
+    prev_fits: list[CandidateFit] = []
     joint: CandidateFit | None = None
     joint_cv: CrossValidation | None = None
     base_cv: CrossValidation | None = None
@@ -437,7 +445,8 @@ def forward_select(
         base = joint.candidate.effects(joint.params) if joint is not None else ()
         m_r = _on_top(model, tuple(base))
         fits: list[CandidateFit] = []
-        todo = remaining if r == 0 else _screen(remaining, round1, st.screen_k)
+        # round 2 fits everything on top of the first step (module notes)
+        todo = remaining if r <= 1 else _screen(remaining, prev_fits, st.screen_k)
         total = len(todo)
         for i, c in enumerate(todo):
             if progress is not None:
@@ -445,6 +454,7 @@ def forward_select(
             fits.append(fit_one(c, m_r, obs_fit))
         if r == 0:
             round1 = fits
+        prev_fits = fits
         if progress is not None:
             progress(f"round {r + 1}: cross-validating", total, total)
         sel = select(fits, m_r, obs_fit, obs_eval, sel_st)
