@@ -169,8 +169,9 @@ def _calibration_effect(fw: ForwardResult) -> str:
                 f"on top of {earlier} lowers the held-out misfit from "
                 f"{_x(fw.steps[i - 1].per_residual):.1f} to {_x(st.per_residual):.1f} x"
             )
-            if alone is not None:
-                what += f" (alone, on the nominal model's {base:.1f} x: {alone:.1f} x)"
+            what += f" the noise (the nominal file misses by {base:.1f} x"
+            what += f"; calibrating alone: {alone:.1f} x)" if alone is not None else ")"
+            return f"The robot file is globally off: calibrating its values {what}."
         return f"The robot file is globally off: calibrating its values {what} the noise."
     if alone is None:
         return ""
