@@ -4,8 +4,10 @@ from __future__ import annotations
 
 from types import SimpleNamespace
 
+import numpy as np
 import pytest
 
+from robolobe._threads import one_blas_thread
 from robolobe.diagnose.forward import ForwardSettings, forward_select
 
 
@@ -42,3 +44,16 @@ def test_later_rounds_are_not_screened_by_the_nominal_ranking(toy: SimpleNamespa
     assert names.index("sensor_delay") > names.index("none")  # the premise
     assert not fw.noise.unexplained
     assert tuple(s.candidate.name for s in fw.steps) == ("added_mass", "sensor_delay")
+
+
+def test_fits_over_workers_are_the_fits_of_one_process(toy: SimpleNamespace) -> None:
+    obs = toy.obs((("mass", 150.0), ("kx", 1.01)))
+    with one_blas_thread():  # as diagnose() runs it, and as the workers do
+        one = forward_select(toy.candidates(), toy.model, obs, obs)
+        two = forward_select(toy.candidates(), toy.model, obs, obs, n_jobs=2)
+    assert [s.label for s in two.steps] == [s.label for s in one.steps]
+    for a, b in zip(one.fits, two.fits, strict=True):
+        assert a.candidate.label == b.candidate.label
+        np.testing.assert_allclose(a.params, b.params, rtol=1e-9)
+        assert a.deviance == pytest.approx(b.deviance, rel=1e-9)
+    np.testing.assert_allclose(one.model_fit.params, two.model_fit.params, rtol=1e-9)

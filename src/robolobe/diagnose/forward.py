@@ -57,6 +57,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from robolobe._threads import one_blas_thread
 from robolobe.diagnose.calibration import CALIBRATION, FileParameters
 from robolobe.diagnose.candidate import NONE, Candidate
 from robolobe.diagnose.fitting import REL_STD_MAX, CandidateFit, ModelFn, fit_candidate
@@ -383,6 +384,53 @@ def _joint_round(
     return best
 
 
+FitOne = Callable[[Candidate, ModelFn, Observations], CandidateFit]
+
+
+def _fit_part(
+    fit_one: FitOne, cands: Sequence[Candidate], model: ModelFn, obs: Observations
+) -> list[CandidateFit]:
+    """``[fit_one(c, model, obs) for c in cands]`` with one BLAS thread (in a worker)."""
+    with one_blas_thread():
+        return [fit_one(c, model, obs) for c in cands]
+
+
+def _fit_round(
+    todo: Sequence[Candidate],
+    fit_one: FitOne,
+    model: ModelFn,
+    obs: Observations,
+    n_jobs: int,
+    tick: Callable[[int], None] | None = None,
+) -> list[CandidateFit]:
+    """Every candidate of a round fitted, in order; over ``n_jobs`` joblib workers if > 1.
+
+    The fits are independent and deterministic, so the workers give the
+    fits of one process (to round-off: 1e-12 relative). Each task carries a few candidates taken
+    round-robin (the costly file calibration and tool modes spread over the
+    workers) and one copy of the model and the records.
+    """
+    if n_jobs == 1 or len(todo) < 4:
+        out = []
+        for i, c in enumerate(todo):
+            if tick is not None:
+                tick(i)
+            out.append(fit_one(c, model, obs))
+        return out
+    from joblib import Parallel, delayed
+
+    n_parts = min(len(todo), 4 * (n_jobs if n_jobs > 0 else 2))
+    parts = [list(range(i, len(todo), n_parts)) for i in range(n_parts)]
+    done = Parallel(n_jobs=n_jobs)(
+        delayed(_fit_part)(fit_one, [todo[j] for j in part], model, obs) for part in parts
+    )
+    fits: list[CandidateFit | None] = [None] * len(todo)
+    for part, res in zip(parts, done, strict=True):
+        for j, f in zip(part, res, strict=True):
+            fits[j] = f
+    return [f for f in fits if f is not None]
+
+
 def _screen(
     remaining: Sequence[Candidate], previous: Sequence[CandidateFit], k: int
 ) -> list[Candidate]:
@@ -404,6 +452,7 @@ def forward_select(
     settings: ForwardSettings | None = None,
     fit: Callable[..., CandidateFit] | None = None,
     progress: Callable[[str, int, int], None] | None = None,
+    n_jobs: int = 1,
 ) -> ForwardResult:
     """Name candidates one after another while each beats the noise on held-out postures.
 
@@ -420,6 +469,9 @@ def forward_select(
         ``fit(candidate, model, obs) -> CandidateFit`` (default
         :func:`fit_candidate` with its defaults).
     progress : callable, optional
+    n_jobs : int
+        Workers for each round's candidate fits (1: in this process; -1: all
+        cores). The fits are the same either way (to round-off).
 
     Returns
     -------
@@ -444,14 +496,17 @@ def forward_select(
     for r in range(st.max_effects):
         base = joint.candidate.effects(joint.params) if joint is not None else ()
         m_r = _on_top(model, tuple(base))
-        fits: list[CandidateFit] = []
         # round 2 fits everything on top of the first step (module notes)
         todo = remaining if r <= 1 else _screen(remaining, prev_fits, st.screen_k)
         total = len(todo)
-        for i, c in enumerate(todo):
+
+        def tick(i: int, r: int = r, todo: Sequence[Candidate] = todo) -> None:
             if progress is not None:
-                progress(f"round {r + 1}: fitting {c.label}", i, total)
-            fits.append(fit_one(c, m_r, obs_fit))
+                progress(f"round {r + 1}: fitting {todo[i].label}", i, len(todo))
+
+        if progress is not None and n_jobs != 1:
+            progress(f"round {r + 1}: fitting {total} candidates on {n_jobs} workers", 0, total)
+        fits = _fit_round(todo, fit_one, m_r, obs_fit, n_jobs, tick)
         if r == 0:
             round1 = fits
         prev_fits = fits
