@@ -26,7 +26,8 @@ Run (about 1-3 min per 30-posture case on a loaded 2-core machine)::
 
 Options: ``--robots B,C``, ``--postures 30``, ``--seeds 0``, ``--groups
 single,pair,outside,null``, ``--file-error 0.1``, ``--no-seed-tables``,
-``--limit N`` (first N cases), ``--skip N``, ``--from-csv cases.csv`` (tables only).
+``--limit N`` (first N cases), ``--skip N``, ``--from-csv cases.csv`` (tables only;
+with ``--markdown`` the README's tables).
 """
 
 from __future__ import annotations
@@ -42,6 +43,7 @@ import pandas as pd
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 from diagnose_reference import (
+    markdown_tables,
     results_frame,
     run_case,
     run_seed_table,
@@ -62,6 +64,7 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--skip", type=int, default=0, help="leave out the first N cases")
     p.add_argument("--out", type=Path, default=Path("studies/out/diagnose"))
     p.add_argument("--from-csv", type=Path, nargs="+", default=None)
+    p.add_argument("--markdown", action="store_true", help="with --from-csv: README tables")
     a = p.parse_args(argv)
     a.out.mkdir(parents=True, exist_ok=True)
     pd.set_option("display.width", 220)
@@ -69,7 +72,10 @@ def main(argv: list[str] | None = None) -> int:
     pd.set_option("display.max_colwidth", 60)
     if a.from_csv:
         frame = pd.concat([pd.read_csv(f) for f in a.from_csv], ignore_index=True)
-        _report(study_tables(frame))
+        if a.markdown:
+            print(markdown_tables(frame))
+        else:
+            _report(study_tables(frame))
         return 0
     cases = standard_cases(
         [r.strip() for r in a.robots.split(",") if r.strip()],
@@ -95,7 +101,8 @@ def main(argv: list[str] | None = None) -> int:
         print(
             f"[{i + 1}/{len(cases)}] {c.robot} {c.label} (file off {c.file_error:g}): "
             f"{r.verdict} [{'; '.join(r.closest) or '-'}] {tag}, misfit {r.misfit_x_noise:.1f}x "
-            f"noise, FRAC {r.frac_before:.3f} -> {r.frac_after:.3f}, {r.seconds:.0f} s",
+            f"noise, FRAC {r.frac_before:.3f} -> {r.frac_after:.3f}, {r.seconds:.0f} s wall, "
+            f"{r.cpu_seconds:.0f} s CPU, load {os.getloadavg()[0]:.1f}",
             flush=True,
         )
     df = results_frame(results)
@@ -109,8 +116,9 @@ def main(argv: list[str] | None = None) -> int:
             print(f"\nseed table of {rb}: {r.verdict}\n  {r.summary}", flush=True)
         results_frame(rows).to_csv(a.out / "seed_tables.csv", index=False)
     print(
-        f"\ntotal {time.perf_counter() - t0:.0f} s; median {df['seconds'].median():.0f} s per "
-        f"case; load average {os.getloadavg()[0]:.1f}; wrote {a.out}/cases.csv"
+        f"\ntotal {time.perf_counter() - t0:.0f} s; median per case {df['seconds'].median():.0f} s "
+        f"wall, {df['cpu_seconds'].median():.0f} s CPU (max {df['cpu_seconds'].max():.0f} s); "
+        f"load average {os.getloadavg()[0]:.1f}; wrote {a.out}/cases.csv"
     )
     return 0
 

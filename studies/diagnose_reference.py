@@ -496,6 +496,7 @@ class CaseResult:
     seconds: float
     summary: str
     params: dict[str, float] = field(default_factory=dict)
+    cpu_seconds: float = float("nan")
 
     @property
     def false_claim(self) -> bool:
@@ -522,12 +523,12 @@ def run_case(
 ) -> tuple[CaseResult, Diagnosis]:
     """Simulate and diagnose one case (the diagnosis is told nothing)."""
     camp = make_campaign(case)
-    t0 = time.perf_counter()
+    t0, c0 = time.perf_counter(), time.process_time()
     d = diagnose(camp, robot=load_robot(case.robot), settings=settings)
-    return _result(case, d, time.perf_counter() - t0), d
+    return _result(case, d, time.perf_counter() - t0, time.process_time() - c0), d
 
 
-def _result(case: Case, d: Diagnosis, seconds: float) -> CaseResult:
+def _result(case: Case, d: Diagnosis, seconds: float, cpu_seconds: float) -> CaseResult:
     fw = d.forward
     params = {}
     for st in fw.steps:
@@ -548,6 +549,7 @@ def _result(case: Case, d: Diagnosis, seconds: float) -> CaseResult:
         seconds=seconds,
         summary=d.summary,
         params=params,
+        cpu_seconds=cpu_seconds,
     )
 
 
@@ -556,12 +558,12 @@ def run_seed_table(
 ) -> tuple[CaseResult, Diagnosis]:
     """Diagnose the seed-table campaign of ``robot`` (the truth is unknown: a real robot)."""
     camp = seed_table_campaign(robot)
-    t0 = time.perf_counter()
+    t0, c0 = time.perf_counter(), time.process_time()
     d = diagnose(camp, robot=load_robot(robot), settings=settings)
     case = Case(
         robot, (), f"seed Table {'4' if robot == 'B' else '7'}", file_error=1.0, n_postures=3
     )
-    return _result(case, d, time.perf_counter() - t0), d
+    return _result(case, d, time.perf_counter() - t0, time.process_time() - c0), d
 
 
 def standard_cases(
@@ -664,6 +666,7 @@ def results_frame(results: Sequence[CaseResult]) -> pd.DataFrame:
                 "nrmse_before": r.nrmse_before,
                 "nrmse_after": r.nrmse_after,
                 "seconds": r.seconds,
+                "cpu_seconds": r.cpu_seconds,
             }
             for r in results
         ]
@@ -697,6 +700,90 @@ def study_tables(df: pd.DataFrame) -> dict[str, pd.DataFrame]:
         index=["in-library physics", "nulls", "outside the library", "all"],
     )
     return {"cases": df, "summary": summary}
+
+
+def _yes(v: Any) -> str:
+    return "yes" if bool(v) else "no"
+
+
+def markdown_tables(df: pd.DataFrame) -> str:
+    """The README's tables: totals per robot, then one row per case (Markdown).
+
+    Parameters
+    ----------
+    df : DataFrame
+        :func:`results_frame` rows (read back from ``cases.csv`` too).
+    """
+    robots = list(dict.fromkeys(df["robot"]))
+    lines = [
+        "| | "
+        + " | ".join(f"robot {rb} ({(df['robot'] == rb).sum()} cases)" for rb in robots)
+        + " |"
+    ]
+    lines.append("|---" * (len(robots) + 1) + "|")
+
+    def row(name: str, fn: Callable[[pd.DataFrame], str]) -> None:
+        lines.append(f"| {name} | " + " | ".join(fn(df[df["robot"] == rb]) for rb in robots) + " |")
+
+    def lib(d: pd.DataFrame) -> pd.DataFrame:
+        keep = (d["truths"] != "none") & (d["truths"] != "file_parameters") & ~d["outside"]
+        return d[keep]
+
+    def found(d: pd.DataFrame) -> str:
+        lb = lib(d)
+        miss = lb[~lb["found_all"].astype(bool)]
+        txt = f"**{int(lb['found_all'].sum())} of {len(lb)}**"
+        if len(miss):
+            txt += "; missed: " + ", ".join(
+                f"{r.case} ({r.verdict}, {r.misfit_x_noise:.1f}x)" for r in miss.itertuples()
+            )
+        return txt
+
+    def pairs(d: pd.DataFrame) -> str:
+        pr = lib(d)[lib(d)["case"].str.contains(" and ")]  # the two-effect cases
+        return f"{int(pr['found_all'].sum())} of {len(pr)}"
+
+    def nulls(d: pd.DataFrame) -> str:
+        nl = d[d["case"].str.startswith("null")]
+        bad = nl[nl["verdict"] != "none"]
+        return f"{len(bad)} of {len(nl)}"
+
+    def outside(d: pd.DataFrame) -> str:
+        od = d[d["outside"]]
+        return "; ".join(
+            f"{r.case}: `{r.verdict}` ({r.misfit_x_noise:.1f}x)" for r in od.itertuples()
+        )
+
+    def times(d: pd.DataFrame) -> str:
+        cpu = d["cpu_seconds"] if "cpu_seconds" in d else pd.Series(dtype=float)
+        return (
+            f"{d['seconds'].median():.0f} s wall, {cpu.median():.0f} s CPU "
+            f"(max {cpu.max():.0f} s CPU)"
+        )
+
+    row("in-library physics named (goal 95 %)", found)
+    row("both effects of a pair named", pairs)
+    row("false claims", lambda d: f"**{int(d['false_claim'].sum())} of {len(d)}**")
+    row("false discoveries on nulls", nulls)
+    row("outside the library", outside)
+    row("median per campaign", times)
+    for rb in robots:
+        d = df[df["robot"] == rb]
+        lines += [
+            "",
+            f"| case (robot {rb}, file off ~10 % unless said) | verdict | named (or closest, if "
+            "unexplained) | all in-library named | false claim | held-out misfit / noise (RMS, "
+            "NRMSE) | FRAC before -> after | wall s | CPU s |",
+            "|---|---|---|---|---|---|---|---|---|",
+        ]
+        for r in d.itertuples():
+            cpu = getattr(r, "cpu_seconds", float("nan"))
+            lines.append(
+                f"| {r.case} | {r.verdict} | {r.closest} | {_yes(r.found_all)} | "
+                f"{_yes(r.false_claim)} | {r.misfit_x_noise:.1f}, {r.nrmse_x_noise:.1f} | "
+                f"{r.frac_before:.3f} -> {r.frac_after:.3f} | {r.seconds:.0f} | {cpu:.0f} |"
+            )
+    return "\n".join(lines)
 
 
 def run_study(

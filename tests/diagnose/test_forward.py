@@ -4,9 +4,11 @@ from __future__ import annotations
 
 from types import SimpleNamespace
 
+import numpy as np
 import pytest
 
-from robolobe.diagnose.forward import forward_select
+from robolobe._threads import one_blas_thread
+from robolobe.diagnose.forward import ForwardSettings, forward_select
 
 
 def _names(toy: SimpleNamespace, effects: tuple, seed: int = 0) -> tuple[str, ...]:
@@ -29,3 +31,29 @@ def test_a_small_second_effect_next_to_a_large_one_is_named(toy: SimpleNamespace
 def test_no_second_effect_is_made_up(toy: SimpleNamespace, seed: int) -> None:
     assert _names(toy, (("mass", 150.0),), seed=seed) == ("added_mass",)
     assert _names(toy, (), seed=seed) == ()
+
+
+def test_later_rounds_are_not_screened_by_the_nominal_ranking(toy: SimpleNamespace) -> None:
+    # a 0.2 ms delay ranks below `none` on the nominal model (the 150 kg mass dominates
+    # it), like a gravity stiffening next to a large tool mode on robot C; round 2 must
+    # still try it on top of the mass (a screen by the round-1 ranking never did)
+    obs = toy.obs((("mass", 150.0), ("delay", 0.0002)), seed=0)
+    fw = forward_select(toy.candidates(), toy.model, obs, obs, settings=ForwardSettings(screen_k=1))
+    r1 = sorted(fw.fits, key=lambda f: f.bic)
+    names = [f.candidate.name for f in r1]
+    assert names.index("sensor_delay") > names.index("none")  # the premise
+    assert not fw.noise.unexplained
+    assert tuple(s.candidate.name for s in fw.steps) == ("added_mass", "sensor_delay")
+
+
+def test_fits_over_workers_are_the_fits_of_one_process(toy: SimpleNamespace) -> None:
+    obs = toy.obs((("mass", 150.0), ("kx", 1.01)))
+    with one_blas_thread():  # as diagnose() runs it, and as the workers do
+        one = forward_select(toy.candidates(), toy.model, obs, obs)
+        two = forward_select(toy.candidates(), toy.model, obs, obs, n_jobs=2)
+    assert [s.label for s in two.steps] == [s.label for s in one.steps]
+    for a, b in zip(one.fits, two.fits, strict=True):
+        assert a.candidate.label == b.candidate.label
+        np.testing.assert_allclose(a.params, b.params, rtol=1e-9)
+        assert a.deviance == pytest.approx(b.deviance, rel=1e-9)
+    np.testing.assert_allclose(one.model_fit.params, two.model_fit.params, rtol=1e-9)

@@ -85,16 +85,23 @@ def test_null_campaign_gives_none() -> None:
 
 
 @pytest.mark.slow
-def test_friction_needs_force_levels() -> None:
+@pytest.mark.parametrize(("levels", "found"), [(None, "found 0"), (200.0, "found 1")])
+def test_friction_needs_force_levels(levels: float | None, found: str) -> None:
+    # no force column, or one hammer force level for every posture: friction cannot be
+    # told from viscous damping; the diagnosis says so and still answers
     camp = make_campaign(Case("B", (), "null", 0.0, 6, seed=5))
+    force = None if levels is None else np.full(len(camp.posture_ids), levels)
     d = diagnose(
         camp,
         robot=load_robot("B"),
-        settings=DiagnoseSettings(families=("friction_damping",)),
+        settings=DiagnoseSettings(families=("added_mass", "friction_damping")),
+        force_N=force,
     )
     why = {u.name: u.reason for u in d.untestable}
     assert "force levels" in why["friction_damping"]
+    assert found in why["friction_damping"]
     assert "friction_damping" in d.summary  # "Not tested: ..."
+    assert d.verdict == "none"  # it still answers (a null campaign, exact file)
 
 
 @pytest.mark.slow

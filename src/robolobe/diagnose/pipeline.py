@@ -30,6 +30,7 @@ import os
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from functools import partial
 from pathlib import Path
 
 import numpy as np
@@ -89,6 +90,10 @@ class DiagnoseSettings:
     selection : SelectionSettings
     forward : ForwardSettings
         Forward selection of several candidates and the absolute noise test.
+    n_jobs : int
+        Worker processes for each round's candidate fits (1: in this
+        process; -1: all cores); the diagnosis is the same either way
+        (to round-off).
     """
 
     band_hz: tuple[float, float] | None = None
@@ -100,6 +105,7 @@ class DiagnoseSettings:
     max_nfev: int = 30
     selection: SelectionSettings = field(default_factory=SelectionSettings)
     forward: ForwardSettings = field(default_factory=ForwardSettings)
+    n_jobs: int = 1
 
 
 @dataclass(frozen=True, eq=False)
@@ -351,8 +357,9 @@ def _diagnose(
         obs,
         selection=st.selection,
         settings=st.forward,
-        fit=lambda c, m, o: fit_candidate(c, m, o, n_starts=st.n_starts, max_nfev=st.max_nfev),
+        fit=partial(fit_candidate, n_starts=st.n_starts, max_nfev=st.max_nfev),
         progress=progress,
+        n_jobs=st.n_jobs,
     )
     sel = fw.rounds[0]
     H_after = fw.cv.H

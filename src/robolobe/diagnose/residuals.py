@@ -68,19 +68,28 @@ _LOG_CAP = 20.0
 NOISY_SIGMA = 0.25
 
 
+def _capped(x: NDArray[np.float64]) -> NDArray[np.float64]:
+    """``x`` clipped to +-cap, NaN to +cap (``fmin`` takes the number where one is NaN)."""
+    return np.fmax(np.fmin(x, _LOG_CAP), -_LOG_CAP)
+
+
 def _ratio_residual(
     ratio: NDArray[np.complex128], noisy: NDArray[np.bool_]
 ) -> NDArray[np.complex128]:
-    """``log(ratio)`` (real part capped), or ``ratio - 1`` where ``noisy`` (module notes)."""
+    """``log(ratio)`` (real part capped), or ``ratio - 1`` where ``noisy`` (module notes).
+
+    Each form is computed only where it is used (the complex log is most of a
+    fit's cost); NaN gives the cap (and a phase of pi), +-inf the +-cap.
+    """
+    out = np.empty(ratio.shape, dtype=complex)
+    quiet = ~noisy
     with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        lr = np.log(ratio)
-    re = np.clip(
-        np.nan_to_num(lr.real, nan=_LOG_CAP, posinf=_LOG_CAP, neginf=-_LOG_CAP), -_LOG_CAP, _LOG_CAP
-    )
-    im = np.nan_to_num(lr.imag, nan=np.pi)
-    lin = np.nan_to_num(ratio - 1.0, nan=_LOG_CAP, posinf=_LOG_CAP, neginf=-_LOG_CAP)
-    lin = np.clip(lin.real, -_LOG_CAP, _LOG_CAP) + 1j * np.clip(lin.imag, -_LOG_CAP, _LOG_CAP)
-    return np.where(noisy, lin, re + 1j * im)
+        lr = np.log(ratio[quiet])
+        lin = ratio[noisy] - 1.0
+    # the phase of a log lies in [-pi, pi]; only NaN is replaced (by pi)
+    out[quiet] = _capped(lr.real) + 1j * np.fmin(lr.imag, np.pi)
+    out[noisy] = _capped(lin.real) + 1j * _capped(lin.imag)
+    return out
 
 
 def log_ratio(H_model: NDArray[np.complexfloating], obs: Observations) -> NDArray[np.complex128]:

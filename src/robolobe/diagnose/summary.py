@@ -109,14 +109,40 @@ def describe_fit(fit: CandidateFit) -> str:
     return c.description
 
 
+def _x(per_residual: float) -> float:
+    """RMS residual in noise deviations from a deviance per residual."""
+    return float(np.sqrt(max(per_residual, 0.0)))
+
+
+def _pct(share: float) -> str:
+    """A share in percent, never rounded to a bare "0 %" or "100 %" when it is not."""
+    pc = 100.0 * share
+    if 0.0 < pc < 0.1:
+        return "< 0.1 %"
+    if 99.9 < pc < 100.0:
+        return "> 99.9 %"
+    if pc < 10.0 or pc > 90.0:
+        return f"{pc:.1f} %"
+    return f"{pc:.0f} %"
+
+
 def _shares(fw: ForwardResult) -> str:
+    """Each step's share of the explained misfit, with the misfit before and after it.
+
+    A small effect next to a large one has a small share of the explained
+    misfit while taking the rest of it down to the noise; the misfits say so.
+    """
     if len(fw.steps) < 2:
         return ""
-    return (
-        " (shares of the explained held-out misfit: "
-        + ", ".join(f"{st.label} {st.share:.0%}" for st in fw.steps)
-        + ")"
-    )
+    parts = []
+    prev = fw.baseline_cv.per_residual
+    for st in fw.steps:
+        parts.append(
+            f"{st.label} {_pct(st.share)}, {_x(prev):.1f} -> {_x(st.per_residual):.1f} x the noise"
+        )
+        prev = st.per_residual
+    head = " (shares of the explained held-out misfit, in the order taken: "
+    return head + "; ".join(parts) + ")"
 
 
 def _where(nt: NoiseTest) -> str:
@@ -126,28 +152,34 @@ def _where(nt: NoiseTest) -> str:
 
 
 def _calibration_effect(fw: ForwardResult) -> str:
-    """What calibrating the file achieves (named as a step, or tried in round 1)."""
-    for i, st in enumerate(fw.steps):
-        if st.candidate.name != CALIBRATION:
-            continue
-        before = fw.baseline_cv.per_residual if i == 0 else fw.steps[i - 1].per_residual
-        return (
-            "The robot file is globally off: calibrating its values "
-            f"lowers the held-out misfit from {np.sqrt(max(before, 0)):.1f} to "
-            f"{np.sqrt(max(st.per_residual, 0)):.1f} x the noise."
-        )
+    """What calibrating the file achieves, against the nominal file (named as a step, or not)."""
+    base = _x(fw.baseline_cv.per_residual)
     cal = next(
         (r for r in fw.rounds[0].ranking if r.fit.candidate.name == CALIBRATION and r.cv), None
     )
-    if cal is None or cal.cv is None:
+    alone = _x(cal.cv.per_residual) if cal is not None and cal.cv is not None else None
+    for i, st in enumerate(fw.steps):
+        if st.candidate.name != CALIBRATION:
+            continue
+        if i == 0:
+            what = f"lowers the held-out misfit from {base:.1f} to {_x(st.per_residual):.1f} x"
+        else:
+            earlier = ", ".join(s.label for s in fw.steps[:i])
+            what = (
+                f"on top of {earlier} lowers the held-out misfit from "
+                f"{_x(fw.steps[i - 1].per_residual):.1f} to {_x(st.per_residual):.1f} x"
+            )
+            what += f" the noise (the nominal file misses by {base:.1f} x"
+            what += f"; calibrating alone: {alone:.1f} x)" if alone is not None else ")"
+            return f"The robot file is globally off: calibrating its values {what}."
+        return f"The robot file is globally off: calibrating its values {what} the noise."
+    if alone is None:
         return ""
-    b = float(np.sqrt(max(fw.baseline_cv.per_residual, 0.0)))
-    a = float(np.sqrt(max(cal.cv.per_residual, 0.0)))
-    if a < b:
-        what = f"lowers the held-out misfit from {b:.1f} to {a:.1f} x the noise"
+    if alone < base:
+        what = f"lowers the held-out misfit from {base:.1f} to {alone:.1f} x the noise"
     else:
-        what = f"does not lower the held-out misfit ({b:.1f} -> {a:.1f} x the noise)"
-    off = "The robot file is globally off" if b > 2.0 else "The robot file fits"
+        what = f"does not lower the held-out misfit ({base:.1f} -> {alone:.1f} x the noise)"
+    off = "The robot file is globally off" if base > 2.0 else "The robot file fits"
     return f"{off}: calibrating its values alone {what}."
 
 

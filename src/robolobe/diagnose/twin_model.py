@@ -218,6 +218,13 @@ class TwinModel:
         self.window_decay_per_s = float(window_decay_per_s)
         self._nominal_cache: dict[int, tuple[Observations, ComplexArray]] = {}
 
+    def __getstate__(self) -> dict[str, Any]:
+        # a worker process gets the model without the cached nominal predictions (they
+        # hold whole campaigns; the worker computes its own when it needs them)
+        state = dict(self.__dict__)
+        state["_nominal_cache"] = {}
+        return state
+
     def twin(self, effects: tuple[Any, ...] = ()) -> Twin:
         """The twin with ``effects``."""
         return Twin(self.robot, tuple(effects))
