@@ -110,6 +110,10 @@ def test_missing_folder_and_bad_options(tmp_path: Path, mass_campaign: Path) -> 
     r = _run(str(mass_campaign), "--json", str(tmp_path / "d.json"), "--band-hz", "40,2")
     assert r.returncode == 2
     assert "--band-hz" in r.stderr
+    r = _run(str(mass_campaign), "--json", str(tmp_path / "d.json"), "--jobs", "0")
+    assert r.returncode == 2
+    assert "--jobs" in r.stderr
+    assert not (tmp_path / "d.json").exists()
 
 
 @pytest.mark.slow

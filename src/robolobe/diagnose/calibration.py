@@ -1,6 +1,6 @@
 """ "The robot file's values are off" as a candidate of its own.
 
-A robot file is a prior (FORMATS.md section 1): joint stiffnesses and
+A robot file is a prior (docs/guide/robots.md): joint stiffnesses and
 dampings are rarely published and the masses are estimates. Before any
 missing physics is named, the diagnosis asks whether correcting the file's
 own values explains the recordings. The parameters are those of the twin
@@ -27,7 +27,7 @@ are left out: with 19 factors the held-out test stays affordable (one
 30-posture campaign in well under a minute), and a COM error shows as a
 remaining misfit that the absolute noise test reports.
 
-Layering (DESIGN.md): ``diagnose`` is below ``tl`` in the package table, so
+Layering (docs/guide/physics.md): ``diagnose`` is below ``tl`` in the package table, so
 it may use ``tl``'s parametrisation.
 
 Many of the 19 factors are not determined by one campaign (a link that

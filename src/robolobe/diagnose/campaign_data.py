@@ -1,4 +1,4 @@
-"""From a campaign (FORMATS.md section 2) to :class:`Observations`.
+"""From a campaign (docs/guide/campaign.md) to :class:`Observations`.
 
 What the diagnosis takes from a campaign beyond the FRFs:
 

@@ -10,7 +10,7 @@ the squared log-ratio residual per real part::
 so ``s`` is about 1 where the model fits within the noise. The map is ``s``
 averaged over the measured directions, per record and frequency line.
 
-Signatures (REFERENCES.md section 6) summarised per direction:
+Signatures (docs/references.md: missing physics) summarised per direction:
 
 - level offset: the median log-magnitude ratio (a uniform offset points to a
   sensitivity or mass/stiffness scale error);
@@ -291,7 +291,7 @@ def pair_modes(
 
     Assignment (Hungarian) on ``|ln(f_meas/f_nom)| / max_rel_df + (1 - MAC)``;
     pairs farther apart than ``max_rel_df`` in frequency or with MAC < 0.3
-    stay unpaired (REFERENCES.md section 4: MAC alone is ambiguous with
+    stay unpaired (docs/references.md: modal identification: MAC alone is ambiguous with
     three-component shapes, so frequency leads).
 
     Parameters

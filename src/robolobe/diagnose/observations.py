@@ -1,6 +1,6 @@
 """Recorded FRFs on one frequency grid, ready for comparison with a model.
 
-A campaign (FORMATS.md section 2) may hold per-posture grids and any subset of
+A campaign (docs/guide/campaign.md) may hold per-posture grids and any subset of
 the nine directions. :class:`Observations` puts all records on one grid
 inside the analysis band, keeps a mask of what was measured and carries the
 noise scale of every point (:mod:`robolobe.diagnose.noise`).

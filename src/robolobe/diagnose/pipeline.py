@@ -241,7 +241,7 @@ def diagnose(
     Parameters
     ----------
     campaign : Campaign or path
-        A campaign folder (FORMATS.md section 2) or a campaign read already.
+        A campaign folder (docs/guide/campaign.md) or a campaign read already.
     robot : Robot, optional
         The nominal robot; default the one the campaign names.
     settings : DiagnoseSettings, optional

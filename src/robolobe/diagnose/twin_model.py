@@ -6,7 +6,7 @@
 compare a model with recorded FRFs:
 
 - **Exponential window.** Hammer-test FRFs are usually estimated with an
-  exponential window ``w(t) = exp(-a t)`` on force and response (REFERENCES.md
+  exponential window ``w(t) = exp(-a t)`` on force and response (docs/references.md
   section 4). The windowed FRF of a linear structure is its transfer function
   evaluated at ``s = a + i w`` instead of ``i w`` (every pole moves left by
   ``a``): without this the window's damping would be mistaken for missing
