@@ -18,6 +18,8 @@ from __future__ import annotations
 import ast
 from pathlib import Path
 
+import pytest
+
 SRC = Path(__file__).resolve().parents[1] / "src" / "robolobe"
 
 #: Non-symmetric eigen-solves: module -> why it is not the twin's poles.
@@ -61,6 +63,7 @@ def _modules_calling(names: set[str]) -> set[str]:
     }
 
 
+@pytest.mark.slow
 def test_state_space_poles_are_solved_in_one_place() -> None:
     found = _modules_calling(EIG_NAMES)
     assert found <= set(EIG_ELSEWHERE), (
@@ -71,6 +74,7 @@ def test_state_space_poles_are_solved_in_one_place() -> None:
     assert "twin/_poles.py" in found
 
 
+@pytest.mark.slow
 def test_mode_lists_are_matched_in_one_place() -> None:
     found = _modules_calling(ASSIGNMENT_NAMES)
     assert found <= set(ASSIGNMENT_ELSEWHERE), (

@@ -46,6 +46,7 @@ def test_later_rounds_are_not_screened_by_the_nominal_ranking(toy: SimpleNamespa
     assert tuple(s.candidate.name for s in fw.steps) == ("added_mass", "sensor_delay")
 
 
+@pytest.mark.slow
 def test_fits_over_workers_are_the_fits_of_one_process(toy: SimpleNamespace) -> None:
     obs = toy.obs((("mass", 150.0), ("kx", 1.01)))
     with one_blas_thread():  # as diagnose() runs it, and as the workers do

@@ -312,6 +312,7 @@ def test_tool_point_models_in_chunks_equal_one_call(pocket, pocket_job, monkeypa
         np.testing.assert_array_equal(getattr(got, name), getattr(ref, name))
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("threads", [1, 2])
 def test_streamed_long_path_plans_as_in_memory(tmp_path, pocket_job, monkeypatch, threads):
     """A path long enough to be streamed (modes, feed-frame models and grouping features

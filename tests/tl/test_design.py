@@ -38,6 +38,7 @@ def test_designed_postures_are_feasible_and_cover_better_than_random(robot_c):
     )
 
 
+@pytest.mark.slow
 def test_augmenting_a_one_sided_set_fills_the_other_side(robot_c):
     _ids, q, roles = design_arrays(seed_design("C"))
     one_sided = q[np.asarray(roles) == "train"]

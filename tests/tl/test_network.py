@@ -41,6 +41,7 @@ def test_manual_gradient_equals_autograd(n_frozen):
     torch.testing.assert_close(loss, masked_mse(net(x), y, mask).detach())
 
 
+@pytest.mark.slow
 def test_arrays_round_trip_and_select():
     net = EnsembleMLP(5, (6, 8, 3), torch.Generator().manual_seed(2))
     arrays = net.to_arrays()
