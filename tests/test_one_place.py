@@ -33,9 +33,6 @@ EIG_ELSEWHERE: dict[str, str] = {
 #: Linear sum assignments: module -> why it is not :func:`robolobe._matching.match_modes`.
 ASSIGNMENT_ELSEWHERE: dict[str, str] = {
     "_matching.py": "the home: match_modes",
-    # h-diag's file in issue 15; the call is match_modes(cost) followed by its own
-    # gate on distance and MAC, to be switched there
-    "diagnose/locate.py": "pending switch (issue 15)",
 }
 
 EIG_NAMES = {"eig", "eigvals"}

@@ -33,9 +33,9 @@ from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy.optimize import linear_sum_assignment
 
 from robolobe._directions import ALL_DIRS, dir_index
+from robolobe._matching import match_modes
 from robolobe.diagnose.observations import Observations
 from robolobe.diagnose.residuals import log_ratio
 
@@ -330,7 +330,8 @@ def pair_modes(
     if n1 and n2:
         dist = np.abs(np.log(fm[None, :] / fn[:, None])) / max_rel_df
         cost = dist + np.nan_to_num(1.0 - macm, nan=0.0)
-        ri, ci = linear_sum_assignment(cost)
+        # every pair admissible here; the distance and MAC gates follow
+        ri, ci = match_modes(cost)
         for i, j in zip(ri, ci, strict=True):
             if dist[i, j] > 1.0 or (np.isfinite(macm[i, j]) and macm[i, j] < 0.3):
                 continue
