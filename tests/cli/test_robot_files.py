@@ -47,6 +47,12 @@ HOSTILE = {
     "lengths-in-mm": (_mm, "[[joints]][1].a_m: expected a length of at most 20 m"),
     "stiffness-1e300": (lambda d: d["joints"][1].update(stiffness_Nm_per_rad=1e300),
                         "[[joints]][2].stiffness_Nm_per_rad: expected a joint stiffness of"),
+    "load-stiffening-negative": (
+        lambda d: d["joints"][1].update(load_stiffening_per_kNm=-0.5),
+        "[[joints]][2].load_stiffening_per_kNm: expected a non-negative number, found -0.5"),
+    "load-stiffening-1e3": (
+        lambda d: d["joints"][1].update(load_stiffening_per_kNm=1e3),
+        "[[joints]][2].load_stiffening_per_kNm: expected a number <= 100, found 1000"),
 }  # fmt: skip
 
 COMMANDS = {
