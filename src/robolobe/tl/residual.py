@@ -54,7 +54,7 @@ from scipy.optimize import minimize
 from robolobe._atomic import atomic_path
 from robolobe._threads import one_blas_thread, with_one_blas_thread
 from robolobe.errors import InputError
-from robolobe.robots.limits import as_postures
+from robolobe.robots.limits import as_postures, within_joint_limits
 from robolobe.robots.model import Robot
 from robolobe.tl.dataset import ModalDataset
 from robolobe.tl.estimator import ModalPrediction
@@ -411,7 +411,7 @@ class CorrectedTwin:
         q = as_postures(q_rad)
         if warn:
             rob = self.robot_
-            out = np.any((q < rob.q_min - 1e-9) | (q > rob.q_max + 1e-9), axis=1)
+            out = ~within_joint_limits(rob, q)
             if out.any():
                 warnings.warn(
                     f"{int(out.sum())} postures outside the joint limits of {rob.name}",
