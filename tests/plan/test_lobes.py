@@ -120,7 +120,9 @@ def test_lobe_envelope_with_zero_phase_at_lobe_zero_is_not_nan():
 
 
 def test_robust_bound_keeps_invisible_modes_and_caps_spreads():
-    from robolobe.plan.modes import INVISIBLE_K, MAX_LOG_STD, RobotModes, _directional
+    from robolobe._modal_parameters import ModalParameters
+    from robolobe.plan.modes import INVISIBLE_K, MAX_LOG_STD, RobotModes
+    from robolobe.sld.frf import ModalModel
 
     f = np.array([[[10.0, 20.0], [10.0, 20.0], [np.nan, np.nan]]])
     z = np.full_like(f, 0.03)
@@ -128,7 +130,8 @@ def test_robust_bound_keeps_invisible_modes_and_caps_spreads():
     std = np.zeros((1, 3, 2, 3))
     std[..., 2] = 300.0  # a network's log-spread of a mode it calls not visible
     std[..., 0] = 0.01
-    modes = RobotModes(f, z, k, std, _directional(f, z, k), None, "test")
+    p = ModalParameters(f, z, k, ("xx", "yy", "zz"), log_std=std)
+    modes = RobotModes(p, ModalModel.from_parameters(p), None, "test")
     b = modes.robust(2.0)
     assert b is not None
     # x direction, mode 2 (k = 1e12 >= INVISIBLE_K) keeps its stiffness; visible modes are

@@ -15,6 +15,7 @@ import math
 import numpy as np
 import pytest
 
+from robolobe._modal_parameters import ModalParameters
 from robolobe.plan.job import job_from_dict, job_to_dict, load_job
 from robolobe.plan.modes import (
     CorrectedTwinSource,
@@ -66,7 +67,8 @@ def _modes(spread, calibrated, k):
     kk = np.asarray(k, dtype=float)[None]
     u = np.where(kk < 1e11, np.sqrt((2 * np.pi * f) ** 2 / kk), 0.0)[0]  # (3, 2)
     model = ModalModel.from_shapes(2 * np.pi * f[0, 0][None], z[0, 0][None], u.T[None])
-    return RobotModes(f, z, kk, spread, model, None, "test", True, calibrated)
+    params = ModalParameters(f, z, kk, ("xx", "yy", "zz"), log_std=spread)
+    return RobotModes(params, model, None, "test", True, calibrated)
 
 
 def test_plan_bound_is_robust_by_default_only_on_a_calibrated_spread():

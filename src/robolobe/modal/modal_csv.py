@@ -28,6 +28,7 @@ import numpy as np
 import pandas as pd
 
 from robolobe._atomic import atomic_path
+from robolobe._modal_parameters import Q_COLUMNS, ModalParameters
 from robolobe.errors import InputError
 
 __all__ = [
@@ -35,13 +36,13 @@ __all__ = [
     "MODAL_COLUMNS",
     "Q_COLUMNS",
     "read_modal_csv",
+    "read_modal_parameters",
     "validate_modal_frame",
     "write_modal_csv",
 ]
 
 _log = logging.getLogger(__name__)
 
-Q_COLUMNS: tuple[str, ...] = tuple(f"q{i}_deg" for i in range(1, 7))
 MODAL_COLUMNS: tuple[str, ...] = (
     "posture_id",
     *Q_COLUMNS,
@@ -261,6 +262,38 @@ def read_modal_csv(path: str | os.PathLike[str]) -> pd.DataFrame:
                 f"not a readable CSV file ({exc})", source=f"{name}:{reader.line_num}"
             ) from None
     return _build_frame(rows, sources, extras, name)
+
+
+def read_modal_parameters(
+    path: str | os.PathLike[str],
+    *,
+    directions: Sequence[str] | None = None,
+    n_modes: int | None = None,
+) -> ModalParameters:
+    """Read and validate a modal dataset as :class:`~robolobe._modal_parameters.ModalParameters`.
+
+    :func:`read_modal_csv` then
+    :meth:`~robolobe._modal_parameters.ModalParameters.from_frame`.
+
+    Parameters
+    ----------
+    path : path-like
+        The ``modal.csv`` file.
+    directions : sequence of str, optional
+        Driving points to keep (default: every one with rows, ``xx, yy, zz`` order).
+    n_modes : int, optional
+        Modes per direction (default: the highest mode number in the file).
+
+    Returns
+    -------
+    ModalParameters
+        Shape (n_postures, n_directions, n_modes), with the posture ids and
+        joint angles; a mode a posture does not list is absent (NaN).
+    """
+    df = read_modal_csv(path)
+    return ModalParameters.from_frame(
+        df, directions=directions, n_modes=n_modes, source=str(Path(path))
+    )
 
 
 def validate_modal_frame(df: pd.DataFrame, where: str = "modal dataset") -> pd.DataFrame:

@@ -44,7 +44,8 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from robolobe._directions import AXES
+from robolobe._directions import AXES, DRIVING
+from robolobe._modal_parameters import ModalParameters
 from robolobe.campaign.metrics import frac, nrmse
 from robolobe.errors import InputError
 from robolobe.modal.lsfd import LSFDResult, lsfd, modal_stiffness
@@ -253,6 +254,49 @@ class PostureModal:
         in_band = (self.f_hz >= self.settings.fmin_hz) & (self.f_hz <= self.settings.fmax_hz)
         ok = np.isfinite(k) & (k != 0) & (vis >= self.settings.visibility_min) & prec & in_band
         return np.flatnonzero(ok)
+
+    def parameters(self, *, visible_only: bool = False) -> ModalParameters:
+        """The identified modes as :class:`~robolobe._modal_parameters.ModalParameters`.
+
+        One posture, the measured driving points (``used``) in the order
+        ``xx, yy, zz``; mode ``r`` is the same physical mode in every
+        direction (frequency and damping repeat), its stiffness signed like
+        the residue (module docstring). The spread of log k is the residue's
+        relative standard deviation :attr:`k_rel_std` (first order); that of
+        log f and log zeta is unknown (NaN).
+
+        Parameters
+        ----------
+        visible_only : bool, default False
+            Leave out (NaN) the modes not visible at a driving point
+            (:meth:`modes_for_direction`: what ``modal.csv`` lists).
+
+        Returns
+        -------
+        ModalParameters
+            Shape (1, n_driving_points_measured, n_modes), posture id set.
+        """
+        axes = [d for d in range(3) if self.used[d, d]]
+        n = self.n_modes
+        k = self.k_N_per_m[axes].astype(np.float64)
+        f = np.broadcast_to(self.f_hz, (len(axes), n)).astype(np.float64)
+        z = np.broadcast_to(self.zeta, (len(axes), n)).astype(np.float64)
+        std = np.full((len(axes), n, 3), np.nan)
+        std[..., 2] = self.k_rel_std[axes]
+        if visible_only:
+            for j, d in enumerate(axes):
+                hide = np.ones(n, bool)
+                hide[self.modes_for_direction(d)] = False
+                f[j, hide] = z[j, hide] = k[j, hide] = np.nan
+                std[j, hide] = np.nan
+        return ModalParameters(
+            f[None],
+            z[None],
+            k[None],
+            tuple(DRIVING[d] for d in axes),
+            log_std=std[None],
+            posture_ids=(self.posture_id,),
+        )
 
     def negative_modes(self, d: int) -> NDArray[np.intp]:
         """Visible modes of driving point ``d`` with a negative residue (``k < 0``)."""

@@ -25,6 +25,7 @@ frequency and 20-300 % in stiffness over the workspace (README, planning).
 
 from __future__ import annotations
 
+import dataclasses
 import logging
 import math
 from collections.abc import Sequence
@@ -35,6 +36,8 @@ from typing import Protocol
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from robolobe._directions import DRIVING
+from robolobe._modal_parameters import ModalParameters
 from robolobe.errors import InputError
 from robolobe.robots.model import Robot
 from robolobe.sld.frf import ModalModel
@@ -43,6 +46,7 @@ from robolobe.twin.effects import Effect
 __all__ = [
     "CorrectedTwinSource",
     "ModeSource",
+    "ParametersSource",
     "PredictorSource",
     "RobotModes",
     "RobustBound",
@@ -56,7 +60,6 @@ __all__ = [
 logger = logging.getLogger(__name__)
 
 FloatArray = NDArray[np.float64]
-_DIRS = ("xx", "yy", "zz")
 #: Largest log spread (per sigma) a robust plan takes from a source: a larger one says
 #: the source does not know (e.g. a network's stiffness of a mode it calls not visible),
 #: and lowering a stiffness by exp(-k_sigma * 3) would plan on a robot that does not exist.
@@ -69,16 +72,16 @@ INVISIBLE_K = 1e11
 
 @dataclass(frozen=True, eq=False)
 class RobotModes:
-    """Robot modes at a batch of postures, per TCP direction.
+    """Robot modes at a batch of postures, per TCP direction, and their receptance model.
 
     Attributes
     ----------
-    f_hz, zeta, k_N_per_m : ndarray, shape (n, 3, n_modes)
-        Natural frequency [Hz], damping ratio, modal stiffness [N/m] per TCP
-        direction x, y, z (``inf`` stiffness: the mode does not move the TCP
-        that way; NaN: no such mode).
-    log_std : ndarray, shape (n, 3, n_modes, 3) or None
-        Standard deviation of (log f, log zeta, log k); None without spread.
+    parameters : ModalParameters
+        Shape (n, 3, n_modes) on the driving points ``xx, yy, zz`` (TCP
+        axes x, y, z): natural frequency [Hz], damping ratio, modal stiffness
+        [N/m] (``inf`` stiffness: the mode does not move the TCP that way;
+        NaN: no such mode), with the spread (std of log f, log zeta, log k)
+        or none.
     model : ModalModel
         TCP-frame receptance model, dim 3, batch (n,).
     extrapolation : ndarray, shape (n,) or None
@@ -89,17 +92,52 @@ class RobotModes:
     shapes_coupled : bool
         True when ``model`` holds one set of coupled modes (the twin's, the
         same in every direction); False for per-direction modes (a predictor).
+    spread_calibrated : bool
+        True when the spread is a calibrated prediction error (a ``CorrectedTwin``).
+
+    Notes
+    -----
+    :attr:`f_hz`, :attr:`zeta`, :attr:`k_N_per_m` and :attr:`log_std` are
+    read-only views of :attr:`parameters` (what the planning pipeline reads).
     """
 
-    f_hz: FloatArray
-    zeta: FloatArray
-    k_N_per_m: FloatArray
-    log_std: FloatArray | None
+    parameters: ModalParameters
     model: ModalModel
     extrapolation: FloatArray | None
     source: str
     shapes_coupled: bool = False
     spread_calibrated: bool = False
+
+    def __post_init__(self) -> None:
+        p = self.parameters
+        if not isinstance(p, ModalParameters):
+            raise InputError(
+                f"RobotModes.parameters: expected ModalParameters, found {type(p).__name__}"
+            )
+        if p.directions != DRIVING:
+            raise InputError(
+                f"RobotModes.parameters: expected directions {DRIVING}, found {p.directions}"
+            )
+
+    @property
+    def f_hz(self) -> FloatArray:
+        """Natural frequencies [Hz], shape (n, 3, n_modes) (of :attr:`parameters`)."""
+        return self.parameters.f_hz
+
+    @property
+    def zeta(self) -> FloatArray:
+        """Damping ratios, shape (n, 3, n_modes) (of :attr:`parameters`)."""
+        return self.parameters.zeta
+
+    @property
+    def k_N_per_m(self) -> FloatArray:
+        """Modal stiffness [N/m], shape (n, 3, n_modes) (of :attr:`parameters`)."""
+        return self.parameters.k_N_per_m
+
+    @property
+    def log_std(self) -> FloatArray | None:
+        """Spread (std of log f, log zeta, log k), shape (n, 3, n_modes, 3), or None."""
+        return self.parameters.log_std
 
     def robust(
         self,
@@ -304,17 +342,6 @@ def plan_bound(
     return bound, True
 
 
-def _directional(f: FloatArray, z: FloatArray, k: FloatArray) -> ModalModel:
-    """3-D model from per-direction modes (n, 3, m); NaN/inf entries are absent."""
-    n, nd, m = f.shape
-    ok = np.isfinite(f) & np.isfinite(z) & np.isfinite(k) & (k > 0)
-    ff = np.where(ok, f, np.nan).reshape(n, nd * m)
-    zz = np.where(ok, z, np.nan).reshape(n, nd * m)
-    kk = np.where(ok, k, np.nan).reshape(n, nd * m)
-    dirs = [d for d in _DIRS[:nd] for _ in range(m)]
-    return ModalModel.from_directional(ff, zz, kk, dirs, dim=3)
-
-
 class ModeSource(Protocol):
     """Anything that predicts robot modes at postures."""
 
@@ -342,26 +369,18 @@ class PredictorSource:
     def predict(self, q_rad: ArrayLike) -> RobotModes:
         q = np.asarray(q_rad, dtype=np.float64).reshape(-1, 6)
         pred = self.predictor.predict(q, warn=False)  # type: ignore[attr-defined]
-        dirs = tuple(pred.directions)
-        vals = np.asarray(pred.values)  # (n, n_dir, m, 3)
-        # relative spread (std of log value) whatever the model's output kind
-        std = np.nan_to_num(np.asarray(pred.log_std), nan=0.0, posinf=0.0)
-        n, _, m, _ = vals.shape
-        full = np.full((n, 3, m, 3), np.nan)
-        full_std = np.zeros((n, 3, m, 3))
-        for d, name in enumerate(dirs):
-            if name not in _DIRS:
-                raise InputError(f"model direction {name!r}: expected driving points xx, yy, zz")
-            full[:, _DIRS.index(name)] = vals[:, d]
-            full_std[:, _DIRS.index(name)] = std[:, d]
-        f, z, k = full[..., 0], full[..., 1], full[..., 2]
+        params = pred.parameters()
+        bad = [d for d in params.directions if d not in DRIVING]
+        if bad:
+            raise InputError(f"model direction {bad[0]!r}: expected driving points xx, yy, zz")
+        params = params.select(DRIVING)
+        # relative spread (std of log value) whatever the model's output kind; unknown: none
+        std = np.nan_to_num(np.asarray(params.log_std), nan=0.0, posinf=0.0)
+        params = dataclasses.replace(params, log_std=std)
         extr = np.asarray(self.predictor.extrapolation(q))  # type: ignore[attr-defined]
         return RobotModes(
-            f_hz=f,
-            zeta=z,
-            k_N_per_m=k,
-            log_std=full_std,
-            model=_directional(f, z, k),
+            parameters=params,
+            model=ModalModel.from_parameters(params),
             extrapolation=extr,
             source=self.name,
         )
@@ -406,7 +425,6 @@ class TwinSource:
         f = np.asarray(md.f_hz)  # (n, m)
         z = np.asarray(md.zeta)
         u = np.asarray(md.tcp_shapes)  # (n, 3, m)
-        k = np.asarray(md.k_N_per_m)  # (n, 3, m)
         n, m = f.shape
         keep = np.isfinite(f) & (f > 0) & (z > 0) & (z < 1)
         model = ModalModel.from_shapes(
@@ -414,13 +432,11 @@ class TwinSource:
             np.where(keep, z, 0.05),
             np.swapaxes(np.where(keep[:, None, :], u, 0.0), -1, -2),
         )
+        params = md.parameters(DRIVING)
+        if self.spread is not None:
+            params = dataclasses.replace(params, log_std=np.broadcast_to(self.spread, (n, 3, m, 3)))
         return RobotModes(
-            f_hz=np.broadcast_to(f[:, None, :], (n, 3, m)).copy(),
-            zeta=np.broadcast_to(z[:, None, :], (n, 3, m)).copy(),
-            k_N_per_m=k,
-            log_std=None
-            if self.spread is None
-            else np.broadcast_to(self.spread, (n, 3, m, 3)).copy(),
+            parameters=params,
             model=model,
             extrapolation=None,
             source=self.name,
@@ -485,7 +501,7 @@ class CorrectedTwinSource:
         d_k = np.zeros((n, 3, m))
         visible = np.isfinite(k) & (np.abs(k) < K_MAX)
         for j, d in enumerate(dirs):
-            ax = _DIRS.index(d)
+            ax = DRIVING.index(d)
             d_k[:, ax, :mm] = np.where(visible[:, ax, :mm], mean[:, j, :mm, 2], 0.0)
         f_new = f * np.exp(d_f)
         z_new = z * np.exp(d_z)
@@ -499,18 +515,92 @@ class CorrectedTwinSource:
             np.swapaxes(np.where(keep[:, None, :], u_new, 0.0), -1, -2),
         )
         std = np.zeros((n, 3, m, 3))
-        sp = ct.planning_spread(q, directions=_DIRS, n_modes=m)  # (n, 3, m, 3)
+        sp = ct.planning_spread(q, directions=DRIVING, n_modes=m)  # (n, 3, m, 3)
         std[:] = np.nan_to_num(sp, nan=0.0, posinf=0.0)
         return RobotModes(
-            f_hz=np.broadcast_to(f_new[:, None, :], (n, 3, m)).copy(),
-            zeta=np.broadcast_to(z_new[:, None, :], (n, 3, m)).copy(),
-            k_N_per_m=k_new,
-            log_std=std,
+            parameters=ModalParameters(
+                np.broadcast_to(f_new[:, None, :], (n, 3, m)),
+                np.broadcast_to(z_new[:, None, :], (n, 3, m)),
+                k_new,
+                DRIVING,
+                log_std=std,
+            ),
             model=model,
             extrapolation=ct.extrapolation(q),
             source=self.name,
             shapes_coupled=True,
             spread_calibrated=True,
+        )
+
+
+class ParametersSource:
+    """Modes given as :class:`~robolobe._modal_parameters.ModalParameters`.
+
+    One posture: the same modes at every posture (a robot whose modes are
+    known at the working posture only, a stiff machine). Several postures:
+    each queried posture must be one of ``parameters.q_rad`` (within 1e-9
+    rad), e.g. modes computed beforehand for a path's postures. The spread
+    is the parameters' (unknown spread: none). Per-direction modes, no cross
+    terms, as a predictor's.
+
+    Parameters
+    ----------
+    parameters : ModalParameters
+        On driving points (missing ones are absent).
+    name : str
+        Description for reports.
+    """
+
+    def __init__(self, parameters: ModalParameters, name: str = "given modal parameters") -> None:
+        if not isinstance(parameters, ModalParameters):
+            raise InputError(f"modes: expected ModalParameters, found {type(parameters).__name__}")
+        bad = [d for d in parameters.directions if d not in DRIVING]
+        if bad:
+            raise InputError(
+                f"modes: expected driving-point directions xx, yy, zz, found {bad[0]!r}"
+            )
+        if parameters.n_postures > 1 and parameters.q_rad is None:
+            raise InputError(
+                f"modes: parameters at {parameters.n_postures} postures need their joint angles "
+                "(q_rad) to be looked up; give one posture for modes that do not change"
+            )
+        p = parameters.select(DRIVING)
+        if p.log_std is not None:
+            p = dataclasses.replace(p, log_std=np.nan_to_num(p.log_std, nan=0.0, posinf=0.0))
+        self.parameters = p
+        self.name = name
+
+    def predict(self, q_rad: ArrayLike) -> RobotModes:
+        q = np.asarray(q_rad, dtype=np.float64).reshape(-1, 6)
+        p = self.parameters
+        if p.n_postures == 1:
+            idx = np.zeros(q.shape[0], np.intp)
+        else:
+            from scipy.spatial import cKDTree
+
+            assert p.q_rad is not None
+            dist, near = cKDTree(p.q_rad).query(q, p=np.inf)
+            idx = np.minimum(np.asarray(near, np.intp), p.n_postures - 1)
+            miss = np.flatnonzero(np.asarray(dist) > 1e-9)
+            if miss.size:
+                raise InputError(
+                    f"modes: posture {np.degrees(q[miss[0]]).round(6).tolist()} deg is not one "
+                    f"of the {p.n_postures} postures of the given modal parameters "
+                    f"({miss.size} posture(s) missing); give modes at every posture of the path, "
+                    "or a mode predictor"
+                )
+        params = ModalParameters(
+            p.f_hz[idx],
+            p.zeta[idx],
+            p.k_N_per_m[idx],
+            p.directions,
+            log_std=None if p.log_std is None else p.log_std[idx],
+        )
+        return RobotModes(
+            parameters=params,
+            model=ModalModel.from_parameters(params),
+            extrapolation=None,
+            source=self.name,
         )
 
 
@@ -526,7 +616,10 @@ def as_mode_source(modes: object) -> ModeSource:
         coupled, with its calibrated spread); a fitted ``TwinCalibration``
         (the calibrated twin with its residual spread); or a fitted
         ``ModalPredictor`` (anything whose ``predict(q)`` returns a
-        ``ModalPrediction`` and that has ``extrapolation(q)``).
+        ``ModalPrediction`` and that has ``extrapolation(q)``); or
+        :class:`~robolobe._modal_parameters.ModalParameters`
+        (:class:`ParametersSource`: one posture's modes everywhere, or modes
+        at the path's postures).
 
     Returns
     -------
@@ -537,8 +630,10 @@ def as_mode_source(modes: object) -> ModeSource:
     InputError
         For anything else, or an estimator that is not fitted.
     """
-    if isinstance(modes, PredictorSource | TwinSource | CorrectedTwinSource):
+    if isinstance(modes, PredictorSource | TwinSource | CorrectedTwinSource | ParametersSource):
         return modes
+    if isinstance(modes, ModalParameters):
+        return ParametersSource(modes)
     from robolobe.tl.residual import CorrectedTwin
 
     if isinstance(modes, CorrectedTwin):
@@ -558,7 +653,7 @@ def as_mode_source(modes: object) -> ModeSource:
         return modes  # type: ignore[return-value]
     raise InputError(
         "modes: expected a mode predictor (CorrectedTwin, TwinCalibration, ModalPredictor, "
-        f"a Robot or a mode source), found {type(modes).__name__}"
+        f"ModalParameters, a Robot or a mode source), found {type(modes).__name__}"
     )
 
 

@@ -413,14 +413,15 @@ class _ModesFill:
         if take is not None:
             a = {k: None if v is None else v[take] for k, v in a.items()}
         model = ModalModel(a["model.omega"], a["model.zeta"], a["model.residues"])
-        return dataclasses.replace(
-            self.first,
+        params = dataclasses.replace(
+            self.first.parameters,
             f_hz=a["f_hz"],
             zeta=a["zeta"],
             k_N_per_m=a["k_N_per_m"],
             log_std=a["log_std"],
-            model=model,
-            extrapolation=a["extrapolation"],
+        )
+        return dataclasses.replace(
+            self.first, parameters=params, model=model, extrapolation=a["extrapolation"]
         )
 
 
@@ -925,7 +926,8 @@ def plan_path(
         Overrides ``job.model`` with any mode predictor
         (:func:`robolobe.plan.modes.as_mode_source`: a fitted
         ``CorrectedTwin``, ``TwinCalibration`` or ``ModalPredictor``, a
-        ``Robot`` for its twin, or a mode source); not with ``source``.
+        ``Robot`` for its twin, ``ModalParameters`` or a mode source); not
+        with ``source``.
     refine : bool
         Run the casadi refinement.
 

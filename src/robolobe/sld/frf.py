@@ -26,6 +26,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from robolobe._directions import AXES
+from robolobe._modal_parameters import ModalParameters
 from robolobe.errors import InputError
 
 __all__ = ["ModalModel", "frequency_grid"]
@@ -52,7 +53,8 @@ class ModalModel:
     Notes
     -----
     The three arrays broadcast to one batch shape (:attr:`batch_shape`).
-    Use :meth:`from_directional`, :meth:`isotropic` or :meth:`from_shapes`
+    Use :meth:`from_parameters`, :meth:`from_directional`, :meth:`isotropic` or
+    :meth:`from_shapes`
     rather than building residues by hand.
     """
 
@@ -165,6 +167,44 @@ class ModalModel:
             fill = np.nanmedian(wp, axis=-1, keepdims=True) if np.any(~absent) else w
             w = np.where(absent, np.where(np.isfinite(fill), fill, _TWO_PI), w)
         return cls(w, zz, res)
+
+    @classmethod
+    def from_parameters(cls, parameters: ModalParameters, *, dim: int = 3) -> ModalModel:
+        """The model of modal parameters per posture and direction (batch: the postures).
+
+        Every (direction, mode) of ``parameters`` becomes one mode of the
+        model (:meth:`from_directional`, direction-major: all modes of the
+        first direction, then the next), so a direction's modes are
+        independent of another direction's. A mode that is absent (any
+        parameter NaN), does not move that way (``inf`` stiffness) or has a
+        driving-point stiffness <= 0 (a reversed polarity is no driving-point
+        compliance) contributes nothing.
+
+        Parameters
+        ----------
+        parameters : ModalParameters
+            Shape (n_postures, n_directions, n_modes).
+        dim : int, default 3
+            Number of coordinates (3: x, y, z of the TCP frame; 2: x, y).
+
+        Returns
+        -------
+        ModalModel
+            Batch (n_postures,), ``n_directions * n_modes`` modes.
+        """
+        if not isinstance(parameters, ModalParameters):
+            raise InputError(
+                f"parameters: expected ModalParameters, found {type(parameters).__name__}"
+            )
+        f, z, k = parameters.f_hz, parameters.zeta, parameters.k_N_per_m
+        n, nd, m = parameters.shape
+        driving = np.array([d[0] == d[1] for d in parameters.directions])[None, :, None]
+        ok = np.isfinite(f) & np.isfinite(z) & np.isfinite(k) & ((k > 0) | ~driving)
+        ff = np.where(ok, f, np.nan).reshape(n, nd * m)
+        zz = np.where(ok, z, np.nan).reshape(n, nd * m)
+        kk = np.where(ok, k, np.nan).reshape(n, nd * m)
+        dirs = [d for d in parameters.directions for _ in range(m)]
+        return cls.from_directional(ff, zz, kk, dirs, dim=dim)
 
     @classmethod
     def isotropic(cls, f_hz: ArrayLike, zeta: ArrayLike, k_N_per_m: ArrayLike) -> ModalModel:

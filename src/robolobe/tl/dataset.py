@@ -28,6 +28,8 @@ import numpy as np
 import pandas as pd
 from numpy.typing import ArrayLike, NDArray
 
+from robolobe._directions import DRIVING
+from robolobe._modal_parameters import PARAMETERS, ModalParameters
 from robolobe.errors import InputError
 
 __all__ = [
@@ -40,10 +42,9 @@ __all__ = [
     "interpolate_gaps",
 ]
 
-#: Driving-point directions the learning side models, in canonical order.
-DRIVING_DIRECTIONS: tuple[str, ...] = ("xx", "yy", "zz")
-#: The three modal parameters per mode, in the order of the target arrays.
-PARAMETERS: tuple[str, ...] = ("f_hz", "zeta", "k_N_per_m")
+#: Driving-point directions the learning side models, in canonical order
+#: (:data:`robolobe._directions.DRIVING`).
+DRIVING_DIRECTIONS: tuple[str, ...] = DRIVING
 
 FloatArray = NDArray[np.float64]
 
@@ -145,8 +146,45 @@ class ModalDataset:
             y=np.concatenate([self.y, other.y]),
         )
 
+    @property
+    def parameters(self) -> ModalParameters:
+        """The dataset as :class:`~robolobe._modal_parameters.ModalParameters` (ids, angles kept).
+
+        Raises
+        ------
+        InputError
+            If a value breaks the type's rules (e.g. a damping ratio <= 0).
+        """
+        return ModalParameters.from_stacked(
+            self.y, self.directions, posture_ids=self.posture_ids, q_rad=self.q_rad
+        )
+
+    @classmethod
+    def from_parameters(cls, parameters: ModalParameters) -> ModalDataset:
+        """The dataset of parameters that carry their posture ids and joint angles.
+
+        Raises
+        ------
+        InputError
+            Without posture ids or joint angles, or with a direction that is
+            not a driving point.
+        """
+        if parameters.posture_ids is None or parameters.q_rad is None:
+            raise InputError(
+                "ModalDataset.from_parameters: expected parameters with posture_ids and q_rad"
+            )
+        return cls(
+            posture_ids=parameters.posture_ids,
+            q_rad=parameters.q_rad,
+            directions=parameters.directions,
+            y=parameters.stacked(),
+        )
+
     def to_frame(self, extra: dict[str, FloatArray] | None = None) -> pd.DataFrame:
         """The ``modal.csv`` frame (docs/guide/modal.md); missing modes are left out.
+
+        :meth:`ModalParameters.to_frame <robolobe._modal_parameters.ModalParameters.to_frame>`
+        of :attr:`parameters`.
 
         Parameters
         ----------
@@ -159,23 +197,7 @@ class ModalDataset:
             Columns ``posture_id, q1_deg..q6_deg, dir, mode, f_hz, zeta,
             k_N_per_m`` (+ extras), one row per posture, direction and mode.
         """
-        n, nd, nm, _ = self.y.shape
-        grids = np.meshgrid(np.arange(n), np.arange(nd), np.arange(nm), indexing="ij")
-        p_idx, d_idx, m_idx = (g.ravel() for g in grids)
-        vals = self.y.reshape(-1, 3)
-        keep = np.all(np.isfinite(vals), axis=1)
-        qd = self.q_deg
-        data: dict[str, object] = {"posture_id": np.asarray(self.posture_ids, dtype=object)[p_idx]}
-        for j in range(6):
-            data[f"q{j + 1}_deg"] = qd[p_idx, j]
-        data["dir"] = np.asarray(self.directions, dtype=object)[d_idx]
-        data["mode"] = m_idx + 1
-        for i, name in enumerate(PARAMETERS):
-            data[name] = vals[:, i]
-        for name, arr in (extra or {}).items():
-            data[name] = np.asarray(arr, dtype=float).reshape(-1)
-        df = pd.DataFrame(data)
-        return df.loc[keep].reset_index(drop=True)
+        return self.parameters.to_frame(extra)
 
 
 def dataset_from_frame(
@@ -209,43 +231,9 @@ def dataset_from_frame(
     InputError
         If a required column is missing or a direction has no rows at all.
     """
-    need = ["posture_id", *(f"q{i}_deg" for i in range(1, 7)), "dir", "mode", *PARAMETERS]
-    missing = [c for c in need if c not in df.columns]
-    if missing:
-        raise InputError(f"expected columns {need}; missing {missing}", source=source)
-    directions = tuple(directions)
-    if n_modes < 1:
-        raise InputError(f"n_modes: expected >= 1, found {n_modes}", source=source)
-    ids = list(dict.fromkeys(df["posture_id"].astype(str)))
-    if not ids:
-        raise InputError("expected at least one posture, found none", source=source)
-    pos = {p: i for i, p in enumerate(ids)}
-    q_deg = (
-        df.drop_duplicates("posture_id")
-        .set_index(df.drop_duplicates("posture_id")["posture_id"].astype(str))
-        .loc[ids, [f"q{i}_deg" for i in range(1, 7)]]
-        .to_numpy(dtype=float)
+    return ModalDataset.from_parameters(
+        ModalParameters.from_frame(df, directions=tuple(directions), n_modes=n_modes, source=source)
     )
-    y = np.full((len(ids), len(directions), n_modes, 3), np.nan)
-    dirs = df["dir"].astype(str).str.lower().to_numpy()
-    modes = df["mode"].to_numpy(dtype=int)
-    pidx = df["posture_id"].astype(str).map(pos).to_numpy()
-    vals = df[list(PARAMETERS)].to_numpy(dtype=float)
-    for j, d in enumerate(directions):
-        if d not in DRIVING_DIRECTIONS:
-            raise InputError(
-                f"directions: expected driving points {DRIVING_DIRECTIONS}, found {d!r}",
-                source=source,
-            )
-        sel = (dirs == d) & (modes <= n_modes)
-        if not np.any(dirs == d):
-            raise InputError(
-                f"direction {d!r}: expected rows for it, found none (directions in the file: "
-                f"{sorted(set(dirs.tolist()))})",
-                source=source,
-            )
-        y[pidx[sel], j, modes[sel] - 1, :] = vals[sel]
-    return ModalDataset(posture_ids=tuple(ids), q_rad=np.radians(q_deg), directions=directions, y=y)
 
 
 def interpolate_gaps(ds: ModalDataset) -> ModalDataset:

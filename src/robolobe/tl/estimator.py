@@ -29,6 +29,7 @@ from numpy.typing import ArrayLike, NDArray
 from scipy.special import ndtri
 
 from robolobe._atomic import atomic_path
+from robolobe._modal_parameters import ModalParameters
 from robolobe.errors import InputError
 from robolobe.robots.limits import as_postures
 from robolobe.tl.dataset import (
@@ -131,6 +132,25 @@ class ModalPrediction:
             return out
         with np.errstate(divide="ignore", invalid="ignore"):
             return np.where(self.values > 0, self.std / self.values, np.inf)
+
+    def parameters(self) -> ModalParameters:
+        """The point prediction with its relative spread as one modal-parameter set.
+
+        Returns
+        -------
+        ModalParameters
+            :attr:`values` (physical units: Hz, fraction, N/m) on
+            :attr:`directions`, shape (n, n_dir, n_modes), with
+            :attr:`log_std` as the spread.
+
+        Raises
+        ------
+        InputError
+            If the prediction breaks the type's rules (a frequency or damping
+            ratio <= 0, a stiffness of 0: a min-max model predicting outside
+            its training range).
+        """
+        return ModalParameters.from_stacked(self.values, self.directions, log_std=self.log_std)
 
     def interval(self, level: float = 0.9) -> tuple[FloatArray, FloatArray]:
         """Central ``level`` interval per value, physical units.

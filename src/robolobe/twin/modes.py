@@ -37,12 +37,15 @@ frequency crossings could the pairing swap two nearly equal modes.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from functools import cached_property
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from robolobe._directions import DRIVING, dir_index
+from robolobe._modal_parameters import ModalParameters
 from robolobe.errors import InputError
 from robolobe.twin._poles import OverdampedPolicy, modal_poles, pole_vectors, state_space_eig
 
@@ -320,6 +323,54 @@ class Modes:
             "...fr,...rij->...fij", g2, np.conj(res)
         )
         return out
+
+    def parameters(self, directions: Sequence[str] = DRIVING) -> ModalParameters:
+        """The modes as :class:`~robolobe._modal_parameters.ModalParameters`.
+
+        Each mode's frequency and damping repeat in every direction (one set
+        of coupled modes); the stiffness is :attr:`k_N_per_m` of the TCP axis
+        the driving point names (``"xx"``: x). The batch shape is flattened
+        to the posture axis (a single posture: one).
+
+        Parameters
+        ----------
+        directions : sequence of str, default ("xx", "yy", "zz")
+            Driving points of :mod:`robolobe._directions`.
+
+        Returns
+        -------
+        ModalParameters
+            Shape (n_postures, n_directions, n_modes), no spread; a dropped
+            overdamped mode (``overdamped="drop"``) is absent (NaN).
+
+        Raises
+        ------
+        InputError
+            A cross direction (``"xy"``: the modal stiffness is given per
+            driving point only), or a TCP axis the modes were not computed
+            for.
+        """
+        dirs = tuple(directions)
+        axes = []
+        for d in dirs:
+            i, j = dir_index(d)
+            if i != j:
+                raise InputError(
+                    f"directions: expected driving points such as 'xx' (the twin's modal "
+                    f"stiffness is per TCP axis), found {d!r}"
+                )
+            if i >= self.k_N_per_m.shape[-2]:
+                raise InputError(
+                    f"directions: {d!r} needs TCP axis {i}, the modes have "
+                    f"{self.k_N_per_m.shape[-2]} axes"
+                )
+            axes.append(i)
+        n = self.n_modes
+        f = np.reshape(self.f_hz, (-1, 1, n))
+        z = np.reshape(self.zeta, (-1, 1, n))
+        k = np.reshape(self.k_N_per_m, (-1, self.k_N_per_m.shape[-2], n))[:, axes]
+        shape = (f.shape[0], len(dirs), n)
+        return ModalParameters(np.broadcast_to(f, shape), np.broadcast_to(z, shape), k, dirs)
 
     def k_from_residues(self) -> FloatArray:
         """Driving-point modal stiffness from the complex residues [N/m].
