@@ -146,7 +146,7 @@ class ModalParameters:
                 first = _first_bad(bad, dirs)
                 raise InputError(
                     f"ModalParameters.{name}: expected {rule}, found "
-                    f"{arrs[name][bad][0]!r} at {first} ({int(bad.sum())} value(s))"
+                    f"{float(arrs[name][bad][0])!r} at {first} ({int(bad.sum())} value(s))"
                 )
         for name, a in arrs.items():
             a.setflags(write=False)
