@@ -270,7 +270,6 @@ def test_parameters_as_a_mode_source() -> None:
     np.testing.assert_array_equal(one.f_hz, np.broadcast_to(given.f_hz[:1], (6, *given.shape[1:])))
 
 
-@pytest.mark.slow
 def test_plan_path_takes_modal_parameters() -> None:
     import robolobe as rl
 

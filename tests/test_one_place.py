@@ -7,7 +7,10 @@ inside functions included, however the function was imported):
   non-symmetric eigen-solve (``eig``/``eigvals`` of numpy or scipy) is in
   ``twin/_poles.py``; a few other eigenproblems are different concepts and
   listed with the reason;
-* **mode matching**: the only linear sum assignment is in ``_matching.py``.
+* **mode matching**: the only linear sum assignment is in ``_matching.py``;
+* **modal parameters**: the only public class declaring ``f_hz``, ``zeta``
+  and ``k_N_per_m`` fields is :class:`robolobe._modal_parameters.ModalParameters`;
+  the few others are different concepts, listed with the reason.
 
 A new call elsewhere fails here: call the home instead, or add it below
 with the reason it is a different concept.
@@ -35,6 +38,25 @@ ASSIGNMENT_ELSEWHERE: dict[str, str] = {
     "_matching.py": "the home: match_modes",
 }
 
+#: Public classes with f_hz + zeta + k_N_per_m fields: "module:Class" -> why it is not
+#: a second copy of :class:`robolobe._modal_parameters.ModalParameters`.
+MODAL_FIELDS_ELSEWHERE: dict[str, str] = {
+    "_modal_parameters.py:ModalParameters": "the home",
+    "twin/modes.py:Modes": "the twin's coupled modes in pole-residue and mode-shape form "
+    "(one frequency per mode, poles, residues, shapes); Modes.parameters() gives the type",
+    "modal/posture.py:PostureModal": "one posture's identification (poles, complex residues, "
+    "shapes, fit data, one frequency per mode); PostureModal.parameters() gives the type",
+    "modal/measurement.py:MeasurementModal": "modes of one measurement of arbitrary FRFs: a "
+    "signed stiffness per FRF channel, not per TCP direction",
+    "plan/job.py:ToolMode": "one spindle/tool mode of a job file (a scalar configuration "
+    "entry, not a posture batch)",
+    "twin/calibration.py:ModeSummary": "statistics of a seed-table mode over postures "
+    "(low, median, high of each parameter), not modal parameters",
+    "twin/calibration.py:TableComparison": "the twin matched to a seed table, a study "
+    "result (pending: could hold ModalParameters; another change owns this file)",
+}
+
+MODAL_FIELDS = {"f_hz", "zeta", "k_N_per_m"}
 EIG_NAMES = {"eig", "eigvals"}
 ASSIGNMENT_NAMES = {"linear_sum_assignment"}
 
@@ -79,6 +101,56 @@ def test_mode_lists_are_matched_in_one_place() -> None:
         f"{sorted(found - set(ASSIGNMENT_ELSEWHERE))}; call robolobe._matching.match_modes"
     )
     assert "_matching.py" in found
+
+
+def _classes_with_fields(path: Path, fields: set[str]) -> set[str]:
+    """Public classes of a module (nested too) whose body annotates all of ``fields``."""
+    out = set()
+    for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+        if isinstance(node, ast.ClassDef) and not node.name.startswith("_"):
+            names = {
+                st.target.id
+                for st in node.body
+                if isinstance(st, ast.AnnAssign) and isinstance(st.target, ast.Name)
+            }
+            if fields <= names:
+                out.add(node.name)
+    return out
+
+
+@pytest.mark.slow
+def test_modal_parameters_are_declared_in_one_place() -> None:
+    found = {
+        f"{p.relative_to(SRC).as_posix()}:{c}"
+        for p in sorted(SRC.rglob("*.py"))
+        for c in _classes_with_fields(p, MODAL_FIELDS)
+    }
+    assert found <= set(MODAL_FIELDS_ELSEWHERE), (
+        f"classes declaring f_hz, zeta and k_N_per_m outside robolobe._modal_parameters: "
+        f"{sorted(found - set(MODAL_FIELDS_ELSEWHERE))}; hold or return a ModalParameters "
+        "instead, or list the class with the reason it is a different concept"
+    )
+    gone = set(MODAL_FIELDS_ELSEWHERE) - found
+    assert not gone, f"no longer declare the fields: remove {sorted(gone)} from the list"
+
+
+def test_the_field_check_sees_dataclasses_and_plain_classes(tmp_path: Path) -> None:
+    mod = tmp_path / "m.py"
+    mod.write_text(
+        "from dataclasses import dataclass\n"
+        "@dataclass\n"
+        "class Bundle:\n"
+        "    f_hz: float\n"
+        "    zeta: float\n"
+        "    k_N_per_m: float\n"
+        "class _Private:\n"
+        "    f_hz: float\n    zeta: float\n    k_N_per_m: float\n"
+        "class Partial:\n"
+        "    f_hz: float\n    zeta: float\n"
+        "    def k_N_per_m(self) -> float: ...\n",
+        encoding="utf-8",
+    )
+    assert _classes_with_fields(mod, MODAL_FIELDS) == {"Bundle"}
 
 
 def test_the_check_sees_calls_inside_functions(tmp_path: Path) -> None:

@@ -319,6 +319,12 @@ _KNOWN_KEYS: dict[str, set[str]] = {
 class ToolMode:
     """One spindle/holder/tool mode at the tool tip, in the TCP frame.
 
+    A job-file entry (``[[tool.modes]]``), one scalar mode of the tool, the same
+    at every posture: not the robot's modal parameters
+    (:class:`robolobe._modal_parameters.ModalParameters`), nor the twin's
+    :class:`robolobe.twin.effects.ToolMode` (a physics effect added to the
+    robot model).
+
     Parameters
     ----------
     direction : {"x", "y"}

@@ -659,6 +659,11 @@ class ToolMode(Effect):
     rigid robot it resonates at ``f_hz``; on the real one it shows as an extra
     peak at nearly the same frequency in every posture.
 
+    A physics effect of the twin (a model change a diagnosis may locate), not
+    modal parameters: the robot's modes come from the twin
+    (:meth:`robolobe.twin.modes.Modes.parameters`); a job's tool modes are
+    :class:`robolobe.plan.job.ToolMode`.
+
     Parameters
     ----------
     f_hz : float
