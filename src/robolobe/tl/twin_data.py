@@ -28,6 +28,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from robolobe._directions import dir_index
 from robolobe.errors import InputError
 from robolobe.tl.dataset import ModalDataset
 
@@ -39,7 +40,6 @@ __all__ = [
 ]
 
 FloatArray = NDArray[np.float64]
-_AXIS = {"xx": 0, "yy": 1, "zz": 2}
 
 
 @dataclass(frozen=True)
@@ -80,26 +80,20 @@ def twin_modal_values(
     modes = twin.modes(q)
     if modes.n_modes < n_modes:
         raise InputError(f"n_modes: the twin has only {modes.n_modes} modes, asked {n_modes}")
+    # the twin's modes on the driving points (raises on any other direction)
+    y = modes.parameters(directions).stacked()[:, :, :n_modes]
     f = modes.f_hz[:, :n_modes]
     z = modes.zeta[:, :n_modes]
     freq = np.arange(band_hz[0], band_hz[1] + 1e-9, 0.25)
     h = twin.receptance(q, freq, method="modal")
-    nd = len(directions)
-    y = np.empty((len(q), nd, n_modes, 3))
-    seen = np.empty((len(q), nd, n_modes), dtype=bool)
+    seen = np.empty(y.shape[:3], dtype=bool)
     for j, d in enumerate(directions):
-        if d not in _AXIS:
-            raise InputError(f"directions: expected xx, yy or zz, found {d!r}")
-        a = _AXIS[d]
-        k = modes.k_N_per_m[:, a, :n_modes]
+        a = dir_index(d)[0]
         peak = np.abs(h[:, :, a, a]).max(axis=1)  # (n,)
         with np.errstate(divide="ignore"):
-            term = 1.0 / (2.0 * z * k)
+            term = 1.0 / (2.0 * z * y[:, j, :, 2])
         in_band = (f >= band_hz[0]) & (f <= band_hz[1])
         seen[:, j] = in_band & (term >= visibility_min * peak[:, None])
-        y[:, j, :, 0] = f
-        y[:, j, :, 1] = z
-        y[:, j, :, 2] = k
     return y, seen
 
 
@@ -180,6 +174,6 @@ def measured_frfs(
     out = np.empty((len(posture_ids), len(directions), freq.size), dtype=complex)
     for i, pf in enumerate(camp.frfs):
         for j, d in enumerate(directions):
-            a = _AXIS[d]
+            a = dir_index(d)[0]
             out[i, j] = pf.H[:, a, a]
     return freq, out, camp.test.decay_per_s
