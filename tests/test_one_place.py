@@ -44,8 +44,6 @@ MODAL_FIELDS_ELSEWHERE: dict[str, str] = {
     "_modal_parameters.py:ModalParameters": "the home",
     "twin/modes.py:Modes": "the twin's coupled modes in pole-residue and mode-shape form "
     "(one frequency per mode, poles, residues, shapes); Modes.parameters() gives the type",
-    "modal/posture.py:PostureModal": "one posture's identification (poles, complex residues, "
-    "shapes, fit data, one frequency per mode); PostureModal.parameters() gives the type",
     "modal/measurement.py:MeasurementModal": "modes of one measurement of arbitrary FRFs: a "
     "signed stiffness per FRF channel, not per TCP direction",
     "plan/job.py:ToolMode": "one spindle/tool mode of a job file (a scalar configuration "

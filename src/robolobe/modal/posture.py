@@ -173,11 +173,19 @@ class PostureModal:
     Attributes
     ----------
     posture_id : str
-    f_hz, zeta : ndarray, shape (n_modes,)
-        Natural frequencies (Hz) and damping ratios, window-corrected, rising.
-        Modes between ``fmax_hz`` and the top of the fit band are included
-        (fitted so that they do not distort the in-band residues) but are
-        never "visible" (:meth:`modes_for_direction`).
+    modes : ModalParameters
+        The identified modes, shape (1, 3, n_modes) on the driving points
+        ``xx, yy, zz``: natural frequency (Hz) and damping ratio,
+        window-corrected, rising, the same in every direction (one physical
+        mode); the driving-point modal stiffness (N/m), signed like the
+        residue (module docstring: negative means a transfer FRF or a
+        reversed polarity), NaN where the driving point was not measured;
+        the spread of log k is the LSFD relative standard deviation of the
+        driving-point residue (NaN for log f and log zeta: unknown). Modes
+        between ``fmax_hz`` and the top of the fit band are included (fitted
+        so that they do not distort the in-band residues) but are never
+        "visible" (:meth:`modes_for_direction`). :attr:`f_hz`, :attr:`zeta`,
+        :attr:`k_N_per_m` and :attr:`k_rel_std` are views of it.
     poles : ndarray of complex, shape (n_modes,)
         Corrected poles, rad/s.
     poles_measured : ndarray of complex, shape (n_modes,)
@@ -185,13 +193,6 @@ class PostureModal:
     residues : ndarray of complex, shape (n_modes, 3, 3)
         Residues (corrected for truncation when the record length is known);
         NaN for directions not used.
-    k_N_per_m : ndarray, shape (3, n_modes)
-        Driving-point modal stiffness per direction x, y, z, N/m, signed like
-        the residue (module docstring: negative means a transfer FRF or a
-        reversed polarity); NaN where the driving point was not measured.
-    k_rel_std : ndarray, shape (3, n_modes)
-        Relative standard deviation of the driving-point residue (LSFD
-        covariance), about that of the modal stiffness.
     visibility : ndarray, shape (3, n_modes)
         Peak of the mode's term over the largest measured ``|H_dd|`` in the band.
     shapes : ndarray, shape (n_modes, 3)
@@ -215,13 +216,10 @@ class PostureModal:
     """
 
     posture_id: str
-    f_hz: NDArray[np.float64]
-    zeta: NDArray[np.float64]
+    modes: ModalParameters
     poles: NDArray[np.complex128]
     poles_measured: NDArray[np.complex128]
     residues: NDArray[np.complex128]
-    k_N_per_m: NDArray[np.float64]
-    k_rel_std: NDArray[np.float64]
     visibility: NDArray[np.float64]
     shapes: NDArray[np.float64]
     signed_shapes: bool
@@ -238,7 +236,34 @@ class PostureModal:
     @property
     def n_modes(self) -> int:
         """Number of identified modes."""
-        return int(self.f_hz.size)
+        return self.modes.n_modes
+
+    @property
+    def f_hz(self) -> NDArray[np.float64]:
+        """Natural frequencies (Hz), window-corrected, rising, shape (n_modes,)."""
+        return self.modes.f_hz[0, 0]
+
+    @property
+    def zeta(self) -> NDArray[np.float64]:
+        """Damping ratios, window-corrected, shape (n_modes,)."""
+        return self.modes.zeta[0, 0]
+
+    @property
+    def k_N_per_m(self) -> NDArray[np.float64]:
+        """Signed driving-point modal stiffness (N/m) per direction x, y, z, shape (3, n_modes).
+
+        NaN where the driving point was not measured.
+        """
+        return self.modes.k_N_per_m[0]
+
+    @property
+    def k_rel_std(self) -> NDArray[np.float64]:
+        """Relative standard deviation of the driving-point residue, shape (3, n_modes).
+
+        From the LSFD covariance, about that of the modal stiffness.
+        """
+        assert self.modes.log_std is not None
+        return self.modes.log_std[0, ..., 2]
 
     def modes_for_direction(self, d: int) -> NDArray[np.intp]:
         """Modes visible at driving point ``d`` (0, 1, 2), whatever the sign of their residue.
@@ -256,14 +281,7 @@ class PostureModal:
         return np.flatnonzero(ok)
 
     def parameters(self, *, visible_only: bool = False) -> ModalParameters:
-        """The identified modes as :class:`~robolobe._modal_parameters.ModalParameters`.
-
-        One posture, the measured driving points (``used``) in the order
-        ``xx, yy, zz``; mode ``r`` is the same physical mode in every
-        direction (frequency and damping repeat), its stiffness signed like
-        the residue (module docstring). The spread of log k is the residue's
-        relative standard deviation :attr:`k_rel_std` (first order); that of
-        log f and log zeta is unknown (NaN).
+        """The identified modes on the measured driving points (:attr:`modes`, selected).
 
         Parameters
         ----------
@@ -274,28 +292,23 @@ class PostureModal:
         Returns
         -------
         ModalParameters
-            Shape (1, n_driving_points_measured, n_modes), posture id set.
+            Shape (1, n_driving_points_measured, n_modes) (order ``xx, yy,
+            zz``), posture id set.
         """
         axes = [d for d in range(3) if self.used[d, d]]
-        n = self.n_modes
-        k = self.k_N_per_m[axes].astype(np.float64)
-        f = np.broadcast_to(self.f_hz, (len(axes), n)).astype(np.float64)
-        z = np.broadcast_to(self.zeta, (len(axes), n)).astype(np.float64)
-        std = np.full((len(axes), n, 3), np.nan)
-        std[..., 2] = self.k_rel_std[axes]
-        if visible_only:
-            for j, d in enumerate(axes):
-                hide = np.ones(n, bool)
-                hide[self.modes_for_direction(d)] = False
-                f[j, hide] = z[j, hide] = k[j, hide] = np.nan
-                std[j, hide] = np.nan
-        return ModalParameters(
-            f[None],
-            z[None],
-            k[None],
-            tuple(DRIVING[d] for d in axes),
-            log_std=std[None],
-            posture_ids=(self.posture_id,),
+        p = self.modes.select(tuple(DRIVING[d] for d in axes))
+        if not visible_only:
+            return p
+        vals = p.stacked()
+        assert p.log_std is not None
+        std = p.log_std.copy()
+        for j, d in enumerate(axes):
+            hide = np.ones(self.n_modes, bool)
+            hide[self.modes_for_direction(d)] = False
+            vals[0, j, hide] = np.nan
+            std[0, j, hide] = np.nan
+        return ModalParameters.from_stacked(
+            vals, p.directions, log_std=std, posture_ids=p.posture_ids
         )
 
     def negative_modes(self, d: int) -> NDArray[np.intp]:
@@ -417,6 +430,27 @@ def _shapes(
     return u, full
 
 
+def _modes(
+    pid: str,
+    f_hz: NDArray[np.float64],
+    zeta: NDArray[np.float64],
+    k_N_per_m: NDArray[np.float64],
+    k_rel_std: NDArray[np.float64],
+) -> ModalParameters:
+    """The :attr:`PostureModal.modes` of per-mode f, zeta (n,) and per-axis k, k_rel_std (3, n)."""
+    n = f_hz.size
+    std = np.full((1, 3, n, 3), np.nan)
+    std[0, ..., 2] = k_rel_std
+    return ModalParameters(
+        np.broadcast_to(f_hz, (1, 3, n)),
+        np.broadcast_to(zeta, (1, 3, n)),
+        np.asarray(k_N_per_m, dtype=np.float64)[None],
+        DRIVING,
+        log_std=std,
+        posture_ids=(pid,),
+    )
+
+
 def _empty(
     pid: str,
     issues: list[QualityIssue],
@@ -431,13 +465,10 @@ def _empty(
     z = np.zeros(0)
     return PostureModal(
         posture_id=pid,
-        f_hz=z,
-        zeta=z,
+        modes=_modes(pid, z, z, np.zeros((3, 0)), np.zeros((3, 0))),
         poles=z.astype(complex),
         poles_measured=z.astype(complex),
         residues=np.zeros((0, 3, 3), complex),
-        k_N_per_m=np.zeros((3, 0)),
-        k_rel_std=np.zeros((3, 0)),
         visibility=np.zeros((3, 0)),
         shapes=np.zeros((0, 3)),
         signed_shapes=False,
@@ -798,13 +829,10 @@ def _finish(
     )
     return PostureModal(
         posture_id=pid,
-        f_hz=f_true,
-        zeta=z_true,
+        modes=_modes(pid, f_true, z_true, k, k_rel),
         poles=lam_true.astype(np.complex128),
         poles_measured=lam.astype(np.complex128),
         residues=R.astype(np.complex128),
-        k_N_per_m=k,
-        k_rel_std=k_rel,
         visibility=np.where(np.isfinite(vis), vis, 0.0),
         shapes=shapes,
         signed_shapes=signed,
