@@ -44,6 +44,9 @@ _API: dict[str, tuple[str, str]] = {
     "write_campaign": ("robolobe.campaign", "write_campaign"),
     "identify": ("robolobe.modal.identify", "identify_campaign"),
     "read_modal_csv": ("robolobe.modal.modal_csv", "read_modal_csv"),
+    "read_modal_parameters": ("robolobe.modal.modal_csv", "read_modal_parameters"),
+    # the one modal-parameter type (twin, identification, predictors -> planning, lobes)
+    "ModalParameters": ("robolobe._modal_parameters", "ModalParameters"),
     # mode predictors (estimators: fit / predict / save)
     "CorrectedTwin": ("robolobe.tl.residual", "CorrectedTwin"),
     "TwinCalibration": ("robolobe.tl.graybox", "TwinCalibration"),

@@ -38,6 +38,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from robolobe._directions import AXES
 from robolobe._matching import match_modes
+from robolobe._modal_parameters import ModalParameters
 from robolobe._threads import with_one_blas_thread
 from robolobe.campaign import Campaign, TestHeader
 from robolobe.campaign.metrics import frac, nrmse
@@ -106,6 +107,28 @@ class CampaignModal:
     n_recovered: int
     negative: pd.DataFrame = field(repr=False)
     settings: IdentifySettings = field(repr=False)
+
+    def parameters(
+        self, directions: Sequence[str] | None = None, n_modes: int | None = None
+    ) -> ModalParameters:
+        """:attr:`table` as :class:`~robolobe._modal_parameters.ModalParameters`.
+
+        Parameters
+        ----------
+        directions : sequence of str, optional
+            Driving points (default: every one with rows, ``xx, yy, zz`` order).
+        n_modes : int, optional
+            Modes per direction (default: the highest mode number).
+
+        Returns
+        -------
+        ModalParameters
+            Shape (n_postures, n_directions, n_modes), posture ids and joint
+            angles set; a mode a posture does not list is absent (NaN).
+        """
+        return ModalParameters.from_frame(
+            self.table, directions=directions, n_modes=n_modes, source="identify"
+        )
 
 
 def settings_from_test(test: Mapping[str, Any], **overrides: Any) -> IdentifySettings:
