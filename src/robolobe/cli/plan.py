@@ -191,6 +191,34 @@ def register(app: typer.Typer) -> None:
         power and torque limits. Writes waypoints.csv, summary.json, plots and
         report.html. Exit code 3 when no feasible plan exists.
         """
+        from robolobe.plan._plots import PlotWorker
+
+        # started first: it imports matplotlib on the other core while we plan
+        worker = PlotWorker() if plots or html else None
+        try:
+            _plan(path, job, output, plots, html, robust, refine, waypoints, waypoints_every,
+                  units, tool_direction, coordinates, rotary_axes, circle_axis, worker)  # fmt: skip
+        finally:
+            if worker is not None:
+                worker.close()
+
+    def _plan(
+        path: Path | None,
+        job: Path | None,
+        output: Path,
+        plots: bool,
+        html: bool,
+        robust: bool | None,
+        refine: bool,
+        waypoints: str,
+        waypoints_every: int,
+        units: str | None,
+        tool_direction: str | None,
+        coordinates: str | None,
+        rotary_axes: str | None,
+        circle_axis: str | None,
+        worker: Any,
+    ) -> None:
         from robolobe._atomic import check_output_dir
         from robolobe.plan.job import load_job
         from robolobe.plan.pipeline import plan_path
@@ -227,6 +255,7 @@ def register(app: typer.Typer) -> None:
                 html_report=html,
                 waypoints=waypoints,
                 waypoints_every=waypoints_every,
+                worker=worker,
             )
         _print_summary(res.summary, output)
 

@@ -1025,7 +1025,8 @@ def plan_path(
     table["lobes_own"] = own_col
     if n_split:
         note = (note + "; " if note else "") + (
-            f"{n_split} waypoints next to a steep lobe wall got lobes of their own "
+            f"{n_split} waypoint{'s' if n_split != 1 else ''} next to a steep lobe wall "
+            "got lobes of their own "
             "(sharing would have moved their limit)"
         )
     summary = _summary(
