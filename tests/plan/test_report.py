@@ -258,10 +258,10 @@ def test_plot_worker_draws_the_same_pngs_and_a_dead_one_falls_back(tmp_path, res
     here = report.write_outputs(result, tmp_path / "here", html_report=False)
     with PlotWorker() as worker:
         there = report.write_outputs(result, tmp_path / "there", html_report=False, worker=worker)
-    dead = PlotWorker()
-    assert dead._proc is not None
-    dead._proc.kill()
-    dead._proc.wait()
+    dead = PlotWorker(processes=2)
+    assert len(dead._procs) == 2
+    dead._procs[1].kill()
+    dead._procs[1].wait()
     fallback = report.write_outputs(result, tmp_path / "dead", html_report=False, worker=dead)
     for name in report.PLOTS:
         ref = (here / "plots" / f"{name}.png").read_bytes()
