@@ -7,7 +7,9 @@ inside functions included, however the function was imported):
   non-symmetric eigen-solve (``eig``/``eigvals`` of numpy or scipy) is in
   ``twin/_poles.py``; a few other eigenproblems are different concepts and
   listed with the reason;
-* **mode matching**: the only linear sum assignment is in ``_matching.py``.
+* **mode matching**: the only linear sum assignment is in ``_matching.py``;
+* **the worker pool**: joblib's ``Parallel`` is called in ``_workers.py`` only
+  (plus the batch planner's unordered stream of whole plans).
 
 A new call elsewhere fails here: call the home instead, or add it below
 with the reason it is a different concept.
@@ -35,8 +37,15 @@ ASSIGNMENT_ELSEWHERE: dict[str, str] = {
     "_matching.py": "the home: match_modes",
 }
 
+#: joblib pools: module -> why it is not :func:`robolobe._workers.map_chunks`.
+POOL_ELSEWHERE: dict[str, str] = {
+    "_workers.py": "the home: map_chunks (ordered, chunked, one BLAS thread per worker)",
+    "plan/batch.py": "whole plans streamed unordered as each finishes, beside a Dask cluster",
+}
+
 EIG_NAMES = {"eig", "eigvals"}
 ASSIGNMENT_NAMES = {"linear_sum_assignment"}
+POOL_NAMES = {"Parallel"}
 
 
 def _called_names(path: Path) -> set[str]:
@@ -79,6 +88,16 @@ def test_mode_lists_are_matched_in_one_place() -> None:
         f"{sorted(found - set(ASSIGNMENT_ELSEWHERE))}; call robolobe._matching.match_modes"
     )
     assert "_matching.py" in found
+
+
+@pytest.mark.slow
+def test_work_is_fanned_out_over_workers_in_one_place() -> None:
+    found = _modules_calling(POOL_NAMES)
+    assert found <= set(POOL_ELSEWHERE), (
+        f"joblib pools outside robolobe._workers: {sorted(found - set(POOL_ELSEWHERE))}; "
+        "call robolobe._workers.map_chunks"
+    )
+    assert "_workers.py" in found
 
 
 def test_the_check_sees_calls_inside_functions(tmp_path: Path) -> None:
