@@ -106,9 +106,9 @@ def test_summary_is_typed_frozen_and_read_by_attribute(robust_contour):
     assert isinstance(s, PlanSummary)
     assert rl.PlanSummary is PlanSummary
     with pytest.raises(dataclasses.FrozenInstanceError):
-        s.depth_mm = 1.0  # type: ignore[misc]
+        s.depth_mm = 1.0
     with pytest.raises(TypeError):  # no mapping shim: summary.to_dict() is the mapping
-        _ = s["depth_mm"]  # type: ignore[index]
+        _ = s["depth_mm"]
     later = s.with_timings({"read": 0.123456789})
     assert later.timings_s == {"read": 0.1235}
     assert later.to_dict()["timings_s"] == {"read": 0.1235}
@@ -152,7 +152,7 @@ def test_notes_in_order_with_the_lobe_split_joined_to_the_mode_note():
         job=job,
         robot=load_robot("A"),
         waypoints=wp,
-        lobes=types.SimpleNamespace(message="lobes shared"),  # type: ignore[arg-type]
+        lobes=types.SimpleNamespace(message="lobes shared"),
         extrapolation=np.array([0.0, 0.05, 0.2, 0.3]),
         n_plunge=0,
         robust=False,
