@@ -160,8 +160,8 @@ def part_path(n: int, tmp: Path, sources: list[str], reference: bool) -> None:
         res, st = _timed_plan(path, job, tmp / "out")
         s = res.summary
         print(
-            f"path [{spec}: {s['mode_source']}, robust {s['robust']}]: {s['n_waypoints']} "
-            f"waypoints ({s['n_cut']} cutting), {s['n_dynamics_groups']} distinct dynamics, "
+            f"path [{spec}: {s.mode_source}, robust {s.robust}]: {s.n_waypoints} "
+            f"waypoints ({s.n_cut} cutting), {s.n_dynamics_groups} distinct dynamics, "
             f"cores: {os.cpu_count()}, "
             f"{_load()}"
         )
@@ -224,8 +224,8 @@ def part_long(n: int, tmp: Path, fmt: str, every: int) -> None:
     rss = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
     s = res.summary
     print(
-        f"long path: {s['n_waypoints']} waypoints ({s['n_cut']} cutting), "
-        f"{s['n_dynamics_groups']} distinct dynamics, cores {os.cpu_count()}, {_load()}"
+        f"long path: {s.n_waypoints} waypoints ({s.n_cut} cutting), "
+        f"{s.n_dynamics_groups} distinct dynamics, cores {os.cpu_count()}, {_load()}"
     )
     for k, v in res.timings.items():
         print(f"  {k:<10s} {v:7.2f} s  ({v / (t2 - t0):5.1%})")
@@ -235,7 +235,7 @@ def part_long(n: int, tmp: Path, fmt: str, every: int) -> None:
         f"  total      {t2 - t0:7.2f} s wall, {time.process_time() - c0:.2f} s CPU (target < 60 s)"
     )
     print(f"  peak RSS   {rss:7.0f} MB (before planning {rss0:.0f} MB; target < 2048 MB)")
-    print(f"  plan: {s['method']}, depth {s['depth_mm']} mm; refinement: {s['nlp_status']}")
+    print(f"  plan: {s.method}, depth {s.depth_mm} mm; refinement: {s.nlp_status}")
 
 
 def part_batch(n_paths: int, n_wp: int, tmp: Path) -> None:

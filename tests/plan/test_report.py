@@ -48,7 +48,8 @@ def test_write_outputs(tmp_path, result):
     ):
         assert col in table.columns
     s = json.loads((out / "summary.json").read_text())
-    assert s["mrr_cm3_per_min"] == result.summary["mrr_cm3_per_min"]
+    assert s == result.summary.to_dict()
+    assert s["mrr_cm3_per_min"] == result.summary.mrr_cm3_per_min
     html = (out / "report.html").read_text()
     imgs = re.findall(r'src="data:image/png;base64,([^"]+)"', html)
     assert len(imgs) == 4

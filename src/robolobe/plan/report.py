@@ -225,7 +225,7 @@ def _path_margin_data(res: PlanResult) -> _plots.PathMarginData:
         x_mm=t["x_mm"].to_numpy(dtype=np.float64),
         y_mm=t["y_mm"].to_numpy(dtype=np.float64),
         margin=t["margin"].to_numpy(dtype=np.float64),
-        tightest=int(res.summary["min_margin_at"]["waypoint"]),
+        tightest=int(res.summary.min_margin_at.waypoint),
         safety_factor=float(res.job.plan.safety_factor),
     )
 
@@ -363,44 +363,43 @@ def render_html(
     """
     s = res.summary
     b = Path(base) if base is not None else None
-    where = s["min_margin_at"]
+    where = s.min_margin_at
     rows = [
-        ("Path", _shown_path(s["path"], b)),
-        ("Job", f"{s['job']} ({_shown_path(s['job_file'], b)})"),
-        ("Robot / modes", f"{s['robot']} / {s['mode_source']}"),
-        ("Waypoints (cutting, plunges)", f"{s['n_waypoints']} ({s['n_cut']}, {s['n_plunge']})"),
-        ("Depth per pass [mm]", f"{s['depth_mm']:.3f}"),
-        ("Speed [rpm]", f"{s['rpm_min']:.0f} - {s['rpm_max']:.0f} ({s['speed_mode']})"),
-        ("MRR [cm^3/min]", f"{s['mrr_cm3_per_min']:.1f}"),
-        ("Cycle time [s]", f"{s['cycle_time_s']:.2f}"),
+        ("Path", _shown_path(s.path, b)),
+        ("Job", f"{s.job} ({_shown_path(s.job_file, b)})"),
+        ("Robot / modes", f"{s.robot} / {s.mode_source}"),
+        ("Waypoints (cutting, plunges)", f"{s.n_waypoints} ({s.n_cut}, {s.n_plunge})"),
+        ("Depth per pass [mm]", f"{s.depth_mm:.3f}"),
+        ("Speed [rpm]", f"{s.rpm_min:.0f} - {s.rpm_max:.0f} ({s.speed_mode})"),
+        ("MRR [cm^3/min]", f"{s.mrr_cm3_per_min:.1f}"),
+        ("Cycle time [s]", f"{s.cycle_time_s:.2f}"),
         (
             "Minimum margin",
-            f"{s['min_margin']:.3f} (safety factor {s['safety_factor']:g}) at "
-            f"{where['source']}, x {where['x_mm']:.1f} y {where['y_mm']:.1f} "
-            f"z {where['z_mm']:.1f} mm, {where['rpm']:.0f} rpm",
+            f"{s.min_margin:.3f} (safety factor {s.safety_factor:g}) at "
+            f"{where.source}, x {where.x_mm:.1f} y {where.y_mm:.1f} "
+            f"z {where.z_mm:.1f} mm, {where.rpm:.0f} rpm",
         ),
-        ("Method", f"{s['method']} (IPOPT: {s['nlp_status']})"),
+        ("Method", f"{s.method} (IPOPT: {s.nlp_status})"),
     ]
-    if s.get("robust"):
-        rb = s.get("robust_bound") or {}
-        text = str(rb.get("statement") or f"k_sigma {s.get('k_sigma')}")
-        if rb.get("spread_from"):
-            text += f"; spread: {rb['spread_from']}"
-        if s.get("robust_by_default"):
+    if s.robust:
+        rb = s.robust_bound
+        text = rb.statement if rb is not None else f"k_sigma {s.k_sigma}"
+        if rb is not None and rb.spread_from:
+            text += f"; spread: {rb.spread_from}"
+        if s.robust_by_default:
             text += " (robust by default: the job does not set plan.robust)"
         rows.append(("Robust plan", text))
-    for key, name in (
-        ("vs_best_constant_speed", "best constant speed"),
-        ("vs_programmed_speed", "programmed speed"),
+    for g, name in (
+        (s.vs_best_constant_speed, "best constant speed"),
+        (s.vs_programmed_speed, "programmed speed"),
     ):
-        g = s.get(key)
-        if g:
+        if g is not None:
             rows.append(
                 (
                     f"Gain vs {name}",
-                    f"MRR {_fmt(g.get('mrr_gain_pct'))} % (that plan: {g['depth_mm']} mm at "
-                    f"{g['rpm_mean']:.0f} rpm, "
-                    f"{'feasible' if g['feasible'] else 'infeasible: ' + g['reason']})",
+                    f"MRR {_fmt(g.mrr_gain_pct)} % (that plan: {g.depth_mm} mm at "
+                    f"{g.rpm_mean:.0f} rpm, "
+                    f"{'feasible' if g.feasible else 'infeasible: ' + g.reason})",
                 )
             )
     table = "\n".join(
@@ -426,11 +425,11 @@ def render_html(
         f"<figcaption>{html.escape(CAPTIONS.get(k, k))}</figcaption></figure>"
         for k, v in images.items()
     )
-    notes = "".join(f"<li>{html.escape(n)}</li>" for n in s.get("notes", []))
-    timing = ", ".join(f"{k} {v:.3g} s" for k, v in s.get("timings_s", {}).items())
+    notes = "".join(f"<li>{html.escape(n)}</li>" for n in s.notes)
+    timing = ", ".join(f"{k} {v:.3g} s" for k, v in s.timings_s.items())
     return f"""<!DOCTYPE html>
 <html lang="en"><head><meta charset="utf-8">
-<title>robolobe plan: {html.escape(_shown_path(s["path"], b))}</title>
+<title>robolobe plan: {html.escape(_shown_path(s.path, b))}</title>
 <style>
 body {{ font-family: sans-serif; max-width: 1000px; margin: 2em auto; color: #222; }}
 table {{ border-collapse: collapse; margin: 1em 0; }}
@@ -446,7 +445,7 @@ figcaption {{ font-size: 14px; color: #444; max-width: 800px; }}
 <h2>Tightest waypoints</h2>
 <p>The cutting waypoints with the smallest margin, one row per position.</p>
 {tight_html}
-<p><small>robolobe {html.escape(str(s["robolobe_version"]))};
+<p><small>robolobe {html.escape(s.robolobe_version)};
 timings: {html.escape(timing)}</small></p>
 </body></html>
 """
@@ -503,7 +502,7 @@ def write_outputs(
     with atomic_dir(out, managed=OUTPUTS) as tmp:
         _write_waypoints(res.table, tmp, waypoints, int(waypoints_every))
         (tmp / "summary.json").write_text(
-            json.dumps(res.summary, indent=2) + "\n", encoding="utf-8"
+            json.dumps(res.summary.to_dict(), indent=2) + "\n", encoding="utf-8"
         )
         images = worker.receive() if worker is not None and records else None
         if images is None:
