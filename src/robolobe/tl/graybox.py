@@ -756,7 +756,7 @@ class TwinCalibration:
             cov = np.asarray(arrays["covariance"], dtype=float)
             names = parameter_names(groups)
             if theta.shape != (len(names),) or cov.shape != (len(names), len(names)):
-                raise ValueError(f"theta/covariance do not fit {len(names)} parameters")
+                raise InputError(f"theta/covariance do not fit {len(names)} parameters")
             self = cls(robot=base, params=groups)
             self.theta_ = theta
             self.covariance_ = cov
