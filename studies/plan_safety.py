@@ -82,10 +82,10 @@ from robolobe.tl.estimator import transfer_network
 from robolobe.tl.graybox import DEFAULT_PARAMS, TwinCalibration, twin_values
 from robolobe.tl.models import load_model
 from robolobe.tl.residual import CorrectedTwin
-from robolobe.tl.twin_params import COM_UNIT_M, apply_parameters
 from robolobe.twin import Twin
 from robolobe.twin.campaign import simulate_campaign
 from robolobe.twin.designs import TESTED_RANGES_DEG
+from robolobe.twin.params import COM_UNIT_M, apply_parameters
 
 ROOT = Path(__file__).resolve().parents[1]
 USER_ROBOT = ROOT / "examples" / "robots" / "my_robot.toml"

@@ -18,9 +18,9 @@ from robolobe.tl.dataset import dataset_from_frame
 from robolobe.tl.evaluate import evaluate_prediction
 from robolobe.tl.graybox import PRIOR_STD, TwinCalibration, twin_values
 from robolobe.tl.twin_data import measured_frfs, twin_modal_dataset, twin_modal_values
-from robolobe.tl.twin_params import PARAMETER_GROUPS
 from robolobe.twin import Twin
 from robolobe.twin.designs import design_arrays, seed_design
+from robolobe.twin.params import PARAMETER_GROUPS
 
 
 def _truth(key: str, seed: int):

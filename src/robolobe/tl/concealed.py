@@ -119,7 +119,7 @@ def concealed_robot(
         Loaded from its own TOML file.
     """
     from robolobe.tl.graybox import DEFAULT_PARAMS
-    from robolobe.tl.twin_params import COM_UNIT_M, apply_parameters
+    from robolobe.twin.params import COM_UNIT_M, apply_parameters
 
     if file_error not in ("full", "joints"):
         raise InputError(f"file_error: expected 'full' or 'joints', found {file_error!r}")
