@@ -47,7 +47,7 @@ def _data(key: str, roles: tuple[str, ...]):
 def _calibration_seconds() -> tuple[float, float, float]:
     """Seconds of one calibration, of the correction on top, of 10,000 predictions."""
     from robolobe.tl.graybox import DEFAULT_PARAMS, TwinCalibration
-    from robolobe.tl.twin_params import apply_parameters
+    from robolobe.twin.params import apply_parameters
 
     ids, q, role = design_arrays(seed_design("B"))
     base = load_robot("B")

@@ -9,7 +9,7 @@ robot differs in two ways, both concealed from the diagnosis:
   robot's joint stiffnesses x U(1 - e, 1 + e), dampings x U(1 - 2e, 1 + 2e),
   link and spindle masses x U(1 - e/2, 1 + e/2) (e = 0.1 by default, as the
   transfer study's concealed robots); this is done on the robot description
-  here, not with :func:`robolobe.tl.twin_params.apply_parameters`;
+  here, not with :func:`robolobe.twin.params.apply_parameters`;
 * **physics the file leaves out**, assembled *here*: this module builds its
   own augmented mass, stiffness and damping matrices on top of the nominal
   twin's joint-space matrices (:func:`robolobe.twin.system.nominal_system`,

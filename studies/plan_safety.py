@@ -82,10 +82,10 @@ from robolobe.tl.estimator import transfer_network
 from robolobe.tl.graybox import DEFAULT_PARAMS, TwinCalibration, twin_values
 from robolobe.tl.models import load_model
 from robolobe.tl.residual import CorrectedTwin
-from robolobe.tl.twin_params import COM_UNIT_M, apply_parameters
 from robolobe.twin import Twin
 from robolobe.twin.campaign import simulate_campaign
 from robolobe.twin.designs import TESTED_RANGES_DEG
+from robolobe.twin.params import COM_UNIT_M, apply_parameters
 
 ROOT = Path(__file__).resolve().parents[1]
 USER_ROBOT = ROOT / "examples" / "robots" / "my_robot.toml"
@@ -310,20 +310,21 @@ def run_one(draw: int, key: str, jobs: str) -> list[dict[str, Any]]:
                 write_outputs(res, d, plots=False, html_report=False)
                 v = verify_plan(d, robot=truth_path, job=jj, dynamics_tol=0.0)
                 s = res.summary
+                rb = s.robust_bound
                 row = {
                     **head,
                     "feasible": feasible,
                     "plan_s": round(t_plan, 2),
-                    "depth_mm": s["depth_mm"],
-                    "mrr": s["mrr_cm3_per_min"],
-                    "cycle_s": s["cycle_time_s"],
+                    "depth_mm": s.depth_mm,
+                    "mrr": s.mrr_cm3_per_min,
+                    "cycle_s": s.cycle_time_s,
                     "pct_beyond": v.summary["pct_beyond_limit"],
                     "pct_inside_sf": v.summary["pct_inside_safety_factor"],
                     "min_true_margin": v.min_margin,
                     "sf": v.safety_factor,
-                    "robust_plan": bool(s["robust"]),
-                    "spread_from": (s.get("robust_bound") or {}).get("spread_from"),
-                    "confidence_pct": (s.get("robust_bound") or {}).get("confidence_pct"),
+                    "robust_plan": s.robust,
+                    "spread_from": rb.spread_from if rb is not None else None,
+                    "confidence_pct": rb.confidence_pct if rb is not None else None,
                 }
                 if name == "oracle":
                     oracle = row

@@ -2,7 +2,7 @@
 
 For a real robot the B and C robot files are estimates. Per repetition and
 robot a concealed "true" robot is drawn from the file (seed 100 * rep +
-ord(robot); :func:`robolobe.tl.concealed.concealed_robot`, written as a
+ord(robot); ``concealed_robots.concealed_robot`` (``studies/concealed_robots.py``), written as a
 robot TOML and loaded, so it passes the loader's physical checks):
 
 * joint stiffnesses x U(0.75, 1.3), joint dampings x U(0.6, 1.6), spindle
@@ -59,6 +59,7 @@ import argparse
 import dataclasses
 import json
 import os
+import sys
 import time
 import warnings
 from pathlib import Path
@@ -70,7 +71,6 @@ import torch
 
 from robolobe.robots import load_robot
 from robolobe.robots.model import Robot
-from robolobe.tl.concealed import concealed_robot
 from robolobe.tl.design import design_postures
 from robolobe.tl.estimator import transfer_network
 from robolobe.tl.evaluate import evaluate_prediction
@@ -78,6 +78,10 @@ from robolobe.tl.graybox import TwinCalibration, twin_values
 from robolobe.tl.models import load_model
 from robolobe.tl.residual import CorrectedTwin
 from robolobe.tl.twin_data import measured_frfs, twin_modal_dataset, twin_modal_values
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from concealed_robots import concealed_robot
+
 from robolobe.twin import Twin
 from robolobe.twin.designs import TESTED_RANGES_DEG, design_arrays, seed_design
 from robolobe.twin.effects import GravityStiffening

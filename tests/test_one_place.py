@@ -10,7 +10,9 @@ inside functions included, however the function was imported):
 * **mode matching**: the only linear sum assignment is in ``_matching.py``;
 * **modal parameters**: the only public class declaring ``f_hz``, ``zeta``
   and ``k_N_per_m`` fields is :class:`robolobe._modal_parameters.ModalParameters`;
-  the few others are different concepts, listed with the reason.
+  the few others are different concepts, listed with the reason;
+* **the worker pool**: joblib's ``Parallel`` is called in ``_workers.py`` only
+  (plus the batch planner's unordered stream of whole plans).
 
 A new call elsewhere fails here: call the home instead, or add it below
 with the reason it is a different concept.
@@ -55,8 +57,16 @@ MODAL_FIELDS_ELSEWHERE: dict[str, str] = {
 }
 
 MODAL_FIELDS = {"f_hz", "zeta", "k_N_per_m"}
+
+#: joblib pools: module -> why it is not :func:`robolobe._workers.map_chunks`.
+POOL_ELSEWHERE: dict[str, str] = {
+    "_workers.py": "the home: map_chunks (ordered, chunked, one BLAS thread per worker)",
+    "plan/batch.py": "whole plans streamed unordered as each finishes, beside a Dask cluster",
+}
+
 EIG_NAMES = {"eig", "eigvals"}
 ASSIGNMENT_NAMES = {"linear_sum_assignment"}
+POOL_NAMES = {"Parallel"}
 
 
 def _called_names(path: Path) -> set[str]:
@@ -149,6 +159,16 @@ def test_the_field_check_sees_dataclasses_and_plain_classes(tmp_path: Path) -> N
         encoding="utf-8",
     )
     assert _classes_with_fields(mod, MODAL_FIELDS) == {"Bundle"}
+
+
+@pytest.mark.slow
+def test_work_is_fanned_out_over_workers_in_one_place() -> None:
+    found = _modules_calling(POOL_NAMES)
+    assert found <= set(POOL_ELSEWHERE), (
+        f"joblib pools outside robolobe._workers: {sorted(found - set(POOL_ELSEWHERE))}; "
+        "call robolobe._workers.map_chunks"
+    )
+    assert "_workers.py" in found
 
 
 def test_the_check_sees_calls_inside_functions(tmp_path: Path) -> None:

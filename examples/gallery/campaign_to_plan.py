@@ -69,6 +69,6 @@ plan = plan_path(examples / "contour.apt", job, robot=load_robot(out / "B_calibr
 write_outputs(plan, out / "contour_plan", plots=False, html_report=False)
 nominal_plan = plan_path(examples / "contour.apt", job)
 print(
-    f"depth per pass: calibrated twin {plan.summary['depth_mm']:.2f} mm, "
-    f"robot file as written {nominal_plan.summary['depth_mm']:.2f} mm"
+    f"depth per pass: calibrated twin {plan.summary.depth_mm:.2f} mm, "
+    f"robot file as written {nominal_plan.summary.depth_mm:.2f} mm"
 )

@@ -23,14 +23,12 @@ job = load_job(examples / "job_A_pocket.toml")
 result = plan_path(examples / "pocket.nc", job)
 report = write_outputs(result, out / "pocket_plan")
 
-s = result.summary
-print(f"robot: {s['robot']} ({s['mode_source']})")
-print(f"waypoints: {s['n_waypoints']} ({s['n_cut']} cutting)")
-print(f"depth per pass: {s['depth_mm']:.2f} mm, speed {s['rpm_min']:.0f}-{s['rpm_max']:.0f} rpm")
-print(
-    f"material removal rate: {s['mrr_cm3_per_min']:.1f} cm^3/min, "
-    f"cycle time {s['cycle_time_s']:.1f} s"
-)
-print(f"minimum stability margin: {s['min_margin']:.2f} (safety factor {s['safety_factor']})")
-print(json.dumps(s["vs_best_constant_speed"], default=str))
+s = result.summary  # a PlanSummary: typed figures; s.to_dict() is summary.json
+print(f"robot: {s.robot} ({s.mode_source})")
+print(f"waypoints: {s.n_waypoints} ({s.n_cut} cutting)")
+print(f"depth per pass: {s.depth_mm:.2f} mm, speed {s.rpm_min:.0f}-{s.rpm_max:.0f} rpm")
+print(f"material removal rate: {s.mrr_cm3_per_min:.1f} cm^3/min, cycle time {s.cycle_time_s:.1f} s")
+print(f"minimum stability margin: {s.min_margin:.2f} (safety factor {s.safety_factor})")
+constant = s.vs_best_constant_speed  # the plan against the best constant speed (or None)
+print(json.dumps(constant.to_dict() if constant is not None else None))
 print(f"report written to {report}")

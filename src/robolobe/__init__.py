@@ -59,6 +59,7 @@ _API: dict[str, tuple[str, str]] = {
     "load_job": ("robolobe.plan.job", "load_job"),
     "read_toolpath": ("robolobe.plan.paths", "read_toolpath"),
     "plan_path": ("robolobe.plan.pipeline", "plan_path"),
+    "PlanSummary": ("robolobe.plan._summary", "PlanSummary"),
     "write_plan": ("robolobe.plan.report", "write_outputs"),
     "verify": ("robolobe.plan.verify", "verify_plan"),
     "compare_robots": ("robolobe.plan.compare", "compare_robots"),

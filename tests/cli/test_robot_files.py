@@ -97,7 +97,7 @@ def test_unusual_robot_is_planned_with_the_warning_in_the_summary(tmp_path: Path
 
     robot = _robot(tmp_path, lambda d: d["joints"][5].update(stiffness_Nm_per_rad=8e3))
     res = plan_path(EX / "pocket.nc", load_job(_job(tmp_path, robot)), refine=False)
-    notes = res.summary["notes"]
+    notes = res.summary.notes
     hit = [n for n in notes if "[[joints]][6].stiffness_Nm_per_rad" in n]
     assert hit, notes
     assert str(robot) in hit[0]

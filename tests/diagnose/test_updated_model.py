@@ -56,7 +56,7 @@ def test_read_effects_errors(tmp_path: Path) -> None:
 
 def test_calibrated_file_is_written_with_the_effects_on_top(tmp_path: Path) -> None:
     from robolobe.diagnose.calibration import FileParameters, calibration_candidate
-    from robolobe.tl.twin_params import apply_parameters
+    from robolobe.twin.params import apply_parameters
 
     r = load_robot("B")
     cand = calibration_candidate(r)

@@ -47,7 +47,7 @@ REL = 0.03
 def _check(row: tuple) -> None:
     job_name, path, n_wp, n_cut, length, depth, rpm_lo, rpm_hi, mrr, cycle, sf = row
     job = rl.load_job(EXAMPLES.joinpath(f"{job_name}.toml"))
-    s = rl.plan_path(EXAMPLES.joinpath(path), job).summary
+    s = rl.plan_path(EXAMPLES.joinpath(path), job).summary.to_dict()  # summary.json
     assert (s["n_waypoints"], s["n_cut"]) == (n_wp, n_cut)
     assert s["cut_length_m"] == pytest.approx(length, rel=1e-3)
     assert s["safety_factor"] == sf

@@ -276,6 +276,23 @@ def test_distinct_rows_by_hashing_equal_sorting(monkeypatch):
     np.testing.assert_array_equal(first2[inv2], f2[np.asarray(i2).ravel()])
 
 
+def test_numpy_grouping_equals_the_tree_loop():
+    """The numpy leader clustering (small paths) forms the groups of the cKDTree loop,
+    ties at the radius included."""
+    from robolobe.plan import lobes as lobes_mod
+
+    rng = np.random.default_rng(11)
+    for _ in range(60):
+        n, nf = int(rng.integers(1, 300)), int(rng.integers(0, 6))
+        # features on a 0.25 lattice: distances of exactly the radius (0.75) occur
+        f = np.round(rng.uniform(0.0, rng.uniform(0.5, 6.0), (n, nf)) * 4.0) / 4.0
+        ref = lobes_mod._leaders_tree(f) if nf else (np.zeros(n, np.int64), np.zeros(1, np.int64))
+        got = lobes_mod._leaders_numpy(f)
+        np.testing.assert_array_equal(got[0], ref[0])
+        np.testing.assert_array_equal(got[1], ref[1])
+    assert lobes_mod._leaders_numpy(np.zeros((0, 3)))[1].size == 0
+
+
 def test_compiled_grouping_equals_the_tree_loop():
     """The compiled leader clustering forms the groups of the cKDTree loop, ties included."""
     from robolobe import _jit

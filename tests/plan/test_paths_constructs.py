@@ -345,7 +345,7 @@ def test_reader_warnings_reach_the_plan_summary(tmp_path):
     p = tmp_path / "pocket.nc"
     p.write_text(text, encoding="utf-8")
     res = plan_path(p, job, refine=False)
-    assert any("toolpath reader" in n and "no G20/G21" in n for n in res.summary["notes"])
+    assert any("toolpath reader" in n and "no G20/G21" in n for n in res.summary.notes)
 
 
 def test_changing_origins_are_warned():

@@ -69,17 +69,18 @@ def test_postures_reach_the_targets(pocket, pocket_job):
 
 def test_summary_contents(pocket):
     s = pocket.summary
-    for key in (
-        "mrr_cm3_per_min", "cycle_time_s", "min_margin", "min_margin_at", "depth_mm",
-        "vs_best_constant_speed", "vs_programmed_speed", "limiting_counts", "timings_s",
-    ):  # fmt: skip
-        assert key in s
-    assert s["min_margin_at"]["source"].startswith("pocket.nc:")
-    assert s["n_plunge"] == 2  # the two plunges at the slot start
-    assert s["vs_programmed_speed"]["mrr_gain_pct"] >= 0.0
-    assert s["vs_best_constant_speed"]["mrr_gain_pct"] >= -1e-9
-    assert s["cycle_time_s"] == pytest.approx(s["cut_time_s"] + s["rapid_time_s"])
-    assert 1 <= s["n_dynamics_groups"] <= s["n_cut"]
+    assert s.min_margin_at.source.startswith("pocket.nc:")
+    assert s.n_plunge == 2  # the two plunges at the slot start
+    assert s.vs_programmed_speed is not None
+    assert s.vs_programmed_speed.mrr_gain_pct >= 0.0
+    assert s.vs_best_constant_speed is not None
+    assert s.vs_best_constant_speed.mrr_gain_pct >= -1e-9
+    assert s.cycle_time_s == pytest.approx(s.cut_time_s + s.rapid_time_s)
+    assert 1 <= s.n_dynamics_groups <= s.n_cut
+    # every cutting waypoint counted once under its limit, the plunges among them
+    assert sum(c.count for c in s.limiting_counts) == s.n_cut
+    assert {c.limit: c.count for c in s.limiting_counts}["plunge"] == s.n_plunge
+    assert set(s.timings_s) == set(pocket.timings)
     assert set(pocket.timings) >= {"read", "ik", "modes", "frf", "lobes", "optimize", "table"}
 
 
@@ -124,8 +125,9 @@ def test_stiffest_rotation_picks_from_the_range(pocket_job):
     )  # fmt: skip
     res = plan_path(example("pocket.nc"), job, refine=False)
     s = res.summary
-    assert s["tool_rotation_deg"] in (-90.0, 0.0, 90.0)
-    assert s["tool_rotation_search"].count("deg:") == 3
+    assert s.tool_rotation_deg in (-90.0, 0.0, 90.0)
+    assert s.tool_rotation_search is not None
+    assert s.tool_rotation_search.count("deg:") == 3
 
 
 class _FakePredictor:
@@ -149,17 +151,19 @@ def test_robust_mode_plans_on_the_lower_bound(pocket_job):
     nominal = plan_path(example("pocket.nc"), pocket_job, source=src, refine=False)
     job = pocket_job.replace(plan=dataclasses.replace(pocket_job.plan, robust=True, k_sigma=2.0))
     robust = plan_path(example("pocket.nc"), job, source=src, refine=False)
-    assert robust.summary["robust"] is True
+    assert robust.summary.robust is True
     assert robust.outcome.best.depth_m < nominal.outcome.best.depth_m
     assert len(robust.lobes.diagrams) == 2  # nominal + stiffness and damping lowered
-    b = robust.summary["robust_bound"]
-    assert b["k_sigma"] == 2.0
-    assert b["confidence_pct"] == pytest.approx(97.72, abs=0.01)
+    b = robust.summary.robust_bound
+    assert b is not None
+    assert b.k_sigma == 2.0
+    assert b.confidence_pct == pytest.approx(97.72, abs=0.01)
     # spread 0.05 in log f, 2 sigma: a +-10 % speed window; k and zeta x exp(-0.1)
-    assert b["frequency_window_pct_max"] == pytest.approx(10.0, abs=1e-6)
-    assert b["stiffness_lowered_to_pct"] == pytest.approx(100 * np.exp(-0.1), abs=0.01)
-    assert any(n.startswith("robust plan:") for n in robust.summary["notes"])
-    assert robust.summary["min_margin_at"]["source"].startswith("pocket.nc:")
+    assert b.frequency_window_pct_max == pytest.approx(10.0, abs=1e-6)
+    assert b.stiffness_lowered_to_pct == pytest.approx(100 * np.exp(-0.1), abs=0.01)
+    assert b.spread_pct_max.f == pytest.approx(100 * np.expm1(0.05), abs=1e-3)
+    assert any(n.startswith("robust plan:") for n in robust.summary.notes)
+    assert robust.summary.min_margin_at.source.startswith("pocket.nc:")
     # the stated limit is the smallest of the lowered model's lobes over the speed window
     tab = robust.lobes.table
     rpm = robust.outcome.best.rpm
@@ -185,9 +189,10 @@ def test_robust_mode_plans_on_the_lower_bound(pocket_job):
 def test_twin_robust_uses_the_jobs_assumed_spread_and_never_nan(pocket_job):
     job = pocket_job.replace(plan=dataclasses.replace(pocket_job.plan, robust=True))
     res = plan_path(example("pocket.nc"), job, refine=False)
-    b = res.summary["robust_bound"]
-    assert "assumed spread" in b["spread_from"]
-    assert b["frequency_window_pct_max"] == pytest.approx(100 * 2 * np.log1p(0.005), abs=1e-3)
+    b = res.summary.robust_bound
+    assert b is not None
+    assert "assumed spread" in b.spread_from
+    assert b.frequency_window_pct_max == pytest.approx(100 * 2 * np.log1p(0.005), abs=1e-3)
     assert np.all(np.isfinite(res.outcome.best.a_lim_m[np.isfinite(res.outcome.best.margin)]))
     nominal = plan_path(example("pocket.nc"), pocket_job, refine=False)
     assert res.outcome.best.depth_m <= nominal.outcome.best.depth_m
@@ -216,8 +221,8 @@ def test_degenerate_paths(tmp_path, pocket_job):
     plunge = tmp_path / "plunge.csv"
     plunge.write_text("x_m,y_m,z_m\n0,0,0\n0,0,-0.005\n", encoding="utf-8")
     res = plan_path(plunge, pocket_job, refine=False)
-    assert res.summary["n_plunge"] == 2
-    assert any("plunges" in n for n in res.summary["notes"])
+    assert res.summary.n_plunge == 2
+    assert any("plunges" in n for n in res.summary.notes)
     assert res.lobes.n_groups == 0
 
 
@@ -374,4 +379,4 @@ def test_streamed_long_path_plans_as_in_memory(tmp_path, pocket_job, monkeypatch
     calls.clear()
     rob = plan_path(path, job.replace(plan=dataclasses.replace(job.plan, robust=True)))
     assert calls == [False]
-    assert rob.summary["robust"]
+    assert rob.summary.robust

@@ -48,7 +48,8 @@ def test_write_outputs(tmp_path, result):
     ):
         assert col in table.columns
     s = json.loads((out / "summary.json").read_text())
-    assert s["mrr_cm3_per_min"] == result.summary["mrr_cm3_per_min"]
+    assert s == result.summary.to_dict()
+    assert s["mrr_cm3_per_min"] == result.summary.mrr_cm3_per_min
     html = (out / "report.html").read_text()
     imgs = re.findall(r'src="data:image/png;base64,([^"]+)"', html)
     assert len(imgs) == 4
@@ -224,7 +225,8 @@ def test_margin_runs_colour_every_move_as_the_norm_does():
     """The path plot joins moves of one colour class: each move keeps BoundaryNorm's colour."""
     from matplotlib.colors import BoundaryNorm
 
-    from robolobe.plan.report import _margin_classes, _runs
+    from robolobe.plan._plots import margin_classes as _margin_classes
+    from robolobe.plan._plots import runs as _runs
 
     sf = 1.3
     bounds = [0.0, 1.0, sf, 1.1 * sf, 1.5 * sf, 2.0 * sf, 4.0 * sf]
@@ -247,3 +249,32 @@ def test_margin_runs_colour_every_move_as_the_norm_does():
         per_move[i0 : i0 + len(line) - 1] = c
         np.testing.assert_array_equal(line[:, 1], 2 * line[:, 0])
     np.testing.assert_array_equal(per_move, cls)
+
+
+def test_plot_worker_draws_the_same_pngs_and_a_dead_one_falls_back(tmp_path, result):
+    """The plot process gives the PNGs drawn in-process, byte for byte; a worker that
+    died before drawing leaves the same files (drawn here instead)."""
+    from robolobe.plan._plots import PlotWorker
+
+    here = report.write_outputs(result, tmp_path / "here", html_report=False)
+    with PlotWorker() as worker:
+        there = report.write_outputs(result, tmp_path / "there", html_report=False, worker=worker)
+    dead = PlotWorker(processes=2)
+    assert len(dead._procs) == 2
+    dead._procs[1].kill()
+    dead._procs[1].wait()
+    fallback = report.write_outputs(result, tmp_path / "dead", html_report=False, worker=dead)
+    for name in report.PLOTS:
+        ref = (here / "plots" / f"{name}.png").read_bytes()
+        assert (there / "plots" / f"{name}.png").read_bytes() == ref, name
+        assert (fallback / "plots" / f"{name}.png").read_bytes() == ref, name
+
+
+def test_plot_worker_reports_a_drawing_error_as_a_failure():
+    """A record the worker cannot draw makes receive() return None (the caller then draws
+    in-process and raises the real error there), not a hang or a partial result."""
+    from robolobe.plan._plots import PlotWorker
+
+    with PlotWorker() as worker:
+        worker.send({"bad": object()})
+        assert worker.receive() is None

@@ -183,22 +183,24 @@ def test_a_job_naming_the_transfer_output_plans_robustly_on_its_spread(corrected
     assert auto.plan.robust is None
     res = plan_path(example("contour.apt"), auto, refine=False)
     s = res.summary
-    assert s["robust"] is True
-    assert s["robust_by_default"] is True
-    b = s["robust_bound"]
-    assert "calibrated prediction-error spread" in b["spread_from"]
-    assert b["confidence_pct"] == pytest.approx(97.72, abs=0.01)
-    assert b["spread_pct_median"]["f"] > 0
-    assert any("robust by default" in n for n in s["notes"])
+    assert s.robust is True
+    assert s.robust_by_default is True
+    b = s.robust_bound
+    assert b is not None
+    assert "calibrated prediction-error spread" in b.spread_from
+    assert b.confidence_pct == pytest.approx(97.72, abs=0.01)
+    assert b.spread_pct_median is not None
+    assert b.spread_pct_median.f > 0
+    assert any("robust by default" in n for n in s.notes)
     # robust = false in the job plans on the nominal modes
     job = auto.replace(plan=dataclasses.replace(auto.plan, robust=False))
     plain = plan_path(example("contour.apt"), job, refine=False)
-    assert plain.summary["robust"] is False
-    assert plain.summary["robust_bound"] is None
+    assert plain.summary.robust is False
+    assert plain.summary.robust_bound is None
     assert res.outcome.best.depth_m <= plain.outcome.best.depth_m
     # and a twin job with robust unset stays a nominal plan
     twin = auto.replace(model="twin")
-    assert plan_path(example("contour.apt"), twin, refine=False).summary["robust"] is False
+    assert plan_path(example("contour.apt"), twin, refine=False).summary.robust is False
 
 
 @pytest.mark.slow

@@ -52,7 +52,7 @@ def test_verify_on_the_plans_own_modes_reproduces_a_lim(plans, job):
     np.testing.assert_allclose(t["a_lim_mm"][ok], t["a_lim_plan_mm"][ok], rtol=0, atol=1e-9)
     assert v.ok
     assert v.n_beyond == 0
-    assert v.min_margin == pytest.approx(res.summary["min_margin"], abs=1e-3)
+    assert v.min_margin == pytest.approx(res.summary.min_margin, abs=1e-3)
 
 
 @pytest.mark.parametrize("job", [c[1] for c in CASES])

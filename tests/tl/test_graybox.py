@@ -14,9 +14,9 @@ from robolobe.robots import load_robot
 from robolobe.robots.model import robots_allclose
 from robolobe.tl.graybox import DEFAULT_PARAMS, PRIOR_STD, TwinCalibration, twin_values
 from robolobe.tl.twin_data import twin_modal_dataset
-from robolobe.tl.twin_params import COM_UNIT_M, PARAMETER_GROUPS, apply_parameters
 from robolobe.twin import Twin
 from robolobe.twin.designs import design_arrays, seed_design
+from robolobe.twin.params import COM_UNIT_M, PARAMETER_GROUPS, apply_parameters
 
 GROUPS = ("stiffness", "damping", "ee_mass")
 # concealed factors on robot B's file (within the study's ranges)
@@ -224,7 +224,7 @@ def test_prior_std_validated():
 @pytest.mark.slow
 def test_spread_propagation_matches_finite_differences(setup):
     """The analytic first-order spread equals a finite-difference propagation."""
-    from robolobe.tl.twin_params import ParametrizedTwin
+    from robolobe.twin.params import ParametrizedTwin
 
     fit = setup["model"]
     q = setup["q"][setup["test"]][:3]

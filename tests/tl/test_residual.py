@@ -1,6 +1,6 @@
 """Tests of robolobe.tl.residual.CorrectedTwin (calibrated twin + learned correction).
 
-The truths are concealed robots (:func:`robolobe.tl.concealed.concealed_robot`)
+The truths are concealed robots (``studies/concealed_robots.py``)
 whose form the twin does not have: inertia shapes, and gear stiffness that
 grows with the gravity load (:class:`robolobe.twin.effects.GravityStiffening`).
 Held-out postures are drawn apart from the training ones.
@@ -8,12 +8,18 @@ Held-out postures are drawn apart from the training ones.
 
 from __future__ import annotations
 
+import sys
+from pathlib import Path
+
 import numpy as np
 import pytest
 
 from robolobe.errors import InputError
 from robolobe.robots import load_robot
-from robolobe.tl.concealed import concealed_robot, perturb_inertia_shape
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "studies"))
+from concealed_robots import concealed_robot, perturb_inertia_shape
+
 from robolobe.tl.design import design_postures
 from robolobe.tl.graybox import TwinCalibration
 from robolobe.tl.models import load_model

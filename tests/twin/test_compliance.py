@@ -12,8 +12,8 @@ from robolobe.robots import load_robot, robot_to_toml, robots_allclose, sample_p
 from robolobe.robots.io import robot_to_dict
 from robolobe.robots.kinematics import tcp_pose
 from robolobe.robots.transforms import pose_from_xyz_zyx
-from robolobe.tl.twin_params import PARAMETER_GROUPS, ParametrizedTwin, apply_parameters
 from robolobe.twin.model import Twin
+from robolobe.twin.params import PARAMETER_GROUPS, ParametrizedTwin, apply_parameters
 
 Q = np.radians([[-2, 21, -27, 5, 1, -29], [-60, 50, -120, 115, -66, -197]])
 

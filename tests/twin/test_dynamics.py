@@ -9,11 +9,9 @@ from robolobe.errors import InputError
 from robolobe.robots import Robot, link_frames, load_robot
 from robolobe.twin.dynamics import (
     GRAVITY_M_PER_S2,
-    damping_matrix,
     gravity_torques,
     mass_matrix,
     robot_bodies,
-    stiffness_matrix,
 )
 
 
@@ -124,12 +122,6 @@ def test_gravity_torque_is_minus_potential_gradient(robot: Robot) -> None:
     h = 1e-6
     grad = np.array([(potential(q + h * e) - potential(q - h * e)) / (2 * h) for e in np.eye(6)])
     np.testing.assert_allclose(gravity_torques(robot, q), -grad, rtol=1e-6, atol=1e-4)
-
-
-def test_stiffness_and_damping_are_diagonal() -> None:
-    r = load_robot("A")
-    np.testing.assert_array_equal(stiffness_matrix(r), np.diag(r.stiffness))
-    np.testing.assert_array_equal(damping_matrix(r), np.diag(r.damping))
 
 
 @pytest.mark.parametrize("q", [np.zeros(5), np.array([0, 0, 0, 0, 0, np.nan])])

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from importlib import resources
 from pathlib import Path
-from typing import Annotated, Any
+from typing import TYPE_CHECKING, Annotated, Any
 
 import typer
 from rich.markup import escape
@@ -12,6 +12,9 @@ from rich.table import Table
 
 from robolobe.cli._common import console, err_console, progress, status
 from robolobe.errors import EXIT_INPUT, InfeasibleError, InputError
+
+if TYPE_CHECKING:
+    from robolobe.plan._summary import PlanSummary
 
 __all__ = ["EXAMPLE_JOB", "EXAMPLE_PATH", "example_files", "register"]
 
@@ -26,33 +29,28 @@ def example_files() -> tuple[Path, Path]:
     return Path(str(base.joinpath(EXAMPLE_PATH))), Path(str(base.joinpath(EXAMPLE_JOB)))
 
 
-def _print_summary(s: dict[str, Any], out: Path) -> None:
-    t = Table(title=f"robolobe plan: {Path(str(s['path'])).name}", show_header=False)
+def _print_summary(s: PlanSummary, out: Path) -> None:
+    t = Table(title=f"robolobe plan: {Path(s.path).name}", show_header=False)
     t.add_column("", style="bold")
     t.add_column("")
-    t.add_row("robot / modes", f"{s['robot']} / {s['mode_source']}")
-    t.add_row("waypoints (cutting)", f"{s['n_waypoints']} ({s['n_cut']})")
-    t.add_row("depth per pass", f"{s['depth_mm']:.3f} mm")
-    t.add_row(
-        "speed", f"{s['rpm_min']:.0f} - {s['rpm_max']:.0f} rpm ({s['speed_mode']}, {s['method']})"
-    )
-    t.add_row("MRR", f"{s['mrr_cm3_per_min']:.1f} cm^3/min")
-    t.add_row("cycle time", f"{s['cycle_time_s']:.2f} s")
-    at = s["min_margin_at"]
-    t.add_row(
-        "minimum margin", f"{s['min_margin']:.3f} at {at['source']} (waypoint {at['waypoint']})"
-    )
-    for key, name in (
-        ("vs_best_constant_speed", "vs best constant speed"),
-        ("vs_programmed_speed", "vs programmed speed"),
+    t.add_row("robot / modes", f"{s.robot} / {s.mode_source}")
+    t.add_row("waypoints (cutting)", f"{s.n_waypoints} ({s.n_cut})")
+    t.add_row("depth per pass", f"{s.depth_mm:.3f} mm")
+    t.add_row("speed", f"{s.rpm_min:.0f} - {s.rpm_max:.0f} rpm ({s.speed_mode}, {s.method})")
+    t.add_row("MRR", f"{s.mrr_cm3_per_min:.1f} cm^3/min")
+    t.add_row("cycle time", f"{s.cycle_time_s:.2f} s")
+    at = s.min_margin_at
+    t.add_row("minimum margin", f"{s.min_margin:.3f} at {at.source} (waypoint {at.waypoint})")
+    for g, name in (
+        (s.vs_best_constant_speed, "vs best constant speed"),
+        (s.vs_programmed_speed, "vs programmed speed"),
     ):
-        g = s.get(key)
-        if g:
-            gain = g.get("mrr_gain_pct")
+        if g is not None:
+            gain = g.mrr_gain_pct
             txt = f"MRR {gain:+.1f} %" if gain is not None else "baseline infeasible"
-            t.add_row(name, f"{txt} ({g['depth_mm']:.3f} mm at {g['rpm_mean']:.0f} rpm)")
+            t.add_row(name, f"{txt} ({g.depth_mm:.3f} mm at {g.rpm_mean:.0f} rpm)")
     console.print(t)
-    for note in s.get("notes", []):
+    for note in s.notes:
         err_console.print(f"[yellow]note:[/] {escape(note)}", highlight=False)
     from robolobe.plan.report import OUTPUTS
 
@@ -191,6 +189,34 @@ def register(app: typer.Typer) -> None:
         power and torque limits. Writes waypoints.csv, summary.json, plots and
         report.html. Exit code 3 when no feasible plan exists.
         """
+        from robolobe.plan._plots import PlotWorker
+
+        # started first: it imports matplotlib on the other core while we plan
+        worker = PlotWorker() if plots or html else None
+        try:
+            _plan(path, job, output, plots, html, robust, refine, waypoints, waypoints_every,
+                  units, tool_direction, coordinates, rotary_axes, circle_axis, worker)  # fmt: skip
+        finally:
+            if worker is not None:
+                worker.close()
+
+    def _plan(
+        path: Path | None,
+        job: Path | None,
+        output: Path,
+        plots: bool,
+        html: bool,
+        robust: bool | None,
+        refine: bool,
+        waypoints: str,
+        waypoints_every: int,
+        units: str | None,
+        tool_direction: str | None,
+        coordinates: str | None,
+        rotary_axes: str | None,
+        circle_axis: str | None,
+        worker: Any,
+    ) -> None:
         from robolobe._atomic import check_output_dir
         from robolobe.plan.job import load_job
         from robolobe.plan.pipeline import plan_path
@@ -227,6 +253,7 @@ def register(app: typer.Typer) -> None:
                 html_report=html,
                 waypoints=waypoints,
                 waypoints_every=waypoints_every,
+                worker=worker,
             )
         _print_summary(res.summary, output)
 

@@ -4,7 +4,7 @@ A robot file is a prior (docs/guide/robots.md): joint stiffnesses and
 dampings are rarely published and the masses are estimates. Before any
 missing physics is named, the diagnosis asks whether correcting the file's
 own values explains the recordings. The parameters are those of the twin
-calibration (:mod:`robolobe.tl.twin_params`, the parametrisation that
+calibration (:mod:`robolobe.twin.params`, the parametrisation that
 :class:`robolobe.tl.graybox.TwinCalibration` fits to identified modes):
 
 ========== ==== ===========================================
@@ -16,7 +16,7 @@ ee_mass    1    factor on the end-effector mass and inertia
 link_mass  6    factor on each link's mass and inertia
 ========== ==== ===========================================
 
-The values are applied with :func:`robolobe.tl.twin_params.apply_parameters`
+The values are applied with :func:`robolobe.twin.params.apply_parameters`
 (one place for what "the file's parameter theta" means), and the candidate
 is fitted to the FRFs by the diagnosis's own fit
 (:func:`robolobe.diagnose.fitting.fit_candidate`) like every other
@@ -46,8 +46,8 @@ from numpy.typing import NDArray
 
 from robolobe.diagnose.candidate import Candidate, ParamSpec
 from robolobe.robots import Robot
-from robolobe.tl.twin_params import PARAMETER_GROUPS, apply_parameters, parameter_names
 from robolobe.twin.effects import Effect
+from robolobe.twin.params import PARAMETER_GROUPS, apply_parameters, parameter_names
 
 __all__ = ["CALIBRATION", "FileParameters", "calibration_candidate", "moved_parameters"]
 
@@ -68,7 +68,7 @@ class FileParameters(Effect):
     Parameters
     ----------
     groups : tuple of str
-        Keys of :data:`robolobe.tl.twin_params.PARAMETER_GROUPS`.
+        Keys of :data:`robolobe.twin.params.PARAMETER_GROUPS`.
     theta : tuple of float
         Their parameters (log factors), 0 = the file.
     """

@@ -20,6 +20,8 @@ from typing import Any, Literal
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from robolobe.errors import InputError
+
 __all__ = ["NONE", "Candidate", "ParamSpec", "Requirement"]
 
 NONE = "none"
@@ -55,16 +57,16 @@ class ParamSpec:
 
     def __post_init__(self) -> None:
         if not self.lower < self.upper:
-            raise ValueError(
+            raise InputError(
                 f"{self.name}: expected lower < upper, found {self.lower}, {self.upper}"
             )
         if self.scale == "log" and self.lower <= 0:
-            raise ValueError(f"{self.name}: log scale needs lower > 0, found {self.lower}")
+            raise InputError(f"{self.name}: log scale needs lower > 0, found {self.lower}")
         if not self.grid:
-            raise ValueError(f"{self.name}: expected at least one grid value")
+            raise InputError(f"{self.name}: expected at least one grid value")
         for g in self.grid:
             if not self.lower <= g <= self.upper:
-                raise ValueError(
+                raise InputError(
                     f"{self.name}: grid value {g} outside [{self.lower}, {self.upper}]"
                 )
 

@@ -50,6 +50,7 @@ candidates only as the closest ones.
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from typing import Any
@@ -57,7 +58,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from robolobe._threads import one_blas_thread
+from robolobe._workers import map_chunks
 from robolobe.diagnose.calibration import CALIBRATION, FileParameters
 from robolobe.diagnose.candidate import NONE, Candidate
 from robolobe.diagnose.fitting import REL_STD_MAX, CandidateFit, ModelFn, fit_candidate
@@ -387,12 +388,9 @@ def _joint_round(
 FitOne = Callable[[Candidate, ModelFn, Observations], CandidateFit]
 
 
-def _fit_part(
-    fit_one: FitOne, cands: Sequence[Candidate], model: ModelFn, obs: Observations
-) -> list[CandidateFit]:
-    """``[fit_one(c, model, obs) for c in cands]`` with one BLAS thread (in a worker)."""
-    with one_blas_thread():
-        return [fit_one(c, model, obs) for c in cands]
+def _fit_with(c: Candidate, fit_one: FitOne, model: ModelFn, obs: Observations) -> CandidateFit:
+    """``fit_one(c, model, obs)`` (a module-level function the workers import by name)."""
+    return fit_one(c, model, obs)
 
 
 def _fit_round(
@@ -403,12 +401,13 @@ def _fit_round(
     n_jobs: int,
     tick: Callable[[int], None] | None = None,
 ) -> list[CandidateFit]:
-    """Every candidate of a round fitted, in order; over ``n_jobs`` joblib workers if > 1.
+    """Every candidate of a round fitted, in order; over ``n_jobs`` workers if > 1.
 
     The fits are independent and deterministic, so the workers give the
-    fits of one process (to round-off: 1e-12 relative). Each task carries a few candidates taken
-    round-robin (the costly file calibration and tool modes spread over the
-    workers) and one copy of the model and the records.
+    fits of one process (to round-off: 1e-12 relative). Each task carries a
+    few candidates taken round-robin (the costly file calibration and tool
+    modes spread over the workers) and one copy of the model and the records
+    (:func:`robolobe._workers.map_chunks`).
     """
     if n_jobs == 1 or len(todo) < 4:
         out = []
@@ -417,18 +416,9 @@ def _fit_round(
                 tick(i)
             out.append(fit_one(c, model, obs))
         return out
-    from joblib import Parallel, delayed
-
-    n_parts = min(len(todo), 4 * (n_jobs if n_jobs > 0 else 2))
-    parts = [list(range(i, len(todo), n_parts)) for i in range(n_parts)]
-    done = Parallel(n_jobs=n_jobs)(
-        delayed(_fit_part)(fit_one, [todo[j] for j in part], model, obs) for part in parts
-    )
-    fits: list[CandidateFit | None] = [None] * len(todo)
-    for part, res in zip(parts, done, strict=True):
-        for j, f in zip(part, res, strict=True):
-            fits[j] = f
-    return [f for f in fits if f is not None]
+    fn = functools.partial(_fit_with, fit_one=fit_one, model=model, obs=obs)
+    n_parts = 4 * (n_jobs if n_jobs > 0 else 2)
+    return map_chunks(fn, todo, n_jobs, parts=n_parts)
 
 
 def _screen(

@@ -48,6 +48,7 @@ from numpy.typing import NDArray
 from robolobe._directions import DRIVING, dir_index
 from robolobe.campaign.metrics import frac, nrmse
 from robolobe.diagnose.observations import Observations
+from robolobe.errors import InputError
 
 __all__ = [
     "F_SCALE",
@@ -111,7 +112,7 @@ def log_ratio(H_model: NDArray[np.complexfloating], obs: Observations) -> NDArra
     """
     Hp = np.asarray(H_model, dtype=complex)
     if Hp.shape != obs.H.shape:
-        raise ValueError(f"H_model: expected shape {obs.H.shape}, found {Hp.shape}")
+        raise InputError(f"H_model: expected shape {obs.H.shape}, found {Hp.shape}")
     with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
         out = _ratio_residual(Hp / obs.H, np.nan_to_num(obs.sigma) > NOISY_SIGMA)
     return np.where(obs.mask, out, np.nan + 0j)
@@ -134,7 +135,7 @@ def residual_vector(H_model: NDArray[np.complexfloating], obs: Observations) -> 
     """
     Hp = np.asarray(H_model)
     if Hp.shape != obs.H.shape:
-        raise ValueError(f"H_model: expected shape {obs.H.shape}, found {Hp.shape}")
+        raise InputError(f"H_model: expected shape {obs.H.shape}, found {Hp.shape}")
     w = obs.inv_sigma_measured
     with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
         lr = _ratio_residual(Hp[obs.mask] / obs.H_measured, w < 1.0 / NOISY_SIGMA)

@@ -292,7 +292,7 @@ def select(
     st = settings or SelectionSettings()
     nones = [f for f in fits if f.candidate.name == NONE]
     if len(nones) != 1:
-        raise ValueError(f"fits: expected exactly one 'none' fit, found {len(nones)}")
+        raise InputError(f"fits: expected exactly one 'none' fit, found {len(nones)}")
     f0 = nones[0]
     others = [f for f in fits if f.candidate.name != NONE]
     folds = make_folds(obs_fit.group, st.n_folds)

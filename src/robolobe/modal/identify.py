@@ -40,10 +40,11 @@ from robolobe._directions import AXES
 from robolobe._matching import match_modes
 from robolobe._modal_parameters import ModalParameters
 from robolobe._threads import with_one_blas_thread
+from robolobe._workers import map_chunks
 from robolobe.campaign import Campaign, TestHeader
 from robolobe.campaign.metrics import frac, nrmse
 from robolobe.errors import InputError
-from robolobe.modal._pool import identify_item, map_chunks, refit_item
+from robolobe.modal._pool import identify_item, refit_item
 from robolobe.modal.modal_csv import MODAL_COLUMNS, Q_COLUMNS, validate_modal_frame
 from robolobe.modal.posture import IdentifySettings, PostureModal
 from robolobe.modal.quality import QualityIssue, check_campaign_grids
@@ -373,7 +374,7 @@ def identify_frfs(
     )
     issues: list[QualityIssue] = check_campaign_grids(ids, freqs)
     items = [(ids[i], freqs[i], Hs[i], cohs[i], s) for i in range(n)]
-    postures = map_chunks(identify_item, items, n_jobs, progress)
+    postures = map_chunks(identify_item, items, n_jobs, progress=progress)
     for pm in postures:
         issues.extend(pm.issues)
 

@@ -13,7 +13,7 @@ Typical use::
 
     res = plan_path("pocket.nc", load_job("job.toml"))
     write_outputs(res, "out")
-    print(res.summary["mrr_cm3_per_min"], res.summary["min_margin"])
+    print(res.summary.mrr_cm3_per_min, res.summary.min_margin)
 
 The names below are imported lazily (the optimizer and the plots pull in
 scipy, casadi and matplotlib only when used).
@@ -27,6 +27,7 @@ from typing import Any
 __all__ = [
     "Job",
     "PlanResult",
+    "PlanSummary",
     "batch_plan",
     "compare_robots",
     "load_job",
@@ -39,6 +40,7 @@ _WHERE = {
     "Job": "robolobe.plan.job",
     "load_job": "robolobe.plan.job",
     "PlanResult": "robolobe.plan.pipeline",
+    "PlanSummary": "robolobe.plan._summary",
     "plan_path": "robolobe.plan.pipeline",
     "read_toolpath": "robolobe.plan.paths",
     "write_outputs": "robolobe.plan.report",

@@ -133,24 +133,25 @@ def plan_one(
 
         res = plan_path(path, job, refine=refine)
         s = res.summary
+        vs_const, vs_prog = s.vs_best_constant_speed, s.vs_programmed_speed
         row.update(
             status="ok",
             exit_code=0,
-            message="; ".join(s.get("notes", [])),
-            robot=s["robot"],
-            mode_source=s["mode_source"],
-            n_waypoints=s["n_waypoints"],
-            n_cut=s["n_cut"],
-            depth_mm=s["depth_mm"],
-            rpm_min=s["rpm_min"],
-            rpm_max=s["rpm_max"],
-            mrr_cm3_per_min=s["mrr_cm3_per_min"],
-            cycle_time_s=s["cycle_time_s"],
-            min_margin=s["min_margin"],
-            min_margin_at=s["min_margin_at"]["source"],
-            method=s["method"],
-            gain_vs_constant_pct=(s["vs_best_constant_speed"] or {}).get("mrr_gain_pct"),
-            gain_vs_programmed_pct=(s["vs_programmed_speed"] or {}).get("mrr_gain_pct"),
+            message="; ".join(s.notes),
+            robot=s.robot,
+            mode_source=s.mode_source,
+            n_waypoints=s.n_waypoints,
+            n_cut=s.n_cut,
+            depth_mm=s.depth_mm,
+            rpm_min=s.rpm_min,
+            rpm_max=s.rpm_max,
+            mrr_cm3_per_min=s.mrr_cm3_per_min,
+            cycle_time_s=s.cycle_time_s,
+            min_margin=s.min_margin,
+            min_margin_at=s.min_margin_at.source,
+            method=s.method,
+            gain_vs_constant_pct=vs_const.mrr_gain_pct if vs_const is not None else None,
+            gain_vs_programmed_pct=vs_prog.mrr_gain_pct if vs_prog is not None else None,
         )
         if out_dir is not None:
             from robolobe.plan.report import write_outputs

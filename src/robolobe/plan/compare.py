@@ -230,20 +230,20 @@ def compare_robots(
                 status="ok",
                 placement_adjusted=adjusted,
                 placement_xyz_m=[round(float(v), 4) for v in placement[:3, 3]],
-                depth_mm=s["depth_mm"],
-                rpm_min=s["rpm_min"],
-                rpm_max=s["rpm_max"],
-                mrr_cm3_per_min=s["mrr_cm3_per_min"],
-                cycle_time_s=s["cycle_time_s"],
-                passes=_passes(jr, s["depth_mm"]),
-                part_time_s=_passes(jr, s["depth_mm"]) * s["cycle_time_s"],
-                time_per_mm_depth_s=s["cycle_time_s"] / s["depth_mm"],
-                min_margin=s["min_margin"],
-                worst_waypoint=s["min_margin_at"]["waypoint"],
-                worst_source=s["min_margin_at"]["source"],
-                method=s["method"],
-                mode_source=s["mode_source"],
-                message="; ".join(s.get("notes", [])),
+                depth_mm=s.depth_mm,
+                rpm_min=s.rpm_min,
+                rpm_max=s.rpm_max,
+                mrr_cm3_per_min=s.mrr_cm3_per_min,
+                cycle_time_s=s.cycle_time_s,
+                passes=_passes(jr, s.depth_mm),
+                part_time_s=_passes(jr, s.depth_mm) * s.cycle_time_s,
+                time_per_mm_depth_s=s.cycle_time_s / s.depth_mm,
+                min_margin=s.min_margin,
+                worst_waypoint=s.min_margin_at.waypoint,
+                worst_source=s.min_margin_at.source,
+                method=s.method,
+                mode_source=s.mode_source,
+                message="; ".join(s.notes),
             )
             results[spec] = res
         except (ReachabilityError, SingularityError) as exc:
@@ -407,7 +407,7 @@ def write_comparison(
             (d / "plots").mkdir(parents=True)
             write_csv(res.table, d / "waypoints.csv")
             (d / "summary.json").write_text(
-                json.dumps(res.summary, indent=2) + "\n", encoding="utf-8"
+                json.dumps(res.summary.to_dict(), indent=2) + "\n", encoding="utf-8"
             )
             for name, data in per_robot.get(key, {}).items():
                 (d / "plots" / f"{name}.png").write_bytes(data)

@@ -477,7 +477,7 @@ class CorrectedTwinSource:
         self.name = name or f"corrected twin of {model.robot_name}"
 
     def predict(self, q_rad: ArrayLike) -> RobotModes:
-        from robolobe.tl.twin_params import K_MAX
+        from robolobe.twin.params import K_MAX
 
         q = np.asarray(q_rad, dtype=np.float64).reshape(-1, 6)
         ct = self.model

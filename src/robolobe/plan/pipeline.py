@@ -43,6 +43,7 @@ import pandas as pd
 from numpy.typing import NDArray
 
 from robolobe.errors import InputError, ReachabilityError, SingularityError
+from robolobe.plan._summary import PlanSummary
 from robolobe.plan.job import Job
 from robolobe.plan.lobes import DynamicsTolerance, GroupedLobes, steep_members, waypoint_lobes
 from robolobe.plan.modes import (
@@ -59,7 +60,6 @@ from robolobe.robots.ik import ik, ik_batch
 from robolobe.robots.io import load_robot
 from robolobe.robots.kinematics import joint_axes, link_frames
 from robolobe.robots.model import Robot
-from robolobe.robots.plausibility import robot_warnings
 from robolobe.sld.conditions import engagement_angles
 from robolobe.sld.frf import ModalModel
 from robolobe.sld.material import Material, get_material
@@ -115,8 +115,9 @@ class PlanResult:
         Postures [rad].
     geom : PathGeometry
         Cutting lengths and rapid time.
-    summary : dict
-        JSON-ready summary.
+    summary : PlanSummary
+        Headline figures, provenance and notes (``summary.to_dict()``:
+        ``summary.json``).
     timings : dict
         Seconds per stage.
     """
@@ -131,7 +132,7 @@ class PlanResult:
     cut_index: NDArray[np.int64]
     q: FloatArray
     geom: PathGeometry
-    summary: dict[str, Any]
+    summary: PlanSummary
     timings: dict[str, float] = field(default_factory=dict)
 
 
@@ -1025,34 +1026,30 @@ def plan_path(
     own_col = np.zeros(len(wp), bool)
     own_col[ci] = steep
     table["lobes_own"] = own_col
-    if n_split:
-        note = (note + "; " if note else "") + (
-            f"{n_split} waypoints next to a steep lobe wall got lobes of their own "
-            "(sharing would have moved their limit)"
-        )
-    summary = _summary(
-        job,
-        path_name,
-        robot,
-        source,
-        note,
-        rot_note,
-        rotation,
-        wp,
-        table,
-        grouped,
-        outcome,
-        ci,
-        modes,
-        cons,
-        geom,
-        bound,
-    )
-    summary["plan_record"] = plan_record(
-        job, path if not isinstance(path, pd.DataFrame) else None, table
+    record = plan_record(job, path if not isinstance(path, pd.DataFrame) else None, table)
+    summary = PlanSummary.build(
+        job=job,
+        path=path_name,
+        robot=robot,
+        mode_source=source.name,
+        material=material.name,
+        waypoints=wp,
+        table=table,
+        cut_index=ci,
+        lobes=grouped,
+        outcome=outcome,
+        constraints=cons,
+        geometry=geom,
+        tool_rotation_rad=rotation,
+        tool_rotation_search=rot_note,
+        plan_record=record,
+        extrapolation=modes.extrapolation,
+        bound=bound,
+        mode_note=note,
+        n_split=n_split,
     )
     timings["table"] = time.perf_counter() - t
-    summary["timings_s"] = {k: round(v, 4) for k, v in timings.items()}
+    summary = summary.with_timings(timings)
     return PlanResult(
         job=job,
         path=path_name,
@@ -1272,147 +1269,4 @@ def plan_record(
         "job": job_fingerprint(job),
         "path_sha256": p_hash,
         "waypoints_sha256": waypoints_hash(table),
-    }
-
-
-def _sched_dict(s: Any) -> dict[str, Any] | None:
-    if s is None:
-        return None
-    return {
-        "method": s.method,
-        "feasible": bool(s.feasible),
-        "reason": s.reason,
-        "depth_mm": round(s.depth_m * 1e3, 4),
-        "rpm_min": round(float(np.min(s.rpm)), 1),
-        "rpm_max": round(float(np.max(s.rpm)), 1),
-        "rpm_mean": round(float(np.mean(s.rpm)), 1),
-        "mrr_cm3_per_min": round(s.volume_rate_cm3_per_min, 3),
-        "cut_time_s": round(s.cut_time_s, 3),
-        "cycle_time_s": round(s.cycle_time_s, 3),
-    }
-
-
-def _gain(best: Any, base: Any) -> dict[str, Any] | None:
-    if base is None:
-        return None
-    d = _sched_dict(base)
-    assert d is not None
-    if base.feasible and base.mrr_m3_per_s > 0:
-        d["mrr_gain_pct"] = round(100.0 * (best.mrr_m3_per_s / base.mrr_m3_per_s - 1.0), 2)
-        # same volume: the depth ratio sets how many passes a given stock needs
-        d["cycle_time_saving_pct"] = round(
-            100.0 * (1.0 - (best.cycle_time_s / best.depth_m) / (base.cycle_time_s / base.depth_m)),
-            2,
-        )
-    else:
-        d["mrr_gain_pct"] = None
-        d["cycle_time_saving_pct"] = None
-    return d
-
-
-def _summary(
-    job: Job,
-    path_name: str,
-    robot: Robot,
-    source: ModeSource,
-    note: str,
-    rot_note: str,
-    rotation: float,
-    wp: pd.DataFrame,
-    table: pd.DataFrame,
-    grouped: GroupedLobes,
-    outcome: PlanOutcome,
-    ci: NDArray[np.int64],
-    modes: RobotModes | _ModeColumns,
-    cons: Constraints,
-    geom: PathGeometry,
-    bound: RobustBound | None = None,
-) -> dict[str, Any]:
-    import robolobe
-
-    best = outcome.best
-    mg = best.margin
-    k = int(np.argmin(np.where(np.isfinite(mg), mg, np.inf)))
-    i = int(ci[k])
-    lim_counts = table.loc[table["motion"] == "cut", "limiting"].value_counts().to_dict()
-    ex = modes.extrapolation
-    notes = [s for s in (note, grouped.message) if s]
-    notes += [f"toolpath reader: {w}" for w in wp.attrs.get("warnings", [])]
-    notes += [f"robot file {robot.source}: {w}" for w in robot_warnings(robot)]
-    if ex is not None and np.any(ex > 0.1):
-        notes.append(
-            f"{int(np.sum(ex > 0.1))} of {ex.size} cutting postures lie beyond the model's "
-            f"training range (up to {100 * float(ex.max()):.0f} % of a joint range): "
-            "predictions there are extrapolations"
-        )
-    n_plunge = int(np.sum(table["limiting"] == "plunge"))
-    if n_plunge:
-        notes.append(
-            f"{n_plunge} cutting moves run along the tool axis (plunges): the lateral (ZOA) "
-            "stability model does not apply to them and they do not limit the depth"
-        )
-    robust = bool(job.plan.robust) or bound is not None
-    if robust and bound is None:
-        notes.append(
-            "robust mode: neither the mode source nor the job gives a spread (k_sigma or the "
-            "spread_*_pct keys are 0); planned on the nominal modes"
-        )
-    elif bound is not None:
-        why = (
-            " (plan.robust not set: robust by default on a calibrated spread)"
-            if job.plan.robust is None
-            else ""
-        )
-        notes.append("robust plan" + why + ": " + str(bound.describe()["statement"]))
-    return {
-        "robolobe_version": robolobe.__version__,
-        "job": job.name,
-        "job_file": job.source,
-        "path": path_name,
-        "robot": robot.name,
-        "robot_spec": job.robot,
-        "mode_source": source.name,
-        "tool_rotation_deg": round(math.degrees(rotation), 3),
-        "tool_rotation_search": rot_note or None,
-        "material": material_from_job(job).name,
-        "n_waypoints": len(wp),
-        "n_cut": int(ci.size),
-        "n_plunge": int(np.sum(table["limiting"] == "plunge")),
-        "n_dynamics_groups": grouped.n_groups,
-        "speed_mode": job.plan.speed,
-        "robust": robust,
-        "robust_by_default": robust and job.plan.robust is None,
-        "k_sigma": job.plan.k_sigma if robust else None,
-        "robust_bound": bound.describe() if bound is not None else None,
-        "safety_factor": cons.safety_factor,
-        "method": best.method,
-        "nlp_status": outcome.nlp_status,
-        "depth_mm": round(best.depth_m * 1e3, 4),
-        "rpm_min": round(float(best.rpm.min()), 1),
-        "rpm_max": round(float(best.rpm.max()), 1),
-        "mrr_cm3_per_min": round(best.volume_rate_cm3_per_min, 3),
-        "cycle_time_s": round(best.cycle_time_s, 3),
-        "cut_time_s": round(best.cut_time_s, 3),
-        "rapid_time_s": round(geom.rapid_time_s, 3),
-        "cut_length_m": round(geom.length_m, 4),
-        "min_margin": round(float(mg[k]), 4),
-        "min_margin_at": {
-            "waypoint": i,
-            "source": f"{table['source'].iloc[i]}:{int(table['line'].iloc[i])}",
-            "x_mm": round(float(table["x_mm"].iloc[i]), 3),
-            "y_mm": round(float(table["y_mm"].iloc[i]), 3),
-            "z_mm": round(float(table["z_mm"].iloc[i]), 3),
-            "rpm": round(float(best.rpm[k]), 1),
-        },
-        "max_power_kW": round(float(np.max(outcome.power_W)) * 1e-3, 4),
-        "torque_Nm": round(cons.torque_Nm_at(best.depth_m), 4),
-        "limiting_counts": {str(a): int(b) for a, b in lim_counts.items()},
-        "vs_best_constant_speed": _gain(best, outcome.constant),
-        "vs_programmed_speed": _gain(best, outcome.programmed),
-        "candidates": {
-            "search": _sched_dict(outcome.search),
-            "nlp": _sched_dict(outcome.nlp),
-            "constant": _sched_dict(outcome.constant),
-        },
-        "notes": notes,
     }

@@ -21,9 +21,9 @@ from __future__ import annotations
 
 import base64
 import html
-import io
 import json
 import os
+from collections.abc import Callable
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -32,6 +32,8 @@ import pandas as pd
 from numpy.typing import NDArray
 
 from robolobe._atomic import atomic_dir
+from robolobe.plan import _plots
+from robolobe.plan._plots import PlotWorker
 from robolobe.plan.pipeline import PlanResult
 
 if TYPE_CHECKING:
@@ -124,58 +126,7 @@ def _write_waypoints(table: pd.DataFrame, folder: Path, fmt: str, every: int) ->
         write_csv(rows, folder / "waypoints.csv")
 
 
-def _png(fig: Figure) -> bytes:
-    from matplotlib.backends.backend_agg import FigureCanvasAgg
-
-    FigureCanvasAgg(fig)
-    buf = io.BytesIO()
-    fig.savefig(buf, format="png", dpi=110)
-    return buf.getvalue()
-
-
-def _margins(
-    fig: Figure,
-    *,
-    left: float,
-    right: float = 0.981,
-    bottom: float = 0.122,
-    top: float = 0.924,
-    hspace: float | None = None,
-) -> None:
-    """Fixed margins (figure fractions) where ``tight_layout`` would measure every label.
-
-    The values are what ``tight_layout`` chose on the bundled plans, with room
-    for five-digit tick labels; measuring them cost about 40 % of a plot.
-    """
-    fig.subplots_adjust(left=left, right=right, bottom=bottom, top=top, hspace=hspace)
-
-
-def _runs(x: FloatArray, y: FloatArray, cls: IntArray) -> tuple[list[FloatArray], IntArray]:
-    """Polylines through consecutive moves of one class: the moves ``i -> i + 1`` of
-    class ``cls[i]`` (-1: not drawn) joined while the class stays the same.
-
-    Returns each run's (k, 2) vertices and its class.
-    """
-    if cls.size == 0:
-        return [], np.zeros(0, np.int64)
-    cut = np.flatnonzero(np.diff(cls)) + 1
-    starts = np.r_[0, cut]
-    stops = np.r_[cut, cls.size]
-    keep = cls[starts] >= 0
-    xy = np.column_stack([x, y])
-    lines = [xy[a : b + 1] for a, b in zip(starts[keep], stops[keep], strict=True)]
-    return lines, cls[starts[keep]]
-
-
-def _margin_classes(margin: FloatArray, bounds: list[float]) -> IntArray:
-    """Colour class of each margin as ``BoundaryNorm(bounds)`` bins it (-1: NaN, not drawn).
-
-    ``len(bounds) - 1`` is the 'over' class (at or above the last bound).
-    """
-    m = np.asarray(margin, dtype=np.float64)
-    fin = np.isfinite(m)
-    cls = np.maximum(np.searchsorted(bounds, np.where(fin, m, 0.0), side="right") - 1, 0)
-    return np.where(fin, cls, -1).astype(np.int64)
+_png = _plots.png
 
 
 def _chosen(res: PlanResult, n: int = 3) -> list[int]:
@@ -217,15 +168,10 @@ def _where(res: PlanResult, c: int) -> str:
     return f"{res.table['source'].iloc[i]}:{int(res.table['line'].iloc[i])}"
 
 
-def plot_lobes(res: PlanResult) -> Figure:
-    """Lobes of the tightest distinct waypoints, each with its operating point."""
-    from matplotlib.figure import Figure
-
+def _lobes_data(res: PlanResult) -> _plots.LobesData:
     best = res.outcome.best
     tab = res.lobes.table
     sf = res.job.plan.safety_factor
-    fig = Figure(figsize=(8, 4.8))
-    ax = fig.add_subplot()
     chosen = _chosen(res)
     depth = best.depth_m * 1e3
     # Show the operating region: up to a few times the limit the plan keeps,
@@ -236,36 +182,24 @@ def plot_lobes(res: PlanResult) -> Figure:
     ]
     finite = [a for a in a_op if np.isfinite(a)]
     top = max([3.0 * sf * depth, *(1.15 * a for a in finite)]) if depth > 0 else 1.0
+    labels = []
     for rank, c in enumerate(chosen):
-        row = tab.a_lim[tab.group[c]] * 1e3
         label = f"{_where(res, c)}, waypoint {int(res.cut_index[c])} (margin {best.margin[c]:.2f})"
-        if rank == 0:
-            label += ", tightest"
-        (line,) = ax.plot(tab.rpm, row, lw=1.3, label=label, zorder=2)
-        ax.plot([best.rpm[c]], [depth], "o", ms=9, mfc=line.get_color(), mec="k", mew=1.2, zorder=4)
-    ax.axhline(depth, color="k", lw=1.0, ls="--", label=f"planned depth {depth:.3g} mm")
-    ax.axhline(depth * sf, color="k", lw=0.8, ls=":", label=f"depth x safety factor {sf:g}")
-    ax.set_ylim(0, top)
-    pad = 0.015 * (tab.rpm[-1] - tab.rpm[0])
-    ax.set_xlim(tab.rpm[0] - pad, tab.rpm[-1] + pad)
-    ax.set_xlabel("spindle speed [rpm]")
-    ax.set_ylabel("limiting depth a_lim [mm]")
-    ax.set_title("Stability lobes at the tightest waypoints (dots: planned speed and depth)")
-    ax.legend(fontsize=8, loc="upper left", framealpha=0.9)
-    _margins(fig, left=0.09)
-    return fig
+        labels.append(label + (", tightest" if rank == 0 else ""))
+    return _plots.LobesData(
+        rpm=np.asarray(tab.rpm, np.float64),
+        curves_mm=np.asarray(tab.a_lim[tab.group[chosen]] * 1e3, np.float64).reshape(
+            len(chosen), -1
+        ),
+        labels=tuple(labels),
+        dot_rpm=np.asarray(best.rpm[chosen], np.float64),
+        depth_mm=float(depth),
+        safety_factor=float(sf),
+        top_mm=float(top),
+    )
 
 
-def _two_slope() -> Any:
-    from matplotlib.colors import TwoSlopeNorm
-
-    return TwoSlopeNorm(vcenter=0.0, vmin=-2.0, vmax=2.0)
-
-
-def plot_speed_map(res: PlanResult, max_rows: int = 1500) -> Figure:
-    """Waypoint x speed map of ``a_lim / (SF depth)`` (log2) with the planned speeds."""
-    from matplotlib.figure import Figure
-
+def _speed_map_data(res: PlanResult, max_rows: int = 1500) -> _plots.SpeedMapData:
     best = res.outcome.best
     tab = res.lobes.table
     sf = res.job.plan.safety_factor
@@ -273,104 +207,69 @@ def plot_speed_map(res: PlanResult, max_rows: int = 1500) -> Figure:
     step = max(1, int(np.ceil(n / max_rows)))
     rows = np.arange(0, n, step)
     ratio = tab.a_lim[tab.group[rows]] / (sf * max(best.depth_m, 1e-12))
-    z = np.log2(np.clip(ratio, 0.25, 4.0))
-    fig = Figure(figsize=(8, 4.8))
-    ax = fig.add_subplot()
-    im = ax.imshow(
-        z.T,
-        origin="lower",
-        aspect="auto",
-        extent=(rows[0] - 0.5, rows[-1] + 0.5, tab.rpm[0], tab.rpm[-1]),
-        cmap="RdYlGn",
-        norm=_two_slope(),
-        interpolation="nearest",
+    const = res.outcome.constant
+    return _plots.SpeedMapData(
+        rows=rows,
+        z=np.log2(np.clip(ratio, 0.25, 4.0)),
+        rpm_lo=float(tab.rpm[0]),
+        rpm_hi=float(tab.rpm[-1]),
+        planned_rpm=np.asarray(best.rpm, np.float64),
+        constant_rpm=None if const is None else float(const.rpm[0]),
+        depth_mm=float(best.depth_m * 1e3),
     )
-    ax.plot(np.arange(n), best.rpm, color="k", lw=1.2, label="planned speed")
-    if res.outcome.constant is not None:
-        ax.axhline(
-            float(res.outcome.constant.rpm[0]), color="b", lw=0.8, ls="--", label="best constant"
-        )
-    cb = fig.colorbar(im, ax=ax)
-    cb.set_label("log2( a_lim / (SF x depth) ): > 0 stable")
-    ax.set_xlabel("cutting waypoint")
-    ax.set_ylabel("spindle speed [rpm]")
-    ax.set_title(f"Stability map at depth {best.depth_m * 1e3:.3g} mm")
-    ax.legend(fontsize=7, loc="upper right")
-    _margins(fig, left=0.115)
-    return fig
+
+
+def _path_margin_data(res: PlanResult) -> _plots.PathMarginData:
+    t = res.table
+    return _plots.PathMarginData(
+        x_mm=t["x_mm"].to_numpy(dtype=np.float64),
+        y_mm=t["y_mm"].to_numpy(dtype=np.float64),
+        margin=t["margin"].to_numpy(dtype=np.float64),
+        tightest=int(res.summary.min_margin_at.waypoint),
+        safety_factor=float(res.job.plan.safety_factor),
+    )
+
+
+def _speed_power_data(res: PlanResult) -> _plots.SpeedPowerData:
+    o = res.outcome
+    return _plots.SpeedPowerData(
+        s_mm=res.geom.s_m * 1e3,
+        rpm=np.asarray(o.best.rpm, np.float64),
+        method=str(o.best.method),
+        constant_rpm=None if o.constant is None else np.asarray(o.constant.rpm, np.float64),
+        programmed_rpm=None if o.programmed is None else np.asarray(o.programmed.rpm, np.float64),
+        power_kW=o.power_W * 1e-3,
+        power_limit_kW=float(res.job.spindle.power_W * 1e-3),
+    )
+
+
+def plot_lobes(res: PlanResult) -> Figure:
+    """Lobes of the tightest distinct waypoints, each with its operating point."""
+    return _plots.draw_lobes(_lobes_data(res))
+
+
+def plot_speed_map(res: PlanResult, max_rows: int = 1500) -> Figure:
+    """Waypoint x speed map of ``a_lim / (SF depth)`` (log2) with the planned speeds."""
+    return _plots.draw_speed_map(_speed_map_data(res, max_rows))
 
 
 def plot_path_margin(res: PlanResult) -> Figure:
     """Top view (x-y, workpiece frame) of the path, cutting moves coloured by margin."""
-    from matplotlib.collections import LineCollection
-    from matplotlib.colors import BoundaryNorm, ListedColormap
-    from matplotlib.figure import Figure
-
-    t = res.table
-    sf = res.job.plan.safety_factor
-    x = t["x_mm"].to_numpy()
-    y = t["y_mm"].to_numpy()
-    margin = t["margin"].to_numpy()
-    fig = Figure(figsize=(8, 5.5))
-    ax = fig.add_subplot()
-    ax.plot(x, y, color="0.75", lw=0.6, ls="--", zorder=1, label="rapid / non-cutting")
-    # A move ends at its row: segment i-1 -> i carries row i's margin.
-    # Classes an engineer reads at a glance: below the safety factor (the
-    # plan's own limit) is red, at it orange, then more and more spare depth.
-    bounds = [0.0, 1.0, sf, 1.1 * sf, 1.5 * sf, 2.0 * sf, 4.0 * sf]
-    colors = ["#8b0000", "#e34a33", "#fdae61", "#fee08b", "#a6d96a", "#1a9850"]
-    cmap = ListedColormap(colors).with_extremes(over="#006837")
-    norm = BoundaryNorm(bounds, cmap.N)
-    m = margin[1:]
-    # the class of each move (its colour), consecutive moves of a class drawn as one
-    # line: the same picture as one segment per move, without a path object per move
-    lines, run_cls = _runs(x, y, _margin_classes(m, bounds))
-    lc = LineCollection(lines, colors=[cmap(c) for c in run_cls], linewidths=2.4, zorder=2)
-    ax.add_collection(lc)
-    k = res.summary["min_margin_at"]["waypoint"]
-    ax.plot(x[k], y[k], "kx", ms=10, mew=2, zorder=3, label="tightest waypoint")
-    from matplotlib.cm import ScalarMappable
-
-    cb = fig.colorbar(
-        ScalarMappable(norm=norm, cmap=cmap), ax=ax, extend="max", ticks=bounds, spacing="uniform"
-    )
-    cb.ax.set_yticklabels(["0", "1 (chatter)", f"{sf:g} (SF)", *(f"{b:.2f}" for b in bounds[3:])])
-    cb.set_label("margin = limiting depth / planned depth")
-    ax.set_aspect("equal", adjustable="datalim")
-    ax.autoscale_view()
-    ax.set_xlabel("x [mm]")
-    ax.set_ylabel("y [mm]")
-    ax.set_title("Path (top view) coloured by stability margin")
-    ax.legend(fontsize=8, loc="best")
-    _margins(fig, left=0.1, right=0.945, bottom=0.106, top=0.934)
-    return fig
+    return _plots.draw_path_margin(_path_margin_data(res))
 
 
 def plot_speed_power(res: PlanResult) -> Figure:
     """Speed and cutting power along the cutting length."""
-    from matplotlib.figure import Figure
-
-    o = res.outcome
-    s = res.geom.s_m * 1e3
-    fig = Figure(figsize=(8, 5))
-    ax1, ax2 = fig.subplots(2, 1, sharex=True)
-    ax1.plot(s, o.best.rpm, "k", lw=1.2, label=f"plan ({o.best.method})")
-    if o.constant is not None:
-        ax1.plot(s, o.constant.rpm, "b--", lw=0.8, label="best constant")
-    if o.programmed is not None:
-        ax1.plot(s, o.programmed.rpm, "r:", lw=0.8, label="programmed")
-    ax1.set_ylabel("speed [rpm]")
-    ax1.legend(fontsize=7)
-    ax2.plot(s, o.power_W * 1e-3, "k", lw=1.2)
-    ax2.axhline(res.job.spindle.power_W * 1e-3, color="r", lw=0.8, ls="--", label="power limit")
-    ax2.set_ylabel("cutting power [kW]")
-    ax2.set_xlabel("cutting length along the path [mm]")
-    ax2.legend(fontsize=7)
-    ax1.set_title("Spindle speed and cutting power along the path")
-    _margins(fig, left=0.115, bottom=0.117, top=0.927, hspace=0.11)
-    return fig
+    return _plots.draw_speed_power(_speed_power_data(res))
 
 
+#: The record builder of each plot (what the figure shows, drawn by :mod:`._plots`).
+_DATA: dict[str, Callable[[PlanResult], Any]] = {
+    "lobes": _lobes_data,
+    "speed_map": _speed_map_data,
+    "path_margin": _path_margin_data,
+    "speed_power": _speed_power_data,
+}
 _PLOTTERS = {
     "lobes": plot_lobes,
     "speed_map": plot_speed_map,
@@ -464,44 +363,43 @@ def render_html(
     """
     s = res.summary
     b = Path(base) if base is not None else None
-    where = s["min_margin_at"]
+    where = s.min_margin_at
     rows = [
-        ("Path", _shown_path(s["path"], b)),
-        ("Job", f"{s['job']} ({_shown_path(s['job_file'], b)})"),
-        ("Robot / modes", f"{s['robot']} / {s['mode_source']}"),
-        ("Waypoints (cutting, plunges)", f"{s['n_waypoints']} ({s['n_cut']}, {s['n_plunge']})"),
-        ("Depth per pass [mm]", f"{s['depth_mm']:.3f}"),
-        ("Speed [rpm]", f"{s['rpm_min']:.0f} - {s['rpm_max']:.0f} ({s['speed_mode']})"),
-        ("MRR [cm^3/min]", f"{s['mrr_cm3_per_min']:.1f}"),
-        ("Cycle time [s]", f"{s['cycle_time_s']:.2f}"),
+        ("Path", _shown_path(s.path, b)),
+        ("Job", f"{s.job} ({_shown_path(s.job_file, b)})"),
+        ("Robot / modes", f"{s.robot} / {s.mode_source}"),
+        ("Waypoints (cutting, plunges)", f"{s.n_waypoints} ({s.n_cut}, {s.n_plunge})"),
+        ("Depth per pass [mm]", f"{s.depth_mm:.3f}"),
+        ("Speed [rpm]", f"{s.rpm_min:.0f} - {s.rpm_max:.0f} ({s.speed_mode})"),
+        ("MRR [cm^3/min]", f"{s.mrr_cm3_per_min:.1f}"),
+        ("Cycle time [s]", f"{s.cycle_time_s:.2f}"),
         (
             "Minimum margin",
-            f"{s['min_margin']:.3f} (safety factor {s['safety_factor']:g}) at "
-            f"{where['source']}, x {where['x_mm']:.1f} y {where['y_mm']:.1f} "
-            f"z {where['z_mm']:.1f} mm, {where['rpm']:.0f} rpm",
+            f"{s.min_margin:.3f} (safety factor {s.safety_factor:g}) at "
+            f"{where.source}, x {where.x_mm:.1f} y {where.y_mm:.1f} "
+            f"z {where.z_mm:.1f} mm, {where.rpm:.0f} rpm",
         ),
-        ("Method", f"{s['method']} (IPOPT: {s['nlp_status']})"),
+        ("Method", f"{s.method} (IPOPT: {s.nlp_status})"),
     ]
-    if s.get("robust"):
-        rb = s.get("robust_bound") or {}
-        text = str(rb.get("statement") or f"k_sigma {s.get('k_sigma')}")
-        if rb.get("spread_from"):
-            text += f"; spread: {rb['spread_from']}"
-        if s.get("robust_by_default"):
+    if s.robust:
+        rb = s.robust_bound
+        text = rb.statement if rb is not None else f"k_sigma {s.k_sigma}"
+        if rb is not None and rb.spread_from:
+            text += f"; spread: {rb.spread_from}"
+        if s.robust_by_default:
             text += " (robust by default: the job does not set plan.robust)"
         rows.append(("Robust plan", text))
-    for key, name in (
-        ("vs_best_constant_speed", "best constant speed"),
-        ("vs_programmed_speed", "programmed speed"),
+    for g, name in (
+        (s.vs_best_constant_speed, "best constant speed"),
+        (s.vs_programmed_speed, "programmed speed"),
     ):
-        g = s.get(key)
-        if g:
+        if g is not None:
             rows.append(
                 (
                     f"Gain vs {name}",
-                    f"MRR {_fmt(g.get('mrr_gain_pct'))} % (that plan: {g['depth_mm']} mm at "
-                    f"{g['rpm_mean']:.0f} rpm, "
-                    f"{'feasible' if g['feasible'] else 'infeasible: ' + g['reason']})",
+                    f"MRR {_fmt(g.mrr_gain_pct)} % (that plan: {g.depth_mm} mm at "
+                    f"{g.rpm_mean:.0f} rpm, "
+                    f"{'feasible' if g.feasible else 'infeasible: ' + g.reason})",
                 )
             )
     table = "\n".join(
@@ -527,11 +425,11 @@ def render_html(
         f"<figcaption>{html.escape(CAPTIONS.get(k, k))}</figcaption></figure>"
         for k, v in images.items()
     )
-    notes = "".join(f"<li>{html.escape(n)}</li>" for n in s.get("notes", []))
-    timing = ", ".join(f"{k} {v:.3g} s" for k, v in s.get("timings_s", {}).items())
+    notes = "".join(f"<li>{html.escape(n)}</li>" for n in s.notes)
+    timing = ", ".join(f"{k} {v:.3g} s" for k, v in s.timings_s.items())
     return f"""<!DOCTYPE html>
 <html lang="en"><head><meta charset="utf-8">
-<title>robolobe plan: {html.escape(_shown_path(s["path"], b))}</title>
+<title>robolobe plan: {html.escape(_shown_path(s.path, b))}</title>
 <style>
 body {{ font-family: sans-serif; max-width: 1000px; margin: 2em auto; color: #222; }}
 table {{ border-collapse: collapse; margin: 1em 0; }}
@@ -547,7 +445,7 @@ figcaption {{ font-size: 14px; color: #444; max-width: 800px; }}
 <h2>Tightest waypoints</h2>
 <p>The cutting waypoints with the smallest margin, one row per position.</p>
 {tight_html}
-<p><small>robolobe {html.escape(str(s["robolobe_version"]))};
+<p><small>robolobe {html.escape(s.robolobe_version)};
 timings: {html.escape(timing)}</small></p>
 </body></html>
 """
@@ -561,6 +459,7 @@ def write_outputs(
     html_report: bool = True,
     waypoints: str = "csv",
     waypoints_every: int = 1,
+    worker: PlotWorker | None = None,
 ) -> Path:
     """Write the plan into ``out_dir`` atomically (see the module docstring).
 
@@ -580,6 +479,10 @@ def write_outputs(
     waypoints_every : int
         Write one row per block of this many waypoints, the tightest of the
         block (:func:`thin_rows`); 1 writes every waypoint.
+    worker : PlotWorker, optional
+        A plot process started before planning (:class:`PlotWorker`): it draws
+        the plots while the tables are written, on another core. The same PNGs
+        as drawn here; drawn here if the worker fails.
 
     Returns
     -------
@@ -593,15 +496,17 @@ def write_outputs(
         from robolobe.errors import InputError
 
         raise InputError(f"waypoints_every: expected an integer >= 1, found {waypoints_every!r}")
-    images: dict[str, bytes] = {}
-    if plots or html_report:
-        for name in PLOTS:
-            images[name] = _png(_PLOTTERS[name](res))
+    records = {name: _DATA[name](res) for name in PLOTS} if plots or html_report else {}
+    if worker is not None and records:
+        worker.send(records)  # drawn there while the tables are written here
     with atomic_dir(out, managed=OUTPUTS) as tmp:
         _write_waypoints(res.table, tmp, waypoints, int(waypoints_every))
         (tmp / "summary.json").write_text(
-            json.dumps(res.summary, indent=2) + "\n", encoding="utf-8"
+            json.dumps(res.summary.to_dict(), indent=2) + "\n", encoding="utf-8"
         )
+        images = worker.receive() if worker is not None and records else None
+        if images is None:
+            images = {name: _plots.png(_plots.draw(rec)) for name, rec in records.items()}
         if plots:
             (tmp / "plots").mkdir()
             for name, data in images.items():

@@ -25,7 +25,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from robolobe.errors import ConvergenceError, ReachabilityError, SingularityError
+from robolobe.errors import ConvergenceError, InputError, ReachabilityError, SingularityError
 from robolobe.robots.kinematics import joint_transforms, link_frames, tcp_jacobian, tcp_pose
 from robolobe.robots.limits import within_constraints, within_joint_limits
 from robolobe.robots.model import Robot
@@ -531,9 +531,9 @@ class IKResult:
 def _as_pose(pose: ArrayLike) -> FloatArray:
     P = np.asarray(pose, dtype=np.float64)
     if P.shape != (4, 4):
-        raise ValueError(f"pose: expected shape (4, 4), found {P.shape}")
+        raise InputError(f"pose: expected shape (4, 4), found {P.shape}")
     if not np.all(np.isfinite(P)):
-        raise ValueError("pose: expected finite numbers")
+        raise InputError("pose: expected finite numbers")
     return P
 
 
@@ -705,7 +705,7 @@ def ik_batch(
     """
     P = np.asarray(poses, dtype=np.float64)
     if P.ndim != 3 or P.shape[1:] != (4, 4):
-        raise ValueError(f"poses: expected shape (n, 4, 4), found {P.shape}")
+        raise InputError(f"poses: expected shape (n, 4, 4), found {P.shape}")
     ref = np.asarray(q_ref, dtype=np.float64)
     wts = np.ones(6) if weights is None else np.asarray(weights, dtype=np.float64)
     n = P.shape[0]

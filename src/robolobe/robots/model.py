@@ -15,6 +15,8 @@ from typing import Any, Literal
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from robolobe.errors import InputError
+
 __all__ = ["Convention", "Joint", "LinearConstraint", "RigidBody", "Robot", "robots_allclose"]
 
 Convention = Literal["standard-dh", "modified-dh"]
@@ -38,16 +40,16 @@ def _pair(value: ArrayLike | None) -> tuple[float, float] | None:
         return None
     arr = np.asarray(value, dtype=np.float64)
     if arr.shape != (2,) or not np.all(np.isfinite(arr)):
-        raise ValueError(f"expected two finite numbers, found {value!r}")
+        raise InputError(f"expected two finite numbers, found {value!r}")
     return (float(arr[0]), float(arr[1]))
 
 
 def _frozen_array(value: ArrayLike, shape: tuple[int, ...], name: str) -> FloatArray:
     arr = np.array(value, dtype=np.float64)  # always a copy
     if arr.shape != shape:
-        raise ValueError(f"{name}: expected shape {shape}, found {arr.shape}")
+        raise InputError(f"{name}: expected shape {shape}, found {arr.shape}")
     if not np.all(np.isfinite(arr)):
-        raise ValueError(f"{name}: expected finite numbers, found {arr.tolist()}")
+        raise InputError(f"{name}: expected finite numbers, found {arr.tolist()}")
     arr.setflags(write=False)
     return arr
 
@@ -150,15 +152,15 @@ class Joint:
             object.__setattr__(self, name, float(getattr(self, name)))
         ls = float(self.load_stiffening_per_Nm)
         if not (math.isfinite(ls) and ls >= 0.0):
-            raise ValueError(f"load_stiffening_per_Nm: expected a finite number >= 0, found {ls}")
+            raise InputError(f"load_stiffening_per_Nm: expected a finite number >= 0, found {ls}")
         object.__setattr__(self, "load_stiffening_per_Nm", ls)
         ks, cs = _pair(self.tilt_stiffness_Nm_per_rad), _pair(self.tilt_damping_Nms_per_rad)
         if (ks is None) != (cs is None):
-            raise ValueError(
+            raise InputError(
                 "tilt_stiffness_Nm_per_rad, tilt_damping_Nms_per_rad: expected both or neither"
             )
         if ks is not None and cs is not None and (min(ks) <= 0 or min(cs) < 0):
-            raise ValueError(f"tilt: expected stiffness > 0 and damping >= 0, found {ks}, {cs}")
+            raise InputError(f"tilt: expected stiffness > 0 and damping >= 0, found {ks}, {cs}")
         object.__setattr__(self, "tilt_stiffness_Nm_per_rad", ks)
         object.__setattr__(self, "tilt_damping_Nms_per_rad", cs)
 
@@ -238,30 +240,30 @@ class Robot:
     def __post_init__(self) -> None:
         ks, cs = _pair(self.mount_stiffness_Nm_per_rad), _pair(self.mount_damping_Nms_per_rad)
         if (ks is None) != (cs is None):
-            raise ValueError(
+            raise InputError(
                 "mount_stiffness_Nm_per_rad, mount_damping_Nms_per_rad: expected both or neither"
             )
         if ks is not None and cs is not None:
             if min(ks) <= 0 or min(cs) < 0:
-                raise ValueError(f"mount: expected stiffness > 0, damping >= 0, found {ks}, {cs}")
+                raise InputError(f"mount: expected stiffness > 0, damping >= 0, found {ks}, {cs}")
             if self.end_effector is None or self.end_effector.mass_kg <= 0:
-                raise ValueError("mount_stiffness_Nm_per_rad: needs an end effector with mass")
+                raise InputError("mount_stiffness_Nm_per_rad: needs an end effector with mass")
         object.__setattr__(self, "mount_stiffness_Nm_per_rad", ks)
         object.__setattr__(self, "mount_damping_Nms_per_rad", cs)
         if self.convention not in ("standard-dh", "modified-dh"):
-            raise ValueError(
+            raise InputError(
                 f"convention: expected 'standard-dh' or 'modified-dh', found {self.convention!r}"
             )
         joints = tuple(self.joints)
         if len(joints) != 6:
-            raise ValueError(f"joints: expected exactly 6, found {len(joints)}")
+            raise InputError(f"joints: expected exactly 6, found {len(joints)}")
         object.__setattr__(self, "joints", joints)
         object.__setattr__(self, "constraints", tuple(self.constraints))
         object.__setattr__(self, "base", _frozen_array(self.base, (4, 4), "base"))
         object.__setattr__(self, "tool", _frozen_array(self.tool, (4, 4), "tool"))
         coupling = _frozen_array(self.coupling, (6, 6), "coupling")
         if abs(np.linalg.det(coupling)) < 1e-9:
-            raise ValueError("coupling: expected an invertible 6x6 matrix, found a singular one")
+            raise InputError("coupling: expected an invertible 6x6 matrix, found a singular one")
         object.__setattr__(self, "coupling", coupling)
 
     def __repr__(self) -> str:
@@ -365,7 +367,7 @@ class Robot:
     def _with_joint_values(self, attr: str, values: ArrayLike) -> Robot:
         v = np.asarray(values, dtype=np.float64)
         if v.shape != (6,):
-            raise ValueError(f"{attr}: expected shape (6,), found {v.shape}")
+            raise InputError(f"{attr}: expected shape (6,), found {v.shape}")
         changes: list[dict[str, Any]] = [{attr: float(x)} for x in v]
         joints = tuple(
             dataclasses.replace(j, **c) for j, c in zip(self.joints, changes, strict=True)

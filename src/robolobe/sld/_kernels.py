@@ -27,6 +27,7 @@ from numba.core.extending import intrinsic
 from numpy.typing import NDArray
 
 from robolobe._jit import njit
+from robolobe.errors import InputError
 
 FloatArray = NDArray[np.float64]
 ComplexArray = NDArray[np.complex128]
@@ -411,7 +412,7 @@ def zoa_fused(
     if out is not None:
         depth, eps, env, complete = out
         if not np.array_equal(order, np.arange(order.size)):
-            raise ValueError("zoa_fused: out= needs sorted speeds")
+            raise InputError("zoa_fused: out= needs sorted speeds")
     else:
         depth = np.empty((nb, 2, nf))
         eps = np.empty((nb, 2, nf))

@@ -14,8 +14,9 @@ Modules: :mod:`~robolobe.tl.dataset` (modal datasets), :mod:`~robolobe.tl.prepro
 :mod:`~robolobe.tl.twin_data`, :mod:`~robolobe.tl.predict_io`,
 :mod:`~robolobe.tl.graybox` (``TwinCalibration``: the physics-informed transfer),
 :mod:`~robolobe.tl.residual` (``CorrectedTwin``: the calibrated twin plus a
-learned correction, the default predictor of ``robolobe transfer``),
-:mod:`~robolobe.tl.concealed` (concealed "real" robots for studies).
+learned correction, the default predictor of ``robolobe transfer``). The
+concealed "real" robots of the transfer studies are study code
+(``studies/concealed_robots.py``).
 """
 
 from robolobe.tl.dataset import ModalDataset, TrustWarning, dataset_from_frame

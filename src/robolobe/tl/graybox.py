@@ -4,7 +4,7 @@ The black-box network of :mod:`robolobe.tl.estimator` has to learn how the
 modes move with five joint angles from ~20 postures. The twin
 (:class:`robolobe.twin.Twin`) already knows that dependence; what a robot
 file gets wrong are a few dozen physical parameters. :class:`TwinCalibration`
-fits them (:mod:`robolobe.tl.twin_params`, 37 by default):
+fits them (:mod:`robolobe.twin.params`, 37 by default):
 
 * the 6 joint stiffnesses and the 6 joint dampings (factors),
 * the end-effector mass, its inertia scaled alike (a factor),
@@ -65,7 +65,7 @@ from robolobe.robots.limits import as_postures
 from robolobe.robots.model import Robot
 from robolobe.tl.dataset import DRIVING_DIRECTIONS, ModalDataset, dataset_from_frame
 from robolobe.tl.estimator import ModalPrediction
-from robolobe.tl.twin_params import (
+from robolobe.twin.params import (
     COM_UNIT_M,
     PARAMETER_GROUPS,
     ParametrizedTwin,
@@ -174,7 +174,7 @@ class TwinCalibration:
     robot : Robot or str
         The robot file's model (``"B"``, a ``.toml`` path or a Robot): the prior.
     params : sequence of str
-        Groups to calibrate (:data:`robolobe.tl.twin_params.PARAMETER_GROUPS`):
+        Groups to calibrate (:data:`robolobe.twin.params.PARAMETER_GROUPS`):
         ``"stiffness"``, ``"damping"``, ``"ee_mass"``, ``"link_mass"``,
         ``"link_com"``; default all (37 parameters).
     bounds : (float, float)
@@ -756,7 +756,7 @@ class TwinCalibration:
             cov = np.asarray(arrays["covariance"], dtype=float)
             names = parameter_names(groups)
             if theta.shape != (len(names),) or cov.shape != (len(names), len(names)):
-                raise ValueError(f"theta/covariance do not fit {len(names)} parameters")
+                raise InputError(f"theta/covariance do not fit {len(names)} parameters")
             self = cls(robot=base, params=groups)
             self.theta_ = theta
             self.covariance_ = cov

@@ -59,7 +59,7 @@ from robolobe.robots.model import Robot
 from robolobe.tl.dataset import ModalDataset
 from robolobe.tl.estimator import ModalPrediction
 from robolobe.tl.graybox import TwinCalibration, modal_frame_dataset
-from robolobe.tl.twin_params import K_MAX
+from robolobe.twin.params import K_MAX
 
 __all__ = ["CORRECTED_TWIN_FORMAT", "CorrectedTwin", "is_corrected_twin_file"]
 

@@ -1,8 +1,10 @@
-"""Joint-space mass, stiffness and damping of the flexible-joint model.
+"""Joint-space mass matrix, bodies and gravity torques of the flexible-joint model.
 
 The nominal model (docs/guide/robots.md): rigid links 1..6 plus the end
 effector, elastic joints with diagonal stiffness ``K`` and viscous damping
-``C`` on the controller axes q, motor side held fixed. The mass matrix with
+``C`` on the controller axes q, motor side held fixed. ``K`` and ``C``, with
+the optional compliances and the load-dependent stiffening, are assembled in
+one place, :func:`robolobe.twin.system.nominal_system`. The mass matrix with
 respect to q (i.e. through the robot's ``coupling``) is
 
     M(q) = sum_b m_b Jv_b^T Jv_b + Jw_b^T (R_b I_b R_b^T) Jw_b
@@ -31,11 +33,9 @@ from robolobe.robots.kinematics import joint_angles
 __all__ = [
     "GRAVITY_M_PER_S2",
     "BodySet",
-    "damping_matrix",
     "gravity_torques",
     "mass_matrix",
     "robot_bodies",
-    "stiffness_matrix",
 ]
 
 FloatArray = NDArray[np.float64]
@@ -239,16 +239,6 @@ def mass_matrix(robot: Robot, q: ArrayLike) -> FloatArray:
         symmetric positive definite.
     """
     return robot_bodies(robot, q).mass_matrix()
-
-
-def stiffness_matrix(robot: Robot) -> FloatArray:
-    """Diagonal joint stiffness ``K`` [N m/rad] on the controller axes, shape (6, 6)."""
-    return np.diag(robot.stiffness)
-
-
-def damping_matrix(robot: Robot) -> FloatArray:
-    """Diagonal joint viscous damping ``C`` [N m s/rad] on the controller axes, shape (6, 6)."""
-    return np.diag(robot.damping)
 
 
 def gravity_torques(robot: Robot, q: ArrayLike, bodies: BodySet | None = None) -> FloatArray:

@@ -1,4 +1,4 @@
-"""Tests of robolobe.tl.twin_params and the vectorized mode matching of the calibration."""
+"""Tests of robolobe.twin.params and the vectorized mode matching of the calibration."""
 
 from __future__ import annotations
 
@@ -10,7 +10,9 @@ from robolobe.errors import InputError
 from robolobe.robots import load_robot
 from robolobe.tl.dataset import ModalDataset
 from robolobe.tl.graybox import TwinCalibration
-from robolobe.tl.twin_params import (
+from robolobe.twin import Twin
+from robolobe.twin.designs import design_arrays, seed_design
+from robolobe.twin.params import (
     COM_UNIT_M,
     PARAMETER_GROUPS,
     ParametrizedTwin,
@@ -18,8 +20,6 @@ from robolobe.tl.twin_params import (
     modal_values,
     parameter_names,
 )
-from robolobe.twin import Twin
-from robolobe.twin.designs import design_arrays, seed_design
 
 ALL = tuple(PARAMETER_GROUPS)
 

@@ -1,5 +1,8 @@
 """Concealed "real" robots drawn from a robot file, for transfer studies and tests.
 
+Study code, not the library: the studies and tests put ``studies/`` on
+``sys.path`` and import it as ``concealed_robots``.
+
 A robot file is an estimate of the robot that cuts. :func:`concealed_robot`
 draws a physically valid robot that differs from the file the way real
 robots do, in parameters a twin calibration fits and in some it cannot:
@@ -119,7 +122,7 @@ def concealed_robot(
         Loaded from its own TOML file.
     """
     from robolobe.tl.graybox import DEFAULT_PARAMS
-    from robolobe.tl.twin_params import COM_UNIT_M, apply_parameters
+    from robolobe.twin.params import COM_UNIT_M, apply_parameters
 
     if file_error not in ("full", "joints"):
         raise InputError(f"file_error: expected 'full' or 'joints', found {file_error!r}")

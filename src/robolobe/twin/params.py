@@ -1,5 +1,10 @@
 """Robot-file parameters that a twin calibration can fit, and their fast evaluation.
 
+The one parametrised-twin core: the transfer calibration
+(:class:`robolobe.tl.graybox.TwinCalibration`), the diagnosis' file
+calibration (:mod:`robolobe.diagnose.calibration`) and the plan-safety study
+fit and perturb robot files through these groups.
+
 A robot file is a prior: joint stiffnesses and dampings are rarely
 published, and link masses, centres of mass and the spindle mass of B and C
 are estimates (docs/guide/robots.md). The groups here are what
