@@ -277,7 +277,7 @@ def test_plan_path_takes_modal_parameters() -> None:
     # the twin's modes at one posture of the path region, for every waypoint
     modes = Twin(load_robot("B")).modes(_postures(1, seed=7)[0]).parameters()
     res = rl.plan_path(EXAMPLES.joinpath("contour.apt"), job, modes=modes)
-    s = res.summary
+    s = res.summary.to_dict()
     assert s["n_cut"] == 72
     assert s["min_margin"] >= s["safety_factor"] * (1 - 1e-6)
     assert s["mode_source"] == "given modal parameters"
