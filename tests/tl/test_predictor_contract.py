@@ -95,6 +95,12 @@ def test_prediction_shape_units_and_determinism(name: str, data, fitted) -> None
     assert np.all((f[seen] > 1.0) & (f[seen] < 200.0))
     assert np.all((z[seen] > 0.0) & (z[seen] < 0.5))
     assert np.all((k[seen] > 1e4) & (k[seen] < 1e12))
+    # the one modal-parameter type: the same values (physical units) and the log spread
+    params = pred.parameters()
+    assert params.shape == (len(q_new), len(DIRS), N_MODES)
+    assert params.directions == DIRS
+    np.testing.assert_array_equal(params.stacked(), pred.values)
+    np.testing.assert_array_equal(params.log_std, pred.log_std)
     # close to the data it was fitted on (B's lowest modes are 5-30 Hz)
     fit_f = model.predict(ds.q_rad).f_hz
     rel = np.abs(fit_f / ds.y[..., 0] - 1.0)
