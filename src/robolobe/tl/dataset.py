@@ -53,48 +53,81 @@ class TrustWarning(UserWarning):
     """The data or the query leaves the region where a model can be trusted."""
 
 
-@dataclass(frozen=True, eq=False)
+@dataclass(frozen=True, eq=False, init=False)
 class ModalDataset:
     """Postures and their per-direction modal parameters.
 
-    Attributes
+    Built on one :class:`~robolobe._modal_parameters.ModalParameters`
+    (:attr:`parameters`, posture ids and joint angles set); the attributes
+    below are views of it.
+
+    Parameters
     ----------
-    posture_ids : tuple of str, length n
-    q_rad : ndarray, shape (n, 6)
+    posture_ids : sequence of str, length n
+    q_rad : array_like, shape (n, 6)
         Controller joint angles [rad].
-    directions : tuple of str
+    directions : sequence of str
         Driving-point directions, e.g. ``("xx", "yy")``.
-    y : ndarray, shape (n, n_dir, n_modes, 3)
+    y : array_like, shape (n, n_dir, n_modes, 3)
         ``[..., 0]`` natural frequency [Hz], ``[..., 1]`` damping ratio
         (fraction), ``[..., 2]`` modal stiffness [N/m]; NaN where missing.
+
+    Raises
+    ------
+    InputError
+        On a wrong shape, non-finite joint angles, a direction that is not a
+        driving point, or values that break the rules of ``ModalParameters``
+        (e.g. a damping ratio <= 0).
     """
 
-    posture_ids: tuple[str, ...]
-    q_rad: FloatArray
-    directions: tuple[str, ...]
-    y: FloatArray
+    parameters: ModalParameters
 
-    def __post_init__(self) -> None:
-        q = np.array(self.q_rad, dtype=float)
-        y = np.array(self.y, dtype=float)
-        n = len(self.posture_ids)
+    def __init__(
+        self,
+        posture_ids: Sequence[str],
+        q_rad: ArrayLike,
+        directions: Sequence[str],
+        y: ArrayLike,
+    ) -> None:
+        q = np.asarray(q_rad, dtype=float)
+        yy = np.asarray(y, dtype=float)
+        n = len(posture_ids)
+        dirs = tuple(directions)
         if q.shape != (n, 6):
             raise InputError(f"q_rad: expected shape ({n}, 6), found {q.shape}")
-        if y.ndim != 4 or y.shape[:2] != (n, len(self.directions)) or y.shape[3] != 3:
-            raise InputError(
-                f"y: expected shape ({n}, {len(self.directions)}, n_modes, 3), found {y.shape}"
-            )
+        if yy.ndim != 4 or yy.shape[:2] != (n, len(dirs)) or yy.shape[3] != 3:
+            raise InputError(f"y: expected shape ({n}, {len(dirs)}, n_modes, 3), found {yy.shape}")
         if not np.all(np.isfinite(q)):
             raise InputError("q_rad: expected finite joint angles")
-        bad = [d for d in self.directions if d not in DRIVING_DIRECTIONS]
+        bad = [d for d in dirs if d not in DRIVING_DIRECTIONS]
         if bad:
             raise InputError(f"directions: expected some of {DRIVING_DIRECTIONS}, found {bad}")
-        q.setflags(write=False)
-        y.setflags(write=False)
-        object.__setattr__(self, "q_rad", q)
-        object.__setattr__(self, "y", y)
-        object.__setattr__(self, "posture_ids", tuple(str(p) for p in self.posture_ids))
-        object.__setattr__(self, "directions", tuple(self.directions))
+        params = ModalParameters.from_stacked(
+            yy, dirs, posture_ids=tuple(str(p) for p in posture_ids), q_rad=q
+        )
+        object.__setattr__(self, "parameters", params)
+
+    @property
+    def posture_ids(self) -> tuple[str, ...]:
+        """Posture names, length n."""
+        assert self.parameters.posture_ids is not None
+        return self.parameters.posture_ids
+
+    @property
+    def q_rad(self) -> FloatArray:
+        """Controller joint angles [rad], shape (n, 6)."""
+        assert self.parameters.q_rad is not None
+        return self.parameters.q_rad
+
+    @property
+    def directions(self) -> tuple[str, ...]:
+        """Driving-point directions."""
+        return self.parameters.directions
+
+    @property
+    def y(self) -> FloatArray:
+        """Frequency [Hz], damping ratio, stiffness [N/m] stacked, shape (n, n_dir, n_modes, 3)."""
+        return self.parameters.stacked()
 
     @property
     def n_postures(self) -> int:
@@ -104,7 +137,7 @@ class ModalDataset:
     @property
     def n_modes(self) -> int:
         """Modes per direction."""
-        return int(self.y.shape[2])
+        return self.parameters.n_modes
 
     @property
     def q_deg(self) -> FloatArray:
@@ -146,22 +179,9 @@ class ModalDataset:
             y=np.concatenate([self.y, other.y]),
         )
 
-    @property
-    def parameters(self) -> ModalParameters:
-        """The dataset as :class:`~robolobe._modal_parameters.ModalParameters` (ids, angles kept).
-
-        Raises
-        ------
-        InputError
-            If a value breaks the type's rules (e.g. a damping ratio <= 0).
-        """
-        return ModalParameters.from_stacked(
-            self.y, self.directions, posture_ids=self.posture_ids, q_rad=self.q_rad
-        )
-
     @classmethod
     def from_parameters(cls, parameters: ModalParameters) -> ModalDataset:
-        """The dataset of parameters that carry their posture ids and joint angles.
+        """The dataset of parameters that carry their posture ids and joint angles (spread dropped).
 
         Raises
         ------
