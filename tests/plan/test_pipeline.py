@@ -346,8 +346,9 @@ def test_streamed_long_path_plans_as_in_memory(tmp_path, pocket_job, monkeypatch
 
     def predict(self, q_rad):  # one direction's frequency differs on part of the path
         md = inner_predict(self, q_rad)
-        md.f_hz[:, 1, 0] += np.where(np.asarray(q_rad)[:, 0] < 0.07, 1.0, 0.0)
-        return md
+        f = md.f_hz.copy()  # the modes are read-only
+        f[:, 1, 0] += np.where(np.asarray(q_rad)[:, 0] < 0.07, 1.0, 0.0)
+        return dataclasses.replace(md, parameters=dataclasses.replace(md.parameters, f_hz=f))
 
     monkeypatch.setattr(TwinSource, "predict", predict)
     ref = plan_path(path, job)
