@@ -41,6 +41,20 @@ PARAMETERS: tuple[str, ...] = ("f_hz", "zeta", "k_N_per_m")
 Q_COLUMNS: tuple[str, ...] = tuple(f"q{i}_deg" for i in range(1, 7))
 
 
+def _frozen_copy(x: object) -> FloatArray:
+    """``x`` as a read-only float64 array: copied, unless it already is one that owns its data."""
+    if (
+        isinstance(x, np.ndarray)
+        and x.dtype == np.float64
+        and not x.flags.writeable
+        and x.flags.owndata
+    ):
+        return x
+    a = np.array(x, dtype=np.float64)
+    a.setflags(write=False)
+    return a
+
+
 def _first_bad(mask: NDArray[np.bool_], directions: Sequence[str]) -> str:
     p, d, m = (int(i) for i in np.argwhere(mask)[0][:3])
     return f"posture {p}, direction {directions[d]!r}, mode {m + 1}"
@@ -81,7 +95,8 @@ class ModalParameters:
 
     Notes
     -----
-    The arrays are copied and read-only. A mode is the same physical mode in
+    The arrays are read-only copies (a read-only float64 array that owns its
+    data is taken as it is: nothing can change it). A mode is the same physical mode in
     every direction only if the producer says so (the twin's coupled modes
     repeat their frequency and damping in each direction); a predictor's or a
     ``modal.csv``'s mode ``r`` of one direction is independent of mode ``r``
@@ -106,7 +121,7 @@ class ModalParameters:
         arrs = {}
         for name in PARAMETERS:
             try:
-                a = np.array(getattr(self, name), dtype=np.float64)
+                a = _frozen_copy(getattr(self, name))
             except (TypeError, ValueError) as exc:
                 raise InputError(f"ModalParameters.{name}: expected numbers ({exc})") from None
             if a.ndim != 3:
@@ -149,11 +164,10 @@ class ModalParameters:
                     f"{float(arrs[name][bad][0])!r} at {first} ({int(bad.sum())} value(s))"
                 )
         for name, a in arrs.items():
-            a.setflags(write=False)
             object.__setattr__(self, name, a)
         object.__setattr__(self, "directions", dirs)
         if self.log_std is not None:
-            s = np.array(self.log_std, dtype=np.float64)
+            s = _frozen_copy(self.log_std)
             if s.shape != (*shape, 3):
                 raise InputError(
                     f"ModalParameters.log_std: expected shape {(*shape, 3)} (std of log f, "
@@ -164,7 +178,6 @@ class ModalParameters:
                     "ModalParameters.log_std: expected standard deviations >= 0 (NaN or inf: "
                     f"unknown), found {float(s[s < 0][0])!r}"
                 )
-            s.setflags(write=False)
             object.__setattr__(self, "log_std", s)
         if self.posture_ids is not None:
             if isinstance(self.posture_ids, str):

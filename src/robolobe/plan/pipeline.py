@@ -414,6 +414,9 @@ class _ModesFill:
         if take is not None:
             a = {k: None if v is None else v[take] for k, v in a.items()}
         model = ModalModel(a["model.omega"], a["model.zeta"], a["model.residues"])
+        for name in self._NAMES[:4]:  # handed over, not copied (no one else holds them)
+            if a[name] is not None:
+                a[name].setflags(write=False)
         params = dataclasses.replace(
             self.first.parameters,
             f_hz=a["f_hz"],
