@@ -28,6 +28,7 @@ import numpy as np
 import pandas as pd
 
 from robolobe._atomic import atomic_path
+from robolobe._directions import ALL_DIRS, DRIVING
 from robolobe._modal_parameters import Q_COLUMNS, ModalParameters
 from robolobe.errors import InputError
 
@@ -53,7 +54,7 @@ MODAL_COLUMNS: tuple[str, ...] = (
     "k_N_per_m",
 )
 #: Valid ``dir`` values in canonical order (driving points first).
-DIRECTIONS: tuple[str, ...] = ("xx", "yy", "zz", "xy", "xz", "yx", "yz", "zx", "zy")
+DIRECTIONS: tuple[str, ...] = DRIVING + tuple(d for d in ALL_DIRS if d not in DRIVING)
 _DIR_RANK = {d: i for i, d in enumerate(DIRECTIONS)}
 
 #: Joint angles of one posture must agree within this tolerance, degrees.

@@ -42,6 +42,7 @@ from collections.abc import Sequence
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from robolobe._directions import DRIVING, dir_index
 from robolobe.errors import InputError
 from robolobe.robots.model import RigidBody, Robot
 from robolobe.robots.transforms import skew
@@ -69,7 +70,6 @@ PARAMETER_GROUPS: dict[str, int] = {
 COM_UNIT_M = 0.1
 """Length of one unit of a ``link_com`` parameter [m]."""
 K_MAX = 1e15  # N/m: modal stiffness of a mode that does not move the TCP along a direction
-_AXIS = {"xx": 0, "yy": 1, "zz": 2}
 
 
 def parameter_names(groups: Sequence[str]) -> tuple[str, ...]:
@@ -179,7 +179,7 @@ def modal_values(modes: Modes, directions: Sequence[str], n_modes: int) -> Float
     for j, d in enumerate(directions):
         out[:, j, :, 0] = modes.f_hz[:, :n_modes]
         out[:, j, :, 1] = modes.zeta[:, :n_modes]
-        k = np.abs(modes.k_N_per_m[:, _AXIS[d], :n_modes])
+        k = np.abs(modes.k_N_per_m[:, dir_index(d)[0], :n_modes])
         out[:, j, :, 2] = np.where(np.isfinite(k), np.minimum(k, K_MAX), K_MAX)
     return out
 
@@ -218,9 +218,9 @@ class ParametrizedTwin:
             raise InputError(
                 "params: 'ee_mass' needs a robot with an end effector", source=base.source
             )
-        bad = [d for d in directions if d not in _AXIS]
+        bad = [d for d in directions if d not in DRIVING]
         if bad:
-            raise InputError(f"directions: expected xx, yy or zz, found {bad}")
+            raise InputError(f"directions: expected some of {DRIVING}, found {bad}")
         self.directions = tuple(directions)
         self.n_modes = int(n_modes)
         sys_ = nominal_system(base, q_rad)
@@ -354,7 +354,7 @@ class ParametrizedTwin:
         out[:, :, :, 0] = np.swapaxes(dlog_w[..., :nm], 1, 2)[:, None]
         out[:, :, :, 1] = np.swapaxes(dlog_z[..., :nm], 1, 2)[:, None]
         for j, d in enumerate(self.directions):
-            dk_d = np.swapaxes(dlog_k[:, :, _AXIS[d], :nm], 1, 2)  # (n, r, p)
+            dk_d = np.swapaxes(dlog_k[:, :, dir_index(d)[0], :nm], 1, 2)  # (n, r, p)
             capped = vals[:, j, :, 2] >= K_MAX
             out[:, j, :, 2] = np.where(capped[..., None] | ~np.isfinite(dk_d), 0.0, dk_d)
         return out
@@ -381,6 +381,6 @@ class ParametrizedTwin:
         out[..., 0] = w[:, None, :nm] / (2.0 * np.pi)
         out[..., 1] = (-lam.real / w)[:, None, :nm]
         for j, d in enumerate(self.directions):
-            kk = np.abs(k_modal[:, _AXIS[d], :nm])
+            kk = np.abs(k_modal[:, dir_index(d)[0], :nm])
             out[:, j, :, 2] = np.where(np.isfinite(kk), np.minimum(kk, K_MAX), K_MAX)
         return out
