@@ -145,7 +145,7 @@ def test_overdamped_policy_raise_and_drop() -> None:
     with pytest.raises(InputError, match="overdamped"):
         damped_poles(M, K, C)
     with pytest.raises(InputError, match="overdamped: expected one of"):
-        compute_modes(M, K, C, J, overdamped="keep")  # type: ignore[arg-type]
+        compute_modes(M, K, C, J, overdamped="soften")  # type: ignore[arg-type]
     md = compute_modes(M, K, C, J, overdamped="drop")
     # slot 0 is the overdamped mode (sqrt(p1 p2) = 1 rad/s < 10): nan in the damped view,
     # finite and aligned in the undamped one
@@ -164,6 +164,31 @@ def test_overdamped_policy_raise_and_drop() -> None:
     f = np.linspace(0.0, 5.0, 11)
     h = pole_residue_receptance(M, K, C, J, np.asarray(2j * np.pi * f, dtype=np.complex128))
     np.testing.assert_allclose(h, receptance(M, K, C, J, f), rtol=1e-12, atol=1e-15)
+
+
+def test_overdamped_policy_keep_gives_the_pair_its_frequency_and_damping() -> None:
+    """'keep': the overdamped slot gets w0 = sqrt(p1 p2) and zeta = -(p1 + p2) / (2 w0)
+    of its real poles; for this proportionally damped system the real-mode receptance
+    of the modes is then the exact one (solved directly), the overdamped term included."""
+    M, K, C, J = _one_overdamped()
+    md = compute_modes(M, K, C, J, overdamped="keep")
+    assert md.f_hz[0] == pytest.approx(1.0 / (2 * np.pi), rel=1e-12)
+    assert md.zeta[0] == pytest.approx(1.5, rel=1e-12)
+    assert md.omega_d[0] == 0.0
+    assert np.isnan(md.poles[0])
+    assert md.zeta[1] == pytest.approx(0.05, rel=1e-12)
+    with pytest.raises(InputError, match="overdamped"):
+        md.frf([1.0])
+    f = np.linspace(0.0, 5.0, 41)
+    w = 2 * np.pi * f
+    wr, zr, u = 2 * np.pi * md.f_hz, md.zeta, md.tcp_shapes  # (2,), (2,), (2, 2)
+    g = 1.0 / (wr**2 - w[:, None] ** 2 + 2j * zr * wr * w[:, None])  # (n_freq, 2)
+    real_mode = np.einsum("fr,ir,jr->fij", g, u, u)
+    np.testing.assert_allclose(real_mode, receptance(M, K, C, J, f), rtol=1e-12, atol=1e-15)
+    # the same numbers as 'drop' everywhere else
+    drop = compute_modes(M, K, C, J, overdamped="drop")
+    np.testing.assert_array_equal(md.f_hz[1:], drop.f_hz[1:])
+    np.testing.assert_array_equal(md.shapes, drop.shapes)
 
 
 def test_example_robot_overdamped_postures_match_scipy() -> None:

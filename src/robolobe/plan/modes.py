@@ -421,12 +421,14 @@ class TwinSource:
 
     def predict(self, q_rad: ArrayLike) -> RobotModes:
         q = np.asarray(q_rad, dtype=np.float64).reshape(-1, 6)
-        md = self.twin.modes(q)
+        # an overdamped joint mode (a heavily damped wrist) is kept as its real poles'
+        # frequency and damping ratio >= 1: no resonance, but its compliance counts
+        md = self.twin.modes(q, overdamped="keep")
         f = np.asarray(md.f_hz)  # (n, m)
         z = np.asarray(md.zeta)
         u = np.asarray(md.tcp_shapes)  # (n, 3, m)
         n, m = f.shape
-        keep = np.isfinite(f) & (f > 0) & (z > 0) & (z < 1)
+        keep = np.isfinite(f) & (f > 0) & np.isfinite(z) & (z > 0)
         model = ModalModel.from_shapes(
             2 * np.pi * np.where(keep, f, 1.0),
             np.where(keep, z, 0.05),
@@ -481,7 +483,7 @@ class CorrectedTwinSource:
 
         q = np.asarray(q_rad, dtype=np.float64).reshape(-1, 6)
         ct = self.model
-        md = self.twin.modes(q)
+        md = self.twin.modes(q, overdamped="keep")  # as TwinSource
         f = np.asarray(md.f_hz, dtype=np.float64)  # (n, m)
         z = np.asarray(md.zeta, dtype=np.float64)
         u = np.asarray(md.tcp_shapes, dtype=np.float64)  # (n, 3, m)
@@ -508,7 +510,7 @@ class CorrectedTwinSource:
         # k = omega^2 / u^2 per direction: keep it at its corrected value
         u_new = u * np.exp(d_f[:, None, :] - 0.5 * d_k)
         k_new = k * np.exp(d_k)
-        keep = np.isfinite(f_new) & (f_new > 0) & (z_new > 0) & (z_new < 1)
+        keep = np.isfinite(f_new) & (f_new > 0) & np.isfinite(z_new) & (z_new > 0)
         model = ModalModel.from_shapes(
             2 * np.pi * np.where(keep, f_new, 1.0),
             np.where(keep, z_new, 0.05),

@@ -46,7 +46,8 @@ class ModalModel:
     omega : array_like, shape (..., n_modes)
         Natural frequencies [rad/s], > 0.
     zeta : array_like, shape (..., n_modes)
-        Damping ratios, ``0 < zeta < 1``.
+        Damping ratios, ``> 0``; ``>= 1`` is an overdamped mode (no resonance;
+        its term ``A_r / (w_r^2 - w^2 + 2 i zeta_r w_r w)`` holds all the same).
     residues : array_like, shape (..., n_modes, d, d)
         Residue matrices ``A_r`` [1/kg]; an absent mode has ``A_r = 0``.
 
@@ -85,8 +86,8 @@ class ModalModel:
         a = np.broadcast_to(a, (*batch, n, d, d))
         if not (np.all(np.isfinite(w)) and np.all(w > 0.0)):
             raise InputError("ModalModel: omega: expected finite natural frequencies > 0 rad/s")
-        if not (np.all(np.isfinite(z)) and np.all(z > 0.0) and np.all(z < 1.0)):
-            raise InputError("ModalModel: zeta: expected damping ratios in (0, 1)")
+        if not (np.all(np.isfinite(z)) and np.all(z > 0.0)):
+            raise InputError("ModalModel: zeta: expected finite damping ratios > 0")
         if not np.all(np.isfinite(a)):
             raise InputError("ModalModel: residues: expected finite values")
         for name, arr in (("omega", w), ("zeta", z), ("residues", a)):

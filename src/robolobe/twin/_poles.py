@@ -19,13 +19,23 @@ mode, and treats overdamped modes by an explicit policy (``overdamped``):
     units, and the caller names the file).
 ``"drop"``
     leave the mode out: its slot holds ``nan`` (the diagnosis' mode list,
-    and any caller that can do without an overdamped mode, e.g. a planner,
-    which only needs the resonant ones). The slot keeps the mode's place in
+    which works with the exact poles). The slot keeps the mode's place in
     the rising-frequency order so that slot r stays mode r of the undamped
     problem: an overdamped pair sorts at ``sqrt(p1 p2)`` (its undamped
     frequency for a single degree of freedom). With several overdamped modes
     at one posture the real poles are paired nested (smallest with largest
-    magnitude), which only orders the ``nan`` slots among themselves.
+    magnitude).
+``"keep"``
+    as ``"drop"`` for the poles, and :func:`overdamped_modes` gives each
+    overdamped slot the natural frequency and damping ratio of its pair,
+    ``w0 = sqrt(p1 p2)`` and ``zeta = -(p1 + p2) / (2 w0) >= 1``: the pair
+    is the single-degree-of-freedom term ``1 / (w0^2 - w^2 + 2 i zeta w0 w)``
+    (exact for one overdamped mode of a proportionally damped system, as the
+    planner's real-mode model is for the underdamped ones). A complex pair
+    gives the same two numbers (``|lambda|^2 = p1 p2``, ``-2 Re lambda =
+    -(p1 + p2)``), so one formula covers both kinds of mode. With several
+    overdamped modes at one posture the nested pairing is a choice, not a
+    property of the system.
 
 A pole counts as real when ``|Im lambda| <= 1e-9 |lambda|`` (LAPACK returns
 real eigenvalues of a real matrix with an imaginary part of exactly 0).
@@ -51,6 +61,7 @@ __all__ = [
     "REAL_POLE_TOL",
     "OverdampedPolicy",
     "modal_poles",
+    "overdamped_modes",
     "pole_vectors",
     "state_matrix",
     "state_space_eig",
@@ -59,8 +70,8 @@ __all__ = [
 FloatArray = NDArray[np.float64]
 ComplexArray = NDArray[np.complex128]
 
-OverdampedPolicy = Literal["raise", "drop"]
-OVERDAMPED_POLICIES: tuple[str, ...] = ("raise", "drop")
+OverdampedPolicy = Literal["raise", "drop", "keep"]
+OVERDAMPED_POLICIES: tuple[str, ...] = ("raise", "drop", "keep")
 
 REAL_POLE_TOL = 1e-9
 """A pole is real (part of an overdamped mode) when ``|Im| <= REAL_POLE_TOL |lambda|``."""
@@ -124,37 +135,12 @@ def state_space_eig(
     return np.asarray(np.linalg.eigvals(a), dtype=np.complex128), None
 
 
-def _nested_pair_keys(real_poles: FloatArray) -> FloatArray:
-    """Sort keys ``sqrt(p_i p_j)`` of overdamped pairs (real poles paired nested)."""
-    mag = np.sort(np.abs(real_poles))
-    half = mag.size // 2
-    out: FloatArray = np.sqrt(mag[:half] * mag[::-1][:half])
-    return out
-
-
-def modal_poles(
-    M: FloatArray, K: FloatArray, C: FloatArray, *, overdamped: OverdampedPolicy = "raise"
-) -> ComplexArray:
-    """One pole per mode: the upper-half-plane poles by rising ``|lambda|``.
-
-    Parameters
-    ----------
-    M, K, C : ndarray, shape (..., n, n)
-        One batch shape (postures).
-    overdamped : {"raise", "drop"}
-        What to do with an overdamped mode (two real poles), see the module
-        notes: ``"raise"`` refuses, ``"drop"`` leaves a ``nan`` in its slot.
-
-    Returns
-    -------
-    ndarray of complex, shape (..., n)
-        ``lambda_r`` [rad/s] with ``Im > 0``; ``nan`` for dropped modes.
-
-    Raises
-    ------
-    InputError
-        On an overdamped mode under ``"raise"``, or an unknown policy.
-    """
+def _slots(
+    M: FloatArray, K: FloatArray, C: FloatArray, overdamped: OverdampedPolicy
+) -> tuple[ComplexArray, FloatArray]:
+    """Upper-half-plane poles per slot (``nan`` where overdamped) and, per slot, the
+    product and sum ``(p1 p2, p1 + p2)`` of the overdamped pair there (``nan`` elsewhere),
+    shape (..., n) and (..., n, 2)."""
     if overdamped not in OVERDAMPED_POLICIES:
         raise InputError(f"overdamped: expected one of {OVERDAMPED_POLICIES}, found {overdamped!r}")
     n = M.shape[-1]
@@ -166,19 +152,86 @@ def modal_poles(
     if np.any(short) and overdamped == "raise":
         raise InputError(OVERDAMPED_MESSAGE)
     key = np.where(upper, size, np.inf)
+    pair = np.full((*lam_all.shape, 2), np.nan)
     if np.any(short):
         real = np.abs(lam_all.imag) <= REAL_POLE_TOL * size
         flat_key = key.reshape(-1, 2 * n)
         flat_lam = lam_all.reshape(-1, 2 * n)
         flat_real = real.reshape(-1, 2 * n)
+        flat_pair = pair.reshape(-1, 2 * n, 2)
         for p in np.flatnonzero(short.reshape(-1)):
             idx = np.flatnonzero(flat_real[p])
-            keys = _nested_pair_keys(flat_lam[p, idx].real)
-            flat_key[p, idx[: keys.size]] = keys
+            re = flat_lam[p, idx].real
+            order = np.argsort(np.abs(re))
+            half = idx.size // 2
+            lo, hi = re[order[:half]], re[order[::-1][:half]]  # nested: smallest with largest
+            slot = idx[order[:half]]
+            flat_key[p, slot] = np.sqrt(lo * hi)
+            flat_pair[p, slot, 0] = lo * hi
+            flat_pair[p, slot, 1] = lo + hi
         key = flat_key.reshape(key.shape)
+        pair = flat_pair.reshape(pair.shape)
     order = np.argsort(key, axis=-1, kind="stable")[..., :n]
     lam = np.take_along_axis(np.where(upper, lam_all, np.nan + 0j), order, axis=-1)
-    return np.asarray(lam, dtype=np.complex128)
+    pairs = np.take_along_axis(pair, order[..., None], axis=-2)
+    return np.asarray(lam, dtype=np.complex128), pairs
+
+
+def modal_poles(
+    M: FloatArray, K: FloatArray, C: FloatArray, *, overdamped: OverdampedPolicy = "raise"
+) -> ComplexArray:
+    """One pole per mode: the upper-half-plane poles by rising ``|lambda|``.
+
+    Parameters
+    ----------
+    M, K, C : ndarray, shape (..., n, n)
+        One batch shape (postures).
+    overdamped : {"raise", "drop", "keep"}
+        What to do with an overdamped mode (two real poles), see the module
+        notes: ``"raise"`` refuses, ``"drop"`` and ``"keep"`` leave a ``nan``
+        in its slot (:func:`overdamped_modes` describes it under ``"keep"``).
+
+    Returns
+    -------
+    ndarray of complex, shape (..., n)
+        ``lambda_r`` [rad/s] with ``Im > 0``; ``nan`` for overdamped modes.
+
+    Raises
+    ------
+    InputError
+        On an overdamped mode under ``"raise"``, or an unknown policy.
+    """
+    return _slots(M, K, C, overdamped)[0]
+
+
+def overdamped_modes(
+    M: FloatArray, K: FloatArray, C: FloatArray
+) -> tuple[ComplexArray, FloatArray, FloatArray]:
+    """The poles of :func:`modal_poles` and every mode's natural frequency and damping.
+
+    Parameters
+    ----------
+    M, K, C : ndarray, shape (..., n, n)
+        One batch shape (postures).
+
+    Returns
+    -------
+    lam : ndarray of complex, shape (..., n)
+        As :func:`modal_poles` with ``overdamped="keep"`` (``nan`` where overdamped).
+    w0 : ndarray, shape (..., n)
+        Natural frequency [rad/s]: ``|lambda|`` of an underdamped mode,
+        ``sqrt(p1 p2)`` of an overdamped pair.
+    zeta : ndarray, shape (..., n)
+        Damping ratio: ``-Re(lambda) / |lambda|`` (< 1), or
+        ``-(p1 + p2) / (2 w0)`` (>= 1) of an overdamped pair.
+    """
+    lam, pair = _slots(M, K, C, "keep")
+    od = ~np.isfinite(lam)
+    w_pair = np.sqrt(pair[..., 0])
+    w0 = np.where(od, w_pair, np.abs(lam))
+    with np.errstate(invalid="ignore", divide="ignore"):
+        zeta = np.where(od, -pair[..., 1] / (2.0 * w_pair), -lam.real / np.abs(lam))
+    return lam, np.asarray(w0, np.float64), np.asarray(zeta, np.float64)
 
 
 def pole_vectors(M: FloatArray, K: FloatArray, C: FloatArray, lam: ComplexArray) -> ComplexArray:

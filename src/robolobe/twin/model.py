@@ -114,11 +114,13 @@ class Twin:
         ----------
         q : array_like, shape (..., 6)
             Controller axis angles [rad].
-        overdamped : {"raise", "drop"}
+        overdamped : {"raise", "drop", "keep"}
             Policy for an overdamped mode (real poles): ``"raise"`` (default)
             refuses naming the robot file; ``"drop"`` leaves ``nan`` in its
             damped quantities (frequency, damping, poles), for callers that
-            need the resonant modes only.
+            need the resonant modes only; ``"keep"`` gives it the frequency
+            and damping ratio (>= 1) of its real poles, for the real-mode
+            receptance a planner builds (:class:`~robolobe.twin.modes.Modes`).
         """
         s = self.system(q)
         try:

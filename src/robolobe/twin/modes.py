@@ -17,8 +17,10 @@ solved, both batched over postures:
   conj(lambda_r))`` (:meth:`Modes.frf`). The poles come from the project's one
   state-space eigen-solve (:mod:`robolobe.twin._poles`), with its explicit
   policy for an overdamped mode (``overdamped="raise"`` refuses, ``"drop"``
-  leaves ``nan`` in the mode's damped quantities); the residues are computed
-  on first use.
+  leaves ``nan`` in the mode's damped quantities, ``"keep"`` gives it the
+  natural frequency ``sqrt(p1 p2)`` and damping ratio ``>= 1`` of its two real
+  poles, for the real-mode (modal-stiffness) FRF a planner uses); the residues
+  are computed on first use.
 
 * **Undamped.** ``K phi = w0^2 M phi`` gives real, mass-normalised shapes
   (``phi^T M phi = I``) and the modal stiffness per TCP direction
@@ -47,7 +49,13 @@ from numpy.typing import ArrayLike, NDArray
 from robolobe._directions import DRIVING, dir_index
 from robolobe._modal_parameters import ModalParameters
 from robolobe.errors import InputError
-from robolobe.twin._poles import OverdampedPolicy, modal_poles, pole_vectors, state_space_eig
+from robolobe.twin._poles import (
+    OverdampedPolicy,
+    modal_poles,
+    overdamped_modes,
+    pole_vectors,
+    state_space_eig,
+)
 
 __all__ = [
     "SEEN_RATIO",
@@ -253,7 +261,12 @@ class Modes:
     With ``compute_modes(..., overdamped="drop")`` an overdamped mode keeps
     its slot with ``nan`` in the damped quantities (``f_hz``, ``zeta``,
     ``omega_d``, ``poles``, ``residues``); its undamped quantities are
-    finite. :meth:`frf` refuses such modes.
+    finite. With ``"keep"`` its ``f_hz`` and ``zeta`` (>= 1) are those of its
+    two real poles (:func:`robolobe.twin._poles.overdamped_modes`),
+    ``omega_d`` is 0 and ``poles`` and ``residues`` stay ``nan``. :meth:`frf`
+    (the exact pole-residue sum) refuses both; the real-mode receptance of
+    the shapes, frequencies and dampings (what :meth:`parameters` and a
+    planner use) covers them.
     """
 
     f_hz: FloatArray
@@ -341,7 +354,8 @@ class Modes:
         -------
         ModalParameters
             Shape (n_postures, n_directions, n_modes), no spread; a dropped
-            overdamped mode (``overdamped="drop"``) is absent (NaN).
+            overdamped mode (``overdamped="drop"``) is absent (NaN), a kept one
+            (``"keep"``) has its damping ratio >= 1.
 
         Raises
         ------
@@ -427,9 +441,9 @@ def damped_poles(
         Also return the displacement eigenvectors (shape (..., n, n), column r
         for pole r, unit 2-norm, phase arbitrary); without them only the
         eigenvalues are computed (faster).
-    overdamped : {"raise", "drop"}
+    overdamped : {"raise", "drop", "keep"}
         Policy for an overdamped mode (real poles): refuse, or leave ``nan``
-        in its slot (and in its vector).
+        in its slot (and in its vector); "keep" is "drop" here (poles only).
 
     Returns
     -------
@@ -469,10 +483,11 @@ def compute_modes(
     J : array_like, shape (..., p, n)
         Output (and input) Jacobian, typically the translational TCP
         Jacobian in the TCP frame [m/rad].
-    overdamped : {"raise", "drop"}
+    overdamped : {"raise", "drop", "keep"}
         Policy for an overdamped mode (real poles, no resonance):
         ``"raise"`` (default) refuses; ``"drop"`` keeps the mode's slot
-        with ``nan`` damped quantities (see :class:`Modes`).
+        with ``nan`` damped quantities; ``"keep"`` gives it the frequency and
+        damping ratio (>= 1) of its real poles (see :class:`Modes`).
 
     Returns
     -------
@@ -498,12 +513,18 @@ def compute_modes(
 
     # -- damped problem: first-order (state-space) eigenvalues; the residues
     #    (eigenvectors) on first use
-    lam = modal_poles(m, k, c, overdamped=overdamped)
-    w = np.abs(lam)
+    if overdamped == "keep":
+        lam, w, zeta = overdamped_modes(m, k, c)
+        omega_d = np.where(np.isfinite(lam), lam.imag, 0.0)
+    else:
+        lam = modal_poles(m, k, c, overdamped=overdamped)
+        w = np.abs(lam)
+        zeta = -lam.real / w
+        omega_d = lam.imag.copy()
     return Modes(
         f_hz=w / _TWO_PI,
-        zeta=-lam.real / w,
-        omega_d=lam.imag.copy(),
+        zeta=zeta,
+        omega_d=omega_d,
         poles=lam,
         f_undamped_hz=w0 / _TWO_PI,
         shapes=phi,
