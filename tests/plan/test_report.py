@@ -251,6 +251,7 @@ def test_margin_runs_colour_every_move_as_the_norm_does():
     np.testing.assert_array_equal(per_move, cls)
 
 
+@pytest.mark.slow
 def test_plot_worker_draws_the_same_pngs_and_a_dead_one_falls_back(tmp_path, result):
     """The plot process gives the PNGs drawn in-process, byte for byte; a worker that
     died before drawing leaves the same files (drawn here instead)."""
