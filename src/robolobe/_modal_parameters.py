@@ -21,14 +21,16 @@ from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
-import pandas as pd
 from numpy.typing import ArrayLike, NDArray
 
 from robolobe._directions import ALL_DIRS, DRIVING, dir_index
 from robolobe.errors import InputError
+
+if TYPE_CHECKING:
+    import pandas as pd
 
 __all__ = ["PARAMETERS", "Q_COLUMNS", "ModalParameters"]
 
@@ -328,6 +330,8 @@ class ModalParameters:
             data[name] = vals[:, i]
         for name, arr in (extra or {}).items():
             data[name] = np.asarray(arr, dtype=float).reshape(-1)
+        import pandas as pd  # only for the table: sld and the twin need no pandas
+
         df = pd.DataFrame(data)
         return df.loc[keep].reset_index(drop=True)
 
