@@ -21,6 +21,13 @@ the chance of finding the best fit; ``--no-lopo`` skips step 3)::
 
     python studies/seed_tables.py [--starts 12] [--no-lopo] [--mass-bound 0.3] [--json out.json]
         [--load-joints 2,3,4,5,6] [--free-bounds] [--direction 1] [--robots B,C]
+        [--shape-bodies 2,3,ee] [--com-bound-m 0.3] [--inertia-bound 1.0] [--robot-out DIR]
+
+``--shape-bodies`` also fits the mass distribution (centre-of-mass offset and
+principal inertias, :attr:`~robolobe.twin.calibration.SeedFitForm.shape_bodies`) of
+the named bodies (1-based links, ``ee`` the spindle and bracket); ``--robot-out``
+writes each three-posture fit as a candidate robot file ``<DIR>/<robot>_seed_fit.toml``
+(a study output: the shipped files are unchanged).
 """
 
 from __future__ import annotations
@@ -28,16 +35,20 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import sys
 import time
 
 import numpy as np
 
 from robolobe.robots import load_robot
+from robolobe._atomic import atomic_write_text
+from robolobe.robots.io import robot_to_toml
 from robolobe.twin.calibration import (
     LITERATURE_K_BOUNDS,
     SEED_FIT_STARTS,
     SeedFitForm,
     compare_to_table,
+    seed_fit_parameter_count,
     fit_seed_table,
     lopo_frequency_spread,
     seed_prior,
@@ -77,6 +88,14 @@ def main() -> None:
     )
     ap.add_argument("--robots", default="B,C")
     ap.add_argument(
+        "--shape-bodies",
+        default="",
+        help="bodies whose COM offset and principal inertias are fitted (1-6, ee; '' none)",
+    )
+    ap.add_argument("--com-bound-m", type=float, default=0.3)
+    ap.add_argument("--inertia-bound", type=float, default=1.0)
+    ap.add_argument("--robot-out", default=None, help="folder for the fitted robot files")
+    ap.add_argument(
         "--direction",
         type=int,
         default=1,
@@ -84,12 +103,18 @@ def main() -> None:
     )
     args = ap.parse_args()
     load = tuple(int(j) - 1 for j in args.load_joints.split(",") if j.strip())
+    shape = tuple(
+        6 if b.strip() == "ee" else int(b) - 1 for b in args.shape_bodies.split(",") if b.strip()
+    )
     form = SeedFitForm(
         link_mass_bound=args.mass_bound,
         ee_mass_bound=args.mass_bound,
         load_joints=load,
         k_bounds_Nm_per_rad=None if args.free_bounds else LITERATURE_K_BOUNDS,
         direction=args.direction,
+        shape_bodies=shape,
+        com_bound_m=args.com_bound_m,
+        inertia_bound=args.inertia_bound,
     )
     d = args.direction
     out: dict[str, object] = {}
@@ -121,6 +146,26 @@ def main() -> None:
         c = compare_to_table(robot, t, direction=d)
         print(f"\ntable fit ({args.starts} starts, {time.perf_counter() - t0:.0f} s, "
               f"load {os.getloadavg()[0]:.1f}):")  # fmt: skip
+        n_free = seed_fit_parameter_count(seed_prior(name, shipped), t, form)
+        print(f"free parameters: {n_free} (table values: 45)")
+        for b in shape:
+            b0 = shipped.joints[b].body if b < 6 else shipped.end_effector
+            b1 = robot.joints[b].body if b < 6 else robot.end_effector
+            assert b0 is not None and b1 is not None
+            lab = f"link {b + 1}" if b < 6 else "end effector"
+            print(f"{lab}: COM [m] {np.round(b0.com_m, 3).tolist()} -> "
+                  f"{np.round(b1.com_m, 3).tolist()}; principal inertias [kg m^2] "
+                  f"{np.round(np.linalg.eigvalsh(b0.inertia_kgm2), 1).tolist()} -> "
+                  f"{np.round(np.linalg.eigvalsh(b1.inertia_kgm2), 1).tolist()}")  # fmt: skip
+        if args.robot_out:
+            path = os.path.join(args.robot_out, f"{name}_seed_fit.toml")
+            os.makedirs(args.robot_out, exist_ok=True)
+            atomic_write_text(
+                path,
+                f"# {shipped.name}: fit: seed Table {4 if name == 'B' else 7} "
+                f"(studies/seed_tables.py {' '.join(sys.argv[1:])})\n" + robot_to_toml(robot),
+            )
+            print(f"fitted robot file: {path}")
         print(f"twin modal stiffness / table (read as 1e5 N/m): {c.k_level:.2f}")
         print(
             "fitted springs [N m/rad]: joints "
