@@ -21,7 +21,8 @@ the chance of finding the best fit; ``--no-lopo`` skips step 3)::
 
     python studies/seed_tables.py [--starts 12] [--no-lopo] [--mass-bound 0.3] [--json out.json]
         [--load-joints 2,3,4,5,6] [--free-bounds] [--direction 1] [--robots B,C]
-        [--shape-bodies 2,3,ee] [--com-bound-m 0.3] [--inertia-bound 1.0] [--robot-out DIR]
+        [--shape-bodies 2,3,ee] [--com-bound-m 0.3] [--ee-com-bound-m 0.1] [--inertia-bound 1.0]
+        [--tilt-joints 1,2,3,4,5] [--robot-out DIR]
 
 ``--shape-bodies`` also fits the mass distribution (centre-of-mass offset and
 principal inertias, :attr:`~robolobe.twin.calibration.SeedFitForm.shape_bodies`) of
@@ -40,17 +41,17 @@ import time
 
 import numpy as np
 
-from robolobe.robots import load_robot
 from robolobe._atomic import atomic_write_text
+from robolobe.robots import load_robot
 from robolobe.robots.io import robot_to_toml
 from robolobe.twin.calibration import (
     LITERATURE_K_BOUNDS,
     SEED_FIT_STARTS,
     SeedFitForm,
     compare_to_table,
-    seed_fit_parameter_count,
     fit_seed_table,
     lopo_frequency_spread,
+    seed_fit_parameter_count,
     seed_prior,
     value_verdicts,
 )
@@ -92,7 +93,11 @@ def main() -> None:
         default="",
         help="bodies whose COM offset and principal inertias are fitted (1-6, ee; '' none)",
     )
-    ap.add_argument("--com-bound-m", type=float, default=0.3)
+    ap.add_argument("--com-bound-m", type=float, default=0.3, help="links' COM offset bound")
+    ap.add_argument("--ee-com-bound-m", type=float, default=0.1, help="spindle's COM offset bound")
+    ap.add_argument(
+        "--tilt-joints", default="1,2,3,4,5", help="1-based joints with tilt compliance"
+    )
     ap.add_argument("--inertia-bound", type=float, default=1.0)
     ap.add_argument("--robot-out", default=None, help="folder for the fitted robot files")
     ap.add_argument(
@@ -114,6 +119,8 @@ def main() -> None:
         direction=args.direction,
         shape_bodies=shape,
         com_bound_m=args.com_bound_m,
+        ee_com_bound_m=args.ee_com_bound_m,
+        tilt_joints=tuple(int(j) - 1 for j in args.tilt_joints.split(",") if j.strip()),
         inertia_bound=args.inertia_bound,
     )
     d = args.direction
@@ -151,7 +158,8 @@ def main() -> None:
         for b in shape:
             b0 = shipped.joints[b].body if b < 6 else shipped.end_effector
             b1 = robot.joints[b].body if b < 6 else robot.end_effector
-            assert b0 is not None and b1 is not None
+            assert b0 is not None
+            assert b1 is not None
             lab = f"link {b + 1}" if b < 6 else "end effector"
             print(f"{lab}: COM [m] {np.round(b0.com_m, 3).tolist()} -> "
                   f"{np.round(b1.com_m, 3).tolist()}; principal inertias [kg m^2] "
@@ -165,6 +173,7 @@ def main() -> None:
                 f"# {shipped.name}: fit: seed Table {4 if name == 'B' else 7} "
                 f"(studies/seed_tables.py {' '.join(sys.argv[1:])})\n" + robot_to_toml(robot),
             )
+            load_robot(path)  # the loader's checks (triangle inequality, ranges)
             print(f"fitted robot file: {path}")
         print(f"twin modal stiffness / table (read as 1e5 N/m): {c.k_level:.2f}")
         print(

@@ -268,7 +268,8 @@ def test_mass_distribution_parameters_give_the_robot_files_mass_matrix() -> None
     for n, b in enumerate((1, 2, 6)):
         b0 = prior.joints[b].body if b < 6 else prior.end_effector
         b1 = r.joints[b].body if b < 6 else r.end_effector
-        assert b0 is not None and b1 is not None
+        assert b0 is not None
+        assert b1 is not None
         np.testing.assert_allclose(b1.com_m, b0.com_m + COM_UNIT_M * y[n, :3], atol=1e-12)
         assert np.max(np.abs(b1.com_m - b0.com_m)) <= 0.3 + 1e-12  # the form's bound
         # principal moments scaled by the fitted factors (and the mass factor), axes kept

@@ -663,8 +663,10 @@ class SeedFitForm:
         axes of the file's tensor, within ``inertia_bound``; a penalty keeps
         the triangle inequality). The file's B and C inertias are estimates
         (scaled KUKA data), so these are unknowns of the file, not new physics.
-    com_bound_m : float
-        Largest centre-of-mass offset per body axis [m].
+    com_bound_m, ee_com_bound_m : float
+        Largest centre-of-mass offset per body axis [m] of a link (about a
+        quarter of the 1-1.3 m arms) and of the end effector (spindle and
+        bracket, about the spindle's radius).
     inertia_bound : float
         Bound on the log factors of the principal moments of inertia.
     """
@@ -684,15 +686,20 @@ class SeedFitForm:
     k_bounds_Nm_per_rad: tuple[tuple[float, float], ...] | None = None
     shape_bodies: tuple[int, ...] = ()
     com_bound_m: float = 0.3
+    ee_com_bound_m: float = 0.1
     inertia_bound: float = 1.0
 
 
 COM_UNIT_M = 0.1
 """Unit [m] of the fitted centre-of-mass offsets of :attr:`SeedFitForm.shape_bodies`:
 the ridge pulls 0.1 m of offset as hard as a factor e on a spring or a mass."""
-TRIANGLE_TOL = 0.01
-"""Scale of the penalty on a principal inertia beyond the sum of the other two (a
-physical rigid body has ``I_a <= I_b + I_c``): log excess 0.01 costs as 1 % in frequency."""
+TRIANGLE_TOL = 0.002
+"""Scale of the penalty on a principal inertia beyond :data:`TRIANGLE_MARGIN` x the sum
+of the other two (a physical rigid body has ``I_a <= I_b + I_c``): a log excess of 0.002
+costs as 1 % in frequency."""
+TRIANGLE_MARGIN = 0.98
+"""The penalty starts at ``I_a = 0.98 (I_b + I_c)``; :func:`fit_seed_table` then moves
+any remaining excess to ``I_a = 0.995 (I_b + I_c)`` so that the robot file loads."""
 
 
 LITERATURE_K_BOUNDS: tuple[tuple[float, float], ...] = (
@@ -765,8 +772,11 @@ class _TableModel:
             "shape": slice(ns + 7 + nl, ns + 7 + nl + nsh),
         }
         self.n_params = ns + 7 + nl + nsh + 1  # + level
-        cb = form.com_bound_m / COM_UNIT_M
-        sh_lo = np.tile([-cb] * 3 + [-form.inertia_bound] * 3, len(self.shape))
+        sh_lo = np.concatenate([
+            [-(form.ee_com_bound_m if b == 6 else form.com_bound_m) / COM_UNIT_M] * 3
+            + [-form.inertia_bound] * 3
+            for b in self.shape
+        ]) if len(self.shape) else np.zeros(0)  # fmt: skip
         lo = np.concatenate(
             [np.full(ns, -form.stiffness_bound), [-form.ee_mass_bound],
              np.full(6, -form.link_mass_bound), np.zeros(nl), sh_lo, [-3.0]]
@@ -870,8 +880,9 @@ class _TableModel:
         return dm, dt
 
     def triangle(self, x: FloatArray) -> tuple[FloatArray, FloatArray]:
-        """Excess ``log(I_a / (I_b + I_c))`` of every principal moment of every shape body
-        (> 0 violates the triangle inequality), shape (3 nsb,), and its Jacobian."""
+        """Excess ``log(I_a / (m (I_b + I_c)))`` (``m`` :data:`TRIANGLE_MARGIN`) of every
+        principal moment of every shape body (> 0 violates the triangle inequality with
+        that margin), shape (3 nsb,), and its Jacobian (3 nsb, n_params)."""
         n = len(self.shape)
         out = np.zeros(3 * n)
         jac = np.zeros((3 * n, self.n_params))
@@ -879,11 +890,23 @@ class _TableModel:
         for i, (_, lam, _) in enumerate(self.shape_state(x)):
             for a in range(3):
                 b, c = [k for k in range(3) if k != a]
-                out[3 * i + a] = np.log(lam[a] / (lam[b] + lam[c]))
+                out[3 * i + a] = np.log(lam[a] / (lam[b] + lam[c]) / TRIANGLE_MARGIN)
                 jac[3 * i + a, st + 6 * i + 3 + a] = 1.0
                 jac[3 * i + a, st + 6 * i + 3 + b] = -lam[b] / (lam[b] + lam[c])
                 jac[3 * i + a, st + 6 * i + 3 + c] = -lam[c] / (lam[b] + lam[c])
         return out, jac
+
+    def physical(self, x: FloatArray) -> FloatArray:
+        """``x`` with any principal moment beyond 0.995 x the sum of the other two
+        lowered to it (the robot-file loader's triangle inequality)."""
+        out = x.copy()
+        st = self.slices["shape"].start
+        for i, (_, lam, _) in enumerate(self.shape_state(x)):
+            a = int(np.argmax(lam))
+            cap = 0.995 * (lam.sum() - lam[a])
+            if lam[a] > cap:
+                out[st + 6 * i + 3 + a] += np.log(cap / lam[a])
+        return out
 
     def stiffness(self, x: FloatArray) -> FloatArray:
         """Spring of every DOF at every posture [N m/rad], shape (p, nd)."""
@@ -1100,7 +1123,9 @@ def _table_residuals(
                     if len(model.shape):
                         dts = model.shape_derivatives(x, p)[1][:, j]
                         dts = dts * np.repeat(scall[model.shape], 6)
-                        jb[row, model.slices["shape"]] = y[i] * np.sign(tau[j]) * dts / r_ / g / 0.01
+                        jb[row, model.slices["shape"]] = (
+                            y[i] * np.sign(tau[j]) * dts / r_ / g / 0.01
+                        )
                 row += 1
     rows.append(jb)
     rows.append(np.where((tri > 0)[:, None], jtri / TRIANGLE_TOL, 0.0))
@@ -1345,6 +1370,7 @@ def fit_seed_table(
         cands = pool + cands
     sols = _stage1(model, f_t, k_t, lz_t, ridge, cands, refine, True)
     cost, x = sols[0]
+    x = model.physical(x)
     damping = _fit_table_damping(model, x, table, idx)
     return SeedFit(
         robot=model.robot(x, damping),
