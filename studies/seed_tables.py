@@ -66,6 +66,47 @@ def _fmt_row(p: int, m: int, t, c) -> str:
     )
 
 
+def _frac_tolerance(t, rng: np.random.Generator, n: int = 1000) -> None:  # type: ignore[no-untyped-def]
+    """How close a twin must be for FRAC >= 0.8: random modal twins around the table."""
+    from robolobe.campaign.metrics import frac
+    from robolobe.twin.frf import modal_receptance
+
+    grid = np.arange(2.0, 40.0 + 1e-9, 0.25)
+    l15 = np.log(1.5)
+    for p in range(3):
+        f, z, k = t.f_hz[p], t.zeta[p], t.k_N_per_m[p]
+        ht = modal_receptance(f, z, k, grid)
+        one = []
+        for m in range(5):
+            f1 = f.copy()
+            f1[m] *= 1.01
+            one.append(float(frac(modal_receptance(f1, z, k, grid), ht)))
+        line = []
+        for tol in (0.01, 0.03):
+            ff = f * np.exp(rng.uniform(-tol, tol, (n, 5)))
+            zz = z * np.exp(rng.uniform(-l15, l15, (n, 5)))
+            kk = k * np.exp(rng.uniform(-l15, l15, (n, 5)))
+            v = np.asarray(frac(modal_receptance(ff, zz, kk, grid), ht, axis=-1))
+            line.append(f"f within {100 * tol:.0f} %: median {np.median(v):.2f}, "
+                        f"P(FRAC >= 0.8) {np.mean(v >= 0.8):.2f}")  # fmt: skip
+        print(f"  posture {p + 1}: " + "; ".join(line)
+              + "; one mode 1 % high: FRAC " + " ".join(f"{v:.2f}" for v in one))  # fmt: skip
+
+
+def _balancer_bound(name: str, robot, t) -> None:  # type: ignore[no-untyped-def]
+    """Upper bound of what a gravity balancer on axis 2 can do to the axis-2 spring."""
+    from robolobe.twin.dynamics import gravity_torques
+
+    qs = np.repeat(t.postures_rad, 181, axis=0)
+    qs[:, 1] = np.tile(np.radians(np.linspace(-90.0, 90.0, 181)), 3)
+    tmax = float(np.abs(gravity_torques(robot, qs)[:, 1]).max())
+    print(f"{name}: largest axis-2 gravity torque over q2 in -90..90 deg {tmax:.0f} N m: a "
+          f"balancer that holds it (zero-length spring, torque ~ sin) has at most "
+          f"{tmax:.0f} N m/rad, {100 * tmax / robot.stiffness[1]:.2f} % of the axis-2 spring "
+          f"({robot.stiffness[1]:.3g}): <= {50 * tmax / robot.stiffness[1]:.2f} % in "
+          "frequency")  # fmt: skip
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--starts", type=int, default=SEED_FIT_STARTS // 2)
@@ -142,6 +183,10 @@ def main() -> None:
             sp = [np.ptp(v[:, m]) for v in (lf2, lk, lk - lf2)]
             print(f"  mode {m + 1}: {sp[0]:.2f} / {sp[1]:.2f} / {sp[2]:.2f}")
         shipped = load_robot(name)
+        print(f"\n{name}: FRAC of modal twins around the table (zeta and k within x1.5, "
+              "uniform in log; 1000 each):")  # fmt: skip
+        _frac_tolerance(t, np.random.default_rng(0))
+        _balancer_bound(name, shipped, t)
         cs = compare_to_table(shipped, t, direction=d)
         print(f"\n## Robot {name} ({shipped.name}) vs {t.source}")
         print("shipped file: FRAC " + ", ".join(f"{v:.3f}" for v in cs.frac)
