@@ -345,3 +345,32 @@ def test_bad_shape_bodies_are_refused(bodies: tuple[int, ...]) -> None:
         _TableModel(
             seed_prior("B", load_robot("B")), t.postures_rad, SeedFitForm(shape_bodies=bodies)
         )
+
+
+@pytest.mark.slow
+def test_fit_with_mass_distribution_writes_a_loadable_physical_robot(tmp_path) -> None:  # type: ignore[no-untyped-def]
+    # the fitted file passes the loader's checks (triangle inequality, positive inertia), the
+    # offsets stay within their bounds and the fit improves on its start
+    from robolobe.robots.io import robot_to_toml
+    from robolobe.twin.calibration import SeedFitForm
+
+    t = SEED_TABLES["C"]
+    prior = seed_prior("C", load_robot("C"))
+    form = SeedFitForm(
+        link_mass_bound=0.3, ee_mass_bound=0.3, tilt_joints=(1, 2), shape_bodies=(1, 2, 6)
+    )
+    fit = fit_seed_table(prior, t, form=form, starts=0, refine=1, by_posture=0)
+    path = tmp_path / "C_fit.toml"
+    path.write_text(robot_to_toml(fit.robot), encoding="utf-8")
+    r = load_robot(str(path))
+    for b, bound in ((1, 0.3), (2, 0.3), (6, 0.1)):
+        b0 = prior.joints[b].body if b < 6 else prior.end_effector
+        b1 = r.joints[b].body if b < 6 else r.end_effector
+        assert b0 is not None
+        assert b1 is not None
+        assert np.max(np.abs(b1.com_m - b0.com_m)) <= bound + 1e-9
+        lam = np.linalg.eigvalsh(b1.inertia_kgm2)
+        assert lam[2] <= lam[0] + lam[1]
+    before = compare_to_table(prior, t)
+    after = compare_to_table(r, t)
+    assert np.median(np.abs(after.f_err)) < 0.5 * np.median(np.abs(before.f_err))
