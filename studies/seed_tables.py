@@ -42,7 +42,7 @@ import time
 import numpy as np
 
 from robolobe._atomic import atomic_write_text
-from robolobe.robots import load_robot
+from robolobe.robots import Robot, load_robot
 from robolobe.robots.io import robot_to_toml
 from robolobe.twin.calibration import (
     LITERATURE_K_BOUNDS,
@@ -55,7 +55,7 @@ from robolobe.twin.calibration import (
     seed_prior,
     value_verdicts,
 )
-from robolobe.twin.seed_tables import SEED_TABLES, table_checks
+from robolobe.twin.seed_tables import SEED_TABLES, SeedTable, table_checks
 
 
 def _fmt_row(p: int, m: int, t, c) -> str:
@@ -66,7 +66,7 @@ def _fmt_row(p: int, m: int, t, c) -> str:
     )
 
 
-def _frac_tolerance(t, rng: np.random.Generator, n: int = 1000) -> None:  # type: ignore[no-untyped-def]
+def _frac_tolerance(t: SeedTable, rng: np.random.Generator, n: int = 1000) -> None:
     """How close a twin must be for FRAC >= 0.8: random modal twins around the table."""
     from robolobe.campaign.metrics import frac
     from robolobe.twin.frf import modal_receptance
@@ -93,7 +93,7 @@ def _frac_tolerance(t, rng: np.random.Generator, n: int = 1000) -> None:  # type
               + "; one mode 1 % high: FRAC " + " ".join(f"{v:.2f}" for v in one))  # fmt: skip
 
 
-def _balancer_bound(name: str, robot, t) -> None:  # type: ignore[no-untyped-def]
+def _balancer_bound(name: str, robot: Robot, t: SeedTable) -> None:
     """Upper bound of what a gravity balancer on axis 2 can do to the axis-2 spring."""
     from robolobe.twin.dynamics import gravity_torques
 

@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import dataclasses
+from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
@@ -238,7 +240,7 @@ def test_springs_stiffened_past_the_literature_bound_are_penalised_with_exact_sl
         )
 
 
-def _shape_model(name: str = "B"):  # type: ignore[no-untyped-def]
+def _shape_model(name: str = "B") -> tuple[Any, Any]:
     from robolobe.twin.calibration import LITERATURE_K_BOUNDS, SeedFitForm, _TableModel
 
     form = SeedFitForm(
@@ -314,6 +316,8 @@ def test_mass_distribution_slopes_match_differences() -> None:
         np.testing.assert_allclose(dlk[i], (kp[2] - km[2]) / (2 * h), atol=1e-4)
         rp = _table_residuals(model, xp, *args, with_frac=False)
         rm = _table_residuals(model, xm, *args, with_frac=False)
+        assert isinstance(rp, np.ndarray)
+        assert isinstance(rm, np.ndarray)
         np.testing.assert_allclose(jac[:, i], (rp - rm) / (2 * h), atol=2e-4, rtol=1e-5)
 
 
@@ -348,7 +352,7 @@ def test_bad_shape_bodies_are_refused(bodies: tuple[int, ...]) -> None:
 
 
 @pytest.mark.slow
-def test_fit_with_mass_distribution_writes_a_loadable_physical_robot(tmp_path) -> None:  # type: ignore[no-untyped-def]
+def test_fit_with_mass_distribution_writes_a_loadable_physical_robot(tmp_path: Path) -> None:
     # the fitted file passes the loader's checks (triangle inequality, positive inertia), the
     # offsets stay within their bounds and the fit improves on its start
     from robolobe.robots.io import robot_to_toml
