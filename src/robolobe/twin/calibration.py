@@ -618,7 +618,9 @@ class SeedFitForm:
     mount stiffnesses (prior ``mount_prior_Nm_per_rad``), the end-effector
     mass and inertia, each link's mass and inertia (the B and C masses are
     estimates), the load stiffening of the joints in ``load_joints`` (linear,
-    not log) and the level ``log(k_twin / k_table)`` of modal stiffness.
+    not log), the mass distribution of the bodies in ``shape_bodies`` (COM
+    offset in units of :data:`COM_UNIT_M`, log factors of the principal
+    moments) and the level ``log(k_twin / k_table)`` of modal stiffness.
 
     Attributes
     ----------
@@ -1292,16 +1294,22 @@ def fit_seed_table(
 ) -> SeedFit:
     """Fit springs, dampers and masses to a seed table (robust, multi-start).
 
-    Stage 1 (springs, masses, load stiffening, level): least squares with a soft-L1 loss
-    (``f_scale`` 3: residuals beyond ~3 % in frequency or a factor ~2 in
-    modal stiffness count linearly, so a copy error pulls little) over
+    Stage 1 (springs, masses, mass distribution, load stiffening, level): least
+    squares with a soft-L1 loss (``f_scale`` 3: residuals beyond ~3 % in
+    frequency or a factor ~2 in modal stiffness count linearly, so a copy
+    error pulls little) over
 
     * ``log f_twin - log f_table`` per 1 % for each table mode,
     * ``log k_twin - log k_table - level`` per factor 1.5, weight :data:`K_WEIGHT`,
     * the twin's other modes below 42 Hz kept from adding peaks the table
       lacks: at 2 % damping their peak ``1/(2 zeta k)`` below
       :data:`EXTRA_PEAK` x the table's highest (a quadratic penalty),
-    * a ridge on the log factors.
+    * a ridge on the log factors (and the COM offsets in units of
+      :data:`COM_UNIT_M`),
+    * with ``form.shape_bodies``, a penalty on principal moments beyond the
+      triangle inequality (:data:`TRIANGLE_MARGIN`); the result is then
+      projected onto it (:meth:`_TableModel.physical`) so that its robot
+      file loads.
 
     Each table mode is matched to a twin mode per posture by the least
     frequency and modal-stiffness misfit (Hungarian assignment). A penalty
