@@ -34,6 +34,7 @@ writes each three-posture fit as a candidate robot file ``<DIR>/<robot>_seed_fit
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
 import os
 import sys
@@ -55,7 +56,7 @@ from robolobe.twin.calibration import (
     seed_prior,
     value_verdicts,
 )
-from robolobe.twin.seed_tables import SEED_TABLES, SeedTable, table_checks
+from robolobe.twin.seed_tables import K_UNIT_N_PER_M, SEED_TABLES, SeedTable, table_checks
 
 
 def _fmt_row(p: int, m: int, t, c) -> str:
@@ -107,6 +108,17 @@ def _balancer_bound(name: str, robot: Robot, t: SeedTable) -> None:
           "frequency")  # fmt: skip
 
 
+def _synthetic_table(t: SeedTable, truth: Robot) -> SeedTable:
+    """The table a twin in the fit's form would give: ``truth``'s modes matched to ``t``
+    (frequency, damping, modal stiffness at its own level), exact, in ``t``'s units."""
+    c = compare_to_table(truth, t)
+    ema = np.stack([c.f_hz, 100.0 * c.zeta, c.k_N_per_m / c.k_level / K_UNIT_N_PER_M])
+    return dataclasses.replace(
+        t, ema=ema, tl=ema.copy(), err_pct=np.zeros_like(ema),
+        source=f"synthetic: {truth.name} matched to {t.source}",
+    )  # fmt: skip
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--starts", type=int, default=SEED_FIT_STARTS // 2)
@@ -142,6 +154,12 @@ def main() -> None:
     ap.add_argument("--inertia-bound", type=float, default=1.0)
     ap.add_argument("--robot-out", default=None, help="folder for the fitted robot files")
     ap.add_argument(
+        "--truth",
+        default=None,
+        help="robot file whose own modes replace the table (exact data from a twin inside "
+        "the fit's form: what three postures can identify); one robot only",
+    )
+    ap.add_argument(
         "--direction",
         type=int,
         default=1,
@@ -172,6 +190,9 @@ def main() -> None:
               f"{chk.kind}: {chk.detail}")  # fmt: skip
     for name in args.robots.split(","):
         t = SEED_TABLES[name]
+        if args.truth:
+            t = _synthetic_table(t, load_robot(args.truth))
+            print(f"\n{name}: table replaced by {t.source}")
         # where the posture variation of each mode sits: log f^2 = log k - log m, so a shift
         # with constant modal stiffness k is a modal-mass shift (not a spring's, e.g. a gear
         # stiffening with load, which moves k with f^2 for a mode local to that spring)
