@@ -22,13 +22,18 @@ the chance of finding the best fit; ``--no-lopo`` skips step 3)::
     python studies/seed_tables.py [--starts 12] [--no-lopo] [--mass-bound 0.3] [--json out.json]
         [--load-joints 2,3,4,5,6] [--free-bounds] [--direction 1] [--robots B,C]
         [--shape-bodies 2,3,ee] [--com-bound-m 0.3] [--ee-com-bound-m 0.1] [--inertia-bound 1.0]
-        [--tilt-joints 1,2,3,4,5] [--robot-out DIR]
+        [--tilt-joints 1,2,3,4,5] [--robot-out DIR] [--truth FILE]
 
 ``--shape-bodies`` also fits the mass distribution (centre-of-mass offset and
 principal inertias, :attr:`~robolobe.twin.calibration.SeedFitForm.shape_bodies`) of
 the named bodies (1-based links, ``ee`` the spindle and bracket); ``--robot-out``
 writes each three-posture fit as a candidate robot file ``<DIR>/<robot>_seed_fit.toml``
-(a study output: the shipped files are unchanged).
+(a study output: the shipped files are unchanged). ``--truth FILE`` replaces
+the table with that robot file's own matched modes (exact data from a twin
+inside the fit's form: what three postures can identify at best).
+
+Before the fit it prints how close a twin must be for FRAC >= 0.8 (random modal
+twins around the table) and the bound on a gravity balancer's axis-2 stiffness.
 """
 
 from __future__ import annotations
