@@ -21,18 +21,35 @@ the chance of finding the best fit; ``--no-lopo`` skips step 3)::
 
     python studies/seed_tables.py [--starts 12] [--no-lopo] [--mass-bound 0.3] [--json out.json]
         [--load-joints 2,3,4,5,6] [--free-bounds] [--direction 1] [--robots B,C]
+        [--shape-bodies 2,3,ee] [--com-bound-m 0.3] [--ee-com-bound-m 0.1] [--inertia-bound 1.0]
+        [--tilt-joints 1,2,3,4,5] [--robot-out DIR] [--truth FILE]
+
+``--shape-bodies`` also fits the mass distribution (centre-of-mass offset and
+principal inertias, :attr:`~robolobe.twin.calibration.SeedFitForm.shape_bodies`) of
+the named bodies (1-based links, ``ee`` the spindle and bracket); ``--robot-out``
+writes each three-posture fit as a candidate robot file ``<DIR>/<robot>_seed_fit.toml``
+(a study output: the shipped files are unchanged). ``--truth FILE`` replaces
+the table with that robot file's own matched modes (exact data from a twin
+inside the fit's form: what three postures can identify at best).
+
+Before the fit it prints how close a twin must be for FRAC >= 0.8 (random modal
+twins around the table) and the bound on a gravity balancer's axis-2 stiffness.
 """
 
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
 import os
+import sys
 import time
 
 import numpy as np
 
-from robolobe.robots import load_robot
+from robolobe._atomic import atomic_write_text
+from robolobe.robots import Robot, load_robot
+from robolobe.robots.io import robot_to_toml
 from robolobe.twin.calibration import (
     LITERATURE_K_BOUNDS,
     SEED_FIT_STARTS,
@@ -40,10 +57,11 @@ from robolobe.twin.calibration import (
     compare_to_table,
     fit_seed_table,
     lopo_frequency_spread,
+    seed_fit_parameter_count,
     seed_prior,
     value_verdicts,
 )
-from robolobe.twin.seed_tables import SEED_TABLES, table_checks
+from robolobe.twin.seed_tables import K_UNIT_N_PER_M, SEED_TABLES, SeedTable, table_checks
 
 
 def _fmt_row(p: int, m: int, t, c) -> str:
@@ -52,6 +70,58 @@ def _fmt_row(p: int, m: int, t, c) -> str:
         f"{100 * c.f_err[p, m]:+.1f} | {100 * t.zeta[p, m]:.2f} | {100 * c.zeta[p, m]:.2f} | "
         f"{t.ema[2, p, m]:.2f} | {c.k_N_per_m[p, m] / c.k_level / 1e5:.2f} |"
     )
+
+
+def _frac_tolerance(t: SeedTable, rng: np.random.Generator, n: int = 1000) -> None:
+    """How close a twin must be for FRAC >= 0.8: random modal twins around the table."""
+    from robolobe.campaign.metrics import frac
+    from robolobe.twin.frf import modal_receptance
+
+    grid = np.arange(2.0, 40.0 + 1e-9, 0.25)
+    l15 = np.log(1.5)
+    for p in range(3):
+        f, z, k = t.f_hz[p], t.zeta[p], t.k_N_per_m[p]
+        ht = modal_receptance(f, z, k, grid)
+        one = []
+        for m in range(5):
+            f1 = f.copy()
+            f1[m] *= 1.01
+            one.append(float(frac(modal_receptance(f1, z, k, grid), ht)))
+        line = []
+        for tol in (0.01, 0.03):
+            ff = f * np.exp(rng.uniform(-tol, tol, (n, 5)))
+            zz = z * np.exp(rng.uniform(-l15, l15, (n, 5)))
+            kk = k * np.exp(rng.uniform(-l15, l15, (n, 5)))
+            v = np.asarray(frac(modal_receptance(ff, zz, kk, grid), ht, axis=-1))
+            line.append(f"f within {100 * tol:.0f} %: median {np.median(v):.2f}, "
+                        f"P(FRAC >= 0.8) {np.mean(v >= 0.8):.2f}")  # fmt: skip
+        print(f"  posture {p + 1}: " + "; ".join(line)
+              + "; one mode 1 % high: FRAC " + " ".join(f"{v:.2f}" for v in one))  # fmt: skip
+
+
+def _balancer_bound(name: str, robot: Robot, t: SeedTable) -> None:
+    """Upper bound of what a gravity balancer on axis 2 can do to the axis-2 spring."""
+    from robolobe.twin.dynamics import gravity_torques
+
+    qs = np.repeat(t.postures_rad, 181, axis=0)
+    qs[:, 1] = np.tile(np.radians(np.linspace(-90.0, 90.0, 181)), 3)
+    tmax = float(np.abs(gravity_torques(robot, qs)[:, 1]).max())
+    print(f"{name}: largest axis-2 gravity torque over q2 in -90..90 deg {tmax:.0f} N m: a "
+          f"balancer that holds it (zero-length spring, torque ~ sin) has at most "
+          f"{tmax:.0f} N m/rad, {100 * tmax / robot.stiffness[1]:.2f} % of the axis-2 spring "
+          f"({robot.stiffness[1]:.3g}): <= {50 * tmax / robot.stiffness[1]:.2f} % in "
+          "frequency")  # fmt: skip
+
+
+def _synthetic_table(t: SeedTable, truth: Robot) -> SeedTable:
+    """The table a twin in the fit's form would give: ``truth``'s modes matched to ``t``
+    (frequency, damping, modal stiffness at its own level), exact, in ``t``'s units."""
+    c = compare_to_table(truth, t)
+    ema = np.stack([c.f_hz, 100.0 * c.zeta, c.k_N_per_m / c.k_level / K_UNIT_N_PER_M])
+    return dataclasses.replace(
+        t, ema=ema, tl=ema.copy(), err_pct=np.zeros_like(ema),
+        source=f"synthetic: {truth.name} matched to {t.source}",
+    )  # fmt: skip
 
 
 def main() -> None:
@@ -77,6 +147,24 @@ def main() -> None:
     )
     ap.add_argument("--robots", default="B,C")
     ap.add_argument(
+        "--shape-bodies",
+        default="",
+        help="bodies whose COM offset and principal inertias are fitted (1-6, ee; '' none)",
+    )
+    ap.add_argument("--com-bound-m", type=float, default=0.3, help="links' COM offset bound")
+    ap.add_argument("--ee-com-bound-m", type=float, default=0.1, help="spindle's COM offset bound")
+    ap.add_argument(
+        "--tilt-joints", default="1,2,3,4,5", help="1-based joints with tilt compliance"
+    )
+    ap.add_argument("--inertia-bound", type=float, default=1.0)
+    ap.add_argument("--robot-out", default=None, help="folder for the fitted robot files")
+    ap.add_argument(
+        "--truth",
+        default=None,
+        help="robot file whose own modes replace the table (exact data from a twin inside "
+        "the fit's form: what three postures can identify); one robot only",
+    )
+    ap.add_argument(
         "--direction",
         type=int,
         default=1,
@@ -84,12 +172,20 @@ def main() -> None:
     )
     args = ap.parse_args()
     load = tuple(int(j) - 1 for j in args.load_joints.split(",") if j.strip())
+    shape = tuple(
+        6 if b.strip() == "ee" else int(b) - 1 for b in args.shape_bodies.split(",") if b.strip()
+    )
     form = SeedFitForm(
         link_mass_bound=args.mass_bound,
         ee_mass_bound=args.mass_bound,
         load_joints=load,
         k_bounds_Nm_per_rad=None if args.free_bounds else LITERATURE_K_BOUNDS,
         direction=args.direction,
+        shape_bodies=shape,
+        com_bound_m=args.com_bound_m,
+        ee_com_bound_m=args.ee_com_bound_m,
+        tilt_joints=tuple(int(j) - 1 for j in args.tilt_joints.split(",") if j.strip()),
+        inertia_bound=args.inertia_bound,
     )
     d = args.direction
     out: dict[str, object] = {}
@@ -99,6 +195,9 @@ def main() -> None:
               f"{chk.kind}: {chk.detail}")  # fmt: skip
     for name in args.robots.split(","):
         t = SEED_TABLES[name]
+        if args.truth:
+            t = _synthetic_table(t, load_robot(args.truth))
+            print(f"\n{name}: table replaced by {t.source}")
         # where the posture variation of each mode sits: log f^2 = log k - log m, so a shift
         # with constant modal stiffness k is a modal-mass shift (not a spring's, e.g. a gear
         # stiffening with load, which moves k with f^2 for a mode local to that spring)
@@ -110,6 +209,10 @@ def main() -> None:
             sp = [np.ptp(v[:, m]) for v in (lf2, lk, lk - lf2)]
             print(f"  mode {m + 1}: {sp[0]:.2f} / {sp[1]:.2f} / {sp[2]:.2f}")
         shipped = load_robot(name)
+        print(f"\n{name}: FRAC of modal twins around the table (zeta and k within x1.5, "
+              "uniform in log; 1000 each):")  # fmt: skip
+        _frac_tolerance(t, np.random.default_rng(0))
+        _balancer_bound(name, shipped, t)
         cs = compare_to_table(shipped, t, direction=d)
         print(f"\n## Robot {name} ({shipped.name}) vs {t.source}")
         print("shipped file: FRAC " + ", ".join(f"{v:.3f}" for v in cs.frac)
@@ -121,6 +224,28 @@ def main() -> None:
         c = compare_to_table(robot, t, direction=d)
         print(f"\ntable fit ({args.starts} starts, {time.perf_counter() - t0:.0f} s, "
               f"load {os.getloadavg()[0]:.1f}):")  # fmt: skip
+        n_free = seed_fit_parameter_count(seed_prior(name, shipped), t, form)
+        print(f"free parameters: {n_free} (table values: 45)")
+        for b in shape:
+            b0 = shipped.joints[b].body if b < 6 else shipped.end_effector
+            b1 = robot.joints[b].body if b < 6 else robot.end_effector
+            assert b0 is not None
+            assert b1 is not None
+            lab = f"link {b + 1}" if b < 6 else "end effector"
+            print(f"{lab}: COM [m] {np.round(b0.com_m, 3).tolist()} -> "
+                  f"{np.round(b1.com_m, 3).tolist()}; principal inertias [kg m^2] "
+                  f"{np.round(np.linalg.eigvalsh(b0.inertia_kgm2), 1).tolist()} -> "
+                  f"{np.round(np.linalg.eigvalsh(b1.inertia_kgm2), 1).tolist()}")  # fmt: skip
+        if args.robot_out:
+            path = os.path.join(args.robot_out, f"{name}_seed_fit.toml")
+            os.makedirs(args.robot_out, exist_ok=True)
+            atomic_write_text(
+                path,
+                f"# {shipped.name}: fit: seed Table {4 if name == 'B' else 7} "
+                f"(studies/seed_tables.py {' '.join(sys.argv[1:])})\n" + robot_to_toml(robot),
+            )
+            load_robot(path)  # the loader's checks (triangle inequality, ranges)
+            print(f"fitted robot file: {path}")
         print(f"twin modal stiffness / table (read as 1e5 N/m): {c.k_level:.2f}")
         print(
             "fitted springs [N m/rad]: joints "

@@ -3,10 +3,13 @@
 from __future__ import annotations
 
 import dataclasses
+from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
 
+from robolobe.errors import InputError
 from robolobe.robots import load_robot
 from robolobe.twin.calibration import (
     compare_to_table,
@@ -15,7 +18,9 @@ from robolobe.twin.calibration import (
     seed_prior,
     value_verdicts,
 )
+from robolobe.twin.dynamics import gravity_torques
 from robolobe.twin.seed_tables import SEED_TABLES, table_checks
+from robolobe.twin.system import nominal_system
 
 
 def test_table_checks_find_the_copy_errors_from_the_tables_alone() -> None:
@@ -233,3 +238,143 @@ def test_springs_stiffened_past_the_literature_bound_are_penalised_with_exact_sl
         np.testing.assert_allclose(
             jac[-n_pen:, i], (rp[-n_pen:] - rm[-n_pen:]) / (2 * h), atol=1e-4, rtol=1e-5
         )
+
+
+def _shape_model(name: str = "B") -> tuple[Any, Any]:
+    from robolobe.twin.calibration import LITERATURE_K_BOUNDS, SeedFitForm, _TableModel
+
+    form = SeedFitForm(
+        link_mass_bound=0.3, ee_mass_bound=0.3, load_joints=(1, 2, 4),
+        k_bounds_Nm_per_rad=LITERATURE_K_BOUNDS, shape_bodies=(1, 2, 6),
+    )  # fmt: skip
+    t = SEED_TABLES[name]
+    return _TableModel(seed_prior(name, load_robot(name)), t.postures_rad, form), t
+
+
+def test_mass_distribution_parameters_give_the_robot_files_mass_matrix() -> None:
+    # the fit's explicit M(COM offset, principal inertias) against the twin's own assembly
+    # of the robot file it writes (an independent path: frame Jacobians at the new COM)
+    from robolobe.twin.calibration import COM_UNIT_M
+
+    model, t = _shape_model("C")
+    rng = np.random.default_rng(5)
+    x = rng.uniform(0.8 * model.lower, 0.8 * model.upper)
+    m, k = model.matrices(x)
+    r = model.robot(x)
+    s = nominal_system(r, t.postures_rad)
+    np.testing.assert_allclose(s.M, m, rtol=1e-10, atol=1e-9 * np.abs(m).max())
+    np.testing.assert_allclose(s.K, k, rtol=1e-12, atol=1e-6)
+    prior = seed_prior("C", load_robot("C"))
+    y = x[model.slices["shape"]].reshape(3, 6)
+    sc = model.mass_scales(x)
+    for n, b in enumerate((1, 2, 6)):
+        b0 = prior.joints[b].body if b < 6 else prior.end_effector
+        b1 = r.joints[b].body if b < 6 else r.end_effector
+        assert b0 is not None
+        assert b1 is not None
+        np.testing.assert_allclose(b1.com_m, b0.com_m + COM_UNIT_M * y[n, :3], atol=1e-12)
+        assert np.max(np.abs(b1.com_m - b0.com_m)) <= 0.3 + 1e-12  # the form's bound
+        # principal moments scaled by the fitted factors (and the mass factor), axes kept
+        lam0 = np.linalg.eigvalsh(b0.inertia_kgm2)
+        lam1 = np.linalg.eigvalsh(b1.inertia_kgm2 / sc[b])
+        np.testing.assert_allclose(np.sort(lam1), np.sort(lam0 * np.exp(y[n, 3:])), rtol=1e-9)
+    # the gravity torques the load stiffening sees move with the COM
+    from robolobe.twin.system import load_stiffened
+
+    tau = gravity_torques(r, t.postures_rad)
+    s_load = r.load_stiffening
+    np.testing.assert_allclose(
+        model.stiffness(x)[:, :6], load_stiffened(r.stiffness, s_load, tau), rtol=1e-10
+    )
+
+
+def test_mass_distribution_slopes_match_differences() -> None:
+    # eigen-sensitivities and the residual Jacobian (incl. the load-stiffness bound and the
+    # triangle penalty rows) for the COM offsets and principal inertias
+    from robolobe.twin.calibration import _mode_sensitivities, _table_residuals
+
+    model, t = _shape_model("B")
+    rng = np.random.default_rng(7)
+    x = rng.uniform(0.5 * model.lower, 0.5 * model.upper)
+    y = x[model.slices["shape"]].reshape(3, 6)
+    y[0, 3:] = [1.0, -1.0, -1.0]  # link 2: one principal moment beyond the other two's sum
+    x[model.slices["shape"]] = y.ravel()
+    tri, _ = model.triangle(x)
+    assert np.any(tri > 0)
+    _, _, phi, w = model.modes(x)
+    dlf, dlk = _mode_sensitivities(model, x, 2, phi[2], w[2] ** 2, model.stiffness(x)[2])
+    args = (np.log(t.f_hz), np.log(t.k_N_per_m), np.log(t.zeta), 0.0025)
+    _, jac = _table_residuals(model, x, *args, jacobian=True, with_frac=False)
+    h = 1e-6
+    for i in range(model.slices["shape"].start, model.slices["shape"].stop):
+        xp, xm = x.copy(), x.copy()
+        xp[i] += h
+        xm[i] -= h
+        fp, kp, _, _ = model.modes(xp)
+        fm, km, _, _ = model.modes(xm)
+        np.testing.assert_allclose(dlf[i], (fp[2] - fm[2]) / (2 * h), atol=1e-5)
+        np.testing.assert_allclose(dlk[i], (kp[2] - km[2]) / (2 * h), atol=1e-4)
+        rp = _table_residuals(model, xp, *args, with_frac=False)
+        rm = _table_residuals(model, xm, *args, with_frac=False)
+        assert isinstance(rp, np.ndarray)
+        assert isinstance(rm, np.ndarray)
+        np.testing.assert_allclose(jac[:, i], (rp - rm) / (2 * h), atol=2e-4, rtol=1e-5)
+
+
+def test_triangle_inequality_penalty_is_zero_for_physical_bodies_only() -> None:
+    from robolobe.twin.calibration import TRIANGLE_TOL, _table_residuals
+
+    model, t = _shape_model("B")
+    args = (np.log(t.f_hz), np.log(t.k_N_per_m), np.log(t.zeta), 0.0025)
+    x = np.zeros(model.n_params)
+    tri, _ = model.triangle(x)
+    assert np.all(tri <= 0)  # the file's estimates are physical bodies
+    r0 = _table_residuals(model, x, *args, with_frac=False)
+    assert np.all(r0[-9:] == 0)
+    y = x[model.slices["shape"]].reshape(3, 6)
+    y[2, 3:] = [1.0, -1.0, -1.0]
+    x[model.slices["shape"]] = y.ravel()
+    tri, _ = model.triangle(x)
+    r1 = _table_residuals(model, x, *args, with_frac=False)
+    assert tri[6] > 0
+    np.testing.assert_allclose(r1[-9:], np.maximum(tri, 0) / TRIANGLE_TOL)
+
+
+@pytest.mark.parametrize("bodies", [(7,), (1, 1), (-1,)])
+def test_bad_shape_bodies_are_refused(bodies: tuple[int, ...]) -> None:
+    from robolobe.twin.calibration import SeedFitForm, _TableModel
+
+    t = SEED_TABLES["B"]
+    with pytest.raises(InputError, match="shape_bodies"):
+        _TableModel(
+            seed_prior("B", load_robot("B")), t.postures_rad, SeedFitForm(shape_bodies=bodies)
+        )
+
+
+@pytest.mark.slow
+def test_fit_with_mass_distribution_writes_a_loadable_physical_robot(tmp_path: Path) -> None:
+    # the fitted file passes the loader's checks (triangle inequality, positive inertia), the
+    # offsets stay within their bounds and the fit improves on its start
+    from robolobe.robots.io import robot_to_toml
+    from robolobe.twin.calibration import SeedFitForm
+
+    t = SEED_TABLES["C"]
+    prior = seed_prior("C", load_robot("C"))
+    form = SeedFitForm(
+        link_mass_bound=0.3, ee_mass_bound=0.3, tilt_joints=(1, 2), shape_bodies=(1, 2, 6)
+    )
+    fit = fit_seed_table(prior, t, form=form, starts=0, refine=1, by_posture=0)
+    path = tmp_path / "C_fit.toml"
+    path.write_text(robot_to_toml(fit.robot), encoding="utf-8")
+    r = load_robot(str(path))
+    for b, bound in ((1, 0.3), (2, 0.3), (6, 0.1)):
+        b0 = prior.joints[b].body if b < 6 else prior.end_effector
+        b1 = r.joints[b].body if b < 6 else r.end_effector
+        assert b0 is not None
+        assert b1 is not None
+        assert np.max(np.abs(b1.com_m - b0.com_m)) <= bound + 1e-9
+        lam = np.linalg.eigvalsh(b1.inertia_kgm2)
+        assert lam[2] <= lam[0] + lam[1]
+    before = compare_to_table(prior, t)
+    after = compare_to_table(r, t)
+    assert np.median(np.abs(after.f_err)) < 0.5 * np.median(np.abs(before.f_err))

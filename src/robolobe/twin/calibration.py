@@ -63,7 +63,7 @@ from robolobe.twin.modes import (
     undamped_modes,
 )
 from robolobe.twin.seed_tables import SeedTable
-from robolobe.twin.system import load_stiffened, nominal_system
+from robolobe.twin.system import SystemMatrices, load_stiffened, nominal_system
 
 __all__ = [
     "END_EFFECTORS",
@@ -618,7 +618,9 @@ class SeedFitForm:
     mount stiffnesses (prior ``mount_prior_Nm_per_rad``), the end-effector
     mass and inertia, each link's mass and inertia (the B and C masses are
     estimates), the load stiffening of the joints in ``load_joints`` (linear,
-    not log) and the level ``log(k_twin / k_table)`` of modal stiffness.
+    not log), the mass distribution of the bodies in ``shape_bodies`` (COM
+    offset in units of :data:`COM_UNIT_M`, log factors of the principal
+    moments) and the level ``log(k_twin / k_table)`` of modal stiffness.
 
     Attributes
     ----------
@@ -654,6 +656,21 @@ class SeedFitForm:
         ``stiffness_bound`` for them: axes 1-3, axes 4-6, tilt of axes 1-3
         and of axes 4-5 (then also at least the axes' lower bound), mount.
         None: log-factor bounds only.
+    shape_bodies : tuple of int
+        0-based bodies (0-5 links 1-6, 6 the end effector) whose mass
+        distribution is fitted: the centre-of-mass offset from the robot
+        file's, in the body's own frame (three parameters in units of
+        :data:`COM_UNIT_M`, each within ``com_bound_m``) and the log factors
+        of the three principal moments of inertia about the COM (principal
+        axes of the file's tensor, within ``inertia_bound``; a penalty keeps
+        the triangle inequality). The file's B and C inertias are estimates
+        (scaled KUKA data), so these are unknowns of the file, not new physics.
+    com_bound_m, ee_com_bound_m : float
+        Largest centre-of-mass offset per body axis [m] of a link (about a
+        quarter of the 1-1.3 m arms) and of the end effector (spindle and
+        bracket, about the spindle's radius).
+    inertia_bound : float
+        Bound on the log factors of the principal moments of inertia.
     """
 
     tilt_joints: tuple[int, ...] = (0, 1, 2, 3, 4)
@@ -669,6 +686,22 @@ class SeedFitForm:
     load_joints: tuple[int, ...] = ()
     load_max: float = 3.0
     k_bounds_Nm_per_rad: tuple[tuple[float, float], ...] | None = None
+    shape_bodies: tuple[int, ...] = ()
+    com_bound_m: float = 0.3
+    ee_com_bound_m: float = 0.1
+    inertia_bound: float = 1.0
+
+
+COM_UNIT_M = 0.1
+"""Unit [m] of the fitted centre-of-mass offsets of :attr:`SeedFitForm.shape_bodies`:
+the ridge pulls 0.1 m of offset as hard as a factor e on a spring or a mass."""
+TRIANGLE_TOL = 0.002
+"""Scale of the penalty on a principal inertia beyond :data:`TRIANGLE_MARGIN` x the sum
+of the other two (a physical rigid body has ``I_a <= I_b + I_c``): a log excess of 0.002
+costs as 1 % in frequency."""
+TRIANGLE_MARGIN = 0.98
+"""The penalty starts at ``I_a = 0.98 (I_b + I_c)``; :func:`fit_seed_table` then moves
+any remaining excess to ``I_a = 0.995 (I_b + I_c)`` so that the robot file loads."""
 
 
 LITERATURE_K_BOUNDS: tuple[tuple[float, float], ...] = (
@@ -714,6 +747,7 @@ class _TableModel:
         )
         jac = s.J if form.frame == "tcp" else s.tcp_jv
         self.j = jac[:, form.direction, :]  # (p, nd)
+        self._shape_init(r, s, form)
         k6 = robot.stiffness
         tilt = np.repeat(form.tilt_prior * k6[list(form.tilt_joints)], 2)
         mount = [form.mount_prior_Nm_per_rad] * (2 if form.mount else 0)
@@ -721,6 +755,7 @@ class _TableModel:
         # gravity torque of each body on the six axes at the prior masses, (p, nb, 6):
         # the torque is linear in the mass factors
         g = np.array([0.0, 0.0, -GRAVITY_M_PER_S2])
+        self.g = g
         self.tau_b = np.einsum("b,k,pbkj->pbj", b.mass_kg, g, b.jv[..., :6])
         self.load = np.array(form.load_joints, dtype=np.intp)
         nl = len(self.load)
@@ -730,16 +765,23 @@ class _TableModel:
             tau_ref = np.maximum(np.abs(self.tau_b.sum(axis=1))[:, self.load].max(axis=0), 1.0)
         self.tau_ref = np.asarray(tau_ref, dtype=np.float64)
         ns = self.nd
+        nsh = 6 * len(self.shape)
         self.slices = {
             "k": slice(0, ns),
             "ee": slice(ns, ns + 1),
             "links": slice(ns + 1, ns + 7),
             "load": slice(ns + 7, ns + 7 + nl),
+            "shape": slice(ns + 7 + nl, ns + 7 + nl + nsh),
         }
-        self.n_params = ns + 7 + nl + 1  # + level
+        self.n_params = ns + 7 + nl + nsh + 1  # + level
+        sh_lo = np.concatenate([
+            [-(form.ee_com_bound_m if b == 6 else form.com_bound_m) / COM_UNIT_M] * 3
+            + [-form.inertia_bound] * 3
+            for b in self.shape
+        ]) if len(self.shape) else np.zeros(0)  # fmt: skip
         lo = np.concatenate(
             [np.full(ns, -form.stiffness_bound), [-form.ee_mass_bound],
-             np.full(6, -form.link_mass_bound), np.zeros(nl), [-3.0]]
+             np.full(6, -form.link_mass_bound), np.zeros(nl), sh_lo, [-3.0]]
         )  # fmt: skip
         self.lower, self.upper = lo, -lo
         self.upper[self.slices["load"]] = form.load_max
@@ -760,12 +802,120 @@ class _TableModel:
             self.k_hi = hi_k[:6].copy()
         self.lower[-1], self.upper[-1] = np.log(form.k_level_range)
 
+    def _shape_init(self, r: Robot, s: SystemMatrices, form: SeedFitForm) -> None:
+        """Per shape body: the Jacobians split so that the mass matrix is an explicit
+        function of the COM offset and the principal inertias."""
+        self.shape = np.array(form.shape_bodies, dtype=np.intp)
+        bodies = [jt.body for jt in r.joints]
+        if r.end_effector is not None:
+            bodies.append(r.end_effector)
+        if len(set(form.shape_bodies)) != len(form.shape_bodies) or any(
+            not 0 <= bi < len(bodies) for bi in form.shape_bodies
+        ):
+            raise InputError(
+                f"shape_bodies: expected distinct body indices 0..{len(bodies) - 1}, "
+                f"found {form.shape_bodies!r}"
+            )
+        self.sh: list[dict[str, Any]] = []
+        for bi in form.shape_bodies:
+            body = bodies[bi]
+            rot = s.frames[:, bi + 1 if bi < 6 else 7, :3, :3]  # (p, 3, 3) body frame
+            jv, jw = s.bodies.jv[:, bi], s.bodies.jw[:, bi]  # (p, 3, nd)
+            # d jv / d c_k = -(R e_k) x jw for a COM moved by c along body axis k
+            gk = -np.cross(np.swapaxes(rot, 1, 2)[:, :, :, None], jw[:, None], axis=2)
+            lam, vec = np.linalg.eigh(body.inertia_kgm2)
+            self.sh.append({
+                "m": body.mass_kg,
+                "c0": body.com_m.copy(),
+                "jvo": jv - np.einsum("pkin,k->pin", gk, body.com_m),  # frame origin
+                "G": gk,  # (p, 3, 3, nd)
+                "A": np.einsum("pki,pkl,lm->pim", jw, rot, vec),  # jw^T R V, (p, nd, 3)
+                "lam": np.maximum(lam, 1e-9 * max(lam.max(), 1e-9)),
+                "V": vec,
+            })  # fmt: skip
+
+    def shape_state(self, x: FloatArray) -> list[tuple[FloatArray, FloatArray, FloatArray]]:
+        """Per shape body: COM [m] (body frame), principal moments [kg m^2] (prior
+        mass), COM Jacobian (p, 3, nd)."""
+        y = x[self.slices["shape"]].reshape(-1, 6) if len(self.shape) else np.zeros((0, 6))
+        out = []
+        for d, yy in zip(self.sh, y, strict=True):
+            c = d["c0"] + COM_UNIT_M * yy[:3]
+            jv = d["jvo"] + np.einsum("pkin,k->pin", d["G"], c)
+            out.append((c, d["lam"] * np.exp(yy[3:]), jv))
+        return out
+
+    def body_matrices(self, x: FloatArray) -> FloatArray:
+        """Each body's mass matrix at the prior masses, shape (p, nb, nd, nd)."""
+        if not len(self.shape):
+            return self.mb
+        mb = self.mb.copy()
+        for bi, d, (_, lam, jv) in zip(self.shape, self.sh, self.shape_state(x), strict=True):
+            mb[:, bi] = d["m"] * np.einsum("pki,pkj->pij", jv, jv) + np.einsum(
+                "pim,m,pjm->pij", d["A"], lam, d["A"]
+            )
+        return mb
+
+    def body_gravity(self, x: FloatArray) -> FloatArray:
+        """Gravity torque of each body on the six axes at the prior masses, (p, nb, 6)."""
+        if not len(self.shape):
+            return self.tau_b
+        tb = self.tau_b.copy()
+        for bi, d, (_, _, jv) in zip(self.shape, self.sh, self.shape_state(x), strict=True):
+            tb[:, bi] = d["m"] * np.einsum("k,pkj->pj", self.g, jv[..., :6])
+        return tb
+
+    def shape_derivatives(self, x: FloatArray, p: int) -> tuple[FloatArray, FloatArray]:
+        """Derivatives at posture ``p`` of the bodies' mass matrices (prior masses) and
+        gravity torques with respect to the shape parameters, (nsh, nd, nd) and (nsh, 6)."""
+        nsh = 6 * len(self.shape)
+        dm = np.zeros((nsh, self.nd, self.nd))
+        dt = np.zeros((nsh, 6))
+        for n, (d, (_, lam, jv)) in enumerate(zip(self.sh, self.shape_state(x), strict=True)):
+            for k in range(3):
+                gk = d["G"][p, k] * COM_UNIT_M  # (3, nd)
+                a = d["m"] * gk.T @ jv[p]
+                dm[6 * n + k] = a + a.T
+                dt[6 * n + k] = d["m"] * self.g @ gk[:, :6]
+                col = d["A"][p, :, k]
+                dm[6 * n + 3 + k] = lam[k] * np.outer(col, col)
+        return dm, dt
+
+    def triangle(self, x: FloatArray) -> tuple[FloatArray, FloatArray]:
+        """Excess ``log(I_a / (m (I_b + I_c)))`` (``m`` :data:`TRIANGLE_MARGIN`) of every
+        principal moment of every shape body (> 0 violates the triangle inequality with
+        that margin), shape (3 nsb,), and its Jacobian (3 nsb, n_params)."""
+        n = len(self.shape)
+        out = np.zeros(3 * n)
+        jac = np.zeros((3 * n, self.n_params))
+        st = self.slices["shape"].start
+        for i, (_, lam, _) in enumerate(self.shape_state(x)):
+            for a in range(3):
+                b, c = [k for k in range(3) if k != a]
+                out[3 * i + a] = np.log(lam[a] / (lam[b] + lam[c]) / TRIANGLE_MARGIN)
+                jac[3 * i + a, st + 6 * i + 3 + a] = 1.0
+                jac[3 * i + a, st + 6 * i + 3 + b] = -lam[b] / (lam[b] + lam[c])
+                jac[3 * i + a, st + 6 * i + 3 + c] = -lam[c] / (lam[b] + lam[c])
+        return out, jac
+
+    def physical(self, x: FloatArray) -> FloatArray:
+        """``x`` with any principal moment beyond 0.995 x the sum of the other two
+        lowered to it (the robot-file loader's triangle inequality)."""
+        out = x.copy()
+        st = self.slices["shape"].start
+        for i, (_, lam, _) in enumerate(self.shape_state(x)):
+            a = int(np.argmax(lam))
+            cap = 0.995 * (lam.sum() - lam[a])
+            if lam[a] > cap:
+                out[st + 6 * i + 3 + a] += np.log(cap / lam[a])
+        return out
+
     def stiffness(self, x: FloatArray) -> FloatArray:
         """Spring of every DOF at every posture [N m/rad], shape (p, nd)."""
         k = self.k0 * np.exp(x[self.slices["k"]])
         out = np.repeat(k[None, :], self.tau_b.shape[0], axis=0)
         if len(self.load):
-            tau = np.einsum("b,pbj->pj", self.mass_scales(x), self.tau_b)[:, self.load]
+            tau = np.einsum("b,pbj->pj", self.mass_scales(x), self.body_gravity(x))[:, self.load]
             s = x[self.slices["load"]] / self.tau_ref
             out[:, self.load] = load_stiffened(k[self.load], s, tau)
         return out
@@ -778,7 +928,7 @@ class _TableModel:
         return sc
 
     def matrices(self, x: FloatArray) -> tuple[FloatArray, FloatArray]:
-        m = np.einsum("b,pbij->pij", self.mass_scales(x), self.mb)
+        m = np.einsum("b,pbij->pij", self.mass_scales(x), self.body_matrices(x))
         return m, self.stiffness(x)[:, :, None] * np.eye(self.nd)
 
     def modes(self, x: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
@@ -806,22 +956,29 @@ class _TableModel:
             s[self.load] = x[self.slices["load"]] / self.tau_ref
             r = r.with_load_stiffening(s)
         sc = self.mass_scales(x)
+        dist = {
+            int(bi): (c, d["V"] @ np.diag(lam) @ d["V"].T)
+            for bi, d, (c, lam, _) in zip(self.shape, self.sh, self.shape_state(x), strict=True)
+        }
+
+        def body(n: int, b: RigidBody) -> RigidBody:
+            com, inertia = dist.get(n, (b.com_m, b.inertia_kgm2))
+            return RigidBody(b.mass_kg * sc[n], com, 0.5 * (inertia + inertia.T) * sc[n])
+
         joints = tuple(
-            dataclasses.replace(
-                jt,
-                body=RigidBody(
-                    jt.body.mass_kg * sc[n], jt.body.com_m, jt.body.inertia_kgm2 * sc[n]
-                ),
-            )
-            for n, jt in enumerate(r.joints)
+            dataclasses.replace(jt, body=body(n, jt.body)) for n, jt in enumerate(r.joints)
         )
         r = r.replace(joints=joints)
         ee = r.end_effector
         if ee is not None:
-            r = r.replace(
-                end_effector=RigidBody(ee.mass_kg * sc[6], ee.com_m, ee.inertia_kgm2 * sc[6])
-            )
+            r = r.replace(end_effector=body(6, ee))
         return r
+
+
+def seed_fit_parameter_count(robot: Robot, table: SeedTable, form: SeedFitForm) -> int:
+    """Number of free parameters of :func:`fit_seed_table` (level included) for ``form``."""
+    model = _TableModel(robot, table.postures_rad, form)
+    return int(np.sum(model.upper > model.lower))
 
 
 def _match(lf: FloatArray, lk: FloatArray, f_t: FloatArray, k_t: FloatArray) -> NDArray[np.intp]:
@@ -930,6 +1087,8 @@ def _table_residuals(
     lj = model.load[np.isfinite(model.k_hi[model.load])]
     over = np.log(k[:, lj] / model.k_hi[lj]) if len(lj) else np.zeros((0, 0))
     out.append((np.maximum(over, 0.0) / 0.01).ravel())
+    tri, jtri = model.triangle(x)
+    out.append(np.maximum(tri, 0.0) / TRIANGLE_TOL)
     fr = np.zeros(0)
     if with_frac:
         fr = FRAC_WEIGHT * (1.0 - _modal_frac(lf, lk, f_t, k_t, lz_t, ls))
@@ -950,7 +1109,7 @@ def _table_residuals(
         y = x[model.slices["load"]]
         row = 0
         for p in range(over.shape[0]):
-            tau_b = model.tau_b[p] * scall[:, None]  # (nb, 6)
+            tau_b = model.body_gravity(x)[p] * scall[:, None]  # (nb, 6)
             tau = tau_b.sum(axis=0)
             for jj, j in enumerate(lj):
                 if over[p, jj] > 0:
@@ -963,8 +1122,15 @@ def _table_residuals(
                     jb[row, model.slices["links"]] = dmass[:6]
                     if model.nb > 6:
                         jb[row, model.slices["ee"]] = dmass[6]
+                    if len(model.shape):
+                        dts = model.shape_derivatives(x, p)[1][:, j]
+                        dts = dts * np.repeat(scall[model.shape], 6)
+                        jb[row, model.slices["shape"]] = (
+                            y[i] * np.sign(tau[j]) * dts / r_ / g / 0.01
+                        )
                 row += 1
     rows.append(jb)
+    rows.append(np.where((tri > 0)[:, None], jtri / TRIANGLE_TOL, 0.0))
     jfr = np.zeros((len(fr), model.n_params))  # FRAC rows: central differences
     cols = [i for i in range(model.n_params) if model.upper[i] > model.lower[i]]
     for i in cols if with_frac else []:
@@ -995,7 +1161,7 @@ def _mode_sensitivities(
     sc = model.mass_scales(x)
     # dK_i and dM_b projected on the modes: (param, s, r)
     pk = k[:, None, None] * ph[:, :, None] * ph[:, None, :]
-    mb = np.einsum("b,bij->bij", sc, model.mb[p])
+    mb = np.einsum("b,bij->bij", sc, model.body_matrices(x)[p])
     pm = np.einsum("is,bij,jr->bsr", ph, mb, ph)
     links, ee = model.slices["links"], model.slices["ee"]
     dk = np.zeros((model.n_params - 1, *pk.shape[1:]))
@@ -1004,10 +1170,15 @@ def _mode_sensitivities(
     dm[links] = pm[:6]
     if model.nb > 6:
         dm[ee] = pm[6:7]
+    shp = model.slices["shape"]
+    if len(model.shape):
+        dmb, dtau = model.shape_derivatives(x, p)
+        scs = np.repeat(sc[model.shape], 6)
+        dm[shp] = np.einsum("is,aij,jr->asr", ph, dmb * scs[:, None, None], ph)
     if len(model.load):
         lj = model.load
         k0 = (model.k0 * np.exp(x[model.slices["k"]]))[lj]
-        tau_b = model.tau_b[p][:, lj] * sc[:, None]  # (nb, nl): d tau / d log(mass factor)
+        tau_b = model.body_gravity(x)[p][:, lj] * sc[:, None]  # (nb, nl): d tau / d log(mass)
         tau = tau_b.sum(axis=0)
         y = x[model.slices["load"]]
         pp = ph[lj][:, :, None] * ph[lj][:, None, :]  # (nl, s, r)
@@ -1017,6 +1188,9 @@ def _mode_sensitivities(
         dk[links] += proj[:6]
         if model.nb > 6:
             dk[ee] += proj[6:7]
+        if len(model.shape):
+            dts = dtau[:, lj] * scs[:, None] * (k0 * y * np.sign(tau) / model.tau_ref)[None, :]
+            dk[shp] += np.einsum("aj,jsr->asr", dts, pp)
     # d lam_r = phi_r^T (dK - lam_r dM) phi_r
     diag = np.einsum("ass->as", dk) - lam[None, :] * np.einsum("ass->as", dm)
     u = model.j[p] @ ph
@@ -1120,16 +1294,22 @@ def fit_seed_table(
 ) -> SeedFit:
     """Fit springs, dampers and masses to a seed table (robust, multi-start).
 
-    Stage 1 (springs, masses, load stiffening, level): least squares with a soft-L1 loss
-    (``f_scale`` 3: residuals beyond ~3 % in frequency or a factor ~2 in
-    modal stiffness count linearly, so a copy error pulls little) over
+    Stage 1 (springs, masses, mass distribution, load stiffening, level): least
+    squares with a soft-L1 loss (``f_scale`` 3: residuals beyond ~3 % in
+    frequency or a factor ~2 in modal stiffness count linearly, so a copy
+    error pulls little) over
 
     * ``log f_twin - log f_table`` per 1 % for each table mode,
     * ``log k_twin - log k_table - level`` per factor 1.5, weight :data:`K_WEIGHT`,
     * the twin's other modes below 42 Hz kept from adding peaks the table
       lacks: at 2 % damping their peak ``1/(2 zeta k)`` below
       :data:`EXTRA_PEAK` x the table's highest (a quadratic penalty),
-    * a ridge on the log factors.
+    * a ridge on the log factors (and the COM offsets in units of
+      :data:`COM_UNIT_M`),
+    * with ``form.shape_bodies``, a penalty on principal moments beyond the
+      triangle inequality (:data:`TRIANGLE_MARGIN`); the result is then
+      projected onto it (:meth:`_TableModel.physical`) so that its robot
+      file loads.
 
     Each table mode is matched to a twin mode per posture by the least
     frequency and modal-stiffness misfit (Hungarian assignment). A penalty
@@ -1198,6 +1378,7 @@ def fit_seed_table(
         cands = pool + cands
     sols = _stage1(model, f_t, k_t, lz_t, ridge, cands, refine, True)
     cost, x = sols[0]
+    x = model.physical(x)
     damping = _fit_table_damping(model, x, table, idx)
     return SeedFit(
         robot=model.robot(x, damping),
@@ -1232,7 +1413,7 @@ def _fit_table_damping(
     a_other = np.concatenate(others)
     lt = np.concatenate(target)
     # prior: every DOF's own oscillator at 2 % damping
-    m_diag = np.einsum("b,pbii->pi", model.mass_scales(x), model.mb).mean(axis=0)
+    m_diag = np.einsum("b,pbii->pi", model.mass_scales(x), model.body_matrices(x)).mean(axis=0)
     k = model.k0 * np.exp(x[model.slices["k"]])
     c0 = 2.0 * 0.02 * np.sqrt(k * m_diag)
 
