@@ -344,13 +344,14 @@ class PlotWorker:
     Parameters
     ----------
     processes : int, optional
-        Worker processes; default ``min(2, os.cpu_count())``, none on a
-        one-core machine (nothing to gain there: :meth:`receive` returns
-        None and the caller draws).
+        Worker processes; default 1 (measured on 2 cores: a second one saves
+        its share of the drawing but slows the plan with its own start-up),
+        none on a one-core machine (nothing to gain there: :meth:`receive`
+        returns None and the caller draws).
     """
 
     def __init__(self, processes: int | None = None) -> None:
-        n = min(2, os.cpu_count() or 1) if processes is None else int(processes)
+        n = 1 if processes is None else int(processes)
         if processes is None and (os.cpu_count() or 1) < 2:
             n = 0
         # the same robolobe as this process, whatever the worker's sys.path
