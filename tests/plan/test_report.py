@@ -269,6 +269,11 @@ def test_plot_worker_draws_the_same_pngs_and_a_dead_one_falls_back(tmp_path, res
         ref = (here / "plots" / f"{name}.png").read_bytes()
         assert (there / "plots" / f"{name}.png").read_bytes() == ref, name
         assert (fallback / "plots" / f"{name}.png").read_bytes() == ref, name
+    # the report shows the figures in PLOTS' order whoever drew them
+    with PlotWorker(processes=2) as worker:
+        out = report.write_outputs(result, tmp_path / "html", worker=worker)
+    html = (out / "report.html").read_text(encoding="utf-8")
+    assert re.findall(r'<img alt="([a-z_]+)"', html) == list(report.PLOTS)
 
 
 def test_plot_worker_reports_a_drawing_error_as_a_failure():

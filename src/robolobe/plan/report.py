@@ -504,9 +504,10 @@ def write_outputs(
         (tmp / "summary.json").write_text(
             json.dumps(res.summary.to_dict(), indent=2) + "\n", encoding="utf-8"
         )
-        images = worker.receive() if worker is not None and records else None
-        if images is None:
-            images = {name: _plots.png(_plots.draw(rec)) for name, rec in records.items()}
+        got = worker.receive() if worker is not None and records else None
+        if got is None or set(got) != set(records):
+            got = {name: _plots.png(_plots.draw(rec)) for name, rec in records.items()}
+        images = {name: got[name] for name in records}  # the report's order: PLOTS
         if plots:
             (tmp / "plots").mkdir()
             for name, data in images.items():
