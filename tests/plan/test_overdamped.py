@@ -60,3 +60,23 @@ def test_overdamped_postures_are_planned_on_their_real_poles():
     # leaving the overdamped term out would change the model there
     keep = md.zeta < 1.0
     assert np.any(~keep[over])
+
+
+@pytest.mark.slow
+def test_a_plan_on_heavily_damped_twin_modes_says_so(tmp_path):
+    """The example robot's wrist is heavily damped everywhere: the plan's notes say that
+    the real-mode receptance can be off the twin's exact one; A's (damping <= 0.08) do not."""
+    from robolobe.plan.job import load_job
+    from robolobe.plan.pipeline import HEAVY_DAMPING, plan_path
+
+    from .conftest import example
+
+    job = load_job(example("job_A_pocket.toml"))
+    heavy = plan_path(example("pocket.nc"), job.replace(robot=str(EXAMPLE_ROBOT)), refine=False)
+    notes = " ".join(heavy.summary.notes)
+    assert "heavily damped" in notes
+    zeta = heavy.table.filter(like="zeta").to_numpy()
+    assert f"up to {np.nanmax(zeta):.2f}" in notes
+    assert np.nanmax(zeta) >= HEAVY_DAMPING
+    plain = plan_path(example("pocket.nc"), job, refine=False)
+    assert "heavily damped" not in " ".join(plain.summary.notes)

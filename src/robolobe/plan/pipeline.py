@@ -47,9 +47,11 @@ from robolobe.plan._summary import PlanSummary
 from robolobe.plan.job import Job
 from robolobe.plan.lobes import DynamicsTolerance, GroupedLobes, steep_members, waypoint_lobes
 from robolobe.plan.modes import (
+    CorrectedTwinSource,
     ModeSource,
     RobotModes,
     RobustBound,
+    TwinSource,
     as_mode_source,
     mode_source,
     plan_bound,
@@ -906,6 +908,36 @@ def cut_lobes(
     return models[0], plunge, grouped, timings, feed_angle, bound
 
 
+#: Damping ratio of a twin mode from which the plan says that its real-mode receptance
+#: may be off the twin's exact one (studies/planner_receptance.py: robot B with its
+#: joint damping x2, x4, x8 (ratios up to 0.09, 0.18, 0.36) puts the chatter-setting
+#: real part at 0.82-1.21, 0.71-1.30, 0.60-1.39 of the exact; B as shipped 0.89-1.18).
+HEAVY_DAMPING = 0.15
+
+
+def _heavy_damping_note(table: pd.DataFrame, source: ModeSource) -> str:
+    """A note when the twin's modes along the cut are heavily damped (the planner's
+    real-mode receptance of them can then be well off the twin's exact one), else ""."""
+    if not isinstance(source, (TwinSource, CorrectedTwinSource)):
+        return ""  # a predictor's modes are the model itself
+    cols = [c for c in table.columns if c.startswith("zeta")]
+    cut = (table["motion"] == "cut").to_numpy()
+    if not cols or not cut.any():
+        return ""
+    z = table.loc[cut, cols].to_numpy(dtype=np.float64)
+    with np.errstate(invalid="ignore"):
+        heavy = np.nanmax(np.where(np.isfinite(z), z, -np.inf), axis=1) >= HEAVY_DAMPING
+    if not heavy.any():
+        return ""
+    n = int(heavy.sum())
+    return (
+        f"the twin's modes are heavily damped at {n} cutting waypoint{'s' if n != 1 else ''} "
+        f"(damping ratio up to {float(np.nanmax(z)):.2f}): the planner's real-mode receptance "
+        "can be 30 % or more off the twin's exact one there (README, known limit); plan "
+        "robustly, or check the plan on measured FRFs with robolobe verify"
+    )
+
+
 def plan_path(
     path: str | os.PathLike[str] | pd.DataFrame,
     job: Job,
@@ -1029,6 +1061,9 @@ def plan_path(
     own_col = np.zeros(len(wp), bool)
     own_col[ci] = steep
     table["lobes_own"] = own_col
+    heavy = _heavy_damping_note(table, source)
+    if heavy:
+        note = (note + "; " if note else "") + heavy
     record = plan_record(job, path if not isinstance(path, pd.DataFrame) else None, table)
     summary = PlanSummary.build(
         job=job,
