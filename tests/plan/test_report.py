@@ -6,6 +6,7 @@ import base64
 import json
 import re
 import shutil
+import signal
 import subprocess
 
 import numpy as np
@@ -274,6 +275,24 @@ def test_plot_worker_draws_the_same_pngs_and_a_dead_one_falls_back(tmp_path, res
         out = report.write_outputs(result, tmp_path / "html", worker=worker)
     html = (out / "report.html").read_text(encoding="utf-8")
     assert re.findall(r'<img alt="([a-z_]+)"', html) == list(report.PLOTS)
+
+
+@pytest.mark.slow
+def test_a_plot_worker_that_does_not_deliver_in_time_is_stopped(tmp_path, result, monkeypatch):
+    """A worker that has not delivered by the time limit is killed and the figures are
+    drawn in-process: the same files, nothing left running."""
+    from robolobe.plan import _plots
+
+    here = report.write_outputs(result, tmp_path / "here", html_report=False)
+    monkeypatch.setattr(_plots, "RECEIVE_TIMEOUT_S", 1e-6)
+    worker = _plots.PlotWorker()
+    procs = list(worker._procs)
+    late = report.write_outputs(result, tmp_path / "late", html_report=False, worker=worker)
+    # killed at the limit (a worker still importing cannot have delivered in 1 us)
+    assert [p.poll() for p in procs] == [-signal.SIGKILL] * len(procs)
+    for name in report.PLOTS:
+        ref = (here / "plots" / f"{name}.png").read_bytes()
+        assert (late / "plots" / f"{name}.png").read_bytes() == ref, name
 
 
 def test_plot_worker_reports_a_drawing_error_as_a_failure():

@@ -326,6 +326,10 @@ def draw(data: LobesData | SpeedMapData | PathMarginData | SpeedPowerData) -> Fi
     return draw_speed_power(data)
 
 
+#: Longest wait [s] for a worker's PNGs: a worker that has not delivered by then is
+#: taken for hung (drawing four figures takes well under a second on 10k waypoints).
+RECEIVE_TIMEOUT_S = 300.0
+
 #: Relative drawing cost of each record type (measured on a 10k-waypoint plan), used to
 #: share the figures between worker processes.
 _COST = {LobesData: 0.8, SpeedMapData: 1.3, PathMarginData: 0.9, SpeedPowerData: 0.9}
@@ -417,15 +421,12 @@ class PlotWorker:
         images: dict[str, bytes] = {}
         try:
             for proc in procs:
-                assert proc.stdout is not None
-                out = proc.stdout.read()
-                proc.stdout.close()
-                proc.wait()
+                out, _ = proc.communicate(timeout=RECEIVE_TIMEOUT_S)
                 status, got = pickle.loads(out)
                 if proc.returncode != 0 or status != "ok":
                     raise RuntimeError(got)
                 images.update(got)
-        except Exception:  # a dead or broken worker: the caller draws in-process
+        except Exception:  # a dead, hung or broken worker: the caller draws in-process
             for proc in procs:
                 _stop(proc)
             return None
