@@ -192,70 +192,45 @@ def register(app: typer.Typer) -> None:
         from robolobe.plan._plots import PlotWorker
 
         # started first: it imports matplotlib on the other core while we plan
-        worker = PlotWorker() if plots or html else None
-        try:
-            _plan(path, job, output, plots, html, robust, refine, waypoints, waypoints_every,
-                  units, tool_direction, coordinates, rotary_axes, circle_axis, worker)  # fmt: skip
-        finally:
-            if worker is not None:
-                worker.close()
+        with PlotWorker(None if plots or html else 0) as worker:
+            from robolobe._atomic import check_output_dir
+            from robolobe.plan.job import load_job
+            from robolobe.plan.pipeline import plan_path
+            from robolobe.plan.report import WAYPOINT_FORMATS, require_pyarrow, write_outputs
 
-    def _plan(
-        path: Path | None,
-        job: Path | None,
-        output: Path,
-        plots: bool,
-        html: bool,
-        robust: bool | None,
-        refine: bool,
-        waypoints: str,
-        waypoints_every: int,
-        units: str | None,
-        tool_direction: str | None,
-        coordinates: str | None,
-        rotary_axes: str | None,
-        circle_axis: str | None,
-        worker: Any,
-    ) -> None:
-        from robolobe._atomic import check_output_dir
-        from robolobe.plan.job import load_job
-        from robolobe.plan.pipeline import plan_path
-        from robolobe.plan.report import WAYPOINT_FORMATS, require_pyarrow, write_outputs
+            check_output_dir(output, "--output")
+            if waypoints not in WAYPOINT_FORMATS:
+                expected = ", ".join(WAYPOINT_FORMATS)
+                raise InputError(f"--waypoints: expected one of {expected}, found {waypoints!r}")
+            if waypoints == "parquet":
+                require_pyarrow("--waypoints parquet")
+            if path is None and job is None:
+                path, job = example_files()
+                err_console.print(f"running the bundled example: {path.name} with {job.name}")
+            elif path is None or job is None:
+                raise InputError("give both PATH and --job (or neither, for the bundled example)")
+            j = _with_path_opts(
+                load_job(job),
+                _path_opts(units=units, tool_direction=tool_direction, coordinates=coordinates,
+                           rotary_axes=rotary_axes, circle_axis=circle_axis),
+            )  # fmt: skip
+            if robust is not None:
+                import dataclasses
 
-        check_output_dir(output, "--output")
-        if waypoints not in WAYPOINT_FORMATS:
-            raise InputError(
-                f"--waypoints: expected one of {', '.join(WAYPOINT_FORMATS)}, found {waypoints!r}"
-            )
-        if waypoints == "parquet":
-            require_pyarrow("--waypoints parquet")
-        if path is None and job is None:
-            path, job = example_files()
-            err_console.print(f"running the bundled example: {path.name} with {job.name}")
-        elif path is None or job is None:
-            raise InputError("give both PATH and --job (or neither, for the bundled example)")
-        j = _with_path_opts(
-            load_job(job),
-            _path_opts(units=units, tool_direction=tool_direction, coordinates=coordinates,
-                       rotary_axes=rotary_axes, circle_axis=circle_axis),
-        )  # fmt: skip
-        if robust is not None:
-            import dataclasses
-
-            j = j.replace(plan=dataclasses.replace(j.plan, robust=robust))
-        with status("planning ..."):
-            res = plan_path(path, j, refine=refine)
-        with status("writing outputs ..."):
-            write_outputs(
-                res,
-                output,
-                plots=plots,
-                html_report=html,
-                waypoints=waypoints,
-                waypoints_every=waypoints_every,
-                worker=worker,
-            )
-        _print_summary(res.summary, output)
+                j = j.replace(plan=dataclasses.replace(j.plan, robust=robust))
+            with status("planning ..."):
+                res = plan_path(path, j, refine=refine)
+            with status("writing outputs ..."):
+                write_outputs(
+                    res,
+                    output,
+                    plots=plots,
+                    html_report=html,
+                    waypoints=waypoints,
+                    waypoints_every=waypoints_every,
+                    worker=worker,
+                )
+            _print_summary(res.summary, output)
 
     @app.command(
         "compare",

@@ -355,9 +355,8 @@ class PlotWorker:
     """
 
     def __init__(self, processes: int | None = None) -> None:
-        n = 1 if processes is None else int(processes)
-        if processes is None and (os.cpu_count() or 1) < 2:
-            n = 0
+        if processes is None:
+            processes = 1 if (os.cpu_count() or 1) >= 2 else 0
         # the same robolobe as this process, whatever the worker's sys.path
         root = str(Path(__file__).resolve().parents[2])
         code = (
@@ -365,11 +364,11 @@ class PlotWorker:
             "from robolobe.plan._plots import _serve; _serve()"
         )
         self._procs: list[subprocess.Popen[bytes]] = []
-        self._sent: list[int] = []
+        self._sent = False
         if not sys.executable:  # embedded interpreters: draw in-process
             return
         try:
-            for _ in range(n):
+            for _ in range(int(processes)):
                 self._procs.append(
                     subprocess.Popen(
                         [sys.executable, "-c", code],
@@ -409,12 +408,12 @@ class PlotWorker:
         except OSError:  # a process died: receive() says so
             self.close()
             return
-        self._sent = [len(share) for share in shares]
+        self._sent = True
 
     def receive(self) -> dict[str, bytes] | None:
         """PNG bytes per name of the records sent; None if a process failed."""
         procs, self._procs = self._procs, []
-        if not procs or len(self._sent) != len(procs):
+        if not procs or not self._sent:
             for proc in procs:
                 _stop(proc)
             return None

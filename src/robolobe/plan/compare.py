@@ -381,7 +381,8 @@ def write_comparison(
     """
     import json
 
-    from robolobe.plan.report import _PLOTTERS, PLOTS, _png, render_html, write_csv
+    from robolobe.plan import _plots
+    from robolobe.plan.report import _PLOTTERS, PLOTS, render_html, write_csv
 
     out = Path(out_dir)
     png = _plot(cmp)
@@ -389,7 +390,7 @@ def write_comparison(
     per_robot: dict[str, dict[str, bytes]] = {}
     if plans:
         for key, res in cmp.results.items():
-            per_robot[key] = {name: _png(_PLOTTERS[name](res)) for name in PLOTS}
+            per_robot[key] = {name: _plots.png(_PLOTTERS[name](res)) for name in PLOTS}
     table = cmp.table.copy()
     table["folder"] = [folders[str(r)] if r in cmp.results else "" for r in table["robot"]]
     managed = (*COMPARE_FILES, *_stale_folders(out), *folders.values())

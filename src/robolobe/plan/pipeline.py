@@ -925,14 +925,13 @@ def _heavy_damping_note(table: pd.DataFrame, source: ModeSource) -> str:
     if not cols or not cut.any():
         return ""
     z = table.loc[cut, cols].to_numpy(dtype=np.float64)
-    with np.errstate(invalid="ignore"):
-        heavy = np.nanmax(np.where(np.isfinite(z), z, -np.inf), axis=1) >= HEAVY_DAMPING
-    if not heavy.any():
+    z_max = np.max(np.where(np.isfinite(z), z, -np.inf), axis=1)  # per waypoint
+    n = int(np.count_nonzero(z_max >= HEAVY_DAMPING))
+    if not n:
         return ""
-    n = int(heavy.sum())
     return (
         f"the twin's modes are heavily damped at {n} cutting waypoint{'s' if n != 1 else ''} "
-        f"(damping ratio up to {float(np.nanmax(z)):.2f}): the planner's real-mode receptance "
+        f"(damping ratio up to {z_max.max():.2f}): the planner's real-mode receptance "
         "can be 30 % or more off the twin's exact one there (README, known limit); plan "
         "robustly, or check the plan on measured FRFs with robolobe verify"
     )

@@ -126,9 +126,6 @@ def _write_waypoints(table: pd.DataFrame, folder: Path, fmt: str, every: int) ->
         write_csv(rows, folder / "waypoints.csv")
 
 
-_png = _plots.png
-
-
 def _chosen(res: PlanResult, n: int = 3) -> list[int]:
     """Waypoints whose lobes to show (indices into the cut arrays).
 

@@ -422,10 +422,11 @@ def write_verify(res: VerifyResult, out_dir: str | os.PathLike[str], *, plots: b
     ``plots`` is False); other files in ``out_dir`` are kept.
     """
     from robolobe._atomic import atomic_dir
-    from robolobe.plan.report import _png, write_csv
+    from robolobe.plan import _plots
+    from robolobe.plan.report import write_csv
 
     out = Path(out_dir)
-    png = _png(plot_verify_margin(res)) if plots else None
+    png = _plots.png(plot_verify_margin(res)) if plots else None
     with atomic_dir(out, managed=("verify.csv", "verify.json", "plots")) as tmp:
         write_csv(res.table, tmp / "verify.csv")
         (tmp / "verify.json").write_text(json.dumps(res.summary, indent=2) + "\n", encoding="utf-8")
