@@ -4,8 +4,9 @@ The planner builds the robot's receptance from the twin's modes in the
 real-mode (modal stiffness) form, ``sum_r u_r u_r^T / (w_r^2 - w^2 + 2 i
 zeta_r w_r w)``, with an overdamped mode kept at the frequency and damping
 ratio of its real poles. The truth here is the twin's receptance solved
-directly, ``J (K - w^2 M + i w C)^-1 J^T``, at random postures within the
-joint limits (seed 1), on 1-1500 Hz plus the planner's own frequency grid.
+directly, ``J (K - w^2 M + i w C)^-1 J^T`` (:func:`robolobe.twin.frf.receptance`),
+at random postures within the joint limits (seed 1), on 1-1500 Hz plus the
+planner's own frequency grid.
 Printed per robot, for the postures with and without an overdamped mode: the
 ratio model / exact of the most negative real part of each driving-point FRF
 (what sets a chatter limit; below 1 the model allows more depth than the
@@ -25,6 +26,7 @@ import numpy as np
 from robolobe.plan.modes import TwinSource
 from robolobe.robots import load_robot
 from robolobe.twin import Twin
+from robolobe.twin.frf import receptance
 
 EXAMPLE = str(Path(__file__).resolve().parents[1] / "examples" / "robots" / "my_robot.toml")
 
@@ -36,16 +38,14 @@ def ratios(robot_name: str, n: int, chunk: int = 25) -> tuple[np.ndarray, np.nda
     q = np.random.default_rng(1).uniform(robot.q_min, robot.q_max, (n, 6))
     src = TwinSource(robot)
     out, over = [], []
-    for a in range(0, n, chunk):  # chunks: the direct solve holds (chunk, n_freq, dof, dof)
+    for a in range(0, n, chunk):  # chunks: each holds two (chunk, n_freq, 3, 3) receptances
         qq = q[a : a + chunk]
         md = twin.modes(qq, overdamped="keep")
         rm = src.predict(qq)
         f = np.union1d(np.linspace(1.0, 1500.0, 3000), rm.model.frequency_grid() / (2 * np.pi))
         w = 2 * np.pi * f
         s = twin.system(qq)
-        z = s.K[:, None] - w[None, :, None, None] ** 2 * s.M[:, None]
-        z = z + 1j * w[None, :, None, None] * s.C[:, None]
-        exact = s.J[:, None] @ np.linalg.solve(z, np.swapaxes(s.J, -1, -2)[:, None])
+        exact = receptance(s.M, s.K, s.C, s.J, f)
         model = rm.model.frf(w)
         out.append(
             np.stack(
