@@ -57,7 +57,7 @@ from typing import Any
 
 import numpy as np
 
-from robolobe.modal._pool import one_blas_thread
+from robolobe._threads import one_blas_thread
 from robolobe.modal.identify import identify_frfs, settings_from_test
 from robolobe.modal.posture import identify_posture
 from robolobe.modal.synthesis import poles_to_modal
@@ -291,7 +291,8 @@ def main(argv: list[str] | None = None) -> None:
     print(
         f"\nissue 3 target (< 120 s on 2 cores): {'met' if best < 120 else 'NOT met'}; "
         f"issue 17 target (< 5 s for robot A's 254 postures): "
-        f"{'met' if best < 5 and n >= 254 else 'NOT met'} here: best {best:.2f} s wall at "
+        f"{('met' if best < 5 else 'NOT met') if n >= 254 else f'not judged ({n} postures)'} "
+        f"here: best {best:.2f} s wall at "
         f"load {os.getloadavg()[0]:.1f} on {os.cpu_count()} CPUs; one process needs "
         f"{now_cpu:.2f} s of CPU"
     )
