@@ -253,13 +253,24 @@ def test_margin_runs_colour_every_move_as_the_norm_does():
 
 
 @pytest.mark.slow
-def test_plot_worker_draws_the_same_pngs_and_a_dead_one_falls_back(tmp_path, result):
-    """The plot process gives the PNGs drawn in-process, byte for byte; a worker that
-    died before drawing leaves the same files (drawn here instead)."""
+def test_plot_worker_draws_the_same_pngs_and_a_dead_one_falls_back(
+    tmp_path, result, monkeypatch
+):
+    """The plot process delivers the PNGs drawn in-process, byte for byte, and nothing is
+    drawn here; a worker that died before drawing leaves the same files (drawn here
+    instead)."""
+    from robolobe.plan import _plots
     from robolobe.plan._plots import PlotWorker
 
     here = report.write_outputs(result, tmp_path / "here", html_report=False)
     with PlotWorker() as worker:
+        records = {name: report._DATA[name](result) for name in report.PLOTS}
+        worker.send(records)
+        got = worker.receive()
+    assert got is not None and set(got) == set(report.PLOTS)  # the worker delivered
+    with monkeypatch.context() as m, PlotWorker() as worker:
+        # nothing may be drawn here when the worker delivers (its process is not patched)
+        m.setattr(_plots, "draw", lambda rec: pytest.fail("drawn in-process"))
         there = report.write_outputs(result, tmp_path / "there", html_report=False, worker=worker)
     dead = PlotWorker(processes=2)
     assert len(dead._procs) == 2
@@ -268,6 +279,7 @@ def test_plot_worker_draws_the_same_pngs_and_a_dead_one_falls_back(tmp_path, res
     fallback = report.write_outputs(result, tmp_path / "dead", html_report=False, worker=dead)
     for name in report.PLOTS:
         ref = (here / "plots" / f"{name}.png").read_bytes()
+        assert got[name] == ref, name
         assert (there / "plots" / f"{name}.png").read_bytes() == ref, name
         assert (fallback / "plots" / f"{name}.png").read_bytes() == ref, name
     # the report shows the figures in PLOTS' order whoever drew them

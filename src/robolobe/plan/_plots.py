@@ -405,6 +405,7 @@ class PlotWorker:
                 while data:
                     data = data[proc.stdin.write(data) or 0 :]
                 proc.stdin.close()
+                proc.stdin = None  # closed: communicate() in receive() must not flush it
         except OSError:  # a process died: receive() says so
             self.close()
             return
