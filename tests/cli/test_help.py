@@ -87,3 +87,19 @@ def test_help_imports_no_heavy_module() -> None:
     )
     loaded = json.loads(out.stdout.strip().splitlines()[-1])
     assert loaded == [], f"--help imported {loaded}"
+
+
+def test_python_dash_m_robolobe_is_the_command() -> None:
+    """``python -m robolobe`` runs the ``robolobe`` command (exit status passed on)."""
+    ok = subprocess.run(
+        [sys.executable, "-m", "robolobe", "--help"], capture_output=True, text=True, timeout=60
+    )
+    assert ok.returncode == 0
+    assert "plan" in ok.stdout
+    bad = subprocess.run(
+        [sys.executable, "-m", "robolobe", "no-such-command"],
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
+    assert bad.returncode == 2, bad.stderr

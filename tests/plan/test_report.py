@@ -253,9 +253,7 @@ def test_margin_runs_colour_every_move_as_the_norm_does():
 
 
 @pytest.mark.slow
-def test_plot_worker_draws_the_same_pngs_and_a_dead_one_falls_back(
-    tmp_path, result, monkeypatch
-):
+def test_plot_worker_draws_the_same_pngs_and_a_dead_one_falls_back(tmp_path, result, monkeypatch):
     """The plot process delivers the PNGs drawn in-process, byte for byte, and nothing is
     drawn here; a worker that died before drawing leaves the same files (drawn here
     instead)."""
@@ -267,7 +265,8 @@ def test_plot_worker_draws_the_same_pngs_and_a_dead_one_falls_back(
         records = {name: report._DATA[name](result) for name in report.PLOTS}
         worker.send(records)
         got = worker.receive()
-    assert got is not None and set(got) == set(report.PLOTS)  # the worker delivered
+    assert got is not None  # the worker delivered
+    assert set(got) == set(report.PLOTS)
     with monkeypatch.context() as m, PlotWorker() as worker:
         # nothing may be drawn here when the worker delivers (its process is not patched)
         m.setattr(_plots, "draw", lambda rec: pytest.fail("drawn in-process"))
