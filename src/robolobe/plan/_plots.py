@@ -468,3 +468,6 @@ def _serve() -> None:
         result = ("error", repr(exc))
     sys.stdout.buffer.write(pickle.dumps(result, protocol=pickle.HIGHEST_PROTOCOL))
     sys.stdout.buffer.flush()
+    # the caller waits for the exit: skip the interpreter's teardown of matplotlib & co.
+    # (about 0.07 s); nothing is left to flush or clean up
+    os._exit(0)
