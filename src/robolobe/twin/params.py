@@ -2,8 +2,16 @@
 
 The one parametrised-twin core: the transfer calibration
 (:class:`robolobe.tl.graybox.TwinCalibration`), the diagnosis' file
-calibration (:mod:`robolobe.diagnose.calibration`) and the plan-safety study
-fit and perturb robot files through these groups.
+calibration (:mod:`robolobe.diagnose.calibration`), the built-in robots'
+seed-table fit (:func:`robolobe.twin.calibration.fit_seed_table`) and the
+plan-safety study fit and perturb robot files through this module.
+
+:class:`BodyMassModel` is the shared mechanics: each body's Jacobians at
+fixed postures, computed once, and from them the mass matrix, its
+derivatives and the gravity torques as functions of the bodies' mass
+factors, centre-of-mass offsets (body frame) and principal moments of
+inertia. :class:`ParametrizedTwin` and the seed-table fit's model are two
+parametrisations on it.
 
 A robot file is a prior: joint stiffnesses and dampings are rarely
 published, and link masses, centres of mass and the spindle mass of B and C
@@ -23,9 +31,8 @@ link_com   18   offset of each link's centre of mass in its own frame,
 ========== ==== ====================================================
 
 :class:`ParametrizedTwin` evaluates the twin's modes for many ``theta`` at
-fixed postures without rebuilding the robot: the bodies' Jacobians are
-computed once, and the mass matrix is reassembled from them (a moved centre
-of mass changes a body's linear Jacobian by ``-[R d]_x Jw``). It gives the same
+fixed postures without rebuilding the robot (the mass matrix from
+:class:`BodyMassModel`). It gives the same
 modes as ``Twin(apply_parameters(robot, groups, theta)).modes(q)`` (tested to
 1e-9) about three times faster, which is what makes the 37-parameter fit
 quick. A robot file with the optional tilt or mount compliances (docs/guide/robots.md
@@ -38,6 +45,7 @@ from __future__ import annotations
 
 import dataclasses
 from collections.abc import Sequence
+from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -46,11 +54,17 @@ from robolobe._directions import DRIVING, dir_index
 from robolobe.errors import InputError
 from robolobe.robots.model import RigidBody, Robot
 from robolobe.robots.transforms import skew
+from robolobe.twin.dynamics import GRAVITY_M_PER_S2
 from robolobe.twin.modes import Modes, compute_modes, damped_poles, undamped_modes
+
+if TYPE_CHECKING:
+    from robolobe.twin.system import SystemMatrices
 
 __all__ = [
     "COM_UNIT_M",
+    "MOMENT_FLOOR",
     "PARAMETER_GROUPS",
+    "BodyMassModel",
     "ParametrizedTwin",
     "apply_parameters",
     "modal_values",
@@ -68,7 +82,12 @@ PARAMETER_GROUPS: dict[str, int] = {
     "link_com": 18,
 }
 COM_UNIT_M = 0.1
-"""Length of one unit of a ``link_com`` parameter [m]."""
+"""Length of one unit of a fitted centre-of-mass offset [m] (``link_com`` here, the
+seed-table fit's ``shape_bodies``): a ridge on the parameters pulls 0.1 m of offset as
+hard as a factor e on a spring or a mass."""
+MOMENT_FLOOR = 1e-9
+"""Smallest principal moment of inertia of :class:`BodyMassModel` relative to the body's
+largest (a point-like body keeps a finite log factor)."""
 K_MAX = 1e15  # N/m: modal stiffness of a mode that does not move the TCP along a direction
 
 
@@ -184,6 +203,281 @@ def modal_values(modes: Modes, directions: Sequence[str], n_modes: int) -> Float
     return out
 
 
+def _body_indices(name: str, bodies: Sequence[int], n: int) -> NDArray[np.intp]:
+    """``bodies`` as an index array, checked to be distinct indices ``0..n-1``."""
+    idx = np.array([int(b) for b in bodies], dtype=np.intp)
+    if len(set(idx.tolist())) != idx.size or np.any((idx < 0) | (idx >= n)):
+        raise InputError(
+            f"{name}: expected distinct body indices 0..{n - 1}, found {tuple(bodies)!r}"
+        )
+    return idx
+
+
+class BodyMassModel:
+    """Mass matrix and gravity torques of a twin's bodies at fixed postures.
+
+    The shared mechanics of every parametrised twin. A body's Jacobians do not
+    depend on its mass or inertia, and moving its centre of mass by ``d``
+    (body frame) changes its linear Jacobian by ``-[R d]_x Jw``
+    (``v = v0 + w x R d``), linear in ``d``. So the Jacobians are computed
+    once at the postures, and for mass factors ``s_b``, centre-of-mass
+    offsets ``d_b`` and log factors ``l_b`` on the principal moments
+
+    ``M = sum_b s_b (m_b Jv_b(d_b)^T Jv_b(d_b) + Jw_b^T R_b I_b(l_b) R_b^T Jw_b)``,
+    ``I_b(l) = V_b diag(lam_b exp(l)) V_b^T``,
+    ``tau_g = sum_b s_b m_b Jv_b(d_b)[:, :6]^T g``
+
+    with ``m_b``, ``lam_b``, ``V_b`` the robot file's mass, principal moments
+    and principal axes (body frame), ``R_b`` the body frame's world rotation
+    and ``g = (0, 0, -9.81) m/s^2``: the generalised gravity forces on the
+    six axes, as :func:`robolobe.twin.dynamics.gravity_torques`. Only the
+    ``com_bodies`` move their centre of mass and only the ``moment_bodies``
+    change their principal moments; a mass factor scales a body's mass and
+    inertia together.
+
+    Parameters
+    ----------
+    system : SystemMatrices
+        The twin at the postures (:func:`robolobe.twin.system.nominal_system`
+        of the robot file), batch shape (n,).
+    com_bodies, moment_bodies : sequence of int
+        0-based bodies (0-5 links 1-6, 6 the end effector) whose centre of
+        mass, respectively principal moments, are parameters.
+
+    Attributes
+    ----------
+    mass_kg : ndarray, shape (nb,)
+        The robot file's body masses [kg] (nb = 6, or 7 with an end effector).
+    n_dof : int
+        DOFs of the system (nd: six joints, then its compliances).
+    com_bodies, moment_bodies : ndarray of int
+    com_m : ndarray, shape (nc, 3)
+        The file's centres of mass of the ``com_bodies``, body frame [m].
+    moments_kgm2 : ndarray, shape (nm, 3)
+        The file's principal moments of the ``moment_bodies`` about their
+        centres of mass [kg m^2], at least :data:`MOMENT_FLOOR` x the largest.
+    principal_axes : ndarray, shape (nm, 3, 3)
+        Their principal axes as columns, body frame.
+    """
+
+    def __init__(
+        self,
+        system: SystemMatrices,
+        *,
+        com_bodies: Sequence[int] = (),
+        moment_bodies: Sequence[int] = (),
+    ) -> None:
+        robot = system.robot
+        b = system.bodies
+        if system.q.ndim != 2:
+            raise InputError(
+                f"postures: expected joint angles of shape (n, 6), found {system.q.shape}"
+            )
+        files = [jt.body for jt in robot.joints]
+        if robot.end_effector is not None:
+            files.append(robot.end_effector)
+        nr = len(files)
+        if b.names[:nr] != tuple(f"link{i + 1}" for i in range(6)) + ("end_effector",) * (nr - 6):
+            raise InputError(f"system: expected the robot file's bodies first, found {b.names}")
+        self.com_bodies = _body_indices("com_bodies", com_bodies, nr)
+        self.moment_bodies = _body_indices("moment_bodies", moment_bodies, nr)
+        self.mass_kg = np.asarray(b.mass_kg, dtype=np.float64)
+        self.n_dof = int(system.n_dof)
+        self.n_postures = int(system.q.shape[0])
+        self.jv, self.jw = b.jv, b.jw  # (n, nb, 3, nd): at the file's COMs
+        rot = system.frames[:, 1 : nr + 1, :3, :3]  # body b is given in frame b + 1
+        # per-body parts at the robot file's masses, COMs and inertias, (n, nb, nd, nd)
+        self._trans = np.einsum("b,nbki,nbkj->nbij", self.mass_kg, b.jv, b.jv)
+        self._rot = np.einsum("nbki,nbkl,nblj->nbij", b.jw, b.inertia_kgm2, b.jw)
+        self._parts = self._trans + self._rot
+        self.gravity_m_per_s2 = np.array([0.0, 0.0, -GRAVITY_M_PER_S2])
+        self._tau = np.einsum("b,k,nbkj->nbj", self.mass_kg, self.gravity_m_per_s2, b.jv[..., :6])
+        c = self.com_bodies
+        self.com_m = np.array([files[i].com_m for i in c]).reshape(-1, 3)
+        # d Jv / d d_k = -(R e_k) x Jw, (n, nc, k, 3, nd)
+        self._djv = -skew(np.swapaxes(rot[:, c], -1, -2)) @ b.jw[:, c, None]
+        mb = self.moment_bodies
+        lam = np.zeros((mb.size, 3))
+        vec = np.zeros((mb.size, 3, 3))
+        for n, i in enumerate(mb):
+            lam[n], vec[n] = np.linalg.eigh(files[i].inertia_kgm2)
+            lam[n] = np.maximum(lam[n], MOMENT_FLOOR * max(lam[n].max(), MOMENT_FLOOR))
+        self.moments_kgm2, self.principal_axes = lam, vec
+        self._a = np.einsum("nbki,nbkl,blm->nbim", b.jw[:, mb], rot[:, mb], vec)  # Jw^T R V
+
+    def _offsets(self, offsets_m: ArrayLike | None) -> FloatArray | None:
+        if offsets_m is None or not self.com_bodies.size:
+            return None
+        d = np.asarray(offsets_m, dtype=np.float64)
+        if d.shape != (self.com_bodies.size, 3):
+            raise InputError(
+                f"offsets_m: expected shape ({self.com_bodies.size}, 3), found {d.shape}"
+            )
+        return d
+
+    def coms(self, offsets_m: ArrayLike) -> FloatArray:
+        """Centres of mass of the ``com_bodies`` moved by ``offsets_m``, body frame [m], (nc, 3)."""
+        d = self._offsets(offsets_m)
+        return self.com_m.copy() if d is None else self.com_m + d
+
+    def moments(self, log_moments: ArrayLike | None = None) -> FloatArray:
+        """Principal moments of the ``moment_bodies`` for log factors ``log_moments`` (nm, 3),
+        at the file's masses [kg m^2], shape (nm, 3)."""
+        if log_moments is None:
+            return self.moments_kgm2.copy()
+        out: FloatArray = self.moments_kgm2 * np.exp(np.asarray(log_moments, dtype=np.float64))
+        return out
+
+    def inertias(self, log_moments: ArrayLike | None = None) -> FloatArray:
+        """Inertia tensors of the ``moment_bodies`` about their centres of mass, body
+        frame, at the file's masses [kg m^2], shape (nm, 3, 3)."""
+        v = self.principal_axes
+        out: FloatArray = np.einsum("bij,bj,bkj->bik", v, self.moments(log_moments), v)
+        return out
+
+    def com_jacobians(self, offsets_m: ArrayLike | None = None) -> FloatArray:
+        """World linear velocity of each moved centre of mass per unit DOF velocity.
+
+        Parameters
+        ----------
+        offsets_m : array_like, shape (nc, 3), optional
+            Centre-of-mass offsets of the ``com_bodies`` from the robot file's,
+            body frame [m]; None: none.
+
+        Returns
+        -------
+        ndarray, shape (n, nc, 3, nd)
+        """
+        jv = self.jv[:, self.com_bodies]
+        d = self._offsets(offsets_m)
+        if d is None:
+            return jv
+        out: FloatArray = jv + np.einsum("nckid,ck->ncid", self._djv, d)
+        return out
+
+    def body_matrices(
+        self, offsets_m: ArrayLike | None = None, log_moments: ArrayLike | None = None
+    ) -> FloatArray:
+        """Each body's part of the mass matrix at the robot file's masses.
+
+        Parameters
+        ----------
+        offsets_m : array_like, shape (nc, 3), optional
+            Centre-of-mass offsets of the ``com_bodies``, body frame [m].
+        log_moments : array_like, shape (nm, 3), optional
+            Log factors on the principal moments of the ``moment_bodies``
+            (None: 0).
+
+        Returns
+        -------
+        ndarray, shape (n, nb, nd, nd)
+            ``m_b Jv_b^T Jv_b + Jw_b^T I_b Jw_b`` [kg m^2 per rad^2 of DOF];
+            the mass matrix for mass factors ``s`` is ``sum_b s_b`` of them
+            (:meth:`mass_matrix`).
+        """
+        d = self._offsets(offsets_m)
+        if d is None and not self.moment_bodies.size:
+            return self._parts
+        trans, rot = self._trans, self._rot
+        if d is not None:
+            jv = self.com_jacobians(d)
+            trans = trans.copy()
+            trans[:, self.com_bodies] = np.einsum(
+                "c,ncki,nckj->ncij", self.mass_kg[self.com_bodies], jv, jv
+            )
+        if self.moment_bodies.size:
+            rot = rot.copy()
+            rot[:, self.moment_bodies] = np.einsum(
+                "nbim,bm,nbjm->nbij", self._a, self.moments(log_moments), self._a
+            )
+        out: FloatArray = trans + rot
+        return out
+
+    def mass_matrix(
+        self,
+        scales: ArrayLike,
+        offsets_m: ArrayLike | None = None,
+        log_moments: ArrayLike | None = None,
+    ) -> FloatArray:
+        """The mass matrix, shape (n, nd, nd).
+
+        Parameters
+        ----------
+        scales : array_like, shape (nb,)
+            Factors on each body's mass and inertia (1: the robot file).
+        offsets_m, log_moments : array_like, optional
+            See :meth:`body_matrices`.
+        """
+        s = np.asarray(scales, dtype=np.float64)
+        m = np.einsum("b,nbij->nij", s, self.body_matrices(offsets_m, log_moments))
+        out: FloatArray = 0.5 * (m + np.swapaxes(m, -1, -2))
+        return out
+
+    def body_gravity(self, offsets_m: ArrayLike | None = None) -> FloatArray:
+        """Gravity torque of each body on the six axes at the robot file's masses.
+
+        Parameters
+        ----------
+        offsets_m : array_like, shape (nc, 3), optional
+            Centre-of-mass offsets of the ``com_bodies``, body frame [m].
+
+        Returns
+        -------
+        ndarray, shape (n, nb, 6)
+            ``m_b Jv_b[:, :6]^T g`` [N m]; linear in the mass factors.
+        """
+        d = self._offsets(offsets_m)
+        if d is None:
+            return self._tau
+        out = self._tau.copy()
+        c = self.com_bodies
+        out[:, c] = np.einsum(
+            "c,k,nckj->ncj", self.mass_kg[c], self.gravity_m_per_s2, self.com_jacobians(d)[..., :6]
+        )
+        return out
+
+    def gravity_torques(self, scales: ArrayLike, offsets_m: ArrayLike | None = None) -> FloatArray:
+        """Gravity torques on the six axes [N m], shape (n, 6), for mass factors ``scales``
+        (nb,) and centre-of-mass offsets ``offsets_m`` (nc, 3) [m]."""
+        s = np.asarray(scales, dtype=np.float64)
+        out: FloatArray = np.einsum("b,nbj->nj", s, self.body_gravity(offsets_m))
+        return out
+
+    def com_derivatives(self, offsets_m: ArrayLike | None = None) -> tuple[FloatArray, FloatArray]:
+        """Derivatives with respect to the centre-of-mass offsets, at the file's masses.
+
+        Parameters
+        ----------
+        offsets_m : array_like, shape (nc, 3), optional
+            Where [m] (None: the robot file's centres of mass).
+
+        Returns
+        -------
+        dm : ndarray, shape (n, nc, 3, nd, nd)
+            ``d (m_c Jv_c^T Jv_c) / d d_ck`` per metre of offset along body
+            axis k of ``com_bodies[c]`` (the only body part it changes).
+        dtau : ndarray, shape (n, nc, 3, 6)
+            ``d tau_c / d d_ck`` [N m / m] of :meth:`body_gravity`.
+        """
+        c = self.com_bodies
+        jv = self.com_jacobians(offsets_m)
+        t = np.einsum("nckli,nclj->nckij", self._djv, jv)  # dJv^T Jv
+        m = self.mass_kg[c][None, :, None, None, None]
+        dm: FloatArray = m * (t + np.swapaxes(t, -1, -2))
+        dtau: FloatArray = self.mass_kg[c][None, :, None, None] * np.einsum(
+            "l,nckli->ncki", self.gravity_m_per_s2, self._djv[..., :6]
+        )
+        return dm, dtau
+
+    def moment_derivatives(self, log_moments: ArrayLike | None = None) -> FloatArray:
+        """``d (Jw^T I Jw) / d l_bk`` of each ``moment_bodies[b]`` and principal axis k at
+        log factors ``log_moments`` (nm, 3), file masses, shape (n, nm, 3, nd, nd)."""
+        out: FloatArray = np.einsum(
+            "nbik,bk,nbjk->nbkij", self._a, self.moments(log_moments), self._a
+        )
+        return out
+
+
 class ParametrizedTwin:
     """Modes of a robot file's twin at fixed postures as a function of ``theta``.
 
@@ -224,19 +518,12 @@ class ParametrizedTwin:
         self.directions = tuple(directions)
         self.n_modes = int(n_modes)
         sys_ = nominal_system(base, q_rad)
-        b = sys_.bodies
-        nb = len(b.mass_kg)
         nd = sys_.n_dof
         self._nd = nd
         # diagonal springs/dampers: the six joints, then the file's compliance DOFs
         self._k0 = np.diagonal(sys_.K.reshape(-1, nd, nd)[0]).copy()
         self._c0 = np.diagonal(sys_.C.reshape(-1, nd, nd)[0]).copy()
-        self._m0 = b.mass_kg  # (nb,)
-        self._jv = b.jv  # (n, nb, 3, 6) at the file's COMs
-        self._jw = b.jw
-        self._rot = sys_.frames[:, 1 : nb + 1, :3, :3]  # body frames, as robot_bodies
-        self._mw = np.einsum("nbki,nbkl,nblj->nbij", b.jw, b.inertia_kgm2, b.jw)
-        self._mv = np.einsum("nbki,nbkj->nbij", b.jv, b.jv)
+        self._bodies = BodyMassModel(sys_, com_bodies=range(6) if "link_com" in self.groups else ())
         self._J = sys_.J
         self._eye = np.eye(nd)
 
@@ -250,30 +537,23 @@ class ParametrizedTwin:
         m, k, c = self._matrices(theta)
         return compute_modes(m, k, c, self._J)
 
-    def _mass_parts(
-        self, parts: dict[str, FloatArray]
-    ) -> tuple[FloatArray, FloatArray, FloatArray]:
-        """Mass scales (nb,), links' COM Jacobians (n, 6, 3, 6) and ``Jv^T Jv`` (n, nb, 6, 6)."""
-        s = np.ones(len(self._m0))
+    def _mass_parts(self, parts: dict[str, FloatArray]) -> tuple[FloatArray, FloatArray | None]:
+        """Mass factors (nb,) and the links' COM offsets [m] (6, 3), None if none."""
+        s = np.ones(len(self._bodies.mass_kg))
         if "link_mass" in parts:
             s[:6] = np.exp(parts["link_mass"])
         if "ee_mass" in parts:
             s[6] = np.exp(parts["ee_mass"][0])
-        jv = self._jv[:, :6]
-        mv = self._mv
+        d = None
         if "link_com" in parts and np.any(parts["link_com"]):
             d = COM_UNIT_M * parts["link_com"].reshape(6, 3)
-            r = np.einsum("nbij,bj->nbi", self._rot[:, :6], d)  # world offsets (n, 6, 3)
-            jv = jv - skew(r) @ self._jw[:, :6]  # v = v0 + w x r
-            mv = np.concatenate([np.einsum("nbki,nbkj->nbij", jv, jv), self._mv[:, 6:]], axis=1)
-        return s, jv, mv
+        return s, d
 
     def _matrices(self, theta: ArrayLike) -> tuple[FloatArray, FloatArray, FloatArray]:
         """M (n, nd, nd), K and C (nd, nd) for ``theta`` (nd = 6 + compliance DOFs)."""
         parts = _split(self.groups, theta)
-        s, _, mv = self._mass_parts(parts)
-        m = np.einsum("b,nbij->nij", self._m0 * s, mv) + np.einsum("b,nbij->nij", s, self._mw)
-        m = 0.5 * (m + np.swapaxes(m, -1, -2))
+        s, d = self._mass_parts(parts)
+        m = self._bodies.mass_matrix(s, d)
         k, c = self._k0.copy(), self._c0.copy()
         if "stiffness" in parts:
             k[:6] *= np.exp(parts["stiffness"])
@@ -298,9 +578,9 @@ class ParametrizedTwin:
             (a mode that does not move the TCP along the direction).
         """
         parts = _split(self.groups, theta)
-        s, jv, mv = self._mass_parts(parts)
-        w = self._m0 * s
-        n, p, nd = self._jv.shape[0], self.n_params, self._nd
+        s, com_off = self._mass_parts(parts)
+        n, p, nd = self._bodies.n_postures, self.n_params, self._nd
+        mb = self._bodies.body_matrices(com_off)  # (n, nb, nd, nd): d M / d log(mass factor)
         m, kmat, cmat = self._matrices(theta)
         k, c = np.diag(kmat), np.diag(cmat)
         dm = np.zeros((n, p, nd, nd))
@@ -314,17 +594,13 @@ class ParametrizedTwin:
             elif g == "damping":
                 dc[i0 : i0 + 6, :6] = np.diag(c[:6])
             elif g == "ee_mass":
-                dm[:, i0] = w[6] * mv[:, 6] + s[6] * self._mw[:, 6]
+                dm[:, i0] = s[6] * mb[:, 6]
             elif g == "link_mass":
-                dm[:, i0 : i0 + 6] = (
-                    w[:6, None, None] * mv[:, :6] + s[:6, None, None] * self._mw[:, :6]
-                )
-            else:  # link_com: d jv_b / d theta_ba = -unit * (R_b e_a) x w_b
-                axes = np.swapaxes(self._rot[:, :6], -1, -2)  # (n, 6, a, 3): R_b e_a
-                djv = -COM_UNIT_M * skew(axes) @ self._jw[:, :6, None]  # (n, 6, a, 3, 6)
-                t = np.einsum("nbakj,nbki->nbaij", djv, jv)  # jv^T djv, symmetrised below
-                t = w[None, :6, None, None, None] * (t + np.swapaxes(t, -1, -2))
-                dm[:, i0 : i0 + 18] = t.reshape(n, 18, nd, nd)
+                dm[:, i0 : i0 + 6] = s[:6, None, None] * mb[:, :6]
+            else:  # link_com: one unit is COM_UNIT_M along a link's own axis
+                dcom = self._bodies.com_derivatives(com_off)[0]  # (n, 6, 3, nd, nd)
+                dcom = (COM_UNIT_M * s[None, :6, None, None, None]) * dcom
+                dm[:, i0 : i0 + 18] = dcom.reshape(n, 18, nd, nd)
             i0 += size
         w0, phi = undamped_modes(m, kmat)
         lam = w0**2  # (n, r)
