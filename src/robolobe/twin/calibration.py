@@ -61,7 +61,7 @@ from robolobe.twin.modes import (
     seen_mask,
     undamped_modes,
 )
-from robolobe.twin.params import COM_UNIT_M, BodyMassModel
+from robolobe.twin.params import COM_UNIT_M, BodyMassModel, body_indices
 from robolobe.twin.seed_tables import SeedTable
 from robolobe.twin.system import load_stiffened, nominal_system
 
@@ -737,7 +737,8 @@ class _TableModel:
         self.base = r
         self.form = form
         s = nominal_system(r, q)
-        self._shape_init(r, form)
+        # the bodies whose COM offset and principal moments are parameters
+        self.shape = body_indices("shape_bodies", form.shape_bodies, len(s.bodies.names))
         self.bodies = BodyMassModel(
             s, com_bodies=form.shape_bodies, moment_bodies=form.shape_bodies
         )
@@ -795,18 +796,6 @@ class _TableModel:
             self.upper[:ns] = np.log(hi_k / self.k0)
             self.k_hi = hi_k[:6].copy()
         self.lower[-1], self.upper[-1] = np.log(form.k_level_range)
-
-    def _shape_init(self, r: Robot, form: SeedFitForm) -> None:
-        """The bodies whose COM offset and principal moments are parameters."""
-        self.shape = np.array(form.shape_bodies, dtype=np.intp)
-        nb = 6 if r.end_effector is None else 7
-        if len(set(form.shape_bodies)) != len(form.shape_bodies) or any(
-            not 0 <= bi < nb for bi in form.shape_bodies
-        ):
-            raise InputError(
-                f"shape_bodies: expected distinct body indices 0..{nb - 1}, "
-                f"found {form.shape_bodies!r}"
-            )
 
     def shape_parameters(self, x: FloatArray) -> tuple[FloatArray, FloatArray]:
         """COM offsets [m] (body frame) and log factors of the principal moments of the

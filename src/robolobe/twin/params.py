@@ -67,6 +67,7 @@ __all__ = [
     "BodyMassModel",
     "ParametrizedTwin",
     "apply_parameters",
+    "body_indices",
     "modal_values",
     "parameter_names",
 ]
@@ -203,8 +204,23 @@ def modal_values(modes: Modes, directions: Sequence[str], n_modes: int) -> Float
     return out
 
 
-def _body_indices(name: str, bodies: Sequence[int], n: int) -> NDArray[np.intp]:
-    """``bodies`` as an index array, checked to be distinct indices ``0..n-1``."""
+def body_indices(name: str, bodies: Sequence[int], n: int) -> NDArray[np.intp]:
+    """``bodies`` as an index array, checked to be distinct indices ``0..n-1``.
+
+    Parameters
+    ----------
+    name : str
+        The argument's name in the error message.
+    bodies : sequence of int
+        0-based bodies (0-5 links 1-6, 6 the end effector).
+    n : int
+        Number of bodies (6, or 7 with an end effector).
+
+    Raises
+    ------
+    InputError
+        On a repeated or out-of-range index.
+    """
     idx = np.array([int(b) for b in bodies], dtype=np.intp)
     if len(set(idx.tolist())) != idx.size or np.any((idx < 0) | (idx >= n)):
         raise InputError(
@@ -279,8 +295,8 @@ class BodyMassModel:
         nr = len(files)
         if b.names[:nr] != tuple(f"link{i + 1}" for i in range(6)) + ("end_effector",) * (nr - 6):
             raise InputError(f"system: expected the robot file's bodies first, found {b.names}")
-        self.com_bodies = _body_indices("com_bodies", com_bodies, nr)
-        self.moment_bodies = _body_indices("moment_bodies", moment_bodies, nr)
+        self.com_bodies = body_indices("com_bodies", com_bodies, nr)
+        self.moment_bodies = body_indices("moment_bodies", moment_bodies, nr)
         self.mass_kg = np.asarray(b.mass_kg, dtype=np.float64)
         self.n_dof = int(system.n_dof)
         self.n_postures = int(system.q.shape[0])
