@@ -136,8 +136,13 @@ def test_derivatives_match_differences() -> None:
     rng = np.random.default_rng(2)
     d = rng.uniform(-0.1, 0.1, (len(COM), 3))
     lm = rng.uniform(-0.2, 0.2, (len(MOMENTS), 3))
-    dm, dtau = core.com_derivatives(d)
-    dml = core.moment_derivatives(lm)
+    dm, dtau = core.com_derivatives(slice(None), d)
+    dml = core.moment_derivatives(slice(None), lm)
+    # one posture and per unit of offset: the same numbers
+    dm1, dtau1 = core.com_derivatives(1, d, COM_UNIT_M)
+    np.testing.assert_allclose(dm1, COM_UNIT_M * dm[1], rtol=1e-12, atol=1e-12 * np.abs(dm).max())
+    np.testing.assert_allclose(dtau1, COM_UNIT_M * dtau[1], rtol=1e-12, atol=1e-9)
+    np.testing.assert_array_equal(core.moment_derivatives(2, lm), dml[2])
     h = 1e-6
     for c, b in enumerate(COM):
         for k in range(3):
@@ -157,7 +162,6 @@ def test_derivatives_match_differences() -> None:
             ln[c, k] -= h
             fd = (core.body_matrices(d, lp) - core.body_matrices(d, ln)) / (2 * h)
             np.testing.assert_allclose(fd[:, b], dml[:, c, k], atol=1e-7 * np.abs(dml).max())
-    assert COM_UNIT_M == 0.1
 
 
 @pytest.mark.parametrize(

@@ -815,14 +815,11 @@ class _TableModel:
         """Derivatives at posture ``p`` of the bodies' mass matrices (prior masses) and
         gravity torques with respect to the shape parameters, (nsh, nd, nd) and (nsh, 6)."""
         d, lm = self.shape_parameters(x)
-        n = len(self.shape)
-        dm_c, dt_c = self.bodies.com_derivatives(d)
-        dm = np.zeros((n, 6, self.nd, self.nd))
-        dt = np.zeros((n, 6, 6))
-        dm[:, :3] = COM_UNIT_M * dm_c[p]
-        dt[:, :3] = COM_UNIT_M * dt_c[p]
-        dm[:, 3:] = self.bodies.moment_derivatives(lm)[p]
-        return dm.reshape(6 * n, self.nd, self.nd), dt.reshape(6 * n, 6)
+        n, nd = len(self.shape), self.nd
+        dm_c, dt_c = self.bodies.com_derivatives(p, d, COM_UNIT_M)
+        dm = np.concatenate([dm_c, self.bodies.moment_derivatives(p, lm)], axis=1)
+        dt = np.concatenate([dt_c, np.zeros((n, 3, 6))], axis=1)
+        return dm.reshape(6 * n, nd, nd), dt.reshape(6 * n, 6)
 
     def triangle(self, x: FloatArray) -> tuple[FloatArray, FloatArray]:
         """Excess ``log(I_a / (m (I_b + I_c)))`` (``m`` :data:`TRIANGLE_MARGIN`) of every

@@ -53,7 +53,6 @@ from numpy.typing import ArrayLike, NDArray
 from robolobe._directions import DRIVING, dir_index
 from robolobe.errors import InputError
 from robolobe.robots.model import RigidBody, Robot
-from robolobe.robots.transforms import skew
 from robolobe.twin.dynamics import GRAVITY_M_PER_S2
 from robolobe.twin.modes import Modes, compute_modes, damped_poles, undamped_modes
 
@@ -233,23 +232,24 @@ class BodyMassModel:
     """Mass matrix and gravity torques of a twin's bodies at fixed postures.
 
     The shared mechanics of every parametrised twin. A body's Jacobians do not
-    depend on its mass or inertia, and moving its centre of mass by ``d``
-    (body frame) changes its linear Jacobian by ``-[R d]_x Jw``
-    (``v = v0 + w x R d``), linear in ``d``. So the Jacobians are computed
-    once at the postures, and for mass factors ``s_b``, centre-of-mass
-    offsets ``d_b`` and log factors ``l_b`` on the principal moments
+    depend on its mass or inertia, and the linear Jacobian of its centre of
+    mass ``c`` (body frame) is ``Jv(c) = Jv_o + sum_k c_k G_k`` with
+    ``G_k = -[R e_k]_x Jw`` (``v = v_o + w x R c``), linear in ``c``. So the
+    Jacobians are computed once at the postures, and for mass factors
+    ``s_b``, centre-of-mass offsets ``d_b`` from the robot file's ``c0_b`` and
+    log factors ``l_b`` on the principal moments
 
-    ``M = sum_b s_b (m_b Jv_b(d_b)^T Jv_b(d_b) + Jw_b^T R_b I_b(l_b) R_b^T Jw_b)``,
-    ``I_b(l) = V_b diag(lam_b exp(l)) V_b^T``,
-    ``tau_g = sum_b s_b m_b Jv_b(d_b)[:, :6]^T g``
+    ``M = sum_b s_b (m_b Jv_b^T Jv_b + Jw_b^T R_b I_b R_b^T Jw_b)``,
+    ``Jv_b = Jv_b(c0_b + d_b)``, ``I_b = V_b diag(lam_b exp(l_b)) V_b^T``,
+    ``tau_g = sum_b s_b m_b Jv_b[:, :6]^T g``
 
     with ``m_b``, ``lam_b``, ``V_b`` the robot file's mass, principal moments
     and principal axes (body frame), ``R_b`` the body frame's world rotation
-    and ``g = (0, 0, -9.81) m/s^2``: the generalised gravity forces on the
-    six axes, as :func:`robolobe.twin.dynamics.gravity_torques`. Only the
-    ``com_bodies`` move their centre of mass and only the ``moment_bodies``
-    change their principal moments; a mass factor scales a body's mass and
-    inertia together.
+    and ``g = (0, 0, -9.81) m/s^2``: ``tau_g`` are the generalised gravity
+    forces on the six axes, as :func:`robolobe.twin.dynamics.gravity_torques`.
+    Only the ``com_bodies`` move their centre of mass and only the
+    ``moment_bodies`` change their principal moments; a mass factor scales a
+    body's mass and inertia together.
 
     Parameters
     ----------
@@ -266,6 +266,7 @@ class BodyMassModel:
         The robot file's body masses [kg] (nb = 6, or 7 with an end effector).
     n_dof : int
         DOFs of the system (nd: six joints, then its compliances).
+    n_postures : int
     com_bodies, moment_bodies : ndarray of int
     com_m : ndarray, shape (nc, 3)
         The file's centres of mass of the ``com_bodies``, body frame [m].
@@ -274,6 +275,7 @@ class BodyMassModel:
         centres of mass [kg m^2], at least :data:`MOMENT_FLOOR` x the largest.
     principal_axes : ndarray, shape (nm, 3, 3)
         Their principal axes as columns, body frame.
+    gravity_m_per_s2 : ndarray, shape (3,)
     """
 
     def __init__(
@@ -300,41 +302,45 @@ class BodyMassModel:
         self.mass_kg = np.asarray(b.mass_kg, dtype=np.float64)
         self.n_dof = int(system.n_dof)
         self.n_postures = int(system.q.shape[0])
-        self.jv, self.jw = b.jv, b.jw  # (n, nb, 3, nd): at the file's COMs
-        rot = system.frames[:, 1 : nr + 1, :3, :3]  # body b is given in frame b + 1
-        # per-body parts at the robot file's masses, COMs and inertias, (n, nb, nd, nd)
-        self._trans = np.einsum("b,nbki,nbkj->nbij", self.mass_kg, b.jv, b.jv)
-        self._rot = np.einsum("nbki,nbkl,nblj->nbij", b.jw, b.inertia_kgm2, b.jw)
-        self._parts = self._trans + self._rot
         self.gravity_m_per_s2 = np.array([0.0, 0.0, -GRAVITY_M_PER_S2])
-        self._tau = np.einsum("b,k,nbkj->nbj", self.mass_kg, self.gravity_m_per_s2, b.jv[..., :6])
-        c = self.com_bodies
-        self.com_m = np.array([files[i].com_m for i in c]).reshape(-1, 3)
-        # d Jv / d d_k = -(R e_k) x Jw, (n, nc, k, 3, nd)
-        self._djv = -skew(np.swapaxes(rot[:, c], -1, -2)) @ b.jw[:, c, None]
-        mb = self.moment_bodies
-        lam = np.zeros((mb.size, 3))
-        vec = np.zeros((mb.size, 3, 3))
-        for n, i in enumerate(mb):
-            lam[n], vec[n] = np.linalg.eigh(files[i].inertia_kgm2)
-            lam[n] = np.maximum(lam[n], MOMENT_FLOOR * max(lam[n].max(), MOMENT_FLOOR))
-        self.moments_kgm2, self.principal_axes = lam, vec
-        self._a = np.einsum("nbki,nbkl,blm->nbim", b.jw[:, mb], rot[:, mb], vec)  # Jw^T R V
+        # per-body parts at the robot file's masses, COMs and inertias, (n, nb, nd, nd)
+        self._trans = np.einsum("b,pbki,pbkj->pbij", self.mass_kg, b.jv, b.jv)
+        self._rot = np.einsum("pbki,pbkl,pblj->pbij", b.jw, b.inertia_kgm2, b.jw)
+        self._parts = self._trans + self._rot
+        self._tau = np.einsum("b,k,pbkj->pbj", self.mass_kg, self.gravity_m_per_s2, b.jv[..., :6])
+        # body b is given in frame b + 1, (n, 3, 3) each
+        rot = [system.frames[:, i + 1, :3, :3] for i in range(nr)]
+        self.com_m = np.array([files[i].com_m for i in self.com_bodies]).reshape(-1, 3)
+        self._g: list[FloatArray] = []  # d Jv / d c_k = -(R e_k) x Jw, (n, k, 3, nd)
+        self._jvo: list[FloatArray] = []  # Jv of the body frame's origin, (n, 3, nd)
+        for i, c0 in zip(self.com_bodies, self.com_m, strict=True):
+            g = -np.cross(np.swapaxes(rot[i], 1, 2)[:, :, :, None], b.jw[:, i, None], axis=2)
+            self._g.append(g)
+            self._jvo.append(b.jv[:, i] - np.einsum("pkin,k->pin", g, c0))
+        nm = self.moment_bodies.size
+        self.moments_kgm2 = np.zeros((nm, 3))
+        self.principal_axes = np.zeros((nm, 3, 3))
+        self._a: list[FloatArray] = []  # Jw^T R V, (n, nd, 3)
+        for n, i in enumerate(self.moment_bodies):
+            lam, vec = np.linalg.eigh(files[i].inertia_kgm2)
+            self.moments_kgm2[n] = np.maximum(lam, MOMENT_FLOOR * max(lam.max(), MOMENT_FLOOR))
+            self.principal_axes[n] = vec
+            self._a.append(np.einsum("pki,pkl,lm->pim", b.jw[:, i], rot[i], vec))
 
-    def _offsets(self, offsets_m: ArrayLike | None) -> FloatArray | None:
-        if offsets_m is None or not self.com_bodies.size:
-            return None
+    def _offsets(self, offsets_m: ArrayLike | None) -> FloatArray:
+        nc = self.com_bodies.size
+        if offsets_m is None:
+            return np.zeros((nc, 3))
         d = np.asarray(offsets_m, dtype=np.float64)
-        if d.shape != (self.com_bodies.size, 3):
-            raise InputError(
-                f"offsets_m: expected shape ({self.com_bodies.size}, 3), found {d.shape}"
-            )
+        if d.shape != (nc, 3):
+            raise InputError(f"offsets_m: expected shape ({nc}, 3), found {d.shape}")
         return d
 
-    def coms(self, offsets_m: ArrayLike) -> FloatArray:
-        """Centres of mass of the ``com_bodies`` moved by ``offsets_m``, body frame [m], (nc, 3)."""
-        d = self._offsets(offsets_m)
-        return self.com_m.copy() if d is None else self.com_m + d
+    def coms(self, offsets_m: ArrayLike | None = None) -> FloatArray:
+        """Centres of mass of the ``com_bodies`` moved by ``offsets_m`` (nc, 3), body frame
+        [m], shape (nc, 3)."""
+        out: FloatArray = self.com_m + self._offsets(offsets_m)
+        return out
 
     def moments(self, log_moments: ArrayLike | None = None) -> FloatArray:
         """Principal moments of the ``moment_bodies`` for log factors ``log_moments`` (nm, 3),
@@ -348,10 +354,10 @@ class BodyMassModel:
         """Inertia tensors of the ``moment_bodies`` about their centres of mass, body
         frame, at the file's masses [kg m^2], shape (nm, 3, 3)."""
         v = self.principal_axes
-        out: FloatArray = np.einsum("bij,bj,bkj->bik", v, self.moments(log_moments), v)
-        return out
+        lam = self.moments(log_moments)
+        return np.array([v[n] @ np.diag(lam[n]) @ v[n].T for n in range(len(v))]).reshape(-1, 3, 3)
 
-    def com_jacobians(self, offsets_m: ArrayLike | None = None) -> FloatArray:
+    def com_jacobians(self, offsets_m: ArrayLike | None = None) -> list[FloatArray]:
         """World linear velocity of each moved centre of mass per unit DOF velocity.
 
         Parameters
@@ -362,14 +368,13 @@ class BodyMassModel:
 
         Returns
         -------
-        ndarray, shape (n, nc, 3, nd)
+        list of ndarray, shape (n, 3, nd)
+            One per ``com_bodies``.
         """
-        jv = self.jv[:, self.com_bodies]
-        d = self._offsets(offsets_m)
-        if d is None:
-            return jv
-        out: FloatArray = jv + np.einsum("nckid,ck->ncid", self._djv, d)
-        return out
+        return [
+            jvo + np.einsum("pkin,k->pin", g, c)
+            for jvo, g, c in zip(self._jvo, self._g, self.coms(offsets_m), strict=True)
+        ]
 
     def body_matrices(
         self, offsets_m: ArrayLike | None = None, log_moments: ArrayLike | None = None
@@ -379,7 +384,8 @@ class BodyMassModel:
         Parameters
         ----------
         offsets_m : array_like, shape (nc, 3), optional
-            Centre-of-mass offsets of the ``com_bodies``, body frame [m].
+            Centre-of-mass offsets of the ``com_bodies``, body frame [m]; None:
+            the file's centres of mass (and the file's parts of the bodies).
         log_moments : array_like, shape (nm, 3), optional
             Log factors on the principal moments of the ``moment_bodies``
             (None: 0).
@@ -387,26 +393,23 @@ class BodyMassModel:
         Returns
         -------
         ndarray, shape (n, nb, nd, nd)
-            ``m_b Jv_b^T Jv_b + Jw_b^T I_b Jw_b`` [kg m^2 per rad^2 of DOF];
-            the mass matrix for mass factors ``s`` is ``sum_b s_b`` of them
-            (:meth:`mass_matrix`).
+            ``m_b Jv_b^T Jv_b + Jw_b^T I_b Jw_b``; the mass matrix for mass
+            factors ``s`` is ``sum_b s_b`` of them (:meth:`mass_matrix`).
         """
-        d = self._offsets(offsets_m)
-        if d is None and not self.moment_bodies.size:
+        moved = offsets_m is not None and self.com_bodies.size > 0
+        if not moved and not self.moment_bodies.size:
             return self._parts
-        trans, rot = self._trans, self._rot
-        if d is not None:
-            jv = self.com_jacobians(d)
-            trans = trans.copy()
-            trans[:, self.com_bodies] = np.einsum(
-                "c,ncki,nckj->ncij", self.mass_kg[self.com_bodies], jv, jv
-            )
-        if self.moment_bodies.size:
-            rot = rot.copy()
-            rot[:, self.moment_bodies] = np.einsum(
-                "nbim,bm,nbjm->nbij", self._a, self.moments(log_moments), self._a
-            )
-        out: FloatArray = trans + rot
+        trans: dict[int, FloatArray] = {}
+        if moved:
+            for i, jv in zip(self.com_bodies, self.com_jacobians(offsets_m), strict=True):
+                trans[int(i)] = self.mass_kg[i] * np.einsum("pki,pkj->pij", jv, jv)
+        rot: dict[int, FloatArray] = {}
+        for i, a, lam in zip(self.moment_bodies, self._a, self.moments(log_moments), strict=True):
+            rot[int(i)] = np.einsum("pim,m,pjm->pij", a, lam, a)
+        out = self._parts.copy()
+        for i in set(trans) | set(rot):
+            t = trans[i] if i in trans else self._trans[:, i]
+            out[:, i] = t + (rot[i] if i in rot else self._rot[:, i])
         return out
 
     def mass_matrix(
@@ -415,7 +418,7 @@ class BodyMassModel:
         offsets_m: ArrayLike | None = None,
         log_moments: ArrayLike | None = None,
     ) -> FloatArray:
-        """The mass matrix, shape (n, nd, nd).
+        """The mass matrix, shape (n, nd, nd) (symmetric to rounding).
 
         Parameters
         ----------
@@ -425,8 +428,7 @@ class BodyMassModel:
             See :meth:`body_matrices`.
         """
         s = np.asarray(scales, dtype=np.float64)
-        m = np.einsum("b,nbij->nij", s, self.body_matrices(offsets_m, log_moments))
-        out: FloatArray = 0.5 * (m + np.swapaxes(m, -1, -2))
+        out: FloatArray = np.einsum("b,pbij->pij", s, self.body_matrices(offsets_m, log_moments))
         return out
 
     def body_gravity(self, offsets_m: ArrayLike | None = None) -> FloatArray:
@@ -442,55 +444,84 @@ class BodyMassModel:
         ndarray, shape (n, nb, 6)
             ``m_b Jv_b[:, :6]^T g`` [N m]; linear in the mass factors.
         """
-        d = self._offsets(offsets_m)
-        if d is None:
+        if offsets_m is None or not self.com_bodies.size:
             return self._tau
         out = self._tau.copy()
-        c = self.com_bodies
-        out[:, c] = np.einsum(
-            "c,k,nckj->ncj", self.mass_kg[c], self.gravity_m_per_s2, self.com_jacobians(d)[..., :6]
-        )
+        g = self.gravity_m_per_s2
+        for i, jv in zip(self.com_bodies, self.com_jacobians(offsets_m), strict=True):
+            out[:, i] = self.mass_kg[i] * np.einsum("k,pkj->pj", g, jv[..., :6])
         return out
 
     def gravity_torques(self, scales: ArrayLike, offsets_m: ArrayLike | None = None) -> FloatArray:
         """Gravity torques on the six axes [N m], shape (n, 6), for mass factors ``scales``
         (nb,) and centre-of-mass offsets ``offsets_m`` (nc, 3) [m]."""
         s = np.asarray(scales, dtype=np.float64)
-        out: FloatArray = np.einsum("b,nbj->nj", s, self.body_gravity(offsets_m))
+        out: FloatArray = np.einsum("b,pbj->pj", s, self.body_gravity(offsets_m))
         return out
 
-    def com_derivatives(self, offsets_m: ArrayLike | None = None) -> tuple[FloatArray, FloatArray]:
-        """Derivatives with respect to the centre-of-mass offsets, at the file's masses.
+    def com_derivatives(
+        self, posture: int | slice, offsets_m: ArrayLike | None = None, unit_m: float = 1.0
+    ) -> tuple[FloatArray, FloatArray]:
+        """Derivatives with respect to the centre-of-mass offsets.
 
         Parameters
         ----------
+        posture : int or slice
+            Index of the postures (``slice(None)``: all).
         offsets_m : array_like, shape (nc, 3), optional
             Where [m] (None: the robot file's centres of mass).
+        unit_m : float
+            Length of one unit of offset [m] the derivatives are taken per.
 
         Returns
         -------
-        dm : ndarray, shape (n, nc, 3, nd, nd)
-            ``d (m_c Jv_c^T Jv_c) / d d_ck`` per metre of offset along body
-            axis k of ``com_bodies[c]`` (the only body part it changes).
-        dtau : ndarray, shape (n, nc, 3, 6)
-            ``d tau_c / d d_ck`` [N m / m] of :meth:`body_gravity`.
+        dm : ndarray, shape (..., nc, 3, nd, nd)
+            ``d (m_c Jv_c^T Jv_c) / d d_ck`` per unit of offset along body axis
+            k of ``com_bodies[c]``, file masses (the only body part it
+            changes); ``...`` is () for one posture, (n,) for a slice.
+        dtau : ndarray, shape (..., nc, 3, 6)
+            ``d tau_c / d d_ck`` [N m per unit] of :meth:`body_gravity`.
         """
-        c = self.com_bodies
-        jv = self.com_jacobians(offsets_m)
-        t = np.einsum("nckli,nclj->nckij", self._djv, jv)  # dJv^T Jv
-        m = self.mass_kg[c][None, :, None, None, None]
-        dm: FloatArray = m * (t + np.swapaxes(t, -1, -2))
-        dtau: FloatArray = self.mass_kg[c][None, :, None, None] * np.einsum(
-            "l,nckli->ncki", self.gravity_m_per_s2, self._djv[..., :6]
-        )
+        nd = self.n_dof
+        batch = np.empty(self.n_postures)[posture].shape
+        dm = np.zeros((*batch, self.com_bodies.size, 3, nd, nd))
+        dtau = np.zeros((*batch, self.com_bodies.size, 3, 6))
+        jvs = self.com_jacobians(offsets_m)
+        for n, (i, g, jv) in enumerate(zip(self.com_bodies, self._g, jvs, strict=True)):
+            m = self.mass_kg[i]
+            for k in range(3):
+                gk = g[posture, k] * unit_m  # (..., 3, nd)
+                a = m * np.swapaxes(gk, -1, -2) @ jv[posture]
+                dm[..., n, k, :, :] = a + np.swapaxes(a, -1, -2)
+                dtau[..., n, k, :] = m * self.gravity_m_per_s2 @ gk[..., :6]
         return dm, dtau
 
-    def moment_derivatives(self, log_moments: ArrayLike | None = None) -> FloatArray:
-        """``d (Jw^T I Jw) / d l_bk`` of each ``moment_bodies[b]`` and principal axis k at
-        log factors ``log_moments`` (nm, 3), file masses, shape (n, nm, 3, nd, nd)."""
-        out: FloatArray = np.einsum(
-            "nbik,bk,nbjk->nbkij", self._a, self.moments(log_moments), self._a
-        )
+    def moment_derivatives(
+        self, posture: int | slice, log_moments: ArrayLike | None = None
+    ) -> FloatArray:
+        """Derivatives with respect to the log factors on the principal moments.
+
+        Parameters
+        ----------
+        posture : int or slice
+            Index of the postures (``slice(None)``: all).
+        log_moments : array_like, shape (nm, 3), optional
+            Where (None: 0).
+
+        Returns
+        -------
+        ndarray, shape (..., nm, 3, nd, nd)
+            ``d (Jw_b^T I_b Jw_b) / d l_bk`` of ``moment_bodies[b]`` and principal
+            axis k, file masses; ``...`` as in :meth:`com_derivatives`.
+        """
+        lam = self.moments(log_moments)
+        nd = self.n_dof
+        batch = np.empty(self.n_postures)[posture].shape
+        out = np.zeros((*batch, len(self._a), 3, nd, nd))
+        for n, a in enumerate(self._a):
+            for k in range(3):
+                col = a[posture, :, k]  # (..., nd)
+                out[..., n, k, :, :] = lam[n, k] * (col[..., :, None] * col[..., None, :])
         return out
 
 
@@ -614,8 +645,8 @@ class ParametrizedTwin:
             elif g == "link_mass":
                 dm[:, i0 : i0 + 6] = s[:6, None, None] * mb[:, :6]
             else:  # link_com: one unit is COM_UNIT_M along a link's own axis
-                dcom = self._bodies.com_derivatives(com_off)[0]  # (n, 6, 3, nd, nd)
-                dcom = (COM_UNIT_M * s[None, :6, None, None, None]) * dcom
+                dcom = self._bodies.com_derivatives(slice(None), com_off, COM_UNIT_M)[0]
+                dcom = s[None, :6, None, None, None] * dcom  # (n, 6, 3, nd, nd)
                 dm[:, i0 : i0 + 18] = dcom.reshape(n, 18, nd, nd)
             i0 += size
         w0, phi = undamped_modes(m, kmat)
