@@ -9,6 +9,7 @@ tensors rotated into the world).
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
@@ -143,25 +144,28 @@ def test_derivatives_match_differences() -> None:
     np.testing.assert_allclose(dm1, COM_UNIT_M * dm[1], rtol=1e-12, atol=1e-12 * np.abs(dm).max())
     np.testing.assert_allclose(dtau1, COM_UNIT_M * dtau[1], rtol=1e-12, atol=1e-9)
     np.testing.assert_array_equal(core.moment_derivatives(2, lm), dml[2])
-    h = 1e-6
     for c, b in enumerate(COM):
         for k in range(3):
-            dp, dn = d.copy(), d.copy()
-            dp[c, k] += h
-            dn[c, k] -= h
-            fd = (core.body_matrices(dp, lm) - core.body_matrices(dn, lm)) / (2 * h)
+            fd = _central(lambda v: core.body_matrices(v, lm), d, c, k)
             np.testing.assert_allclose(fd[:, b], dm[:, c, k], atol=1e-7 * np.abs(dm).max())
             others = np.delete(fd, b, axis=1)
             assert np.abs(others).max() < 1e-7 * np.abs(dm).max()
-            fg = (core.body_gravity(dp) - core.body_gravity(dn)) / (2 * h)
+            fg = _central(core.body_gravity, d, c, k)
             np.testing.assert_allclose(fg[:, b], dtau[:, c, k], atol=1e-6)
     for c, b in enumerate(MOMENTS):
         for k in range(3):
-            lp, ln = lm.copy(), lm.copy()
-            lp[c, k] += h
-            ln[c, k] -= h
-            fd = (core.body_matrices(d, lp) - core.body_matrices(d, ln)) / (2 * h)
+            fd = _central(lambda v: core.body_matrices(d, v), lm, c, k)
             np.testing.assert_allclose(fd[:, b], dml[:, c, k], atol=1e-7 * np.abs(dml).max())
+
+
+def _central(f: Callable[[np.ndarray], np.ndarray], a: np.ndarray, c: int, k: int) -> np.ndarray:
+    """Central difference of ``f`` at ``a`` along entry ``(c, k)``, step 1e-6."""
+    h = 1e-6
+    ap, an = a.copy(), a.copy()
+    ap[c, k] += h
+    an[c, k] -= h
+    out: np.ndarray = (f(ap) - f(an)) / (2 * h)
+    return out
 
 
 @pytest.mark.parametrize(
