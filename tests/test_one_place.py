@@ -12,7 +12,11 @@ inside functions included, however the function was imported):
   and ``k_N_per_m`` fields is :class:`robolobe._modal_parameters.ModalParameters`;
   the few others are different concepts, listed with the reason;
 * **the worker pool**: joblib's ``Parallel`` is called in ``_workers.py`` only
-  (plus the batch planner's unordered stream of whole plans).
+  (plus the batch planner's unordered stream of whole plans);
+* **mass matrices from body Jacobians**: products (``einsum``, ``@``) over a
+  body's Jacobians ``jv``/``jw`` are in the twin's assembly (``twin/dynamics.py``)
+  and the parametrised-twin core (``twin/params.py``, moved centres of mass,
+  scaled inertias, their derivatives and gravity torques) only.
 
 A new call elsewhere fails here: call the home instead, or add it below
 with the reason it is a different concept.
@@ -64,6 +68,16 @@ POOL_ELSEWHERE: dict[str, str] = {
     "plan/batch.py": "whole plans streamed unordered as each finishes, beside a Dask cluster",
 }
 
+#: Products over body Jacobians: module -> why it is not
+#: :class:`robolobe.twin.params.BodyMassModel`.
+BODY_JACOBIAN_ELSEWHERE: dict[str, str] = {
+    "twin/params.py": "the home: BodyMassModel, the parametrised-twin core",
+    "twin/dynamics.py": "the twin's own assembly of a robot's bodies (BodySet.mass_matrix, "
+    "gravity_torques), which the core's test checks it against",
+}
+
+BODY_JACOBIANS = {"jv", "jw"}
+
 EIG_NAMES = {"eig", "eigvals"}
 ASSIGNMENT_NAMES = {"linear_sum_assignment"}
 POOL_NAMES = {"Parallel"}
@@ -82,6 +96,36 @@ def _called_names(path: Path) -> set[str]:
         elif isinstance(node, ast.ImportFrom):
             out |= {a.name for a in node.names}
     return out
+
+
+def _uses_body_jacobians(path: Path) -> bool:
+    """Whether a module multiplies body Jacobians: ``einsum`` or ``@`` with an operand that
+    names ``jv``/``jw`` (``b.jv``, ``self._jw[:, i]``...; ``tcp_jv`` is the TCP's, not a body's)."""
+
+    def names(node: ast.AST) -> set[str]:
+        out = set()
+        for n in ast.walk(node):
+            if isinstance(n, ast.Name):
+                out.add(n.id.lstrip("_"))
+            elif isinstance(n, ast.Attribute):
+                out.add(n.attr.lstrip("_"))
+        return out
+
+    for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+        if isinstance(node, ast.Call):
+            f = node.func
+            name = (
+                f.id if isinstance(f, ast.Name) else f.attr if isinstance(f, ast.Attribute) else ""
+            )
+            if name == "einsum" and any(names(a) & BODY_JACOBIANS for a in node.args):
+                return True
+        elif (
+            isinstance(node, ast.BinOp)
+            and isinstance(node.op, ast.MatMult)
+            and (names(node.left) | names(node.right)) & BODY_JACOBIANS
+        ):
+            return True
+    return False
 
 
 def _modules_calling(names: set[str]) -> set[str]:
@@ -183,3 +227,32 @@ def test_the_check_sees_calls_inside_functions(tmp_path: Path) -> None:
     names = _called_names(mod)
     assert "eigvals" in names
     assert "linear_sum_assignment" in names
+
+
+@pytest.mark.slow
+def test_mass_matrices_are_assembled_from_body_jacobians_in_one_place() -> None:
+    found = {
+        p.relative_to(SRC).as_posix() for p in sorted(SRC.rglob("*.py")) if _uses_body_jacobians(p)
+    }
+    assert found <= set(BODY_JACOBIAN_ELSEWHERE), (
+        f"products over body Jacobians (jv, jw) outside robolobe.twin.params: "
+        f"{sorted(found - set(BODY_JACOBIAN_ELSEWHERE))}; get the mass matrix, its derivatives "
+        "and gravity torques from robolobe.twin.params.BodyMassModel, or list the module with "
+        "the reason it is a different concept"
+    )
+    assert "twin/params.py" in found
+
+
+def test_the_body_jacobian_check_sees_einsum_and_matmul(tmp_path: Path) -> None:
+    seen = {
+        "a.py": "import numpy as np\ndef f(b):\n    return np.einsum('bki,bkj->ij', b.jv, b.jv)\n",
+        "b.py": "def f(self, g, p):\n    return g.T @ self._jw[p]\n",
+        "c.py": "def f(jv, w):\n    return (jv.T @ w).sum()\n",
+    }
+    unseen = {
+        "d.py": "def f(s):\n    return s.rot @ s.tcp_jv\n",
+        "e.py": "import numpy as np\ndef f(a, jv):\n    return np.einsum('ij,jk->ik', a, a), jv\n",
+    }
+    for name, text in {**seen, **unseen}.items():
+        (tmp_path / name).write_text(text, encoding="utf-8")
+        assert _uses_body_jacobians(tmp_path / name) == (name in seen), name

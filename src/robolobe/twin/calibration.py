@@ -54,7 +54,6 @@ from robolobe.robots import RigidBody, Robot, sample_postures
 from robolobe.robots.limits import as_postures
 from robolobe.robots.transforms import pose_from_xyz_zyx
 from robolobe.twin.designs import TESTED_RANGES_DEG
-from robolobe.twin.dynamics import GRAVITY_M_PER_S2
 from robolobe.twin.modes import (
     SEEN_RATIO,
     compute_modes,
@@ -62,8 +61,9 @@ from robolobe.twin.modes import (
     seen_mask,
     undamped_modes,
 )
+from robolobe.twin.params import COM_UNIT_M, BodyMassModel, body_indices
 from robolobe.twin.seed_tables import SeedTable
-from robolobe.twin.system import SystemMatrices, load_stiffened, nominal_system
+from robolobe.twin.system import load_stiffened, nominal_system
 
 __all__ = [
     "END_EFFECTORS",
@@ -692,9 +692,6 @@ class SeedFitForm:
     inertia_bound: float = 1.0
 
 
-COM_UNIT_M = 0.1
-"""Unit [m] of the fitted centre-of-mass offsets of :attr:`SeedFitForm.shape_bodies`:
-the ridge pulls 0.1 m of offset as hard as a factor e on a spring or a mass."""
 TRIANGLE_TOL = 0.002
 """Scale of the penalty on a principal inertia beyond :data:`TRIANGLE_MARGIN` x the sum
 of the other two (a physical rigid body has ``I_a <= I_b + I_c``): a log excess of 0.002
@@ -720,9 +717,11 @@ least 1e5 (a stiffer bracket than any wrist axis)."""
 class _TableModel:
     """Undamped TCP modes of a robot with the form's DOFs for many parameter vectors.
 
-    The Jacobians of every body over all DOFs are computed once at the
-    postures (they do not depend on springs or masses); ``M`` is then a
-    weighted sum of per-body mass matrices and ``K`` diagonal.
+    The seed-table fit's parametrisation (parameter layout, bounds, load
+    stiffening, level, triangle penalty, the robot file it writes) on the
+    parametrised-twin core :class:`robolobe.twin.params.BodyMassModel`, which
+    gives ``M``, its derivatives and the bodies' gravity torques from
+    Jacobians computed once at the postures; ``K`` is diagonal.
     """
 
     def __init__(
@@ -738,31 +737,27 @@ class _TableModel:
         self.base = r
         self.form = form
         s = nominal_system(r, q)
-        b = s.bodies
-        self.nb = len(b.names)
-        self.body_mass = np.asarray(b.mass_kg, dtype=np.float64)
-        self.nd = s.n_dof
-        self.mb = np.einsum("b,pbki,pbkj->pbij", b.mass_kg, b.jv, b.jv) + np.einsum(
-            "pbki,pbkl,pblj->pbij", b.jw, b.inertia_kgm2, b.jw
+        # the bodies whose COM offset and principal moments are parameters
+        self.shape = body_indices("shape_bodies", form.shape_bodies, len(s.bodies.names))
+        self.bodies = BodyMassModel(
+            s, com_bodies=form.shape_bodies, moment_bodies=form.shape_bodies
         )
+        self.nb = len(self.bodies.mass_kg)
+        self.body_mass = self.bodies.mass_kg
+        self.nd = s.n_dof
         jac = s.J if form.frame == "tcp" else s.tcp_jv
         self.j = jac[:, form.direction, :]  # (p, nd)
-        self._shape_init(r, s, form)
         k6 = robot.stiffness
         tilt = np.repeat(form.tilt_prior * k6[list(form.tilt_joints)], 2)
         mount = [form.mount_prior_Nm_per_rad] * (2 if form.mount else 0)
         self.k0 = np.concatenate([k6, tilt, mount])
-        # gravity torque of each body on the six axes at the prior masses, (p, nb, 6):
-        # the torque is linear in the mass factors
-        g = np.array([0.0, 0.0, -GRAVITY_M_PER_S2])
-        self.g = g
-        self.tau_b = np.einsum("b,k,pbkj->pbj", b.mass_kg, g, b.jv[..., :6])
         self.load = np.array(form.load_joints, dtype=np.intp)
         nl = len(self.load)
         # scale of the load parameters [N m]: the largest gravity torque at these postures,
         # or the caller's (a sub-model of one posture shares its parent's)
         if tau_ref is None:
-            tau_ref = np.maximum(np.abs(self.tau_b.sum(axis=1))[:, self.load].max(axis=0), 1.0)
+            tau = self.bodies.gravity_torques(np.ones(self.nb))  # prior masses and COMs
+            tau_ref = np.maximum(np.abs(tau)[:, self.load].max(axis=0), 1.0)
         self.tau_ref = np.asarray(tau_ref, dtype=np.float64)
         ns = self.nd
         nsh = 6 * len(self.shape)
@@ -802,84 +797,29 @@ class _TableModel:
             self.k_hi = hi_k[:6].copy()
         self.lower[-1], self.upper[-1] = np.log(form.k_level_range)
 
-    def _shape_init(self, r: Robot, s: SystemMatrices, form: SeedFitForm) -> None:
-        """Per shape body: the Jacobians split so that the mass matrix is an explicit
-        function of the COM offset and the principal inertias."""
-        self.shape = np.array(form.shape_bodies, dtype=np.intp)
-        bodies = [jt.body for jt in r.joints]
-        if r.end_effector is not None:
-            bodies.append(r.end_effector)
-        if len(set(form.shape_bodies)) != len(form.shape_bodies) or any(
-            not 0 <= bi < len(bodies) for bi in form.shape_bodies
-        ):
-            raise InputError(
-                f"shape_bodies: expected distinct body indices 0..{len(bodies) - 1}, "
-                f"found {form.shape_bodies!r}"
-            )
-        self.sh: list[dict[str, Any]] = []
-        for bi in form.shape_bodies:
-            body = bodies[bi]
-            rot = s.frames[:, bi + 1 if bi < 6 else 7, :3, :3]  # (p, 3, 3) body frame
-            jv, jw = s.bodies.jv[:, bi], s.bodies.jw[:, bi]  # (p, 3, nd)
-            # d jv / d c_k = -(R e_k) x jw for a COM moved by c along body axis k
-            gk = -np.cross(np.swapaxes(rot, 1, 2)[:, :, :, None], jw[:, None], axis=2)
-            lam, vec = np.linalg.eigh(body.inertia_kgm2)
-            self.sh.append({
-                "m": body.mass_kg,
-                "c0": body.com_m.copy(),
-                "jvo": jv - np.einsum("pkin,k->pin", gk, body.com_m),  # frame origin
-                "G": gk,  # (p, 3, 3, nd)
-                "A": np.einsum("pki,pkl,lm->pim", jw, rot, vec),  # jw^T R V, (p, nd, 3)
-                "lam": np.maximum(lam, 1e-9 * max(lam.max(), 1e-9)),
-                "V": vec,
-            })  # fmt: skip
-
-    def shape_state(self, x: FloatArray) -> list[tuple[FloatArray, FloatArray, FloatArray]]:
-        """Per shape body: COM [m] (body frame), principal moments [kg m^2] (prior
-        mass), COM Jacobian (p, 3, nd)."""
-        y = x[self.slices["shape"]].reshape(-1, 6) if len(self.shape) else np.zeros((0, 6))
-        out = []
-        for d, yy in zip(self.sh, y, strict=True):
-            c = d["c0"] + COM_UNIT_M * yy[:3]
-            jv = d["jvo"] + np.einsum("pkin,k->pin", d["G"], c)
-            out.append((c, d["lam"] * np.exp(yy[3:]), jv))
-        return out
+    def shape_parameters(self, x: FloatArray) -> tuple[FloatArray, FloatArray]:
+        """COM offsets [m] (body frame) and log factors of the principal moments of the
+        shape bodies, shape (nsb, 3) each."""
+        y = x[self.slices["shape"]].reshape(-1, 6)
+        return COM_UNIT_M * y[:, :3], y[:, 3:]
 
     def body_matrices(self, x: FloatArray) -> FloatArray:
         """Each body's mass matrix at the prior masses, shape (p, nb, nd, nd)."""
-        if not len(self.shape):
-            return self.mb
-        mb = self.mb.copy()
-        for bi, d, (_, lam, jv) in zip(self.shape, self.sh, self.shape_state(x), strict=True):
-            mb[:, bi] = d["m"] * np.einsum("pki,pkj->pij", jv, jv) + np.einsum(
-                "pim,m,pjm->pij", d["A"], lam, d["A"]
-            )
-        return mb
+        return self.bodies.body_matrices(*self.shape_parameters(x))
 
     def body_gravity(self, x: FloatArray) -> FloatArray:
         """Gravity torque of each body on the six axes at the prior masses, (p, nb, 6)."""
-        if not len(self.shape):
-            return self.tau_b
-        tb = self.tau_b.copy()
-        for bi, d, (_, _, jv) in zip(self.shape, self.sh, self.shape_state(x), strict=True):
-            tb[:, bi] = d["m"] * np.einsum("k,pkj->pj", self.g, jv[..., :6])
-        return tb
+        return self.bodies.body_gravity(self.shape_parameters(x)[0])
 
     def shape_derivatives(self, x: FloatArray, p: int) -> tuple[FloatArray, FloatArray]:
         """Derivatives at posture ``p`` of the bodies' mass matrices (prior masses) and
         gravity torques with respect to the shape parameters, (nsh, nd, nd) and (nsh, 6)."""
-        nsh = 6 * len(self.shape)
-        dm = np.zeros((nsh, self.nd, self.nd))
-        dt = np.zeros((nsh, 6))
-        for n, (d, (_, lam, jv)) in enumerate(zip(self.sh, self.shape_state(x), strict=True)):
-            for k in range(3):
-                gk = d["G"][p, k] * COM_UNIT_M  # (3, nd)
-                a = d["m"] * gk.T @ jv[p]
-                dm[6 * n + k] = a + a.T
-                dt[6 * n + k] = d["m"] * self.g @ gk[:, :6]
-                col = d["A"][p, :, k]
-                dm[6 * n + 3 + k] = lam[k] * np.outer(col, col)
-        return dm, dt
+        d, lm = self.shape_parameters(x)
+        n, nd = len(self.shape), self.nd
+        dm_c, dt_c = self.bodies.com_derivatives(p, d, COM_UNIT_M)
+        dm = np.concatenate([dm_c, self.bodies.moment_derivatives(p, lm)], axis=1)
+        dt = np.concatenate([dt_c, np.zeros((n, 3, 6))], axis=1)
+        return dm.reshape(6 * n, nd, nd), dt.reshape(6 * n, 6)
 
     def triangle(self, x: FloatArray) -> tuple[FloatArray, FloatArray]:
         """Excess ``log(I_a / (m (I_b + I_c)))`` (``m`` :data:`TRIANGLE_MARGIN`) of every
@@ -889,7 +829,7 @@ class _TableModel:
         out = np.zeros(3 * n)
         jac = np.zeros((3 * n, self.n_params))
         st = self.slices["shape"].start
-        for i, (_, lam, _) in enumerate(self.shape_state(x)):
+        for i, lam in enumerate(self.bodies.moments(self.shape_parameters(x)[1])):
             for a in range(3):
                 b, c = [k for k in range(3) if k != a]
                 out[3 * i + a] = np.log(lam[a] / (lam[b] + lam[c]) / TRIANGLE_MARGIN)
@@ -903,7 +843,7 @@ class _TableModel:
         lowered to it (the robot-file loader's triangle inequality)."""
         out = x.copy()
         st = self.slices["shape"].start
-        for i, (_, lam, _) in enumerate(self.shape_state(x)):
+        for i, lam in enumerate(self.bodies.moments(self.shape_parameters(x)[1])):
             a = int(np.argmax(lam))
             cap = 0.995 * (lam.sum() - lam[a])
             if lam[a] > cap:
@@ -913,9 +853,10 @@ class _TableModel:
     def stiffness(self, x: FloatArray) -> FloatArray:
         """Spring of every DOF at every posture [N m/rad], shape (p, nd)."""
         k = self.k0 * np.exp(x[self.slices["k"]])
-        out = np.repeat(k[None, :], self.tau_b.shape[0], axis=0)
+        out = np.repeat(k[None, :], self.bodies.n_postures, axis=0)
         if len(self.load):
-            tau = np.einsum("b,pbj->pj", self.mass_scales(x), self.body_gravity(x))[:, self.load]
+            d = self.shape_parameters(x)[0]
+            tau = self.bodies.gravity_torques(self.mass_scales(x), d)[:, self.load]
             s = x[self.slices["load"]] / self.tau_ref
             out[:, self.load] = load_stiffened(k[self.load], s, tau)
         return out
@@ -928,7 +869,8 @@ class _TableModel:
         return sc
 
     def matrices(self, x: FloatArray) -> tuple[FloatArray, FloatArray]:
-        m = np.einsum("b,pbij->pij", self.mass_scales(x), self.body_matrices(x))
+        """M (p, nd, nd) and K (p, nd, nd) for parameters ``x``."""
+        m = self.bodies.mass_matrix(self.mass_scales(x), *self.shape_parameters(x))
         return m, self.stiffness(x)[:, :, None] * np.eye(self.nd)
 
     def modes(self, x: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
@@ -956,9 +898,12 @@ class _TableModel:
             s[self.load] = x[self.slices["load"]] / self.tau_ref
             r = r.with_load_stiffening(s)
         sc = self.mass_scales(x)
+        d, lm = self.shape_parameters(x)
         dist = {
-            int(bi): (c, d["V"] @ np.diag(lam) @ d["V"].T)
-            for bi, d, (c, lam, _) in zip(self.shape, self.sh, self.shape_state(x), strict=True)
+            int(bi): (c, inertia)
+            for bi, c, inertia in zip(
+                self.shape, self.bodies.coms(d), self.bodies.inertias(lm), strict=True
+            )
         }
 
         def body(n: int, b: RigidBody) -> RigidBody:

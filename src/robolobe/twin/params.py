@@ -2,8 +2,16 @@
 
 The one parametrised-twin core: the transfer calibration
 (:class:`robolobe.tl.graybox.TwinCalibration`), the diagnosis' file
-calibration (:mod:`robolobe.diagnose.calibration`) and the plan-safety study
-fit and perturb robot files through these groups.
+calibration (:mod:`robolobe.diagnose.calibration`), the built-in robots'
+seed-table fit (:func:`robolobe.twin.calibration.fit_seed_table`) and the
+plan-safety study fit and perturb robot files through this module.
+
+:class:`BodyMassModel` is the shared mechanics: each body's Jacobians at
+fixed postures, computed once, and from them the mass matrix, its
+derivatives and the gravity torques as functions of the bodies' mass
+factors, centre-of-mass offsets (body frame) and principal moments of
+inertia. :class:`ParametrizedTwin` and the seed-table fit's model are two
+parametrisations on it.
 
 A robot file is a prior: joint stiffnesses and dampings are rarely
 published, and link masses, centres of mass and the spindle mass of B and C
@@ -23,9 +31,8 @@ link_com   18   offset of each link's centre of mass in its own frame,
 ========== ==== ====================================================
 
 :class:`ParametrizedTwin` evaluates the twin's modes for many ``theta`` at
-fixed postures without rebuilding the robot: the bodies' Jacobians are
-computed once, and the mass matrix is reassembled from them (a moved centre
-of mass changes a body's linear Jacobian by ``-[R d]_x Jw``). It gives the same
+fixed postures without rebuilding the robot (the mass matrix from
+:class:`BodyMassModel`). It gives the same
 modes as ``Twin(apply_parameters(robot, groups, theta)).modes(q)`` (tested to
 1e-9) about three times faster, which is what makes the 37-parameter fit
 quick. A robot file with the optional tilt or mount compliances (docs/guide/robots.md
@@ -38,6 +45,7 @@ from __future__ import annotations
 
 import dataclasses
 from collections.abc import Sequence
+from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -45,14 +53,20 @@ from numpy.typing import ArrayLike, NDArray
 from robolobe._directions import DRIVING, dir_index
 from robolobe.errors import InputError
 from robolobe.robots.model import RigidBody, Robot
-from robolobe.robots.transforms import skew
+from robolobe.twin.dynamics import GRAVITY_M_PER_S2
 from robolobe.twin.modes import Modes, compute_modes, damped_poles, undamped_modes
+
+if TYPE_CHECKING:
+    from robolobe.twin.system import SystemMatrices
 
 __all__ = [
     "COM_UNIT_M",
+    "MOMENT_FLOOR",
     "PARAMETER_GROUPS",
+    "BodyMassModel",
     "ParametrizedTwin",
     "apply_parameters",
+    "body_indices",
     "modal_values",
     "parameter_names",
 ]
@@ -68,7 +82,12 @@ PARAMETER_GROUPS: dict[str, int] = {
     "link_com": 18,
 }
 COM_UNIT_M = 0.1
-"""Length of one unit of a ``link_com`` parameter [m]."""
+"""Length of one unit of a fitted centre-of-mass offset [m] (``link_com`` here, the
+seed-table fit's ``shape_bodies``): a ridge on the parameters pulls 0.1 m of offset as
+hard as a factor e on a spring or a mass."""
+MOMENT_FLOOR = 1e-9
+"""Smallest principal moment of inertia of :class:`BodyMassModel` relative to the body's
+largest (a point-like body keeps a finite log factor)."""
 K_MAX = 1e15  # N/m: modal stiffness of a mode that does not move the TCP along a direction
 
 
@@ -184,6 +203,328 @@ def modal_values(modes: Modes, directions: Sequence[str], n_modes: int) -> Float
     return out
 
 
+def body_indices(name: str, bodies: Sequence[int], n: int) -> NDArray[np.intp]:
+    """``bodies`` as an index array, checked to be distinct indices ``0..n-1``.
+
+    Parameters
+    ----------
+    name : str
+        The argument's name in the error message.
+    bodies : sequence of int
+        0-based bodies (0-5 links 1-6, 6 the end effector).
+    n : int
+        Number of bodies (6, or 7 with an end effector).
+
+    Raises
+    ------
+    InputError
+        On a repeated or out-of-range index.
+    """
+    idx = np.array([int(b) for b in bodies], dtype=np.intp)
+    if len(set(idx.tolist())) != idx.size or np.any((idx < 0) | (idx >= n)):
+        raise InputError(
+            f"{name}: expected distinct body indices 0..{n - 1}, found {tuple(bodies)!r}"
+        )
+    return idx
+
+
+class BodyMassModel:
+    """Mass matrix and gravity torques of a twin's bodies at fixed postures.
+
+    The shared mechanics of every parametrised twin. A body's Jacobians do not
+    depend on its mass or inertia, and the linear Jacobian of its centre of
+    mass ``c`` (body frame) is ``Jv(c) = Jv_o + sum_k c_k G_k`` with
+    ``G_k = -[R e_k]_x Jw`` (``v = v_o + w x R c``), linear in ``c``. So the
+    Jacobians are computed once at the postures, and for mass factors
+    ``s_b``, centre-of-mass offsets ``d_b`` from the robot file's ``c0_b`` and
+    log factors ``l_b`` on the principal moments
+
+    ``M = sum_b s_b (m_b Jv_b^T Jv_b + Jw_b^T R_b I_b R_b^T Jw_b)``,
+    ``Jv_b = Jv_b(c0_b + d_b)``, ``I_b = V_b diag(lam_b exp(l_b)) V_b^T``,
+    ``tau_g = sum_b s_b m_b Jv_b[:, :6]^T g``
+
+    with ``m_b``, ``lam_b``, ``V_b`` the robot file's mass, principal moments
+    and principal axes (body frame), ``R_b`` the body frame's world rotation
+    and ``g = (0, 0, -9.81) m/s^2``: ``tau_g`` are the generalised gravity
+    forces on the six axes, as :func:`robolobe.twin.dynamics.gravity_torques`.
+    Only the ``com_bodies`` move their centre of mass and only the
+    ``moment_bodies`` change their principal moments; a mass factor scales a
+    body's mass and inertia together.
+
+    Parameters
+    ----------
+    system : SystemMatrices
+        The twin at the postures (:func:`robolobe.twin.system.nominal_system`
+        of the robot file), batch shape (n,).
+    com_bodies, moment_bodies : sequence of int
+        0-based bodies (0-5 links 1-6, 6 the end effector) whose centre of
+        mass, respectively principal moments, are parameters.
+
+    Attributes
+    ----------
+    mass_kg : ndarray, shape (nb,)
+        The robot file's body masses [kg] (nb = 6, or 7 with an end effector).
+    n_dof : int
+        DOFs of the system (nd: six joints, then its compliances).
+    n_postures : int
+    com_bodies, moment_bodies : ndarray of int
+    com_m : ndarray, shape (nc, 3)
+        The file's centres of mass of the ``com_bodies``, body frame [m].
+    moments_kgm2 : ndarray, shape (nm, 3)
+        The file's principal moments of the ``moment_bodies`` about their
+        centres of mass [kg m^2], at least :data:`MOMENT_FLOOR` x the largest.
+    principal_axes : ndarray, shape (nm, 3, 3)
+        Their principal axes as columns, body frame.
+    gravity_m_per_s2 : ndarray, shape (3,)
+    """
+
+    def __init__(
+        self,
+        system: SystemMatrices,
+        *,
+        com_bodies: Sequence[int] = (),
+        moment_bodies: Sequence[int] = (),
+    ) -> None:
+        robot = system.robot
+        b = system.bodies
+        if system.q.ndim != 2:
+            raise InputError(
+                f"postures: expected joint angles of shape (n, 6), found {system.q.shape}"
+            )
+        files = [jt.body for jt in robot.joints]
+        if robot.end_effector is not None:
+            files.append(robot.end_effector)
+        nr = len(files)
+        if b.names[:nr] != tuple(f"link{i + 1}" for i in range(6)) + ("end_effector",) * (nr - 6):
+            raise InputError(f"system: expected the robot file's bodies first, found {b.names}")
+        self.com_bodies = body_indices("com_bodies", com_bodies, nr)
+        self.moment_bodies = body_indices("moment_bodies", moment_bodies, nr)
+        self.mass_kg = np.asarray(b.mass_kg, dtype=np.float64)
+        self.n_dof = int(system.n_dof)
+        self.n_postures = int(system.q.shape[0])
+        self.gravity_m_per_s2 = np.array([0.0, 0.0, -GRAVITY_M_PER_S2])
+        # per-body parts at the robot file's masses, COMs and inertias, (n, nb, nd, nd)
+        self._trans = np.einsum("b,pbki,pbkj->pbij", self.mass_kg, b.jv, b.jv)
+        self._rot = np.einsum("pbki,pbkl,pblj->pbij", b.jw, b.inertia_kgm2, b.jw)
+        self._parts = self._trans + self._rot
+        self._tau = np.einsum("b,k,pbkj->pbj", self.mass_kg, self.gravity_m_per_s2, b.jv[..., :6])
+        # body b is given in frame b + 1, (n, 3, 3) each
+        rot = [system.frames[:, i + 1, :3, :3] for i in range(nr)]
+        self.com_m = np.array([files[i].com_m for i in self.com_bodies]).reshape(-1, 3)
+        self._g: list[FloatArray] = []  # d Jv / d c_k = -(R e_k) x Jw, (n, k, 3, nd)
+        self._jvo: list[FloatArray] = []  # Jv of the body frame's origin, (n, 3, nd)
+        for i, c0 in zip(self.com_bodies, self.com_m, strict=True):
+            g = -np.cross(np.swapaxes(rot[i], 1, 2)[:, :, :, None], b.jw[:, i, None], axis=2)
+            self._g.append(g)
+            self._jvo.append(b.jv[:, i] - np.einsum("pkin,k->pin", g, c0))
+        nm = self.moment_bodies.size
+        self.moments_kgm2 = np.zeros((nm, 3))
+        self.principal_axes = np.zeros((nm, 3, 3))
+        self._a: list[FloatArray] = []  # Jw^T R V, (n, nd, 3)
+        for n, i in enumerate(self.moment_bodies):
+            lam, vec = np.linalg.eigh(files[i].inertia_kgm2)
+            self.moments_kgm2[n] = np.maximum(lam, MOMENT_FLOOR * max(lam.max(), MOMENT_FLOOR))
+            self.principal_axes[n] = vec
+            self._a.append(np.einsum("pki,pkl,lm->pim", b.jw[:, i], rot[i], vec))
+
+    def _offsets(self, offsets_m: ArrayLike | None) -> FloatArray:
+        nc = self.com_bodies.size
+        if offsets_m is None:
+            return np.zeros((nc, 3))
+        d = np.asarray(offsets_m, dtype=np.float64)
+        if d.shape != (nc, 3):
+            raise InputError(f"offsets_m: expected shape ({nc}, 3), found {d.shape}")
+        return d
+
+    def coms(self, offsets_m: ArrayLike | None = None) -> FloatArray:
+        """Centres of mass of the ``com_bodies`` moved by ``offsets_m`` (nc, 3), body frame
+        [m], shape (nc, 3)."""
+        out: FloatArray = self.com_m + self._offsets(offsets_m)
+        return out
+
+    def moments(self, log_moments: ArrayLike | None = None) -> FloatArray:
+        """Principal moments of the ``moment_bodies`` for log factors ``log_moments`` (nm, 3),
+        at the file's masses [kg m^2], shape (nm, 3)."""
+        if log_moments is None:
+            return self.moments_kgm2.copy()
+        out: FloatArray = self.moments_kgm2 * np.exp(np.asarray(log_moments, dtype=np.float64))
+        return out
+
+    def inertias(self, log_moments: ArrayLike | None = None) -> FloatArray:
+        """Inertia tensors of the ``moment_bodies`` about their centres of mass, body
+        frame, at the file's masses [kg m^2], shape (nm, 3, 3)."""
+        v = self.principal_axes
+        lam = self.moments(log_moments)
+        return np.array([v[n] @ np.diag(lam[n]) @ v[n].T for n in range(len(v))]).reshape(-1, 3, 3)
+
+    def com_jacobians(self, offsets_m: ArrayLike | None = None) -> list[FloatArray]:
+        """World linear velocity of each moved centre of mass per unit DOF velocity.
+
+        Parameters
+        ----------
+        offsets_m : array_like, shape (nc, 3), optional
+            Centre-of-mass offsets of the ``com_bodies`` from the robot file's,
+            body frame [m]; None: none.
+
+        Returns
+        -------
+        list of ndarray, shape (n, 3, nd)
+            One per ``com_bodies``.
+        """
+        return [
+            jvo + np.einsum("pkin,k->pin", g, c)
+            for jvo, g, c in zip(self._jvo, self._g, self.coms(offsets_m), strict=True)
+        ]
+
+    def body_matrices(
+        self, offsets_m: ArrayLike | None = None, log_moments: ArrayLike | None = None
+    ) -> FloatArray:
+        """Each body's part of the mass matrix at the robot file's masses.
+
+        Parameters
+        ----------
+        offsets_m : array_like, shape (nc, 3), optional
+            Centre-of-mass offsets of the ``com_bodies``, body frame [m]; None:
+            the file's centres of mass (and the file's parts of the bodies).
+        log_moments : array_like, shape (nm, 3), optional
+            Log factors on the principal moments of the ``moment_bodies``
+            (None: 0).
+
+        Returns
+        -------
+        ndarray, shape (n, nb, nd, nd)
+            ``m_b Jv_b^T Jv_b + Jw_b^T I_b Jw_b``; the mass matrix for mass
+            factors ``s`` is ``sum_b s_b`` of them (:meth:`mass_matrix`).
+        """
+        moved = offsets_m is not None and self.com_bodies.size > 0
+        if not moved and not self.moment_bodies.size:
+            return self._parts
+        trans: dict[int, FloatArray] = {}
+        if moved:
+            for i, jv in zip(self.com_bodies, self.com_jacobians(offsets_m), strict=True):
+                trans[int(i)] = self.mass_kg[i] * np.einsum("pki,pkj->pij", jv, jv)
+        rot: dict[int, FloatArray] = {}
+        for i, a, lam in zip(self.moment_bodies, self._a, self.moments(log_moments), strict=True):
+            rot[int(i)] = np.einsum("pim,m,pjm->pij", a, lam, a)
+        out = self._parts.copy()
+        for i in set(trans) | set(rot):
+            t = trans[i] if i in trans else self._trans[:, i]
+            out[:, i] = t + (rot[i] if i in rot else self._rot[:, i])
+        return out
+
+    def mass_matrix(
+        self,
+        scales: ArrayLike,
+        offsets_m: ArrayLike | None = None,
+        log_moments: ArrayLike | None = None,
+    ) -> FloatArray:
+        """The mass matrix, shape (n, nd, nd) (symmetric to rounding).
+
+        Parameters
+        ----------
+        scales : array_like, shape (nb,)
+            Factors on each body's mass and inertia (1: the robot file).
+        offsets_m, log_moments : array_like, optional
+            See :meth:`body_matrices`.
+        """
+        s = np.asarray(scales, dtype=np.float64)
+        out: FloatArray = np.einsum("b,pbij->pij", s, self.body_matrices(offsets_m, log_moments))
+        return out
+
+    def body_gravity(self, offsets_m: ArrayLike | None = None) -> FloatArray:
+        """Gravity torque of each body on the six axes at the robot file's masses.
+
+        Parameters
+        ----------
+        offsets_m : array_like, shape (nc, 3), optional
+            Centre-of-mass offsets of the ``com_bodies``, body frame [m].
+
+        Returns
+        -------
+        ndarray, shape (n, nb, 6)
+            ``m_b Jv_b[:, :6]^T g`` [N m]; linear in the mass factors.
+        """
+        if offsets_m is None or not self.com_bodies.size:
+            return self._tau
+        out = self._tau.copy()
+        g = self.gravity_m_per_s2
+        for i, jv in zip(self.com_bodies, self.com_jacobians(offsets_m), strict=True):
+            out[:, i] = self.mass_kg[i] * np.einsum("k,pkj->pj", g, jv[..., :6])
+        return out
+
+    def gravity_torques(self, scales: ArrayLike, offsets_m: ArrayLike | None = None) -> FloatArray:
+        """Gravity torques on the six axes [N m], shape (n, 6), for mass factors ``scales``
+        (nb,) and centre-of-mass offsets ``offsets_m`` (nc, 3) [m]."""
+        s = np.asarray(scales, dtype=np.float64)
+        out: FloatArray = np.einsum("b,pbj->pj", s, self.body_gravity(offsets_m))
+        return out
+
+    def com_derivatives(
+        self, posture: int | slice, offsets_m: ArrayLike | None = None, unit_m: float = 1.0
+    ) -> tuple[FloatArray, FloatArray]:
+        """Derivatives with respect to the centre-of-mass offsets.
+
+        Parameters
+        ----------
+        posture : int or slice
+            Index of the postures (``slice(None)``: all).
+        offsets_m : array_like, shape (nc, 3), optional
+            Where [m] (None: the robot file's centres of mass).
+        unit_m : float
+            Length of one unit of offset [m] the derivatives are taken per.
+
+        Returns
+        -------
+        dm : ndarray, shape (..., nc, 3, nd, nd)
+            ``d (m_c Jv_c^T Jv_c) / d d_ck`` per unit of offset along body axis
+            k of ``com_bodies[c]``, file masses (the only body part it
+            changes); ``...`` is () for one posture, (n,) for a slice.
+        dtau : ndarray, shape (..., nc, 3, 6)
+            ``d tau_c / d d_ck`` [N m per unit] of :meth:`body_gravity`.
+        """
+        nd = self.n_dof
+        batch = np.empty(self.n_postures)[posture].shape
+        dm = np.zeros((*batch, self.com_bodies.size, 3, nd, nd))
+        dtau = np.zeros((*batch, self.com_bodies.size, 3, 6))
+        jvs = self.com_jacobians(offsets_m)
+        for n, (i, g, jv) in enumerate(zip(self.com_bodies, self._g, jvs, strict=True)):
+            m = self.mass_kg[i]
+            for k in range(3):
+                gk = g[posture, k] * unit_m  # (..., 3, nd)
+                a = m * np.swapaxes(gk, -1, -2) @ jv[posture]
+                dm[..., n, k, :, :] = a + np.swapaxes(a, -1, -2)
+                dtau[..., n, k, :] = m * self.gravity_m_per_s2 @ gk[..., :6]
+        return dm, dtau
+
+    def moment_derivatives(
+        self, posture: int | slice, log_moments: ArrayLike | None = None
+    ) -> FloatArray:
+        """Derivatives with respect to the log factors on the principal moments.
+
+        Parameters
+        ----------
+        posture : int or slice
+            Index of the postures (``slice(None)``: all).
+        log_moments : array_like, shape (nm, 3), optional
+            Where (None: 0).
+
+        Returns
+        -------
+        ndarray, shape (..., nm, 3, nd, nd)
+            ``d (Jw_b^T I_b Jw_b) / d l_bk`` of ``moment_bodies[b]`` and principal
+            axis k, file masses; ``...`` as in :meth:`com_derivatives`.
+        """
+        lam = self.moments(log_moments)
+        nd = self.n_dof
+        batch = np.empty(self.n_postures)[posture].shape
+        out = np.zeros((*batch, len(self._a), 3, nd, nd))
+        for n, a in enumerate(self._a):
+            for k in range(3):
+                col = a[posture, :, k]  # (..., nd)
+                out[..., n, k, :, :] = lam[n, k] * (col[..., :, None] * col[..., None, :])
+        return out
+
+
 class ParametrizedTwin:
     """Modes of a robot file's twin at fixed postures as a function of ``theta``.
 
@@ -224,19 +565,12 @@ class ParametrizedTwin:
         self.directions = tuple(directions)
         self.n_modes = int(n_modes)
         sys_ = nominal_system(base, q_rad)
-        b = sys_.bodies
-        nb = len(b.mass_kg)
         nd = sys_.n_dof
         self._nd = nd
         # diagonal springs/dampers: the six joints, then the file's compliance DOFs
         self._k0 = np.diagonal(sys_.K.reshape(-1, nd, nd)[0]).copy()
         self._c0 = np.diagonal(sys_.C.reshape(-1, nd, nd)[0]).copy()
-        self._m0 = b.mass_kg  # (nb,)
-        self._jv = b.jv  # (n, nb, 3, 6) at the file's COMs
-        self._jw = b.jw
-        self._rot = sys_.frames[:, 1 : nb + 1, :3, :3]  # body frames, as robot_bodies
-        self._mw = np.einsum("nbki,nbkl,nblj->nbij", b.jw, b.inertia_kgm2, b.jw)
-        self._mv = np.einsum("nbki,nbkj->nbij", b.jv, b.jv)
+        self._bodies = BodyMassModel(sys_, com_bodies=range(6) if "link_com" in self.groups else ())
         self._J = sys_.J
         self._eye = np.eye(nd)
 
@@ -250,30 +584,23 @@ class ParametrizedTwin:
         m, k, c = self._matrices(theta)
         return compute_modes(m, k, c, self._J)
 
-    def _mass_parts(
-        self, parts: dict[str, FloatArray]
-    ) -> tuple[FloatArray, FloatArray, FloatArray]:
-        """Mass scales (nb,), links' COM Jacobians (n, 6, 3, 6) and ``Jv^T Jv`` (n, nb, 6, 6)."""
-        s = np.ones(len(self._m0))
+    def _mass_parts(self, parts: dict[str, FloatArray]) -> tuple[FloatArray, FloatArray | None]:
+        """Mass factors (nb,) and the links' COM offsets [m] (6, 3), None if none."""
+        s = np.ones(len(self._bodies.mass_kg))
         if "link_mass" in parts:
             s[:6] = np.exp(parts["link_mass"])
         if "ee_mass" in parts:
             s[6] = np.exp(parts["ee_mass"][0])
-        jv = self._jv[:, :6]
-        mv = self._mv
+        d = None
         if "link_com" in parts and np.any(parts["link_com"]):
             d = COM_UNIT_M * parts["link_com"].reshape(6, 3)
-            r = np.einsum("nbij,bj->nbi", self._rot[:, :6], d)  # world offsets (n, 6, 3)
-            jv = jv - skew(r) @ self._jw[:, :6]  # v = v0 + w x r
-            mv = np.concatenate([np.einsum("nbki,nbkj->nbij", jv, jv), self._mv[:, 6:]], axis=1)
-        return s, jv, mv
+        return s, d
 
     def _matrices(self, theta: ArrayLike) -> tuple[FloatArray, FloatArray, FloatArray]:
         """M (n, nd, nd), K and C (nd, nd) for ``theta`` (nd = 6 + compliance DOFs)."""
         parts = _split(self.groups, theta)
-        s, _, mv = self._mass_parts(parts)
-        m = np.einsum("b,nbij->nij", self._m0 * s, mv) + np.einsum("b,nbij->nij", s, self._mw)
-        m = 0.5 * (m + np.swapaxes(m, -1, -2))
+        s, d = self._mass_parts(parts)
+        m = self._bodies.mass_matrix(s, d)
         k, c = self._k0.copy(), self._c0.copy()
         if "stiffness" in parts:
             k[:6] *= np.exp(parts["stiffness"])
@@ -298,9 +625,9 @@ class ParametrizedTwin:
             (a mode that does not move the TCP along the direction).
         """
         parts = _split(self.groups, theta)
-        s, jv, mv = self._mass_parts(parts)
-        w = self._m0 * s
-        n, p, nd = self._jv.shape[0], self.n_params, self._nd
+        s, com_off = self._mass_parts(parts)
+        n, p, nd = self._bodies.n_postures, self.n_params, self._nd
+        mb = self._bodies.body_matrices(com_off)  # (n, nb, nd, nd): d M / d log(mass factor)
         m, kmat, cmat = self._matrices(theta)
         k, c = np.diag(kmat), np.diag(cmat)
         dm = np.zeros((n, p, nd, nd))
@@ -314,17 +641,13 @@ class ParametrizedTwin:
             elif g == "damping":
                 dc[i0 : i0 + 6, :6] = np.diag(c[:6])
             elif g == "ee_mass":
-                dm[:, i0] = w[6] * mv[:, 6] + s[6] * self._mw[:, 6]
+                dm[:, i0] = s[6] * mb[:, 6]
             elif g == "link_mass":
-                dm[:, i0 : i0 + 6] = (
-                    w[:6, None, None] * mv[:, :6] + s[:6, None, None] * self._mw[:, :6]
-                )
-            else:  # link_com: d jv_b / d theta_ba = -unit * (R_b e_a) x w_b
-                axes = np.swapaxes(self._rot[:, :6], -1, -2)  # (n, 6, a, 3): R_b e_a
-                djv = -COM_UNIT_M * skew(axes) @ self._jw[:, :6, None]  # (n, 6, a, 3, 6)
-                t = np.einsum("nbakj,nbki->nbaij", djv, jv)  # jv^T djv, symmetrised below
-                t = w[None, :6, None, None, None] * (t + np.swapaxes(t, -1, -2))
-                dm[:, i0 : i0 + 18] = t.reshape(n, 18, nd, nd)
+                dm[:, i0 : i0 + 6] = s[:6, None, None] * mb[:, :6]
+            else:  # link_com: one unit is COM_UNIT_M along a link's own axis
+                dcom = self._bodies.com_derivatives(slice(None), com_off, COM_UNIT_M)[0]
+                dcom = s[None, :6, None, None, None] * dcom  # (n, 6, 3, nd, nd)
+                dm[:, i0 : i0 + 18] = dcom.reshape(n, 18, nd, nd)
             i0 += size
         w0, phi = undamped_modes(m, kmat)
         lam = w0**2  # (n, r)
