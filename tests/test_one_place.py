@@ -56,8 +56,9 @@ MODAL_FIELDS_ELSEWHERE: dict[str, str] = {
     "entry, not a posture batch)",
     "twin/calibration.py:ModeSummary": "statistics of a seed-table mode over postures "
     "(low, median, high of each parameter), not modal parameters",
-    "twin/calibration.py:TableComparison": "the twin matched to a seed table, a study "
-    "result (pending: could hold ModalParameters; another change owns this file)",
+    "twin/calibration.py:TableComparison": "a comparison record: the twin's modes matched "
+    "to a seed table's, in the table's mode order (not the twin's lowest modes), beside "
+    "their errors against it",
 }
 
 MODAL_FIELDS = {"f_hz", "zeta", "k_N_per_m"}
