@@ -4,10 +4,12 @@ from __future__ import annotations
 
 import base64
 import json
+import os
 import re
 import shutil
 import signal
 import subprocess
+import time
 
 import numpy as np
 import pandas as pd
@@ -314,3 +316,50 @@ def test_plot_worker_reports_a_drawing_error_as_a_failure():
     with PlotWorker() as worker:
         worker.send({"bad": object()})
         assert worker.receive() is None
+
+
+@pytest.mark.parametrize(
+    ("base", "euid", "rlimit", "cores", "expected"),
+    [
+        (0, 0, 0, 2, (19, True)),  # root: nice 19 while importing, then back
+        (0, 1000, 20, 2, (19, True)),  # RLIMIT_NICE 20 allows niceness 0 again
+        (0, 1000, 0, 2, (5, False)),  # may not go back: a bounded +5 for the whole run
+        (16, 1000, 0, 2, (3, False)),  # never past 19
+        (19, 1000, 0, 2, (0, False)),
+        (0, 1000, 0, 8, (0, False)),  # cores to spare: normal priority
+        (0, 0, 0, 1, (19, True)),
+    ],
+)
+def test_plot_workers_import_priority(base, euid, rlimit, cores, expected):
+    from robolobe.plan._plots import _import_priority
+
+    assert _import_priority(base, euid, rlimit, cores) == expected
+
+
+@pytest.mark.skipif(not hasattr(os, "getpriority"), reason="POSIX priorities")
+def test_plot_worker_imports_at_low_priority_and_restores_it():
+    """A worker runs at the lowered priority while it imports, then (where allowed) at
+    the caller's again, before it draws."""
+    from robolobe.plan._plots import PlotWorker, _import_priority_here
+
+    increment, restore_to = _import_priority_here()
+    if increment == 0:
+        pytest.skip("no lowered priority on this machine (more than two cores or nice 19)")
+    base = os.getpriority(os.PRIO_PROCESS, 0)
+    seen = []
+    with PlotWorker(1) as worker:
+        pid = worker._procs[0].pid
+        t0 = time.monotonic()
+        while time.monotonic() - t0 < 60:
+            p = os.getpriority(os.PRIO_PROCESS, pid)
+            if not seen or seen[-1] != p:
+                seen.append(p)
+            lowered = base + increment in seen
+            if lowered and (restore_to is None or (len(seen) > 1 and p == restore_to)):
+                break
+            time.sleep(0.005)
+        worker.send({})
+        assert worker.receive() == {}
+    assert base + increment in seen
+    if restore_to is not None:
+        assert seen[-1] == base
