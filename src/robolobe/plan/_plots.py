@@ -359,7 +359,7 @@ class PlotWorker:
         none on a one-core machine (nothing to gain there: :meth:`receive`
         returns None and the caller draws). Measured on the 10k-waypoint
         benchmark plan (2 cores, quiet): one worker at normal priority
-        1.71-1.84 s end to end, two at nice 19 1.54-1.60 s, two at +5
+        1.71-1.98 s end to end, two at nice 19 1.54-1.60 s, two at +5
         1.66-1.68 s, two at normal priority 1.81-2.02 s (their start-up
         slows the plan).
     """
