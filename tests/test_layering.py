@@ -3,7 +3,7 @@
 Each package depends only on those above it in DESIGN.md's list
 (robots, campaign, twin, modal, tl, sld, plan, diagnose, cli) and not on what its
 "knows nothing of" column excludes; the top-level helper modules import no
-package at all.
+package at all (``__main__``, ``python -m robolobe``, is in the CLI's layer).
 """
 
 from __future__ import annotations
@@ -29,6 +29,9 @@ ALLOWED: dict[str, set[str]] = {
     "cli": {"robots", "campaign", "twin", "modal", "tl", "sld", "plan", "diagnose"},
     "data": set(),
 }
+
+#: Top-level modules that belong to a package's layer: ``python -m robolobe`` is the CLI.
+TOP_LEVEL_LAYER: dict[str, str] = {"__main__.py": "cli"}
 
 #: Known breaches, each with the issue that removes it. Keep this short.
 KNOWN: dict[tuple[str, str], str] = {}
@@ -58,7 +61,7 @@ def _violations(src: Path = SRC) -> list[str]:
     bad = []
     for path in sorted(src.rglob("*.py")):
         rel = path.relative_to(src)
-        own = rel.parts[0] if len(rel.parts) > 1 else None
+        own = rel.parts[0] if len(rel.parts) > 1 else TOP_LEVEL_LAYER.get(rel.name)
         for lineno, mod in _imports(path, src):
             parts = mod.split(".")
             if parts[0] != "robolobe" or len(parts) < 2:
