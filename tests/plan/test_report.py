@@ -363,3 +363,27 @@ def test_plot_worker_imports_at_low_priority_and_restores_it():
     assert base + increment in seen
     if restore_to is not None:
         assert seen[-1] == base
+
+
+@pytest.mark.skipif(not hasattr(os, "getpriority"), reason="POSIX priorities")
+def test_an_unprivileged_plot_worker_stays_at_plus_5_and_delivers(result, monkeypatch):
+    """Where the worker could not restore its priority it runs at +5 throughout and still
+    delivers the figures drawn in-process."""
+    from robolobe.plan import _plots
+
+    base = os.getpriority(os.PRIO_PROCESS, 0)
+    if base + 5 > 19:
+        pytest.skip("already at the lowest priority")
+    monkeypatch.setattr(_plots, "_import_priority_here", lambda: (5, None))
+    records = {name: report._DATA[name](result) for name in report.PLOTS[:1]}
+    with _plots.PlotWorker(1) as worker:
+        pid = worker._procs[0].pid
+        t0 = time.monotonic()
+        while os.getpriority(os.PRIO_PROCESS, pid) != base + 5 and time.monotonic() - t0 < 30:
+            time.sleep(0.005)
+        assert os.getpriority(os.PRIO_PROCESS, pid) == base + 5
+        worker.send(records)
+        got = worker.receive()
+    assert got is not None
+    name = report.PLOTS[0]
+    assert got[name] == _plots.png(_plots.draw(records[name]))
