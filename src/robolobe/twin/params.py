@@ -417,6 +417,8 @@ class BodyMassModel:
         scales: ArrayLike,
         offsets_m: ArrayLike | None = None,
         log_moments: ArrayLike | None = None,
+        *,
+        body_parts: FloatArray | None = None,
     ) -> FloatArray:
         """The mass matrix, shape (n, nd, nd) (symmetric to rounding).
 
@@ -426,9 +428,14 @@ class BodyMassModel:
             Factors on each body's mass and inertia (1: the robot file).
         offsets_m, log_moments : array_like, optional
             See :meth:`body_matrices`.
+        body_parts : ndarray, shape (n, nb, nd, nd), optional
+            :meth:`body_matrices` at ``offsets_m`` and ``log_moments``, where the
+            caller has made it already (then those two are not used).
         """
         s = np.asarray(scales, dtype=np.float64)
-        out: FloatArray = np.einsum("b,pbij->pij", s, self.body_matrices(offsets_m, log_moments))
+        if body_parts is None:
+            body_parts = self.body_matrices(offsets_m, log_moments)
+        out: FloatArray = np.einsum("b,pbij->pij", s, body_parts)
         return out
 
     def body_gravity(self, offsets_m: ArrayLike | None = None) -> FloatArray:
@@ -600,13 +607,16 @@ class ParametrizedTwin:
         """M (n, nd, nd), K and C (nd, nd) for ``theta`` (nd = 6 + compliance DOFs)."""
         parts = _split(self.groups, theta)
         s, d = self._mass_parts(parts)
-        m = self._bodies.mass_matrix(s, d)
+        return (self._bodies.mass_matrix(s, d), *self._springs(parts))
+
+    def _springs(self, parts: dict[str, FloatArray]) -> tuple[FloatArray, FloatArray]:
+        """K and C (nd, nd) for the parameter groups ``parts``."""
         k, c = self._k0.copy(), self._c0.copy()
         if "stiffness" in parts:
             k[:6] *= np.exp(parts["stiffness"])
         if "damping" in parts:
             c[:6] *= np.exp(parts["damping"])
-        return m, self._eye * k, self._eye * c
+        return self._eye * k, self._eye * c
 
     def log_jacobian(self, theta: ArrayLike) -> FloatArray:
         """Derivatives of the log of :meth:`values` with respect to ``theta``.
@@ -628,7 +638,8 @@ class ParametrizedTwin:
         s, com_off = self._mass_parts(parts)
         n, p, nd = self._bodies.n_postures, self.n_params, self._nd
         mb = self._bodies.body_matrices(com_off)  # (n, nb, nd, nd): d M / d log(mass factor)
-        m, kmat, cmat = self._matrices(theta)
+        m = self._bodies.mass_matrix(s, body_parts=mb)
+        kmat, cmat = self._springs(parts)
         k, c = np.diag(kmat), np.diag(cmat)
         dm = np.zeros((n, p, nd, nd))
         dk = np.zeros((p, nd))
