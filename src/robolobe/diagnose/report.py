@@ -311,7 +311,7 @@ def write_report(d: Diagnosis, path: str | os.PathLike[str]) -> Path:
     """
     rep = to_report(d)
     target = Path(path)
-    with atomic_dir(target) as tmp:
+    with atomic_dir(target, "diagnose-report", option="--report") as tmp:
         _mismatch_map(d, tmp / "mismatch_map.png")
         _overlays(d, tmp / "frf_overlays.png")
         _ranking(rep, tmp / "ranking.png")

@@ -68,7 +68,7 @@ def write_updated_model(
         names = ", ".join(e.name for e in baked)
         updated = updated.replace(name=f"{robot.name} (updated by diagnosis: {names})")
     target = Path(path)
-    with atomic_dir(target) as tmp:
+    with atomic_dir(target, "updated-model", option="--updated-model") as tmp:
         (tmp / "robot.toml").write_text(robot_to_toml(updated), encoding="utf-8")
         (tmp / "effects.toml").write_text(effects_to_toml(rest, note=note), encoding="utf-8")
     return target

@@ -16,6 +16,7 @@ import pandas as pd
 from matplotlib.figure import Figure
 from numpy.typing import NDArray
 
+from robolobe._atomic import SafeNames, unique_names
 from robolobe._directions import AXES
 from robolobe.modal.measurement import MeasurementModal
 from robolobe.modal.posture import PostureModal
@@ -27,6 +28,7 @@ __all__ = [
     "plot_frf_overlay",
     "plot_measurement",
     "plot_stabilization",
+    "posture_plot_names",
     "save_posture_plots",
 ]
 
@@ -237,6 +239,21 @@ def plot_frf_overlay(pm: PostureModal, rows: pd.DataFrame, path: str | os.PathLi
     return out
 
 
+def posture_plot_names(postures: Sequence[PostureModal]) -> SafeNames:
+    """The file-name part of each posture's plots (:func:`save_posture_plots`), with notes.
+
+    The posture id made a safe, distinct file name
+    (:func:`robolobe._atomic.unique_names`); the notes name the ids written
+    under another name.
+    """
+    return unique_names(
+        [_SAFE.sub("_", pm.posture_id) for pm in postures],
+        what="posture",
+        fallback="posture",
+        labels=[pm.posture_id for pm in postures],
+    )
+
+
 def save_posture_plots(
     postures: Sequence[PostureModal], table: pd.DataFrame, folder: str | os.PathLike[str]
 ) -> list[Path]:
@@ -245,8 +262,7 @@ def save_posture_plots(
     out.mkdir(parents=True, exist_ok=True)
     groups = {pid: g for pid, g in table.groupby("posture_id", sort=False)}
     paths = []
-    for pm in postures:
-        name = _SAFE.sub("_", pm.posture_id) or "posture"
+    for pm, name in zip(postures, posture_plot_names(postures).names, strict=True):
         rows = groups.get(pm.posture_id, table.iloc[0:0])
         paths.append(plot_stabilization(pm, out / f"stab_{name}.png", rows))
         paths.append(plot_frf_overlay(pm, rows, out / f"frf_{name}.png"))

@@ -419,7 +419,8 @@ def write_verify(res: VerifyResult, out_dir: str | os.PathLike[str], *, plots: b
     """Write ``verify.csv``, ``verify.json`` and ``plots/verify_margin.png`` atomically.
 
     A re-run replaces the whole set (``plots/`` of an earlier run goes when
-    ``plots`` is False); other files in ``out_dir`` are kept.
+    ``plots`` is False); other files in ``out_dir`` are kept
+    (:func:`robolobe._atomic.atomic_dir`, kind ``verify``).
     """
     from robolobe._atomic import atomic_dir
     from robolobe.plan import _plots
@@ -427,7 +428,7 @@ def write_verify(res: VerifyResult, out_dir: str | os.PathLike[str], *, plots: b
 
     out = Path(out_dir)
     png = _plots.png(plot_verify_margin(res)) if plots else None
-    with atomic_dir(out, managed=("verify.csv", "verify.json", "plots")) as tmp:
+    with atomic_dir(out, "verify", option="--output") as tmp:
         write_csv(res.table, tmp / "verify.csv")
         (tmp / "verify.json").write_text(json.dumps(res.summary, indent=2) + "\n", encoding="utf-8")
         if png is not None:
