@@ -223,7 +223,8 @@ def safe_name(raw: str, fallback: str = "output") -> str:
     """One safe path component made from a user-derived name.
 
     Terminal escape sequences, control and format characters (NUL, newline,
-    bidi overrides) are removed; separators (``/``, ``\\``) and the characters
+    bidi overrides) are removed, other spaces (no-break, ideographic) become
+    a plain space; separators (``/``, ``\\``) and the characters
     Windows refuses (``:*?"<>|``) become ``_``; leading and trailing dots and
     spaces go (so ``.``, ``..``, ``...`` and hidden names cannot result); a
     Windows device name (``con``, ``nul.txt``) gets a leading ``_``; a name
@@ -244,7 +245,11 @@ def safe_name(raw: str, fallback: str = "output") -> str:
         never ``""``, ``.`` or ``..``.
     """
     name = _ANSI.sub("", unicodedata.normalize("NFC", str(raw)))
-    name = "".join(c for c in name if not unicodedata.category(c).startswith("C"))
+    name = "".join(
+        " " if cat.startswith("Z") else c
+        for c, cat in ((c, unicodedata.category(c)) for c in name)
+        if not cat.startswith("C")
+    )
     name = _RESERVED_CHARS.sub("_", name).strip(" .")
     if _WINDOWS_DEVICES.match(name):
         name = "_" + name
@@ -359,6 +364,14 @@ def check_inside(root: str | os.PathLike[str], path: str | os.PathLike[str]) -> 
             source=str(root),
         )
     return p
+
+
+def _is_inside(root: Path, path: Path) -> bool:
+    try:
+        check_inside(root, path)
+    except InputError:
+        return False
+    return True
 
 
 # ---------------------------------------------------------------------------
@@ -576,15 +589,14 @@ def _commit(target: Path, tmp: Path, kind: str, option: str | None, mask: int) -
     still = {f for fs, _ in others.values() for f in fs} | new_files
     for rel in sorted(old_files - still):
         stale = target / rel
-        if stale.is_symlink() or not stale.is_file():
-            continue  # not what robolobe wrote there any more: leave it
-        check_inside(target, stale)
-        stale.unlink()
+        # Not a plain file inside any more (a link, a folder, moved out through
+        # a linked folder): not what robolobe wrote there, so it stays.
+        if not stale.is_symlink() and stale.is_file() and _is_inside(target, stale):
+            stale.unlink()
     kept_dirs = {d for _, ds in others.values() for d in ds} | new_folders
     for rel in sorted(old_folders - kept_dirs, key=lambda r: -r.count("/")):
         d = target / rel
-        if d.is_dir() and not d.is_symlink():
-            check_inside(target, d)
+        if d.is_dir() and not d.is_symlink() and _is_inside(target, d):
             with contextlib.suppress(OSError):
                 d.rmdir()  # only when empty: a user's file in it keeps it
     final = _Manifest(others)

@@ -273,8 +273,11 @@ def _passes(job: Job, depth_mm: float) -> float:
 
 
 def _label(name: str) -> str:
-    """A robot name as a plot label: control characters shown as ``?``, ``$`` not as math."""
-    return "".join(c if c.isprintable() else "?" for c in name).replace("$", r"\$")
+    """A robot name as a plot label: control characters as ``?``, ``$`` not as math, short."""
+    shown = "".join(c if c.isprintable() else "?" for c in name)
+    if len(shown) > 32:  # a long file name must not squeeze the plots away
+        shown = shown[:15] + "..." + shown[-14:]
+    return shown.replace("$", r"\$")
 
 
 def _plot(cmp: Comparison) -> bytes:
