@@ -58,6 +58,7 @@ MANIFEST = ".robolobe-outputs.json"
 #: Longest name :func:`safe_name` returns, in UTF-8 bytes (file systems allow 255).
 MAX_NAME_BYTES = 100
 _TMP_PREFIX = ".robolobe-tmp."
+_NAME_MAX = 255  # bytes in one path component (ext4, APFS, NTFS in UTF-16 units)
 # Terminal escapes (CSI, OSC, two-character ESC sequences), removed whole.
 _ANSI = re.compile(r"\x1b(?:\[[0-?]*[ -/]*[@-~]|\][^\x07\x1b]*(?:\x07|\x1b\\)?|[@-Z\\-_])")
 # Separators and characters no common file system (or Windows) accepts in a name.
@@ -219,7 +220,7 @@ def atomic_write_text(target: str | os.PathLike[str], text: str) -> None:
 # Names derived from user input
 
 
-def safe_name(raw: str, fallback: str = "output") -> str:
+def safe_name(raw: str, fallback: str = "output", max_bytes: int = MAX_NAME_BYTES) -> str:
     """One safe path component made from a user-derived name.
 
     Terminal escape sequences, control and format characters (NUL, newline,
@@ -237,6 +238,9 @@ def safe_name(raw: str, fallback: str = "output") -> str:
         The name as the user wrote it (a file stem, an id).
     fallback : str
         The name used when nothing of ``raw`` is left; it must itself be safe.
+    max_bytes : int
+        Longest result in UTF-8 bytes (room for a prefix or suffix the
+        caller adds; 255 is the file systems' limit).
 
     Returns
     -------
@@ -253,9 +257,9 @@ def safe_name(raw: str, fallback: str = "output") -> str:
     name = _RESERVED_CHARS.sub("_", name).strip(" .")
     if _WINDOWS_DEVICES.match(name):
         name = "_" + name
-    if len(name.encode("utf-8")) > MAX_NAME_BYTES:
+    if len(name.encode("utf-8")) > max_bytes:
         tag = "~" + hashlib.sha256(str(raw).encode("utf-8", "surrogatepass")).hexdigest()[:8]
-        cut = name.encode("utf-8")[: MAX_NAME_BYTES - len(tag)].decode("utf-8", "ignore")
+        cut = name.encode("utf-8")[: max_bytes - len(tag)].decode("utf-8", "ignore")
         name = cut.rstrip(" .") + tag
     if not name:
         if safe_name(fallback, "output") != fallback:
@@ -383,7 +387,7 @@ def _plain_rel(rel: object) -> str | None:
     if not isinstance(rel, str) or not rel or "\\" in rel or rel.startswith("/"):
         return None
     parts = PurePosixPath(rel).parts
-    if "/".join(parts) != rel or any(safe_name(p, "x") != p for p in parts):
+    if "/".join(parts) != rel or any(safe_name(p, "x", _NAME_MAX) != p for p in parts):
         return None
     return rel
 
@@ -460,7 +464,7 @@ def _foreign_message(folder: Path, clash: Sequence[str], manifest_found: bool) -
     why = (
         f"not listed in {MANIFEST}"
         if manifest_found
-        else f"no {MANIFEST} there: outputs of someone else, or of a robolobe before 0.1.1"
+        else f"no {MANIFEST} there: someone else's, or an earlier robolobe's that kept no list"
     )
     return (
         f"{folder} already holds {shown}, which robolobe did not write ({why}); "

@@ -538,6 +538,7 @@ def test_diagnose_outputs_stay_inside(
 ) -> None:
     out = box.w / "out"
     box.links_out(out / "report")
+    (out / "report" / "index.html").symlink_to(box.root / "sentinel.txt")
     box.freeze()
     code, err = _cli(
         ["diagnose", str(hostile_campaign), "--json", "out/d.json", "--report", "out/report"],

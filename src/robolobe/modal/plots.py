@@ -18,6 +18,7 @@ from numpy.typing import NDArray
 
 from robolobe._atomic import SafeNames, unique_names
 from robolobe._directions import AXES
+from robolobe._plot_text import plot_text
 from robolobe.modal.measurement import MeasurementModal
 from robolobe.modal.posture import PostureModal
 from robolobe.modal.stabilization import StabilizationDiagram
@@ -138,7 +139,8 @@ def plot_stabilization(
         others = not_written(pm, rows)
         written = np.array([x for x in fm if not any(x == o[0] for o in others)])
     s = pm.settings
-    title = f"posture {pm.posture_id}: stabilization diagram ({written.size} modes written" + (
+    pid = plot_text(pm.posture_id, 40)
+    title = f"posture {pid}: stabilization diagram ({written.size} modes written" + (
         f", {len(others)} fitted, not written)" if others else ")"
     )
     curves = [
@@ -233,7 +235,7 @@ def plot_frf_overlay(pm: PostureModal, rows: pd.DataFrame, path: str | os.PathLi
         ax.legend(fontsize=7, loc="upper right")
     if dirs:
         fig.axes[-1].set_xlabel("frequency [Hz]")
-        fig.axes[0].set_title(f"posture {pm.posture_id}: measured vs synthesized")
+        fig.axes[0].set_title(f"posture {plot_text(pm.posture_id, 40)}: measured vs synthesized")
     out = Path(path)
     fig.savefig(out, dpi=110)
     return out

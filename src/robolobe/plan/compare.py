@@ -23,6 +23,7 @@ import numpy as np
 import pandas as pd
 
 from robolobe._atomic import SafeNames, atomic_dir, unique_names
+from robolobe._plot_text import plot_text
 from robolobe.errors import (
     InfeasibleError,
     InputError,
@@ -272,14 +273,6 @@ def _passes(job: Job, depth_mm: float) -> float:
     return float(math.ceil(stock * 1e3 / depth_mm - 1e-9))
 
 
-def _label(name: str) -> str:
-    """A robot name as a plot label: control characters as ``?``, ``$`` not as math, short."""
-    shown = "".join(c if c.isprintable() else "?" for c in name)
-    if len(shown) > 32:  # a long file name must not squeeze the plots away
-        shown = shown[:15] + "..." + shown[-14:]
-    return shown.replace("$", r"\$")
-
-
 def _plot(cmp: Comparison) -> bytes:
     import io
 
@@ -289,7 +282,7 @@ def _plot(cmp: Comparison) -> bytes:
     t = cmp.table
     fig = Figure(figsize=(11, 7))
     axes = fig.subplots(2, 2)
-    names = [_label(n) for n in t["robot"].astype(str)]
+    names = [plot_text(n, 32) for n in t["robot"].astype(str)]
     colors = ["C0", "C1", "C2", "C3", "C4", "C5"]
     # Per part, never per pass: a robot that needs three times the passes
     # must not look fastest because each pass is short.
@@ -313,7 +306,10 @@ def _plot(cmp: Comparison) -> bytes:
     ax = axes[1, 1]
     for i, (key, res) in enumerate(cmp.results.items()):
         ax.plot(
-            res.geom.s_m, res.outcome.best.rpm, color=colors[i % len(colors)], label=_label(key)
+            res.geom.s_m,
+            res.outcome.best.rpm,
+            color=colors[i % len(colors)],
+            label=plot_text(key, 32),
         )
     ax.set_xlabel("cutting length [m]")
     ax.set_ylabel("planned speed [rpm]")
