@@ -453,8 +453,10 @@ def _read_manifest(folder: Path, option: str | None) -> _Manifest:
     for kind, entry in doc["sets"].items():
         if not isinstance(entry, dict):
             continue
-        files = {r for r in map(_plain_rel, entry.get("files") or []) if r}
-        folders = {r for r in map(_plain_rel, entry.get("folders") or []) if r}
+        lists = [entry.get(k) for k in ("files", "folders")]
+        files, folders = (
+            {r for r in map(_plain_rel, v) if r} if isinstance(v, list) else set() for v in lists
+        )
         sets[str(kind)] = (files, folders)
     return _Manifest(sets)
 
