@@ -10,7 +10,7 @@ from pathlib import Path
 
 import pytest
 
-from robolobe._atomic import atomic_dir, atomic_path, check_output_dir, check_output_file
+from robolobe._atomic import MANIFEST, atomic_dir, atomic_path, check_output_dir, check_output_file
 from robolobe.errors import InputError
 
 
@@ -61,25 +61,25 @@ def test_atomic_file_honours_umask(tmp_path: Path) -> None:
 
 def test_atomic_dir_replaces_managed_set_and_keeps_foreign_files(tmp_path: Path) -> None:
     out = tmp_path / "out"
-    with atomic_dir(out, managed=("summary.json", "report.html", "plots")) as tmp:
+    with atomic_dir(out, "plan") as tmp:
         (tmp / "summary.json").write_text("1")
         (tmp / "report.html").write_text("old")
         (tmp / "plots").mkdir()
         (tmp / "plots" / "a.png").write_bytes(b"png")
     (out / "notes.txt").write_text("mine")
-    with atomic_dir(out, managed=("summary.json", "report.html", "plots")) as tmp:
+    with atomic_dir(out, "plan") as tmp:
         (tmp / "summary.json").write_text("2")
-    assert sorted(p.name for p in out.iterdir()) == ["notes.txt", "summary.json"]
+    assert sorted(p.name for p in out.iterdir()) == [MANIFEST, "notes.txt", "summary.json"]
     assert (out / "summary.json").read_text() == "2"
 
 
 def test_atomic_dir_failure_changes_nothing(tmp_path: Path) -> None:
     out = tmp_path / "out"
-    out.mkdir()
-    (out / "summary.json").write_text("keep")
+    with atomic_dir(out, "plan") as tmp:
+        (tmp / "summary.json").write_text("keep")
 
     def failing_run() -> None:
-        with atomic_dir(out, managed=("summary.json",)) as tmp:
+        with atomic_dir(out, "plan") as tmp:
             (tmp / "summary.json").write_text("new")
             raise RuntimeError("boom")
 
@@ -87,6 +87,7 @@ def test_atomic_dir_failure_changes_nothing(tmp_path: Path) -> None:
         failing_run()
     assert (out / "summary.json").read_text() == "keep"
     assert sorted(p.name for p in tmp_path.iterdir()) == ["out"]
+    assert sorted(p.name for p in out.iterdir()) == [MANIFEST, "summary.json"]
 
 
 def _cli(*args: str) -> subprocess.CompletedProcess[str]:
@@ -164,3 +165,16 @@ def test_cli_bad_outputs_refused_before_work(tmp_path: Path, args: list[str]) ->
     assert any(o in r.stderr for o in ("--output", "--plot", "--json", "--report")), r.stderr
     assert sorted(p.name for p in tmp_path.iterdir()) == ["d", "file.txt", "modes.csv"]
     assert f.read_text() == "x"
+
+
+def test_plot_text_of_user_names() -> None:
+    from robolobe._plot_text import plot_text
+
+    assert plot_text("r1") == "r1"
+    assert plot_text("\x1b[31mred\n") == "?[31mred?"
+    assert plot_text("cost$5$") == r"cost\$5\$"
+    short = plot_text("a" * 10 + "b" * 300 + "c" * 10, 32)
+    assert len(short) == 32
+    assert short.startswith("aaaaaaaaaa")
+    assert short.endswith("cccccccccc")
+    assert "..." in short

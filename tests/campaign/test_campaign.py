@@ -8,6 +8,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from robolobe._atomic import MANIFEST
 from robolobe.campaign import Campaign, PostureFRF, read_campaign, read_postures, write_campaign
 from robolobe.errors import InputError
 
@@ -57,7 +58,12 @@ def _put(path: Path, lines: list[str]) -> None:
 def test_csv_round_trip_exact(tmp_path):
     c = _campaign()
     out = write_campaign(tmp_path / "camp", c)
-    assert sorted(p.name for p in out.iterdir()) == ["campaign.toml", "frf.csv", "postures.csv"]
+    assert sorted(p.name for p in out.iterdir()) == [
+        MANIFEST,
+        "campaign.toml",
+        "frf.csv",
+        "postures.csv",
+    ]
     r = read_campaign(out)
     assert r.robot == "B"
     assert r.posture_ids == IDS

@@ -16,6 +16,7 @@ import pandas as pd
 import pytest
 from matplotlib.image import imread as plt_imread
 
+from robolobe._atomic import MANIFEST
 from robolobe.errors import InputError
 from robolobe.plan import report
 from robolobe.plan.job import load_job
@@ -34,7 +35,8 @@ def test_write_outputs(tmp_path, result):
     out = report.write_outputs(result, tmp_path / "out")
     files = sorted(p.relative_to(out).as_posix() for p in out.rglob("*") if p.is_file())
     assert files == [
-        "plots/lobes.png", "plots/path_margin.png", "plots/speed_map.png", "plots/speed_power.png",
+        MANIFEST, "plots/lobes.png", "plots/path_margin.png", "plots/speed_map.png",
+        "plots/speed_power.png",
         "report.html", "summary.json", "waypoints.csv",
     ]  # fmt: skip
     table = pd.read_csv(out / "waypoints.csv")
@@ -63,7 +65,7 @@ def test_write_outputs(tmp_path, result):
 
 def test_no_plots_no_html(tmp_path, result):
     out = report.write_outputs(result, tmp_path / "o2", plots=False, html_report=False)
-    assert sorted(p.name for p in out.iterdir()) == ["summary.json", "waypoints.csv"]
+    assert sorted(p.name for p in out.iterdir()) == [MANIFEST, "summary.json", "waypoints.csv"]
 
 
 def test_failure_leaves_nothing_half_written(tmp_path, result, monkeypatch):
@@ -79,7 +81,7 @@ def test_failure_leaves_nothing_half_written(tmp_path, result, monkeypatch):
         report.write_outputs(result, out)
     assert [p.name for p in out.iterdir()] == ["summary.json"]
     assert (out / "summary.json").read_text() == "old"
-    assert not any(p.name.startswith(".o3.") for p in tmp_path.iterdir())
+    assert [p.name for p in tmp_path.iterdir()] == ["o3"]  # no temporary left beside it
 
 
 @pytest.mark.slow
@@ -87,7 +89,12 @@ def test_rerun_without_plots_replaces_the_whole_set(tmp_path, result):
     out = report.write_outputs(result, tmp_path / "o3")
     (out / "mine.txt").write_text("kept")
     report.write_outputs(result, out, plots=False, html_report=False)
-    assert sorted(p.name for p in out.iterdir()) == ["mine.txt", "summary.json", "waypoints.csv"]
+    assert sorted(p.name for p in out.iterdir()) == [
+        MANIFEST,
+        "mine.txt",
+        "summary.json",
+        "waypoints.csv",
+    ]
 
 
 def test_report_is_readable(tmp_path, result):
@@ -155,7 +162,7 @@ def test_thinned_waypoints_keep_the_tightest_of_each_block(tmp_path, result):
     assert np.nanmin(got["margin"]) == np.nanmin(m)  # the path's tightest waypoint is kept
     # none: no table; a re-run replaces the set (no stale CSV)
     report.write_outputs(result, out, plots=False, html_report=False, waypoints="none")
-    assert sorted(p.name for p in out.iterdir()) == ["summary.json"]
+    assert sorted(p.name for p in out.iterdir()) == [MANIFEST, "summary.json"]
     with pytest.raises(InputError):
         report.write_outputs(result, out, waypoints="xlsx")
     with pytest.raises(InputError):

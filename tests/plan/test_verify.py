@@ -10,6 +10,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
+from robolobe._atomic import MANIFEST
 from robolobe.errors import InputError
 from robolobe.plan.job import load_job
 from robolobe.plan.modes import TwinSource
@@ -85,7 +86,7 @@ def test_less_damped_robot_is_predicted_to_chatter_with_file_lines(plans, tmp_pa
     assert s["n_beyond_limit"] == v.n_beyond
     assert (out / "plots" / "verify_margin.png").stat().st_size > 1000
     write_verify(v, out, plots=False)  # a re-run replaces the set: no stale plot
-    assert sorted(p.name for p in out.iterdir()) == ["verify.csv", "verify.json"]
+    assert sorted(p.name for p in out.iterdir()) == [MANIFEST, "verify.csv", "verify.json"]
 
 
 def test_bad_inputs(plans, tmp_path):

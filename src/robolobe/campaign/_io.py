@@ -33,7 +33,7 @@ import pandas as pd
 import tomli_w
 from numpy.typing import ArrayLike, NDArray
 
-from robolobe._atomic import atomic_dir, not_a_file
+from robolobe._atomic import MAX_NAME_BYTES, atomic_dir, not_a_file, safe_name
 from robolobe._directions import dir_index
 from robolobe._frf_checks import frf_value_problem
 from robolobe.campaign._model import (
@@ -622,8 +622,11 @@ def write_campaign(
     Parameters
     ----------
     path : path-like
-        Target folder (created; files of a previous campaign of the other
-        format are removed after the new files are in place).
+        Target folder (created). A campaign robolobe wrote there before is
+        replaced as a set (its files this one does not write are removed,
+        as listed in ``.robolobe-outputs.json``); other files are kept, and
+        one robolobe did not write in the way of a new file is refused
+        (:func:`robolobe._atomic.atomic_dir`).
     campaign : Campaign
     fmt : {"csv", "uff"}
         ``frf.csv`` or one ``frf/<posture_id>.uff`` per posture.
@@ -644,10 +647,11 @@ def write_campaign(
     target = Path(path)
     if fmt == "uff":
         for pid in campaign.posture_ids:
-            if not _UFF_ID.match(pid):
+            if not _UFF_ID.match(pid) or safe_name(pid, "x") != pid:
                 raise InputError(
                     f"posture id {pid!r} cannot be a file name; UFF campaigns need ids of "
-                    "letters, digits, '_', '.', '-'",
+                    "letters, digits, '_', '.', '-' (not starting or ending with '.', at most "
+                    f"{MAX_NAME_BYTES} characters)",
                     source="write_campaign",
                 )
     robot_ref = _robot_ref(campaign.robot, target)
@@ -682,7 +686,7 @@ def _write_files(
     fmt: str,
     uff_quantity: UffQuantity,
 ) -> None:
-    with atomic_dir(target) as tmp:
+    with atomic_dir(target, "campaign") as tmp:
         (tmp / "campaign.toml").write_text(tomli_w.dumps(toml), encoding="utf-8")
         if robot_text is not None:
             (tmp / "robot.toml").write_text(robot_text, encoding="utf-8")
@@ -698,17 +702,3 @@ def _write_files(
                 write_uff_frf(
                     tmp / "frf" / f"{pid}.uff", rec.freq_hz, rec.H, quantity=uff_quantity, name=pid
                 )
-    # Remove what belongs to the other format (or postures no longer present).
-    if fmt == "uff":
-        (target / "frf.csv").unlink(missing_ok=True)
-        written = {f"{pid}.uff" for pid in campaign.posture_ids}
-        for p in (target / "frf").glob("*.uff"):
-            if p.name not in written:
-                p.unlink()
-    else:
-        frf_dir = target / "frf"
-        if frf_dir.is_dir():
-            for p in frf_dir.glob("*.uff"):
-                p.unlink()
-            if not any(frf_dir.iterdir()):
-                frf_dir.rmdir()

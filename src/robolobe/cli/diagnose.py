@@ -111,12 +111,14 @@ def register(app: typer.Typer) -> None:
         from an optional force_N column of postures.csv.
         """
         from robolobe._atomic import check_output_dir, check_output_file
+        from robolobe.diagnose.report import REPORT_FILES
+        from robolobe.diagnose.updated_model import UPDATED_MODEL_FILES
 
         check_output_file(json_out, "--json")
         if report is not None:
-            check_output_dir(report, "--report")
+            check_output_dir(report, "--report", writes=REPORT_FILES)
         if updated_model is not None:
-            check_output_dir(updated_model, "--updated-model")
+            check_output_dir(updated_model, "--updated-model", writes=UPDATED_MODEL_FILES)
 
         import dataclasses
 

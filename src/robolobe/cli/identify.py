@@ -180,10 +180,12 @@ def register(app: typer.Typer) -> None:
                 progress=lambda k: bar.advance(task, k),
             )
         if plots is not None:
-            from robolobe.modal.plots import save_posture_plots
+            from robolobe.modal.plots import posture_plot_names, save_posture_plots
 
-            with atomic_dir(plots) as tmp:
+            with atomic_dir(plots, "identify-plots", option="--plots") as tmp:
                 save_posture_plots(result.postures, result.table, tmp)
+            for note in posture_plot_names(result.postures).notes:
+                err_console.print(f"[yellow]note:[/] --plots: {escape(note)}", highlight=False)
         if fit_report is not None:
             with atomic_path(fit_report) as tmp:
                 result.fit.to_csv(tmp, index=False, lineterminator="\n", float_format="%.6g")
@@ -322,7 +324,7 @@ def _identify_measurement(
     if plots is not None:
         from robolobe.modal.plots import plot_measurement
 
-        with atomic_dir(plots) as tmp:
+        with atomic_dir(plots, "identify-plots", option="--plots") as tmp:
             plot_measurement(mm, tmp / "stab_measurement.png")
     with atomic_path(output) as tmp:
         mm.table.to_csv(tmp, index=False, lineterminator="\n", float_format="%.10g")

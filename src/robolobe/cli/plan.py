@@ -196,9 +196,18 @@ def register(app: typer.Typer) -> None:
             from robolobe._atomic import check_output_dir
             from robolobe.plan.job import load_job
             from robolobe.plan.pipeline import plan_path
-            from robolobe.plan.report import WAYPOINT_FORMATS, require_pyarrow, write_outputs
+            from robolobe.plan.report import (
+                WAYPOINT_FORMATS,
+                output_files,
+                require_pyarrow,
+                write_outputs,
+            )
 
-            check_output_dir(output, "--output")
+            check_output_dir(
+                output,
+                "--output",
+                writes=output_files(plots=plots, html_report=html, waypoints=waypoints),
+            )
             if waypoints not in WAYPOINT_FORMATS:
                 expected = ", ".join(WAYPOINT_FORMATS)
                 raise InputError(f"--waypoints: expected one of {expected}, found {waypoints!r}")
@@ -229,6 +238,7 @@ def register(app: typer.Typer) -> None:
                     waypoints=waypoints,
                     waypoints_every=waypoints_every,
                     worker=worker,
+                    option="--output",
                 )
             _print_summary(res.summary, output)
 
@@ -274,10 +284,15 @@ def register(app: typer.Typer) -> None:
         reported unreachable). Writes compare.csv/json/png and each robot's plan.
         """
         from robolobe._atomic import check_output_dir
-        from robolobe.plan.compare import compare_robots, write_comparison
+        from robolobe.plan.compare import (
+            COMPARE_FILES,
+            compare_robots,
+            robot_folder_notes,
+            write_comparison,
+        )
         from robolobe.plan.job import load_job
 
-        check_output_dir(output, "--output")
+        check_output_dir(output, "--output", writes=COMPARE_FILES)
         if job is None:
             raise InputError("--job: expected a job file, found none")
         names: list[str] = []
@@ -321,8 +336,12 @@ def register(app: typer.Typer) -> None:
             # no robot can do the job: a failure, not a comparison (nothing written)
             err = InfeasibleError if (cmp.table["status"] == "infeasible").all() else InputError
             raise err(f"no robot of {', '.join(names)} can run this job (see the table above)")
+        for note in robot_folder_notes([str(r) for r in cmp.table["robot"]]):
+            err_console.print(f"[yellow]note:[/] {escape(note)}", highlight=False)
         console.print(
-            f"outputs in {output}/ (compare.csv, compare.json, compare.png, one folder per robot)"
+            f"outputs in {escape(str(output))}/ (compare.csv, compare.json, compare.png, "
+            "one folder per robot)",
+            highlight=False,
         )
 
     @app.command("batch")
@@ -371,7 +390,7 @@ def register(app: typer.Typer) -> None:
         A failing path (bad file, unreachable, infeasible) is reported in the table
         and does not stop the others; the exit code is 2 when any path failed.
         """
-        from robolobe.plan.batch import batch_plan, write_batch
+        from robolobe.plan.batch import BATCH_FILES, batch_plan, path_folders, write_batch
         from robolobe.plan.job import load_job
 
         if job is None:
@@ -380,7 +399,7 @@ def register(app: typer.Typer) -> None:
             raise InputError(f"--format: expected auto, parquet or csv, found {fmt!r}")
         from robolobe._atomic import check_output_dir, not_a_file
 
-        check_output_dir(output, "--output")
+        check_output_dir(output, "--output", writes=BATCH_FILES)
         for p in paths:  # a missing file is a typo, not a row after hours of planning
             if not p.is_file():
                 hint = (
@@ -421,7 +440,12 @@ def register(app: typer.Typer) -> None:
                         highlight=False,
                     )
         table = write_batch(rows, output, fmt=fmt)
+        if per_path:
+            for note in path_folders([str(p) for p in paths]).notes:
+                err_console.print(f"[yellow]note:[/] {escape(note)}", highlight=False)
         ok = sum(r["status"] == "ok" for r in rows)
-        console.print(f"{ok} of {len(rows)} paths planned; table: {table}")
+        console.print(
+            f"{ok} of {len(rows)} paths planned; table: {escape(str(table))}", highlight=False
+        )
         if ok < len(rows):
             raise typer.Exit(code=EXIT_INPUT)

@@ -69,8 +69,11 @@ def register(app: typer.Typer) -> None:
         4: some are; 2: bad input (nothing written).
         """
         from robolobe._atomic import check_output_dir
+        from robolobe.plan.verify import VERIFY_FILES
 
-        check_output_dir(output if output is not None else plan_dir / "verify", "--output")
+        check_output_dir(
+            output if output is not None else plan_dir / "verify", "--output", writes=VERIFY_FILES
+        )
 
         from robolobe.plan.verify import verify_plan, write_verify
 

@@ -27,10 +27,11 @@ from matplotlib.figure import Figure
 
 from robolobe._atomic import atomic_dir
 from robolobe._directions import DRIVING, dir_index
+from robolobe._plot_text import plot_text
 from robolobe.diagnose.pipeline import Diagnosis
 from robolobe.diagnose.schema import DiagnosisReport, to_report
 
-__all__ = ["write_report"]
+__all__ = ["REPORT_FILES", "write_report"]
 
 
 def _save(fig: Figure, path: Path) -> None:
@@ -56,7 +57,7 @@ def _mismatch_map(d: Diagnosis, path: Path) -> None:
     )
     step = max(1, n // 30)
     ax.set_yticks(range(0, n, step))
-    ax.set_yticklabels(mm.record_ids[::step], fontsize=7)
+    ax.set_yticklabels([plot_text(r, 24) for r in mm.record_ids[::step]], fontsize=7)
     ax.set_xlabel("frequency [Hz]")
     ax.set_ylabel("posture")
     ax.set_title("Nominal model vs recordings: mismatch (1 = noise level)")
@@ -87,7 +88,7 @@ def _overlays(d: Diagnosis, path: Path, n_post: int = 4) -> None:
                 lw=1.4,
                 label="corrected (held out)",
             )
-            ax.set_title(f"{obs.record_ids[k]}  H_{dd}", fontsize=9)
+            ax.set_title(f"{plot_text(obs.record_ids[k], 24)}  H_{dd}", fontsize=9)
             if r == len(order) - 1:
                 ax.set_xlabel("frequency [Hz]")
             if c == 0:
@@ -295,6 +296,17 @@ def _html(rep: DiagnosisReport) -> str:
     )
 
 
+#: The files :func:`write_report` writes (checked before a run: :mod:`robolobe._atomic`).
+REPORT_FILES: tuple[str, ...] = (
+    "mismatch_map.png",
+    "frf_overlays.png",
+    "ranking.png",
+    "modes.png",
+    "diagnosis.json",
+    "index.html",
+)
+
+
 def write_report(d: Diagnosis, path: str | os.PathLike[str]) -> Path:
     """Write the report folder (index.html, figures, diagnosis.json) atomically.
 
@@ -311,11 +323,12 @@ def write_report(d: Diagnosis, path: str | os.PathLike[str]) -> Path:
     """
     rep = to_report(d)
     target = Path(path)
-    with atomic_dir(target) as tmp:
-        _mismatch_map(d, tmp / "mismatch_map.png")
-        _overlays(d, tmp / "frf_overlays.png")
-        _ranking(rep, tmp / "ranking.png")
-        _modes_fig(d, tmp / "modes.png")
-        (tmp / "diagnosis.json").write_text(rep.model_dump_json(indent=2), encoding="utf-8")
-        (tmp / "index.html").write_text(_html(rep), encoding="utf-8")
+    with atomic_dir(target, "diagnose-report", option="--report") as tmp:
+        mismatch, overlays, ranking, modes, json_name, index = REPORT_FILES
+        _mismatch_map(d, tmp / mismatch)
+        _overlays(d, tmp / overlays)
+        _ranking(rep, tmp / ranking)
+        _modes_fig(d, tmp / modes)
+        (tmp / json_name).write_text(rep.model_dump_json(indent=2), encoding="utf-8")
+        (tmp / index).write_text(_html(rep), encoding="utf-8")
     return target

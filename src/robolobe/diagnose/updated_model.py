@@ -30,11 +30,16 @@ from robolobe.twin.model import Twin
 
 __all__ = [
     "EFFECTS_FORMAT",
+    "UPDATED_MODEL_FILES",
     "effects_to_toml",
     "load_updated_model",
     "read_effects",
     "write_updated_model",
 ]
+
+
+#: The files :func:`write_updated_model` writes (checked before a run: :mod:`robolobe._atomic`).
+UPDATED_MODEL_FILES: tuple[str, ...] = ("robot.toml", "effects.toml")
 
 
 def write_updated_model(
@@ -68,9 +73,10 @@ def write_updated_model(
         names = ", ".join(e.name for e in baked)
         updated = updated.replace(name=f"{robot.name} (updated by diagnosis: {names})")
     target = Path(path)
-    with atomic_dir(target) as tmp:
-        (tmp / "robot.toml").write_text(robot_to_toml(updated), encoding="utf-8")
-        (tmp / "effects.toml").write_text(effects_to_toml(rest, note=note), encoding="utf-8")
+    robot_name, effects_name = UPDATED_MODEL_FILES
+    with atomic_dir(target, "updated-model", option="--updated-model") as tmp:
+        (tmp / robot_name).write_text(robot_to_toml(updated), encoding="utf-8")
+        (tmp / effects_name).write_text(effects_to_toml(rest, note=note), encoding="utf-8")
     return target
 
 

@@ -16,7 +16,9 @@ import pandas as pd
 from matplotlib.figure import Figure
 from numpy.typing import NDArray
 
+from robolobe._atomic import SafeNames, unique_names
 from robolobe._directions import AXES
+from robolobe._plot_text import plot_text
 from robolobe.modal.measurement import MeasurementModal
 from robolobe.modal.posture import PostureModal
 from robolobe.modal.stabilization import StabilizationDiagram
@@ -27,6 +29,7 @@ __all__ = [
     "plot_frf_overlay",
     "plot_measurement",
     "plot_stabilization",
+    "posture_plot_names",
     "save_posture_plots",
 ]
 
@@ -136,7 +139,8 @@ def plot_stabilization(
         others = not_written(pm, rows)
         written = np.array([x for x in fm if not any(x == o[0] for o in others)])
     s = pm.settings
-    title = f"posture {pm.posture_id}: stabilization diagram ({written.size} modes written" + (
+    pid = plot_text(pm.posture_id, 40)
+    title = f"posture {pid}: stabilization diagram ({written.size} modes written" + (
         f", {len(others)} fitted, not written)" if others else ")"
     )
     curves = [
@@ -231,10 +235,25 @@ def plot_frf_overlay(pm: PostureModal, rows: pd.DataFrame, path: str | os.PathLi
         ax.legend(fontsize=7, loc="upper right")
     if dirs:
         fig.axes[-1].set_xlabel("frequency [Hz]")
-        fig.axes[0].set_title(f"posture {pm.posture_id}: measured vs synthesized")
+        fig.axes[0].set_title(f"posture {plot_text(pm.posture_id, 40)}: measured vs synthesized")
     out = Path(path)
     fig.savefig(out, dpi=110)
     return out
+
+
+def posture_plot_names(postures: Sequence[PostureModal]) -> SafeNames:
+    """The file-name part of each posture's plots (:func:`save_posture_plots`), with notes.
+
+    The posture id made a safe, distinct file name
+    (:func:`robolobe._atomic.unique_names`); the notes name the ids written
+    under another name.
+    """
+    return unique_names(
+        [_SAFE.sub("_", pm.posture_id) for pm in postures],
+        what="posture",
+        fallback="posture",
+        labels=[pm.posture_id for pm in postures],
+    )
 
 
 def save_posture_plots(
@@ -245,8 +264,7 @@ def save_posture_plots(
     out.mkdir(parents=True, exist_ok=True)
     groups = {pid: g for pid, g in table.groupby("posture_id", sort=False)}
     paths = []
-    for pm in postures:
-        name = _SAFE.sub("_", pm.posture_id) or "posture"
+    for pm, name in zip(postures, posture_plot_names(postures).names, strict=True):
         rows = groups.get(pm.posture_id, table.iloc[0:0])
         paths.append(plot_stabilization(pm, out / f"stab_{name}.png", rows))
         paths.append(plot_frf_overlay(pm, rows, out / f"frf_{name}.png"))

@@ -26,7 +26,7 @@ from typing import Any
 
 import pandas as pd
 
-from robolobe._atomic import atomic_dir
+from robolobe._atomic import SafeNames, atomic_dir, check_inside, unique_names
 from robolobe.errors import (
     EXIT_INFEASIBLE,
     EXIT_INPUT,
@@ -37,7 +37,7 @@ from robolobe.errors import (
 )
 from robolobe.plan.job import Job
 
-__all__ = ["BATCH_COLUMNS", "batch_plan", "plan_one", "write_batch"]
+__all__ = ["BATCH_COLUMNS", "BATCH_FILES", "batch_plan", "path_folders", "plan_one", "write_batch"]
 
 logger = logging.getLogger(__name__)
 
@@ -68,7 +68,28 @@ BATCH_COLUMNS: tuple[str, ...] = (
     "host",
     "pid",
     "finished_utc",
+    "output_folder",
 )
+#: The batch's own files in its output folder (a path's folder never takes these names).
+BATCH_FILES: tuple[str, ...] = ("batch.csv", "batch.parquet")
+
+
+def path_folders(paths: Sequence[str | os.PathLike[str]]) -> SafeNames:
+    """The per-path output folder names of a batch (``--per-path``), in input order.
+
+    Each path's file stem made a safe folder name
+    (:func:`robolobe._atomic.safe_name`: ``...nc`` -> ``path``); a name that
+    repeats (``a/p.nc``, ``b/p.nc``) gets ``-2``, ``-3`` ...; the notes say
+    which paths do not write to their stem.
+    """
+    items = [str(p) for p in paths]
+    return unique_names(
+        [Path(p).stem for p in items],
+        what="toolpath",
+        fallback="path",
+        taken=BATCH_FILES,
+        labels=items,
+    )
 
 
 def _sha256(path: str) -> str:
@@ -94,7 +115,7 @@ def _one_thread() -> None:
 
 
 def plan_one(
-    path: str, job: Job, out_dir: str | None = None, refine: bool = True
+    path: str, job: Job, out_dir: str | None = None, refine: bool = True, folder: str | None = None
 ) -> dict[str, Any]:
     """Plan one path; never raises for a bad path (the row says what happened).
 
@@ -105,9 +126,12 @@ def plan_one(
     job : Job
     out_dir : str, optional
         When given, the full plan outputs (without HTML) go to
-        ``out_dir/<path stem>/``.
+        ``out_dir/<folder>/``.
     refine : bool
         casadi refinement.
+    folder : str, optional
+        The path's folder in ``out_dir`` (:func:`path_folders` of the whole
+        batch); default: that of this path alone.
 
     Returns
     -------
@@ -156,7 +180,11 @@ def plan_one(
         if out_dir is not None:
             from robolobe.plan.report import write_outputs
 
-            write_outputs(res, Path(out_dir) / Path(path).stem, plots=True, html_report=False)
+            name = folder if folder is not None else path_folders([path]).names[0]
+            target = Path(out_dir) / name
+            check_inside(out_dir, target)
+            write_outputs(res, target, plots=True, html_report=False)
+            row["output_folder"] = name
     except InfeasibleError as exc:
         row.update(status="infeasible", exit_code=EXIT_INFEASIBLE, message=str(exc))
     except ReachabilityError as exc:
@@ -195,7 +223,7 @@ def batch_plan(
     workers : int, optional
         Processes of the local pool (default: CPU count); ignored with Dask.
     out_dir : str, optional
-        Per-path plan outputs under ``out_dir/<stem>/`` (see :func:`plan_one`).
+        Per-path plan outputs under ``out_dir/<folder>/`` (:func:`path_folders`).
     refine : bool
         casadi refinement.
     client : distributed.Client, optional
@@ -214,25 +242,28 @@ def batch_plan(
     items = [str(p) for p in paths]
     if not items:
         raise InputError("expected at least one toolpath, found none")
+    folders = path_folders(items).names
     if scheduler is not None or client is not None:
-        yield from _dask(items, job, scheduler, client, out_dir, refine)
+        yield from _dask(items, folders, job, scheduler, client, out_dir, refine)
         return
     n = workers or os.cpu_count() or 1
     if n == 1:
-        for p in items:
-            yield plan_one(p, job, out_dir, refine)
+        for p, f in zip(items, folders, strict=True):
+            yield plan_one(p, job, out_dir, refine, f)
         return
     from joblib import Parallel, delayed, parallel_config
 
     with parallel_config(backend="loky", inner_max_num_threads=1):
         gen = Parallel(n_jobs=n, return_as="generator_unordered")(
-            delayed(plan_one)(p, job, out_dir, refine) for p in items
+            delayed(plan_one)(p, job, out_dir, refine, f)
+            for p, f in zip(items, folders, strict=True)
         )
         yield from gen
 
 
 def _dask(
     items: list[str],
+    folders: Sequence[str],
     job: Job,
     scheduler: str | None,
     client: Any,
@@ -254,7 +285,10 @@ def _dask(
                 f"cannot connect to the Dask scheduler: {exc}", source=str(scheduler)
             ) from None
     try:
-        futures = [client.submit(plan_one, p, job, out_dir, refine, pure=False) for p in items]
+        futures = [
+            client.submit(plan_one, p, job, out_dir, refine, f, pure=False)
+            for p, f in zip(items, folders, strict=True)
+        ]
         for fut in as_completed(futures):
             yield fut.result()
     finally:
@@ -294,7 +328,7 @@ def write_batch(
         "python": platform.python_version(),
         "created_utc": _dt.datetime.now(_dt.UTC).isoformat(timespec="seconds"),
     }
-    with atomic_dir(out) as tmp:
+    with atomic_dir(out, "batch", option="--output") as tmp:
         if fmt == "parquet":
             for c in ("exit_code", "pid", "n_waypoints", "n_cut"):
                 df[c] = pd.to_numeric(df[c], errors="coerce").astype("Int64")

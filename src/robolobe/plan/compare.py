@@ -22,7 +22,8 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from robolobe._atomic import atomic_dir
+from robolobe._atomic import SafeNames, atomic_dir, unique_names
+from robolobe._plot_text import plot_text
 from robolobe.errors import (
     InfeasibleError,
     InputError,
@@ -49,6 +50,7 @@ __all__ = [
     "Comparison",
     "compare_robots",
     "find_placement",
+    "robot_folder_notes",
     "robot_folders",
     "write_comparison",
 ]
@@ -280,7 +282,7 @@ def _plot(cmp: Comparison) -> bytes:
     t = cmp.table
     fig = Figure(figsize=(11, 7))
     axes = fig.subplots(2, 2)
-    names = list(t["robot"].astype(str))
+    names = [plot_text(n, 32) for n in t["robot"].astype(str)]
     colors = ["C0", "C1", "C2", "C3", "C4", "C5"]
     # Per part, never per pass: a robot that needs three times the passes
     # must not look fastest because each pass is short.
@@ -303,7 +305,12 @@ def _plot(cmp: Comparison) -> bytes:
         ax.set_ylabel(label)
     ax = axes[1, 1]
     for i, (key, res) in enumerate(cmp.results.items()):
-        ax.plot(res.geom.s_m, res.outcome.best.rpm, color=colors[i % len(colors)], label=key)
+        ax.plot(
+            res.geom.s_m,
+            res.outcome.best.rpm,
+            color=colors[i % len(colors)],
+            label=plot_text(key, 32),
+        )
     ax.set_xlabel("cutting length [m]")
     ax.set_ylabel("planned speed [rpm]")
     ax.set_title("planned spindle speed along the path")
@@ -325,49 +332,26 @@ def robot_folders(robots: list[str]) -> dict[str, str]:
     """The output folder name of each robot of a comparison (robot spec -> name).
 
     The file stem of a robot file (``cells/r1.toml`` -> ``r1``), the name of
-    a built-in robot; a stem that repeats (``a/r.toml``, ``b/r.toml``) gets
-    ``-2``, ``-3`` ...
+    a built-in robot, made a safe folder name (:func:`robolobe._atomic.safe_name`:
+    ``...toml`` -> ``robot``); a name that repeats (``a/r.toml``,
+    ``b/r.toml``) gets ``-2``, ``-3`` ... (:func:`robot_folder_notes` says which).
     """
-    out: dict[str, str] = {}
-    for spec in robots:
-        stem = Path(spec).stem or "robot"
-        name, n = stem, 1
-        while name in out.values() or name in COMPARE_FILES:
-            n += 1
-            name = f"{stem}-{n}"
-        out[spec] = name
-    return out
+    return dict(zip(robots, _folder_names(robots).names, strict=True))
 
 
-def _stale_folders(out: Path) -> list[str]:
-    """Robot folders an earlier comparison wrote into ``out`` (from its compare.json).
+def robot_folder_notes(robots: list[str]) -> tuple[str, ...]:
+    """One line per robot whose folder is not its file stem as written (and why)."""
+    return _folder_names(robots).notes
 
-    Only plain names of folders that hold a ``summary.json`` count, so a
-    damaged or foreign compare.json cannot remove anything else.
-    """
-    import json
 
-    try:
-        records = json.loads((out / "compare.json").read_text(encoding="utf-8"))
-    except (OSError, ValueError):
-        return []
-    if not isinstance(records, list):
-        return []
-    specs = [str(r["robot"]) for r in records if isinstance(r, dict) and "robot" in r]
-    names = [
-        str(r.get("folder") or robot_folders(specs).get(str(r["robot"]), ""))
-        for r in records
-        if isinstance(r, dict) and "robot" in r
-    ]
-    return [
-        n
-        for n in names
-        if n
-        and n not in (".", "..")
-        and Path(n).name == n
-        and "\\" not in n
-        and (out / n / "summary.json").is_file()
-    ]
+def _folder_names(robots: list[str]) -> SafeNames:
+    return unique_names(
+        [Path(spec).stem for spec in robots],
+        what="robot",
+        fallback="robot",
+        taken=COMPARE_FILES,
+        labels=robots,
+    )
 
 
 def write_comparison(
@@ -375,9 +359,11 @@ def write_comparison(
 ) -> Path:
     """Write ``compare.csv``, ``compare.json``, ``compare.png`` (+ each robot's plan) atomically.
 
-    The outputs are one set: a re-run into the same folder replaces the
-    files and removes the robot folders of the earlier comparison that this
-    one did not write (other files in the folder are kept).
+    The outputs are one set (:func:`robolobe._atomic.atomic_dir`, kind
+    ``compare``): a re-run into the same folder replaces the files and
+    removes those of the earlier comparison that this one did not write (its
+    robot folders); files robolobe did not write are kept, and one in the way
+    of a new file is refused (:class:`~robolobe.errors.InputError`).
     """
     import json
 
@@ -393,8 +379,7 @@ def write_comparison(
             per_robot[key] = {name: _plots.png(_PLOTTERS[name](res)) for name in PLOTS}
     table = cmp.table.copy()
     table["folder"] = [folders[str(r)] if r in cmp.results else "" for r in table["robot"]]
-    managed = (*COMPARE_FILES, *_stale_folders(out), *folders.values())
-    with atomic_dir(out, managed=managed) as tmp:
+    with atomic_dir(out, "compare", option="--output") as tmp:
         t = table.copy()
         t["placement_xyz_m"] = t["placement_xyz_m"].map(
             lambda v: json.dumps(v) if isinstance(v, list) else ""

@@ -43,6 +43,7 @@ __all__ = [
     "CAPTIONS",
     "OUTPUTS",
     "PLOTS",
+    "output_files",
     "plot_lobes",
     "plot_path_margin",
     "plot_speed_map",
@@ -63,6 +64,21 @@ OUTPUTS: tuple[str, ...] = (
 )
 #: What ``write_outputs(waypoints=...)`` accepts.
 WAYPOINT_FORMATS: tuple[str, ...] = ("csv", "parquet", "none")
+
+
+def output_files(
+    *, plots: bool = True, html_report: bool = True, waypoints: str = "csv"
+) -> tuple[str, ...]:
+    """The files (relative POSIX paths) :func:`write_outputs` writes with these options."""
+    files = ["summary.json"]
+    if waypoints in ("csv", "parquet"):
+        files.append(f"waypoints.{waypoints}")
+    if plots:
+        files += [f"plots/{name}.png" for name in PLOTS]
+    if html_report:
+        files.append("report.html")
+    return tuple(files)
+
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
@@ -457,6 +473,7 @@ def write_outputs(
     waypoints: str = "csv",
     waypoints_every: int = 1,
     worker: PlotWorker | None = None,
+    option: str | None = None,
 ) -> Path:
     """Write the plan into ``out_dir`` atomically (see the module docstring).
 
@@ -464,9 +481,11 @@ def write_outputs(
     ----------
     res : PlanResult
     out_dir : path-like
-        Created if missing. A plan's files of an earlier run (:data:`OUTPUTS`)
-        that this run does not write are removed, so the folder holds one
-        plan; other files are left alone.
+        Created if missing. The files of an earlier plan there (listed in
+        its ``.robolobe-outputs.json``) that this run does not write are
+        removed, so the folder holds one plan; other files are left alone,
+        and a file robolobe did not write where this run writes one is
+        refused (:func:`robolobe._atomic.atomic_dir`).
     plots, html_report : bool
         Write the PNG plots and the HTML report.
     waypoints : {"csv", "parquet", "none"}
@@ -480,6 +499,8 @@ def write_outputs(
         A plot process started before planning (:class:`PlotWorker`): it draws
         the plots while the tables are written, on another core. The same PNGs
         as drawn here; drawn here if the worker fails.
+    option : str, optional
+        The option that named ``out_dir``, for messages.
 
     Returns
     -------
@@ -496,7 +517,7 @@ def write_outputs(
     records = {name: _DATA[name](res) for name in PLOTS} if plots or html_report else {}
     if worker is not None and records:
         worker.send(records)  # drawn there while the tables are written here
-    with atomic_dir(out, managed=OUTPUTS) as tmp:
+    with atomic_dir(out, "plan", option=option) as tmp:
         _write_waypoints(res.table, tmp, waypoints, int(waypoints_every))
         (tmp / "summary.json").write_text(
             json.dumps(res.summary.to_dict(), indent=2) + "\n", encoding="utf-8"

@@ -41,7 +41,7 @@ from robolobe.plan.pipeline import (
 from robolobe.robots.io import load_robot
 from robolobe.robots.model import Robot
 
-__all__ = ["VerifyResult", "read_plan", "verify_plan", "write_verify"]
+__all__ = ["VERIFY_FILES", "VerifyResult", "read_plan", "verify_plan", "write_verify"]
 
 FloatArray = NDArray[np.float64]
 
@@ -415,11 +415,16 @@ def plot_verify_margin(res: VerifyResult) -> Any:
     return fig
 
 
+#: The files :func:`write_verify` always writes (checked before a run: :mod:`robolobe._atomic`).
+VERIFY_FILES: tuple[str, ...] = ("verify.csv", "verify.json")
+
+
 def write_verify(res: VerifyResult, out_dir: str | os.PathLike[str], *, plots: bool = True) -> Path:
     """Write ``verify.csv``, ``verify.json`` and ``plots/verify_margin.png`` atomically.
 
     A re-run replaces the whole set (``plots/`` of an earlier run goes when
-    ``plots`` is False); other files in ``out_dir`` are kept.
+    ``plots`` is False); other files in ``out_dir`` are kept
+    (:func:`robolobe._atomic.atomic_dir`, kind ``verify``).
     """
     from robolobe._atomic import atomic_dir
     from robolobe.plan import _plots
@@ -427,9 +432,10 @@ def write_verify(res: VerifyResult, out_dir: str | os.PathLike[str], *, plots: b
 
     out = Path(out_dir)
     png = _plots.png(plot_verify_margin(res)) if plots else None
-    with atomic_dir(out, managed=("verify.csv", "verify.json", "plots")) as tmp:
-        write_csv(res.table, tmp / "verify.csv")
-        (tmp / "verify.json").write_text(json.dumps(res.summary, indent=2) + "\n", encoding="utf-8")
+    with atomic_dir(out, "verify", option="--output") as tmp:
+        csv_name, json_name = VERIFY_FILES
+        write_csv(res.table, tmp / csv_name)
+        (tmp / json_name).write_text(json.dumps(res.summary, indent=2) + "\n", encoding="utf-8")
         if png is not None:
             (tmp / "plots").mkdir()
             (tmp / "plots" / "verify_margin.png").write_bytes(png)

@@ -345,10 +345,12 @@ def write_seed_designs(
     folder: str | os.PathLike[str], keys: Sequence[str] = ("A", "B", "C")
 ) -> None:
     """Write ``{key}.csv`` seed designs (default seed) into ``folder``, atomically."""
-    from robolobe._atomic import atomic_path
+    from robolobe._atomic import atomic_path, safe_name
 
     out = Path(folder)
     for key in keys:
+        if safe_name(key, "x") != key:
+            raise InputError(f"design key {key!r} cannot be a file name", source="keys")
         with atomic_path(out / f"{key}.csv") as tmp:
             seed_design(key).to_csv(tmp, index=False, lineterminator="\n")
 
