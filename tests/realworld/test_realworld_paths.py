@@ -190,6 +190,32 @@ def test_nx_times_helix_makes_the_extra_turns():
     assert turned == pytest.approx(4 * math.pi + partial, abs=0.01)
 
 
+def test_nx_face_mill_slot_in_step_downs():
+    """NX slotting with a 125 mm face mill: 20 step-downs of 3 mm, FEDRAT/MMPM, no SPINDL."""
+    f = rw("apt", "HumMan__3_PAZ_125_N2.cls")
+    text = f.read_text().splitlines()
+    # the raw file: the Z of every GOTO after the first FEDRAT (the cutting levels)
+    first_feed = next(n for n, t in enumerate(text) if t.startswith("FEDRAT/"))
+    raw_z = {
+        round(float(t.split("/")[1].split(",")[2]), 3)
+        for t in text[first_feed:]
+        if t.startswith("GOTO/")
+    }
+    df = read_toolpath(f)
+    assert not df.attrs["warnings"]
+    z = df["z_m"].to_numpy() * 1e3
+    cut = (df["motion"] == "cut").to_numpy()
+    level = np.zeros_like(cut)
+    level[1:] = np.abs(np.diff(z)) < 1e-9
+    levels = sorted({round(v, 3) for v in z[cut & level]})
+    # 20 levels 3 mm apart from 465 down to 408, each one present in the raw file
+    assert levels == pytest.approx([408.0 + 3.0 * i for i in range(20)])
+    assert set(levels) <= raw_z
+    # the programmed feed on every cutting move; the file has no spindle record
+    assert np.all(df.loc[cut, "feed_mm_per_min"].to_numpy() == 530.0)
+    assert df.loc[cut, "rpm_programmed"].isna().all()
+
+
 def test_nx_nurbs_refused_by_name():
     with pytest.raises(InputError, match=r"HumMan_nurbs\.clsf:13: .*NURBS"):
         read_toolpath(rw("apt", "HumMan_nurbs.clsf"))
@@ -479,6 +505,7 @@ def test_every_realworld_toolpath_is_read_or_refused_by_name():
     """No traceback and no silent read: each file is covered by a test above."""
     covered = {
         "HumMan__1_KONTUR_NAR_40_N2.cls", "HumMan__2_KONTUR_VNUT_40_N2.cls", "HumMan_nurbs.clsf",
+        "HumMan__3_PAZ_125_N2.cls",
         "HumMan_ust_a.cls", "userFour_APT_Variable_Axis.cls", "CAMotics_bear.nc",
         "LinuxCNC_arcspiral.ngc", "LinuxCNC_b-index.ngc", "LinuxCNC_tort.ngc",
         "MFBryan_simple_mill.gcode", "SafetyDav3_7997A.NC", "SergeyPopov_HeatSink_mill.tap",
