@@ -8,10 +8,10 @@ import pytest
 from robolobe.errors import InputError
 from robolobe.plan.lobes import DynamicsTolerance, _features, group_dynamics, waypoint_lobes
 from robolobe.sld.conditions import engagement_angles
+from robolobe.sld.converged import converged_lobes
 from robolobe.sld.directional import directional_factors
 from robolobe.sld.frf import ModalModel
 from robolobe.sld.material import get_material
-from robolobe.sld.zoa import zoa_lobes
 
 RPM = np.linspace(6000.0, 24000.0, 120)
 MAT = get_material("Al7075-T6")
@@ -58,13 +58,9 @@ def test_waypoint_lobes_equal_direct_zoa_per_waypoint():
         tol=DynamicsTolerance(0.0, 0.0, 0.0),
     )  # fmt: skip
     alpha = directional_factors(st, ex, 0.22)
-    grids = m.frequency_grid(shared=False)  # the batch's grids, one row per waypoint
-    for i in range(5):
+    for i in range(5):  # each waypoint's converged lobes, alone: its samples are its own
         mi = m.take(np.array([i]))
-        w = grids[i : i + 1]
-        ref = zoa_lobes(
-            w, mi.frf(w), alpha=alpha, teeth=3, kt=767e6, rpm=RPM, max_lobe=None, immersion=0.5
-        )
+        ref = converged_lobes(mi, alpha, teeth=3, kt=767e6, rpm=RPM, immersion=0.5)
         row = gl.table.a_lim[gl.table.group[i]]
         assert np.allclose(row, ref.a_lim[0], rtol=1e-12)
         speeds = np.array([7123.0, 15555.5, 23001.0])
@@ -240,11 +236,10 @@ def test_own_lobes_reusing_a_result_equal_a_fresh_computation(monkeypatch, exten
     rows = np.linspace(4100.0, 23900.0, 11)[None, :].repeat(n, 0)
     g = reused.table.group
     np.testing.assert_array_equal(reused.table.rows(rows, g), fresh.table.rows(rows, g))
-    # the chunked FRF synthesis is the whole-batch one, bit for bit
+    # the leaders' converged lobes in one call, bit for bit
     reps = m.take(fresh.leader)
-    om = reps.frequency_grid(shared=False)
-    whole = zoa_lobes(om, reps.frf(om), alpha=directional_factors(0.0, np.pi / 2, MAT.kr),
-                      teeth=3, kt=MAT.kt, rpm=kw["rpm"], max_lobe=None, immersion=0.5)  # fmt: skip
+    whole = converged_lobes(reps, directional_factors(0.0, np.pi / 2, MAT.kr),
+                            teeth=3, kt=MAT.kt, rpm=kw["rpm"], immersion=0.5)  # fmt: skip
     np.testing.assert_array_equal(whole.a_lim, d1.a_lim)
     with pytest.raises(InputError):
         waypoint_lobes([m], own=own, reuse=fresh, **kw)

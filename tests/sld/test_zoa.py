@@ -20,6 +20,7 @@ from robolobe.sld import (
     zoa_eigenvalues,
     zoa_lobes,
 )
+from robolobe.sld.converged import CHORD_TOL
 
 from .sld_reference import K_MODAL, KR, KT, N_TEETH, ZETA
 
@@ -139,10 +140,10 @@ def test_envelope_minimum_matches_critical_depth(iso_2dof: ModalModel) -> None:
         material=MAT,
         conditions=CuttingConditions.from_immersion(1.0, "down"),
         rpm=np.array([n_bottom]),
-        refine_tol=0.01,
     )
-    # the polyline chord lies just above the smooth lobe bottom
-    assert float(lobes.a_lim[0]) == pytest.approx(float(crit.depth), rel=2e-4)
+    # the polyline chord lies just above the smooth lobe bottom (the converged lobes'
+    # chord tolerance)
+    assert float(lobes.a_lim[0]) == pytest.approx(float(crit.depth), rel=CHORD_TOL)
     assert float(lobes.a_lim[0]) >= float(crit.depth) * (1 - 1e-9)
 
 
@@ -212,8 +213,8 @@ def test_low_immersion_flag(iso_2dof: ModalModel) -> None:
 def test_modal_and_frf_inputs_agree(iso_2dof: ModalModel) -> None:
     rpm = np.linspace(10000, 60000, 200)
     cond = CuttingConditions.from_immersion(0.5, "up")
-    a = stability_lobes(iso_2dof, cutter=2, material=MAT, conditions=cond, rpm=rpm, refine=False)
-    w = iso_2dof.frequency_grid()
+    a = stability_lobes(iso_2dof, cutter=2, material=MAT, conditions=cond, rpm=rpm)
+    w = a.omega  # the converged lobes' own samples, given as sampled FRFs
     b = stability_lobes((w, iso_2dof.frf(w)), cutter=2, material=MAT, conditions=cond, rpm=rpm)
     np.testing.assert_array_equal(a.a_lim, b.a_lim)
 

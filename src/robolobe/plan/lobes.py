@@ -5,7 +5,7 @@ Waypoints close together on a path have nearly the same tool-point dynamics.
 within a tolerance (natural frequencies, damping, residues) into one group;
 :func:`waypoint_lobes` computes the zero-order lobes once per group (the
 group's leader, which is one of its waypoints), batched through
-:func:`robolobe.sld.zoa.zoa_lobes`, and returns a
+:func:`robolobe.sld.converged.converged_lobes` (converged in frequency), and returns a
 :class:`robolobe.plan.optimize.LobeTable` whose ``exact`` boundary is the
 lobe polylines intersected at any speed (:meth:`LobeDiagram.query`). With a
 tolerance of zero every distinct waypoint is its own group.
@@ -38,10 +38,11 @@ from numpy.typing import NDArray
 
 from robolobe.errors import InputError
 from robolobe.plan.optimize import LobeTable
+from robolobe.sld.converged import converged_lobes
 from robolobe.sld.directional import directional_factors
 from robolobe.sld.frf import ModalModel
 from robolobe.sld.lobes import LobeDiagram, lobe_envelope
-from robolobe.sld.zoa import JIT_MIN_SAMPLES, zoa_lobes
+from robolobe.sld.zoa import JIT_MIN_SAMPLES
 
 __all__ = [
     "DynamicsTolerance",
@@ -729,22 +730,15 @@ def _leader_lobes(
     *,
     max_lobe: int | None,
     jit: bool | None = None,
-    omega: FloatArray | None = None,
 ) -> LobeDiagram:
-    """ZOA lobes of a batch of leaders, their FRFs synthesised chunk by chunk into the kernel.
+    """Converged ZOA lobes of a batch of leaders (:func:`robolobe.sld.converged.converged_lobes`).
 
-    Each FRF is the same as from one call over the whole batch (the synthesis
-    is per batch entry); no array of all the leaders' FRFs is formed.
-    ``omega`` (n, n_freq): the frequency grids to use (default: the batch's own,
-    ``reps.frequency_grid(shared=False)``, whose range spans the whole batch).
+    Each leader's frequency samples are its own (they depend on its dynamics,
+    the cut and the speed range only, not on the other leaders).
     """
-    if omega is None:
-        omega = reps.frequency_grid(shared=False)
-
-    def synth(start: int, stop: int) -> NDArray[np.complex128]:
-        return reps.take(slice(start, stop)).frf(omega[start:stop])
-
-    return zoa_lobes(omega, synth, max_lobe=max_lobe, jit=jit, **zoa_args)
+    args = dict(zoa_args)
+    alpha = args.pop("alpha")
+    return converged_lobes(reps, alpha, max_lobe=max_lobe, jit=jit, **args)
 
 
 def _lobe_need(d: LobeDiagram, rpm_min: float) -> float:
@@ -765,14 +759,13 @@ def _extend_diagrams(
 
     Returns ``[reuse's diagrams, the added leaders' diagrams]`` (one per
     scenario each; :func:`_joined` joins them), or one part when nothing was
-    added or everything was computed afresh. The frequency grids are the
-    whole batch's (their base range spans every leader) and the automatic
-    lobe count is decided as :func:`robolobe.sld.zoa.zoa_lobes` decides it
-    over the whole batch; where either differs from what ``reuse`` was
-    computed with, everything is computed afresh.
+    added or everything was computed afresh. Each leader's frequency samples
+    are its own; the automatic lobe count is decided as
+    :func:`robolobe.sld.zoa.zoa_lobes` decides it over the whole batch; where
+    it differs from what ``reuse`` was computed with, everything is computed
+    afresh.
     """
     new = leader[reuse.n_groups :]
-    n_prev = reuse.n_groups
     prev_all = list(reuse.diagrams)
     if new.size == 0:
         return [prev_all]
@@ -789,12 +782,7 @@ def _extend_diagrams(
         assert prev.omega is not None
         assert prev.complete_above_rpm is not None
         jit = leader.size * prev.omega.shape[-1] >= JIT_MIN_SAMPLES
-        grids = m.take(leader).frequency_grid(shared=False)
-        if grids.shape != (leader.size, prev.omega.shape[-1]) or not np.array_equal(
-            grids[:n_prev], prev.omega
-        ):  # the added leaders widen the grids' range: every group's grid changes
-            return afresh()
-        extra = _leader_lobes(m.take(new), zoa_args, max_lobe=30, jit=jit, omega=grids[n_prev:])
+        extra = _leader_lobes(m.take(new), zoa_args, max_lobe=30, jit=jit)
         assert extra.omega is not None
         assert extra.complete_above_rpm is not None
         trig = prev.max_lobe > 30 or bool(np.any(prev.complete_above_rpm > r_min))
@@ -806,25 +794,39 @@ def _extend_diagrams(
         if k != prev.max_lobe:
             return afresh()
         if k != 30:
-            extra = _leader_lobes(m.take(new), zoa_args, max_lobe=k, jit=jit, omega=grids[n_prev:])
+            extra = _leader_lobes(m.take(new), zoa_args, max_lobe=k, jit=jit)
         out.append(extra)
     return [prev_all, out]
 
 
 def _joined(parts: list[LobeDiagram]) -> LobeDiagram:
-    """Diagrams of consecutive batches (same speeds, lobe count, scenario) as one."""
+    """Diagrams of consecutive batches (same speeds, lobe count, scenario) as one.
+
+    Frequency rows of different lengths are padded with copies of their last
+    sample (zero-length lobe pieces: the same lobes).
+    """
     if len(parts) == 1:
         return parts[0]
+    nf = max(np.asarray(d.omega).shape[-1] for d in parts)
+
+    def pad(x: FloatArray) -> FloatArray:
+        x = np.asarray(x)
+        if x.shape[-1] == nf:
+            return x
+        return np.concatenate([x, np.repeat(x[..., -1:], nf - x.shape[-1], axis=-1)], axis=-1)
 
     def cat(name: str) -> FloatArray:
         return np.concatenate([np.asarray(getattr(d, name)) for d in parts], axis=0)
 
+    def cat_padded(name: str) -> FloatArray:
+        return np.concatenate([pad(getattr(d, name)) for d in parts], axis=0)
+
     return dataclasses.replace(
         parts[0],
         a_lim=cat("a_lim"),
-        omega=cat("omega"),
-        depth=cat("depth"),
-        eps=cat("eps"),
+        omega=cat_padded("omega"),
+        depth=cat_padded("depth"),
+        eps=cat_padded("eps"),
         complete_above_rpm=cat("complete_above_rpm"),
     )
 

@@ -21,6 +21,7 @@ Typical use::
 """
 
 from robolobe.sld.conditions import CuttingConditions, engagement_angles, radial_immersion
+from robolobe.sld.converged import LOBE_TOL, converged_lobes
 from robolobe.sld.cutter import Cutter
 from robolobe.sld.directional import (
     directional_factors,
@@ -40,13 +41,13 @@ from robolobe.sld.zoa import (
     CriticalDepth,
     critical_depth,
     low_immersion_message,
-    refine_grid,
     zoa_depth,
     zoa_eigenvalues,
     zoa_lobes,
 )
 
 __all__ = [
+    "LOBE_TOL",
     "LOW_IMMERSION",
     "CriticalDepth",
     "Cutter",
@@ -55,6 +56,7 @@ __all__ = [
     "Material",
     "ModalModel",
     "SdmSystem",
+    "converged_lobes",
     "critical_depth",
     "directional_factors",
     "directional_matrix",
@@ -70,7 +72,6 @@ __all__ = [
     "plot_lobes",
     "radial_immersion",
     "read_modes_csv",
-    "refine_grid",
     "rotate_frf",
     "save_lobe_plot",
     "sdm_lobes",

@@ -9,13 +9,14 @@ from numpy.typing import ArrayLike
 
 from robolobe.errors import InputError
 from robolobe.sld.conditions import CuttingConditions
+from robolobe.sld.converged import converged_lobes
 from robolobe.sld.cutter import Cutter
 from robolobe.sld.directional import directional_factors
 from robolobe.sld.frf import ModalModel
 from robolobe.sld.lobes import LobeDiagram
 from robolobe.sld.material import Material
 from robolobe.sld.sdm import sdm_lobes
-from robolobe.sld.zoa import refine_grid, zoa_lobes
+from robolobe.sld.zoa import zoa_lobes
 
 __all__ = ["stability_lobes"]
 
@@ -28,20 +29,21 @@ def stability_lobes(
     conditions: CuttingConditions,
     rpm: ArrayLike,
     method: Literal["zoa", "sdm"] = "zoa",
-    max_lobe: int | None = 30,
+    max_lobe: int | None = None,
     intervals: int = 40,
-    refine: bool = True,
-    refine_tol: float = 0.05,
 ) -> LobeDiagram:
     """Stability lobes of a tool point (or a batch of them).
 
     Parameters
     ----------
     dynamics : ModalModel or (omega, frf)
-        2-D feed-frame dynamics: a modal model (any batch shape; its
-        frequency grid is refined around its modes) or sampled FRFs,
+        2-D feed-frame dynamics: a modal model (any batch shape; ZOA: its
+        lobes are converged in frequency to
+        :data:`robolobe.sld.converged.LOBE_TOL`, see
+        :func:`robolobe.sld.converged.converged_lobes`) or sampled FRFs,
         ``omega`` [rad/s] of shape (n_freq,) or (..., n_freq) and ``frf``
-        [m/N] of shape (..., n_freq, 2, 2) (ZOA only).
+        [m/N] of shape (..., n_freq, 2, 2) (ZOA only; the lobes are then as
+        fine as those samples: nothing between them is known).
     cutter : Cutter or int
         The cutter, or just its number of teeth (all the solvers need).
     material : Material
@@ -53,16 +55,11 @@ def stability_lobes(
     method : {"zoa", "sdm"}, default "zoa"
         Zero-order approximation (fast, batched) or semi-discretization
         (reference; loops over batch entries).
-    max_lobe : int or None, default 30
-        Highest ZOA lobe number (None: automatic, see :func:`zoa_lobes`).
+    max_lobe : int or None, default None
+        Highest ZOA lobe number (None: every lobe that reaches the lowest
+        speed, see :func:`zoa_lobes`).
     intervals : int, default 40
         SDM intervals per tooth period.
-    refine : bool, default True
-        ZOA with a modal model: refine the frequency grid along the lobe
-        curves (:func:`robolobe.sld.zoa.refine_grid`); False uses the static
-        modal grid (fewer points, faster, less accurate between samples).
-    refine_tol : float, default 0.05
-        Largest change of ``ln a`` and ``ln n`` between lobe samples.
 
     Returns
     -------
@@ -78,23 +75,9 @@ def stability_lobes(
                 raise InputError(
                     f"dynamics: expected feed-frame (2-D) modes, found dim {dynamics.dim}"
                 )
-            if refine:
-                r = np.asarray(rpm, dtype=np.float64)
-                omega = refine_grid(
-                    dynamics,
-                    alpha,
-                    tol=refine_tol,
-                    teeth=teeth,
-                    rpm_range=(float(r.min()), float(r.max())) if r.size else None,
-                    max_lobe=30 if max_lobe is None else max_lobe,
-                )
-            else:
-                omega = dynamics.frequency_grid(shared=not dynamics.batch_shape)
-            frf = dynamics.frf(omega)
-            return zoa_lobes(
-                omega,
-                frf,
-                alpha=alpha,
+            return converged_lobes(
+                dynamics,
+                alpha,
                 teeth=teeth,
                 kt=material.kt,
                 rpm=rpm,

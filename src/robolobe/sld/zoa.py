@@ -39,7 +39,6 @@ __all__ = [
     "CriticalDepth",
     "critical_depth",
     "low_immersion_message",
-    "refine_grid",
     "zoa_depth",
     "zoa_eigenvalues",
     "zoa_lobes",
@@ -373,126 +372,6 @@ def zoa_lobes(
         eps=eps,
         complete_above_rpm=complete,
     )
-
-
-def refine_grid(
-    model: ModalModel,
-    alpha: ArrayLike,
-    omega: ArrayLike | None = None,
-    *,
-    tol: float = 0.02,
-    iterations: int = 3,
-    max_insert: int = 16,
-    depth_ratio: float = 100.0,
-    teeth: int | None = None,
-    rpm_range: tuple[float, float] | None = None,
-    max_lobe: int = 30,
-) -> FloatArray:
-    """Refine a frequency grid until the lobe curves are finely sampled.
-
-    Lobe ``k`` is sampled at ``(n_k(w), a(w))``; between two neighbouring
-    frequencies the polyline is straight. This inserts points (uniformly in
-    ``w``) into every interval where ``|d ln a|`` or ``|d ln n_0|`` (the
-    fastest-moving lobe, ``n_0 = 60 w / (N eps)``) exceeds ``tol`` on
-    either branch, and ``max_insert`` points into every interval where a
-    branch starts or stops (``Re mu`` changes sign), repeated
-    ``iterations`` times. Intervals whose depth is
-    above ``depth_ratio`` times the smallest depth of that batch entry are
-    left alone (deep pockets far above any usable depth). Vectorised over
-    the batch; entries that need fewer points are padded with copies of
-    their highest frequency (zero-length pieces, harmless).
-
-    Parameters
-    ----------
-    model : ModalModel
-        2-D feed-frame dynamics, any batch shape.
-    alpha : array_like, shape (2, 2) or (..., 2, 2)
-        Directional factors.
-    omega : array_like, optional
-        Starting grid [rad/s], shape (n_freq,) or (..., n_freq); default
-        ``model.frequency_grid(shared=False)``.
-    tol : float, default 0.02
-        Largest change of ``ln a`` and ``ln n_0`` between neighbours.
-    iterations : int, default 3
-        Refinement passes.
-    max_insert : int, default 16
-        Most points inserted into one interval per pass.
-    depth_ratio : float, default 100
-        Only intervals with a depth below this multiple of the smallest
-        depth are refined.
-    teeth, rpm_range, max_lobe : optional
-        With the number of teeth and the speed range [rpm], only intervals
-        whose lobes ``k <= max_lobe`` reach that range are refined, and the
-        speed criterion uses the fastest such lobe instead of ``k = 0``.
-
-    Returns
-    -------
-    ndarray, shape (..., n_freq')
-        Sorted refined grid [rad/s], one row per batch entry.
-    """
-    batch = model.batch_shape
-    w = model.frequency_grid(shared=False) if omega is None else np.asarray(omega, dtype=np.float64)
-    w = np.broadcast_to(w, (*batch, w.shape[-1])).copy()
-    for _ in range(iterations):
-        mu = zoa_eigenvalues(model.frf(w), alpha)  # (..., 2, n)
-        re = mu.real
-        pos = re > 0
-        safe = np.where(pos, re, 1.0)
-        ln_a = np.where(pos, -np.log(safe), np.inf)  # ln a up to a constant
-        eps = np.pi + 2.0 * np.arctan(mu.imag / safe)
-        ok = pos[..., :-1] & pos[..., 1:]
-        ww = w[..., None, :]
-        if teeth is not None and rpm_range is not None:
-            # lobes whose speeds on an interval can reach the range (as in lobe_envelope)
-            c = 60.0 / teeth
-            e_lo = np.minimum(eps[..., :-1], eps[..., 1:])
-            e_hi = np.maximum(eps[..., :-1], eps[..., 1:])
-            k_lo = np.clip(np.ceil((c * ww[..., :-1] / rpm_range[1] - e_hi) / _TWO_PI), 0, None)
-            k_hi = np.floor((c * ww[..., 1:] / rpm_range[0] - e_lo) / _TWO_PI)
-            reach_iv = (k_lo <= np.minimum(k_hi, max_lobe)) & (pos[..., :-1] | pos[..., 1:])
-            k_lo = np.minimum(k_lo, max_lobe)
-        else:
-            k_lo = np.zeros_like(eps[..., :-1])
-            reach_iv = pos[..., :-1] | pos[..., 1:]
-        ln_a_iv = np.minimum(ln_a[..., :-1], ln_a[..., 1:])
-        amin = np.where(reach_iv, ln_a_iv, np.inf).min(axis=(-1, -2))  # (...)
-        near = ln_a_iv < amin[..., None, None] + np.log(depth_ratio)
-        with np.errstate(invalid="ignore"):
-            # the speed change of one lobe (same k at both ends of the interval)
-            dn = np.abs(
-                np.diff(np.log(ww), axis=-1)
-                - np.log((eps[..., 1:] + _TWO_PI * k_lo) / (eps[..., :-1] + _TWO_PI * k_lo))
-            )
-            jump = np.maximum(np.abs(np.diff(ln_a, axis=-1)), dn)
-        # where a branch stops (Re mu crosses 0) its lobes rise to infinity:
-        # close in on the crossing so that the curve is followed up high
-        edge = (pos[..., :-1] != pos[..., 1:]) & near & reach_iv
-        jump = np.where(ok & near & reach_iv, jump, 0.0)
-        jump = np.where(edge, np.inf, jump).max(axis=-2)  # (..., n-1)
-        add = np.clip(np.ceil(jump / tol) - 1.0, 0, max_insert).astype(np.int64)
-        total = add.sum(axis=-1)
-        if not np.any(total):
-            break
-        width = int(total.max())
-        flat_add = add.reshape(-1, add.shape[-1])
-        wf = w.reshape(-1, w.shape[-1])
-        rows = np.repeat(np.arange(wf.shape[0]), flat_add.sum(axis=-1))
-        counts = flat_add.ravel()
-        owner = np.repeat(np.arange(counts.size), counts)
-        first = np.repeat(np.cumsum(counts) - counts, counts)
-        idx = np.arange(owner.size) - first + 1  # 1..add
-        interval = owner % flat_add.shape[-1]
-        frac = idx / (counts[owner] + 1.0)
-        lo = wf[rows, interval]
-        hi = wf[rows, interval + 1]
-        new = np.full((wf.shape[0], width), np.nan)
-        slot = np.arange(owner.size) - np.repeat(
-            np.cumsum(flat_add.sum(axis=-1)) - flat_add.sum(axis=-1), flat_add.sum(axis=-1)
-        )
-        new[rows, slot] = lo + frac * (hi - lo)
-        new = np.where(np.isnan(new), wf[:, -1:], new)
-        w = np.sort(np.concatenate([wf, new], axis=-1), axis=-1).reshape(*batch, -1)
-    return w
 
 
 @dataclass(frozen=True)

@@ -1,0 +1,491 @@
+"""Zero-order lobes of modal dynamics, converged in frequency (the one lobe computation).
+
+The zero-order solution (:mod:`robolobe.sld.zoa`) turns frequency samples of
+the tool-point receptance into lobe polylines ``(n_k(w), a(w))`` and
+intersects them with the speed grid. How well the envelope is resolved then
+rests on the samples alone: a fixed grid (so many points per mode) leaves a
+lobe's end unresolved where its speed runs off fast, above all the k = 0 tail
+of a low-frequency (robot) mode at high spindle speed, which lives at phases
+``eps -> 0`` within a sliver of the resonance.
+
+:func:`converged_lobes` starts from the modal grid of each batch entry
+(:func:`robolobe.sld.frf.frequency_grid` of that entry's own modes) and
+halves every interval of a branch whose lobes reach the speed range below the
+envelope until
+
+- the sample in the middle of the interval lies within :data:`CHORD_TOL`
+  (relative depth, at its own speed) of the straight piece between its ends,
+  for the lowest, the highest and a middle lobe number that reach the speed
+  range; where the middle sample's speed falls outside the piece (a lobe
+  folding back in speed), until it lies within :data:`SPEED_TOL` (relative
+  speed) of it;
+- at an end of a branch (``Re mu`` crossing zero: the depth rises to infinity,
+  and for ``eps -> 0`` lobe 0's speed too), until the last sample is deeper
+  than the envelope's relevance bound or lobe 0's speed there is above the range;
+
+considering only pieces whose smallest depth lies below :data:`RELEVANT`
+times the highest envelope value of that entry. The stated result
+(:data:`LOBE_TOL`): the envelope at every speed of the grid, and at any
+speed queried later, lies within 0.5 % of the envelope of the exact lobes of
+the model (tests: an independent dense-grid ZOA in
+``tests/sld/test_converged.py``, property tests over random modal models and
+every waypoint of the bundled plans).
+
+Modes that cannot be resolved this way in reasonable time (damping below
+:data:`ZETA_MIN`, frequency above :data:`F_MAX_HZ`) are refused with an
+:class:`~robolobe.errors.InputError` naming the mode; a refinement that does
+not settle within :data:`MAX_PASSES` halvings is refused the same way, never
+returned unconverged.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from robolobe.errors import InputError
+from robolobe.sld.frf import ModalModel, _mode_window
+from robolobe.sld.lobes import LobeDiagram
+from robolobe.sld.zoa import zoa_lobes
+
+__all__ = [
+    "CHORD_TOL",
+    "F_MAX_HZ",
+    "LOBE_TOL",
+    "SPEED_TOL",
+    "ZETA_MIN",
+    "check_resolvable",
+    "converged_lobes",
+]
+
+FloatArray = NDArray[np.float64]
+ComplexArray = NDArray[np.complex128]
+IntArray = NDArray[np.int64]
+
+_TWO_PI = 2.0 * math.pi
+
+#: The stated convergence tolerance: relative error of ``a_lim`` at any speed.
+LOBE_TOL = 0.005
+#: Largest relative depth error of a lobe piece at its middle sample (refinement target).
+CHORD_TOL = 1e-3
+#: Largest relative speed by which a lobe folding back may overshoot its pieces.
+SPEED_TOL = 1e-5
+#: Pieces deeper than this multiple of the highest envelope value are left alone.
+RELEVANT = 1.5
+#: Without a finite envelope value, pieces deeper than this multiple of the smallest
+#: depth are left alone.
+DEPTH_SPAN = 1e4
+#: Halving passes before the refinement is declared unconverged.
+MAX_PASSES = 64
+#: Smallest damping ratio accepted (below, a resonance needs ~1/zeta samples).
+ZETA_MIN = 1e-5
+#: Highest natural frequency accepted [Hz].
+F_MAX_HZ = 1e6
+#: Most frequency samples one batch entry may need.
+MAX_SAMPLES = 200_000
+#: Points per decade of the base grid and per mode window (see ``frequency_grid``).
+_PER_DECADE = 40
+_PER_MODE = 33
+_HALF_WIDTH = 25.0
+#: Frequency samples whose FRFs are formed at once (bounds the temporaries).
+_EVAL_CHUNK = 1 << 15
+
+
+def check_resolvable(model: ModalModel) -> None:
+    """Refuse modes whose lobes cannot be resolved to :data:`LOBE_TOL` in reasonable time.
+
+    Raises
+    ------
+    InputError
+        Naming the first such mode (batch entry, mode index, f, zeta) and the limit.
+    """
+    present = np.any(model.residues != 0.0, axis=(-1, -2))
+    f = model.f_hz
+    bad_z = present & (model.zeta < ZETA_MIN)
+    bad_f = present & (f > F_MAX_HZ)
+    for bad, what in (
+        (bad_z, f"damping ratio >= {ZETA_MIN:g}"),
+        (bad_f, f"natural frequency <= {F_MAX_HZ:g} Hz"),
+    ):
+        if np.any(bad):
+            idx = np.argwhere(bad)[0]
+            at = f" (batch entry {tuple(int(i) for i in idx[:-1])})" if idx.size > 1 else ""
+            r = int(idx[-1])
+            raise InputError(
+                f"mode {r + 1}{at}: f = {float(f[tuple(idx)]):.6g} Hz, zeta = "
+                f"{float(model.zeta[tuple(idx)]):.3g}: its lobes cannot be resolved to "
+                f"{LOBE_TOL:.1%}; expected a {what}"
+            )
+
+
+def _initial_grid(
+    om: FloatArray, ze: FloatArray, present: NDArray[np.bool_]
+) -> tuple[FloatArray, IntArray]:
+    """Per entry: a log base grid over its own modes' range plus a window per mode.
+
+    The rule of :func:`robolobe.sld.frf.frequency_grid` applied to each entry's
+    own present modes, so that an entry's samples do not depend on the rest of
+    the batch. Returns the samples flat, sorted by (entry, frequency), and
+    each sample's entry.
+    """
+    nb = om.shape[0]
+    any_p = np.any(present, axis=1)
+    wp = np.where(present, om, np.nan)
+    safe = np.where(any_p[:, None], wp, 1.0)
+    lo = 0.5 * np.nanmin(safe, axis=1)
+    hi = 2.0 * np.nanmax(safe, axis=1)
+    n_base = np.maximum(np.ceil(_PER_DECADE * np.log10(hi / lo)).astype(np.int64) + 1, 2)
+    rows_b = np.repeat(np.arange(nb, dtype=np.int64), n_base)
+    start = np.r_[0, np.cumsum(n_base)[:-1]]
+    t = (np.arange(rows_b.size) - start[rows_b]) / (n_base[rows_b] - 1.0)
+    base = lo[rows_b] * (hi / lo)[rows_b] ** t
+    s = _mode_window(_PER_MODE, _HALF_WIDTH)
+    width = np.minimum(ze * _HALF_WIDTH, np.log(2.0)) / _HALF_WIDTH
+    win = om[..., None] * np.exp(width[..., None] * s)  # (nb, m, P)
+    keep = np.broadcast_to(present[..., None], win.shape)
+    rows_w = np.broadcast_to(np.arange(nb)[:, None, None], win.shape)[keep]
+    win = np.clip(win[keep], lo[rows_w], hi[rows_w])
+    w = np.concatenate([base, win])
+    rows = np.concatenate([rows_b, rows_w])
+    order = np.lexsort((w, rows))
+    return w[order], rows[order]
+
+
+def _eig_at(
+    om: FloatArray,
+    ze: FloatArray,
+    res: FloatArray,
+    al: FloatArray,
+    rows: IntArray,
+    w: FloatArray,
+) -> ComplexArray:
+    """Eigenvalues of ``alpha G(w)`` at the samples ``(rows, w)``, shape (P, 2), untracked.
+
+    The same closed form as :func:`robolobe.sld.zoa.zoa_eigenvalues`.
+    """
+    out = np.empty((w.size, 2), np.complex128)
+    for s in range(0, w.size, _EVAL_CHUNK):
+        r = rows[s : s + _EVAL_CHUNK]
+        ww = w[s : s + _EVAL_CHUNK, None]
+        wr = om[r]
+        den = wr * wr - ww * ww + 2j * (ze[r] * wr) * ww
+        g = np.einsum("pm,pmij->pij", 1.0 / den, res[r])
+        a = al[r]
+        tr = (
+            a[:, 0, 0] * g[:, 0, 0]
+            + a[:, 0, 1] * g[:, 1, 0]
+            + a[:, 1, 0] * g[:, 0, 1]
+            + a[:, 1, 1] * g[:, 1, 1]
+        )
+        det = (a[:, 0, 0] * a[:, 1, 1] - a[:, 0, 1] * a[:, 1, 0]) * (
+            g[:, 0, 0] * g[:, 1, 1] - g[:, 0, 1] * g[:, 1, 0]
+        )
+        h = 0.5 * tr
+        root = np.sqrt(h * h - det)
+        out[s : s + _EVAL_CHUNK, 0] = h + root
+        out[s : s + _EVAL_CHUNK, 1] = h - root
+    return out
+
+
+def _follow(ref: ComplexArray, mu: ComplexArray) -> ComplexArray:
+    """``mu`` (P, 2) with its two values ordered to continue the branches of ``ref``.
+
+    The pairing rule of :func:`robolobe.sld.zoa.zoa_eigenvalues` (smaller sum of distances).
+    """
+    same = np.abs(mu[:, 0] - ref[:, 0]) + np.abs(mu[:, 1] - ref[:, 1])
+    cross = np.abs(mu[:, 0] - ref[:, 1]) + np.abs(mu[:, 1] - ref[:, 0])
+    swap = cross < same
+    return np.where(swap[:, None], mu[:, ::-1], mu)
+
+
+def _depth_eps(mu: ComplexArray, nkt: float) -> tuple[FloatArray, FloatArray]:
+    re = mu.real
+    pos = re > 0.0
+    safe = np.where(pos, re, 1.0)
+    return (
+        np.where(pos, _TWO_PI / (nkt * safe), np.inf),
+        np.where(pos, np.pi + 2.0 * np.arctan(mu.imag / safe), np.nan),
+    )
+
+
+def _split_mask(
+    w: FloatArray,
+    rows: IntArray,
+    mu: ComplexArray,
+    i: IntArray,
+    mu_mid: ComplexArray,
+    bound: FloatArray,
+    *,
+    teeth: int,
+    nkt: float,
+    smin: float,
+    smax: float,
+    kmax: int,
+) -> NDArray[np.bool_]:
+    """Which intervals ``[w[i], w[i + 1]]`` (of one row each) need their middle sample."""
+    c = 60.0 / teeth
+    mu_l = mu[i]
+    mu_r = _follow(mu_l, mu[i + 1])
+    mu_m = _follow(mu_l, mu_mid)
+    a_l, e_l = _depth_eps(mu_l, nkt)  # (P, 2)
+    a_r, e_r = _depth_eps(mu_r, nkt)
+    a_m, e_m = _depth_eps(mu_m, nkt)
+    w_l = w[i][:, None]
+    w_r = w[i + 1][:, None]
+    w_m = 0.5 * (w_l + w_r)
+    fin_l, fin_r, fin_m = np.isfinite(a_l), np.isfinite(a_r), np.isfinite(a_m)
+    b = bound[rows[i]][:, None]
+    big = np.inf
+
+    def reach(e_lo: FloatArray, e_hi: FloatArray) -> tuple[FloatArray, FloatArray]:
+        klo = np.ceil((c * w_l / smax - e_hi) / _TWO_PI)
+        khi = np.floor((c * w_r / smin - e_lo) / _TWO_PI)
+        return np.clip(klo, 0, kmax + 1), np.clip(khi, -1, kmax)
+
+    split = np.zeros(a_l.shape, bool)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        # both ends on the branch: the middle sample against the straight piece
+        both = fin_l & fin_r
+        em_ok = np.where(fin_m, e_m, np.nan)
+        e_lo = np.fmin(np.fmin(e_l, e_r), em_ok)
+        e_hi = np.fmax(np.fmax(e_l, e_r), em_ok)
+        klo, khi = reach(e_lo, e_hi)
+        amin = np.fmin(np.minimum(a_l, a_r), np.where(fin_m, a_m, big))
+        rel = both & (khi >= klo) & (amin < b)
+        hole = rel & ~fin_m  # the branch leaves and comes back inside: resolve it
+        check = rel & fin_m
+        bad = np.zeros(a_l.shape, bool)
+        for k in (klo, khi, np.floor(0.5 * (klo + khi))):
+            tk = _TWO_PI * k
+            n_l = c * w_l / (e_l + tk)
+            n_r = c * w_r / (e_r + tk)
+            n_m = c * w_m / (e_m + tk)
+            lo_n = np.minimum(n_l, n_r)
+            hi_n = np.maximum(n_l, n_r)
+            meets = (np.maximum(hi_n, n_m) >= smin * (1 - 1e-3)) & (
+                np.minimum(lo_n, n_m) <= smax * (1 + 1e-3)
+            )
+            inside = (n_m >= lo_n) & (n_m <= hi_n) & (hi_n > lo_n)
+            chord = a_l + (a_r - a_l) * (n_m - n_l) / (n_r - n_l)
+            err_a = np.abs(a_m - chord) / np.minimum(a_m, chord)
+            err_n = np.maximum(lo_n - n_m, n_m - hi_n) / n_m
+            bad |= meets & np.where(inside, ~(err_a <= CHORD_TOL), ~(err_n <= SPEED_TOL))
+        split |= hole | (check & bad)
+        # one end on the branch: its depth rises to infinity towards the other end
+        # (and for eps -> 0 lobe 0's speed too): close in while it can matter
+        edge = fin_l ^ fin_r
+        a_f = np.where(fin_l, a_l, a_r)
+        e_f = np.where(fin_l, e_l, e_r)
+        e_x = np.where(e_f < np.pi, 0.0, _TWO_PI)
+        klo, khi = reach(np.minimum(e_f, e_x), np.maximum(e_f, e_x))
+        split |= edge & (khi >= klo) & (a_f < b)
+        # neither end on the branch: a branch appearing in the middle
+        none = ~fin_l & ~fin_r & fin_m
+        klo, khi = reach(em_ok, em_ok)
+        split |= none & (khi >= klo) & (a_m < b)
+    return np.asarray(split.any(axis=1))
+
+
+def _refine(
+    om: FloatArray,
+    ze: FloatArray,
+    res: FloatArray,
+    al: FloatArray,
+    w: FloatArray,
+    rows: IntArray,
+    bound: FloatArray,
+    *,
+    teeth: int,
+    nkt: float,
+    smin: float,
+    smax: float,
+    kmax: int,
+) -> tuple[FloatArray, IntArray, bool]:
+    """Halve intervals until no interval needs its middle sample (flat, sorted by row, w)."""
+    mu = _eig_at(om, ze, res, al, rows, w)
+    active = np.r_[rows[1:] == rows[:-1], False]
+    added = False
+    for _ in range(MAX_PASSES):
+        i = np.flatnonzero(active)
+        if i.size == 0:
+            return w, rows, added
+        w_mid = 0.5 * (w[i] + w[i + 1])
+        mu_mid = _eig_at(om, ze, res, al, rows[i], w_mid)
+        split = _split_mask(
+            w, rows, mu, i, mu_mid, bound,
+            teeth=teeth, nkt=nkt, smin=smin, smax=smax, kmax=kmax,
+        )  # fmt: skip
+        # an interval at the resolution of doubles cannot be halved any more
+        tiny = (w[i + 1] - w[i]) <= 1e-12 * w[i]
+        if np.any(split & tiny):
+            r = int(rows[i[np.flatnonzero(split & tiny)[0]]])
+            _unconverged(om, ze, r, "the frequency samples reached the resolution of doubles")
+        active[i] = split
+        if not np.any(split):
+            return w, rows, added
+        added = True
+        j = np.flatnonzero(split)
+        w = np.concatenate([w, w_mid[j]])
+        rows = np.concatenate([rows, rows[i[j]]])
+        mu = np.concatenate([mu, mu_mid[j]])
+        active = np.concatenate([active, np.ones(j.size, bool)])
+        order = np.lexsort((w, rows))
+        w, rows, mu, active = w[order], rows[order], mu[order], active[order]
+        counts = np.bincount(rows, minlength=om.shape[0])
+        if counts.max() > MAX_SAMPLES:
+            _unconverged(
+                om, ze, int(np.argmax(counts)), f"more than {MAX_SAMPLES} frequency samples"
+            )
+    r = int(rows[np.flatnonzero(active)[0]])
+    _unconverged(om, ze, r, f"{MAX_PASSES} halvings")
+    raise AssertionError  # pragma: no cover
+
+
+def _unconverged(om: FloatArray, ze: FloatArray, row: int, why: str) -> None:
+    m = int(np.argmin(ze[row]))
+    raise InputError(
+        f"lobes of batch entry {row} not resolved to {LOBE_TOL:.1%} ({why}); its least "
+        f"damped mode {m + 1}: f = {om[row, m] / _TWO_PI:.6g} Hz, zeta = {ze[row, m]:.3g}"
+    )
+
+
+def _padded(w: FloatArray, rows: IntArray, nb: int) -> FloatArray:
+    """Flat sorted samples as (nb, n_max), each row padded with copies of its last value."""
+    counts = np.bincount(rows, minlength=nb)
+    n = int(counts.max())
+    start = np.r_[0, np.cumsum(counts)[:-1]]
+    pos = np.arange(w.size) - start[rows]
+    out = np.empty((nb, n))
+    out[rows, pos] = w
+    last = w[start + counts - 1]
+    col = np.arange(n)[None, :]
+    return np.where(col < counts[:, None], out, last[:, None])
+
+
+def converged_lobes(
+    model: ModalModel,
+    alpha: ArrayLike,
+    *,
+    teeth: int,
+    kt: float,
+    rpm: ArrayLike,
+    max_lobe: int | None = None,
+    immersion: float = 1.0,
+    max_lobe_cap: int = 400,
+    jit: bool | None = None,
+) -> LobeDiagram:
+    """Zero-order lobes of modal dynamics whose envelope is converged to :data:`LOBE_TOL`.
+
+    Parameters
+    ----------
+    model : ModalModel
+        2-D feed-frame dynamics, any batch shape.
+    alpha : array_like, shape (2, 2) or (..., 2, 2)
+        Directional factors.
+    teeth : int
+        Number of teeth N.
+    kt : float
+        Tangential cutting coefficient [N/m^2].
+    rpm : array_like, shape (n_speed,)
+        Speed grid [rpm]; the lobes are resolved over its range.
+    max_lobe : int or None, default None
+        Highest lobe number; None: every lobe that reaches the lowest speed
+        (at most ``max_lobe_cap``), as in :func:`robolobe.sld.zoa.zoa_lobes`.
+    immersion : float
+        ``a_e / D`` (the validity flag).
+    max_lobe_cap : int
+        Upper bound of the automatic lobe number.
+    jit : bool or None
+        As in :func:`robolobe.sld.zoa.zoa_lobes` (same envelopes either way).
+
+    Returns
+    -------
+    LobeDiagram
+        Batch shape of the model; ``omega`` holds each entry's own refined
+        samples (rows padded with copies of their last value).
+
+    Raises
+    ------
+    InputError
+        A mode beyond :func:`check_resolvable`'s limits, or a refinement that
+        does not settle.
+    """
+    if model.dim != 2:
+        raise InputError(f"model: expected 2-D (feed-frame) dynamics, found dim {model.dim}")
+    check_resolvable(model)
+    r = np.asarray(rpm, dtype=np.float64)
+    if r.ndim != 1 or r.size < 1 or not np.all(np.isfinite(r)) or np.any(r <= 0):
+        raise InputError("rpm: expected a 1-D grid of positive speeds")
+    if isinstance(teeth, bool) or int(teeth) != teeth or teeth < 1:
+        raise InputError(f"teeth: expected an integer >= 1, found {teeth!r}")
+    if not (np.isfinite(kt) and kt > 0):
+        raise InputError(f"kt: expected a positive coefficient in N/m^2, found {kt!r}")
+    a = np.asarray(alpha, dtype=np.float64)
+    if a.shape[-2:] != (2, 2):
+        raise InputError(f"alpha: expected shape (..., 2, 2), found {a.shape}")
+    batch = np.broadcast_shapes(model.batch_shape, a.shape[:-2])
+    nb = math.prod(batch)
+    m = model.n_modes
+    om = np.broadcast_to(model.omega, (*batch, m)).reshape(nb, m)
+    ze = np.broadcast_to(model.zeta, (*batch, m)).reshape(nb, m)
+    res = np.broadcast_to(model.residues, (*batch, m, 2, 2)).reshape(nb, m, 2, 2)
+    al = np.ascontiguousarray(np.broadcast_to(a, (*batch, 2, 2)).reshape(nb, 2, 2))
+    present = np.any(res != 0.0, axis=(-1, -2))
+    smin, smax = float(r.min()), float(r.max())
+    nkt = float(teeth) * float(kt)
+    w, rows = _initial_grid(om, ze, present)
+    kmax = (
+        int(max_lobe)
+        if max_lobe is not None
+        else int(min(max_lobe_cap, np.ceil(w.max() * 60.0 / (teeth * smin * _TWO_PI))))
+    )
+    flat = ModalModel(om, ze, res)
+
+    def lobes(w2: FloatArray) -> LobeDiagram:
+        def synth(start: int, stop: int) -> ComplexArray:
+            return flat.take(slice(start, stop)).frf(w2[start:stop])
+
+        return zoa_lobes(
+            w2, synth, alpha=al, teeth=int(teeth), kt=float(kt), rpm=r,
+            max_lobe=max_lobe, immersion=immersion, max_lobe_cap=max_lobe_cap, jit=jit,
+        )  # fmt: skip
+
+    def bound_of(d: LobeDiagram) -> FloatArray:
+        env = np.where(np.isfinite(d.a_lim), d.a_lim, -np.inf).max(axis=-1)
+        assert d.depth is not None
+        dmin = np.where(np.isfinite(d.depth), d.depth, np.inf).min(axis=(-1, -2))
+        cap = DEPTH_SPAN * dmin
+        full = np.all(np.isfinite(d.a_lim), axis=-1)
+        return np.asarray(np.where(full, np.minimum(RELEVANT * env, cap), cap))
+
+    diag = lobes(_padded(w, rows, nb))
+    bound = bound_of(diag)
+    for _ in range(4):
+        w, rows, added = _refine(
+            om, ze, res, al, w, rows, bound,
+            teeth=int(teeth), nkt=nkt, smin=smin, smax=smax, kmax=kmax,
+        )  # fmt: skip
+        if added:
+            diag = lobes(_padded(w, rows, nb))
+        new = bound_of(diag)
+        # the envelope came out higher than the bound assumed: pieces left alone
+        # might matter; refine again with the new bound
+        if np.all(new <= bound * (1.0 + 1e-9)):
+            break
+        bound = np.maximum(bound, new)
+    else:
+        _unconverged(om, ze, int(np.argmax(new / bound)), "the relevance bound did not settle")
+    nf = diag.depth.shape[-1] if diag.depth is not None else 0
+    return dataclasses.replace(
+        diag,
+        a_lim=diag.a_lim.reshape(*batch, r.size),
+        omega=np.asarray(diag.omega).reshape(*batch, nf),
+        depth=None if diag.depth is None else diag.depth.reshape(*batch, 2, nf),
+        eps=None if diag.eps is None else diag.eps.reshape(*batch, 2, nf),
+        complete_above_rpm=None
+        if diag.complete_above_rpm is None
+        else np.asarray(diag.complete_above_rpm).reshape(batch),
+    )
