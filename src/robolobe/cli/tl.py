@@ -269,9 +269,10 @@ def register(app: typer.Typer) -> None:
     ) -> None:
         """Make a robot's mode predictor from a few hammer tests.
 
-        Default (``--robot R``, no ``--method``): the best validated predictor,
-        R's twin calibrated to the tests plus a learned correction of what it
-        still misses; a job plans on it with ``[robot] model = "OUT.npz"``.
+        Default (--robot R, no --method): the best validated predictor, R's
+        twin calibrated to the tests plus a learned correction of what it still
+        misses; a job plans on it with model = "OUT.npz" in its [robot] table.
+        Prints the model's headline figures (-v: per-posture details).
         """
         from robolobe._atomic import check_output_file
 
@@ -329,7 +330,7 @@ def register(app: typer.Typer) -> None:
         """Predict modal parameters (with spread) at postures; optionally their FRFs.
 
         Columns: those of modal.csv, then per value its standard deviation
-        (``*_std``) and 90 % interval (``*_lo90``, ``*_hi90``).
+        (NAME_std) and 90 % interval (NAME_lo90, NAME_hi90).
         """
         from robolobe._atomic import check_output_dir, check_output_file
 
