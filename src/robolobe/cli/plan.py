@@ -155,11 +155,11 @@ def _compare_cell(row: dict[str, Any], key: str, fmt: str | None) -> str:
     ok = row.get("status") == "ok"
     if key == "status" and ok and bool(row.get("placement_adjusted")):
         return "ok, moved"  # the workpiece is not where the job puts it: see the note
-    if key == "rpm_min" and ok:
-        lo, hi = float(row["rpm_min"]), float(row["rpm_max"])
-        return f"{lo:.0f}" if round(lo) == round(hi) else f"{lo:.0f}-{hi:.0f}"
     if v is None or (isinstance(v, float) and v != v):
         return ""
+    if key == "rpm_min":  # the speed range in one cell
+        lo, hi = float(v), float(row.get("rpm_max", v))
+        return f"{lo:.0f}" if round(lo) == round(hi) else f"{lo:.0f}-{hi:.0f}"
     if fmt is not None and isinstance(v, (int, float)):
         return fmt.format(v)
     return escape(str(v))
