@@ -111,13 +111,13 @@ def test_ready_plot_workers_draw_the_same_pngs_and_a_dead_one_falls_back(
 ):
     """Ready workers deliver the PNGs drawn in-process, byte for byte, and nothing is
     drawn here; a worker that died before drawing leaves the same files (drawn here)."""
-    with PlotWorker() as worker:
+    with PlotWorker(2) as worker:
         assert worker.ready(READY_S) == 2
         worker.send(_records(result))
         got = worker.receive()
     assert got is not None  # the workers delivered
     assert got == here
-    with monkeypatch.context() as m, PlotWorker() as worker:
+    with monkeypatch.context() as m, PlotWorker(2) as worker:
         assert worker.ready(READY_S) == 2
         # nothing may be drawn here when the workers deliver (their processes are not patched)
         m.setattr(_plots, "draw", lambda rec: pytest.fail("drawn in-process"))
@@ -185,7 +185,7 @@ def test_a_plot_worker_that_does_not_deliver_in_time_is_stopped(
     """A ready worker that has not delivered by the time limit is killed and the figures
     are drawn in-process: the same files, nothing left running."""
     monkeypatch.setattr(_plots, "RECEIVE_TIMEOUT_S", 1e-6)
-    worker = _plots.PlotWorker()
+    worker = _plots.PlotWorker(2)
     assert worker.ready(READY_S) == 2
     procs = list(worker._procs)
     late = report.write_outputs(result, tmp_path / "late", html_report=False, worker=worker)
@@ -198,11 +198,37 @@ def test_a_plot_worker_that_does_not_deliver_in_time_is_stopped(
 def test_plot_worker_reports_a_drawing_error_as_a_failure(normal_priority):
     """A record a ready worker cannot draw makes receive() return None (the caller then
     draws in-process and raises the real error there), not a hang or a partial result."""
-    with PlotWorker() as worker:
+    with PlotWorker(2) as worker:
         assert worker.ready(READY_S) == 2
         worker.send({"bad": object()})
         assert worker._sent
         assert worker.receive() is None
+
+
+@pytest.mark.parametrize(
+    ("cores", "load", "expected"),
+    [
+        (2, 0.3, 2),  # quiet: the workers import on the idle core while the plan runs
+        (2, 1.9, 2),
+        (2, 2.0, 0),  # every core busy on average: a worker would not be ready in time
+        (2, 4.2, 0),
+        (1, 0.0, 0),  # one core: nothing to gain
+        (16, 3.0, 2),
+        (16, 40.0, 0),
+        (2, float("nan"), 2),  # load unknown: as on a quiet machine
+    ],
+)
+def test_plot_workers_started_only_where_they_can_be_ready(cores, load, expected):
+    assert _plots._default_processes(cores, load) == expected
+
+
+def test_a_busy_machine_starts_no_plot_worker(monkeypatch):
+    monkeypatch.setattr(_plots, "_load", lambda: 9.5)
+    monkeypatch.setattr(_plots, "_cores", lambda: 2)
+    with PlotWorker() as worker:
+        assert worker._procs == []
+        worker.send({"x": object()})
+        assert worker.receive() is None  # the caller draws in-process
 
 
 @pytest.mark.parametrize(

@@ -365,7 +365,7 @@ def register(app: typer.Typer) -> None:
         Default (--robot R, no --method): the best validated predictor, R's
         twin calibrated to the tests plus a learned correction of what it still
         misses; a job plans on it with model = "OUT.npz" in its [robot] table.
-        Prints the model's headline figures (-v: per-posture details).
+        Prints the model's headline figures (-v: every fitted parameter).
         """
         from robolobe._atomic import check_output_file
 

@@ -366,8 +366,9 @@ class PlotWorker:
     ----------
     processes : int, optional
         Worker processes; default 2, each drawing about half of the figures,
-        none on a one-core machine (nothing to gain there: :meth:`receive`
-        returns None and the caller draws). Measured on the 10k-waypoint
+        none on a one-core machine or one already busy (load average at least
+        the cores: :func:`_default_processes`); with none :meth:`receive`
+        returns None and the caller draws. Measured on the 10k-waypoint
         benchmark plan (2 cores, quiet): one worker at normal priority
         1.71-1.98 s end to end, two at nice 19 1.54-1.60 s, two at +5
         1.66-1.68 s, two at normal priority 1.81-2.02 s (their start-up
@@ -377,7 +378,7 @@ class PlotWorker:
 
     def __init__(self, processes: int | None = None) -> None:
         if processes is None:
-            processes = 2 if _cores() >= 2 else 0
+            processes = _default_processes(_cores(), _load())
         # the same robolobe as this process, whatever the worker's sys.path
         root = str(Path(__file__).resolve().parents[2])
         increment, restore_to = _import_priority_here()
@@ -516,6 +517,39 @@ def _stop(proc: subprocess.Popen[bytes]) -> None:
             with contextlib.suppress(OSError):
                 pipe.close()
     proc.wait()
+
+
+def _default_processes(cores: int, load: float) -> int:
+    """Plot workers to start: 2 on two or more cores, none where none would be ready.
+
+    Parameters
+    ----------
+    cores : int
+        CPUs this process may run on.
+    load : float
+        The machine's one-minute load average (runnable processes; NaN: unknown).
+
+    Returns
+    -------
+    int
+        0 on one core, and on a machine whose load average is at least its
+        cores: other programs keep every core busy, so a worker importing at
+        low priority would not be ready when the plan is done (it would be
+        stopped then, its start-up wasted). Measured with
+        ``benchmarks/bench_load.py``: beside two busy processes the figures
+        drawn in-process cost the same as with workers that are never ready.
+    """
+    if cores < 2 or load >= cores:
+        return 0
+    return 2
+
+
+def _load() -> float:
+    """The one-minute load average (NaN where the system has none)."""
+    try:
+        return os.getloadavg()[0]
+    except (AttributeError, OSError):
+        return float("nan")
 
 
 def _cores() -> int:
