@@ -6,10 +6,12 @@
 
 Runs ``robolobe plan`` on the bundled pocket as a user would (a fresh
 process each time, the same robolobe as this script imports) in three
-variants, one after another in each round so that they see the same load:
+variants, one after another in each round so that they see the same load
+(each round starts with another variant):
 
-- ``plots``: the default, plots and report (the plot workers draw them when
-  ready in time, else the figures are drawn in-process);
+- ``plots``: the default, plots and report (drawn by the plot workers where
+  they are ready when the plan is done; in-process on a machine whose load
+  average is at least its cores, where no worker is started);
 - ``in-process``: plots and report drawn in the planning process (the plot
   workers off, as on a one-core machine);
 - ``no plots``: ``--no-plots --no-html``.
@@ -113,8 +115,9 @@ def phase(label: str, reps: int, tmp: Path) -> dict[str, list[float]]:
     walls: dict[str, list[float]] = {v[0]: [] for v in VARIANTS}
     cpus: dict[str, list[float]] = {v[0]: [] for v in VARIANTS}
     start = _load()
-    for _ in range(reps):
-        for name, extra, off in VARIANTS:
+    for r in range(reps):
+        # a different variant first in each round: no variant always follows the same one
+        for name, extra, off in VARIANTS[r % len(VARIANTS) :] + VARIANTS[: r % len(VARIANTS)]:
             wall, cpu = run_plan(tmp / name.replace(" ", "_"), extra, off)
             walls[name].append(wall)
             cpus[name].append(cpu)
