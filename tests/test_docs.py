@@ -64,16 +64,72 @@ def test_docs_build_strict(tmp_path: Path) -> None:
     site = tmp_path / "site"
     _run(["-m", "mkdocs", "build", "--strict", "--site-dir", str(site)], "mkdocs build --strict")
     # The API reference was rendered from the docstrings, not left empty.
-    api = (site / "api" / "plan" / "index.html").read_text(encoding="utf-8")
+    api = (site / "api" / "plan.html").read_text(encoding="utf-8")
     assert "load_job" in api
     assert "robolobe-job/1" in api
-    sld = (site / "api" / "sld" / "index.html").read_text(encoding="utf-8")
+    sld = (site / "api" / "sld.html").read_text(encoding="utf-8")
     assert "stability_lobes" in sld
     assert "Natural frequencies" in sld
     # The gallery pages carry the scripts' code (snippets resolved).
-    page = (site / "gallery" / "campaign_to_plan" / "index.html").read_text(encoding="utf-8")
+    page = (site / "gallery" / "campaign_to_plan.html").read_text(encoding="utf-8")
     assert "TwinCalibration" in page
     assert (site / "img" / "lobes_one_tool_point.png").stat().st_size > 1000
+    # The site browses from disk (site/index.html): every link of every page leads to a
+    # file, not to a folder a browser would show as a listing.
+    assert _broken_links(site) == []
+    nav = _links(site / "index.html")
+    assert "guide/job.html" in nav
+    assert "api/plan.html" in nav
+
+
+def _links(page: Path) -> list[str]:
+    """The href and src values of an HTML page."""
+    from html.parser import HTMLParser
+
+    class Links(HTMLParser):
+        def __init__(self) -> None:
+            super().__init__()
+            self.found: list[str] = []
+
+        def handle_starttag(self, tag: str, attrs: list[tuple[str, str | None]]) -> None:
+            self.found += [v for k, v in attrs if k in ("href", "src") and v]
+
+    parser = Links()
+    parser.feed(page.read_text(encoding="utf-8"))
+    return parser.found
+
+
+def _broken_links(site: Path) -> list[str]:
+    """'page -> link' for each relative link of the built site that is not a file.
+
+    The 404 page is left out: a server shows it for any missing URL, so its links
+    are written from the site's root.
+    """
+    from urllib.parse import unquote, urlsplit
+
+    broken = []
+    for page in sorted(site.rglob("*.html")):
+        if page.name == "404.html":
+            continue
+        for link in _links(page):
+            url = urlsplit(link)
+            if url.scheme or url.netloc or not url.path:  # another site, or this page
+                continue
+            if not (page.parent / unquote(url.path)).is_file():
+                broken.append(f"{page.relative_to(site)} -> {link}")
+    return broken
+
+
+def test_broken_links_are_found(tmp_path: Path) -> None:
+    """The link check above finds a link to a folder and to a missing file."""
+    (tmp_path / "guide").mkdir()
+    (tmp_path / "guide" / "job.html").write_text("<p>job</p>", encoding="utf-8")
+    (tmp_path / "index.html").write_text(
+        '<a href="guide/job.html#keys">ok</a><a href="https://x.org/">ext</a><a href="#top">'
+        '</a><a href="guide/">dir</a><img src="img/missing.png">',
+        encoding="utf-8",
+    )
+    assert _broken_links(tmp_path) == ["index.html -> guide/", "index.html -> img/missing.png"]
 
 
 def test_gallery_lobes_one_tool_point(tmp_path: Path) -> None:

@@ -27,6 +27,7 @@ BENCHMARKS = {
     "bench_plan.py long": "bench_plan.py --part long --waypoints-long 3000",
     "bench_diagnose.py": "bench_diagnose.py --postures 6",
     "bench_ik.py": "bench_ik.py --n 2000 --loop 50",
+    "bench_load.py": "bench_load.py --busy 1 --reps 1",
     "bench_modal.py": "bench_modal.py --n 6 --repeat 2",
     "bench_paths.py": "bench_paths.py --lines 2000 --others 500",
     "bench_sld.py": "bench_sld.py --batch 40 --loop 5 --repeat 1",

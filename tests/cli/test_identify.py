@@ -81,7 +81,7 @@ def test_identify_options(
     campaign_dir: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
     out = tmp_path / "m.csv"
-    code, _, err = _run(
+    code, stdout, err = _run(
         [
             "identify",
             str(campaign_dir),
@@ -98,9 +98,18 @@ def test_identify_options(
         capsys,
     )
     assert code == 0, err
+    # quiet: the sign convention only with -v (no negative driving-point residue here)
+    assert "sign convention" not in stdout + err
+    assert "4 postures," in stdout
     df = read_modal_csv(out)
     assert df.groupby(["posture_id", "dir"]).size().max() <= 2
     assert df["f_hz"].max() <= 20
+    code, stdout, err = _run(
+        ["identify", str(campaign_dir), "-o", str(out), "--modes", "2", "--fmax", "20", "-v"],
+        capsys,
+    )
+    assert code == 0, err
+    assert "sign convention" in stdout
     for args, needle in (
         (["--modes", "0"], "--modes"),
         (["--fmin", "50"], "--fmin"),

@@ -157,3 +157,39 @@ def test_compare_robot_list_forms(tmp_path, robots, monkeypatch):
     )
     assert res.exit_code == 0, res.output
     assert seen["names"] == ["A", "C"]
+
+
+def test_compare_table_says_where_the_workpiece_was_moved(tmp_path, monkeypatch):
+    """The terminal table: one format per column, a moved workpiece said in the status
+    and in a note with its position (the plan on B is not for the job's placement)."""
+    from robolobe.plan import compare as cmp_mod
+
+    rows = [
+        {"robot": "A", "status": "ok", "placement_adjusted": False, "depth_mm": 2.8791,
+         "rpm_min": 22514.2, "rpm_max": 22676.4, "mrr_cm3_per_min": 155.597,
+         "cycle_time_s": 8.795, "passes": 5.0, "part_time_s": 43.97, "min_margin": 1.3,
+         "worst_source": "pocket.nc:27", "message": ""},
+        {"robot": "B", "status": "ok", "placement_adjusted": True,
+         "placement_xyz_m": [1.868, 0.0, 1.2051], "depth_mm": 1.97, "rpm_min": 24000.0,
+         "rpm_max": 24000.0, "mrr_cm3_per_min": 113.7, "cycle_time_s": 8.3, "passes": 7.0,
+         "part_time_s": 57.8, "min_margin": 1.30004, "worst_source": "pocket.nc:34",
+         "message": ""},
+        {"robot": "C", "status": "unreachable", "message": "C: no placement reaches the path"},
+    ]  # fmt: skip
+    table = pd.DataFrame(rows)
+    monkeypatch.setattr(cmp_mod, "compare_robots", lambda *a, **k: cmp_mod.Comparison(table))
+    monkeypatch.setattr(cmp_mod, "write_comparison", lambda c, o: o)
+    args = ["compare", str(EX / "pocket.nc"), "--job", str(twin_job(tmp_path)), "-o", "c"]
+    res = CliRunner().invoke(app, [*args, "--robots", "A", "B", "C"])
+    assert res.exit_code == 0, res.output
+    lines = res.output.splitlines()
+    a = next(ln for ln in lines if ln.lstrip().startswith("A "))
+    b = next(ln for ln in lines if ln.lstrip().startswith("B "))
+    # (the last column, the worst waypoint, may fold at the console's width)
+    assert a.split()[:8] == ["A", "ok", "2.88", "22514-22676", "155.6", "5", "44.0", "1.30"]
+    assert b.split()[:4] == ["B", "ok,", "moved", "1.97"]
+    assert "24000" in b.split()
+    text = " ".join(res.output.split())
+    assert "workpiece moved for robot B" in text
+    assert "x 1.868, y 0.000, z 1.205 m" in text
+    assert "robot A" not in text  # A's workpiece is where the job puts it

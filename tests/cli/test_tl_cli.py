@@ -184,7 +184,14 @@ def test_default_transfer_makes_a_corrected_twin_a_job_plans_on(tmp_path, b_moda
     out = tmp_path / "B_pred.npz"
     res = run(["transfer", b_modal, "--robot", "B", "-o", out, "--params", "stiffness,damping"])
     assert res.exit_code == 0, res.output
-    assert "correction of log f" in res.output
+    # quiet by default: the headline, what the correction does, how to plan on it
+    text = " ".join(res.output.split())
+    assert "a corrected twin of B from" in text
+    assert "learned correction:" in text
+    advice = f'plan on it: [robot] name = "B", model = "{out}"'
+    assert "".join(advice.split()) in "".join(text.split())  # wrapped at any space
+    assert not re.search(r"^\s+k1 x", res.output, re.M)  # each parameter only with -v
+    assert "correction of log f" not in text
     model = load_model(out)
     assert isinstance(model, CorrectedTwin)
     post = tmp_path / "postures.csv"
@@ -198,6 +205,15 @@ def test_default_transfer_makes_a_corrected_twin_a_job_plans_on(tmp_path, b_moda
     res = run(["transfer", b_modal, "--robot", "B", "-o", tmp_path / "B.toml"])
     assert res.exit_code == 2
     assert "twin-calibration" in res.output
+    # -v: every fitted parameter, with what the names stand for
+    toml = tmp_path / "B_cal.toml"
+    args = ["--method", "twin-calibration", "--params", "stiffness", "-o", toml, "-v"]
+    res = run(["transfer", b_modal, "--robot", "B", *args])
+    assert res.exit_code == 0, res.output
+    assert len(re.findall(r"^\s+k[1-6] x\d\.\d{3} \(\+- ", res.output, re.M)) == 6, res.output
+    assert "joint stiffness" in res.output
+    advice = f'plan on it: [robot] name = "{toml}", model = "twin"'
+    assert "".join(advice.split()) in "".join(res.output.split())
     # neither a robot to calibrate nor a network to transfer
     res = run(["transfer", b_modal, "-o", tmp_path / "x.npz"])
     assert res.exit_code == 2

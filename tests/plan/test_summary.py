@@ -168,3 +168,25 @@ def test_notes_in_order_with_the_lobe_split_joined_to_the_mode_note():
         "2 of 4 cutting postures lie beyond the model's training range (up to 30 % of a "
         "joint range): predictions there are extrapolations",
     ]
+
+
+def test_notes_count_one_in_the_singular():
+    job = load_job(example("job_A_pocket.toml"))
+    notes = _notes(
+        job=job,
+        robot=load_robot("A"),
+        waypoints=pd.DataFrame({"x": [0.0]}),
+        lobes=types.SimpleNamespace(message=""),
+        extrapolation=np.array([0.0, 0.3]),
+        n_plunge=1,
+        robust=False,
+        bound=None,
+        mode_note="",
+        n_split=1,
+    )
+    assert notes[0] == (
+        "1 waypoint next to a steep lobe wall got its own lobes (sharing would have moved "
+        "its limit)"
+    )
+    assert notes[1].startswith("1 of 2 cutting postures lies beyond")
+    assert notes[2].startswith("1 cutting move runs along the tool axis (a plunge)")

@@ -9,6 +9,7 @@ from typing import Annotated
 
 import typer
 
+from robolobe._text import count
 from robolobe.cli._common import console
 from robolobe.errors import InputError
 
@@ -49,7 +50,7 @@ def copy_examples(target: Path, *, force: bool = False) -> list[Path]:
     clash = [n for n in names if (target / n).exists()]
     if clash and not force:
         raise InputError(
-            f"{target / clash[0]} exists ({len(clash)} example file(s) would be replaced); "
+            f"{target / clash[0]} exists ({count(len(clash), 'example file')} would be replaced); "
             "expected a folder without them, or --force",
             source="DIR",
         )
@@ -81,6 +82,6 @@ def register(app: typer.Typer) -> None:
         """
         files = copy_examples(target, force=force)
         console.print(
-            f"{len(files)} files -> {target}/: " + ", ".join(f.name for f in files),
+            f"{count(len(files), 'file')} -> {target}/: " + ", ".join(f.name for f in files),
             soft_wrap=True,
         )

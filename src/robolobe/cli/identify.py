@@ -8,6 +8,7 @@ from typing import Annotated, Any
 import typer
 from rich.markup import escape
 
+from robolobe._text import count
 from robolobe.errors import InputError
 
 __all__ = ["register"]
@@ -95,6 +96,15 @@ def register(app: typer.Typer) -> None:
         all_issues: Annotated[
             bool, typer.Option("--all-issues", help="Print every data-quality finding.")
         ] = False,
+        verbose: Annotated[
+            bool,
+            typer.Option(
+                "--verbose",
+                "-v",
+                help="Also print the sign convention of k (always printed when a sign is "
+                "negative).",
+            ),
+        ] = False,
     ) -> None:
         """Identify the modes of every posture of CAMPAIGN (or of one UFF file) and write them.
 
@@ -136,7 +146,9 @@ def register(app: typer.Typer) -> None:
                     "applies to a campaign folder; a UFF file's fit is in its table",
                     source="--fit-report",
                 )
-            _identify_measurement(campaign, output, plots, fmin, fmax, window_end, record_s)
+            _identify_measurement(
+                campaign, output, plots, fmin, fmax, window_end, record_s, verbose
+            )
             return
         fmin = 4.0 if fmin is None else fmin
         fmax = 40.0 if fmax is None else fmax
@@ -194,7 +206,7 @@ def register(app: typer.Typer) -> None:
         # ---- summary
         tab = result.table
         console.print(
-            f"{camp.n_postures} postures, {len(tab)} rows "
+            f"{count(camp.n_postures, 'posture')}, {count(len(tab), 'row')} "
             f"({int((tab['source'] == 'recovered').sum())} recovered) -> {output}",
             highlight=False,
         )
@@ -205,12 +217,14 @@ def register(app: typer.Typer) -> None:
             corr.append(f"truncation of {settings.record_length_s:g} s records corrected")
         if corr:
             console.print("corrections: " + ", ".join(corr), highlight=False)
-        console.print(SIGN_CONVENTION, highlight=False)
         neg = result.negative
+        if verbose or len(neg):
+            console.print(SIGN_CONVENTION, highlight=False)
         if len(neg):
+            have = "has" if len(neg) == 1 else "have"
             err_console.print(
-                f"{len(neg)} mode(s) at {neg['posture_id'].nunique()} posture(s) have a negative "
-                "driving-point residue and are not in modal.csv (dirs "
+                f"{count(len(neg), 'mode')} at {count(neg['posture_id'].nunique(), 'posture')} "
+                f"{have} a negative driving-point residue and are not in modal.csv (dirs "
                 f"{', '.join(sorted(neg['dir'].unique()))}): transfer FRFs or reversed polarity, "
                 "see the sign findings below",
                 highlight=False,
@@ -221,7 +235,7 @@ def register(app: typer.Typer) -> None:
         for col in (
             "dir",
             "postures",
-            "modes/posture",
+            "modes per\nposture",
             "FRAC min",
             "FRAC median",
             "NRMSE median",
@@ -279,6 +293,7 @@ def _identify_measurement(
     fmax: float | None,
     window_end: float | None,
     record_s: float | None,
+    verbose: bool = False,
 ) -> None:
     """``robolobe identify FILE.uff``: the modes of one measurement (FRFs between nodes)."""
     import numpy as np
@@ -330,11 +345,13 @@ def _identify_measurement(
         mm.table.to_csv(tmp, index=False, lineterminator="\n", float_format="%.10g")
     n_dp = sum(r.driving_point for r in recs)
     console.print(
-        f"{path.name}: {len(recs)} FRFs ({n_dp} driving point(s), {len(recs) - n_dp} transfer), "
-        f"{fmin:g}-{fmax:g} Hz: {mm.n_modes} modes -> {output}",
+        f"{path.name}: {count(len(recs), 'FRF')} ({count(n_dp, 'driving point')}, "
+        f"{len(recs) - n_dp} transfer), {fmin:g}-{fmax:g} Hz: {count(mm.n_modes, 'mode')} "
+        f"-> {output}",
         highlight=False,
     )
-    console.print(SIGN_CONVENTION, highlight=False)
+    if verbose or np.any(mm.k_N_per_m[mm.visible] < 0):  # the table shows the signs
+        console.print(SIGN_CONVENTION, highlight=False)
     from rich.table import Table
 
     t = Table(title="modes (k sign per FRF: + / -; . not visible)")

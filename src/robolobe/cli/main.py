@@ -26,7 +26,8 @@ spindle revolutions per minute, k_N_per_m: N/m, Kt/Kn: N/m^2, zeta: damping
 ratio as a fraction). Files: robot descriptions (TOML, robolobe-robot/1),
 hammer-test campaigns (folder with campaign.toml, postures.csv, frf.csv or
 frf/*.uff), modal datasets (modal.csv), job files (TOML) and toolpaths
-(G-code, APT/CL, KUKA KRL, ABB RAPID, CSV). See the README for each format.
+(G-code, APT/CL, KUKA KRL, ABB RAPID, CSV). Each format is described in the
+user guide of the documentation site (docs/guide/ in the robolobe source).
 """
 
 app = typer.Typer(

@@ -10,6 +10,7 @@ import typer
 from rich.markup import escape
 from rich.table import Table
 
+from robolobe._text import count
 from robolobe.cli._common import console, err_console, progress, status
 from robolobe.errors import EXIT_INPUT, InfeasibleError, InputError
 
@@ -113,12 +114,55 @@ def _with_path_opts(j: Any, opts: dict[str, str]) -> Any:
     return j.replace(path_options={**j.path_options, **opts}) if opts else j
 
 
-def _cell(v: Any) -> str:
+#: The compare command's table: (header, column of Comparison.table, number format or None).
+_COMPARE_COLUMNS: tuple[tuple[str, str, str | None], ...] = (
+    ("robot", "robot", None),
+    ("status", "status", None),
+    ("depth\nmm", "depth_mm", "{:.2f}"),
+    ("speed\nrpm", "rpm_min", None),
+    ("MRR\ncm3/min", "mrr_cm3_per_min", "{:.1f}"),
+    ("cycle\ns", "cycle_time_s", "{:.1f}"),
+    ("passes", "passes", "{:.0f}"),
+    ("part\ns", "part_time_s", "{:.1f}"),
+    ("min\nmargin", "min_margin", "{:.2f}"),
+    ("worst\nwaypoint", "worst_source", None),
+)
+
+
+def _compare_table(table: Any, title: str) -> Table:
+    """The terminal table of a comparison: one row per robot, one format per column."""
+    import pandas as pd
+    from rich import box
+
+    # per part when the job gives the stock (passes x cycle), else per pass: one of the two
+    per_part = "part_time_s" in table and bool(pd.notna(table["part_time_s"]).any())
+    skip = {"cycle_time_s"} if per_part else {"passes", "part_time_s"}
+    cols = [c for c in _COMPARE_COLUMNS if c[1] not in skip]
+    t = Table(title=title, box=box.SIMPLE_HEAD, pad_edge=False, collapse_padding=True)
+    for label, _, fmt in cols:
+        numeric = fmt is not None or label.startswith("speed")
+        t.add_column(
+            label, justify="right" if numeric else "left", no_wrap=numeric, overflow="fold"
+        )
+    for r in table.to_dict(orient="records"):
+        t.add_row(*[_compare_cell(r, key, fmt) for _, key, fmt in cols])
+    return t
+
+
+def _compare_cell(row: dict[str, Any], key: str, fmt: str | None) -> str:
+    """One cell of the compare table: numbers in their column's format, blank when absent."""
+    v = row.get(key)
+    ok = row.get("status") == "ok"
+    if key == "status" and ok and bool(row.get("placement_adjusted")):
+        return "ok, moved"  # the workpiece is not where the job puts it: see the note
     if v is None or (isinstance(v, float) and v != v):
         return ""
-    if isinstance(v, float):
-        return f"{v:.4g}" if abs(v) < 1e4 else f"{v:.0f}"
-    return str(v)
+    if key == "rpm_min":  # the speed range in one cell
+        lo, hi = float(v), float(row.get("rpm_max", v))
+        return f"{lo:.0f}" if round(lo) == round(hi) else f"{lo:.0f}-{hi:.0f}"
+    if fmt is not None and isinstance(v, (int, float)):
+        return fmt.format(v)
+    return escape(str(v))
 
 
 def register(app: typer.Typer) -> None:
@@ -312,19 +356,13 @@ def register(app: typer.Typer) -> None:
         if any_ok:
             with status("writing outputs ..."):
                 write_comparison(cmp, output)
-        cols = {
-            "robot": "robot", "status": "status", "depth_mm": "depth\nmm",
-            "rpm_min": "rpm\nmin", "rpm_max": "rpm\nmax", "mrr_cm3_per_min": "MRR\ncm3/min",
-            "cycle_time_s": "cycle\ns", "passes": "passes", "part_time_s": "part\ns",
-            "min_margin": "min\nmargin",
-            "worst_source": "worst\nwaypoint",
-        }  # fmt: skip
-        t = Table(title=f"robolobe compare: {path.name}")
-        for label in cols.values():
-            t.add_column(label, overflow="fold")
+        console.print(_compare_table(cmp.table, f"robolobe compare: {path.name}"))
+        from robolobe.plan.compare import moved_note
+
         for r in cmp.table.to_dict(orient="records"):
-            t.add_row(*[_cell(r.get(c)) for c in cols])
-        console.print(t)
+            if r.get("status") == "ok" and bool(r.get("placement_adjusted")):
+                note = moved_note(str(r["robot"]), r["placement_xyz_m"])
+                console.print(f"note: {escape(note)}", highlight=False)
         for r in cmp.table.to_dict(orient="records"):
             if r.get("status") != "ok":
                 robot, msg = str(r["robot"]), str(r.get("message", ""))
@@ -444,8 +482,12 @@ def register(app: typer.Typer) -> None:
             for note in path_folders([str(p) for p in paths]).notes:
                 err_console.print(f"[yellow]note:[/] {escape(note)}", highlight=False)
         ok = sum(r["status"] == "ok" for r in rows)
+<<<<<<< HEAD
         console.print(
             f"{ok} of {len(rows)} paths planned; table: {escape(str(table))}", highlight=False
         )
+=======
+        console.print(f"{ok} of {count(len(rows), 'path')} planned; table: {table}")
+>>>>>>> h28a
         if ok < len(rows):
             raise typer.Exit(code=EXIT_INPUT)

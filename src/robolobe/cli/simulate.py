@@ -10,6 +10,7 @@ import numpy as np
 import typer
 
 from robolobe._directions import AXES
+from robolobe._text import count
 from robolobe.errors import InputError
 
 __all__ = ["parse_dirs", "register"]
@@ -199,7 +200,7 @@ def register(app: typer.Typer) -> None:
         freq = campaign.frfs[0].freq_hz
         out = write_campaign(output, campaign, fmt=fmt, copy_robot=True)  # type: ignore[arg-type]
         console.print(
-            f"{'exact receptance' if exact else 'simulated test'}: {len(ids)} postures "
+            f"{'exact receptance' if exact else 'simulated test'}: {count(len(ids), 'posture')} "
             f"({source}), directions {','.join(want)}, {freq[0]:g}-{freq[-1]:g} Hz "
             f"step {freq[1] - freq[0]:g} Hz -> {out} ({fmt})",
             highlight=False,

@@ -13,6 +13,7 @@ import numpy as np
 import typer
 from rich.markup import escape
 
+from robolobe._text import count
 from robolobe.cli._common import console, err_console, status
 from robolobe.errors import InputError
 
@@ -84,8 +85,9 @@ def _summary(model: Any, seconds: float, out: Path) -> None:
     cal = np.asarray(model.calibration_)
     console.print(
         f"[bold]{out}[/]: robot {model.robot or '?'} ({' -> '.join(model.lineage_)}), "
-        f"{len(model.train_q_rad_)} training postures, {model.n_members} members x "
-        f"{len(model.directions)} directions, frozen layers {model.n_frozen_used_}, "
+        f"{count(len(model.train_q_rad_), 'training posture')}, "
+        f"{count(model.n_members, 'member')} x {count(len(model.directions), 'direction')}, "
+        f"frozen layers {model.n_frozen_used_}, "
         f"{seconds:.1f} s"
     )
     if model.calibration_coverage_ is not None:
@@ -96,7 +98,13 @@ def _summary(model: Any, seconds: float, out: Path) -> None:
 
 
 def _calibrate(
-    modal_csv: Path, output: Path, robot: str | None, method: str, params: str, seed: int
+    modal_csv: Path,
+    output: Path,
+    robot: str | None,
+    method: str,
+    params: str,
+    seed: int,
+    verbose: bool = False,
 ) -> None:
     """``transfer --method corrected-twin | twin-calibration``: fit, write, report."""
     from robolobe.tl.graybox import TwinCalibration
@@ -133,36 +141,115 @@ def _calibrate(
         model.save(output)
         cal = model.calibration_ if isinstance(model, CorrectedTwin) else model
         assert isinstance(cal, TwinCalibration)
+    what = "a corrected twin" if isinstance(model, CorrectedTwin) else "a calibrated robot file"
+    rms = cal.residual_rms_
     console.print(
-        f"[bold]{output}[/]: {cal.n_postures_} postures, {cal.n_matched_} modes matched "
-        f"({cal.n_unmatched_} not), residual RMS f/zeta/k = "
-        f"{cal.residual_rms_['f']:.4f}/{cal.residual_rms_['zeta']:.3f}/"
-        f"{cal.residual_rms_['k']:.3f}, {time.perf_counter() - t0:.1f} s"
+        f"[bold]{escape(str(output))}[/]: {what} of {escape(str(robot))} from "
+        f"{count(cal.n_postures_, 'posture')} ({count(cal.n_matched_, 'mode')} matched, "
+        f"{cal.n_unmatched_} not), {time.perf_counter() - t0:.1f} s",
+        highlight=False,
     )
-    for _, row in cal.summary().iterrows():
-        if row["unit"] == "m":
-            console.print(
-                f"  {row['param']}: {1000 * row['value']:+.1f} mm (+- {1000 * row['std']:.1f} mm)"
-            )
-        else:
-            console.print(f"  {row['param']}: x{row['value']:.3f} (+- {row['std']:.3f})")
+    params_table = cal.summary()
+    console.print(
+        f"  calibrated twin: residual RMS of log f {rms['f']:.4f}, zeta {rms['zeta']:.3f}, "
+        f"k {rms['k']:.3f}; {count(len(params_table), 'parameter')} fitted, the largest "
+        f"changes: {_largest_changes(params_table)}",
+        highlight=False,
+    )
     if isinstance(model, CorrectedTwin):
-        summ = model.summary()
-        for q in ("f", "zeta", "k"):
-            part = summ[(summ["quantity"] == q) & (summ["n"] > 0)]
-            used = int((part["alpha"] > 0).sum())
-            console.print(
-                f"  correction of log {q}: {used} of {len(part)} direction x mode outputs "
-                f"corrected; cross-validated RMS {np.sqrt(np.mean(part['rms_loo'] ** 2)):.4f} "
-                f"(calibrated twin {np.sqrt(np.mean(part['rms_twin'] ** 2)):.4f})"
-            )
-        console.print(f'  plan on it: [robot] name = "{robot}", model = "{output}"')
+        console.print(f"  learned correction: {_correction_line(model.summary())}", highlight=False)
+    if verbose:
+        _print_calibration(params_table)
+        if isinstance(model, CorrectedTwin):
+            _print_correction(model.summary())
     else:
-        console.print(f'  plan on it: [robot] name = "{output}", model = "twin"')
+        console.print("  (-v: every parameter and the correction per quantity)", highlight=False)
+    if isinstance(model, CorrectedTwin):
+        advice = f'[robot] name = "{robot}", model = "{output}"'
+    else:
+        advice = f'[robot] name = "{output}", model = "twin"'
+    console.print(f"  plan on it: {escape(advice)}", highlight=False)
     if cal.at_bounds_:
         err_console.print(
-            f"[yellow]warning:[/] at their bounds: {', '.join(cal.at_bounds_)} (the data "
-            "want more change than allowed: check the robot file and the tests)"
+            f"[yellow]warning:[/] at their bounds: {escape(', '.join(cal.at_bounds_))} (the "
+            "data want more change than allowed: check the robot file and the tests)",
+            highlight=False,
+        )
+
+
+#: What the calibration's parameter names stand for (their first letters).
+_PARAM_LEGEND = (
+    "k1..k6: joint stiffness, d1..d6: joint damping, m_ee: mass at the tool point, "
+    "m1..m6: link mass (factors on the robot file's values, x1 = unchanged); "
+    "c1x..c6z: link centre-of-mass offset along x, y, z [mm]; +- 1 standard deviation"
+)
+
+
+def _param_text(row: Any) -> str:
+    """One fitted parameter: ``k2 x0.988`` or ``c4y -11.2 mm``."""
+    if row["unit"] == "m":
+        return f"{row['param']} {1000 * row['value']:+.1f} mm"
+    return f"{row['param']} x{row['value']:.3f}"
+
+
+def _largest_changes(table: Any, n: int = 3) -> str:
+    """The ``n`` factors furthest from 1 (centre-of-mass offsets are listed with -v)."""
+    factors = table[table["unit"] != "m"]
+    if not len(factors):
+        return "none (centre-of-mass offsets only, see -v)"
+    far = factors.assign(off=np.abs(np.log(factors["value"]))).nlargest(n, "off")
+    return ", ".join(_param_text(r) for _, r in far.iterrows())
+
+
+def _print_calibration(table: Any) -> None:
+    """``-v``: every fitted parameter with its spread."""
+    console.print(f"  parameters ({_PARAM_LEGEND}):", highlight=False)
+    for _, row in table.iterrows():
+        m = row["unit"] == "m"
+        spread = f"+- {1000 * row['std']:.1f} mm" if m else f"+- {row['std']:.3f}"
+        console.print(f"    {_param_text(row)} ({spread})", highlight=False)
+
+
+def _correction_by_quantity(summ: Any) -> dict[str, tuple[int, int, float, float]]:
+    """Per quantity (f, zeta, k): outputs corrected, outputs, cross-validated RMS of log
+    with the correction and of the calibrated twin alone."""
+    out = {}
+    for q in ("f", "zeta", "k"):
+        part = summ[(summ["quantity"] == q) & (summ["n"] > 0)]
+        out[q] = (
+            int((part["alpha"] > 0).sum()),
+            len(part),
+            float(np.sqrt(np.mean(part["rms_loo"] ** 2))),
+            float(np.sqrt(np.mean(part["rms_twin"] ** 2))),
+        )
+    return out
+
+
+def _correction_line(summ: Any) -> str:
+    """What the learned correction does, in one line."""
+    by_q = _correction_by_quantity(summ)
+    used = sum(v[0] for v in by_q.values())
+    outputs = count(sum(v[1] for v in by_q.values()), "output")
+    if used == 0:
+        return (
+            f"none (it beat the calibrated twin in cross-validation on none of the {outputs}, "
+            "direction x mode x f, zeta, k)"
+        )
+    loo = "/".join(f"{by_q[q][2]:.4f}" for q in by_q)
+    twin = "/".join(f"{by_q[q][3]:.4f}" for q in by_q)
+    return (
+        f"corrects {used} of {outputs} (direction x mode x f, zeta, k); cross-validated RMS "
+        f"of log f/zeta/k {loo} (the calibrated twin alone {twin})"
+    )
+
+
+def _print_correction(summ: Any) -> None:
+    """``-v``: the correction per quantity."""
+    for q, (used, n, loo, twin) in _correction_by_quantity(summ).items():
+        console.print(
+            f"  correction of log {q}: {used} of {count(n, 'direction x mode output')} "
+            f"corrected; cross-validated RMS {loo:.4f} (calibrated twin {twin:.4f})",
+            highlight=False,
         )
 
 
@@ -211,7 +298,7 @@ def register(app: typer.Typer) -> None:
                 **params, calibration="holdout", robot=robot or modal_csv.stem, random_state=seed
             )
             t0 = time.perf_counter()
-            with status(f"training on {ds.n_postures} postures"):
+            with status(f"training on {count(ds.n_postures, 'posture')}"):
                 model.fit_dataset(ds)
             model.save(output)
         _summary(model, time.perf_counter() - t0, output)
@@ -266,12 +353,19 @@ def register(app: typer.Typer) -> None:
             int | None, typer.Option("--epochs", help="Default: the source's.")
         ] = None,
         seed: Annotated[int, typer.Option("--seed", help="Random seed.")] = 0,
+        verbose: Annotated[
+            bool,
+            typer.Option(
+                "--verbose", "-v", help="Print every fitted parameter and the correction's detail."
+            ),
+        ] = False,
     ) -> None:
         """Make a robot's mode predictor from a few hammer tests.
 
-        Default (``--robot R``, no ``--method``): the best validated predictor,
-        R's twin calibrated to the tests plus a learned correction of what it
-        still misses; a job plans on it with ``[robot] model = "OUT.npz"``.
+        Default (--robot R, no --method): the best validated predictor, R's
+        twin calibrated to the tests plus a learned correction of what it still
+        misses; a job plans on it with model = "OUT.npz" in its [robot] table.
+        Prints the model's headline figures (-v: every fitted parameter).
         """
         from robolobe._atomic import check_output_file
 
@@ -284,7 +378,7 @@ def register(app: typer.Typer) -> None:
         except InputError as exc:
             raise _as_option_error(exc) from None
         if method != "network":
-            _calibrate(modal_csv, output, robot, method, params, seed)
+            _calibrate(modal_csv, output, robot, method, params, seed, verbose)
             return
         if source is None:
             raise InputError("expected a source model with --method network", source="--from")
@@ -329,7 +423,7 @@ def register(app: typer.Typer) -> None:
         """Predict modal parameters (with spread) at postures; optionally their FRFs.
 
         Columns: those of modal.csv, then per value its standard deviation
-        (``*_std``) and 90 % interval (``*_lo90``, ``*_hi90``).
+        (NAME_std) and 90 % interval (NAME_lo90, NAME_hi90).
         """
         from robolobe._atomic import check_output_dir, check_output_file
 
@@ -358,7 +452,8 @@ def register(app: typer.Typer) -> None:
         table = prediction_frame(ids, q, pred)
         write_modal_csv(output, table)
         msg = (
-            f"[bold]{output}[/]: {len(ids)} postures x {len(pred.directions)} directions x 5 modes"
+            f"[bold]{output}[/]: {count(len(ids), 'posture')} x "
+            f"{count(len(pred.directions), 'direction')} x 5 modes"
         )
         if frf is not None:
             write_frf_campaign(frf, robot_spec or str(label), ids, q, pred, fmax, df)
@@ -425,5 +520,6 @@ def register(app: typer.Typer) -> None:
                 f"{design.coverage_before.describe()}"
             )
         console.print(
-            f"[bold]{output}[/]: {len(ids)} postures; with them: {design.coverage.describe()}"
+            f"[bold]{output}[/]: {count(len(ids), 'posture')}; with them: "
+            f"{design.coverage.describe()}"
         )

@@ -8,6 +8,7 @@ from typing import Annotated
 import typer
 from rich.markup import escape
 
+from robolobe._text import count
 from robolobe.cli._common import console, err_console, status
 
 __all__ = ["EXIT_CHATTER", "register"]
@@ -86,9 +87,10 @@ def register(app: typer.Typer) -> None:
         s = res.summary
         console.print(
             f"{escape(str(plan_dir))} on {escape(res.mode_source)} (plan made on "
-            f"{escape(str(s['plan_mode_source']))}): {s['n_beyond_limit']} of {s['n_bounded']} "
-            f"cutting waypoints beyond the limit, {s['n_inside_safety_factor']} inside the "
-            f"safety factor {res.safety_factor:g}; minimum margin "
+            f"{escape(str(s['plan_mode_source']))}): {s['n_beyond_limit']} of "
+            f"{count(s['n_bounded'], 'cutting waypoint')} beyond the limit, "
+            f"{s['n_inside_safety_factor']} inside the safety factor {res.safety_factor:g}; "
+            "minimum margin "
             + (f"{res.min_margin:.3f} at {escape(res.min_margin_at)}" if s["min_margin"] else "-"),
             highlight=False,
         )

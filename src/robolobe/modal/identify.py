@@ -39,6 +39,7 @@ from numpy.typing import ArrayLike, NDArray
 from robolobe._directions import AXES
 from robolobe._matching import match_modes
 from robolobe._modal_parameters import ModalParameters
+from robolobe._text import count
 from robolobe._threads import with_one_blas_thread
 from robolobe._workers import map_chunks
 from robolobe.campaign import Campaign, TestHeader
@@ -470,7 +471,8 @@ def identify_frfs(
             )
     if not rows:
         why = (
-            f"; {len(neg_rows)} mode(s) have a negative driving-point residue (reversed "
+            f"; {count(len(neg_rows), 'mode')} {'has' if len(neg_rows) == 1 else 'have'} a "
+            "negative driving-point residue (reversed "
             "polarity or transfer FRFs: see the sign convention)"
             if neg_rows
             else ""

@@ -28,6 +28,7 @@ import numpy as np
 import pandas as pd
 from numpy.typing import ArrayLike, NDArray
 
+from robolobe._text import count
 from robolobe._threads import with_one_blas_thread
 from robolobe.errors import InputError
 from robolobe.modal.lsfd import LSFDResult, lsfd, modal_stiffness
@@ -293,7 +294,7 @@ def identify_measurement(
                 "*",
                 "poles",
                 "warning",
-                f"no mode visible in {len(unseen)} FRF(s): {', '.join(unseen[:6])}",
+                f"no mode visible in {count(len(unseen), 'FRF')}: {', '.join(unseen[:6])}",
             )
         )
     return MeasurementModal(

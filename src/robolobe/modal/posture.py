@@ -46,6 +46,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from robolobe._directions import AXES, DRIVING
 from robolobe._modal_parameters import ModalParameters
+from robolobe._text import count
 from robolobe.campaign.metrics import frac, nrmse
 from robolobe.errors import InputError
 from robolobe.modal.lsfd import LSFDResult, lsfd, modal_stiffness
@@ -783,8 +784,8 @@ def _finish(
                 "*",
                 "window",
                 "warning",
-                f"{int(np.count_nonzero(~ok))} mode(s) have less damping than the window adds; "
-                "dropped",
+                f"{count(int(np.count_nonzero(~ok)), 'mode')} with less damping than the window "
+                "adds: dropped",
             )
         )
     lam, lam_true, R, f_true, z_true = lam[ok], lam_true[ok], R[ok], f_true[ok], z_true[ok]

@@ -6,7 +6,9 @@ numpy arrays, numbers and strings only, and this module imports neither
 pandas nor the pipeline, so a worker process (:class:`PlotWorker`) can draw
 them: it is started before planning, imports matplotlib (about 0.3 s) while
 the plan is computed, and draws while the plan's tables are written, on the
-second core. The PNG bytes are the same in either process.
+second core. A worker that has not finished importing by then (the machine
+had no idle core for it) is dropped and the figures are drawn in-process.
+The PNG bytes are the same in either process.
 """
 
 from __future__ import annotations
@@ -15,8 +17,10 @@ import contextlib
 import io
 import os
 import pickle
+import select
 import subprocess
 import sys
+import time
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -340,33 +344,41 @@ class PlotWorker:
 
     Started before planning: each imports matplotlib (about 0.3 s of CPU)
     while the plan is computed; :meth:`send` shares the plot records between
-    them and :meth:`receive` returns the PNGs. Any failure (a process could
-    not start, died, or raised) makes :meth:`receive` return None, and the
-    caller draws in its own process instead, which gives the same PNGs or
-    raises the real error. Use as a context manager, or call :meth:`close`.
+    the processes that are ready by then and :meth:`receive` returns the
+    PNGs. Any failure (a process could not start, died, raised, or none was
+    ready) makes :meth:`receive` return None, and the caller draws in its own
+    process instead, which gives the same PNGs or raises the real error. Use
+    as a context manager, or call :meth:`close`.
 
     The workers import at a lower CPU priority (:func:`_import_priority`), so
-    that on two cores they take the time the plan leaves idle instead of
+    that on two cores they take only the time the plan leaves idle instead of
     slowing its two-thread kernels: nice 19 where the worker may restore its
     priority before drawing (root, ``CAP_SYS_NICE`` or a permissive
-    ``RLIMIT_NICE``), otherwise +5 for the whole run (bounded: under load from
-    other programs a worker still gets about a quarter of a core).
+    ``RLIMIT_NICE``), otherwise +5 for the whole run (bounded). A worker says
+    when it is ready (imported, priority restored); one that is not ready when
+    the records are sent is stopped. So on a quiet machine the figures are
+    drawn on the idle core, and on a machine busy with other programs, where
+    a worker at nice 19 would starve (about 1/70 of a core beside one busy
+    process), they are drawn in-process, at the caller's fair share, without
+    the workers' extra imports.
 
     Parameters
     ----------
     processes : int, optional
         Worker processes; default 2, each drawing about half of the figures,
-        none on a one-core machine (nothing to gain there: :meth:`receive`
-        returns None and the caller draws). Measured on the 10k-waypoint
+        none on a one-core machine or one already busy (load average at least
+        the cores: :func:`_default_processes`); with none :meth:`receive`
+        returns None and the caller draws. Measured on the 10k-waypoint
         benchmark plan (2 cores, quiet): one worker at normal priority
         1.71-1.98 s end to end, two at nice 19 1.54-1.60 s, two at +5
         1.66-1.68 s, two at normal priority 1.81-2.02 s (their start-up
-        slows the plan).
+        slows the plan). For the bundled plan beside busy processes see
+        ``benchmarks/bench_load.py``.
     """
 
     def __init__(self, processes: int | None = None) -> None:
         if processes is None:
-            processes = 2 if (os.cpu_count() or 1) >= 2 else 0
+            processes = _default_processes(_cores(), _load())
         # the same robolobe as this process, whatever the worker's sys.path
         root = str(Path(__file__).resolve().parents[2])
         increment, restore_to = _import_priority_here()
@@ -376,6 +388,7 @@ class PlotWorker:
             f"from robolobe.plan._plots import _serve; _serve({restore_to!r})"
         )
         self._procs: list[subprocess.Popen[bytes]] = []
+        self._ready: list[subprocess.Popen[bytes]] = []  # imported, priority restored
         self._sent = False
         if not sys.executable:  # embedded interpreters: draw in-process
             return
@@ -393,14 +406,52 @@ class PlotWorker:
         except OSError:
             self.close()
 
+    def ready(self, timeout: float = 0.0) -> int:
+        """Wait up to ``timeout`` seconds for the workers to be ready; how many are.
+
+        A worker is ready once it has imported matplotlib and restored its
+        priority (it writes one byte, ``R``, to its stdout then).
+        """
+        deadline = time.monotonic() + timeout
+        while True:
+            waiting = {
+                p.stdout: p for p in self._procs if p not in self._ready and p.stdout is not None
+            }
+            if not waiting:
+                break
+            left = max(0.0, deadline - time.monotonic())
+            if os.name == "posix":
+                readable, _, _ = select.select(list(waiting), [], [], left)
+            else:  # no select() on pipes: wait for each (the time limit does not apply)
+                readable = list(waiting)
+            for pipe in readable:
+                proc = waiting[pipe]
+                if pipe.read(1) == b"R":
+                    self._ready.append(proc)
+                else:  # died before it was ready
+                    self._procs.remove(proc)
+                    _stop(proc)
+            if time.monotonic() >= deadline:
+                break
+        return len(self._ready)
+
     def send(self, records: dict[str, Any]) -> None:
-        """Share the plot records between the processes (returns once they have read them).
+        """Share the plot records between the ready processes (returns once they have read them).
+
+        The processes not ready yet are stopped (the machine had no idle core
+        for them); with none ready, nothing is sent and :meth:`receive`
+        returns None.
 
         Parameters
         ----------
         records : dict of str to plot record
             :class:`LobesData`, :class:`SpeedMapData`, ... by plot name.
         """
+        self.ready()
+        for proc in self._procs:
+            if proc not in self._ready:
+                _stop(proc)
+        self._procs = list(self._ready)
         if not self._procs:
             return
         # longest first onto the least loaded process
@@ -425,7 +476,7 @@ class PlotWorker:
 
     def receive(self) -> dict[str, bytes] | None:
         """PNG bytes per name of the records sent; None if a process failed."""
-        procs, self._procs = self._procs, []
+        procs, self._procs, self._ready = self._procs, [], []
         if not procs or not self._sent:
             for proc in procs:
                 _stop(proc)
@@ -446,7 +497,7 @@ class PlotWorker:
 
     def close(self) -> None:
         """Stop the processes that have not delivered."""
-        procs, self._procs = self._procs, []
+        procs, self._procs, self._ready = self._procs, [], []
         for proc in procs:
             _stop(proc)
 
@@ -468,6 +519,46 @@ def _stop(proc: subprocess.Popen[bytes]) -> None:
     proc.wait()
 
 
+def _default_processes(cores: int, load: float) -> int:
+    """Plot workers to start: 2 on two or more cores, none where none would be ready.
+
+    Parameters
+    ----------
+    cores : int
+        CPUs this process may run on.
+    load : float
+        The machine's one-minute load average (runnable processes; NaN: unknown).
+
+    Returns
+    -------
+    int
+        0 on one core, and on a machine whose load average is at least its
+        cores: other programs keep every core busy, so a worker importing at
+        low priority would not be ready when the plan is done (it would be
+        stopped then, its start-up wasted). Measured with
+        ``benchmarks/bench_load.py``: beside two busy processes the figures
+        drawn in-process cost the same as with workers that are never ready.
+    """
+    if cores < 2 or load >= cores:
+        return 0
+    return 2
+
+
+def _load() -> float:
+    """The one-minute load average (NaN where the system has none)."""
+    try:
+        return os.getloadavg()[0]
+    except (AttributeError, OSError):
+        return float("nan")
+
+
+def _cores() -> int:
+    """CPUs this process may run on (its affinity mask where the system has one)."""
+    if hasattr(os, "sched_getaffinity"):
+        return max(1, len(os.sched_getaffinity(0)))
+    return os.cpu_count() or 1
+
+
 def _import_priority(base: int, euid: int, rlimit_nice: int, cores: int | None) -> tuple[int, bool]:
     """Niceness increment while a worker imports, and whether it restores ``base`` after.
 
@@ -481,7 +572,7 @@ def _import_priority(base: int, euid: int, rlimit_nice: int, cores: int | None) 
         Soft ``RLIMIT_NICE``: an unprivileged process may set a niceness down
         to ``20 - rlimit_nice``.
     cores : int or None
-        CPUs of the machine.
+        CPUs this process may run on.
 
     Returns
     -------
@@ -505,7 +596,7 @@ def _import_priority_here() -> tuple[int, int | None]:
 
     base = os.getpriority(os.PRIO_PROCESS, 0)
     increment, restore = _import_priority(
-        base, os.geteuid(), resource.getrlimit(resource.RLIMIT_NICE)[0], os.cpu_count()
+        base, os.geteuid(), resource.getrlimit(resource.RLIMIT_NICE)[0], _cores()
     )
     return increment, (base if restore and increment else None)
 
@@ -524,6 +615,8 @@ def _serve(restore_to: int | None = None) -> None:
     if restore_to is not None:
         with contextlib.suppress(OSError):  # drawing at the low priority is still right
             os.setpriority(os.PRIO_PROCESS, 0, restore_to)
+    sys.stdout.buffer.write(b"R")  # ready: the caller sends the records to ready workers only
+    sys.stdout.buffer.flush()
 
     try:
         records = pickle.load(sys.stdin.buffer)

@@ -20,6 +20,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import NDArray
 
+from robolobe._text import count
 from robolobe.robots.plausibility import robot_warnings
 
 if TYPE_CHECKING:
@@ -575,9 +576,12 @@ def _notes(
     note = mode_note
     if n_split:
         note = (note + "; " if note else "") + (
-            f"{n_split} waypoint{'s' if n_split != 1 else ''} next to a steep lobe wall "
-            "got lobes of their own "
-            "(sharing would have moved their limit)"
+            f"{count(n_split, 'waypoint')} next to a steep lobe wall got "
+            + (
+                "its own lobes (sharing would have moved its limit)"
+                if n_split == 1
+                else "lobes of their own (sharing would have moved their limit)"
+            )
         )
     notes = [s for s in (note, lobes.message) if s]
     reader: Sequence[str] = waypoints.attrs.get("warnings", [])
@@ -585,15 +589,22 @@ def _notes(
     notes += [f"robot file {robot.source}: {w}" for w in robot_warnings(robot)]
     ex = extrapolation
     if ex is not None and np.any(ex > EXTRAPOLATION_NOTE):
+        k = int(np.sum(ex > EXTRAPOLATION_NOTE))
         notes.append(
-            f"{int(np.sum(ex > EXTRAPOLATION_NOTE))} of {ex.size} cutting postures lie beyond "
+            f"{k} of {count(ex.size, 'cutting posture')} {'lies' if k == 1 else 'lie'} beyond "
             f"the model's training range (up to {100 * float(ex.max()):.0f} % of a joint "
             "range): predictions there are extrapolations"
         )
     if n_plunge:
         notes.append(
-            f"{n_plunge} cutting moves run along the tool axis (plunges): the lateral (ZOA) "
-            "stability model does not apply to them and they do not limit the depth"
+            f"{count(n_plunge, 'cutting move')} "
+            + (
+                "runs along the tool axis (a plunge): the lateral (ZOA) stability model does "
+                "not apply to it and it does not limit the depth"
+                if n_plunge == 1
+                else "run along the tool axis (plunges): the lateral (ZOA) stability model "
+                "does not apply to them and they do not limit the depth"
+            )
         )
     if robust and bound is None:
         notes.append(

@@ -12,6 +12,7 @@ MRR, cycle time, minimum margin and the worst waypoint per robot.
 from __future__ import annotations
 
 import contextlib
+import dataclasses
 import logging
 import math
 import os
@@ -50,6 +51,7 @@ __all__ = [
     "Comparison",
     "compare_robots",
     "find_placement",
+    "moved_note",
     "robot_folder_notes",
     "robot_folders",
     "write_comparison",
@@ -227,6 +229,11 @@ def compare_robots(
                 adjusted = True
             jr = jr.replace(placement=placement)
             res = plan_path(wp, jr, robot=robot, source=source, refine=refine)
+            if adjusted:  # said in the robot's summary.json, report and the comparison
+                note = moved_note(spec, placement[:3, 3])
+                res = dataclasses.replace(
+                    res, summary=dataclasses.replace(res.summary, notes=(note, *res.summary.notes))
+                )
             s = res.summary
             row.update(
                 status="ok",
@@ -265,12 +272,33 @@ def compare_robots(
     return Comparison(table=table, results=results)
 
 
+def moved_note(robot: str, xyz_m: Any) -> str:
+    """The note of a plan whose workpiece :func:`compare_robots` moved.
+
+    Parameters
+    ----------
+    robot : str
+    xyz_m : sequence of 3 floats
+        The placement's position [m] (``placement_xyz_m`` of the table).
+    """
+    x, y, z = (float(v) for v in xyz_m)
+    return (
+        f"workpiece moved for robot {robot}: the job's placement does not reach the path, so "
+        f"the part is placed at x {x:.3f}, y {y:.3f}, z {z:.3f} m in the robot's base frame "
+        "(same orientation); this plan is for that placement"
+    )
+
+
 def _passes(job: Job, depth_mm: float) -> float:
     """Passes needed to remove the job's stock at ``depth_mm`` per pass (NaN: no stock given)."""
     stock = job.cut.stock_depth_m
     if stock is None or depth_mm <= 0:
         return math.nan
     return float(math.ceil(stock * 1e3 / depth_mm - 1e-9))
+
+
+#: Line style and marker of each robot's speed curve, so that equal curves stay visible.
+_STYLES = (("-", "o"), ("--", "s"), (":", "^"), ("-.", "D"), ((0, (5, 1, 1, 1)), "v"))
 
 
 def _plot(cmp: Comparison) -> bytes:
@@ -280,9 +308,13 @@ def _plot(cmp: Comparison) -> bytes:
     from matplotlib.figure import Figure
 
     t = cmp.table
-    fig = Figure(figsize=(11, 7))
+    fig = Figure(figsize=(11, 7.4))
     axes = fig.subplots(2, 2)
-    names = [plot_text(n, 32) for n in t["robot"].astype(str)]
+    moved = t.get("placement_adjusted", pd.Series(False, index=t.index)).fillna(False)
+    names = [
+        f"{plot_text(str(r), 30)} *" if bool(m) else plot_text(str(r), 32)
+        for r, m in zip(t["robot"], moved, strict=True)
+    ]
     colors = ["C0", "C1", "C2", "C3", "C4", "C5"]
     # Per part, never per pass: a robot that needs three times the passes
     # must not look fastest because each pass is short.
@@ -292,32 +324,54 @@ def _plot(cmp: Comparison) -> bytes:
         if per_part
         else ("time_per_mm_depth_s", "machining time per mm of depth [s/mm]")
     )
-    for ax, col, label in (
-        (axes[0, 0], "mrr_cm3_per_min", "MRR [cm^3/min]"),
-        (axes[0, 1], time_col, time_label),
-        (axes[1, 0], "min_margin", "minimum margin a_lim/depth"),
+    for ax, col, label, fmt in (
+        (axes[0, 0], "mrr_cm3_per_min", "MRR [cm^3/min]", "{:.1f}"),
+        (axes[0, 1], time_col, time_label, "{:.1f}"),
+        (axes[1, 0], "min_margin", "minimum margin a_lim/depth", "{:.2f}"),
     ):
         vals = pd.to_numeric(t[col], errors="coerce").fillna(0.0).to_numpy()
-        ax.bar(names, vals, color=colors[: len(names)])
+        bars = ax.bar(names, vals, color=colors[: len(names)])
         for i, st in enumerate(t["status"]):
             if st != "ok":
                 ax.text(i, 0, st, ha="center", va="bottom", rotation=90, fontsize=8)
-        ax.set_ylabel(label)
-    ax = axes[1, 1]
-    for i, (key, res) in enumerate(cmp.results.items()):
-        ax.plot(
-            res.geom.s_m,
-            res.outcome.best.rpm,
-            color=colors[i % len(colors)],
-            label=plot_text(key, 32),
+        ok = (t["status"] == "ok").to_numpy()
+        ax.bar_label(
+            bars,
+            labels=[fmt.format(v) if k else "" for v, k in zip(vals, ok, strict=True)],
+            fontsize=8,
         )
+        ax.set_ylabel(label)
+        ax.margins(y=0.12)
+    ax = axes[1, 1]
+    n = max(len(cmp.results), 1)
+    for i, (key, res) in enumerate(cmp.results.items()):
+        ls, marker = _STYLES[i % len(_STYLES)]
+        s_m = np.asarray(res.geom.s_m)
+        rpm = np.asarray(res.outcome.best.rpm)
+        span = (
+            f"{rpm.min():.0f} rpm" if np.ptp(rpm) < 0.5 else f"{rpm.min():.0f}-{rpm.max():.0f} rpm"
+        )
+        # markers staggered between the robots: where curves coincide each stays visible
+        every = max(1, len(s_m) // 8)
+        label = f"{plot_text(key, 32)}: {span}"
+        ax.plot(
+            s_m, rpm, color=colors[i % len(colors)], ls=ls, lw=1.6, marker=marker, ms=6,
+            markevery=(int(every * i / n), every), mfc="none", mew=1.4, label=label,
+        )  # fmt: skip
     ax.set_xlabel("cutting length [m]")
     ax.set_ylabel("planned speed [rpm]")
-    ax.set_title("planned spindle speed along the path")
+    ax.set_title("planned spindle speed along the path", fontsize=10)
     if cmp.results:
         ax.legend(fontsize=8)
     fig.suptitle("Same job on each robot")
-    fig.tight_layout()
+    if moved.any():
+        fig.text(
+            0.01, 0.01,
+            "* workpiece moved: the job's placement does not reach the path on this robot; "
+            "the plan is for the placement in compare.csv (placement_xyz_m)",
+            fontsize=8,
+        )  # fmt: skip
+    fig.tight_layout(rect=(0, 0.03 if moved.any() else 0, 1, 1))
     FigureCanvasAgg(fig)
     buf = io.BytesIO()
     fig.savefig(buf, format="png", dpi=100)

@@ -38,6 +38,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from robolobe._directions import DRIVING
 from robolobe._modal_parameters import ModalParameters
+from robolobe._text import count
 from robolobe.errors import InputError
 from robolobe.robots.model import Robot
 from robolobe.sld.frf import ModalModel
@@ -588,8 +589,8 @@ class ParametersSource:
                 raise InputError(
                     f"modes: posture {np.degrees(q[miss[0]]).round(6).tolist()} deg is not one "
                     f"of the {p.n_postures} postures of the given modal parameters "
-                    f"({miss.size} posture(s) missing); give modes at every posture of the path, "
-                    "or a mode predictor"
+                    f"({count(miss.size, 'posture')} missing); give modes at every posture of "
+                    "the path, or a mode predictor"
                 )
         params = ModalParameters(
             p.f_hz[idx],

@@ -30,6 +30,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from robolobe._directions import DRIVING
 from robolobe._modal_parameters import PARAMETERS, ModalParameters
+from robolobe._text import count
 from robolobe.errors import InputError
 
 __all__ = [
@@ -323,7 +324,7 @@ def check_dataset(
             raise InputError(
                 f"posture {ds.posture_ids[i]!r}: q{j + 1} = {np.degrees(ds.q_rad[i, j]):.6g} deg "
                 f"is outside the joint range [{np.degrees(lo[j]):.6g}, {np.degrees(hi[j]):.6g}] "
-                f"deg ({int(bad.sum())} posture(s) out of range)",
+                f"deg ({count(int(bad.sum()), 'posture')} out of range)",
                 source=source,
             )
     _, first = np.unique(np.round(ds.q_rad, 9), axis=0, return_index=True)
@@ -350,15 +351,15 @@ def check_dataset(
         )
         more = f" and {len(miss) - 6} more" if len(miss) > 6 else ""
         warnings.warn(
-            f"{source}: {len(miss)} missing mode value(s) ({where}{more}); those entries are "
-            "filled or left out of training, and predictions for these modes near those "
-            "postures are less reliable",
+            f"{source}: {count(len(miss), 'missing mode value')} ({where}{more}); those "
+            "entries are filled or left out of training, and predictions for these modes near "
+            "those postures are less reliable",
             TrustWarning,
             stacklevel=2,
         )
     if n < 2 * min_postures:
         warnings.warn(
-            f"{source}: only {n} postures; predictions are trustworthy only near them "
+            f"{source}: only {count(n, 'posture')}; predictions are trustworthy only near them "
             "(check the spread columns)",
             TrustWarning,
             stacklevel=2,
