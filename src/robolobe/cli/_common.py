@@ -15,33 +15,87 @@ from collections.abc import Iterator
 from typing import Any
 
 from rich.console import Console
-from rich.markup import escape
 from rich.progress import (
     BarColumn,
     MofNCompleteColumn,
     Progress,
+    ProgressColumn,
     SpinnerColumn,
+    Task,
     TaskID,
-    TextColumn,
     TimeElapsedColumn,
 )
+from rich.text import Text
 
-__all__ = ["LOG_EVERY_S", "console", "err_console", "progress", "status"]
+from robolobe._text import visible
 
-# User text (file names, file contents quoted in messages) must print as
-# written: no ":x:" emoji codes, no colour guessing. Markup in messages is
-# escaped where they are printed.
-console = Console(emoji=False, highlight=False)
-err_console = Console(stderr=True, emoji=False, highlight=False)
+__all__ = [
+    "LOG_EVERY_S",
+    "console",
+    "err_console",
+    "error_line",
+    "labelled",
+    "progress",
+    "shown",
+    "status",
+]
+
+
+class _Console(Console):
+    """A console that shows every string as written: the one gate to the terminal.
+
+    User text (file names, robot names, job titles, file contents quoted in
+    messages) reaches the terminal only through :meth:`render_str` (``print``
+    arguments, table cells and titles) or the :class:`~rich.text.Text` that
+    :func:`labelled` builds. Markup is off (``[bold]`` in a file name is text,
+    not a style, and ``[/]`` cannot raise), emoji codes and colour guessing are
+    off, and control or bidi characters (ANSI escapes, a right-to-left
+    override) show as their escapes. Newlines written by robolobe stay line
+    breaks; a user value interpolated into a line goes through :func:`shown`,
+    which makes its newlines visible too, so it cannot forge an ``error:`` line.
+    """
+
+    def __init__(self, **kwargs: Any) -> None:
+        super().__init__(markup=False, emoji=False, highlight=False, **kwargs)
+
+    def render_str(self, text: str, **kwargs: Any) -> Text:
+        kwargs["markup"] = False
+        kwargs["emoji"] = False
+        return super().render_str(visible(text, newlines=True), **kwargs)
+
+
+console = _Console()
+err_console = _Console(stderr=True)
+
+
+def shown(value: object) -> str:
+    """A user value (path, name, quoted text) for a message line: one line, as written."""
+    return visible(value)
+
+
+def labelled(label: str, style: str, message: object) -> Text:
+    """``label`` in ``style`` followed by ``message`` (shown as written, one line)."""
+    return Text.assemble((label, style), " ", visible(message))
+
+
+def error_line(message: object) -> Text:
+    """The CLI's one-line error: ``error: <message>``."""
+    return labelled("error:", "bold red", message)
+
+
+class _Description(ProgressColumn):
+    """The task description, as written (no markup, control characters escaped)."""
+
+    def render(self, task: Task) -> Text:
+        return Text(visible(task.description), style="progress.description")
+
 
 #: Seconds between progress lines when stderr is not a terminal.
 LOG_EVERY_S = 10.0
 
 
 def _log(message: str) -> None:
-    err_console.print(
-        f"{time.strftime('%H:%M:%S')} {escape(message)}", highlight=False, soft_wrap=True
-    )
+    err_console.print(f"{time.strftime('%H:%M:%S')} {shown(message)}", soft_wrap=True)
 
 
 class _LogProgress:
@@ -109,7 +163,7 @@ def progress() -> Progress | _LogProgress:
         return _LogProgress()
     return Progress(
         SpinnerColumn(),
-        TextColumn("[progress.description]{task.description}"),
+        _Description(),
         BarColumn(),
         MofNCompleteColumn(),
         TimeElapsedColumn(),
@@ -126,7 +180,7 @@ def status(message: str) -> Iterator[None]:
     block runs, and one when it ends if any was written.
     """
     if err_console.is_terminal:
-        with err_console.status(message):
+        with err_console.status(Text(visible(message))):
             yield
         return
     t0 = time.monotonic()

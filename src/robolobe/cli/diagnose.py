@@ -121,7 +121,7 @@ def register(app: typer.Typer) -> None:
         import dataclasses
 
         from robolobe._atomic import atomic_write_text
-        from robolobe.cli._common import console, progress
+        from robolobe.cli._common import console, labelled, progress, shown
         from robolobe.diagnose.pipeline import DiagnoseSettings, diagnose
         from robolobe.diagnose.report import write_report
         from robolobe.diagnose.schema import to_report
@@ -155,11 +155,11 @@ def register(app: typer.Typer) -> None:
             write_updated_model(updated_model, result.robot, result.effects, note=result.summary)
             if result.unexplained and result.effects:
                 console.print(
-                    "[yellow]the updated model holds partial corrections only "
-                    "(the recordings are unexplained)[/]",
-                    highlight=False,
+                    "the updated model holds partial corrections only "
+                    "(the recordings are unexplained)",
+                    style="yellow",
                 )
-        console.print(f"[bold]verdict:[/] {rep.verdict_label}", highlight=False)
-        console.print(result.summary, highlight=False, soft_wrap=True)
-        outs = [str(json_out)] + [str(p) for p in (report, updated_model) if p is not None]
-        console.print(f"wrote {', '.join(outs)} ({result.elapsed_s:.0f} s)", highlight=False)
+        console.print(labelled("verdict:", "bold", rep.verdict_label))
+        console.print(result.summary, soft_wrap=True)
+        outs = [shown(json_out)] + [shown(p) for p in (report, updated_model) if p is not None]
+        console.print(f"wrote {', '.join(outs)} ({result.elapsed_s:.0f} s)")

@@ -6,7 +6,6 @@ from pathlib import Path
 from typing import Annotated, Any
 
 import typer
-from rich.markup import escape
 
 from robolobe.errors import InputError
 
@@ -119,7 +118,7 @@ def register(app: typer.Typer) -> None:
 
         from robolobe._atomic import atomic_dir, atomic_path, check_output_dir, check_output_file
         from robolobe.campaign import read_campaign
-        from robolobe.cli._common import console, err_console, progress
+        from robolobe.cli._common import console, err_console, progress, shown
         from robolobe.modal.identify import identify_campaign
         from robolobe.modal.modal_csv import write_modal_csv
 
@@ -254,12 +253,12 @@ def register(app: typer.Typer) -> None:
                 "data quality: " + ", ".join(f"{n} x {k}" for k, n in counts.items()),
                 highlight=False,
             )
-            shown = issues if all_issues else issues[:20]
-            for i in shown:
-                err_console.print(f"  {escape(str(i))}", highlight=False, soft_wrap=True)
-            if len(shown) < len(issues):
+            listed = issues if all_issues else issues[:20]
+            for i in listed:
+                err_console.print(f"  {shown(i)}", highlight=False, soft_wrap=True)
+            if len(listed) < len(issues):
                 err_console.print(
-                    f"  ... {len(issues) - len(shown)} more (--all-issues)", highlight=False
+                    f"  ... {len(issues) - len(listed)} more (--all-issues)", highlight=False
                 )
         else:
             console.print("data quality: no problems found", highlight=False)
@@ -283,7 +282,7 @@ def _identify_measurement(
 
     from robolobe._atomic import atomic_dir, atomic_path
     from robolobe.campaign.uff import common_grid, read_uff_frfs
-    from robolobe.cli._common import console, err_console
+    from robolobe.cli._common import console, err_console, shown
     from robolobe.modal.identify import settings_from_test
     from robolobe.modal.measurement import identify_measurement
     from robolobe.modal.posture import SIGN_CONVENTION
@@ -348,6 +347,6 @@ def _identify_measurement(
     if mm.issues:
         err_console.print("data quality:", highlight=False)
         for i in mm.issues:
-            err_console.print(escape(f"  [{i.check}] {i.message}"), highlight=False, soft_wrap=True)
+            err_console.print(f"  [{i.check}] {shown(i.message)}", highlight=False, soft_wrap=True)
     else:
         console.print("data quality: no problems found", highlight=False)

@@ -7,10 +7,9 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Annotated, Any
 
 import typer
-from rich.markup import escape
 from rich.table import Table
 
-from robolobe.cli._common import console, err_console, progress, status
+from robolobe.cli._common import console, err_console, labelled, progress, shown, status
 from robolobe.errors import EXIT_INPUT, InfeasibleError, InputError
 
 if TYPE_CHECKING:
@@ -51,12 +50,12 @@ def _print_summary(s: PlanSummary, out: Path) -> None:
             t.add_row(name, f"{txt} ({g.depth_mm:.3f} mm at {g.rpm_mean:.0f} rpm)")
     console.print(t)
     for note in s.notes:
-        err_console.print(f"[yellow]note:[/] {escape(note)}", highlight=False)
+        err_console.print(labelled("note:", "yellow", note))
     from robolobe.plan.report import OUTPUTS
 
     written = [n for n in OUTPUTS if (Path(out) / n).exists()]
     names = ", ".join(n + "/" if (Path(out) / n).is_dir() else n for n in written)
-    console.print(f"outputs in {escape(str(out))}/ ({names})", highlight=False)
+    console.print(f"outputs in {shown(out)}/ ({names})", highlight=False)
 
 
 # Toolpath reader options (job section [path]); a flag given here overrides the job.
@@ -314,9 +313,7 @@ def register(app: typer.Typer) -> None:
             if r.get("status") != "ok":
                 robot, msg = str(r["robot"]), str(r.get("message", ""))
                 msg = msg.removeprefix(f"{robot}: ")  # the row names the robot already
-                err_console.print(
-                    f"[yellow]{escape(robot)} ({r['status']}):[/] {escape(msg)}", highlight=False
-                )
+                err_console.print(labelled(f"{shown(robot)} ({r['status']}):", "yellow", msg))
         if not any_ok:
             # no robot can do the job: a failure, not a comparison (nothing written)
             err = InfeasibleError if (cmp.table["status"] == "infeasible").all() else InputError
@@ -417,7 +414,7 @@ def register(app: typer.Typer) -> None:
                     where, msg = str(row["path"]), str(row["message"])
                     msg = msg.removeprefix(f"{where}: ")  # the line names the path already
                     err_console.print(
-                        f"[yellow]{row['status']}:[/] {escape(where)}: {escape(msg)}",
+                        labelled(f"{row['status']}:", "yellow", f"{where}: {msg}"),
                         highlight=False,
                     )
         table = write_batch(rows, output, fmt=fmt)

@@ -69,7 +69,10 @@ def register(app: typer.Typer) -> None:
                 "--exact", help="Write the noise-free nominal receptance, not a simulated test."
             ),
         ] = False,
-        seed: Annotated[int, typer.Option("--seed", help="Random seed (test noise, design).")] = 0,
+        seed: Annotated[
+            int,
+            typer.Option("--seed", min=0, max=2**32 - 1, help="Random seed (test noise, design)."),
+        ] = 0,
         fmt: Annotated[
             str, typer.Option("--format", help="csv (frf.csv) or uff (frf/<posture_id>.uff).")
         ] = "csv",

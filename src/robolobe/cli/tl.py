@@ -11,9 +11,8 @@ from typing import Annotated, Any
 
 import numpy as np
 import typer
-from rich.markup import escape
 
-from robolobe.cli._common import console, err_console, status
+from robolobe.cli._common import console, err_console, labelled, shown, status
 from robolobe.errors import InputError
 
 __all__ = ["register"]
@@ -34,9 +33,7 @@ def _shown_warnings() -> Iterator[None]:
                 msg = str(w.message)
                 if msg not in seen:
                     seen.add(msg)
-                    err_console.print(
-                        f"[yellow]warning:[/] {escape(msg)}", highlight=False, soft_wrap=True
-                    )
+                    err_console.print(labelled("warning:", "yellow", msg), soft_wrap=True)
 
 
 def _parse_dirs(text: str) -> tuple[str, ...]:
@@ -83,7 +80,7 @@ def _load_dataset(
 def _summary(model: Any, seconds: float, out: Path) -> None:
     cal = np.asarray(model.calibration_)
     console.print(
-        f"[bold]{out}[/]: robot {model.robot or '?'} ({' -> '.join(model.lineage_)}), "
+        f"{shown(out)}: robot {shown(model.robot or '?')} ({' -> '.join(model.lineage_)}), "
         f"{len(model.train_q_rad_)} training postures, {model.n_members} members x "
         f"{len(model.directions)} directions, frozen layers {model.n_frozen_used_}, "
         f"{seconds:.1f} s"
@@ -134,7 +131,7 @@ def _calibrate(
         cal = model.calibration_ if isinstance(model, CorrectedTwin) else model
         assert isinstance(cal, TwinCalibration)
     console.print(
-        f"[bold]{output}[/]: {cal.n_postures_} postures, {cal.n_matched_} modes matched "
+        f"{shown(output)}: {cal.n_postures_} postures, {cal.n_matched_} modes matched "
         f"({cal.n_unmatched_} not), residual RMS f/zeta/k = "
         f"{cal.residual_rms_['f']:.4f}/{cal.residual_rms_['zeta']:.3f}/"
         f"{cal.residual_rms_['k']:.3f}, {time.perf_counter() - t0:.1f} s"
@@ -156,13 +153,17 @@ def _calibrate(
                 f"corrected; cross-validated RMS {np.sqrt(np.mean(part['rms_loo'] ** 2)):.4f} "
                 f"(calibrated twin {np.sqrt(np.mean(part['rms_twin'] ** 2)):.4f})"
             )
-        console.print(f'  plan on it: [robot] name = "{robot}", model = "{output}"')
+        console.print(f'  plan on it: [robot] name = "{shown(robot)}", model = "{shown(output)}"')
     else:
-        console.print(f'  plan on it: [robot] name = "{output}", model = "twin"')
+        console.print(f'  plan on it: [robot] name = "{shown(output)}", model = "twin"')
     if cal.at_bounds_:
         err_console.print(
-            f"[yellow]warning:[/] at their bounds: {', '.join(cal.at_bounds_)} (the data "
-            "want more change than allowed: check the robot file and the tests)"
+            labelled(
+                "warning:",
+                "yellow",
+                f"at their bounds: {', '.join(cal.at_bounds_)} (the data "
+                "want more change than allowed: check the robot file and the tests)",
+            )
         )
 
 
@@ -181,9 +182,11 @@ def register(app: typer.Typer) -> None:
             str, typer.Option("--preset", help="'improved' (default) or 'paper' (the seed as is).")
         ] = "improved",
         directions: Annotated[str, typer.Option("--directions", help="e.g. xx,yy")] = "xx,yy",
-        epochs: Annotated[int | None, typer.Option("--epochs", help="Default 500.")] = None,
-        members: Annotated[int | None, typer.Option("--members", help="Ensemble size.")] = None,
-        seed: Annotated[int, typer.Option("--seed", help="Random seed.")] = 0,
+        epochs: Annotated[int | None, typer.Option("--epochs", min=1, help="Default 500.")] = None,
+        members: Annotated[
+            int | None, typer.Option("--members", min=1, help="Ensemble size.")
+        ] = None,
+        seed: Annotated[int, typer.Option("--seed", min=0, max=2**32 - 1, help="Random seed.")] = 0,
     ) -> None:
         """Pretrain the modal predictor on a well-sampled robot (the seed's robot A).
 
@@ -263,9 +266,9 @@ def register(app: typer.Typer) -> None:
         ] = "stiffness,damping,ee_mass,link_mass,link_com",
         frozen: Annotated[int, typer.Option("--frozen", help="Frozen layers (seed: 3).")] = 3,
         epochs: Annotated[
-            int | None, typer.Option("--epochs", help="Default: the source's.")
+            int | None, typer.Option("--epochs", min=1, help="Default: the source's.")
         ] = None,
-        seed: Annotated[int, typer.Option("--seed", help="Random seed.")] = 0,
+        seed: Annotated[int, typer.Option("--seed", min=0, max=2**32 - 1, help="Random seed.")] = 0,
     ) -> None:
         """Make a robot's mode predictor from a few hammer tests.
 
@@ -357,12 +360,10 @@ def register(app: typer.Typer) -> None:
             pred = model.predict(q)
         table = prediction_frame(ids, q, pred)
         write_modal_csv(output, table)
-        msg = (
-            f"[bold]{output}[/]: {len(ids)} postures x {len(pred.directions)} directions x 5 modes"
-        )
+        msg = f"{shown(output)}: {len(ids)} postures x {len(pred.directions)} directions x 5 modes"
         if frf is not None:
             write_frf_campaign(frf, robot_spec or str(label), ids, q, pred, fmax, df)
-            msg += f"; FRFs in {frf}"
+            msg += f"; FRFs in {shown(frf)}"
         console.print(msg)
 
     @app.command("design-tests")
@@ -378,7 +379,7 @@ def register(app: typer.Typer) -> None:
             str | None,
             typer.Option("--model", help="Weight by this model's predicted spread."),
         ] = None,
-        seed: Annotated[int, typer.Option("--seed", help="Random seed.")] = 0,
+        seed: Annotated[int, typer.Option("--seed", min=0, max=2**32 - 1, help="Random seed.")] = 0,
     ) -> None:
         """Propose hammer-test postures that cover the feasible workspace."""
         from robolobe._atomic import check_output_file
@@ -425,5 +426,5 @@ def register(app: typer.Typer) -> None:
                 f"{design.coverage_before.describe()}"
             )
         console.print(
-            f"[bold]{output}[/]: {len(ids)} postures; with them: {design.coverage.describe()}"
+            f"{shown(output)}: {len(ids)} postures; with them: {design.coverage.describe()}"
         )

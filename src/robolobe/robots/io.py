@@ -29,7 +29,13 @@ import tomli_w
 from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
 from robolobe._atomic import not_a_file
-from robolobe._toml_errors import check_key_typos, describe_error, found, key_path
+from robolobe._toml_errors import (
+    PrintableText,
+    check_key_typos,
+    describe_error,
+    found,
+    key_path,
+)
 from robolobe.errors import InputError
 from robolobe.robots.model import Joint, LinearConstraint, RigidBody, Robot
 from robolobe.robots.plausibility import check_inertia_range, robot_findings
@@ -120,7 +126,7 @@ class _JointSpec(_Spec):
 
 
 class _RobotSpec(_Spec):
-    name: Annotated[str, Field(min_length=1)]
+    name: Annotated[PrintableText, Field(min_length=1)]
     format: Literal["robolobe-robot/1"]
     kinematics: _KinematicsSpec
     tool: _PoseSpec = Field(default_factory=_PoseSpec)
