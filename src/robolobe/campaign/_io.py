@@ -23,7 +23,6 @@ import logging
 import math
 import os
 import re
-import tomllib
 from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path
 from typing import Any, Literal
@@ -35,6 +34,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from robolobe._atomic import atomic_dir, not_a_file
 from robolobe._directions import dir_index
+from robolobe._documents import parse_toml
 from robolobe._frf_checks import frf_value_problem
 from robolobe.campaign._model import (
     ALL_DIRS,
@@ -46,7 +46,7 @@ from robolobe.campaign._model import (
     TestHeader,
 )
 from robolobe.campaign.uff import UffQuantity, read_uff_frf, write_uff_frf
-from robolobe.errors import InputError
+from robolobe.errors import InputError, InputTypeError
 
 __all__ = [
     "BUILTIN_ROBOTS",
@@ -324,15 +324,10 @@ def _read_toml(folder: Path) -> tuple[str, str, TestHeader]:
             source=os.fspath(folder),
         )
     try:
-        data = tomllib.loads(path.read_text(encoding="utf-8"))
-    except tomllib.TOMLDecodeError as exc:
-        m = re.search(r"line (\d+)", str(exc))
-        raise InputError(
-            f"TOML syntax error: {exc}",
-            source=f"campaign.toml:{m.group(1)}" if m else "campaign.toml",
-        ) from None
+        text = path.read_text(encoding="utf-8")
     except (OSError, UnicodeDecodeError) as exc:
         raise InputError(f"cannot read the file: {exc}", source="campaign.toml") from None
+    data = parse_toml(text, "campaign.toml")
     _warn_typos(data.keys(), _TOP_KEYS, "campaign.toml", "key")
     if "robot" not in data:
         raise InputError(
@@ -641,6 +636,10 @@ def write_campaign(
     """
     if fmt not in ("csv", "uff"):
         raise InputError(f"expected format 'csv' or 'uff', found {fmt!r}", source="write_campaign")
+    if not isinstance(campaign, Campaign):
+        raise InputTypeError("campaign", "a Campaign (from read_campaign or simulate)", campaign)
+    if not isinstance(path, str | os.PathLike):
+        raise InputTypeError("path", "a folder's path", path)
     target = Path(path)
     if fmt == "uff":
         for pid in campaign.posture_ids:

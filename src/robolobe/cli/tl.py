@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import itertools
 import time
 import warnings
 from collections.abc import Iterator
@@ -351,6 +352,10 @@ def register(app: typer.Typer) -> None:
         if robot_spec is None and str(label).upper() in ("A", "B", "C"):
             robot_spec = str(label).upper()
         rob = _robot(robot_spec)
+        if rob is not None:
+            from robolobe.tl.models import check_model_robot
+
+            check_model_robot(model, rob, "--robot")
         if rob is None and not isinstance(model.robot, str | type(None)):
             rob = model.robot  # the corrected twin's robot file: its joint limits
         ids, q = read_postures(postures, robot=rob)
@@ -395,11 +400,17 @@ def register(app: typer.Typer) -> None:
         if n < 1:
             raise InputError(f"expected a positive count, found {n}", source="--n")
         existing = None
+        taken: set[str] = set()
         if augment is not None:
-            _, existing = read_postures(augment, robot=rob)
+            old_ids, existing = read_postures(augment, robot=rob)
+            taken = set(old_ids)
         key = robot.upper()
         ranges = TESTED_RANGES_DEG.get(key) if key in TESTED_RANGES_DEG else None
         model = load_model(model_spec) if model_spec else None
+        if model is not None:
+            from robolobe.tl.models import check_model_robot
+
+            check_model_robot(model, rob, "--model")
         with status("designing postures"):
             design = design_postures(
                 rob,
@@ -415,7 +426,9 @@ def register(app: typer.Typer) -> None:
         from robolobe._atomic import atomic_path
 
         q_out = np.round(np.degrees(design.q_rad), 1)
-        ids = [f"D{i + 1:02d}" for i in range(len(q_out))]
+        # new ids never repeat an existing one (the files are joined for testing)
+        fresh = (f"D{i:02d}" for i in itertools.count(1))
+        ids = list(itertools.islice((i for i in fresh if i not in taken), len(q_out)))
         table = pd.DataFrame(q_out, columns=[f"q{i}_deg" for i in range(1, 7)])
         table.insert(0, "posture_id", ids)
         with atomic_path(output) as tmp:

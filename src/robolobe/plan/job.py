@@ -90,8 +90,6 @@ from __future__ import annotations
 import logging
 import math
 import os
-import re
-import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Annotated, Any, Literal
@@ -101,8 +99,9 @@ import tomli_w
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
 
 from robolobe._atomic import not_a_file
+from robolobe._documents import parse_toml
 from robolobe._toml_errors import PrintableText, check_key_typos, describe_error, key_path
-from robolobe.errors import InputError
+from robolobe.errors import InputError, InputTypeError
 from robolobe.robots.transforms import pose_from_xyz_zyx, xyz_zyx_from_pose
 from robolobe.sld.io import F_RANGE_HZ, K_RANGE_N_PER_M
 from robolobe.twin.effects import Effect
@@ -752,13 +751,14 @@ def job_from_dict(d: dict[str, Any], source: str = "<dict>", base_dir: Path | No
     )
 
 
-def load_job(path: str | os.PathLike[str]) -> Job:
+def load_job(path: str | os.PathLike[str] | Job) -> Job:
     """Read and validate a job file.
 
     Parameters
     ----------
-    path : path-like
-        TOML file with ``format = "robolobe-job/1"``.
+    path : path-like or Job
+        TOML file with ``format = "robolobe-job/1"`` (a :class:`Job` is
+        returned as it is).
 
     Returns
     -------
@@ -770,6 +770,10 @@ def load_job(path: str | os.PathLike[str]) -> Job:
         Unreadable file, TOML syntax error (with its line) or invalid content
         (naming the key).
     """
+    if isinstance(path, Job):
+        return path
+    if not isinstance(path, str | os.PathLike):
+        raise InputTypeError("job", "a job file's path or a Job", path)
     p = Path(path)
     where = p.name
     if not p.is_file():
@@ -778,14 +782,7 @@ def load_job(path: str | os.PathLike[str]) -> Job:
         text = p.read_text(encoding="utf-8")
     except (OSError, UnicodeDecodeError) as exc:
         raise InputError(f"cannot read the file: {exc}", source=where) from None
-    try:
-        raw = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as exc:
-        msg = str(exc)
-        m = re.search(r"line (\d+)", msg)
-        raise InputError(
-            f"TOML syntax error: {msg}", source=f"{where}:{m.group(1)}" if m else where
-        ) from None
+    raw = parse_toml(text, where)
     return job_from_dict(raw, source=str(p), base_dir=p.resolve().parent)
 
 

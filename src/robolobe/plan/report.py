@@ -488,6 +488,12 @@ def write_outputs(
     Path
         ``out_dir``.
     """
+    from robolobe.errors import InputTypeError
+
+    if not isinstance(res, PlanResult):
+        raise InputTypeError("res", "a PlanResult (from plan_path)", res)
+    if not isinstance(out_dir, str | os.PathLike):
+        raise InputTypeError("out_dir", "a folder's path", out_dir)
     out = Path(out_dir)
     if waypoints == "parquet":
         require_pyarrow("waypoints")

@@ -127,16 +127,39 @@ def read_plan(
     for name in ("waypoints.csv", "summary.json"):
         if not (d / name).is_file():
             raise InputError(f"expected {name} in the plan folder, found none", str(d / name))
+    from robolobe._documents import parse_json
+
+    where = str(d / "summary.json")
     try:
-        summary = json.loads((d / "summary.json").read_text(encoding="utf-8"))
-    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
-        raise InputError(f"unreadable JSON: {exc}", str(d / "summary.json")) from None
-    record = summary.get("plan_record") if isinstance(summary, dict) else None
+        text = (d / "summary.json").read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError) as exc:
+        raise InputError(f"unreadable JSON: {exc}", where) from None
+    summary = parse_json(text, where)
+    record = summary.get("plan_record")
     if not isinstance(record, dict) or "job" not in record:
         raise InputError(
             "no plan_record (written by an older robolobe or edited): plan the path again",
-            str(d / "summary.json"),
+            where,
         )
+    # a tampered record: each field the check reads, of the type the plan wrote
+    for key, kind, expected in (
+        ("job", dict, "a table"),
+        ("waypoints_sha256", str, "a string"),
+        ("path_sha256", (str, type(None)), "a string"),
+    ):
+        if not isinstance(record.get(key), kind):
+            raise InputError(
+                f"plan_record.{key}: expected {expected}, found {type(record.get(key)).__name__} "
+                "(the record was edited: plan the path again)",
+                where,
+            )
+    for key in ("path", "job_file", "mode_source"):
+        if not isinstance(summary.get(key), str | type(None)):
+            raise InputError(
+                f"{key}: expected a string, found {type(summary.get(key)).__name__} "
+                "(the record was edited: plan the path again)",
+                where,
+            )
     try:
         table = pd.read_csv(d / "waypoints.csv", keep_default_na=True)
     except (OSError, ValueError, pd.errors.ParserError) as exc:
@@ -292,10 +315,12 @@ def verify_plan(
                 eff = tuple(read_effects(effects))
             source = TwinSource(rob, eff)
         elif model is not None:
-            from robolobe.tl.models import load_model
+            from robolobe.tl.models import check_model_robot, load_model
 
             pred = load_model(str(model) if str(model).upper() in ("A", "B", "C") else Path(model))
-            _check_limits(load_robot(j.robot), q, sub, where)
+            plan_robot = load_robot(j.robot)
+            check_model_robot(pred, plan_robot, "--model")
+            _check_limits(plan_robot, q, sub, where)
             source = model_file_source(pred, Path(str(model)).name)
         else:
             assert campaign is not None

@@ -698,12 +698,12 @@ class ModalPredictor:
 
     @classmethod
     def _from_arrays(cls, arrays: dict[str, Any], where: str) -> ModalPredictor:
-        try:
-            meta = json.loads(str(arrays["meta"]))
-        except (KeyError, json.JSONDecodeError):
-            raise InputError(
-                "not a robolobe model: no readable 'meta' entry", source=where
-            ) from None
+        from robolobe._documents import parse_json
+        from robolobe._npz import check_range
+
+        if "meta" not in arrays:
+            raise InputError("not a robolobe model: no 'meta' entry", source=where)
+        meta = parse_json(str(arrays["meta"]), f"{where}[meta]")
         if meta.get("format") != MODEL_FORMAT:
             raise InputError(
                 f"format: expected {MODEL_FORMAT!r}, found {meta.get('format')!r}", source=where
@@ -725,8 +725,15 @@ class ModalPredictor:
             model.train_q_rad_ = np.asarray(arrays["train_q_rad"], dtype=float)
             loss = np.asarray([meta.get("final_train_loss", [np.nan])], dtype=float)
             model.history_ = TrainHistory(train_loss=loss, val_loss=None)
-        except (KeyError, TypeError, ValueError) as exc:
+        except InputError:
+            raise
+        except (KeyError, TypeError, ValueError, AttributeError) as exc:
             raise InputError(f"inconsistent model file ({exc})", source=where) from None
+        for k, v in arrays.items():
+            if k[0] in "Wb":
+                check_range(v, k, where)
+        check_range(model.calibration_, "calibration", where, low=0.0, open_low=True)
+        check_range(model.train_q_rad_, "train_q_rad", where, low=-2 * np.pi, high=2 * np.pi)
         nd, e = len(model.directions), int(model.n_members)
         want = (n_features(model.features), *model.hidden, 3 * int(model.n_modes))
         if model.net_.n_models != nd * e or model.net_.sizes != want:

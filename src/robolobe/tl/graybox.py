@@ -100,6 +100,42 @@ PRIOR_STD: dict[str, float] = {
 }
 
 
+def check_meta_counts(directions: Sequence[str], n_modes: int, where: str) -> None:
+    """A model file's directions and mode count, as a fit writes them."""
+    if (
+        not directions
+        or len(set(directions)) != len(directions)
+        or set(directions) - set(DRIVING_DIRECTIONS)
+    ):
+        raise InputError(
+            "inconsistent model file: directions: expected distinct ones of "
+            f"{', '.join(DRIVING_DIRECTIONS)}, found {list(directions)}",
+            source=where,
+        )
+    if not 1 <= n_modes <= 20:
+        raise InputError(
+            f"inconsistent model file: n_modes: expected 1 to 20, found {n_modes}", source=where
+        )
+
+
+def _check_covariance(theta: FloatArray, cov: FloatArray, where: str) -> None:
+    """Refuse a stored parameter covariance no fit could give (the file lies)."""
+    from robolobe._npz import check_range
+
+    check_range(theta, "theta", where)
+    check_range(cov, "covariance", where)
+    scale = float(np.max(np.abs(cov), initial=0.0))
+    if not np.allclose(cov, cov.T, rtol=1e-9, atol=1e-12 * scale):
+        raise InputError("inconsistent model file: covariance: expected a symmetric matrix", where)
+    low = float(np.min(np.linalg.eigvalsh(cov), initial=0.0)) if cov.size else 0.0
+    if low < -1e-9 * max(scale, 1e-300):
+        raise InputError(
+            "inconsistent model file: covariance: expected a positive semi-definite matrix "
+            f"(variances >= 0), found an eigenvalue {low:.3g}",
+            where,
+        )
+
+
 def _as_robot(robot: Robot | str | os.PathLike[str]) -> Robot:
     if isinstance(robot, Robot):
         return robot
@@ -747,16 +783,18 @@ class TwinCalibration:
         cls, meta: dict[str, Any], arrays: dict[str, Any], where: str
     ) -> TwinCalibration:
         """A fitted calibration from :meth:`state`'s output (``where`` names the file)."""
-        from robolobe.robots.io import _parse_toml, robot_from_dict
+        from robolobe._documents import parse_toml
+        from robolobe.robots.io import robot_from_dict
 
         try:
-            base = robot_from_dict(_parse_toml(str(meta["base_robot_toml"]), where), where)
+            base = robot_from_dict(parse_toml(str(meta["base_robot_toml"]), where), where)
             groups = tuple(str(g) for g in meta["groups"])
             theta = np.asarray(arrays["theta"], dtype=float)
             cov = np.asarray(arrays["covariance"], dtype=float)
             names = parameter_names(groups)
             if theta.shape != (len(names),) or cov.shape != (len(names), len(names)):
                 raise InputError(f"theta/covariance do not fit {len(names)} parameters")
+            _check_covariance(theta, cov, where)
             self = cls(robot=base, params=groups)
             self.theta_ = theta
             self.covariance_ = cov
@@ -776,12 +814,15 @@ class TwinCalibration:
             self.residual_rms_ = {str(a): float(b) for a, b in meta["residual_rms"].items()}
             self.directions_ = tuple(str(d) for d in meta["directions"])
             self.n_modes_ = int(meta["n_modes"])
+            check_meta_counts(self.directions_, self.n_modes_, where)
             self.n_postures_ = int(meta["n_postures"])
             self.n_matched_ = int(meta["n_matched"])
             self.n_unmatched_ = int(meta["n_unmatched"])
             self.at_bounds_ = tuple(str(a) for a in meta["at_bounds"])
             self.train_q_rad_ = np.asarray(arrays["train_q_rad"], dtype=float)
-        except (KeyError, TypeError, ValueError) as exc:
+        except InputError:
+            raise
+        except (KeyError, TypeError, ValueError, AttributeError) as exc:
             raise InputError(f"inconsistent twin calibration ({exc})", source=where) from None
         return self
 

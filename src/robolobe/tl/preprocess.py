@@ -279,5 +279,6 @@ class TargetTransform:
     def from_dict(cls, d: dict[str, object]) -> TargetTransform:
         """Rebuild from :meth:`to_dict`."""
         sc = d["scaler"]
-        assert isinstance(sc, dict)
+        if not isinstance(sc, dict):
+            raise TypeError(f"target_transform.scaler: expected a table, found {type(sc).__name__}")
         return cls(kind=str(d["kind"]), scaler=MinMax.from_dict(sc))
