@@ -418,3 +418,64 @@ def test_api_accepts_paths_and_refuses_empty_robot_lists() -> None:
         rl.compare_robots(EX / "pocket.nc", EX / "job_A_pocket.toml", [])
     with pytest.raises(InputError, match="no such file"):
         rl.compare_robots(EX / "pocket.nc", EX / "job_A_pocket.toml", "A,nothere.toml")
+
+
+# ---------------------------------------------------------- UFF files cut or spliced
+@pytest.fixture(scope="module")
+def uff_campaign(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    from robolobe.campaign import write_campaign
+    from robolobe.robots import load_robot
+    from robolobe.twin.campaign import simulate_campaign
+    from robolobe.twin.model import Twin
+
+    q = np.radians([[0, 10, -20, 0, 20, 0], [30, 0, -30, 10, 30, 5], [-20, 20, -40, 0, 10, 0]])
+    camp = simulate_campaign(
+        Twin(load_robot("B")).receptance, "B", ["1", "2", "3"], q,
+        rng=np.random.default_rng(0), exact=True, dirs=("xx", "xy", "yy", "zz"), fmax_hz=10.0,
+    )  # fmt: skip
+    out = tmp_path_factory.mktemp("uff") / "camp"
+    write_campaign(out, camp, fmt="uff")
+    return out
+
+
+@FUZZ
+@given(data=st.data())
+def test_uff_cut_or_spliced_is_refused_or_exact(
+    tmp_path: Path, uff_campaign: Path, data: st.DataObject, caplog: pytest.LogCaptureFixture
+) -> None:
+    """A UFF file with lines lost, cut and closed, or repeated: refused, or every value exact.
+
+    Accepted files must give exactly the original values of every direction
+    they hold, and a posture left with fewer directions than the others is
+    said (a warning naming the file).
+    """
+    from robolobe.campaign import read_campaign
+
+    d = tmp_path / "c"
+    if d.exists():
+        shutil.rmtree(d)
+    shutil.copytree(uff_campaign, d)
+    f = d / "frf" / "2.uff"
+    lines = f.read_bytes().splitlines(keepends=True)
+    i = data.draw(st.integers(1, len(lines) - 1))
+    op = data.draw(st.sampled_from(["drop", "cut-and-close", "repeat"]))
+    if op == "drop":
+        n = data.draw(st.integers(1, 12))
+        lines = lines[:i] + lines[i + n :]
+    elif op == "cut-and-close":
+        lines = [*lines[:i], b"    -1\n"]
+    else:
+        n = data.draw(st.integers(1, 12))
+        lines = lines[: i + n] + lines[i : i + n] + lines[i + n :]
+    f.write_bytes(b"".join(lines))
+    original = read_campaign(uff_campaign).frfs[1].H
+    caplog.clear()
+    try:
+        got = read_campaign(d).frfs[1].H
+    except RobolobeError as exc:
+        _refused_naming(exc, "2.uff")
+        return
+    have = np.isfinite(got).any(axis=0)
+    np.testing.assert_array_equal(got[:, have], original[:, have])  # what is read is exact
+    if (~have & np.isfinite(original).any(axis=0)).any():
+        assert any("2.uff" in r.getMessage() for r in caplog.records), "directions lost silently"

@@ -601,7 +601,39 @@ def _read_uff_dir(
             )
         grid, h = read_uff_frf(files[pid], source=f"frf/{files[pid].name}")
         frfs.append(PostureFRF(grid, h))
+    _warn_fewer_records([f"frf/{files[pid].name}" for pid in ids], frfs)
     return frfs
+
+
+def _warn_fewer_records(names: Sequence[str], frfs: Sequence[PostureFRF]) -> None:
+    """Warn when a file holds fewer directions than the others.
+
+    A UFF file cut exactly at a record boundary is a valid file with fewer
+    records: its missing directions would pass as "not measured". A posture
+    measured on fewer directions than the rest is possible, so it is said,
+    not refused.
+    """
+    from robolobe._directions import AXES
+
+    measured = [
+        {
+            f"{AXES[i]}{AXES[j]}"
+            for i in range(3)
+            for j in range(3)
+            if np.isfinite(f.H[:, i, j]).any()
+        }
+        for f in frfs
+    ]
+    union = set().union(*measured) if measured else set()
+    for name, have in zip(names, measured, strict=True):
+        lost = sorted(union - have)
+        if lost:
+            logger.warning(
+                "%s: no record for direction(s) %s that other postures have (a file cut at a "
+                "record's end?); they count as not measured",
+                name,
+                ", ".join(lost),
+            )
 
 
 def write_campaign(

@@ -63,7 +63,12 @@ from robolobe._threads import one_blas_thread, with_one_blas_thread
 from robolobe.errors import ConvergenceError, InputError
 from robolobe.robots.limits import as_postures
 from robolobe.robots.model import Robot
-from robolobe.tl.dataset import DRIVING_DIRECTIONS, ModalDataset, dataset_from_frame
+from robolobe.tl.dataset import (
+    DRIVING_DIRECTIONS,
+    ModalDataset,
+    check_meta_counts,
+    dataset_from_frame,
+)
 from robolobe.tl.estimator import ModalPrediction
 from robolobe.twin.params import (
     COM_UNIT_M,
@@ -98,24 +103,6 @@ PRIOR_STD: dict[str, float] = {
     "link_mass": 0.1,
     "link_com": 0.05 / COM_UNIT_M,
 }
-
-
-def check_meta_counts(directions: Sequence[str], n_modes: int, where: str) -> None:
-    """A model file's directions and mode count, as a fit writes them."""
-    if (
-        not directions
-        or len(set(directions)) != len(directions)
-        or set(directions) - set(DRIVING_DIRECTIONS)
-    ):
-        raise InputError(
-            "inconsistent model file: directions: expected distinct ones of "
-            f"{', '.join(DRIVING_DIRECTIONS)}, found {list(directions)}",
-            source=where,
-        )
-    if not 1 <= n_modes <= 20:
-        raise InputError(
-            f"inconsistent model file: n_modes: expected 1 to 20, found {n_modes}", source=where
-        )
 
 
 def _check_covariance(theta: FloatArray, cov: FloatArray, where: str) -> None:
@@ -820,10 +807,18 @@ class TwinCalibration:
             self.n_unmatched_ = int(meta["n_unmatched"])
             self.at_bounds_ = tuple(str(a) for a in meta["at_bounds"])
             self.train_q_rad_ = np.asarray(arrays["train_q_rad"], dtype=float)
-        except InputError:
-            raise
+        except InputError as exc:
+            if exc.source is not None:
+                raise
+            raise InputError(f"inconsistent twin calibration ({exc})", source=where) from None
         except (KeyError, TypeError, ValueError, AttributeError) as exc:
             raise InputError(f"inconsistent twin calibration ({exc})", source=where) from None
+        if not {"f", "zeta", "k"} <= set(self.residual_rms_):
+            raise InputError(
+                "inconsistent twin calibration: residual_rms: expected f, zeta and k, found "
+                f"{sorted(self.residual_rms_)}",
+                source=where,
+            )
         return self
 
     def __repr__(self) -> str:

@@ -58,9 +58,9 @@ from robolobe._threads import one_blas_thread, with_one_blas_thread
 from robolobe.errors import InputError
 from robolobe.robots.limits import as_postures, within_joint_limits
 from robolobe.robots.model import Robot
-from robolobe.tl.dataset import ModalDataset
+from robolobe.tl.dataset import ModalDataset, check_meta_counts
 from robolobe.tl.estimator import ModalPrediction
-from robolobe.tl.graybox import TwinCalibration, check_meta_counts, modal_frame_dataset
+from robolobe.tl.graybox import TwinCalibration, modal_frame_dataset
 from robolobe.twin.params import K_MAX
 
 __all__ = ["CORRECTED_TWIN_FORMAT", "CorrectedTwin", "is_corrected_twin_file"]
