@@ -35,7 +35,7 @@ from numpy.typing import ArrayLike, NDArray
 from robolobe._atomic import atomic_dir, not_a_file
 from robolobe._directions import dir_index
 from robolobe._documents import parse_toml
-from robolobe._frf_checks import frf_value_problem
+from robolobe._frf_checks import frf_value_problem, receptance_scale_problem
 from robolobe.campaign._model import (
     ALL_DIRS,
     FRF_COLUMNS,
@@ -560,6 +560,9 @@ def read_campaign(path: str | os.PathLike[str], *, check_limits: bool = True) ->
         raise InputError(
             "missing frf.csv (or frf/<posture_id>.uff files)", source=os.fspath(folder)
         )
+    problem = receptance_scale_problem(np.concatenate([f.H.reshape(-1) for f in frfs]))
+    if problem is not None:
+        raise InputError(problem, source="frf.csv" if csv_path.exists() else "frf/")
     return Campaign(
         robot=robot,
         posture_ids=ids,

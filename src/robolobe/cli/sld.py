@@ -18,6 +18,9 @@ _DEFAULT_N = {"zoa": 1000, "sdm": 200}
 #: Cap on the speed grid: 100k speeds resolve any lobe of a milling
 #: spindle; more only costs memory and time.
 MAX_RPM_POINTS = 100_000
+#: A limiting depth [m] below which the lobes are more likely a unit slip than a
+#: structure (10 um: no milling cut is that shallow).
+MIN_PLAUSIBLE_A_LIM_M = 1e-5
 #: Cap on the teeth of a milling cutter (large face mills have a few dozen).
 MAX_TEETH = 200
 
@@ -190,6 +193,17 @@ def register(app: typer.Typer) -> None:
                 highlight=False,
                 soft_wrap=True,
             )
+            if float(a_min) < MIN_PLAUSIBLE_A_LIM_M:
+                err_console.print(
+                    labelled(
+                        "warning:",
+                        "yellow",
+                        f"the smallest limiting depth, {float(a_min) * 1e3:.3g} mm, is below any "
+                        "practical cut: check the units (k_N_per_m in N/m, not N/mm; --kt in "
+                        "N/m^2, not N/mm^2)",
+                    ),
+                    soft_wrap=True,
+                )
         else:
             console.print("no lobe crosses this speed range: a_lim = inf everywhere")
         if not lobes.valid:

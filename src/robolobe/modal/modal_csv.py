@@ -29,6 +29,7 @@ import pandas as pd
 
 from robolobe._atomic import atomic_path
 from robolobe._directions import ALL_DIRS, DRIVING
+from robolobe._frf_checks import MODAL_K_MIN_N_PER_M
 from robolobe._modal_parameters import Q_COLUMNS, ModalParameters
 from robolobe.errors import InputError
 
@@ -113,6 +114,12 @@ def _check_row(
             raise InputError(
                 f"column 'k_N_per_m': expected > 0 at the driving point {d!r}, "
                 f"found {values['k_N_per_m']!r}",
+                source=source,
+            )
+        if k < MODAL_K_MIN_N_PER_M:
+            raise InputError(
+                f"column 'k_N_per_m': expected a modal stiffness >= {MODAL_K_MIN_N_PER_M:g} N/m "
+                f"(10 N/mm), found {values['k_N_per_m']!r}: a value in N/mm?",
                 source=source,
             )
     elif k == 0.0:
