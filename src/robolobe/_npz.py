@@ -15,6 +15,7 @@ from typing import Any
 
 import numpy as np
 
+from robolobe._atomic import check_input_file
 from robolobe.errors import InputError
 
 __all__ = ["MAX_NPZ_BYTES", "check_range", "read_npz"]
@@ -92,10 +93,7 @@ def read_npz(path: str | os.PathLike[str], what: str = "robolobe model file") ->
     """
     p = Path(path)
     where = str(path)
-    if p.is_dir():
-        raise InputError(f"is a directory; expected a {what} (.npz)", source=where)
-    if not p.exists():
-        raise InputError("file not found", source=where)
+    check_input_file(p, f"a {what} (.npz)", where)
     if p.stat().st_size == 0:
         raise InputError(f"not a {what}: the file is empty", source=where)
     if not zipfile.is_zipfile(p):

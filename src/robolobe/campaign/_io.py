@@ -32,7 +32,7 @@ import pandas as pd
 import tomli_w
 from numpy.typing import ArrayLike, NDArray
 
-from robolobe._atomic import atomic_dir, not_a_file
+from robolobe._atomic import atomic_dir, check_input_file
 from robolobe._directions import dir_index
 from robolobe._documents import parse_toml
 from robolobe._frf_checks import frf_value_problem, receptance_scale_problem
@@ -82,10 +82,7 @@ def _read_csv(
     path: Path, display: str, required: Sequence[str], str_cols: Sequence[str]
 ) -> tuple[pd.DataFrame, NDArray[np.int64]]:
     """Read a CSV; check the header; return the frame (blank lines dropped) and line numbers."""
-    if path.is_dir():
-        raise InputError(f"expected a CSV file, found {not_a_file(path)}", source=display)
-    if not path.is_file():
-        raise InputError("file not found", source=display)
+    check_input_file(path, "a CSV file", display)
     _check_text_file(path, display)
     num_cols = [c for c in required if c not in str_cols]
     try:
@@ -575,6 +572,8 @@ def read_campaign(path: str | os.PathLike[str], *, check_limits: bool = True) ->
 
 
 def _ends_with_newline(path: Path) -> bool:
+    if not path.is_file():  # never open a FIFO (it would wait for a writer)
+        return True
     try:
         with open(path, "rb") as fh:
             fh.seek(0, os.SEEK_END)

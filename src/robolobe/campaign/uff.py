@@ -56,7 +56,7 @@ from typing import Any, Literal
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from robolobe._atomic import not_a_file
+from robolobe._atomic import check_input_file
 from robolobe._directions import AXES
 from robolobe._frf_checks import frf_value_problem
 from robolobe.errors import InputError
@@ -476,10 +476,7 @@ def read_uff_frfs(path: str | os.PathLike[str], *, source: str | None = None) ->
 
     where = source or os.fspath(path)
     p = Path(path)
-    if p.is_dir():
-        raise InputError(f"expected a UFF file, found {not_a_file(p)}", source=where)
-    if not p.is_file():
-        raise InputError("file not found", source=where)
+    check_input_file(p, "a UFF file", where)
     try:
         data = p.read_bytes()
     except OSError as exc:

@@ -27,7 +27,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from robolobe._atomic import atomic_path
+from robolobe._atomic import atomic_path, check_input_file
 from robolobe._directions import ALL_DIRS, DRIVING
 from robolobe._frf_checks import MODAL_K_MIN_N_PER_M
 from robolobe._modal_parameters import Q_COLUMNS, ModalParameters
@@ -227,8 +227,8 @@ def read_modal_csv(path: str | os.PathLike[str]) -> pd.DataFrame:
         posture, a duplicated (posture, dir, mode), or no data rows. The
         message names ``file:line`` and the column.
     """
-    path = Path(path)
     name = str(path)
+    path = check_input_file(path, "a modal dataset (CSV file)", name)
     try:
         fh = path.open(newline="", encoding="utf-8-sig")
     except OSError as exc:

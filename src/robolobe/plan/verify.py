@@ -28,6 +28,7 @@ import numpy as np
 import pandas as pd
 from numpy.typing import NDArray
 
+from robolobe._atomic import check_input_file
 from robolobe.errors import InputError
 from robolobe.plan.job import Job, load_job
 from robolobe.plan.modes import ModeSource, TwinSource, model_file_source
@@ -125,8 +126,7 @@ def read_plan(
     if not d.is_dir():
         raise InputError("expected a plan folder (robolobe plan -o DIR), found none", str(d))
     for name in ("waypoints.csv", "summary.json"):
-        if not (d / name).is_file():
-            raise InputError(f"expected {name} in the plan folder, found none", str(d / name))
+        check_input_file(d / name, f"{name} in the plan folder (robolobe plan -o DIR)")
     from robolobe._documents import parse_json
 
     where = str(d / "summary.json")

@@ -29,7 +29,7 @@ from pathlib import Path
 
 import numpy as np
 
-from robolobe._atomic import atomic_write_text, not_a_file
+from robolobe._atomic import atomic_write_text, check_input_file
 from robolobe._frf_checks import MODAL_K_MIN_N_PER_M
 from robolobe.errors import InputError
 from robolobe.sld.frf import ModalModel
@@ -81,12 +81,9 @@ def read_modes_csv(path: str | os.PathLike[str]) -> ModalModel:
     """
     p = Path(path)
     name = str(path)
-    if p.is_dir():
-        raise InputError(f"expected a modes CSV file, found {not_a_file(p)}", source=name)
+    check_input_file(p, "a modes CSV file", name)
     try:
         text = p.read_text(encoding="utf-8-sig")
-    except FileNotFoundError:
-        raise InputError("file not found", source=name) from None
     except (OSError, UnicodeDecodeError) as exc:
         raise InputError(f"cannot read the file: {exc}", source=name) from None
     numbered = [

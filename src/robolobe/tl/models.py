@@ -16,6 +16,7 @@ from importlib import resources
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from robolobe._atomic import check_input_file
 from robolobe.errors import InputError
 from robolobe.tl.estimator import ModalPredictor
 
@@ -63,13 +64,9 @@ def load_model(spec: str | Path) -> ModalPredictor | CorrectedTwin:
                     source=f"robolobe/data/models/{key.upper()}.npz",
                 )
             return ModalPredictor.load(path)
-    path = Path(key)
-    if not path.is_file():
-        raise InputError(
-            f"expected a model file or one of the shipped models {', '.join(SHIPPED)}, "
-            f"found {key!r}",
-            source="MODEL",
-        )
+    path = check_input_file(
+        key, f"a model file or one of the shipped models {', '.join(SHIPPED)}", key
+    )
     from robolobe.tl.residual import CorrectedTwin, is_corrected_twin_file
 
     if is_corrected_twin_file(path):
