@@ -9,9 +9,11 @@ never leaves an empty log and a short one (or a one-line error) stays quiet.
 from __future__ import annotations
 
 import contextlib
+import shutil
 import threading
 import time
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
+from pathlib import Path
 from typing import Any
 
 from rich.console import Console
@@ -31,6 +33,7 @@ from robolobe._text import visible
 
 __all__ = [
     "LOG_EVERY_S",
+    "Outputs",
     "console",
     "err_console",
     "error_line",
@@ -202,3 +205,59 @@ def status(message: str) -> Iterator[None]:
         thread.join()
     if logged.is_set():
         _log(f"{message} done in {time.monotonic() - t0:.1f} s")
+
+
+class Outputs:
+    """The outputs of one command: all of them, or none that this run created.
+
+    Each output is written atomically by its writer; this adds the set: when
+    a later output fails (a full disk, a signal), the ones this run created
+    before it are removed again, so a failed run leaves no new file behind
+    (an output that existed before was replaced by then and stays, new).
+    A file-system refusal becomes one line naming the output's option.
+
+    Examples
+    --------
+    >>> with Outputs() as out:  # doctest: +SKIP
+    ...     out.write(json_path, "--json", atomic_write_text, json_path, text)
+    ...     out.write(report_dir, "--report", write_report, result, report_dir)
+    """
+
+    def __init__(self) -> None:
+        self._created: list[Path] = []
+
+    def __enter__(self) -> Outputs:
+        return self
+
+    def __exit__(self, kind: type[BaseException] | None, *rest: object) -> None:
+        if kind is not None:
+            self.undo()
+
+    def write(
+        self, path: Any, option: str, writer: Callable[..., Any], *args: Any, **kw: Any
+    ) -> Any:
+        """Run ``writer(*args, **kw)``, which writes ``path``; remember it if it is new."""
+        from robolobe.errors import InputError
+
+        target = Path(path)
+        existed = target.exists()
+        try:
+            result = writer(*args, **kw)
+        except OSError as exc:
+            self.undo()
+            raise InputError(
+                f"cannot write {visible(target)}: {exc.strerror or exc}", source=option
+            ) from None
+        if not existed and target.exists():
+            self._created.append(target)
+        return result
+
+    def undo(self) -> None:
+        """Remove the outputs this run created (newest first)."""
+        for p in reversed(self._created):
+            with contextlib.suppress(OSError):
+                if p.is_dir() and not p.is_symlink():
+                    shutil.rmtree(p)
+                else:
+                    p.unlink()
+        self._created.clear()

@@ -118,7 +118,7 @@ def register(app: typer.Typer) -> None:
 
         from robolobe._atomic import atomic_dir, atomic_path, check_output_dir, check_output_file
         from robolobe.campaign import read_campaign
-        from robolobe.cli._common import console, err_console, progress, shown
+        from robolobe.cli._common import Outputs, console, err_console, progress, shown
         from robolobe.modal.identify import identify_campaign
         from robolobe.modal.modal_csv import write_modal_csv
 
@@ -178,15 +178,23 @@ def register(app: typer.Typer) -> None:
                 recover=recover,
                 progress=lambda k: bar.advance(task, k),
             )
-        if plots is not None:
+
+        def plot_dir(folder: Path) -> None:
             from robolobe.modal.plots import save_posture_plots
 
-            with atomic_dir(plots) as tmp:
+            with atomic_dir(folder) as tmp:
                 save_posture_plots(result.postures, result.table, tmp)
-        if fit_report is not None:
-            with atomic_path(fit_report) as tmp:
+
+        def fit_csv(path: Path) -> None:
+            with atomic_path(path) as tmp:
                 result.fit.to_csv(tmp, index=False, lineterminator="\n", float_format="%.6g")
-        write_modal_csv(output, result.table)
+
+        with Outputs() as out:
+            if plots is not None:
+                out.write(plots, "--plots", plot_dir, plots)
+            if fit_report is not None:
+                out.write(fit_report, "--fit-report", fit_csv, fit_report)
+            out.write(output, "--output", write_modal_csv, output, result.table)
 
         # ---- summary
         tab = result.table

@@ -98,11 +98,30 @@ def _show_warnings() -> None:
         log.addHandler(handler)
 
 
+class _Terminated(BaseException):
+    """SIGTERM as an exception: the ``finally`` blocks run (temporary files of
+    the atomic writers are removed, worker pools terminate their workers
+    instead of waiting for their tasks) before exit 143.
+
+    A :class:`BaseException`, like :class:`KeyboardInterrupt`, so no
+    ``except Exception`` on the way swallows it.
+    """
+
+
+def _on_sigterm(signum: int, frame: object) -> None:
+    raise _Terminated()
+
+
 def main(argv: list[str] | None = None) -> None:
     """Run the CLI; turn robolobe errors into one line and an exit code."""
+    import signal
+    import threading
+
     from robolobe.cli._common import err_console, error_line
 
     _show_warnings()
+    if threading.current_thread() is threading.main_thread():
+        signal.signal(signal.SIGTERM, _on_sigterm)
     try:
         app(args=argv, standalone_mode=True)
     except RobolobeError as exc:
@@ -115,6 +134,9 @@ def main(argv: list[str] | None = None) -> None:
         where = f": {exc.filename}" if exc.filename else ""
         err_console.print(error_line(f"{what}{where}"), soft_wrap=True)
         sys.exit(2)
+    except _Terminated:
+        err_console.print("terminated (SIGTERM)", style="bold red")
+        sys.exit(143)
     except KeyboardInterrupt:
         err_console.print("interrupted", style="bold red")
         sys.exit(130)

@@ -9,7 +9,7 @@ from typing import Annotated
 import numpy as np
 import typer
 
-from robolobe.cli._common import console, err_console, labelled, shown, status
+from robolobe.cli._common import Outputs, console, err_console, labelled, shown, status
 from robolobe.errors import InputError
 
 __all__ = ["parse_rpm", "register"]
@@ -170,16 +170,20 @@ def register(app: typer.Typer) -> None:
                 max_lobe=max_lobe,
                 intervals=intervals,
             )
-        write_lobes_csv(output, lobes)
-        if plot is not None:
-            from robolobe.sld.plot import save_lobe_plot
+        with Outputs() as out:
+            out.write(output, "--output", write_lobes_csv, output, lobes)
+            if plot is not None:
+                from robolobe.sld.plot import save_lobe_plot
 
-            save_lobe_plot(
-                lobes,
-                plot,
-                safety_factor=safety,
-                title=f"{method.upper()}: N={teeth}, a/D={immersion:g}, {milling} milling",
-            )
+                out.write(
+                    plot,
+                    "--plot",
+                    save_lobe_plot,
+                    lobes,
+                    plot,
+                    safety_factor=safety,
+                    title=f"{method.upper()}: N={teeth}, a/D={immersion:g}, {milling} milling",
+                )
         a_min, n_min = lobes.minimum()
         console.print(
             f"{method.upper()} lobes: {grid.size} speeds {grid[0]:g}-{grid[-1]:g} rpm, "

@@ -13,7 +13,7 @@ from typing import Annotated, Any
 import numpy as np
 import typer
 
-from robolobe.cli._common import console, err_console, labelled, shown, status
+from robolobe.cli._common import Outputs, console, err_console, labelled, shown, status
 from robolobe.errors import InputError
 
 __all__ = ["register"]
@@ -364,10 +364,15 @@ def register(app: typer.Typer) -> None:
         with _shown_warnings():
             pred = model.predict(q)
         table = prediction_frame(ids, q, pred)
-        write_modal_csv(output, table)
+        with Outputs() as out:
+            out.write(output, "--output", write_modal_csv, output, table)
+            if frf is not None:
+                out.write(
+                    frf, "--frf", write_frf_campaign,
+                    frf, robot_spec or str(label), ids, q, pred, fmax, df,
+                )  # fmt: skip
         msg = f"{shown(output)}: {len(ids)} postures x {len(pred.directions)} directions x 5 modes"
         if frf is not None:
-            write_frf_campaign(frf, robot_spec or str(label), ids, q, pred, fmax, df)
             msg += f"; FRFs in {shown(frf)}"
         console.print(msg)
 
