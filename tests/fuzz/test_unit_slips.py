@@ -117,3 +117,53 @@ def test_receptance_in_mm_per_n(tmp_path: Path, csv_campaign: Path, factor: floa
     with pytest.raises(InputError, match="mm/N") as info:
         read_campaign(d)
     assert "frf.csv" in str(info.value)
+
+
+@FUZZ
+@given(
+    col=st.sampled_from(["feed_mm_per_min", "rpm_programmed"]),
+    value=st.floats(max_value=0.0) | st.floats(min_value=1.01e6) | st.just(float("inf")),
+    row=st.integers(0, 2),
+)
+def test_csv_path_rate_out_of_range(tmp_path: Path, col: str, value: float, row: int) -> None:
+    from robolobe.plan.paths import read_toolpath
+
+    vals = ["1000", "1000", "1000"]
+    vals[row] = repr(value)
+    f = tmp_path / "p.csv"
+    f.write_text(
+        f"x_m,y_m,z_m,{col}\n" + "".join(f"{0.01 * i},0,0,{v}\n" for i, v in enumerate(vals))
+    )
+    with pytest.raises(InputError, match=col) as info:
+        read_toolpath(f)
+    assert f"p.csv:{row + 2}" in str(info.value)
+
+
+@FUZZ
+@given(
+    where=st.sampled_from(["omega", "frf"]),
+    value=st.sampled_from([float("nan"), float("inf"), -1.0]),
+    index=st.integers(0, 49),
+)
+def test_sampled_frf_with_nan_refused(where: str, value: float, index: int) -> None:
+    """The API refuses what the CLI's readers refuse: NaN in a sampled FRF."""
+    from robolobe.sld import CuttingConditions, get_material, stability_lobes
+
+    omega = np.linspace(100.0, 10000.0, 50)
+    wn, z, k = 2 * np.pi * 900.0, 0.02, 1e7
+    h = 1.0 / (k * (1 - (omega / wn) ** 2 + 2j * z * omega / wn))
+    frf = np.zeros((50, 2, 2), complex)
+    frf[:, 0, 0] = frf[:, 1, 1] = h
+    if where == "omega":
+        if value == -1.0:
+            value = -5.0
+        omega[index] = value
+    else:
+        if value == -1.0:
+            return  # a negative receptance is a phase, not an error
+        frf[index, 0, 0] = value
+    with pytest.raises(InputError, match=where):
+        stability_lobes(
+            (omega, frf), cutter=2, material=get_material("Al7075-T6"),
+            conditions=CuttingConditions.from_immersion(0.5, "down"), rpm=np.linspace(5e3, 2e4, 50),
+        )  # fmt: skip
