@@ -10,6 +10,7 @@ block longer than the table), give that meaning without the cost.
 from __future__ import annotations
 
 import math
+import shutil
 from importlib import resources
 from pathlib import Path
 
@@ -144,3 +145,91 @@ def test_arc_tolerance_bounded(tol: float) -> None:
     d.setdefault("path", {})["arc_tol_mm"] = tol
     with pytest.raises(InputError, match="arc_tol_mm"):
         job_from_dict(d, source="j.toml")
+
+
+#: Numeric options of the quick commands, the class of their edge values.
+EDGE_VALUES = (
+    st.sampled_from(
+        ["0", "-1", "nan", "inf", "-inf", "1e300", "1e-300", str(2**64), "1e9", "abc", ""]
+    )
+    | st.integers(-(2**70), 2**70).map(str)
+    | st.floats(allow_nan=True).map(repr)
+)
+
+
+@pytest.fixture(scope="module")
+def quick_inputs(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    from robolobe.campaign import write_campaign
+    from robolobe.robots import load_robot
+    from robolobe.twin.campaign import simulate_campaign
+    from robolobe.twin.model import Twin
+
+    root = tmp_path_factory.mktemp("quick")
+    q = np.radians([[0, 10, -20, 0, 20, 0], [30, 0, -30, 10, 30, 5], [-20, 20, -40, 0, 10, 0]])
+    camp = simulate_campaign(
+        Twin(load_robot("B")).receptance, "B", ["1", "2", "3"], q,
+        rng=np.random.default_rng(0), exact=False, dirs=("xx", "yy"), fmax_hz=30.0,
+    )  # fmt: skip
+    write_campaign(root / "camp", camp, fmt="csv")
+    (root / "m.csv").write_text(MODES)
+    (root / "post.csv").write_text(
+        "posture_id,q1_deg,q2_deg,q3_deg,q4_deg,q5_deg,q6_deg\nP1,0,-60,90,0,30,0\n"
+    )
+    return root
+
+
+def _edge_argv(root: Path, out: Path, command: str, option: str, value: str) -> list[str]:
+    base = {
+        "identify": ["identify", str(root / "camp"), "-o", str(out / "i.csv")],
+        "simulate": ["simulate", "B", "--design", "random", "--n", "2", "--fmax", "10",
+                     "-o", str(out / "sim")],
+        "predict": ["predict", "A", str(root / "post.csv"), "-o", str(out / "p.csv"),
+                    "--frf", str(out / "pf")],
+        "design-tests": ["design-tests", "A", "--n", "2", "-o", str(out / "d.csv")],
+        "sld": ["sld", "--modes", str(root / "m.csv"), "--teeth", "2", "--immersion", "0.5",
+                "--rpm", "5000:9000:20", "--material", "Al7075-T6", "-o", str(out / "l.csv"),
+                "--plot", str(out / "l.png")],
+    }[command]  # fmt: skip
+    if option in base:
+        i = base.index(option)
+        return [*base[: i + 1], value, *base[i + 2 :]]
+    return [*base, option, value]
+
+
+_EDGE_OPTIONS = {
+    "identify": ("--modes", "--fmin", "--fmax", "--window-end", "--record-s", "--jobs"),
+    "simulate": ("--n", "--fmax", "--noise", "--impacts", "--double-hits", "--seed"),
+    "predict": ("--fmax", "--df"),
+    "design-tests": ("--n", "--seed"),
+    "sld": ("--immersion", "--kt", "--kr", "--max-lobe", "--safety", "--teeth", "--rpm"),
+}
+EDGE_OPTIONS = [(c, o) for c, options in _EDGE_OPTIONS.items() for o in options]
+
+
+@FUZZ
+@given(data=st.data())
+def test_numeric_option_edges(
+    tmp_path: Path, quick_inputs: Path, capsys: pytest.CaptureFixture[str], data: st.DataObject
+) -> None:
+    command, option = data.draw(st.sampled_from(EDGE_OPTIONS))
+    value = data.draw(EDGE_VALUES)
+    out = tmp_path / "out"
+    if out.exists():
+        shutil.rmtree(out)
+    out.mkdir()
+    argv = _edge_argv(quick_inputs, out, command, option, value)
+    capsys.readouterr()
+    code: int | str | None = 0
+    try:
+        main(argv)
+    except SystemExit as exc:
+        code = exc.code
+    err = capsys.readouterr().err
+    assert "Traceback" not in err
+    assert code in (0, 2), err
+    if code == 2:
+        assert list(out.iterdir()) == [], f"written although refused: {err}"
+        if not err.startswith("Usage"):  # click's own usage errors name the option too
+            lines = [ln for ln in err.splitlines() if ln.strip() and not ln.startswith("warning")]
+            assert len(lines) == 1, err
+            assert lines[0].startswith("error: "), err

@@ -127,8 +127,10 @@ def register(app: typer.Typer) -> None:
             check_output_dir(plots, "--plots")
         if fit_report is not None:
             check_output_file(fit_report, "--fit-report")
-        if modes < 1:
-            raise InputError(f"expected an integer >= 1, found {modes}", source="--modes")
+        if not 1 <= modes <= 20:
+            raise InputError(f"expected 1 to 20 modes per direction, found {modes}", "--modes")
+        if not 1 <= jobs <= 256:
+            raise InputError(f"expected 1 to 256 worker processes, found {jobs}", "--jobs")
         if campaign.is_file():
             if fit_report is not None:
                 raise InputError(

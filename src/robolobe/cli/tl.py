@@ -359,8 +359,14 @@ def register(app: typer.Typer) -> None:
         if rob is None and not isinstance(model.robot, str | type(None)):
             rob = model.robot  # the corrected twin's robot file: its joint limits
         ids, q = read_postures(postures, robot=rob)
-        if not np.isfinite(fmax) or fmax <= 0 or not np.isfinite(df) or not 0 < df < fmax:
-            raise InputError(f"expected 0 < df < fmax, found df={df}, fmax={fmax}", "--df/--fmax")
+        if not (np.isfinite(fmax) and np.isfinite(df) and 0 < df < fmax <= 1e5):
+            raise InputError(
+                f"expected 0 < df < fmax <= 1e5 Hz, found df={df:g}, fmax={fmax:g}", "--df/--fmax"
+            )
+        if fmax / df > 1e6:
+            raise InputError(
+                f"expected at most 1e6 FRF lines (fmax / df), found {fmax / df:.3g}", "--df/--fmax"
+            )
         with _shown_warnings():
             pred = model.predict(q)
         table = prediction_frame(ids, q, pred)
@@ -402,8 +408,10 @@ def register(app: typer.Typer) -> None:
         from robolobe.twin.designs import TESTED_RANGES_DEG
 
         rob = _robot(robot)
-        if n < 1:
-            raise InputError(f"expected a positive count, found {n}", source="--n")
+        if not 1 <= n <= 1000:
+            raise InputError(
+                f"expected 1 to 1000 postures (each is a hammer test), found {n}", source="--n"
+            )
         existing = None
         taken: set[str] = set()
         if augment is not None:
