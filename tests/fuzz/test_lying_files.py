@@ -479,3 +479,52 @@ def test_uff_cut_or_spliced_is_refused_or_exact(
     np.testing.assert_array_equal(got[:, have], original[:, have])  # what is read is exact
     if (~have & np.isfinite(original).any(axis=0)).any():
         assert any("2.uff" in r.getMessage() for r in caplog.records), "directions lost silently"
+
+
+# ------------------------------------------------------- TOML values of another type
+toml_values = st.recursive(
+    st.booleans() | st.integers(-(2**63), 2**63 - 1) | st.floats(allow_nan=False)
+    | st.text(max_size=6),
+    lambda inner: st.lists(inner, max_size=3)
+    | st.dictionaries(st.text(min_size=1, max_size=5), inner, max_size=3),
+    max_leaves=6,
+)  # fmt: skip
+
+
+def _paths(doc: Any, prefix: tuple[Any, ...] = ()) -> list[tuple[Any, ...]]:
+    """Every key path of a TOML document (tables and arrays of tables entered)."""
+    out = []
+    items = (
+        doc.items() if isinstance(doc, dict) else enumerate(doc) if isinstance(doc, list) else []
+    )
+    for k, v in items:
+        out.append((*prefix, k))
+        if isinstance(v, dict | list):
+            out += _paths(v, (*prefix, k))
+    return out
+
+
+@pytest.mark.parametrize("kind", ["robot", "job", "campaign", "effects"])
+@FUZZ
+@given(data=st.data())
+def test_toml_value_of_another_type(tmp_path: Path, kind: str, data: st.DataObject) -> None:
+    """Any key of a valid file given a value of another type: a result or one named refusal."""
+    import tomllib
+
+    import tomli_w
+
+    read, base, name = _toml_readers(tmp_path)[kind]
+    if kind == "campaign":
+        base = 'robot = "B"\nnotes = "x"\n[test]\nduration_s = 4.0\nwindow_end = 0.01\n'
+    elif kind == "effects":
+        base += '[[effects]]\nkind = "added_mass"\nmass_kg = 2.0\n'
+    doc = tomllib.loads(base)
+    path = data.draw(st.sampled_from(_paths(doc)))
+    target = doc
+    for k in path[:-1]:
+        target = target[k]
+    target[path[-1]] = data.draw(toml_values)
+    try:
+        read(tomli_w.dumps(doc))
+    except RobolobeError as exc:
+        _refused_naming(exc, name, "campaign.toml", "postures.csv", "B.toml")
