@@ -109,7 +109,9 @@ def _check_covariance(theta: FloatArray, cov: FloatArray, where: str) -> None:
     """Refuse a stored parameter covariance no fit could give (the file lies)."""
     from robolobe._npz import check_range
 
-    check_range(theta, "theta", where)
+    # log factors (stiffness x e^theta...) and centre-of-mass shifts in 0.1 m: beyond
+    # +-10 (a factor of 22000, a 1 m shift) no calibration of a robot file lands
+    check_range(theta, "theta", where, low=-10.0, high=10.0)
     check_range(cov, "covariance", where)
     scale = float(np.max(np.abs(cov), initial=0.0))
     if not np.allclose(cov, cov.T, rtol=1e-9, atol=1e-12 * scale):
