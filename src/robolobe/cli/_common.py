@@ -214,13 +214,9 @@ class Outputs:
     a later output fails (a full disk, a signal), the ones this run created
     before it are removed again, so a failed run leaves no new file behind
     (an output that existed before was replaced by then and stays, new).
-    A file-system refusal becomes one line naming the output's option.
-
-    Examples
-    --------
-    >>> with Outputs() as out:  # doctest: +SKIP
-    ...     out.write(json_path, "--json", atomic_write_text, json_path, text)
-    ...     out.write(report_dir, "--report", write_report, result, report_dir)
+    A file-system refusal becomes one line naming the output's option. Use:
+    ``with Outputs() as out: out.write(path, "--json", writer, *args)`` for
+    each output, in the order they are written.
     """
 
     def __init__(self) -> None:

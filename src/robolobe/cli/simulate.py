@@ -144,7 +144,7 @@ def register(app: typer.Typer) -> None:
             raise InputError(
                 f"expected a noise multiple 0 to {MAX_NOISE:g}, found {noise:g}", source="--noise"
             )
-        if not 1 <= impacts <= MAX_IMPACTS:
+        if impacts > MAX_IMPACTS:  # below 1: the settings' own message
             raise InputError(
                 f"expected 1 to {MAX_IMPACTS} impacts per direction, found {impacts}", "--impacts"
             )
