@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import re
 
-__all__ = ["hidden_character", "html_text", "visible"]
+__all__ = ["hidden_character", "html_text", "plot_text", "visible"]
 
 #: Bidirectional formatting characters (Unicode TR 9): they reorder the text around them.
 _BIDI = "\u061c\u200e\u200f\u202a\u202b\u202c\u202d\u202e\u2066\u2067\u2068\u2069"
@@ -61,6 +61,15 @@ def html_text(text: object, *, newlines: bool = False) -> str:
     import html
 
     return html.escape(visible(text, newlines=newlines))
+
+
+def plot_text(text: object) -> str:
+    """``text`` for a matplotlib label or title: :func:`visible`, ``$`` escaped.
+
+    A pair of ``$`` starts mathtext; a file name like ``a$\\frac$b.toml``
+    would otherwise fail the plot (``ParseSyntaxException``).
+    """
+    return visible(text).replace("$", r"\$")
 
 
 def hidden_character(value: str) -> str | None:

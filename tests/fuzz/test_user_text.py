@@ -266,3 +266,22 @@ def test_markup_job_title_prints_as_written(
     assert "o[/]" in stdout
     report = (tmp_path / "o[/]" / "report.html").read_text()
     assert "Pocket [bold]x[/] [/] :smile: [robot]" in report
+
+
+@pytest.mark.filterwarnings("ignore:Glyph")  # a character the font lacks: a box, not an error
+@given(text=hostile | st.sampled_from([r"a$\frac$b", "$x$", "$$", r"\$", "$^$", r"$\undefined$"]))
+@FUZZ
+def test_plot_text_is_never_mathtext(text: str) -> None:
+    """User text in a plot's legend or title draws as written (a ``$`` pair is no formula)."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
+    from robolobe._text import plot_text
+
+    fig = Figure(figsize=(2, 2))
+    ax = fig.subplots()
+    ax.plot([0, 1], [0, 1], label="x" + plot_text(text))  # "_..." labels are hidden
+    ax.set_title(plot_text(text))
+    ax.legend()
+    FigureCanvasAgg(fig).draw()  # raises on a bad formula
+    assert ax.get_title() == plot_text(text)

@@ -26,7 +26,7 @@ from matplotlib.figure import Figure
 
 from robolobe._atomic import atomic_dir
 from robolobe._directions import DRIVING, dir_index
-from robolobe._text import html_text, visible
+from robolobe._text import html_text, plot_text
 from robolobe.diagnose.pipeline import Diagnosis
 from robolobe.diagnose.schema import DiagnosisReport, to_report
 
@@ -87,8 +87,7 @@ def _overlays(d: Diagnosis, path: Path, n_post: int = 4) -> None:
                 lw=1.4,
                 label="corrected (held out)",
             )
-            # record ids are user text: no mathtext ("$") in them
-            ax.set_title(f"{visible(obs.record_ids[k])}  H_{dd}", fontsize=9, parse_math=False)
+            ax.set_title(f"{plot_text(obs.record_ids[k])}  H_{dd}", fontsize=9)
             if r == len(order) - 1:
                 ax.set_xlabel("frequency [Hz]")
             if c == 0:

@@ -24,6 +24,7 @@ import numpy as np
 import pandas as pd
 
 from robolobe._atomic import atomic_dir
+from robolobe._text import plot_text
 from robolobe.errors import (
     InfeasibleError,
     InputError,
@@ -316,7 +317,9 @@ def _plot(cmp: Comparison) -> bytes:
         ax.set_ylabel(label)
     ax = axes[1, 1]
     for i, (key, res) in enumerate(cmp.results.items()):
-        ax.plot(res.geom.s_m, res.outcome.best.rpm, color=colors[i % len(colors)], label=key)
+        ax.plot(
+            res.geom.s_m, res.outcome.best.rpm, color=colors[i % len(colors)], label=plot_text(key)
+        )
     ax.set_xlabel("cutting length [m]")
     ax.set_ylabel("planned speed [rpm]")
     ax.set_title("planned spindle speed along the path")

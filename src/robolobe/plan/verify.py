@@ -29,6 +29,7 @@ import pandas as pd
 from numpy.typing import NDArray
 
 from robolobe._atomic import check_input_file
+from robolobe._text import plot_text
 from robolobe.errors import InputError
 from robolobe.plan.job import Job, load_job
 from robolobe.plan.modes import ModeSource, TwinSource, model_file_source
@@ -421,7 +422,13 @@ def plot_verify_margin(res: VerifyResult) -> Any:
     x = np.arange(len(t))
     m_plan = t["a_lim_plan_mm"].to_numpy() / t["depth_mm"].to_numpy()
     ax.plot(x, m_plan, lw=1.0, color="0.6", label="plan's own margin")
-    ax.plot(x, t["margin"].to_numpy(), lw=1.2, color="C0", label=f"margin on {res.mode_source}")
+    ax.plot(
+        x,
+        t["margin"].to_numpy(),
+        lw=1.2,
+        color="C0",
+        label=f"margin on {plot_text(res.mode_source)}",
+    )
     bad = (t["status"] == "chatter").to_numpy()
     if np.any(bad):
         ax.plot(x[bad], t["margin"].to_numpy()[bad], "x", color="C3", label="chatter")
