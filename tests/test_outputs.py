@@ -168,10 +168,10 @@ def test_cli_bad_outputs_refused_before_work(tmp_path: Path, args: list[str]) ->
 
 
 def test_plot_text_of_user_names() -> None:
-    from robolobe._plot_text import plot_text
+    from robolobe._text import plot_text
 
     assert plot_text("r1") == "r1"
-    assert plot_text("\x1b[31mred\n") == "?[31mred?"
+    assert plot_text("\x1b[31mred\n") == "\\x1b[31mred\\n"
     assert plot_text("cost$5$") == r"cost\$5\$"
     short = plot_text("a" * 10 + "b" * 300 + "c" * 10, 32)
     assert len(short) == 32

@@ -45,6 +45,7 @@ __all__ = [
     "atomic_dir",
     "atomic_path",
     "atomic_write_text",
+    "check_input_file",
     "check_inside",
     "check_output_dir",
     "check_output_file",
@@ -115,7 +116,35 @@ def not_a_file(path: str | os.PathLike[str]) -> str:
         return "a directory"
     if not p.exists():
         return "no such file"
+    if p.is_fifo():
+        return "a named pipe (FIFO), not a regular file"
     return "not a regular file"
+
+
+def check_input_file(path: str | os.PathLike[str], what: str, source: str | None = None) -> Path:
+    """The one check of an input path that must be a regular file, before it is opened.
+
+    A folder, a missing path, a FIFO (opening it would wait for a writer
+    forever) or a device is refused as ``expected <what>, found <what it is>``.
+
+    Parameters
+    ----------
+    path : path-like
+    what : str
+        What the file should be (``"a CSV file"``).
+    source : str, optional
+        The name in the message (default: the path).
+
+    Returns
+    -------
+    pathlib.Path
+    """
+    p = Path(path)
+    if not p.is_file():
+        raise InputError(
+            f"expected {what}, found {not_a_file(p)}", source=source or os.fspath(path)
+        )
+    return p
 
 
 def check_output_file(path: str | os.PathLike[str], option: str = "-o") -> Path:

@@ -9,11 +9,29 @@ from __future__ import annotations
 import difflib
 import re
 from collections.abc import Iterable, Sequence
-from typing import Any
+from typing import Annotated, Any
 
+from pydantic import AfterValidator
+
+from robolobe._text import hidden_character
 from robolobe.errors import InputError
 
-__all__ = ["check_key_typos", "describe_error", "found", "key_path", "number"]
+__all__ = ["PrintableText", "check_key_typos", "describe_error", "found", "key_path", "number"]
+
+
+def _printable(value: str) -> str:
+    bad = hidden_character(value)
+    if bad is not None:
+        raise ValueError(
+            f"expected printable text (a name shown in tables and reports), "
+            f"found a control character {bad}"
+        )
+    return value
+
+
+#: A name or title from a file: no control, bidi or line-separator characters
+#: (they would move the cursor, reorder or break the lines where it is shown).
+PrintableText = Annotated[str, AfterValidator(_printable)]
 
 
 def key_path(loc: Sequence[int | str], table_arrays: Sequence[str] = ()) -> str:

@@ -14,6 +14,7 @@ __all__ = [
     "ConvergenceError",
     "InfeasibleError",
     "InputError",
+    "InputTypeError",
     "ReachabilityError",
     "RobolobeError",
     "SingularityError",
@@ -45,6 +46,35 @@ class InputError(RobolobeError, ValueError):
         self.source = source
         self.detail = message
         super().__init__(f"{source}: {message}" if source else message)
+
+
+class InputTypeError(InputError, TypeError):
+    """An argument of the Python API of the wrong type (also a :class:`TypeError`).
+
+    Parameters
+    ----------
+    argument : str
+        The parameter's name.
+    expected : str
+        The types it takes, in words (``"a path or a Job"``).
+    value : object
+        What was given; the message names its type.
+    """
+
+    def __init__(self, argument: str, expected: str, value: object) -> None:
+        super().__init__(f"expected {expected}, found {_type_name(value)}", source=argument)
+
+
+def _type_name(value: object) -> str:
+    if value is None:
+        return "None"
+    if isinstance(value, str):
+        return f"the string {value!r}"
+    module = type(value).__module__.split(".")[0]
+    name = type(value).__qualname__
+    if module != "builtins":
+        name = f"{module}.{name}"
+    return f"{'an' if name[0] in 'aeiou' else 'a'} {name}"
 
 
 class ReachabilityError(RobolobeError):

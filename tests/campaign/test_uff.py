@@ -77,7 +77,7 @@ def test_accelerance_written_by_pyuff_directly(tmp_path):
 
 
 def test_bad_files(tmp_path):
-    with pytest.raises(InputError, match="not found"):
+    with pytest.raises(InputError, match="no such file"):
         read_uff_frf(tmp_path / "missing.uff")
     f, h = _frf()
     d = pyuff.prepare_58(

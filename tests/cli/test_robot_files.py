@@ -109,8 +109,9 @@ def test_robot_warning_is_one_warning_line(
 ) -> None:
     robot = _robot(tmp_path, lambda d: d["joints"][5].update(stiffness_Nm_per_rad=8e3))
     capsys.readouterr()
-    with pytest.raises(SystemExit):  # stops after the robot is read: --n 0
-        main(["simulate", str(robot), "-o", str(tmp_path / "s"), "--design", "random", "--n", "0"])
+    with pytest.raises(SystemExit):  # stops after the robot is read: no postures file
+        main(["simulate", str(robot), "-o", str(tmp_path / "s"),
+              "--postures", str(tmp_path / "none.csv")])  # fmt: skip
     main_lines = capsys.readouterr().err.strip().splitlines()
     assert main_lines[0] == (
         f"warning: {robot}: [[joints]][6].stiffness_Nm_per_rad: 8000 N m/rad is outside the "

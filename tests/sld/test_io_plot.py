@@ -79,7 +79,7 @@ def test_read_modes_errors(tmp_path: Path, text: str, match: str) -> None:
 
 
 def test_missing_modes_file(tmp_path: Path) -> None:
-    with pytest.raises(InputError, match="file not found"):
+    with pytest.raises(InputError, match="no such file"):
         read_modes_csv(tmp_path / "nope.csv")
 
 

@@ -23,7 +23,6 @@ import logging
 import math
 import os
 import re
-import tomllib
 from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path
 from typing import Any, Literal
@@ -33,9 +32,10 @@ import pandas as pd
 import tomli_w
 from numpy.typing import ArrayLike, NDArray
 
-from robolobe._atomic import MAX_NAME_BYTES, atomic_dir, not_a_file, safe_name
+from robolobe._atomic import MAX_NAME_BYTES, atomic_dir, check_input_file, safe_name
 from robolobe._directions import dir_index
-from robolobe._frf_checks import frf_value_problem
+from robolobe._documents import parse_toml
+from robolobe._frf_checks import frf_value_problem, receptance_scale_problem
 from robolobe.campaign._model import (
     ALL_DIRS,
     FRF_COLUMNS,
@@ -46,7 +46,7 @@ from robolobe.campaign._model import (
     TestHeader,
 )
 from robolobe.campaign.uff import UffQuantity, read_uff_frf, write_uff_frf
-from robolobe.errors import InputError
+from robolobe.errors import InputError, InputTypeError
 
 __all__ = [
     "BUILTIN_ROBOTS",
@@ -82,10 +82,7 @@ def _read_csv(
     path: Path, display: str, required: Sequence[str], str_cols: Sequence[str]
 ) -> tuple[pd.DataFrame, NDArray[np.int64]]:
     """Read a CSV; check the header; return the frame (blank lines dropped) and line numbers."""
-    if path.is_dir():
-        raise InputError(f"expected a CSV file, found {not_a_file(path)}", source=display)
-    if not path.is_file():
-        raise InputError("file not found", source=display)
+    check_input_file(path, "a CSV file", display)
     _check_text_file(path, display)
     num_cols = [c for c in required if c not in str_cols]
     try:
@@ -324,15 +321,10 @@ def _read_toml(folder: Path) -> tuple[str, str, TestHeader]:
             source=os.fspath(folder),
         )
     try:
-        data = tomllib.loads(path.read_text(encoding="utf-8"))
-    except tomllib.TOMLDecodeError as exc:
-        m = re.search(r"line (\d+)", str(exc))
-        raise InputError(
-            f"TOML syntax error: {exc}",
-            source=f"campaign.toml:{m.group(1)}" if m else "campaign.toml",
-        ) from None
+        text = path.read_text(encoding="utf-8")
     except (OSError, UnicodeDecodeError) as exc:
         raise InputError(f"cannot read the file: {exc}", source="campaign.toml") from None
+    data = parse_toml(text, "campaign.toml")
     _warn_typos(data.keys(), _TOP_KEYS, "campaign.toml", "key")
     if "robot" not in data:
         raise InputError(
@@ -565,6 +557,9 @@ def read_campaign(path: str | os.PathLike[str], *, check_limits: bool = True) ->
         raise InputError(
             "missing frf.csv (or frf/<posture_id>.uff files)", source=os.fspath(folder)
         )
+    problem = receptance_scale_problem(np.concatenate([f.H.reshape(-1) for f in frfs]))
+    if problem is not None:
+        raise InputError(problem, source="frf.csv" if csv_path.exists() else "frf/")
     return Campaign(
         robot=robot,
         posture_ids=ids,
@@ -577,6 +572,8 @@ def read_campaign(path: str | os.PathLike[str], *, check_limits: bool = True) ->
 
 
 def _ends_with_newline(path: Path) -> bool:
+    if not path.is_file():  # never open a FIFO (it would wait for a writer)
+        return True
     try:
         with open(path, "rb") as fh:
             fh.seek(0, os.SEEK_END)
@@ -606,7 +603,39 @@ def _read_uff_dir(
             )
         grid, h = read_uff_frf(files[pid], source=f"frf/{files[pid].name}")
         frfs.append(PostureFRF(grid, h))
+    _warn_fewer_records([f"frf/{files[pid].name}" for pid in ids], frfs)
     return frfs
+
+
+def _warn_fewer_records(names: Sequence[str], frfs: Sequence[PostureFRF]) -> None:
+    """Warn when a file holds fewer directions than the others.
+
+    A UFF file cut exactly at a record boundary is a valid file with fewer
+    records: its missing directions would pass as "not measured". A posture
+    measured on fewer directions than the rest is possible, so it is said,
+    not refused.
+    """
+    from robolobe._directions import AXES
+
+    measured = [
+        {
+            f"{AXES[i]}{AXES[j]}"
+            for i in range(3)
+            for j in range(3)
+            if np.isfinite(f.H[:, i, j]).any()
+        }
+        for f in frfs
+    ]
+    union = set().union(*measured) if measured else set()
+    for name, have in zip(names, measured, strict=True):
+        lost = sorted(union - have)
+        if lost:
+            logger.warning(
+                "%s: no record for direction(s) %s that other postures have (a file cut at a "
+                "record's end?); they count as not measured",
+                name,
+                ", ".join(lost),
+            )
 
 
 def write_campaign(
@@ -644,6 +673,10 @@ def write_campaign(
     """
     if fmt not in ("csv", "uff"):
         raise InputError(f"expected format 'csv' or 'uff', found {fmt!r}", source="write_campaign")
+    if not isinstance(campaign, Campaign):
+        raise InputTypeError("campaign", "a Campaign (from read_campaign or simulate)", campaign)
+    if not isinstance(path, str | os.PathLike):
+        raise InputTypeError("path", "a folder's path", path)
     target = Path(path)
     if fmt == "uff":
         for pid in campaign.posture_ids:

@@ -56,7 +56,7 @@ from typing import Any, Literal
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from robolobe._atomic import not_a_file
+from robolobe._atomic import check_input_file
 from robolobe._directions import AXES
 from robolobe._frf_checks import frf_value_problem
 from robolobe.errors import InputError
@@ -397,6 +397,54 @@ def _scan(data: bytes, where: str) -> tuple[list[int], list[int]]:
     return starts, lines
 
 
+#: UFF dataset numbers a file of FRFs may hold (pyuff's and the common ones).
+_UFF_DATASETS = frozenset({15, 18, 55, 58, 82, 151, 164, 1858, 2400, 2411, 2412, 2414, 2420, 2429})
+
+_NUMBER = re.compile(rb"[-+]?(?:\d+\.?\d*|\.\d+)(?:[eEdD][-+]?\d+)?")
+
+
+def _dataset_bounds(data: bytes) -> list[tuple[int, int]]:
+    """Byte ranges between each dataset's opening and closing delimiter lines."""
+    tags = [m.start() for m in _DELIM.finditer(data)]
+    return [(tags[k] + 6, tags[k + 1]) for k in range(0, len(tags) - 1, 2)]
+
+
+def _check_value_count(block: bytes, rec_no: int, src: str) -> None:
+    """Refuse an ASCII dataset 58 whose data lines hold another count than it declares.
+
+    A record cut short and closed again, or two records merged by a lost
+    delimiter, still parses: the reader takes the declared count of values
+    and drops or never sees the rest. Counting the numbers after the
+    11-line header (line 7 declares the ordinate type, the number of
+    points and the abscissa spacing) catches both.
+    """
+    rows = _LINE_END.split(block.lstrip(b"\r\n"))
+    if rows[0].split()[:1] != [b"58"]:
+        return  # 58b (binary): pyuff checks its byte count
+    if len(rows) < 12:
+        raise InputError(
+            f"record {rec_no} (dataset 58): expected an 11-line header, found {len(rows) - 1} "
+            "lines (truncated?)",
+            source=src,
+        )
+    fields = rows[7].split()
+    try:
+        ord_type, n_pts, even = int(fields[0]), int(fields[1]), int(fields[2])
+    except (IndexError, ValueError):
+        return  # the record's own reader names a malformed header line
+    per_point = (2 if ord_type in (5, 6) else 1) + (0 if even == 1 else 1)
+    want = n_pts * per_point
+    found = sum(len(_NUMBER.findall(r)) for r in rows[12:])
+    if found != want:
+        raise InputError(
+            f"record {rec_no} (dataset 58): expected {want} values ({n_pts} points), found "
+            f"{found} in its data lines ("
+            + ("cut short: a truncated file?" if found < want else "two records run together?")
+            + ")",
+            source=src,
+        )
+
+
 def _header_lines(data: bytes, start: int, n: int = 12) -> list[str]:
     chunk = data[start : start + 82 * (n + 2)]
     return [_decode(x) for x in _LINE_END.split(chunk)[:n]]
@@ -428,10 +476,7 @@ def read_uff_frfs(path: str | os.PathLike[str], *, source: str | None = None) ->
 
     where = source or os.fspath(path)
     p = Path(path)
-    if p.is_dir():
-        raise InputError(f"expected a UFF file, found {not_a_file(p)}", source=where)
-    if not p.is_file():
-        raise InputError("file not found", source=where)
+    check_input_file(p, "a UFF file", where)
     try:
         data = p.read_bytes()
     except OSError as exc:
@@ -469,9 +514,26 @@ def read_uff_frfs(path: str | os.PathLike[str], *, source: str | None = None) ->
         )
     out: list[UffFrf] = []
     seen: dict[tuple[int, int, int, int], int] = {}
+    bounds = _dataset_bounds(data)
+    for i, (b0, b1) in enumerate(bounds):
+        tokens = _LINE_END.split(data[b0:b1].lstrip(b"\r\n"), maxsplit=1)[0].split()
+        head = tokens[:1]
+        number = re.fullmatch(rb"([1-9]\d*)(b?)", head[0]) if head else None
+        if (
+            number is None
+            or int(number.group(1)) not in _UFF_DATASETS
+            or (not number.group(2) and len(tokens) > 1)  # ASCII: the number alone
+        ):
+            shown = _decode(b" ".join(tokens))[:30]
+            raise InputError(
+                f"record {i + 1}: expected a dataset number on the line after '    -1', found "
+                f"{shown!r} (lines lost or a record cut short?)",
+                source=f"{where}:{lines[i] + 1}",
+            )
     for i in idx:
         src = f"{where}:{lines[i]}"
         rec_no = i + 1
+        _check_value_count(data[bounds[i][0] : bounds[i][1]], rec_no, src)
         try:
             d = uff.read_sets(i)
         except Exception as exc:

@@ -9,39 +9,96 @@ never leaves an empty log and a short one (or a one-line error) stays quiet.
 from __future__ import annotations
 
 import contextlib
+import shutil
 import threading
 import time
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
+from pathlib import Path
 from typing import Any
 
 from rich.console import Console
-from rich.markup import escape
 from rich.progress import (
     BarColumn,
     MofNCompleteColumn,
     Progress,
+    ProgressColumn,
     SpinnerColumn,
+    Task,
     TaskID,
-    TextColumn,
     TimeElapsedColumn,
 )
+from rich.text import Text
 
-__all__ = ["LOG_EVERY_S", "console", "err_console", "progress", "status"]
+from robolobe._text import visible
 
-# User text (file names, file contents quoted in messages) must print as
-# written: no ":x:" emoji codes, no colour guessing. Markup in messages is
-# escaped where they are printed.
-console = Console(emoji=False, highlight=False)
-err_console = Console(stderr=True, emoji=False, highlight=False)
+__all__ = [
+    "LOG_EVERY_S",
+    "Outputs",
+    "console",
+    "err_console",
+    "error_line",
+    "labelled",
+    "progress",
+    "shown",
+    "status",
+]
+
+
+class _Console(Console):
+    """A console that shows every string as written: the one gate to the terminal.
+
+    User text (file names, robot names, job titles, file contents quoted in
+    messages) reaches the terminal only through :meth:`render_str` (``print``
+    arguments, table cells and titles) or the :class:`~rich.text.Text` that
+    :func:`labelled` builds. Markup is off (``[bold]`` in a file name is text,
+    not a style, and ``[/]`` cannot raise), emoji codes and colour guessing are
+    off, and control or bidi characters (ANSI escapes, a right-to-left
+    override) show as their escapes. Newlines written by robolobe stay line
+    breaks; a user value interpolated into a line goes through :func:`shown`,
+    which makes its newlines visible too, so it cannot forge an ``error:`` line.
+    """
+
+    def __init__(self, **kwargs: Any) -> None:
+        super().__init__(markup=False, emoji=False, highlight=False, **kwargs)
+
+    def render_str(self, text: str, **kwargs: Any) -> Text:
+        kwargs["markup"] = False
+        kwargs["emoji"] = False
+        return super().render_str(visible(text, newlines=True), **kwargs)
+
+
+console = _Console()
+err_console = _Console(stderr=True)
+
+
+def shown(value: object) -> str:
+    """A user value (path, name, quoted text) for a message line: one line, as written."""
+    return visible(value)
+
+
+def labelled(label: str, style: str, message: object) -> Text:
+    """``label`` in ``style`` followed by ``message`` (shown as written, one line)."""
+    return Text.assemble((label, style), " ", visible(message))
+
+
+def error_line(message: object) -> Text:
+    """The CLI's one-line error: ``error: <message>``."""
+    return labelled("error:", "bold red", message)
+
+
+class _Description(ProgressColumn):
+    """The task description, as written (no markup, control characters escaped)."""
+
+    def render(self, task: Task) -> Text:
+        return Text(visible(task.description), style="progress.description")
+
 
 #: Seconds between progress lines when stderr is not a terminal.
 LOG_EVERY_S = 10.0
 
 
 def _log(message: str) -> None:
-    err_console.print(
-        f"{time.strftime('%H:%M:%S')} {escape(message)}", highlight=False, soft_wrap=True
-    )
+    err_console.print(f"{time.strftime('%H:%M:%S')} {shown(message)}", soft_wrap=True)
 
 
 class _LogProgress:
@@ -109,7 +166,7 @@ def progress() -> Progress | _LogProgress:
         return _LogProgress()
     return Progress(
         SpinnerColumn(),
-        TextColumn("[progress.description]{task.description}"),
+        _Description(),
         BarColumn(),
         MofNCompleteColumn(),
         TimeElapsedColumn(),
@@ -126,7 +183,7 @@ def status(message: str) -> Iterator[None]:
     block runs, and one when it ends if any was written.
     """
     if err_console.is_terminal:
-        with err_console.status(message):
+        with err_console.status(Text(visible(message))):
             yield
         return
     t0 = time.monotonic()
@@ -148,3 +205,55 @@ def status(message: str) -> Iterator[None]:
         thread.join()
     if logged.is_set():
         _log(f"{message} done in {time.monotonic() - t0:.1f} s")
+
+
+class Outputs:
+    """The outputs of one command: all of them, or none that this run created.
+
+    Each output is written atomically by its writer; this adds the set: when
+    a later output fails (a full disk, a signal), the ones this run created
+    before it are removed again, so a failed run leaves no new file behind
+    (an output that existed before was replaced by then and stays, new).
+    A file-system refusal becomes one line naming the output's option. Use:
+    ``with Outputs() as out: out.write(path, "--json", writer, *args)`` for
+    each output, in the order they are written.
+    """
+
+    def __init__(self) -> None:
+        self._created: list[Path] = []
+
+    def __enter__(self) -> Outputs:
+        return self
+
+    def __exit__(self, kind: type[BaseException] | None, *rest: object) -> None:
+        if kind is not None:
+            self.undo()
+
+    def write(
+        self, path: Any, option: str, writer: Callable[..., Any], *args: Any, **kw: Any
+    ) -> Any:
+        """Run ``writer(*args, **kw)``, which writes ``path``; remember it if it is new."""
+        from robolobe.errors import InputError
+
+        target = Path(path)
+        existed = target.exists()
+        try:
+            result = writer(*args, **kw)
+        except OSError as exc:
+            self.undo()
+            raise InputError(
+                f"cannot write {visible(target)}: {exc.strerror or exc}", source=option
+            ) from None
+        if not existed and target.exists():
+            self._created.append(target)
+        return result
+
+    def undo(self) -> None:
+        """Remove the outputs this run created (newest first)."""
+        for p in reversed(self._created):
+            with contextlib.suppress(OSError):
+                if p.is_dir() and not p.is_symlink():
+                    shutil.rmtree(p)
+                else:
+                    p.unlink()
+        self._created.clear()

@@ -123,7 +123,7 @@ def register(app: typer.Typer) -> None:
         import dataclasses
 
         from robolobe._atomic import atomic_write_text
-        from robolobe.cli._common import console, progress
+        from robolobe.cli._common import Outputs, console, labelled, progress, shown
         from robolobe.diagnose.pipeline import DiagnoseSettings, diagnose
         from robolobe.diagnose.report import write_report
         from robolobe.diagnose.schema import to_report
@@ -150,18 +150,28 @@ def register(app: typer.Typer) -> None:
 
             result = diagnose(campaign, robot=nominal, settings=settings, progress=tick)
         rep = to_report(result)
-        atomic_write_text(json_out, rep.model_dump_json(indent=2))
-        if report is not None:
-            write_report(result, report)
-        if updated_model is not None:
-            write_updated_model(updated_model, result.robot, result.effects, note=result.summary)
-            if result.unexplained and result.effects:
-                console.print(
-                    "[yellow]the updated model holds partial corrections only "
-                    "(the recordings are unexplained)[/]",
-                    highlight=False,
+        with Outputs() as out:
+            out.write(
+                json_out, "--json", atomic_write_text, json_out, rep.model_dump_json(indent=2)
+            )
+            if report is not None:
+                out.write(report, "--report", write_report, result, report)
+            if updated_model is not None:
+                out.write(
+                    updated_model,
+                    "--updated-model",
+                    write_updated_model,
+                    updated_model,
+                    result.robot,
+                    result.effects,
+                    note=result.summary,
                 )
-        console.print(f"[bold]verdict:[/] {rep.verdict_label}", highlight=False)
-        console.print(result.summary, highlight=False, soft_wrap=True)
-        outs = [str(json_out)] + [str(p) for p in (report, updated_model) if p is not None]
-        console.print(f"wrote {', '.join(outs)} ({result.elapsed_s:.0f} s)", highlight=False)
+        if updated_model is not None and result.unexplained and result.effects:
+            console.print(
+                "the updated model holds partial corrections only (the recordings are unexplained)",
+                style="yellow",
+            )
+        console.print(labelled("verdict:", "bold", rep.verdict_label))
+        console.print(result.summary, soft_wrap=True)
+        outs = [shown(json_out)] + [shown(p) for p in (report, updated_model) if p is not None]
+        console.print(f"wrote {', '.join(outs)} ({result.elapsed_s:.0f} s)")

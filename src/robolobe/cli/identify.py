@@ -6,7 +6,6 @@ from pathlib import Path
 from typing import Annotated, Any
 
 import typer
-from rich.markup import escape
 
 from robolobe._text import count
 from robolobe.errors import InputError
@@ -129,7 +128,7 @@ def register(app: typer.Typer) -> None:
 
         from robolobe._atomic import atomic_dir, atomic_path, check_output_dir, check_output_file
         from robolobe.campaign import read_campaign
-        from robolobe.cli._common import console, err_console, progress
+        from robolobe.cli._common import Outputs, console, err_console, labelled, progress, shown
         from robolobe.modal.identify import identify_campaign
         from robolobe.modal.modal_csv import write_modal_csv
 
@@ -138,8 +137,10 @@ def register(app: typer.Typer) -> None:
             check_output_dir(plots, "--plots")
         if fit_report is not None:
             check_output_file(fit_report, "--fit-report")
-        if modes < 1:
-            raise InputError(f"expected an integer >= 1, found {modes}", source="--modes")
+        if not 1 <= modes <= 20:
+            raise InputError(f"expected 1 to 20 modes per direction, found {modes}", "--modes")
+        if not 1 <= jobs <= 256:
+            raise InputError(f"expected 1 to 256 worker processes, found {jobs}", "--jobs")
         if campaign.is_file():
             if fit_report is not None:
                 raise InputError(
@@ -191,17 +192,28 @@ def register(app: typer.Typer) -> None:
                 recover=recover,
                 progress=lambda k: bar.advance(task, k),
             )
-        if plots is not None:
-            from robolobe.modal.plots import posture_plot_names, save_posture_plots
 
-            with atomic_dir(plots, "identify-plots", option="--plots") as tmp:
+        def plot_dir(folder: Path) -> None:
+            from robolobe.modal.plots import save_posture_plots
+
+            with atomic_dir(folder, "identify-plots", option="--plots") as tmp:
                 save_posture_plots(result.postures, result.table, tmp)
-            for note in posture_plot_names(result.postures).notes:
-                err_console.print(f"[yellow]note:[/] --plots: {escape(note)}", highlight=False)
-        if fit_report is not None:
-            with atomic_path(fit_report) as tmp:
+
+        def fit_csv(path: Path) -> None:
+            with atomic_path(path) as tmp:
                 result.fit.to_csv(tmp, index=False, lineterminator="\n", float_format="%.6g")
-        write_modal_csv(output, result.table)
+
+        with Outputs() as out:
+            if plots is not None:
+                out.write(plots, "--plots", plot_dir, plots)
+            if fit_report is not None:
+                out.write(fit_report, "--fit-report", fit_csv, fit_report)
+            out.write(output, "--output", write_modal_csv, output, result.table)
+        if plots is not None:
+            from robolobe.modal.plots import posture_plot_names
+
+            for note in posture_plot_names(result.postures).notes:
+                err_console.print(labelled("note:", "yellow", f"--plots: {note}"))
 
         # ---- summary
         tab = result.table
@@ -270,12 +282,12 @@ def register(app: typer.Typer) -> None:
                 "data quality: " + ", ".join(f"{n} x {k}" for k, n in counts.items()),
                 highlight=False,
             )
-            shown = issues if all_issues else issues[:20]
-            for i in shown:
-                err_console.print(f"  {escape(str(i))}", highlight=False, soft_wrap=True)
-            if len(shown) < len(issues):
+            listed = issues if all_issues else issues[:20]
+            for i in listed:
+                err_console.print(f"  {shown(i)}", highlight=False, soft_wrap=True)
+            if len(listed) < len(issues):
                 err_console.print(
-                    f"  ... {len(issues) - len(shown)} more (--all-issues)", highlight=False
+                    f"  ... {len(issues) - len(listed)} more (--all-issues)", highlight=False
                 )
         else:
             console.print("data quality: no problems found", highlight=False)
@@ -300,7 +312,7 @@ def _identify_measurement(
 
     from robolobe._atomic import atomic_dir, atomic_path
     from robolobe.campaign.uff import common_grid, read_uff_frfs
-    from robolobe.cli._common import console, err_console
+    from robolobe.cli._common import console, err_console, shown
     from robolobe.modal.identify import settings_from_test
     from robolobe.modal.measurement import identify_measurement
     from robolobe.modal.posture import SIGN_CONVENTION
@@ -367,6 +379,6 @@ def _identify_measurement(
     if mm.issues:
         err_console.print("data quality:", highlight=False)
         for i in mm.issues:
-            err_console.print(escape(f"  [{i.check}] {i.message}"), highlight=False, soft_wrap=True)
+            err_console.print(f"  [{i.check}] {shown(i.message)}", highlight=False, soft_wrap=True)
     else:
         console.print("data quality: no problems found", highlight=False)

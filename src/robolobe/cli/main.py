@@ -87,13 +87,9 @@ class _WarningLines(logging.Handler):
     """Library warnings (file readers, plausibility) as ``warning: ...`` lines on stderr."""
 
     def emit(self, record: logging.LogRecord) -> None:
-        from rich.markup import escape
+        from robolobe.cli._common import err_console, labelled
 
-        from robolobe.cli._common import err_console
-
-        err_console.print(
-            f"[yellow]warning:[/] {escape(record.getMessage())}", highlight=False, soft_wrap=True
-        )
+        err_console.print(labelled("warning:", "yellow", record.getMessage()), soft_wrap=True)
 
 
 def _show_warnings() -> None:
@@ -103,33 +99,47 @@ def _show_warnings() -> None:
         log.addHandler(handler)
 
 
+class _Terminated(BaseException):
+    """SIGTERM as an exception: the ``finally`` blocks run (temporary files of
+    the atomic writers are removed, worker pools terminate their workers
+    instead of waiting for their tasks) before exit 143.
+
+    A :class:`BaseException`, like :class:`KeyboardInterrupt`, so no
+    ``except Exception`` on the way swallows it.
+    """
+
+
+def _on_sigterm(signum: int, frame: object) -> None:
+    raise _Terminated()
+
+
 def main(argv: list[str] | None = None) -> None:
     """Run the CLI; turn robolobe errors into one line and an exit code."""
-    from rich.markup import escape
+    import signal
+    import threading
 
-    from robolobe.cli._common import err_console
+    from robolobe.cli._common import err_console, error_line
 
     _show_warnings()
+    if threading.current_thread() is threading.main_thread():
+        signal.signal(signal.SIGTERM, _on_sigterm)
     try:
         app(args=argv, standalone_mode=True)
     except RobolobeError as exc:
-        err_console.print(
-            f"[bold red]error:[/] {escape(str(exc))}", highlight=False, soft_wrap=True
-        )
+        err_console.print(error_line(exc), soft_wrap=True)
         sys.exit(exc.exit_code)
     except OSError as exc:
         # A file system refusal on a user's path (permission, full disk, a
         # folder where a file was expected) is input, not a bug: one line.
         what = exc.strerror or type(exc).__name__
         where = f": {exc.filename}" if exc.filename else ""
-        err_console.print(
-            f"[bold red]error:[/] {escape(what)}{escape(str(where))}",
-            highlight=False,
-            soft_wrap=True,
-        )
+        err_console.print(error_line(f"{what}{where}"), soft_wrap=True)
         sys.exit(2)
+    except _Terminated:
+        err_console.print("terminated (SIGTERM)", style="bold red")
+        sys.exit(143)
     except KeyboardInterrupt:
-        err_console.print("[bold red]interrupted[/]")
+        err_console.print("interrupted", style="bold red")
         sys.exit(130)
 
 

@@ -7,11 +7,10 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Annotated, Any
 
 import typer
-from rich.markup import escape
 from rich.table import Table
 
 from robolobe._text import count
-from robolobe.cli._common import console, err_console, progress, status
+from robolobe.cli._common import console, err_console, labelled, progress, shown, status
 from robolobe.errors import EXIT_INPUT, InfeasibleError, InputError
 
 if TYPE_CHECKING:
@@ -52,12 +51,12 @@ def _print_summary(s: PlanSummary, out: Path) -> None:
             t.add_row(name, f"{txt} ({g.depth_mm:.3f} mm at {g.rpm_mean:.0f} rpm)")
     console.print(t)
     for note in s.notes:
-        err_console.print(f"[yellow]note:[/] {escape(note)}", highlight=False)
+        err_console.print(labelled("note:", "yellow", note))
     from robolobe.plan.report import OUTPUTS
 
     written = [n for n in OUTPUTS if (Path(out) / n).exists()]
     names = ", ".join(n + "/" if (Path(out) / n).is_dir() else n for n in written)
-    console.print(f"outputs in {escape(str(out))}/ ({names})", highlight=False)
+    console.print(f"outputs in {shown(out)}/ ({names})", highlight=False)
 
 
 # Toolpath reader options (job section [path]); a flag given here overrides the job.
@@ -162,7 +161,7 @@ def _compare_cell(row: dict[str, Any], key: str, fmt: str | None) -> str:
         return f"{lo:.0f}" if round(lo) == round(hi) else f"{lo:.0f}-{hi:.0f}"
     if fmt is not None and isinstance(v, (int, float)):
         return fmt.format(v)
-    return escape(str(v))
+    return shown(v)
 
 
 def register(app: typer.Typer) -> None:
@@ -362,22 +361,20 @@ def register(app: typer.Typer) -> None:
         for r in cmp.table.to_dict(orient="records"):
             if r.get("status") == "ok" and bool(r.get("placement_adjusted")):
                 note = moved_note(str(r["robot"]), r["placement_xyz_m"])
-                console.print(f"note: {escape(note)}", highlight=False)
+                console.print(labelled("note:", "yellow", note))
         for r in cmp.table.to_dict(orient="records"):
             if r.get("status") != "ok":
                 robot, msg = str(r["robot"]), str(r.get("message", ""))
                 msg = msg.removeprefix(f"{robot}: ")  # the row names the robot already
-                err_console.print(
-                    f"[yellow]{escape(robot)} ({r['status']}):[/] {escape(msg)}", highlight=False
-                )
+                err_console.print(labelled(f"{shown(robot)} ({r['status']}):", "yellow", msg))
         if not any_ok:
             # no robot can do the job: a failure, not a comparison (nothing written)
             err = InfeasibleError if (cmp.table["status"] == "infeasible").all() else InputError
             raise err(f"no robot of {', '.join(names)} can run this job (see the table above)")
         for note in robot_folder_notes([str(r) for r in cmp.table["robot"]]):
-            err_console.print(f"[yellow]note:[/] {escape(note)}", highlight=False)
+            err_console.print(labelled("note:", "yellow", note))
         console.print(
-            f"outputs in {escape(str(output))}/ (compare.csv, compare.json, compare.png, "
+            f"outputs in {shown(output)}/ (compare.csv, compare.json, compare.png, "
             "one folder per robot)",
             highlight=False,
         )
@@ -474,20 +471,14 @@ def register(app: typer.Typer) -> None:
                     where, msg = str(row["path"]), str(row["message"])
                     msg = msg.removeprefix(f"{where}: ")  # the line names the path already
                     err_console.print(
-                        f"[yellow]{row['status']}:[/] {escape(where)}: {escape(msg)}",
+                        labelled(f"{row['status']}:", "yellow", f"{where}: {msg}"),
                         highlight=False,
                     )
         table = write_batch(rows, output, fmt=fmt)
         if per_path:
             for note in path_folders([str(p) for p in paths]).notes:
-                err_console.print(f"[yellow]note:[/] {escape(note)}", highlight=False)
+                err_console.print(labelled("note:", "yellow", note))
         ok = sum(r["status"] == "ok" for r in rows)
-<<<<<<< HEAD
-        console.print(
-            f"{ok} of {len(rows)} paths planned; table: {escape(str(table))}", highlight=False
-        )
-=======
-        console.print(f"{ok} of {count(len(rows), 'path')} planned; table: {table}")
->>>>>>> h28a
+        console.print(f"{ok} of {count(len(rows), 'path')} planned; table: {shown(table)}")
         if ok < len(rows):
             raise typer.Exit(code=EXIT_INPUT)

@@ -18,6 +18,14 @@ __all__ = ["parse_dirs", "register"]
 _ALL = tuple(r + e for r in AXES for e in AXES)
 
 
+#: Most postures of one simulated test campaign (each is a hammer test of minutes).
+MAX_POSTURES = 1000
+#: Most impacts per direction (averaging beyond a few dozen changes nothing).
+MAX_IMPACTS = 100
+#: Largest noise multiple (100 times the default noise is noise alone).
+MAX_NOISE = 100.0
+
+
 def parse_dirs(text: str) -> tuple[str, ...]:
     """``"xx,yy,zz"`` or ``"all"`` -> directions in array order (InputError if bad)."""
     t = text.strip().lower()
@@ -70,7 +78,10 @@ def register(app: typer.Typer) -> None:
                 "--exact", help="Write the noise-free nominal receptance, not a simulated test."
             ),
         ] = False,
-        seed: Annotated[int, typer.Option("--seed", help="Random seed (test noise, design).")] = 0,
+        seed: Annotated[
+            int,
+            typer.Option("--seed", min=0, max=2**32 - 1, help="Random seed (test noise, design)."),
+        ] = 0,
         fmt: Annotated[
             str, typer.Option("--format", help="csv (frf.csv) or uff (frf/<posture_id>.uff).")
         ] = "csv",
@@ -130,8 +141,16 @@ def register(app: typer.Typer) -> None:
 
         if fmt not in ("csv", "uff"):
             raise InputError(f"expected csv or uff, found {fmt!r}", source="--format")
-        if noise < 0:
-            raise InputError(f"expected noise >= 0, found {noise:g}", source="--noise")
+        if not 0 <= noise <= MAX_NOISE:
+            raise InputError(
+                f"expected a noise multiple 0 to {MAX_NOISE:g}, found {noise:g}", source="--noise"
+            )
+        if impacts > MAX_IMPACTS:  # below 1: the settings' own message
+            raise InputError(
+                f"expected 1 to {MAX_IMPACTS} impacts per direction, found {impacts}", "--impacts"
+            )
+        if n is not None and not 1 <= n <= MAX_POSTURES:
+            raise InputError(f"expected 1 to {MAX_POSTURES} postures, found {n}", source="--n")
         want = parse_dirs(dirs)
         try:
             settings = HammerTestSettings(
@@ -144,9 +163,9 @@ def register(app: typer.Typer) -> None:
         except InputError as exc:  # name the option, not the settings field
             option = _SETTINGS_OPTIONS.get(str(exc.source), exc.source)
             raise InputError(exc.detail.removesuffix(".0"), option) from None
-        if not 0 < fmax <= settings.sample_rate_hz / 2:
+        if not 1.0 <= fmax <= settings.sample_rate_hz / 2:
             raise InputError(
-                f"expected 0 < fmax <= {settings.sample_rate_hz / 2:g} Hz, found {fmax:g}",
+                f"expected 1 <= fmax <= {settings.sample_rate_hz / 2:g} Hz, found {fmax:g}",
                 source="--fmax",
             )
         if (postures is None) == (design is None):

@@ -9,7 +9,7 @@ from typing import Annotated
 import numpy as np
 import typer
 
-from robolobe.cli._common import console, err_console, status
+from robolobe.cli._common import Outputs, console, err_console, labelled, shown, status
 from robolobe.errors import InputError
 
 __all__ = ["parse_rpm", "register"]
@@ -18,6 +18,11 @@ _DEFAULT_N = {"zoa": 1000, "sdm": 200}
 #: Cap on the speed grid: 100k speeds resolve any lobe of a milling
 #: spindle; more only costs memory and time.
 MAX_RPM_POINTS = 100_000
+#: A limiting depth [m] below which the lobes are more likely a unit slip than a
+#: structure (10 um: no milling cut is that shallow).
+MIN_PLAUSIBLE_A_LIM_M = 1e-5
+#: Cap on the teeth of a milling cutter (large face mills have a few dozen).
+MAX_TEETH = 200
 
 
 def parse_rpm(text: str, method: str) -> np.ndarray:
@@ -116,6 +121,7 @@ def register(app: typer.Typer) -> None:
             stability_lobes,
         )
         from robolobe.sld.io import read_modes_csv, write_lobes_csv
+        from robolobe.sld.sdm import MAX_SDM_INTERVALS
 
         check_output_file(output, "--output")
         if plot is not None:
@@ -125,8 +131,14 @@ def register(app: typer.Typer) -> None:
             raise InputError(f"--method: expected zoa or sdm, found {method!r}")
         if milling not in ("down", "up"):
             raise InputError(f"--milling: expected down or up, found {milling!r}")
-        if teeth < 1:
-            raise InputError(f"--teeth: expected an integer >= 1, found {teeth}")
+        if not 1 <= teeth <= MAX_TEETH:
+            raise InputError(f"--teeth: expected an integer 1 to {MAX_TEETH}, found {teeth}")
+        if safety is not None and not (math.isfinite(safety) and safety >= 1.0):
+            raise InputError(f"--safety: expected a factor >= 1, found {safety:g}")
+        if method == "sdm" and not 2 <= intervals <= MAX_SDM_INTERVALS:
+            raise InputError(
+                f"--intervals: expected an integer 2 to {MAX_SDM_INTERVALS}, found {intervals}"
+            )
         try:
             if material is not None:
                 mat = get_material(material, kt=kt, kr=kr)
@@ -158,16 +170,20 @@ def register(app: typer.Typer) -> None:
                 max_lobe=max_lobe,
                 intervals=intervals,
             )
-        write_lobes_csv(output, lobes)
-        if plot is not None:
-            from robolobe.sld.plot import save_lobe_plot
+        with Outputs() as out:
+            out.write(output, "--output", write_lobes_csv, output, lobes)
+            if plot is not None:
+                from robolobe.sld.plot import save_lobe_plot
 
-            save_lobe_plot(
-                lobes,
-                plot,
-                safety_factor=safety,
-                title=f"{method.upper()}: N={teeth}, a/D={immersion:g}, {milling} milling",
-            )
+                out.write(
+                    plot,
+                    "--plot",
+                    save_lobe_plot,
+                    lobes,
+                    plot,
+                    safety_factor=safety,
+                    title=f"{method.upper()}: N={teeth}, a/D={immersion:g}, {milling} milling",
+                )
         a_min, n_min = lobes.minimum()
         console.print(
             f"{method.upper()} lobes: {grid.size} speeds {grid[0]:g}-{grid[-1]:g} rpm, "
@@ -181,22 +197,34 @@ def register(app: typer.Typer) -> None:
                 highlight=False,
                 soft_wrap=True,
             )
+            if float(a_min) < MIN_PLAUSIBLE_A_LIM_M:
+                err_console.print(
+                    labelled(
+                        "warning:",
+                        "yellow",
+                        f"the smallest limiting depth, {float(a_min) * 1e3:.3g} mm, is below any "
+                        "practical cut: check the units (k_N_per_m in N/m, not N/mm; --kt in "
+                        "N/m^2, not N/mm^2)",
+                    ),
+                    soft_wrap=True,
+                )
         else:
             console.print("no lobe crosses this speed range: a_lim = inf everywhere")
         if not lobes.valid:
-            err_console.print(
-                f"[yellow]warning:[/] {lobes.message}", highlight=False, soft_wrap=True
-            )
+            err_console.print(labelled("warning:", "yellow", lobes.message), soft_wrap=True)
         if lobes.complete_above_rpm is not None and float(lobes.complete_above_rpm) > grid[0]:
             err_console.print(
-                f"[yellow]warning:[/] lobes above k={lobes.max_lobe} are left out; the envelope "
-                f"below {float(lobes.complete_above_rpm):.6g} rpm may be too high "
-                "(raise --max-lobe)",
-                highlight=False,
+                labelled(
+                    "warning:",
+                    "yellow",
+                    f"lobes above k={lobes.max_lobe} are left out; the envelope "
+                    f"below {float(lobes.complete_above_rpm):.6g} rpm may be too high "
+                    "(raise --max-lobe)",
+                ),
                 soft_wrap=True,
             )
         console.print(
-            f"wrote {output}" + (f" and {plot}" if plot is not None else ""),
+            f"wrote {shown(output)}" + (f" and {shown(plot)}" if plot is not None else ""),
             highlight=False,
             soft_wrap=True,
         )

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import itertools
 import time
 import warnings
 from collections.abc import Iterator
@@ -11,10 +12,9 @@ from typing import Annotated, Any
 
 import numpy as np
 import typer
-from rich.markup import escape
 
 from robolobe._text import count
-from robolobe.cli._common import console, err_console, status
+from robolobe.cli._common import Outputs, console, err_console, labelled, shown, status
 from robolobe.errors import InputError
 
 __all__ = ["register"]
@@ -35,9 +35,7 @@ def _shown_warnings() -> Iterator[None]:
                 msg = str(w.message)
                 if msg not in seen:
                     seen.add(msg)
-                    err_console.print(
-                        f"[yellow]warning:[/] {escape(msg)}", highlight=False, soft_wrap=True
-                    )
+                    err_console.print(labelled("warning:", "yellow", msg), soft_wrap=True)
 
 
 def _parse_dirs(text: str) -> tuple[str, ...]:
@@ -84,7 +82,7 @@ def _load_dataset(
 def _summary(model: Any, seconds: float, out: Path) -> None:
     cal = np.asarray(model.calibration_)
     console.print(
-        f"[bold]{out}[/]: robot {model.robot or '?'} ({' -> '.join(model.lineage_)}), "
+        f"{shown(out)}: robot {shown(model.robot or '?')} ({' -> '.join(model.lineage_)}), "
         f"{count(len(model.train_q_rad_), 'training posture')}, "
         f"{count(model.n_members, 'member')} x {count(len(model.directions), 'direction')}, "
         f"frozen layers {model.n_frozen_used_}, "
@@ -144,7 +142,7 @@ def _calibrate(
     what = "a corrected twin" if isinstance(model, CorrectedTwin) else "a calibrated robot file"
     rms = cal.residual_rms_
     console.print(
-        f"[bold]{escape(str(output))}[/]: {what} of {escape(str(robot))} from "
+        f"{shown(output)}: {what} of {shown(robot)} from "
         f"{count(cal.n_postures_, 'posture')} ({count(cal.n_matched_, 'mode')} matched, "
         f"{cal.n_unmatched_} not), {time.perf_counter() - t0:.1f} s",
         highlight=False,
@@ -165,15 +163,18 @@ def _calibrate(
     else:
         console.print("  (-v: every parameter and the correction per quantity)", highlight=False)
     if isinstance(model, CorrectedTwin):
-        advice = f'[robot] name = "{robot}", model = "{output}"'
+        advice = f'[robot] name = "{shown(robot)}", model = "{shown(output)}"'
     else:
-        advice = f'[robot] name = "{output}", model = "twin"'
-    console.print(f"  plan on it: {escape(advice)}", highlight=False)
+        advice = f'[robot] name = "{shown(output)}", model = "twin"'
+    console.print(f"  plan on it: {advice}", highlight=False)
     if cal.at_bounds_:
         err_console.print(
-            f"[yellow]warning:[/] at their bounds: {escape(', '.join(cal.at_bounds_))} (the "
-            "data want more change than allowed: check the robot file and the tests)",
-            highlight=False,
+            labelled(
+                "warning:",
+                "yellow",
+                f"at their bounds: {', '.join(cal.at_bounds_)} (the data "
+                "want more change than allowed: check the robot file and the tests)",
+            )
         )
 
 
@@ -268,9 +269,11 @@ def register(app: typer.Typer) -> None:
             str, typer.Option("--preset", help="'improved' (default) or 'paper' (the seed as is).")
         ] = "improved",
         directions: Annotated[str, typer.Option("--directions", help="e.g. xx,yy")] = "xx,yy",
-        epochs: Annotated[int | None, typer.Option("--epochs", help="Default 500.")] = None,
-        members: Annotated[int | None, typer.Option("--members", help="Ensemble size.")] = None,
-        seed: Annotated[int, typer.Option("--seed", help="Random seed.")] = 0,
+        epochs: Annotated[int | None, typer.Option("--epochs", min=1, help="Default 500.")] = None,
+        members: Annotated[
+            int | None, typer.Option("--members", min=1, help="Ensemble size.")
+        ] = None,
+        seed: Annotated[int, typer.Option("--seed", min=0, max=2**32 - 1, help="Random seed.")] = 0,
     ) -> None:
         """Pretrain the modal predictor on a well-sampled robot (the seed's robot A).
 
@@ -350,9 +353,9 @@ def register(app: typer.Typer) -> None:
         ] = "stiffness,damping,ee_mass,link_mass,link_com",
         frozen: Annotated[int, typer.Option("--frozen", help="Frozen layers (seed: 3).")] = 3,
         epochs: Annotated[
-            int | None, typer.Option("--epochs", help="Default: the source's.")
+            int | None, typer.Option("--epochs", min=1, help="Default: the source's.")
         ] = None,
-        seed: Annotated[int, typer.Option("--seed", help="Random seed.")] = 0,
+        seed: Annotated[int, typer.Option("--seed", min=0, max=2**32 - 1, help="Random seed.")] = 0,
         verbose: Annotated[
             bool,
             typer.Option(
@@ -442,22 +445,37 @@ def register(app: typer.Typer) -> None:
         if robot_spec is None and str(label).upper() in ("A", "B", "C"):
             robot_spec = str(label).upper()
         rob = _robot(robot_spec)
+        if rob is not None:
+            from robolobe.tl.models import check_model_robot
+
+            check_model_robot(model, rob, "--robot")
         if rob is None and not isinstance(model.robot, str | type(None)):
             rob = model.robot  # the corrected twin's robot file: its joint limits
         ids, q = read_postures(postures, robot=rob)
-        if not np.isfinite(fmax) or fmax <= 0 or not np.isfinite(df) or not 0 < df < fmax:
-            raise InputError(f"expected 0 < df < fmax, found df={df}, fmax={fmax}", "--df/--fmax")
+        if not (np.isfinite(fmax) and np.isfinite(df) and 0 < df < fmax <= 1e5):
+            raise InputError(
+                f"expected 0 < df < fmax <= 1e5 Hz, found df={df:g}, fmax={fmax:g}", "--df/--fmax"
+            )
+        if fmax / df > 1e6:
+            raise InputError(
+                f"expected at most 1e6 FRF lines (fmax / df), found {fmax / df:.3g}", "--df/--fmax"
+            )
         with _shown_warnings():
             pred = model.predict(q)
         table = prediction_frame(ids, q, pred)
-        write_modal_csv(output, table)
+        with Outputs() as out:
+            out.write(output, "--output", write_modal_csv, output, table)
+            if frf is not None:
+                out.write(
+                    frf, "--frf", write_frf_campaign,
+                    frf, robot_spec or str(label), ids, q, pred, fmax, df,
+                )  # fmt: skip
         msg = (
-            f"[bold]{output}[/]: {count(len(ids), 'posture')} x "
+            f"{shown(output)}: {count(len(ids), 'posture')} x "
             f"{count(len(pred.directions), 'direction')} x 5 modes"
         )
         if frf is not None:
-            write_frf_campaign(frf, robot_spec or str(label), ids, q, pred, fmax, df)
-            msg += f"; FRFs in {frf}"
+            msg += f"; FRFs in {shown(frf)}"
         console.print(msg)
 
     @app.command("design-tests")
@@ -473,7 +491,7 @@ def register(app: typer.Typer) -> None:
             str | None,
             typer.Option("--model", help="Weight by this model's predicted spread."),
         ] = None,
-        seed: Annotated[int, typer.Option("--seed", help="Random seed.")] = 0,
+        seed: Annotated[int, typer.Option("--seed", min=0, max=2**32 - 1, help="Random seed.")] = 0,
     ) -> None:
         """Propose hammer-test postures that cover the feasible workspace."""
         from robolobe._atomic import check_output_file
@@ -486,14 +504,22 @@ def register(app: typer.Typer) -> None:
         from robolobe.twin.designs import TESTED_RANGES_DEG
 
         rob = _robot(robot)
-        if n < 1:
-            raise InputError(f"expected a positive count, found {n}", source="--n")
+        if not 1 <= n <= 1000:
+            raise InputError(
+                f"expected 1 to 1000 postures (each is a hammer test), found {n}", source="--n"
+            )
         existing = None
+        taken: set[str] = set()
         if augment is not None:
-            _, existing = read_postures(augment, robot=rob)
+            old_ids, existing = read_postures(augment, robot=rob)
+            taken = set(old_ids)
         key = robot.upper()
         ranges = TESTED_RANGES_DEG.get(key) if key in TESTED_RANGES_DEG else None
         model = load_model(model_spec) if model_spec else None
+        if model is not None:
+            from robolobe.tl.models import check_model_robot
+
+            check_model_robot(model, rob, "--model")
         with status("designing postures"):
             design = design_postures(
                 rob,
@@ -509,7 +535,9 @@ def register(app: typer.Typer) -> None:
         from robolobe._atomic import atomic_path
 
         q_out = np.round(np.degrees(design.q_rad), 1)
-        ids = [f"D{i + 1:02d}" for i in range(len(q_out))]
+        # new ids never repeat an existing one (the files are joined for testing)
+        fresh = (f"D{i:02d}" for i in itertools.count(1))
+        ids = list(itertools.islice((i for i in fresh if i not in taken), len(q_out)))
         table = pd.DataFrame(q_out, columns=[f"q{i}_deg" for i in range(1, 7)])
         table.insert(0, "posture_id", ids)
         with atomic_path(output) as tmp:
@@ -520,6 +548,6 @@ def register(app: typer.Typer) -> None:
                 f"{design.coverage_before.describe()}"
             )
         console.print(
-            f"[bold]{output}[/]: {count(len(ids), 'posture')}; with them: "
+            f"{shown(output)}: {count(len(ids), 'posture')}; with them: "
             f"{design.coverage.describe()}"
         )

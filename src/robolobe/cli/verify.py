@@ -6,10 +6,9 @@ from pathlib import Path
 from typing import Annotated
 
 import typer
-from rich.markup import escape
 
 from robolobe._text import count
-from robolobe.cli._common import console, err_console, status
+from robolobe.cli._common import console, err_console, labelled, shown, status
 
 __all__ = ["EXIT_CHATTER", "register"]
 
@@ -86,18 +85,18 @@ def register(app: typer.Typer) -> None:
         write_verify(res, out, plots=plots)
         s = res.summary
         console.print(
-            f"{escape(str(plan_dir))} on {escape(res.mode_source)} (plan made on "
-            f"{escape(str(s['plan_mode_source']))}): {s['n_beyond_limit']} of "
+            f"{shown(plan_dir)} on {shown(res.mode_source)} (plan made on "
+            f"{shown(s['plan_mode_source'])}): {s['n_beyond_limit']} of "
             f"{count(s['n_bounded'], 'cutting waypoint')} beyond the limit, "
             f"{s['n_inside_safety_factor']} inside the safety factor {res.safety_factor:g}; "
             "minimum margin "
-            + (f"{res.min_margin:.3f} at {escape(res.min_margin_at)}" if s["min_margin"] else "-"),
+            + (f"{res.min_margin:.3f} at {shown(res.min_margin_at)}" if s["min_margin"] else "-"),
             highlight=False,
         )
         for where in res.chatter[:20]:
-            err_console.print(f"[red]chatter predicted:[/] {escape(where)}", highlight=False)
+            err_console.print(labelled("chatter predicted:", "red", where))
         if len(res.chatter) > 20:
             err_console.print(f"... and {len(res.chatter) - 20} more (verify.csv)")
-        console.print(f"outputs in {escape(str(out))}/ (verify.csv, verify.json, plots/)")
+        console.print(f"outputs in {shown(out)}/ (verify.csv, verify.json, plots/)")
         if not res.ok:
             raise typer.Exit(EXIT_CHATTER)

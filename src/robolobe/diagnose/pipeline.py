@@ -338,6 +338,12 @@ def _diagnose(
             f"expected at least 2 postures to cross-validate a diagnosis, found {len(obs.groups)}",
             source="postures.csv",
         )
+    if st.selection.n_folds > len(obs.groups):
+        raise InputError(
+            f"expected at most {len(obs.groups)} cross-validation folds (one per posture "
+            f"of the campaign), found {st.selection.n_folds}",
+            source="folds (--folds)",
+        )
     model = TwinModel(robot, window_decay_per_s=decay)
     obs_fit = obs.decimated(st.max_fit_lines)
     H_nom = model((), obs)

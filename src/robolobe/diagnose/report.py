@@ -15,7 +15,6 @@ the target as it was.
 
 from __future__ import annotations
 
-import html
 import os
 from collections.abc import Sequence
 from pathlib import Path
@@ -27,7 +26,7 @@ from matplotlib.figure import Figure
 
 from robolobe._atomic import atomic_dir
 from robolobe._directions import DRIVING, dir_index
-from robolobe._plot_text import plot_text
+from robolobe._text import html_text, plot_text
 from robolobe.diagnose.pipeline import Diagnosis
 from robolobe.diagnose.schema import DiagnosisReport, to_report
 
@@ -150,9 +149,9 @@ def _modes_fig(d: Diagnosis, path: Path) -> None:
 
 
 def _table(headers: list[str], rows: Sequence[Sequence[object]]) -> str:
-    h = "".join(f"<th>{html.escape(x)}</th>" for x in headers)
+    h = "".join(f"<th>{html_text(x)}</th>" for x in headers)
     body = "".join(
-        "<tr>" + "".join(f"<td>{html.escape(_fmt(v))}</td>" for v in r) + "</tr>" for r in rows
+        "<tr>" + "".join(f"<td>{html_text(_fmt(v))}</td>" for v in r) + "</tr>" for r in rows
     )
     return f"<table><tr>{h}</tr>{body}</table>"
 
@@ -185,11 +184,12 @@ def _html(rep: DiagnosisReport) -> str:
         for c in rep.candidates
     ]
     sections = [
-        f"<h1>Mismatch diagnosis</h1><p><b>Campaign:</b> {html.escape(rep.campaign)}<br>"
-        f"<b>Robot:</b> {html.escape(rep.robot)}<br>"
+        f"<h1>Mismatch diagnosis</h1><p><b>Campaign:</b> {html_text(rep.campaign)}<br>"
+        f"<b>Robot:</b> {html_text(rep.robot)}<br>"
         f"<b>Band:</b> {rep.band_hz[0]:g}-{rep.band_hz[1]:g} Hz, "
         f"{rep.n_postures} postures, directions {', '.join(rep.directions)}</p>",
-        f"<h2>Verdict: {html.escape(rep.verdict_label)}</h2><p>{html.escape(rep.summary)}</p>",
+        f"<h2>Verdict: {html_text(rep.verdict_label)}</h2>"
+        f"<p>{html_text(rep.summary, newlines=True)}</p>",
         _table(
             ["", "FRAC mean", "FRAC min", "NRMSE mean"],
             [

@@ -28,6 +28,7 @@ driving-point residue from the LSFD covariance, about that of ``k``).
 from __future__ import annotations
 
 import math
+import os
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
@@ -42,9 +43,9 @@ from robolobe._modal_parameters import ModalParameters
 from robolobe._text import count
 from robolobe._threads import with_one_blas_thread
 from robolobe._workers import map_chunks
-from robolobe.campaign import Campaign, TestHeader
+from robolobe.campaign import Campaign, TestHeader, read_campaign
 from robolobe.campaign.metrics import frac, nrmse
-from robolobe.errors import InputError
+from robolobe.errors import InputError, InputTypeError
 from robolobe.modal._pool import identify_item, refit_item
 from robolobe.modal.modal_csv import MODAL_COLUMNS, Q_COLUMNS, validate_modal_frame
 from robolobe.modal.posture import IdentifySettings, PostureModal
@@ -513,7 +514,7 @@ def _fit_metrics(pm: PostureModal, d: int, modes: Sequence[int]) -> tuple[float,
 
 
 def identify_campaign(
-    campaign: Campaign,
+    campaign: Campaign | str | os.PathLike[str],
     *,
     settings: IdentifySettings | None = None,
     overrides: Mapping[str, Any] | None = None,
@@ -523,8 +524,8 @@ def identify_campaign(
 
     Parameters
     ----------
-    campaign : Campaign
-        As read by :func:`robolobe.campaign.read_campaign`.
+    campaign : Campaign or path-like
+        As read by :func:`robolobe.campaign.read_campaign`, or its folder.
     settings : IdentifySettings, optional
         Default: :func:`settings_from_test` of ``campaign.test`` (window and
         record length), updated with ``overrides``.
@@ -537,6 +538,10 @@ def identify_campaign(
     -------
     CampaignModal
     """
+    if isinstance(campaign, str | os.PathLike):
+        campaign = read_campaign(campaign)
+    if not isinstance(campaign, Campaign):
+        raise InputTypeError("campaign", "a campaign folder's path or a Campaign", campaign)
     s = (
         settings
         if settings is not None

@@ -27,8 +27,9 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from robolobe._atomic import atomic_path
+from robolobe._atomic import atomic_path, check_input_file
 from robolobe._directions import ALL_DIRS, DRIVING
+from robolobe._frf_checks import MODAL_K_MIN_N_PER_M
 from robolobe._modal_parameters import Q_COLUMNS, ModalParameters
 from robolobe.errors import InputError
 
@@ -113,6 +114,12 @@ def _check_row(
             raise InputError(
                 f"column 'k_N_per_m': expected > 0 at the driving point {d!r}, "
                 f"found {values['k_N_per_m']!r}",
+                source=source,
+            )
+        if k < MODAL_K_MIN_N_PER_M:
+            raise InputError(
+                f"column 'k_N_per_m': expected a modal stiffness >= {MODAL_K_MIN_N_PER_M:g} N/m "
+                f"(10 N/mm), found {values['k_N_per_m']!r}: a value in N/mm?",
                 source=source,
             )
     elif k == 0.0:
@@ -220,8 +227,8 @@ def read_modal_csv(path: str | os.PathLike[str]) -> pd.DataFrame:
         posture, a duplicated (posture, dir, mode), or no data rows. The
         message names ``file:line`` and the column.
     """
-    path = Path(path)
     name = str(path)
+    path = check_input_file(path, "a modal dataset (CSV file)", name)
     try:
         fh = path.open(newline="", encoding="utf-8-sig")
     except OSError as exc:

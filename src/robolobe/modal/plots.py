@@ -18,7 +18,7 @@ from numpy.typing import NDArray
 
 from robolobe._atomic import SafeNames, unique_names
 from robolobe._directions import AXES
-from robolobe._plot_text import plot_text
+from robolobe._text import plot_text
 from robolobe.modal.measurement import MeasurementModal
 from robolobe.modal.posture import PostureModal
 from robolobe.modal.stabilization import StabilizationDiagram

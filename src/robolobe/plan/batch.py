@@ -246,7 +246,10 @@ def batch_plan(
     if scheduler is not None or client is not None:
         yield from _dask(items, folders, job, scheduler, client, out_dir, refine)
         return
-    n = workers or os.cpu_count() or 1
+    if workers is not None and (int(workers) != workers or workers < 1):
+        raise InputError(f"workers: expected an integer >= 1, found {workers!r}")
+    # never more processes than paths: each extra one only costs its start-up
+    n = min(workers or os.cpu_count() or 1, len(items))
     if n == 1:
         for p, f in zip(items, folders, strict=True):
             yield plan_one(p, job, out_dir, refine, f)

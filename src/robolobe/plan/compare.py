@@ -16,6 +16,7 @@ import dataclasses
 import logging
 import math
 import os
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -24,15 +25,16 @@ import numpy as np
 import pandas as pd
 
 from robolobe._atomic import SafeNames, atomic_dir, unique_names
-from robolobe._plot_text import plot_text
+from robolobe._text import plot_text
 from robolobe.errors import (
     InfeasibleError,
     InputError,
+    InputTypeError,
     ReachabilityError,
     RobolobeError,
     SingularityError,
 )
-from robolobe.plan.job import Job
+from robolobe.plan.job import Job, load_job
 from robolobe.plan.modes import ModeSource, mode_source
 from robolobe.plan.paths import read_toolpath, validate_waypoints
 from robolobe.plan.pipeline import (
@@ -168,8 +170,8 @@ def _model_for(job: Job, spec: str) -> str:
 
 def compare_robots(
     path: str | os.PathLike[str] | pd.DataFrame,
-    job: Job,
-    robots: list[str],
+    job: Job | str | os.PathLike[str],
+    robots: Sequence[str | os.PathLike[str]] | str,
     *,
     refine: bool = True,
 ) -> Comparison:
@@ -179,11 +181,12 @@ def compare_robots(
     ----------
     path : path-like or DataFrame
         The toolpath.
-    job : Job
-        The job (its robot is replaced by each of ``robots``; a ``builtin``
+    job : Job or path-like
+        The job or its file (its robot is replaced by each of ``robots``; a ``builtin``
         model means each robot's shipped model).
-    robots : list of str
-        ``"A"``, ``"B"``, ``"C"`` or robot files.
+    robots : list of str or path-like
+        ``"A"``, ``"B"``, ``"C"`` or robot files (a single string is split
+        at commas: ``"A,B,C"``).
     refine : bool
         casadi refinement.
 
@@ -197,6 +200,15 @@ def compare_robots(
         A robot file that cannot be read or is implausible, or a robot
         given twice (before any planning).
     """
+    if isinstance(robots, str | os.PathLike):
+        robots = [r.strip() for r in os.fspath(robots).split(",")]  # "A,B,C" as on the CLI
+    robots = list(robots)
+    if not robots:
+        raise InputError("robots: expected at least one robot, found none")
+    for key in robots:
+        if not isinstance(key, str | os.PathLike):
+            raise InputTypeError("robots", "robot keys or robot files' paths", key)
+    job = load_job(job)
     wp = (
         validate_waypoints(path, "<table>")
         if isinstance(path, pd.DataFrame)
@@ -208,7 +220,8 @@ def compare_robots(
     # input (one error now), not a row after minutes of planning the others
     loaded: dict[str, Robot] = {}
     for key in robots:
-        spec = key.upper() if key.upper() in ("A", "B", "C") else str(Path(key))
+        spec = os.fspath(key)
+        spec = spec.upper() if spec.upper() in ("A", "B", "C") else str(Path(spec))
         if spec in loaded:
             raise InputError(f"--robots: expected each robot once, found {spec} twice")
         loaded[spec] = load_robot(spec)

@@ -90,8 +90,6 @@ from __future__ import annotations
 import logging
 import math
 import os
-import re
-import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Annotated, Any, Literal
@@ -101,8 +99,9 @@ import tomli_w
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
 
 from robolobe._atomic import not_a_file
-from robolobe._toml_errors import check_key_typos, describe_error, key_path
-from robolobe.errors import InputError
+from robolobe._documents import parse_toml
+from robolobe._toml_errors import PrintableText, check_key_typos, describe_error, key_path
+from robolobe.errors import InputError, InputTypeError
 from robolobe.robots.transforms import pose_from_xyz_zyx, xyz_zyx_from_pose
 from robolobe.sld.io import F_RANGE_HZ, K_RANGE_N_PER_M
 from robolobe.twin.effects import Effect
@@ -155,8 +154,12 @@ class _Spec(BaseModel):
     model_config = ConfigDict(extra="allow", strict=True)
 
 
+#: Most tool rotations a "stiffest" search tries (one per degree of a full turn).
+MAX_ROTATION_CANDIDATES = 360
+
+
 class _RobotSpec(_Spec):
-    name: Annotated[str, Field(min_length=1)]
+    name: Annotated[PrintableText, Field(min_length=1)]
     model: Annotated[str, Field(min_length=1)] = "twin"
     effects: Annotated[str, Field(min_length=1)] | None = None
     tool_rotation_deg: Num = 0.0
@@ -172,6 +175,13 @@ class _RobotSpec(_Spec):
         if hi < lo:
             raise ValueError(
                 f"tool_rotation_range_deg: expected [low, high] with low <= high, found {[lo, hi]}"
+            )
+        n = (hi - lo) / self.tool_rotation_step_deg
+        if self.tool_rotation == "stiffest" and n > MAX_ROTATION_CANDIDATES:
+            raise ValueError(
+                f"tool_rotation_step_deg: expected at most {MAX_ROTATION_CANDIDATES} steps over "
+                f"tool_rotation_range_deg (a step >= {(hi - lo) / MAX_ROTATION_CANDIDATES:.3g}), "
+                f"found {self.tool_rotation_step_deg:g} ({n:.3g} steps)"
             )
         return self
 
@@ -202,7 +212,7 @@ class _ToolSpec(_Spec):
 
 
 class _MaterialSpec(_Spec):
-    name: Annotated[str, Field(min_length=1)] | None = None
+    name: Annotated[PrintableText, Field(min_length=1)] | None = None
     Kt_N_per_mm2: PosNum | None = None
     Kr: Annotated[float, Field(ge=0, le=5, allow_inf_nan=False, strict=True)] | None = None
     Kn_N_per_mm2: NonNegNum | None = None
@@ -284,12 +294,15 @@ class _PathSpec(_Spec):
     coordinates: Literal["workpiece", "machine"] | None = None
     rotary_axes: Literal["auto", "head", "table"] | None = None
     circle_axis: Literal["auto", "cw", "ccw"] | None = None
-    arc_tol_mm: Annotated[float, Field(gt=0, le=10, allow_inf_nan=False, strict=True)] | None = None
+    # >= 1 um: finer chords only multiply the waypoints (1e-9 mm: millions per arc)
+    arc_tol_mm: Annotated[float, Field(ge=1e-3, le=10, allow_inf_nan=False, strict=True)] | None = (
+        None
+    )
 
 
 class _JobSpec(_Spec):
     format: Literal["robolobe-job/1"]
-    name: str = ""
+    name: PrintableText = ""
     robot: _RobotSpec
     placement: _PlacementSpec = Field(default_factory=_PlacementSpec)
     tool: _ToolSpec
@@ -541,7 +554,7 @@ class Job:
     tool_rotation: Literal["fixed", "stiffest"] = "fixed"
     tool_rotation_range_rad: tuple[float, float] = (-math.pi / 2, math.pi / 2)
     tool_rotation_step_rad: float = math.radians(30.0)
-    name: str = ""
+    name: PrintableText = ""
     source: str = "<code>"
     path_options: dict[str, Any] = field(default_factory=dict)
 
@@ -738,13 +751,14 @@ def job_from_dict(d: dict[str, Any], source: str = "<dict>", base_dir: Path | No
     )
 
 
-def load_job(path: str | os.PathLike[str]) -> Job:
+def load_job(path: str | os.PathLike[str] | Job) -> Job:
     """Read and validate a job file.
 
     Parameters
     ----------
-    path : path-like
-        TOML file with ``format = "robolobe-job/1"``.
+    path : path-like or Job
+        TOML file with ``format = "robolobe-job/1"`` (a :class:`Job` is
+        returned as it is).
 
     Returns
     -------
@@ -756,6 +770,10 @@ def load_job(path: str | os.PathLike[str]) -> Job:
         Unreadable file, TOML syntax error (with its line) or invalid content
         (naming the key).
     """
+    if isinstance(path, Job):
+        return path
+    if not isinstance(path, str | os.PathLike):
+        raise InputTypeError("job", "a job file's path or a Job", path)
     p = Path(path)
     where = p.name
     if not p.is_file():
@@ -764,14 +782,7 @@ def load_job(path: str | os.PathLike[str]) -> Job:
         text = p.read_text(encoding="utf-8")
     except (OSError, UnicodeDecodeError) as exc:
         raise InputError(f"cannot read the file: {exc}", source=where) from None
-    try:
-        raw = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as exc:
-        msg = str(exc)
-        m = re.search(r"line (\d+)", msg)
-        raise InputError(
-            f"TOML syntax error: {msg}", source=f"{where}:{m.group(1)}" if m else where
-        ) from None
+    raw = parse_toml(text, where)
     return job_from_dict(raw, source=str(p), base_dir=p.resolve().parent)
 
 

@@ -710,7 +710,11 @@ def mode_source(
             logger.info(note)
             return TwinSource(robot), note
         return PredictorSource(pred, f"tl model {robot_key} (shipped)"), ""
-    return model_file_source(load_model(Path(model)), Path(model).name), ""
+    from robolobe.tl.models import check_model_robot
+
+    pred = load_model(Path(model))
+    check_model_robot(pred, robot, "robot.model")
+    return model_file_source(pred, Path(model).name), ""
 
 
 def model_file_source(pred: object, file_name: str) -> ModeSource:

@@ -44,7 +44,7 @@ from numpy.typing import NDArray
 
 from robolobe.errors import InputError, ReachabilityError, SingularityError
 from robolobe.plan._summary import PlanSummary
-from robolobe.plan.job import Job
+from robolobe.plan.job import Job, load_job
 from robolobe.plan.lobes import DynamicsTolerance, GroupedLobes, steep_members, waypoint_lobes
 from robolobe.plan.modes import (
     CorrectedTwinSource,
@@ -939,9 +939,9 @@ def _heavy_damping_note(table: pd.DataFrame, source: ModeSource) -> str:
 
 def plan_path(
     path: str | os.PathLike[str] | pd.DataFrame,
-    job: Job,
+    job: Job | str | os.PathLike[str],
     *,
-    robot: Robot | None = None,
+    robot: Robot | str | os.PathLike[str] | None = None,
     source: ModeSource | None = None,
     modes: object | None = None,
     refine: bool = True,
@@ -952,9 +952,11 @@ def plan_path(
     ----------
     path : path-like or pandas.DataFrame
         Toolpath file (any supported format) or a waypoint table.
-    job : Job
-    robot : Robot, optional
-        Overrides ``job.robot`` (already loaded).
+    job : Job or path-like
+        The job or its file.
+    robot : Robot or str or path-like, optional
+        Overrides ``job.robot``: a loaded robot, ``"A"``, ``"B"``, ``"C"`` or
+        a robot file.
     source : ModeSource, optional
         Overrides ``job.model``.
     modes : optional
@@ -983,12 +985,12 @@ def plan_path(
     InputError, ReachabilityError, SingularityError, InfeasibleError
         With the waypoint and its ``file:line``.
     """
+    job = load_job(job)  # a path is read; anything but a Job or a path is refused
     timings: dict[str, float] = {}
     t = time.perf_counter()
     wp, path_name = _read(path, job.path_options)
     timings["read"] = time.perf_counter() - t
-    if robot is None:
-        robot = load_robot(job.robot)
+    robot = load_robot(job.robot if robot is None else robot)
     note = ""
     if modes is not None:
         if source is not None:

@@ -20,7 +20,6 @@ Agg canvas), so nothing global is touched and workers may plot in parallel.
 from __future__ import annotations
 
 import base64
-import html
 import json
 import os
 from collections.abc import Callable
@@ -32,6 +31,7 @@ import pandas as pd
 from numpy.typing import NDArray
 
 from robolobe._atomic import atomic_dir
+from robolobe._text import html_text, visible
 from robolobe.plan import _plots
 from robolobe.plan._plots import PlotWorker
 from robolobe.plan.pipeline import PlanResult
@@ -119,6 +119,7 @@ def thin_rows(table: pd.DataFrame, every: int) -> pd.DataFrame:
     if every <= 1 or len(table) == 0:
         return table
     n = len(table)
+    every = min(int(every), n)  # a block longer than the table is the table
     margin = table["margin"].to_numpy(dtype=np.float64)
     key = np.where(np.isfinite(margin), margin, np.inf)
     pad = (-n) % every
@@ -327,7 +328,7 @@ def _fmt(v: Any) -> str:
         return "-"
     if isinstance(v, float):
         return f"{v:.4g}"
-    return html.escape(str(v))
+    return html_text(str(v))
 
 
 def _shown_path(path: str | None, base: Path | None) -> str:
@@ -416,9 +417,10 @@ def render_html(
                 )
             )
     table = "\n".join(
-        f"<tr><th>{html.escape(k)}</th><td>{html.escape(str(v))}</td></tr>" for k, v in rows
+        f"<tr><th>{html_text(k)}</th><td>{html_text(str(v))}</td></tr>" for k, v in rows
     )
     tight = _tightest(res)
+    tight["source"] = tight["source"].map(visible)  # to_html escapes HTML, not controls
     tight_html = tight.to_html(
         index=False,
         border=0,
@@ -433,16 +435,16 @@ def render_html(
         },
     )
     imgs = "\n".join(
-        f'<figure><img alt="{html.escape(k)}" '
+        f'<figure><img alt="{html_text(k)}" '
         f'src="data:image/png;base64,{base64.b64encode(v).decode()}">'
-        f"<figcaption>{html.escape(CAPTIONS.get(k, k))}</figcaption></figure>"
+        f"<figcaption>{html_text(CAPTIONS.get(k, k))}</figcaption></figure>"
         for k, v in images.items()
     )
-    notes = "".join(f"<li>{html.escape(n)}</li>" for n in s.notes)
+    notes = "".join(f"<li>{html_text(n)}</li>" for n in s.notes)
     timing = ", ".join(f"{k} {v:.3g} s" for k, v in s.timings_s.items())
     return f"""<!DOCTYPE html>
 <html lang="en"><head><meta charset="utf-8">
-<title>robolobe plan: {html.escape(_shown_path(s.path, b))}</title>
+<title>robolobe plan: {html_text(_shown_path(s.path, b))}</title>
 <style>
 body {{ font-family: sans-serif; max-width: 1000px; margin: 2em auto; color: #222; }}
 table {{ border-collapse: collapse; margin: 1em 0; }}
@@ -458,8 +460,8 @@ figcaption {{ font-size: 14px; color: #444; max-width: 800px; }}
 <h2>Tightest waypoints</h2>
 <p>The cutting waypoints with the smallest margin, one row per position.</p>
 {tight_html}
-<p><small>robolobe {html.escape(s.robolobe_version)};
-timings: {html.escape(timing)}</small></p>
+<p><small>robolobe {html_text(s.robolobe_version)};
+timings: {html_text(timing)}</small></p>
 </body></html>
 """
 
@@ -507,6 +509,12 @@ def write_outputs(
     Path
         ``out_dir``.
     """
+    from robolobe.errors import InputTypeError
+
+    if not isinstance(res, PlanResult):
+        raise InputTypeError("res", "a PlanResult (from plan_path)", res)
+    if not isinstance(out_dir, str | os.PathLike):
+        raise InputTypeError("out_dir", "a folder's path", out_dir)
     out = Path(out_dir)
     if waypoints == "parquet":
         require_pyarrow("waypoints")

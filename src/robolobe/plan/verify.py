@@ -28,6 +28,8 @@ import numpy as np
 import pandas as pd
 from numpy.typing import NDArray
 
+from robolobe._atomic import check_input_file
+from robolobe._text import plot_text
 from robolobe.errors import InputError
 from robolobe.plan.job import Job, load_job
 from robolobe.plan.modes import ModeSource, TwinSource, model_file_source
@@ -125,18 +127,40 @@ def read_plan(
     if not d.is_dir():
         raise InputError("expected a plan folder (robolobe plan -o DIR), found none", str(d))
     for name in ("waypoints.csv", "summary.json"):
-        if not (d / name).is_file():
-            raise InputError(f"expected {name} in the plan folder, found none", str(d / name))
+        check_input_file(d / name, f"{name} in the plan folder (robolobe plan -o DIR)")
+    from robolobe._documents import parse_json
+
+    where = str(d / "summary.json")
     try:
-        summary = json.loads((d / "summary.json").read_text(encoding="utf-8"))
-    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
-        raise InputError(f"unreadable JSON: {exc}", str(d / "summary.json")) from None
-    record = summary.get("plan_record") if isinstance(summary, dict) else None
+        text = (d / "summary.json").read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError) as exc:
+        raise InputError(f"unreadable JSON: {exc}", where) from None
+    summary = parse_json(text, where)
+    record = summary.get("plan_record")
     if not isinstance(record, dict) or "job" not in record:
         raise InputError(
             "no plan_record (written by an older robolobe or edited): plan the path again",
-            str(d / "summary.json"),
+            where,
         )
+    # a tampered record: each field the check reads, of the type the plan wrote
+    for key, kind, expected in (
+        ("job", dict, "a table"),
+        ("waypoints_sha256", str, "a string"),
+        ("path_sha256", (str, type(None)), "a string"),
+    ):
+        if not isinstance(record.get(key), kind):
+            raise InputError(
+                f"plan_record.{key}: expected {expected}, found {type(record.get(key)).__name__} "
+                "(the record was edited: plan the path again)",
+                where,
+            )
+    for key in ("path", "job_file", "mode_source"):
+        if not isinstance(summary.get(key), str | type(None)):
+            raise InputError(
+                f"{key}: expected a string, found {type(summary.get(key)).__name__} "
+                "(the record was edited: plan the path again)",
+                where,
+            )
     try:
         table = pd.read_csv(d / "waypoints.csv", keep_default_na=True)
     except (OSError, ValueError, pd.errors.ParserError) as exc:
@@ -292,10 +316,12 @@ def verify_plan(
                 eff = tuple(read_effects(effects))
             source = TwinSource(rob, eff)
         elif model is not None:
-            from robolobe.tl.models import load_model
+            from robolobe.tl.models import check_model_robot, load_model
 
             pred = load_model(str(model) if str(model).upper() in ("A", "B", "C") else Path(model))
-            _check_limits(load_robot(j.robot), q, sub, where)
+            plan_robot = load_robot(j.robot)
+            check_model_robot(pred, plan_robot, "--model")
+            _check_limits(plan_robot, q, sub, where)
             source = model_file_source(pred, Path(str(model)).name)
         else:
             assert campaign is not None
@@ -396,7 +422,13 @@ def plot_verify_margin(res: VerifyResult) -> Any:
     x = np.arange(len(t))
     m_plan = t["a_lim_plan_mm"].to_numpy() / t["depth_mm"].to_numpy()
     ax.plot(x, m_plan, lw=1.0, color="0.6", label="plan's own margin")
-    ax.plot(x, t["margin"].to_numpy(), lw=1.2, color="C0", label=f"margin on {res.mode_source}")
+    ax.plot(
+        x,
+        t["margin"].to_numpy(),
+        lw=1.2,
+        color="C0",
+        label=f"margin on {plot_text(res.mode_source)}",
+    )
     bad = (t["status"] == "chatter").to_numpy()
     if np.any(bad):
         ax.plot(x[bad], t["margin"].to_numpy()[bad], "x", color="C3", label="chatter")

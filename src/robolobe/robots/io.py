@@ -18,8 +18,6 @@ from __future__ import annotations
 import logging
 import math
 import os
-import re
-import tomllib
 from importlib import resources
 from pathlib import Path
 from typing import Annotated, Any, Literal
@@ -29,8 +27,15 @@ import tomli_w
 from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
 from robolobe._atomic import not_a_file
-from robolobe._toml_errors import check_key_typos, describe_error, found, key_path
-from robolobe.errors import InputError
+from robolobe._documents import parse_toml
+from robolobe._toml_errors import (
+    PrintableText,
+    check_key_typos,
+    describe_error,
+    found,
+    key_path,
+)
+from robolobe.errors import InputError, InputTypeError
 from robolobe.robots.model import Joint, LinearConstraint, RigidBody, Robot
 from robolobe.robots.plausibility import check_inertia_range, robot_findings
 from robolobe.robots.transforms import pose_from_xyz_zyx, xyz_zyx_from_pose
@@ -120,7 +125,7 @@ class _JointSpec(_Spec):
 
 
 class _RobotSpec(_Spec):
-    name: Annotated[str, Field(min_length=1)]
+    name: Annotated[PrintableText, Field(min_length=1)]
     format: Literal["robolobe-robot/1"]
     kinematics: _KinematicsSpec
     tool: _PoseSpec = Field(default_factory=_PoseSpec)
@@ -352,24 +357,14 @@ def builtin_path(name: str) -> Path:
     return Path(str(resources.files("robolobe.data").joinpath("robots", f"{key}.toml")))
 
 
-def _parse_toml(text: str, where: str) -> dict[str, Any]:
-    try:
-        return tomllib.loads(text)
-    except tomllib.TOMLDecodeError as exc:
-        msg = str(exc)
-        m = re.search(r"line (\d+)", msg)
-        src = f"{where}:{m.group(1)}" if m else where
-        raise InputError(f"TOML syntax error: {msg}", source=src) from None
-
-
-def load_robot(spec: str | os.PathLike[str]) -> Robot:
+def load_robot(spec: str | os.PathLike[str] | Robot) -> Robot:
     """Load a built-in robot or a robot file.
 
     Parameters
     ----------
-    spec : str or path-like
+    spec : str or path-like or Robot
         ``"A"``, ``"B"``, ``"C"`` (built-in, case-insensitive) or the path of
-        a ``robolobe-robot/1`` TOML file.
+        a ``robolobe-robot/1`` TOML file (a :class:`Robot` is returned as it is).
 
     Returns
     -------
@@ -381,6 +376,10 @@ def load_robot(spec: str | os.PathLike[str]) -> Robot:
         Unreadable file, TOML syntax error (with its line) or invalid content
         (naming the key).
     """
+    if isinstance(spec, Robot):
+        return spec
+    if not isinstance(spec, str | os.PathLike):
+        raise InputTypeError("robot", "'A', 'B', 'C', a robot file's path or a Robot", spec)
     text_spec = os.fspath(spec)
     if isinstance(spec, str) and spec.upper() in BUILTIN_ROBOTS and not Path(spec).is_file():
         key = spec.upper()
@@ -399,7 +398,7 @@ def load_robot(spec: str | os.PathLike[str]) -> Robot:
         text = path.read_text(encoding="utf-8")
     except (OSError, UnicodeDecodeError) as exc:
         raise InputError(f"cannot read the file: {exc}", source=where) from None
-    return _build(_parse_toml(text, where), source, where)
+    return _build(parse_toml(text, where), source, where)
 
 
 # --------------------------------------------------------------- writing

@@ -29,7 +29,8 @@ from pathlib import Path
 
 import numpy as np
 
-from robolobe._atomic import atomic_write_text, not_a_file
+from robolobe._atomic import atomic_write_text, check_input_file
+from robolobe._frf_checks import MODAL_K_MIN_N_PER_M
 from robolobe.errors import InputError
 from robolobe.sld.frf import ModalModel
 from robolobe.sld.lobes import LobeDiagram
@@ -42,9 +43,10 @@ _DIRS = ("xx", "yy", "xy", "yx")
 #: Plausible natural frequencies of a robot or tool-point mode [Hz]: below
 #: 1 Hz is no structural mode of a milling robot (often kHz given as Hz).
 F_RANGE_HZ = (1.0, 1.0e5)
-#: Plausible magnitude of a modal stiffness [N/m]: from a very soft robot
-#: mode (~1e3) to a mode barely seen at the tool point (~1e13).
-K_RANGE_N_PER_M = (1.0e3, 1.0e13)
+#: Plausible magnitude of a modal stiffness [N/m]: from 10 N/mm
+#: (:data:`robolobe._frf_checks.MODAL_K_MIN_N_PER_M`; a value in N/mm reads
+#: 1000 times too soft) to a mode barely seen at the tool point (~1e13).
+K_RANGE_N_PER_M = (MODAL_K_MIN_N_PER_M, 1.0e13)
 
 
 def _num(text: str, where: str, column: str) -> float:
@@ -79,12 +81,9 @@ def read_modes_csv(path: str | os.PathLike[str]) -> ModalModel:
     """
     p = Path(path)
     name = str(path)
-    if p.is_dir():
-        raise InputError(f"expected a modes CSV file, found {not_a_file(p)}", source=name)
+    check_input_file(p, "a modes CSV file", name)
     try:
         text = p.read_text(encoding="utf-8-sig")
-    except FileNotFoundError:
-        raise InputError("file not found", source=name) from None
     except (OSError, UnicodeDecodeError) as exc:
         raise InputError(f"cannot read the file: {exc}", source=name) from None
     numbered = [

@@ -39,13 +39,24 @@ from robolobe.sld.frf import ModalModel
 from robolobe.sld.lobes import LobeDiagram
 from robolobe.sld.zoa import critical_depth
 
-__all__ = ["SdmSystem", "expm_batched", "sdm_lobes", "sdm_spectral_radius", "sdm_system"]
+__all__ = [
+    "MAX_SDM_INTERVALS",
+    "SdmSystem",
+    "expm_batched",
+    "sdm_lobes",
+    "sdm_spectral_radius",
+    "sdm_system",
+]
 
 FloatArray = NDArray[np.float64]
 
 _TWO_PI = 2.0 * np.pi
 # entries of the (points, D, D) monodromy matrices built at once
 _CHUNK = 1 << 22
+#: Cap on the intervals per tooth period: the state has ``2 (modes + m)``
+#: entries and each speed multiplies ``m`` such matrices, so the cost grows
+#: with ``m**4``; 40 resolves the lobes to a fraction of a percent.
+MAX_SDM_INTERVALS = 400
 
 
 @dataclass(frozen=True, eq=False)
@@ -189,15 +200,17 @@ def sdm_system(
     conditions : CuttingConditions
         Entry and exit angles.
     intervals : int, default 40
-        Intervals m per tooth period (>= 2); first-order SD converges as
-        ``O(1/m^2)``.
+        Intervals m per tooth period (2 to :data:`MAX_SDM_INTERVALS`);
+        first-order SD converges as ``O(1/m^2)``.
 
     Returns
     -------
     SdmSystem
     """
-    if int(intervals) != intervals or intervals < 2:
-        raise InputError(f"intervals: expected an integer >= 2, found {intervals!r}")
+    if int(intervals) != intervals or not 2 <= intervals <= MAX_SDM_INTERVALS:
+        raise InputError(
+            f"intervals: expected an integer 2 to {MAX_SDM_INTERVALS}, found {intervals!r}"
+        )
     m = int(intervals)
     w, z, c, b = _realize(model)
     dphi = _TWO_PI / (teeth * m)

@@ -84,9 +84,10 @@ def stability_lobes(
                 max_lobe=max_lobe,
                 immersion=conditions.immersion,
             )
+        omega_s, frf_s = _sampled(dynamics)
         return zoa_lobes(
-            dynamics[0],
-            dynamics[1],
+            omega_s,
+            frf_s,
             alpha=alpha,
             teeth=teeth,
             kt=material.kt,
@@ -121,3 +122,36 @@ def stability_lobes(
 
         return dataclasses.replace(first, a_lim=a)
     raise InputError(f"method: expected 'zoa' or 'sdm', found {method!r}")
+
+
+def _sampled(dynamics: object) -> tuple[np.ndarray, np.ndarray]:
+    """Sampled FRFs ``(omega, frf)`` checked as the file readers check measured ones."""
+    from robolobe.errors import InputTypeError
+
+    if not (isinstance(dynamics, tuple | list) and len(dynamics) == 2):
+        raise InputTypeError("dynamics", "a ModalModel or a pair (omega, frf)", dynamics)
+    try:
+        omega = np.asarray(dynamics[0], dtype=np.float64)
+        frf = np.asarray(dynamics[1], dtype=np.complex128)
+    except (TypeError, ValueError) as exc:
+        raise InputError(f"dynamics: expected numeric arrays (omega, frf), found {exc}") from None
+    if frf.ndim < 3 or frf.shape[-2:] != (2, 2) or frf.shape[-3] != omega.shape[-1]:
+        raise InputError(
+            f"dynamics: expected frf of shape (..., {omega.shape[-1] if omega.ndim else '?'}, 2, "
+            f"2) for omega of shape {omega.shape}, found {frf.shape}"
+        )
+    bad_w = ~np.isfinite(omega) | (omega < 0)
+    if bad_w.any():
+        i = int(np.argmax(bad_w.reshape(-1)))
+        raise InputError(
+            f"dynamics: omega: expected finite frequencies >= 0 rad/s, found "
+            f"{omega.reshape(-1)[i]!r} at index {i}"
+        )
+    bad = ~np.isfinite(frf)
+    if bad.any():
+        i = int(np.argmax(bad.reshape(-1)))
+        raise InputError(
+            f"dynamics: frf: expected finite receptances (m/N), found {frf.reshape(-1)[i]!r} "
+            f"at flat index {i}"
+        )
+    return omega, frf

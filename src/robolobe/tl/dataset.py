@@ -39,6 +39,7 @@ __all__ = [
     "ModalDataset",
     "TrustWarning",
     "check_dataset",
+    "check_meta_counts",
     "dataset_from_frame",
     "interpolate_gaps",
 ]
@@ -363,4 +364,22 @@ def check_dataset(
             "(check the spread columns)",
             TrustWarning,
             stacklevel=2,
+        )
+
+
+def check_meta_counts(directions: Sequence[str], n_modes: int, where: str) -> None:
+    """A model file's directions and mode count, as a fit writes them."""
+    if (
+        not directions
+        or len(set(directions)) != len(directions)
+        or set(directions) - set(DRIVING_DIRECTIONS)
+    ):
+        raise InputError(
+            "inconsistent model file: directions: expected distinct ones of "
+            f"{', '.join(DRIVING_DIRECTIONS)}, found {list(directions)}",
+            source=where,
+        )
+    if not 1 <= n_modes <= 20:
+        raise InputError(
+            f"inconsistent model file: n_modes: expected 1 to 20, found {n_modes}", source=where
         )

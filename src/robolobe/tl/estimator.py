@@ -698,12 +698,13 @@ class ModalPredictor:
 
     @classmethod
     def _from_arrays(cls, arrays: dict[str, Any], where: str) -> ModalPredictor:
-        try:
-            meta = json.loads(str(arrays["meta"]))
-        except (KeyError, json.JSONDecodeError):
-            raise InputError(
-                "not a robolobe model: no readable 'meta' entry", source=where
-            ) from None
+        from robolobe._documents import parse_json
+        from robolobe._npz import check_range
+        from robolobe.tl.dataset import check_meta_counts
+
+        if "meta" not in arrays:
+            raise InputError("not a robolobe model: no 'meta' entry", source=where)
+        meta = parse_json(str(arrays["meta"]), f"{where}[meta]")
         if meta.get("format") != MODEL_FORMAT:
             raise InputError(
                 f"format: expected {MODEL_FORMAT!r}, found {meta.get('format')!r}", source=where
@@ -725,10 +726,29 @@ class ModalPredictor:
             model.train_q_rad_ = np.asarray(arrays["train_q_rad"], dtype=float)
             loss = np.asarray([meta.get("final_train_loss", [np.nan])], dtype=float)
             model.history_ = TrainHistory(train_loss=loss, val_loss=None)
-        except (KeyError, TypeError, ValueError) as exc:
+        except InputError as exc:
+            if exc.source is not None:
+                raise
             raise InputError(f"inconsistent model file ({exc})", source=where) from None
-        nd, e = len(model.directions), int(model.n_members)
-        want = (n_features(model.features), *model.hidden, 3 * int(model.n_modes))
+        except (KeyError, TypeError, ValueError, AttributeError) as exc:
+            raise InputError(f"inconsistent model file ({exc})", source=where) from None
+        for k, v in arrays.items():
+            if k[0] in "Wb":
+                check_range(v, k, where)
+        check_range(model.calibration_, "calibration", where, low=0.0, open_low=True)
+        check_range(model.train_q_rad_, "train_q_rad", where, low=-2 * np.pi, high=2 * np.pi)
+        try:
+            check_meta_counts(tuple(model.directions), int(model.n_modes), where)
+            nd, e = len(model.directions), int(model.n_members)
+            want = (
+                n_features(model.features),
+                *(int(h) for h in model.hidden),
+                3 * int(model.n_modes),
+            )
+        except InputError:
+            raise
+        except (TypeError, ValueError, KeyError) as exc:
+            raise InputError(f"inconsistent model file (params: {exc})", source=where) from None
         if model.net_.n_models != nd * e or model.net_.sizes != want:
             raise InputError(
                 f"weights: expected {nd * e} networks of sizes {want}, found "

@@ -63,7 +63,12 @@ from robolobe._threads import one_blas_thread, with_one_blas_thread
 from robolobe.errors import ConvergenceError, InputError
 from robolobe.robots.limits import as_postures
 from robolobe.robots.model import Robot
-from robolobe.tl.dataset import DRIVING_DIRECTIONS, ModalDataset, dataset_from_frame
+from robolobe.tl.dataset import (
+    DRIVING_DIRECTIONS,
+    ModalDataset,
+    check_meta_counts,
+    dataset_from_frame,
+)
 from robolobe.tl.estimator import ModalPrediction
 from robolobe.twin.params import (
     COM_UNIT_M,
@@ -98,6 +103,26 @@ PRIOR_STD: dict[str, float] = {
     "link_mass": 0.1,
     "link_com": 0.05 / COM_UNIT_M,
 }
+
+
+def _check_covariance(theta: FloatArray, cov: FloatArray, where: str) -> None:
+    """Refuse a stored parameter covariance no fit could give (the file lies)."""
+    from robolobe._npz import check_range
+
+    # log factors (stiffness x e^theta...) and centre-of-mass shifts in 0.1 m: beyond
+    # +-10 (a factor of 22000, a 1 m shift) no calibration of a robot file lands
+    check_range(theta, "theta", where, low=-10.0, high=10.0)
+    check_range(cov, "covariance", where)
+    scale = float(np.max(np.abs(cov), initial=0.0))
+    if not np.allclose(cov, cov.T, rtol=1e-9, atol=1e-12 * scale):
+        raise InputError("inconsistent model file: covariance: expected a symmetric matrix", where)
+    low = float(np.min(np.linalg.eigvalsh(cov), initial=0.0)) if cov.size else 0.0
+    if low < -1e-9 * max(scale, 1e-300):
+        raise InputError(
+            "inconsistent model file: covariance: expected a positive semi-definite matrix "
+            f"(variances >= 0), found an eigenvalue {low:.3g}",
+            where,
+        )
 
 
 def _as_robot(robot: Robot | str | os.PathLike[str]) -> Robot:
@@ -747,16 +772,18 @@ class TwinCalibration:
         cls, meta: dict[str, Any], arrays: dict[str, Any], where: str
     ) -> TwinCalibration:
         """A fitted calibration from :meth:`state`'s output (``where`` names the file)."""
-        from robolobe.robots.io import _parse_toml, robot_from_dict
+        from robolobe._documents import parse_toml
+        from robolobe.robots.io import robot_from_dict
 
         try:
-            base = robot_from_dict(_parse_toml(str(meta["base_robot_toml"]), where), where)
+            base = robot_from_dict(parse_toml(str(meta["base_robot_toml"]), where), where)
             groups = tuple(str(g) for g in meta["groups"])
             theta = np.asarray(arrays["theta"], dtype=float)
             cov = np.asarray(arrays["covariance"], dtype=float)
             names = parameter_names(groups)
             if theta.shape != (len(names),) or cov.shape != (len(names), len(names)):
                 raise InputError(f"theta/covariance do not fit {len(names)} parameters")
+            _check_covariance(theta, cov, where)
             self = cls(robot=base, params=groups)
             self.theta_ = theta
             self.covariance_ = cov
@@ -776,13 +803,24 @@ class TwinCalibration:
             self.residual_rms_ = {str(a): float(b) for a, b in meta["residual_rms"].items()}
             self.directions_ = tuple(str(d) for d in meta["directions"])
             self.n_modes_ = int(meta["n_modes"])
+            check_meta_counts(self.directions_, self.n_modes_, where)
             self.n_postures_ = int(meta["n_postures"])
             self.n_matched_ = int(meta["n_matched"])
             self.n_unmatched_ = int(meta["n_unmatched"])
             self.at_bounds_ = tuple(str(a) for a in meta["at_bounds"])
             self.train_q_rad_ = np.asarray(arrays["train_q_rad"], dtype=float)
-        except (KeyError, TypeError, ValueError) as exc:
+        except InputError as exc:
+            if exc.source is not None:
+                raise
             raise InputError(f"inconsistent twin calibration ({exc})", source=where) from None
+        except (KeyError, TypeError, ValueError, AttributeError) as exc:
+            raise InputError(f"inconsistent twin calibration ({exc})", source=where) from None
+        if not {"f", "zeta", "k"} <= set(self.residual_rms_):
+            raise InputError(
+                "inconsistent twin calibration: residual_rms: expected f, zeta and k, found "
+                f"{sorted(self.residual_rms_)}",
+                source=where,
+            )
         return self
 
     def __repr__(self) -> str:

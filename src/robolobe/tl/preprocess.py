@@ -115,10 +115,11 @@ class MinMax:
     def from_dict(cls, d: dict[str, list[float]]) -> MinMax:
         """Rebuild from :meth:`to_dict`."""
         shape = tuple(int(s) for s in d.get("shape", [len(d["lo"])]))
-        return cls(
-            lo=np.asarray(d["lo"], dtype=float).reshape(shape),
-            hi=np.asarray(d["hi"], dtype=float).reshape(shape),
-        )
+        lo = np.asarray(d["lo"], dtype=float).reshape(shape)
+        hi = np.asarray(d["hi"], dtype=float).reshape(shape)
+        if not (np.all(np.isfinite(lo)) and np.all(np.isfinite(hi)) and np.all(hi >= lo)):
+            raise ValueError("scaler: expected finite lo <= hi")  # a stored scaler that lies
+        return cls(lo=lo, hi=hi)
 
 
 def n_features(kind: str) -> int:
@@ -279,5 +280,6 @@ class TargetTransform:
     def from_dict(cls, d: dict[str, object]) -> TargetTransform:
         """Rebuild from :meth:`to_dict`."""
         sc = d["scaler"]
-        assert isinstance(sc, dict)
+        if not isinstance(sc, dict):
+            raise TypeError(f"target_transform.scaler: expected a table, found {type(sc).__name__}")
         return cls(kind=str(d["kind"]), scaler=MinMax.from_dict(sc))

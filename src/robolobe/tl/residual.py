@@ -42,6 +42,7 @@ from __future__ import annotations
 import json
 import os
 import warnings
+import zipfile
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
@@ -52,11 +53,12 @@ from numpy.typing import ArrayLike, NDArray
 from scipy.optimize import minimize
 
 from robolobe._atomic import atomic_path
+from robolobe._npz import check_range, read_npz
 from robolobe._threads import one_blas_thread, with_one_blas_thread
 from robolobe.errors import InputError
 from robolobe.robots.limits import as_postures, within_joint_limits
 from robolobe.robots.model import Robot
-from robolobe.tl.dataset import ModalDataset
+from robolobe.tl.dataset import ModalDataset, check_meta_counts
 from robolobe.tl.estimator import ModalPrediction
 from robolobe.tl.graybox import TwinCalibration, modal_frame_dataset
 from robolobe.twin.params import K_MAX
@@ -103,12 +105,12 @@ def _frozen_nll(
 def is_corrected_twin_file(path: str | os.PathLike[str]) -> bool:
     """Whether ``path`` is a saved :class:`CorrectedTwin` (reads only its metadata)."""
     try:
-        with np.load(Path(path), allow_pickle=False) as z:
-            if "meta" not in z.files:
-                return False
-            meta = json.loads(str(z["meta"]))
-    except (OSError, ValueError):
-        return False
+        if not zipfile.is_zipfile(path):
+            return False
+        with zipfile.ZipFile(path) as zf, zf.open("meta.npy") as fh:
+            meta = json.loads(str(np.lib.format.read_array(fh, allow_pickle=False)))
+    except (OSError, ValueError, EOFError, KeyError, RecursionError, zipfile.BadZipFile):
+        return False  # not readable as a corrected twin: the readers give the reason
     return isinstance(meta, dict) and meta.get("format") == CORRECTED_TWIN_FORMAT
 
 
@@ -583,17 +585,23 @@ class CorrectedTwin:
         InputError
             Missing or unreadable file, another format, inconsistent content.
         """
+        from robolobe._documents import parse_json
+
         where = str(path)
-        try:
-            with np.load(Path(path), allow_pickle=False) as z:
-                arrays = {k: z[k] for k in z.files}
-            meta = json.loads(str(arrays["meta"]))
-        except (OSError, ValueError, KeyError) as exc:
-            raise InputError(f"cannot read the model file: {exc}", source=where) from None
-        if not isinstance(meta, dict) or meta.get("format") != CORRECTED_TWIN_FORMAT:
-            found = meta.get("format") if isinstance(meta, dict) else None
+        arrays = read_npz(path)
+        if "meta" not in arrays:
+            raise InputError("not a robolobe model: no 'meta' entry", source=where)
+        meta = parse_json(str(arrays["meta"]), f"{where}[meta]")
+        if meta.get("format") != CORRECTED_TWIN_FORMAT:
             raise InputError(
-                f"format: expected {CORRECTED_TWIN_FORMAT!r}, found {found!r}", source=where
+                f"format: expected {CORRECTED_TWIN_FORMAT!r}, found {meta.get('format')!r}",
+                source=where,
+            )
+        if not isinstance(meta.get("calibration"), dict):
+            raise InputError(
+                f"inconsistent model file: meta.calibration: expected a table, found "
+                f"{type(meta.get('calibration')).__name__}",
+                source=where,
             )
         cal = TwinCalibration.from_state(
             meta["calibration"],
@@ -618,8 +626,14 @@ class CorrectedTwin:
                 "train_q_rad",
             ):
                 setattr(self, f"{name}_", np.asarray(arrays[name], dtype=float))
-        except (KeyError, TypeError, ValueError) as exc:
+        except (KeyError, TypeError, ValueError, AttributeError) as exc:
             raise InputError(f"inconsistent model file ({exc})", source=where) from None
+        check_meta_counts(self.directions_, self.n_modes_, where)
+        if self.min_points < 1:
+            raise InputError(
+                f"inconsistent model file: min_points: expected >= 1, found {self.min_points}",
+                source=where,
+            )
         nd, nm = len(self.directions_), self.n_modes_
         n = len(self.train_q_rad_)
         if (
@@ -632,6 +646,16 @@ class CorrectedTwin:
                 "inconsistent model file: array shapes do not match the directions and modes",
                 source=where,
             )
+        # values that break the math (a singular kernel, a negative spread) are lies
+        check_range(self.length_scales_, "length_scales", where, low=0.0, open_low=True)
+        check_range(self.rho_, "rho", where, low=0.0, high=1.0, open_high=True)
+        check_range(self.alpha_, "alpha", where, low=0.0, high=1.0)
+        check_range(self.scale_, "scale", where, low=0.0, open_low=True, nan_ok=True)
+        check_range(self.loo_rmse_, "loo_rmse", where, low=0.0, nan_ok=True)
+        check_range(self.loo_rmse_twin_, "loo_rmse_twin", where, low=0.0, nan_ok=True)
+        check_range(self.loo_var_mean_, "loo_var_mean", where, low=0.0, open_low=True, nan_ok=True)
+        check_range(self.train_r_, "train_r", where, nan_ok=True)
+        check_range(self.train_q_rad_, "train_q_rad", where, low=-2 * np.pi, high=2 * np.pi)
         return self
 
     def __repr__(self) -> str:

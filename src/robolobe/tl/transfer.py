@@ -25,7 +25,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from robolobe.errors import InputError
+from robolobe.errors import InputError, InputTypeError
 from robolobe.robots import Robot, load_robot
 from robolobe.tl.dataset import ModalDataset, check_dataset, dataset_from_frame
 from robolobe.tl.estimator import ModalPredictor, transfer_network
@@ -60,13 +60,25 @@ def default_method(robot: object | None, source: object | None, method: str | No
         )
     if method not in METHODS:
         raise InputError(f"expected one of {', '.join(METHODS)}, found {method!r}", "method")
+    if source is not None and method != "network":
+        given = (
+            os.fspath(source) if isinstance(source, str | os.PathLike) else type(source).__name__
+        )
+        raise InputError(
+            f"a source network is transferred by method 'network' only; expected no source "
+            f"with method {method!r}, found {given!r}",
+            source="source",
+        )
     return method
 
 
 def _frame(modal: pd.DataFrame | str | os.PathLike[str]) -> tuple[pd.DataFrame, str]:
-    if isinstance(modal, pd.DataFrame):
-        return modal, "modal dataset"
-    from robolobe.modal.modal_csv import read_modal_csv
+    from robolobe.modal.modal_csv import read_modal_csv, validate_modal_frame
+
+    if isinstance(modal, pd.DataFrame):  # the same checks as the file's (NaN, ranges)
+        return validate_modal_frame(modal, "modal dataset"), "modal dataset"
+    if not isinstance(modal, str | os.PathLike):
+        raise InputTypeError("modal", "a modal.csv path or a pandas DataFrame", modal)
 
     return read_modal_csv(modal), os.fspath(modal)
 

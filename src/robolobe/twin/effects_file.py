@@ -17,7 +17,6 @@ form, e.g. what ``robolobe diagnose --updated-model`` found::
 from __future__ import annotations
 
 import os
-import tomllib
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
@@ -25,6 +24,7 @@ from typing import Any
 import tomli_w
 
 from robolobe._atomic import not_a_file
+from robolobe._documents import parse_toml
 from robolobe.errors import InputError
 from robolobe.twin.effects import Effect, effect_from_dict, effect_to_dict
 
@@ -63,9 +63,10 @@ def read_effects(path: str | os.PathLike[str]) -> tuple[Effect, ...]:
     if not p.is_file():
         raise InputError(f"expected an effects file (effects.toml), found {not_a_file(p)}", where)
     try:
-        doc = tomllib.loads(p.read_text(encoding="utf-8"))
-    except (tomllib.TOMLDecodeError, OSError, UnicodeDecodeError) as exc:
-        raise InputError(f"cannot read TOML: {exc}", where) from None
+        text = p.read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError) as exc:
+        raise InputError(f"cannot read the file: {exc}", where) from None
+    doc = parse_toml(text, where)
     fmt = doc.get("format")
     if fmt != EFFECTS_FORMAT:
         raise InputError(f"expected format = {EFFECTS_FORMAT!r}, found {fmt!r}", f"{where}[format]")

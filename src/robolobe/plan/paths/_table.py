@@ -328,6 +328,19 @@ def validate_waypoints(df: pd.DataFrame, source: str) -> pd.DataFrame:
             )
         return vals
 
+    def rate(col: str, cap: float, unit: str) -> FloatArray:
+        """A programmed rate: absent (NaN) or within (0, cap] (a negative feed is no feed)."""
+        vals = numeric(col, np.nan)
+        bad = ~np.isnan(vals) & ~((vals > 0) & (vals <= cap))
+        if np.any(bad):
+            r = int(np.argmax(bad))
+            raise InputError(
+                f"column {col}: expected a rate > 0 and <= {cap:g} {unit} (or empty), "
+                f"found {vals[r]:g}",
+                source=f"{source}:{file_line[r]}",
+            )
+        return vals
+
     pos = np.stack([numeric(c, None) for c in ("x_m", "y_m", "z_m")], 1)
     bad_rows = ~np.all(np.isfinite(pos), axis=1)
     if np.any(bad_rows):
@@ -392,8 +405,8 @@ def validate_waypoints(df: pd.DataFrame, source: str) -> pd.DataFrame:
             "fx": f[:, 0],
             "fy": f[:, 1],
             "fz": f[:, 2],
-            "feed_mm_per_min": numeric("feed_mm_per_min", np.nan),
-            "rpm_programmed": numeric("rpm_programmed", np.nan),
+            "feed_mm_per_min": rate("feed_mm_per_min", 1e6, "mm/min"),
+            "rpm_programmed": rate("rpm_programmed", 1e6, "rpm"),
             "motion": motion,
             "source": src,
             "line": line,

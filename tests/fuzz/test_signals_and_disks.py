@@ -1,0 +1,175 @@
+"""A run that cannot finish (a full disk, SIGTERM) leaves nothing new and no worker behind.
+
+* full disk: whichever output of a command fails, the
+  command ends in one line naming that output's option, exit code 2, and
+  the outputs this run created before it are gone;
+* SIGTERM: the command exits 143 at once, its worker processes end with it
+  and no temporary file stays.
+"""
+
+from __future__ import annotations
+
+import errno
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+from hypothesis import HealthCheck, settings
+
+from robolobe.cli.main import main
+
+ROOT = Path(__file__).resolve().parents[2]
+FUZZ = settings(
+    max_examples=4,
+    deadline=None,
+    derandomize=True,
+    suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow],
+)
+
+
+def _full_disk(*args: object, **kwargs: object) -> None:
+    raise OSError(errno.ENOSPC, "No space left on device")
+
+
+@pytest.fixture(scope="module")
+def modes_csv(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    p = tmp_path_factory.mktemp("m") / "modes.csv"
+    p.write_text("dir,mode,f_hz,zeta,k_N_per_m\nxx,1,922,0.011,1.34e6\nyy,1,922,0.011,1.34e6\n")
+    return p
+
+
+@pytest.mark.parametrize("failing", ["csv", "plot"])
+def test_sld_full_disk_leaves_nothing(
+    tmp_path: Path,
+    modes_csv: Path,
+    capsys: pytest.CaptureFixture[str],
+    monkeypatch: pytest.MonkeyPatch,
+    failing: str,
+) -> None:
+    import robolobe.sld.io
+    import robolobe.sld.plot
+
+    target = {
+        "csv": (robolobe.sld.io, "write_lobes_csv"),
+        "plot": (robolobe.sld.plot, "save_lobe_plot"),
+    }
+    monkeypatch.setattr(*target[failing], _full_disk)
+    out = tmp_path / f"o{failing}"
+    argv = ["sld", "--modes", str(modes_csv), "--teeth", "2", "--immersion", "0.5",
+            "--rpm", "5000:9000:20", "--material", "Al7075-T6",
+            "-o", str(out / "l.csv"), "--plot", str(out / "l.png")]  # fmt: skip
+    out.mkdir()
+    capsys.readouterr()
+    with pytest.raises(SystemExit) as info:
+        main(argv)
+    err = capsys.readouterr().err
+    assert info.value.code == 2, err
+    lines = [ln for ln in err.splitlines() if ln.strip()]
+    assert len(lines) == 1, err
+    option = "--output" if failing == "csv" else "--plot"
+    assert lines[0].startswith(f"error: {option}: cannot write"), err
+    assert "No space left" in lines[0]
+    assert list(out.iterdir()) == [], "an output of the failed run stayed"
+
+
+@pytest.fixture(scope="module")
+def small_campaign(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    from robolobe.campaign import write_campaign
+    from robolobe.robots import load_robot
+    from robolobe.twin.campaign import simulate_campaign
+    from robolobe.twin.model import Twin
+
+    q = np.radians([[0, 10, -20, 0, 20, 0], [30, 0, -30, 10, 30, 5], [-20, 20, -40, 0, 10, 0]])
+    camp = simulate_campaign(
+        Twin(load_robot("B")).receptance, "B", ["1", "2", "3"], q,
+        rng=np.random.default_rng(0), exact=False, dirs=("xx", "yy"), fmax_hz=40.0,
+    )  # fmt: skip
+    out = tmp_path_factory.mktemp("camp") / "camp"
+    write_campaign(out, camp, fmt="csv")
+    return out
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("failing", ["report", "updated-model"])
+def test_diagnose_full_disk_leaves_no_json(
+    tmp_path: Path,
+    small_campaign: Path,
+    capsys: pytest.CaptureFixture[str],
+    monkeypatch: pytest.MonkeyPatch,
+    failing: str,
+) -> None:
+    import robolobe.diagnose.report
+    import robolobe.diagnose.updated_model
+
+    module, name = {
+        "report": (robolobe.diagnose.report, "write_report"),
+        "updated-model": (robolobe.diagnose.updated_model, "write_updated_model"),
+    }[failing]
+    monkeypatch.setattr(module, name, _full_disk)
+    argv = ["diagnose", str(small_campaign), "--candidates", "none", "--folds", "2",
+            "--json", str(tmp_path / "d.json"), "--report", str(tmp_path / "r"),
+            "--updated-model", str(tmp_path / "u")]  # fmt: skip
+    capsys.readouterr()
+    with pytest.raises(SystemExit) as info:
+        main(argv)
+    err = capsys.readouterr().err
+    assert info.value.code == 2, err
+    assert f"error: --{failing}: cannot write" in err
+    assert sorted(p.name for p in tmp_path.iterdir()) == [], "d.json or the report stayed"
+
+
+def _descendants(pid: int) -> list[int]:
+    out = subprocess.run(["ps", "-eo", "pid=,ppid="], capture_output=True, text=True).stdout
+    children: dict[int, list[int]] = {}
+    for line in out.splitlines():
+        p, pp = (int(v) for v in line.split())
+        children.setdefault(pp, []).append(p)
+    found, todo = [], [pid]
+    while todo:
+        for c in children.get(todo.pop(), []):
+            found.append(c)
+            todo.append(c)
+    return found
+
+
+@pytest.mark.slow
+@pytest.mark.skipif(sys.platform == "win32", reason="POSIX signals")
+def test_sigterm_stops_the_workers_and_leaves_no_temporary(tmp_path: Path) -> None:
+    from robolobe.cli.main import main as _
+
+    camp = tmp_path / "camp"
+    subprocess.run(
+        [sys.executable, "-m", "robolobe.cli.main", "simulate", "B", "--design", "random",
+         "--n", "16", "-o", str(camp)],
+        check=True, capture_output=True, env={**os.environ, "PYTHONPATH": str(ROOT / "src")},
+    )  # fmt: skip
+    out = tmp_path / "modal.csv"
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "robolobe.cli.main", "identify", str(camp), "-o", str(out),
+         "--jobs", "2"],
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+        env={**os.environ, "PYTHONPATH": str(ROOT / "src")},
+    )  # fmt: skip
+    try:
+        t0 = time.monotonic()
+        while len(_descendants(proc.pid)) < 2 and time.monotonic() - t0 < 60:
+            time.sleep(0.2)  # the worker pool is up
+        workers = _descendants(proc.pid)
+        assert workers, "no worker started"
+        proc.send_signal(signal.SIGTERM)
+        _, err = proc.communicate(timeout=20)
+        assert proc.returncode == 143, err
+        assert "Traceback" not in err
+        time.sleep(3)
+        alive = [p for p in workers if Path(f"/proc/{p}").exists()]
+        assert not alive, f"workers still running 3 s after SIGTERM: {alive}"
+        assert not out.exists()
+        assert not [p.name for p in tmp_path.iterdir() if "tmp" in p.name.lower()]
+    finally:
+        if proc.poll() is None:
+            proc.kill()

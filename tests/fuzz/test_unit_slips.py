@@ -1,0 +1,169 @@
+"""Values in the wrong unit (a factor 1000 and beyond) are refused by name (hypothesis).
+
+The class: a modal stiffness written in N/mm instead of N/m (1000 times
+too soft), a receptance in mm/N or um/N instead of m/N (1000 or 1e6 times
+too large). The references are physical orders of magnitude stated here: a
+robot's modal stiffness is 1e5-1e9 N/m, its receptance's median over the
+measured band about 1e-7-1e-5 m/N.
+"""
+
+from __future__ import annotations
+
+import csv
+import shutil
+from importlib import resources
+from pathlib import Path
+
+import numpy as np
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+from robolobe.errors import InputError
+
+EX = Path(str(resources.files("robolobe.data").joinpath("examples")))
+FUZZ = settings(
+    max_examples=15,
+    deadline=None,
+    derandomize=True,
+    suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow],
+)
+
+#: Modal stiffnesses [N/m] of the modes that limit robot milling: the robot's
+#: (the twins' lowest over the shipped designs is 1.2e5 N/m) and a soft tool's,
+#: up to 1e7. A stiffer mode in N/mm reads like a soft real one (1e4 N/m and
+#: more): no reader can tell; ``sld`` then warns about its absurd depths.
+real_k = st.floats(1.2e5, 9.9e6)
+#: A unit slip: N/mm (x 1e-3) or kN/mm mixed up the other way is out of scope.
+slip = st.sampled_from([1e-3, 1e-4, 1e-5, 1e-6])
+
+
+@FUZZ
+@given(k=real_k, factor=slip)
+def test_modes_csv_stiffness_in_n_per_mm(tmp_path: Path, k: float, factor: float) -> None:
+    from robolobe.sld.io import read_modes_csv
+
+    f = tmp_path / "modes.csv"
+    good = f"dir,mode,f_hz,zeta,k_N_per_m\nxx,1,900,0.02,{k!r}\nyy,1,900,0.02,{k!r}\n"
+    f.write_text(good)
+    read_modes_csv(f)  # the real value reads
+    f.write_text(good.replace(repr(k), repr(k * factor)))
+    with pytest.raises(InputError, match="k_N_per_m") as info:
+        read_modes_csv(f)
+    assert "modes.csv" in str(info.value)
+
+
+@FUZZ
+@given(k=real_k, factor=slip)
+def test_modal_csv_stiffness_in_n_per_mm(tmp_path: Path, k: float, factor: float) -> None:
+    from robolobe.modal.modal_csv import read_modal_csv
+
+    head = "posture_id,q1_deg,q2_deg,q3_deg,q4_deg,q5_deg,q6_deg,dir,mode,f_hz,zeta,k_N_per_m\n"
+    f = tmp_path / "modal.csv"
+    f.write_text(head + f"P1,0,-60,90,0,30,0,xx,1,12.5,0.04,{k!r}\n")
+    read_modal_csv(f)
+    f.write_text(head + f"P1,0,-60,90,0,30,0,xx,1,12.5,0.04,{k * factor!r}\n")
+    with pytest.raises(InputError, match="N/mm") as info:
+        read_modal_csv(f)
+    assert "modal.csv" in str(info.value)
+
+
+@FUZZ
+@given(factor=slip)
+def test_job_tool_mode_in_n_per_mm(factor: float) -> None:
+    from robolobe.plan.job import job_from_dict, job_to_dict, load_job
+
+    d = job_to_dict(load_job(EX / "job_A_pocket.toml"))
+    d["tool"]["modes"][0]["k_N_per_m"] = 5e6 * factor  # a soft tool's mode, in N/mm
+    with pytest.raises(InputError, match="k_N_per_m"):
+        job_from_dict(d, source="j.toml")
+
+
+@pytest.fixture(scope="module")
+def csv_campaign(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    from robolobe.campaign import write_campaign
+    from robolobe.robots import load_robot
+    from robolobe.twin.campaign import simulate_campaign
+    from robolobe.twin.model import Twin
+
+    q = np.radians([[0, 10, -20, 0, 20, 0], [30, 0, -30, 10, 30, 5], [-20, 20, -40, 0, 10, 0]])
+    camp = simulate_campaign(
+        Twin(load_robot("B")).receptance, "B", ["1", "2", "3"], q,
+        rng=np.random.default_rng(0), exact=False, dirs=("xx", "yy"), fmax_hz=40.0,
+    )  # fmt: skip
+    out = tmp_path_factory.mktemp("camp") / "camp"
+    write_campaign(out, camp, fmt="csv")
+    return out
+
+
+@FUZZ
+@given(factor=st.sampled_from([1e3, 1e4, 1e6]) | st.floats(500.0, 1e7))
+def test_receptance_in_mm_per_n(tmp_path: Path, csv_campaign: Path, factor: float) -> None:
+    from robolobe.campaign import read_campaign
+
+    d = tmp_path / "c"
+    if d.exists():
+        shutil.rmtree(d)
+    shutil.copytree(csv_campaign, d)
+    with (d / "frf.csv").open() as fh:
+        rows = list(csv.reader(fh))
+    cols = [rows[0].index("re"), rows[0].index("im")]
+    for r in rows[1:]:
+        for c in cols:
+            r[c] = repr(float(r[c]) * factor)
+    with (d / "frf.csv").open("w", newline="") as fh:
+        csv.writer(fh, lineterminator="\n").writerows(rows)
+    read_campaign(csv_campaign)  # the campaign in m/N reads
+    with pytest.raises(InputError, match="mm/N") as info:
+        read_campaign(d)
+    assert "frf.csv" in str(info.value)
+
+
+@FUZZ
+@given(
+    col=st.sampled_from(["feed_mm_per_min", "rpm_programmed"]),
+    value=st.floats(max_value=0.0) | st.floats(min_value=1.01e6) | st.just(float("inf")),
+    row=st.integers(0, 2),
+)
+def test_csv_path_rate_out_of_range(tmp_path: Path, col: str, value: float, row: int) -> None:
+    from robolobe.plan.paths import read_toolpath
+
+    vals = ["1000", "1000", "1000"]
+    vals[row] = repr(value)
+    f = tmp_path / "p.csv"
+    f.write_text(
+        f"x_m,y_m,z_m,{col}\n" + "".join(f"{0.01 * i},0,0,{v}\n" for i, v in enumerate(vals))
+    )
+    with pytest.raises(InputError, match=col) as info:
+        read_toolpath(f)
+    assert f"p.csv:{row + 2}" in str(info.value)
+
+
+@FUZZ
+@given(
+    where=st.sampled_from(["omega", "frf"]),
+    value=st.sampled_from([float("nan"), float("inf"), -1.0]),
+    index=st.integers(0, 49),
+)
+def test_sampled_frf_with_nan_refused(where: str, value: float, index: int) -> None:
+    """The API refuses what the CLI's readers refuse: NaN in a sampled FRF."""
+    from robolobe.sld import CuttingConditions, get_material, stability_lobes
+
+    omega = np.linspace(100.0, 10000.0, 50)
+    wn, z, k = 2 * np.pi * 900.0, 0.02, 1e7
+    h = 1.0 / (k * (1 - (omega / wn) ** 2 + 2j * z * omega / wn))
+    frf = np.zeros((50, 2, 2), complex)
+    frf[:, 0, 0] = frf[:, 1, 1] = h
+    if where == "omega":
+        if value == -1.0:
+            value = -5.0
+        omega[index] = value
+    else:
+        if value == -1.0:
+            return  # a negative receptance is a phase, not an error
+        frf[index, 0, 0] = value
+    with pytest.raises(InputError, match=where):
+        stability_lobes(
+            (omega, frf), cutter=2, material=get_material("Al7075-T6"),
+            conditions=CuttingConditions.from_immersion(0.5, "down"), rpm=np.linspace(5e3, 2e4, 50),
+        )  # fmt: skip
