@@ -64,10 +64,17 @@ import pandas as pd
 
 from robolobe.errors import InputError
 from robolobe.plan.paths._arcs import arc_point_list
+from robolobe.plan.paths._edit import (
+    ProgramEdit,
+    fmt_num,
+    line_values,
+    link_moves,
+    sections,
+)
 from robolobe.plan.paths._table import WaypointBuilder
 from robolobe.plan.paths._text import MAX_ABS, UNIT_CHOICES, check_choice, lines, read_text
 
-__all__ = ["parse_gcode", "read_gcode"]
+__all__ = ["parse_gcode", "read_gcode", "write_gcode"]
 
 logger = logging.getLogger(__name__)
 
@@ -759,3 +766,326 @@ def read_gcode(path: str | Path, **options: float | bool | str) -> pd.DataFrame:
     """Read a G-code file (see :func:`parse_gcode` for ``options``)."""
     p = Path(path)
     return parse_gcode(read_text(p), p.name, **options)  # type: ignore[arg-type]
+
+
+# ------------------------------------------------------------------ writer
+# Controller conventions (Fanuc/Haas/LinuxCNC operator manuals; LinuxCNC's
+# interpreter applies S, F and M3 of a block before its motion): a new
+# spindle speed goes on a block of its own, "M3 Snnnn" (M4 where the spindle
+# turns counter-clockwise), before the move it applies to; F is modal and is
+# written on the motion block; no dwell is added. Changed blocks end with a
+# "(ROBOLOBE ...)" comment naming the old and new values and the margin.
+
+_SPAN = re.compile(r"([A-Za-z])(\s*=?\s*)(" + _NUM + r")")
+
+
+def _code_spans(raw: str) -> tuple[list[tuple[str, int, int]], int]:
+    """Words outside comments of a raw line: (upper letter, value start, value end).
+
+    Also the index where a ``;`` comment starts (``len(raw)`` when none).
+    """
+    out: list[tuple[str, int, int]] = []
+    depth = 0
+    start = 0
+    end = len(raw)
+    segments: list[tuple[int, int]] = []
+    for n, ch in enumerate(raw):
+        if ch == "(":
+            if depth == 0:
+                segments.append((start, n))
+            depth += 1
+        elif ch == ")":
+            depth = max(depth - 1, 0)
+            if depth == 0:
+                start = n + 1
+        elif ch == ";" and depth == 0:
+            end = n
+            break
+    if depth == 0:
+        segments.append((start, end))
+    for a, b in segments:
+        for m in _SPAN.finditer(raw, a, b):
+            out.append((m.group(1).upper(), m.start(3), m.end(3)))
+    return out, end
+
+
+def _comment_at_end(raw: str, note: str) -> str:
+    """``raw`` with ``(note)`` after its words (before a ``;`` comment)."""
+    _, semi = _code_spans(raw)
+    note = note.replace("(", "[").replace(")", "]")
+    head, tail = raw[:semi].rstrip(), raw[semi:]
+    return f"{head} ({note})" + (f" {tail}" if tail else "")
+
+
+def write_gcode(text: str, source: str, edit: ProgramEdit, *, block_delete: bool = True) -> str:
+    """Write a G-code program with the speeds, feeds and passes of ``edit``.
+
+    Parameters
+    ----------
+    text : str
+        The program as read (:func:`parse_gcode` made ``edit.waypoints`` of it).
+    source : str
+        Its file name (messages).
+    edit : ProgramEdit
+        Per move S [rpm], F [mm/min] and passes.
+    block_delete : bool
+        As the reader was told: blocks starting with ``/`` are not the program's.
+
+    Returns
+    -------
+    str
+        The new program text (line endings ``\\n``).
+
+    Raises
+    ------
+    InputError
+        Passes where the program is incremental (G91), arcs with absolute
+        centres (G90.1) or a tool axis other than Z.
+    """
+    src = lines(text)
+    vals = line_values(edit)
+    secs = sections(edit)
+    wp_lines = edit.waypoints["line"].to_numpy()
+    # modal state per line: mm per unit, per-rev feed, spindle word, absolute, motion
+    n = len(src)
+    scale = [1.0] * (n + 2)
+    per_rev = [False] * (n + 2)
+    spindle = ["M3"] * (n + 2)
+    absolute = [True] * (n + 2)
+    arc_abs = [False] * (n + 2)
+    motion = [""] * (n + 2)
+    spans: dict[int, list[tuple[str, int, int]]] = {}
+    sc, pr, sp, ab, aa, mo = 1.0, False, "M3", True, False, ""
+    for ln, raw in enumerate(src, start=1):
+        s = raw.strip()
+        deleted = block_delete and re.match(r"^(N\s*\d+\s*)?/", s, re.I) is not None
+        if s and s[0] != "%" and not deleted:
+            ws, _ = _code_spans(raw)
+            spans[ln] = ws
+            for letter, a, b in ws:
+                if letter == "G":
+                    g = round(float(raw[a:b].replace(" ", "")), 1)
+                    if g in (20.0, 70.0):
+                        sc = 25.4
+                    elif g in (21.0, 71.0):
+                        sc = 1.0
+                    elif g == 94.0:
+                        pr = False
+                    elif g == 95.0:
+                        pr = True
+                    elif g == 90.0:
+                        ab = True
+                    elif g == 91.0:
+                        ab = False
+                    elif g == 90.1:
+                        aa = True
+                    elif g == 91.1:
+                        aa = False
+                    elif g in (0.0, 1.0, 2.0, 3.0):
+                        mo = f"G{int(g)}"
+                elif letter == "M":
+                    m = round(float(raw[a:b].replace(" ", "")), 1)
+                    if m in (3.0, 4.0):
+                        sp = f"M{int(m)}"
+        scale[ln], per_rev[ln], spindle[ln], absolute[ln], arc_abs[ln], motion[ln] = (
+            sc, pr, sp, ab, aa, mo,
+        )  # fmt: skip
+
+    def f_text(ln: int) -> str:
+        rpm, f_mm, _ = vals[ln]
+        f = f_mm / scale[ln]
+        if per_rev[ln]:
+            f /= rpm
+        return fmt_num(f, 6)
+
+    def word_value(ln: int, letter: str) -> str | None:
+        for let, a, b in spans.get(ln, []):
+            if let == letter:
+                return src[ln - 1][a:b].replace(" ", "")
+        return None
+
+    cut_lines = sorted(vals)
+    # S and F words in the file: each governs the cutting lines up to the next such word
+    new_word: dict[tuple[int, str], str] = {}
+    for letter in ("S", "F"):
+        word_lines = [ln for ln in sorted(spans) if word_value(ln, letter) is not None]
+        k = 0
+        taken: set[int] = set()
+        for c in cut_lines:
+            while k < len(word_lines) and word_lines[k] <= c:
+                k += 1
+            if k == 0:
+                continue
+            w = word_lines[k - 1]
+            if w in taken:
+                continue
+            taken.add(w)
+            new_word[(w, letter)] = f"{int(vals[c][0])}" if letter == "S" else f_text(c)
+    out_lines: dict[int, str] = {}
+    before: dict[int, list[str]] = {}
+    notes: dict[int, list[str]] = {}
+    cur_s: str | None = None
+    cur_f: str | None = None
+    cut_set = set(cut_lines)
+    for ln in range(1, n + 1):
+        raw = src[ln - 1]
+        if ln not in spans:
+            continue
+        edits: list[tuple[int, int, str]] = []
+        for letter in ("S", "F"):
+            for let, a, b in spans[ln]:
+                if let != letter:
+                    continue
+                old = raw[a:b].replace(" ", "")
+                new = new_word.get((ln, letter), old)
+                if letter == "S":
+                    cur_s = new
+                else:
+                    cur_f = new
+                if _num_differs(old, new):
+                    edits.append((a, b, new))
+                    notes.setdefault(ln, []).append(f"{letter}{old}>{new}")
+        if ln in cut_set:
+            rpm, _, margin = vals[ln]
+            s_new = f"{int(rpm)}"
+            if cur_s is None or _num_differs(cur_s, s_new):
+                m_txt = f" MARGIN {margin:.2f}" if math.isfinite(margin) else ""
+                before.setdefault(ln, []).append(
+                    f"{spindle[ln]} S{s_new} (ROBOLOBE SPINDLE SPEED{m_txt})"
+                )
+                cur_s = s_new
+            f_new = f_text(ln)
+            if cur_f is None or _num_differs(cur_f, f_new):
+                edits.append((len(raw[: _code_spans(raw)[1]].rstrip()), -1, f" F{f_new}"))
+                notes.setdefault(ln, []).append(f"F{cur_f or '-'}>{f_new}")
+                cur_f = f_new
+        if edits:
+            new_raw = raw
+            for a, b, t in sorted(edits, key=lambda e: -e[0]):
+                new_raw = new_raw[:a] + t + new_raw[a:] if b < 0 else new_raw[:a] + t + new_raw[b:]
+            if ln in cut_set and math.isfinite(vals[ln][2]):
+                notes[ln].append(f"MARGIN {vals[ln][2]:.2f}")
+            out_lines[ln] = _comment_at_end(new_raw, "ROBOLOBE " + " ".join(notes[ln]))
+    # passes: copies of each section's lines, shifted along Z, with rapid links
+    pos_mm = edit.waypoints[["x_m", "y_m", "z_m"]].to_numpy(dtype=np.float64) * 1e3
+    for sec in secs:
+        first, last = int(wp_lines[sec.start]), int(wp_lines[sec.stop - 1])
+        where = f"{source}:{first}"
+        if abs(sec.axis[2] - 1.0) > 1e-9:
+            raise InputError(
+                "passes in G-code are written along Z; this section's tool axis is "
+                f"{[round(v, 6) for v in sec.axis]}",
+                source=where,
+            )
+        for ln in range(first, last + 1):
+            if not absolute[ln] or (ln > 1 and not absolute[ln - 1]):
+                raise InputError(
+                    "passes need absolute coordinates (G90); the section is incremental (G91)",
+                    source=f"{source}:{ln}",
+                )
+            if arc_abs[ln]:
+                raise InputError(
+                    "passes with absolute arc centres (G90.1) are not written", f"{source}:{ln}"
+                )
+        block: list[str] = []
+        end = pos_mm[sec.start - 1]
+        offs = sec.offsets_mm()
+        s_first = f"{int(vals[first][0])}"
+        s_varies = any(
+            _num_differs(f"{int(vals[int(c)][0])}", s_first)
+            for c in set(wp_lines[sec.start : sec.stop].tolist())
+        )
+        restate_s = f"{spindle[first]} S{s_first} (ROBOLOBE SPINDLE SPEED AT THE PASS START)"
+        for k, off in enumerate(offs, start=1):
+            sc0 = scale[first]
+            for p in link_moves(edit, sec, pos_mm, end, off):
+                block.append(
+                    f"G0 X{fmt_num(p[0] / sc0, 8)} Y{fmt_num(p[1] / sc0, 8)} "
+                    f"Z{fmt_num(p[2] / sc0, 8)} (ROBOLOBE LINK TO PASS {k} OF {len(offs)})"
+                )
+            if s_varies and k > 1:
+                block.append(restate_s)
+            if off == 0:
+                break
+            block.append(
+                f"(ROBOLOBE PASS {k} OF {len(offs)}: {fmt_num(off, 4)} MM ABOVE THE PROGRAMMED "
+                f"DEPTH, {fmt_num(sec.depth_mm / len(offs), 4)} MM PER PASS)"
+            )
+            for ln in range(first, last + 1):
+                raw = out_lines.get(ln, src[ln - 1])
+                block.extend(before.get(ln, []))
+                z_end = pos_mm[sec.start, 2] / scale[ln] + off / scale[ln]
+                block.append(
+                    _pass_copy(raw, off / scale[ln], z_end if ln == first else None,
+                               motion[ln], f_text(first))
+                )  # fmt: skip
+            end = pos_mm[sec.stop - 1] + off * np.asarray(sec.axis)
+        # the program's own pass: its first block states motion and feed (links changed them)
+        raw = out_lines.get(first, src[first - 1])
+        raw = _state_first(raw, motion[first], f_text(first))
+        out_lines[first] = raw
+        before.setdefault(first, [])[0:0] = block
+    result: list[str] = []
+    for ln in range(1, n + 1):
+        result.extend(before.get(ln, []))
+        result.append(out_lines.get(ln, src[ln - 1]))
+    return "\n".join(result) + "\n"
+
+
+_MOTION_TEXT = {"0", "00", "1", "01", "2", "02", "3", "03", "0.", "1.", "2.", "3."}
+
+
+def _num_differs(a: str, b: str) -> bool:
+    return float(a) != float(b)
+
+
+def _prefix(raw: str, word: str) -> str:
+    """``raw`` with ``word`` before its first word after a line number."""
+    m = re.match(r"^(\s*(?:[Nn]\s*\d+\s*)?)", raw)
+    k = m.end() if m else 0
+    return raw[:k] + word + " " + raw[k:]
+
+
+def _has_word(raw: str, letter: str, values: set[str] | None = None) -> bool:
+    ws, _ = _code_spans(raw)
+    return any(
+        w[0] == letter and (values is None or raw[w[1] : w[2]].strip() in values) for w in ws
+    )
+
+
+def _state_first(raw: str, motion: str, f: str) -> str:
+    """The first block of a pass with its motion word and F stated."""
+    if not _has_word(raw, "F"):
+        raw = _comment_free_append(raw, f" F{f}")
+    if not _has_word(raw, "G", _MOTION_TEXT):
+        raw = _prefix(raw, motion)
+    return raw
+
+
+def _pass_copy(raw: str, off_units: float, z_first: float | None, motion: str, f: str) -> str:
+    """A copy of a section's block for a shallower pass: Z raised, no line number.
+
+    ``z_first``: the first block's end Z [program units] (stated with its
+    motion word and F: the link before it was a rapid and the pass before
+    it ended with another feed).
+    """
+    ws, _ = _code_spans(raw)
+    out = raw
+    has_z = False
+    for letter, a, b in sorted(ws, key=lambda w: -w[1]):
+        if letter == "Z":
+            has_z = True
+            out = out[:a] + fmt_num(float(raw[a:b].replace(" ", "")) + off_units, 8) + out[b:]
+    out = re.sub(r"^\s*[Nn]\s*\d+\s*", "", out)
+    if z_first is not None:
+        if not has_z:
+            out = _comment_free_append(out, f" Z{fmt_num(z_first, 8)}")
+        out = _state_first(out, motion, f)
+    return out
+
+
+def _comment_free_append(raw: str, words: str) -> str:
+    _, semi = _code_spans(raw)
+    # before a trailing (comment): words after a comment are still words, but keep it tidy
+    head = raw[:semi].rstrip()
+    return head + words + raw[semi:]
