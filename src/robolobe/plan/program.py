@@ -46,6 +46,8 @@ from robolobe.plan.pipeline import PlanResult
 __all__ = [
     "EXTENSIONS",
     "PROGRAM_DEFAULTS",
+    "TRANSLATIONS",
+    "WRITERS",
     "ProgramText",
     "program_changes",
     "program_edit",
@@ -87,6 +89,10 @@ TRANSLATIONS: dict[str, tuple[str, ...]] = {
     "rapid": ("rapid", "table"),
     "table": ("table",),
 }
+
+
+#: Dialects whose writer is built (KRL and RAPID: not yet, see README).
+WRITERS: tuple[str, ...] = ("gcode", "apt", "table")
 
 
 def _options(res: PlanResult) -> dict[str, Any]:
@@ -301,6 +307,12 @@ def program_text(
     src = _source_path(res)
     read_fmt = detect_format(src)
     fmt = fmt or read_fmt
+    if fmt not in WRITERS:
+        raise InputError(
+            f"--program-format: writing {fmt} programs is not built yet; expected one of "
+            f"{[f for f in TRANSLATIONS.get(read_fmt, ()) if f in WRITERS]} (or --no-program)",
+            source=src.name,
+        )
     if fmt not in TRANSLATIONS.get(read_fmt, ()):
         raise InputError(
             f"--program-format: a translation from {read_fmt} to {fmt!r} is not defined; "

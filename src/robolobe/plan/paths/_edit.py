@@ -194,10 +194,15 @@ def expected_table(edit: ProgramEdit) -> pd.DataFrame:
     """The waypoint table the written program must read back to (positions, motion, S, F).
 
     Columns ``x_mm y_mm z_mm motion rpm feed_mm_per_min`` (S and F NaN on
-    rapids; link moves between passes are rapids).
+    rapids; link moves between passes are rapids), then ``i j k ox oy oz``
+    and the ``source`` and ``line`` each move was copied from.
     """
     wp = edit.waypoints
     pos = wp[["x_m", "y_m", "z_m"]].to_numpy(dtype=np.float64) * 1e3
+    extra = wp[["i", "j", "k", "ox", "oy", "oz"]].to_numpy(dtype=np.float64)
+    where = wp[["source", "line"]].to_numpy(dtype=object)
+    parts_extra: list[FloatArray] = []
+    parts_where: list[NDArray[np.object_]] = []
     motion = wp["motion"].to_numpy()
     rpm = np.where(edit.cut, edit.rpm, np.nan)
     feed = np.where(edit.cut, edit.feed_mm_per_min, np.nan)
@@ -212,10 +217,16 @@ def expected_table(edit: ProgramEdit) -> pd.DataFrame:
         parts_mot.append(motion[sl].astype(object))
         parts_rpm.append(rpm[sl])
         parts_feed.append(feed[sl])
+        parts_extra.append(extra[sl])
+        parts_where.append(where[sl])
 
-    def put_links(points: list[FloatArray]) -> None:
+    def put_links(points: list[FloatArray], sec: Section) -> None:
         if points:
             k = len(points)
+            e = np.full((k, 6), np.nan)
+            e[:, :3] = sec.axis
+            parts_extra.append(e)
+            parts_where.append(np.repeat(where[sec.start : sec.start + 1], k, axis=0))
             parts_pos.append(np.array(points))
             parts_mot.append(np.array(["rapid"] * k, dtype=object))
             parts_rpm.append(np.full(k, np.nan))
@@ -227,12 +238,14 @@ def expected_table(edit: ProgramEdit) -> pd.DataFrame:
         end = pos[sec.start - 1]
         a = np.asarray(sec.axis)
         for off in sec.offsets_mm():
-            put_links(link_moves(edit, sec, pos, end, off))
+            put_links(link_moves(edit, sec, pos, end, off), sec)
             put(slice(sec.start, sec.stop), off * a if off else None)
             end = pos[sec.stop - 1] + off * a
         prev = sec.stop
     put(slice(prev, len(wp)))
     p = np.concatenate(parts_pos)
+    e = np.concatenate(parts_extra)
+    w = np.concatenate(parts_where)
     return pd.DataFrame(
         {
             "x_mm": p[:, 0],
@@ -241,6 +254,9 @@ def expected_table(edit: ProgramEdit) -> pd.DataFrame:
             "motion": np.concatenate(parts_mot),
             "rpm": np.concatenate(parts_rpm),
             "feed_mm_per_min": np.concatenate(parts_feed),
+            **{c: e[:, n] for n, c in enumerate(("i", "j", "k", "ox", "oy", "oz"))},
+            "source": w[:, 0],
+            "line": w[:, 1].astype(np.int64),
         }
     )
 

@@ -31,11 +31,13 @@ import pandas as pd
 from numpy.typing import NDArray
 
 from robolobe.errors import InputError
+from robolobe.plan.paths._edit import ProgramEdit, expected_table
 
 __all__ = [
     "COLUMNS",
     "WaypointBuilder",
     "feed_directions",
+    "program_table",
     "segment_lengths",
     "validate_waypoints",
 ]
@@ -399,3 +401,35 @@ def validate_waypoints(df: pd.DataFrame, source: str) -> pd.DataFrame:
             "line": line,
         }
     )
+
+
+def program_table(edit: ProgramEdit) -> str:
+    """A waypoint table (CSV text) with the plan's rpm and feed per move, passes included.
+
+    The columns of :data:`COLUMNS`; ``rpm_programmed`` and
+    ``feed_mm_per_min`` hold the new values on cutting moves (the spindle
+    speed of the move before on rapids); every number at full precision.
+    """
+    exp = expected_table(edit)
+    pos = exp[["x_mm", "y_mm", "z_mm"]].to_numpy(dtype=np.float64) * 1e-3
+    ax = exp[["i", "j", "k"]].to_numpy(dtype=np.float64)
+    rpm = pd.Series(exp["rpm"].to_numpy()).ffill().to_numpy()
+    df = pd.DataFrame(
+        {
+            "x_m": pos[:, 0],
+            "y_m": pos[:, 1],
+            "z_m": pos[:, 2],
+            "i": ax[:, 0],
+            "j": ax[:, 1],
+            "k": ax[:, 2],
+            "ox": exp["ox"].to_numpy(),
+            "oy": exp["oy"].to_numpy(),
+            "oz": exp["oz"].to_numpy(),
+            "feed_mm_per_min": exp["feed_mm_per_min"].to_numpy(),
+            "rpm_programmed": rpm,
+            "motion": exp["motion"].to_numpy(),
+            "source": exp["source"].to_numpy(),
+            "line": exp["line"].to_numpy(),
+        }
+    )
+    return str(df.to_csv(index=False, float_format="%.17g"))
