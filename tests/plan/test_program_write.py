@@ -128,7 +128,9 @@ def test_passes_repeat_the_section_along_the_tool_axis(pocket) -> None:
     n = len(p0)
     assert len(p1) == 3 * n  # one section in the pocket: three copies of its moves
     for k, dz in enumerate((4.0, 2.0, 0.0)):
-        np.testing.assert_allclose(p1[k * n : (k + 1) * n], p0 + [0, 0, dz], atol=1e-6)
+        np.testing.assert_allclose(
+            p1[k * n : (k + 1) * n], p0 + np.array([0.0, 0.0, dz]), atol=1e-6
+        )
     # links are rapids at or above the section's top plus the retract clearance
     top = max(p0[:, 2].max(), 15.0)
     rapid_z = back["z_m"].to_numpy()[~bc] * 1e3
@@ -246,9 +248,7 @@ def test_pygcode_reads_the_written_program(pocket) -> None:
         if any(g.word_letter == "G" and g.word.value == 28 for g in line.block.gcodes):
             break  # machine reference: pygcode would move; the path ends here
         m.process_block(line.block)
-        if line.block.gcodes and any(g.word_letter == "G" for g in line.block.gcodes) or (
-            line.block.modal_params
-        ):
+        if any(g.word_letter == "G" for g in line.block.gcodes) or line.block.modal_params:
             p = m.pos
             ends[ln] = (p.X, p.Y, p.Z, float(m.mode.feed_rate.word.value), s_now)
     last = ours.groupby("line").tail(1)
@@ -256,7 +256,9 @@ def test_pygcode_reads_the_written_program(pocket) -> None:
     checked = 0
     for _, r in last[cut].iterrows():
         x, y, z, f, s = ends[int(r["line"])]
-        assert [x, y, z] == pytest.approx([r["x_m"] * 1e3, r["y_m"] * 1e3, r["z_m"] * 1e3], abs=1e-6)
+        assert [x, y, z] == pytest.approx(
+            [r["x_m"] * 1e3, r["y_m"] * 1e3, r["z_m"] * 1e3], abs=1e-6
+        )
         assert f == pytest.approx(r["feed_mm_per_min"])
         assert s == pytest.approx(r["rpm_programmed"])
         checked += 1

@@ -596,7 +596,15 @@ class Job:
 def _check_typos(raw: dict[str, Any], where: str) -> None:
     tables: list[tuple[Any, set[str], str]] = [(raw, _KNOWN_KEYS[""], "")]
     for sec in (
-        "robot", "placement", "tool", "material", "cut", "spindle", "plan", "path", "program"
+        "robot",
+        "placement",
+        "tool",
+        "material",
+        "cut",
+        "spindle",
+        "plan",
+        "path",
+        "program",
     ):
         tables.append((raw.get(sec), _KNOWN_KEYS[sec], f"{sec}."))
     tool = raw.get("tool")

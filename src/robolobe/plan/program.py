@@ -218,11 +218,11 @@ def program_edit(
     feed[~cut] = np.nan
     bad = cut & ~(np.isfinite(feed) & (feed > 0) & np.isfinite(rpm) & (rpm > 0))
     if np.any(bad):
-        r = int(np.argmax(bad))
+        i = int(np.argmax(bad))
         raise InputError(
-            f"expected a spindle speed and feed for every cutting move, found S = {rpm[r]:g}, "
-            f"F = {feed[r]:g} mm/min",
-            source=f"{wp['source'].iloc[r]}:{wp['line'].iloc[r]}",
+            f"expected a spindle speed and feed for every cutting move, found S = {rpm[i]:g}, "
+            f"F = {feed[i]:g} mm/min",
+            source=f"{wp['source'].iloc[i]}:{wp['line'].iloc[i]}",
         )
     # passes
     if passes is None and "passes" in tab.columns:
@@ -347,21 +347,6 @@ def _write(
         from robolobe.plan.paths.apt import write_apt
 
         out[name + ".apt"] = write_apt(text, src.name, edit)
-    elif fmt == "krl":
-        from robolobe.plan.paths.krl import write_krl
-
-        dat = src.with_suffix(".dat")
-        if not dat.is_file():
-            dat = src.with_suffix(".DAT")
-        dat_text = _text.read_text(dat) if dat.is_file() else None
-        src_out, dat_out = write_krl(text, src.name, edit, name=name, dat=dat_text)
-        out[name + ".src"] = src_out
-        if dat_out is not None:
-            out[name + ".dat"] = dat_out
-    elif fmt == "rapid":
-        from robolobe.plan.paths.rapid import write_rapid
-
-        out[name + ".mod"] = write_rapid(text, src.name, edit)
     return out
 
 
@@ -387,7 +372,7 @@ def _check(
 ) -> None:
     """Read the written program back; it must give ``expected_table(edit)``."""
     exp = expected_table(edit)
-    got = _reread(files, fmt, name, {**opts, **_reader_analog(edit, fmt)})
+    got = _reread(files, fmt, name, opts)
     where = f"{name}{EXTENSIONS[fmt]} (written from {source})"
     if len(got) != len(exp):
         raise RuntimeError(
@@ -407,21 +392,11 @@ def _check(
         r = int(np.argmax(bad))
         raise RuntimeError(
             f"{where}: move {r} (line {got['line'].iloc[r]}) reads back as "
-            f"{p[r].round(6).tolist()} mm {got['motion'].iloc[r]} S{got['rpm_programmed'].iloc[r]:g} "
+            f"{p[r].round(6).tolist()} mm {got['motion'].iloc[r]} "
+            f"S{got['rpm_programmed'].iloc[r]:g} "
             f"F{got['feed_mm_per_min'].iloc[r]:g}, expected {q[r].round(6).tolist()} mm "
             f"{exp['motion'].iloc[r]} S{exp['rpm'].iloc[r]:g} F{exp['feed_mm_per_min'].iloc[r]:g}"
         )
-
-
-def _reader_analog(edit: ProgramEdit, fmt: str) -> dict[str, Any]:
-    """Reader options that turn the written analog output back into rpm (KRL, RAPID)."""
-    if fmt not in ("krl", "rapid"):
-        return {}
-    o = edit.options
-    return {
-        "spindle_output": o.get("analog_output"),
-        "spindle_rpm_per_unit": float(o["analog_rpm_full_scale"]) / float(o["analog_full_scale"]),
-    }
 
 
 def write_program(
@@ -464,7 +439,7 @@ def write_program(
     if not p.suffix:
         p = p.with_suffix(EXTENSIONS[fmt0])
     files = program_text(plan, fmt0, edit=edit, name=p.stem)
-    for fname, text in files.items():
+    for fname in files:
         target = p.with_name(fname) if fname != p.stem + EXTENSIONS[fmt0] else p
         if target.is_dir():
             raise InputError(
@@ -523,4 +498,3 @@ def program_changes(res: PlanResult, edit: ProgramEdit | None = None) -> pd.Data
             "passes": edit.passes[first],
         }
     )[changed].reset_index(drop=True)
-

@@ -20,9 +20,9 @@ Agg canvas), so nothing global is touched and workers may plot in parallel.
 from __future__ import annotations
 
 import base64
-import logging
 import html
 import json
+import logging
 import os
 from collections.abc import Callable
 from pathlib import Path

@@ -586,7 +586,7 @@ def write_apt(text: str, source: str, edit: ProgramEdit) -> str:
     vals = line_values(edit)
     # the statement a move's new records go before: its CIRCLE/ when it has one
     insert_at: dict[int, int] = {}
-    for k, (ln, stmt) in enumerate(stmts):
+    for k, (ln, _) in enumerate(stmts):
         if ln in vals:
             prev = stmts[k - 1] if k else None
             insert_at[ln] = prev[0] if prev and _apt_head(prev[1]) == "CIRCLE" else ln
@@ -649,7 +649,10 @@ def write_apt(text: str, source: str, edit: ProgramEdit) -> str:
             m_txt = f", MARGIN {margin:.2f}" if math.isfinite(margin) else ""
             if cur_s is None or rpm != cur_s:
                 before.setdefault(at, []).extend(
-                    [f"$$ ROBOLOBE SPINDLE SPEED{m_txt}", f"SPINDL/ {fmt_num(rpm, 0)},RPM,{direction}"]
+                    [
+                        f"$$ ROBOLOBE SPINDLE SPEED{m_txt}",
+                        f"SPINDL/ {fmt_num(rpm, 0)},RPM,{direction}",
+                    ]
                 )
                 cur_s = rpm
             f = float(fmt_num(fed_value(ln, feed_unit), 6))
