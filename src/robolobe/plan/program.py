@@ -92,7 +92,7 @@ TRANSLATIONS: dict[str, tuple[str, ...]] = {
 
 
 #: Dialects whose writer is built (KRL and RAPID: not yet, see README).
-WRITERS: tuple[str, ...] = ("gcode", "apt", "table")
+WRITERS: tuple[str, ...] = ("gcode", "apt", "krl", "table")
 
 
 def _options(res: PlanResult) -> dict[str, Any]:
@@ -347,6 +347,17 @@ def _write(
         from robolobe.plan.paths.apt import write_apt
 
         out[name + ".apt"] = write_apt(text, src.name, edit)
+    elif fmt == "krl":
+        from robolobe.plan.paths.krl import write_krl
+
+        dat = next(
+            (q for q in (src.with_suffix(".dat"), src.with_suffix(".DAT")) if q.is_file()), None
+        )
+        dat_text = _text.read_text(dat) if dat is not None else None
+        src_out, dat_out = write_krl(text, src.name, edit, name=name, dat=dat_text)
+        out[name + ".src"] = src_out
+        if dat_out is not None:
+            out[name + ".dat"] = dat_out
     return out
 
 
@@ -372,7 +383,7 @@ def _check(
 ) -> None:
     """Read the written program back; it must give ``expected_table(edit)``."""
     exp = expected_table(edit)
-    got = _reread(files, fmt, name, opts)
+    got = _reread(files, fmt, name, {**opts, **_analog_options(edit, fmt)})
     where = f"{name}{EXTENSIONS[fmt]} (written from {source})"
     if len(got) != len(exp):
         raise RuntimeError(
@@ -397,6 +408,17 @@ def _check(
             f"F{got['feed_mm_per_min'].iloc[r]:g}, expected {q[r].round(6).tolist()} mm "
             f"{exp['motion'].iloc[r]} S{exp['rpm'].iloc[r]:g} F{exp['feed_mm_per_min'].iloc[r]:g}"
         )
+
+
+def _analog_options(edit: ProgramEdit, fmt: str) -> dict[str, Any]:
+    """Reader options that read the written analog spindle output back as rpm (KRL, RAPID)."""
+    o = edit.options
+    if fmt not in ("krl", "rapid") or o.get("analog_output") is None:
+        return {}
+    return {
+        "spindle_output": str(o["analog_output"]),
+        "spindle_rpm_per_unit": float(o["analog_rpm_full_scale"]) / float(o["analog_full_scale"]),
+    }
 
 
 def write_program(

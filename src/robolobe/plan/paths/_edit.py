@@ -37,6 +37,7 @@ __all__ = [
     "fmt_num",
     "line_values",
     "link_moves",
+    "modal_values",
     "sections",
 ]
 
@@ -291,3 +292,58 @@ def fmt_num(v: float, decimals: int = 6) -> str:
     if s in ("-0.", "-0"):
         s = "0."
     return s
+
+
+def modal_values(
+    setters: dict[int, str | None], want: dict[int, str]
+) -> tuple[dict[int, str], dict[int, str]]:
+    """Where a modal value (a speed, a feed) is set and where it must be set anew.
+
+    Parameters
+    ----------
+    setters : dict of int to str or None
+        Lines of the program's own statements that set the value: their text
+        (editable) or None (set to something the writer does not edit: a
+        variable, another form).
+    want : dict of int to str
+        The value each cutting line needs (text as the writer writes it).
+
+    Returns
+    -------
+    edits, inserts : dict of int to str
+        New text for an editable setter (the value of the first cutting line
+        it governs, when it governs one and differs), and the value to set
+        anew before a cutting line where the value in effect differs.
+    """
+    events = sorted({*setters, *want})
+    first_after: dict[int, int] = {}
+    last: int | None = None
+    for ln in events:
+        if ln in setters:
+            last = ln
+        if ln in want and last is not None and last not in first_after:
+            first_after[last] = ln
+    edits: dict[int, str] = {}
+    inserts: dict[int, str] = {}
+    cur: str | None = None
+    for ln in events:
+        if ln in setters:
+            old = setters[ln]
+            if old is None:
+                cur = None
+            else:
+                new = want[first_after[ln]] if ln in first_after else old
+                if ln in first_after and _differs(old, new):
+                    edits[ln] = new
+                cur = new
+        if ln in want and (cur is None or _differs(cur, want[ln])):
+            inserts[ln] = want[ln]
+            cur = want[ln]
+    return edits, inserts
+
+
+def _differs(a: str, b: str) -> bool:
+    try:
+        return float(a) != float(b)
+    except ValueError:
+        return a != b
