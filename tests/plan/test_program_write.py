@@ -311,7 +311,7 @@ def test_bad_inputs_write_nothing(tmp_path) -> None:
     target.write_text("previous\n")
     with pytest.raises(InputError, match="translation from gcode to 'apt' is not defined"):
         write_program(res, target, fmt="apt")
-    with pytest.raises(InputError, match="not built yet"):
+    with pytest.raises(InputError, match="translation from gcode to 'krl' is not defined"):
         write_program(res, target, fmt="krl")
     (tmp_path / "adir.nc").mkdir()
     with pytest.raises(InputError, match="expected a program file to write"):

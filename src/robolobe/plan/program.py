@@ -92,7 +92,7 @@ TRANSLATIONS: dict[str, tuple[str, ...]] = {
 
 
 #: Dialects whose writer is built (KRL and RAPID: not yet, see README).
-WRITERS: tuple[str, ...] = ("gcode", "apt", "krl", "table")
+WRITERS: tuple[str, ...] = ("gcode", "apt", "krl", "rapid", "table")
 
 
 def _options(res: PlanResult) -> dict[str, Any]:
@@ -358,6 +358,10 @@ def _write(
         out[name + ".src"] = src_out
         if dat_out is not None:
             out[name + ".dat"] = dat_out
+    elif fmt == "rapid":
+        from robolobe.plan.paths.rapid import write_rapid
+
+        out[name + ".mod"] = write_rapid(text, src.name, edit)
     return out
 
 

@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 import pandas as pd
@@ -80,7 +81,7 @@ class ProgramEdit:
     passes: IntArray
     depth_mm: FloatArray
     retract_mm: float = 5.0
-    options: dict[str, object] = field(default_factory=dict)
+    options: dict[str, Any] = field(default_factory=dict)
 
     @property
     def cut(self) -> NDArray[np.bool_]:

@@ -801,7 +801,7 @@ def write_krl(
             source=source,
         )
     n = _anout_index(opt["analog_output"])
-    per_unit = float(opt["analog_rpm_full_scale"]) / float(opt.get("analog_full_scale", 1.0))  # type: ignore[arg-type]
+    per_unit = float(opt["analog_rpm_full_scale"]) / float(opt.get("analog_full_scale", 1.0))
     src = lines(text)
     vals = line_values(edit)
     s_want = {ln: fmt_num(v[0] / per_unit, 12) for ln, v in vals.items()}
