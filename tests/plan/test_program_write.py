@@ -277,13 +277,17 @@ def test_table_program_has_rpm_and_feed_columns(pocket, tmp_path) -> None:
 def _rw_programs() -> list[Path]:
     if not RW.is_dir():
         return []
-    return sorted([*(RW / "gcode").glob("*"), *(RW / "apt").glob("*")])
+    files = [p for d in ("gcode", "apt", "krl", "rapid") for p in sorted((RW / d).glob("*"))]
+    return [p for p in files if p.suffix.lower() != ".dat"]
 
 
 @pytest.mark.slow
 @pytest.mark.parametrize("path", _rw_programs(), ids=lambda p: p.name)
 def test_real_programs_round_trip(path) -> None:
-    """Every real G-code/APT program robolobe reads comes back with a test-set S/F per move."""
+    """Every real program robolobe reads comes back with a test-set S/F per move."""
+    from robolobe.plan.paths.krl import parse_krl, write_krl
+    from robolobe.plan.paths.rapid import parse_rapid, write_rapid
+
     try:
         wp = read_toolpath(path)
     except InputError:
@@ -292,13 +296,28 @@ def test_real_programs_round_trip(path) -> None:
     if not (wp["motion"] == "cut").any():
         pytest.skip("no cutting move")
     edit = _edit(wp, lambda ln: 8000 + 7 * (ln % 50), lambda ln: 500.0 + ln % 13)
-    fmt = "apt" if path.parent.name == "apt" else "gcode"
-    if fmt == "gcode":
-        out = write_gcode(text, path.name, edit)
-        back = parse_gcode(out, path.name)
+    kind = path.parent.name
+    if kind == "gcode":
+        back = parse_gcode(write_gcode(text, path.name, edit), path.name)
+    elif kind == "apt":
+        back = parse_apt(write_apt(text, path.name, edit), path.name)
+    elif kind == "krl":
+        edit = _with_options(edit, **ANALOG)
+        dat_path = next((q for q in path.parent.glob(path.stem + ".[dD][aA][tT]")), None)
+        dat = dat_path.read_text(encoding="utf-8", errors="replace") if dat_path else None
+        src, dat_out = write_krl(text, path.name, edit, name="program", dat=dat)
+        back = parse_krl(
+            src, "program.src", dat=dat_out, spindle_output="3", spindle_rpm_per_unit=20000.0
+        )
     else:
-        out = write_apt(text, path.name, edit)
-        back = parse_apt(out, path.name)
+        edit = _with_options(edit, analog_output="aoS", analog_rpm_full_scale=24000.0)
+        try:
+            out = write_rapid(text, path.name, edit)
+        except InputError as exc:
+            assert "TriggL/TriggC" in str(exc) or "first line" in str(exc)
+            edit = _with_options(edit, rapid_sync="setao")
+            out = write_rapid(text, path.name, edit)
+        back = parse_rapid(out, path.name, spindle_output="aoS", spindle_rpm_per_unit=24000.0)
     _roundtrip(back, edit)
 
 
@@ -331,3 +350,108 @@ def test_changes_table_lists_where_values_are_set(pocket) -> None:
     assert len(ch) >= 1
     assert ch["line"].is_monotonic_increasing
     assert (ch["rpm_new"] > 0).all()
+
+
+# ------------------------------------------------------------------ KRL and RAPID
+ANALOG = {"analog_output": "3", "analog_rpm_full_scale": 20000.0, "analog_full_scale": 1.0}
+
+KRL_NO_DAT = """DEF flat( )
+$VEL.CP = 0.2
+PTP {X 0, Y 0, Z 20, A 0, B 0, C 180}
+$VEL.CP = 0.01
+LIN {X 0, Y 0, Z -2} C_DIS
+LIN {X 50, Y 0, Z -2} C_DIS
+LIN {X 50, Y 30, Z -2} WITH $VEL = SVEL_CP(0.02, , LCPDAT1) C_DIS
+CIRC {X 60, Y 40, Z -2}, {X 50, Y 50, Z -2} C_DIS
+LIN {X 0, Y 50, Z -2} C_DIS
+PTP {Z 20}
+END
+"""
+
+
+def _with_options(edit: ProgramEdit, **opts) -> ProgramEdit:
+    return dataclasses.replace(edit, options={**edit.options, **opts})
+
+
+def test_krl_without_dat_schedule_round_trip() -> None:
+    from robolobe.plan.paths.krl import parse_krl, write_krl
+
+    wp = parse_krl(KRL_NO_DAT, "flat.src")
+    rpm = {5: 12000, 6: 12000, 7: 13000, 8: 14000, 9: 14000}
+    edit = _with_options(_edit(wp, lambda ln: rpm.get(ln, 0), lambda ln: 600.0 + 10 * ln), **ANALOG)
+    src, dat = write_krl(KRL_NO_DAT, "flat.src", edit, name="program")
+    assert dat is None
+    back = parse_krl(src, "program.src", spindle_output="3", spindle_rpm_per_unit=20000.0)
+    _roundtrip(back, edit)
+    text = src.splitlines()
+    assert text[0].startswith("DEF program( )")
+    # the first speed before the first motion; changes path-synchronous before their motion
+    k = next(i for i, s in enumerate(text) if s.startswith("PTP"))
+    assert text[k - 1].startswith("$ANOUT[3] = 0.6 ")
+    trig = [s for s in text if s.startswith("TRIGGER WHEN DISTANCE=0 DELAY=0 DO $ANOUT[3]")]
+    assert [s.split("=")[3].split(";")[0].strip() for s in trig] == ["0.65", "0.7"]
+    assert "SVEL_CP(0.011166666667" in src  # the motion's own velocity, edited in place
+
+
+def test_krl_with_dat_plan_round_trip(tmp_path) -> None:
+    import tomllib
+
+    from robolobe.plan.job import job_from_dict
+
+    d = tomllib.loads((EX / "job_A_slot_steel.toml").read_text())
+    d["program"] = ANALOG
+    job = job_from_dict(d, source=str(EX / "job_A_slot_steel.toml"), base_dir=EX)
+    res = plan_path(EX / "slot.src", job, refine=False)
+    out = write_program(res, tmp_path / "slotp")
+    assert out.name == "slotp.src" and (tmp_path / "slotp.dat").is_file()
+    assert "DEFDAT  slotp" in (tmp_path / "slotp.dat").read_text()
+    back = read_toolpath(out, spindle_output="3", spindle_rpm_per_unit=20000.0)
+    _roundtrip(back, program_edit(res))
+    # without the scaling keys: refused by name, nothing written
+    job2 = job.replace(program_options={})
+    res2 = plan_path(EX / "slot.src", job2, refine=False)
+    with pytest.raises(InputError, match="analog_output"):
+        write_program(res2, tmp_path / "none")
+    assert not list(tmp_path.glob("none*"))
+
+
+RAPID_MOD = """MODULE M
+    CONST speeddata vCut:=[20,300,4000,900];
+    CONST robtarget p0:=[[0,0,-1],[0,0,1,0],[0,0,0,0],[9E+09,9E+09,9E+09,9E+09,9E+09,9E+09]];
+    PROC main()
+        MoveJ Offs(p0,0,0,30), v500, z20, tool0;
+        MoveL p0, v10, fine, tool0;
+        MoveL Offs(p0,100,0,0), vCut, z1, tool0;
+        MoveC Offs(p0,120,20,0), Offs(p0,100,40,0), vCut, z1, tool0;
+        MoveL Offs(p0,0,40,0), vCut\\V:=30, z1, tool0;
+        MoveL Offs(p0,0,40,30), v200, z10, tool0;
+    ENDPROC
+ENDMODULE
+"""
+
+
+@pytest.mark.parametrize("sync", ["triggio", "setao"])
+def test_rapid_movel_movec_triggl_round_trip(sync) -> None:
+    from robolobe.plan.paths.rapid import parse_rapid, write_rapid
+
+    wp = parse_rapid(RAPID_MOD, "m.mod")
+    rpm = {6: 9000, 7: 9000, 8: 10000, 9: 11000, 10: 11000}
+    edit = _with_options(
+        _edit(wp, lambda ln: rpm.get(ln, 0), lambda ln: 900.0 + ln),
+        analog_output="aoSpindle",
+        analog_rpm_full_scale=24000.0,
+        analog_full_scale=10.0,
+        rapid_sync=sync,
+    )
+    out = write_rapid(RAPID_MOD, "m.mod", edit)
+    back = parse_rapid(out, "m.mod", spindle_output="aoSpindle", spindle_rpm_per_unit=2400.0)
+    _roundtrip(back, edit)
+    assert "CONST speeddata vRl1:=[15.1,300,4000,900]" not in out  # v10 is not vCut
+    assert re.search(r"speeddata vRl\d:=\[15\.1,500,5000,1000\]", out)  # v10's defaults kept
+    assert re.search(r"speeddata vRl\d:=\[15\.133333333,300,4000,900\]", out)  # vCut's kept
+    if sync == "triggio":
+        assert "TriggC Offs(p0,120,20,0)" in out and "TriggL Offs(p0,0,40,0)," in out
+        assert "MoveL Offs(p0,0,40,30)" in out  # no change of speed there: a plain move
+        assert out.count("TriggIO trRobolobeSpindle, 0 \\Start \\AOp:=aoSpindle") == 2
+    else:
+        assert "Trigg" not in out and out.count("SetAO aoSpindle") == 3
