@@ -83,6 +83,8 @@ Example (all keys; defaults shown where a key is optional)::
     circle_axis = "auto"         # "auto" | "cw" | "ccw": APT CIRCLE sense about i,j,k
                                  # (NX: cw, CATIA: ccw; auto: from tangency)
     arc_tol_mm = 0.01            # chord tolerance of linearised arcs
+    cutter_radius_mm = 10.0      # G-code G41/G42: the D register's radius (tool radius for a
+                                 # part-contour program); without it G41/G42 are refused
 
     [program]                    # the program robolobe writes (optional; robolobe.plan.program)
     min_segment_mm = 10.0        # a new spindle speed holds for at least this cutting length
@@ -295,6 +297,9 @@ class _PathSpec(_Spec):
     rotary_axes: Literal["auto", "head", "table"] | None = None
     circle_axis: Literal["auto", "cw", "ccw"] | None = None
     arc_tol_mm: Annotated[float, Field(gt=0, le=10, allow_inf_nan=False, strict=True)] | None = None
+    cutter_radius_mm: (
+        Annotated[float, Field(ge=0, le=1000, allow_inf_nan=False, strict=True)] | None
+    ) = None
 
 
 class _ProgramSpec(_Spec):

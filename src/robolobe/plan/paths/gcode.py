@@ -32,9 +32,16 @@ Supported (Fanuc/Haas/Siemens-ISO/LinuxCNC milling programs as CAM posts write t
   without TCP.
   A rotary-only rapid without TCP (indexing before TCP is switched on) only
   sets the angles. A program uses I/J/K vectors or A/B/C words, not both.
+- cutter radius compensation G41/G42 (G40 cancels) in G17, applied as the
+  controller applies it (:mod:`robolobe.plan.paths._compensation`: offset
+  lines and arcs, arcs around outside corners, intersections at inside
+  ones, straight entry and exit moves) with the radius of the reader option
+  ``cutter_radius_mm`` (job ``[path] cutter_radius_mm``: the D register's
+  radius, whatever the D word); without it G41/G42 are refused, naming
+  that key.
 - ignored on purpose (no effect on the path), each with a note in the
   summary where it is unusual: G4 dwell, G10 blocks (offset data; the whole
-  block, L2/L10/L20...), G15, G40, G43/G44/G49, G54-G59.9, G54.1/G154 (work
+  block, L2/L10/L20...), G15, G40 without compensation on, G43/G44/G49, G54-G59.9, G54.1/G154 (work
   offsets), G61/G64, G80, G98/G99, G17.1, G5.1 Q.. (Fanuc AI contour
   control, no axis words), G5 P.. (Fanuc high-precision mode), G08 P..
   (look-ahead), G103 (look-ahead limit), G187 (smoothness), G255 (cancel
@@ -45,10 +52,11 @@ Supported (Fanuc/Haas/Siemens-ISO/LinuxCNC milling programs as CAM posts write t
 Refused with :class:`~robolobe.errors.InputError` naming ``file:line`` and
 the construct: macros ``#``, expressions ``[ ]``, ``IF``/``GOTO``/``WHILE``,
 O-word subroutines, splines and NURBS (LinuxCNC G5/G5.1/G5.2 with axis
-words, Fanuc G6.2), canned cycles G73-G89, cutter compensation G41/G42,
-inverse-time feed G93, polar/rotated/cylindrical coordinates
-G16/G68/G12.1/G7.1, subprograms M98, Heidenhain conversational, F <= 0,
-S < 0, non-finite or absurd numbers.
+words, Fanuc G6.2), canned cycles G73-G89, G41/G42 without
+``cutter_radius_mm`` (or outside G17, with a helical arc, or where the
+cutter does not fit an inside corner or arc), inverse-time feed G93,
+polar/rotated/cylindrical coordinates G16/G68/G12.1/G7.1, subprograms M98,
+Heidenhain conversational, F <= 0, S < 0, non-finite or absurd numbers.
 """
 
 from __future__ import annotations
@@ -64,6 +72,7 @@ import pandas as pd
 
 from robolobe.errors import InputError
 from robolobe.plan.paths._arcs import arc_point_list
+from robolobe.plan.paths._compensation import Element, compensate
 from robolobe.plan.paths._edit import (
     ProgramEdit,
     fmt_num,
@@ -94,7 +103,7 @@ _UNSUPPORTED_KEYWORDS = re.compile(
 _PROGRAM_NAME = re.compile(r"^(?:O[A-Z0-9_.\-]+|O\s+\d+|:\s*\d+)\s*")
 
 # G codes accepted without effect on the geometry (no note: routine in posts)
-_G_IGNORED = {4.0, 15.0, 17.1, 40.0, 43.0, 44.0, 49.0, 61.0, 61.1, 64.0, 80.0, 98.0, 99.0}
+_G_IGNORED = {4.0, 15.0, 17.1, 43.0, 44.0, 49.0, 61.0, 61.1, 64.0, 80.0, 98.0, 99.0}
 _G_IGNORED |= (
     {54.1} | {float(g) for g in range(54, 60)} | {round(54 + k / 10, 1) for k in range(1, 10)}
 )
@@ -111,8 +120,6 @@ _G_MODE_WORDS = {5.0, 5.1, 8.0, 103.0, 154.0, 187.0}
 # tool centre point control / dynamic work offset on: X/Y/Z are tip positions in the part frame
 _G_TCP_ON = {43.4: "G43.4 TCP", 43.5: "G43.5 TCP", 234.0: "G234 TCPC", 254.0: "G254 DWO"}
 _G_UNSUPPORTED = {
-    41.0: "cutter radius compensation G41 (post the path with compensation applied)",
-    42.0: "cutter radius compensation G42 (post the path with compensation applied)",
     93.0: "inverse-time feed G93",
     16.0: "polar coordinates G16",
     68.0: "coordinate rotation G68",
@@ -167,6 +174,11 @@ class _State:
     tcp: bool = False
     wcs: float | None = None  # active work offset (G54 ...)
     ended: bool = False
+    comp: int = 0  # cutter radius compensation: 0 off, 41 left, 42 right
+    comp_radius: float | None = None  # [mm], reader option cutter_radius_mm
+    comp_where: str = ""
+    comp_moves: list[Element] = field(default_factory=list)  # entry, then the contour
+    comp_exit_next: bool = False  # G40 without motion: the next move is the exit move
 
 
 def _strip_comments(raw: str, where: str) -> str:
@@ -218,6 +230,7 @@ def parse_gcode(
     units: str = "auto",
     no_decimal_scale: float = 1.0,
     rotary_axes: str = "auto",
+    cutter_radius_mm: float | None = None,
 ) -> pd.DataFrame:
     """Read G-code text into the waypoint table.
 
@@ -240,6 +253,11 @@ def parse_gcode(
         10 units; 0.001: classic Fanuc, ``X10`` is 0.010 mm).
     rotary_axes : {"auto", "head", "table"}
         How A/B/C words are read (see the module docstring).
+    cutter_radius_mm : float, optional
+        The radius the controller's D register holds for G41/G42 (job key
+        ``[path] cutter_radius_mm``): the tool radius where the program is
+        the part contour, the wear value where it is the tool centre. Without
+        it, G41/G42 are refused.
 
     Returns
     -------
@@ -255,6 +273,11 @@ def parse_gcode(
     check_choice("units", units, UNIT_CHOICES)
     check_choice("rotary_axes", rotary_axes, _ROTARY_CHOICES)
     st = _State(scale=25.4 if units == "inch" else 1.0)
+    if cutter_radius_mm is not None and not (0.0 <= float(cutter_radius_mm) <= 1000.0):
+        raise InputError(
+            f"cutter_radius_mm: expected a radius 0 to 1000 mm, found {cutter_radius_mm!r}"
+        )
+    st.comp_radius = None if cutter_radius_mm is None else float(cutter_radius_mm)
     out = WaypointBuilder(source)
     seen_motion = False
     last_pct = False
@@ -301,6 +324,13 @@ def parse_gcode(
         if block(words, st, out, lineno, arc_tol_mm, no_decimal_scale, rotary_axes):
             st.ended = True
             break
+    if st.comp:
+        out.warn(
+            f"G{st.comp} cutter radius compensation not cancelled by G40: the last move ends "
+            "offset",
+            None,
+        )
+        _comp_flush(st, out, None, arc_tol_mm)
     df = out.table()
     if not st.ended and not last_pct:
         out.warn(
@@ -393,6 +423,8 @@ def _fast_line(
         motion not in (0, 1)
         or st.vector_mode == "abc"
         or not ("X" in seen or "Y" in seen or "Z" in seen)
+        or st.comp
+        or st.comp_exit_next
     ):
         return False
     st.motion = motion
@@ -436,6 +468,7 @@ def _block(
     dwell = False
     home = False
     g92: float | None = None
+    comp_word: float | None = None
     for g in g_codes:
         if g in (0.0, 1.0, 2.0, 3.0):
             st.motion = int(g)
@@ -474,6 +507,8 @@ def _block(
             return False
         elif g in (92.0, 92.1, 92.2):
             g92 = g
+        elif g in (40.0, 41.0, 42.0):
+            comp_word = g
         elif g in _G_TCP_ON:
             st.tcp = True
         elif g in _G_NOTED:
@@ -492,6 +527,32 @@ def _block(
     if g92 is not None:
         _apply_g92(g92, vals, st, out, lineno)
         return False
+    comp_exit = False
+    if comp_word is not None:
+        where = f"{out.source}:{lineno}"
+        if comp_word == 40.0:
+            comp_exit = st.comp != 0
+        else:
+            if st.comp:
+                raise InputError(
+                    f"G{comp_word:g} while G{st.comp} is on: expected G40 between them", where
+                )
+            if st.comp_radius is None:
+                raise InputError(
+                    f"cutter radius compensation G{comp_word:g}: the cutter radius is not known; "
+                    "set the job key [path] cutter_radius_mm (the D register's radius: the tool "
+                    "radius for a part-contour program, the wear value for a tool-centre one)",
+                    where,
+                )
+            if st.plane != 17:
+                raise InputError(
+                    f"cutter radius compensation G{comp_word:g} in plane G{st.plane}: only G17 "
+                    "is read",
+                    where,
+                )
+            st.comp = int(comp_word)
+            st.comp_where = where
+            st.comp_moves = []
     if any(g in _G_MODE_WORDS for g in g_codes) and not any(k in vals for k in "XYZABC"):
         for k in "EPQR":  # parameters of a mode word (G187 P2 E0.01, G05.1 Q1 R5)
             vals.pop(k, None)
@@ -540,6 +601,8 @@ def _block(
                 f"unsupported axis word {bad} (only X Y Z A B C)", source=f"{out.source}:{lineno}"
             )
     if not vals:
+        if comp_exit:
+            st.comp_exit_next = True
         return end
     where = f"{out.source}:{lineno}"
     moving = "X" in vals or "Y" in vals or "Z" in vals or "A" in vals or "B" in vals or "C" in vals
@@ -555,6 +618,8 @@ def _block(
     if not moving:
         if "R" in vals or "I" in vals or "J" in vals or "K" in vals:
             raise InputError("arc words I/J/K/R without an arc move", source=where)
+        if comp_exit:
+            st.comp_exit_next = True
         return end
     if st.motion is None:
         raise InputError("axis words before any motion mode (G0/G1/G2/G3)", source=where)
@@ -607,9 +672,21 @@ def _block(
             axis = (v[0] / nv, v[1] / nv, v[2] / nv)
         if "R" in vals:
             raise InputError("word R in a linear move", source=where)
-        _emit_line(st, out, target, axis, lineno, rapid=st.motion == 0)
+        if st.comp or st.comp_exit_next:
+            _comp_line(st, out, target, axis, lineno, st.motion == 0, comp_exit, arc_tol, where)
+        else:
+            _emit_line(st, out, target, axis, lineno, rapid=st.motion == 0)
     else:
-        _emit_arc(vals, st, out, target, axis, lineno, arc_tol, where)
+        if st.comp and not comp_exit:
+            _comp_arc(vals, st, out, target, axis, lineno, where)
+        else:
+            if st.comp or st.comp_exit_next:
+                raise InputError(
+                    "cutter radius compensation: expected a straight exit move with G40", where
+                )
+            _emit_arc(vals, st, out, target, axis, lineno, arc_tol, where)
+    if comp_exit and st.comp:
+        st.comp_exit_next = True  # G40 without an XY/Z motion: the next move exits
     return end
 
 
@@ -691,6 +768,110 @@ def _emit_line(
     st.pos = target
     st.pos_known = True
     st.axis = axis
+
+
+def _comp_meta(st: _State, lineno: int, rapid: bool, axis: tuple[float, float, float]) -> tuple:
+    rpm = st.rpm if st.spindle_on else math.nan
+    return (lineno, rapid, math.nan if rapid else _feed_mm_per_min(st), rpm, axis)
+
+
+def _comp_line(
+    st: _State,
+    out: WaypointBuilder,
+    target: list[float],
+    axis: tuple[float, float, float],
+    lineno: int,
+    rapid: bool,
+    exit_here: bool,
+    arc_tol: float,
+    where: str,
+) -> None:
+    """A straight move with compensation on (or the exit move): buffered."""
+    if st.vector_mode is not None:
+        raise InputError("cutter radius compensation with tool axis words (5-axis)", where)
+    e = Element("line", tuple(st.pos), tuple(target), _comp_meta(st, lineno, rapid, axis))  # type: ignore[arg-type]
+    st.pos = target
+    st.pos_known = True
+    st.axis = axis
+    if exit_here or st.comp_exit_next:
+        _comp_flush(st, out, e, arc_tol)
+        return
+    st.comp_moves.append(e)
+
+
+def _comp_arc(
+    vals: dict[str, float],
+    st: _State,
+    out: WaypointBuilder,
+    target: list[float],
+    axis: tuple[float, float, float],
+    lineno: int,
+    where: str,
+) -> None:
+    """An arc with compensation on: its centre (as :func:`_emit_arc` finds it), buffered."""
+    if not st.comp_moves:
+        raise InputError(
+            "cutter radius compensation: expected a straight entry move after G41/G42", where
+        )
+    start = st.pos
+    cw = st.motion == 2
+    if "R" in vals:
+        r = vals["R"] * st.scale
+        da, db = target[0] - start[0], target[1] - start[1]
+        chord = math.hypot(da, db)
+        if chord < 1e-9 or chord > 2 * abs(r) * (1 + 1e-6) + 1e-3:
+            raise InputError(f"arc radius R{abs(r):g} does not fit its chord", source=where)
+        h = math.sqrt(max(r * r - chord * chord / 4, 0.0))
+        sign = (-1.0 if cw else 1.0) * (1.0 if r > 0 else -1.0)
+        centre = (
+            (start[0] + target[0]) / 2 + sign * h * (-db / chord),
+            (start[1] + target[1]) / 2 + sign * h * (da / chord),
+        )
+        full = False
+    else:
+        i, j = vals.get("I", 0.0) * st.scale, vals.get("J", 0.0) * st.scale
+        if st.arc_abs:
+            centre = (
+                (i + st.offset[0]) if "I" in vals else start[0],
+                (j + st.offset[1]) if "J" in vals else start[1],
+            )
+        else:
+            centre = (start[0] + i, start[1] + j)
+        full = math.hypot(target[0] - start[0], target[1] - start[1]) < 1e-9
+    e = Element(
+        "arc", tuple(start), tuple(target), _comp_meta(st, lineno, False, axis),  # type: ignore[arg-type]
+        centre=centre, cw=cw, full=full,
+    )  # fmt: skip
+    st.comp_moves.append(e)
+    st.pos = target
+    st.pos_known = True
+    st.axis = axis
+
+
+def _comp_flush(st: _State, out: WaypointBuilder, exit_move: Element | None, tol: float) -> None:
+    """Emit the compensated moves of one G41/G42 ... G40 stretch."""
+    moves = st.comp_moves
+    radius = st.comp_radius or 0.0
+    if moves:
+        done = compensate(moves[0], moves[1:], exit_move, st.comp, radius, st.comp_where)
+    else:  # G41 and G40 with one move between: entry and exit at once
+        done = [exit_move] if exit_move is not None else []
+    add = out.add_unit
+    for e in done:
+        lineno, rapid, feed, rpm, axis = e.meta
+        if e.kind == "line":
+            p = e.p1
+            add((p[0] * 1e-3, p[1] * 1e-3, p[2] * 1e-3), axis, lineno, rapid, feed, rpm)
+        else:
+            pts = arc_point_list(
+                e.p0, e.p1, (e.centre[0], e.centre[1], e.p0[2]), (0.0, 0.0, 1.0),
+                clockwise=e.cw, tol=tol, full_circle=e.full, where=f"{out.source}:{lineno}",
+            )  # fmt: skip
+            for p in pts:
+                add((p[0] * 1e-3, p[1] * 1e-3, p[2] * 1e-3), axis, lineno, False, feed, rpm)
+    st.comp = 0
+    st.comp_moves = []
+    st.comp_exit_next = False
 
 
 _PLANES = {17: (0, 1, 2), 18: (2, 0, 1), 19: (1, 2, 0)}
