@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -103,3 +104,26 @@ def test_written_program_keeps_compensation(tmp_path):
     back = parse_gcode(write_gcode(text, "c.nc", edit), "c.nc", cutter_radius_mm=5.0)
     np.testing.assert_allclose(_xy(back), _xy(wp), atol=1e-9)
     assert (back["rpm_programmed"].to_numpy()[cut] == 10000.0).all()
+
+
+def test_plan_with_compensation_and_a_program_it_cannot_hold(tmp_path):
+    """Planned with the job's radius; passes whose copies would lose G41 are refused."""
+    from robolobe.plan.job import load_job
+    from robolobe.plan.pipeline import plan_path
+    from robolobe.plan.program import program_edit, program_text
+
+    ex = Path(__file__).resolve().parents[2] / "src" / "robolobe" / "data" / "examples"
+    text = (
+        "G21 G90 G17\nS18000 M3\nG0 X-20 Y-20 Z5\nG41 D1 G0 X0 Y0\nG1 Z-2 F600\nX40\nY30\n"
+        "G3 X20 Y50 I-20 J0\nG1 X0\nY0\nG40 X-20 Y-20\nG0 Z5\nM30\n"
+    )
+    src = tmp_path / "comp.nc"
+    src.write_text(text)
+    job = load_job(ex / "job_A_pocket.toml")
+    job = job.replace(path_options={**job.path_options, "cutter_radius_mm": 5.0})
+    res = plan_path(src, job, refine=False)
+    files = program_text(res)  # one pass: only S/F change, the compensated path reads back
+    assert "G41 D1" in files["program.nc"]
+    edit = program_edit(res, passes=2, depth_mm=2.0)
+    with pytest.raises(InputError, match="cannot write this program faithfully"):
+        program_text(res, edit=edit)

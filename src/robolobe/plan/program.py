@@ -389,9 +389,12 @@ def _check(
     exp = expected_table(edit)
     got = _reread(files, fmt, name, {**opts, **_analog_options(edit, fmt)})
     where = f"{name}{EXTENSIONS[fmt]} (written from {source})"
+    fix = " (not written; --program-format table or --no-program)"
     if len(got) != len(exp):
-        raise RuntimeError(
-            f"{where}: the written program reads back to {len(got)} moves, expected {len(exp)}"
+        raise InputError(
+            f"robolobe cannot write this program faithfully: it reads back to {len(got)} "
+            f"moves, expected {len(exp)}{fix}",
+            source=where,
         )
     p = got[["x_m", "y_m", "z_m"]].to_numpy(dtype=np.float64) * 1e3
     q = exp[["x_mm", "y_mm", "z_mm"]].to_numpy(dtype=np.float64)
@@ -405,12 +408,15 @@ def _check(
     bad = (err > 1e-6) | mot | s_err | f_err
     if np.any(bad):
         r = int(np.argmax(bad))
-        raise RuntimeError(
-            f"{where}: move {r} (line {got['line'].iloc[r]}) reads back as "
+        raise InputError(
+            f"robolobe cannot write this program faithfully: move {r} (written line "
+            f"{got['line'].iloc[r]}) reads back as "
             f"{p[r].round(6).tolist()} mm {got['motion'].iloc[r]} "
             f"S{got['rpm_programmed'].iloc[r]:g} "
             f"F{got['feed_mm_per_min'].iloc[r]:g}, expected {q[r].round(6).tolist()} mm "
-            f"{exp['motion'].iloc[r]} S{exp['rpm'].iloc[r]:g} F{exp['feed_mm_per_min'].iloc[r]:g}"
+            f"{exp['motion'].iloc[r]} S{exp['rpm'].iloc[r]:g} "
+            f"F{exp['feed_mm_per_min'].iloc[r]:g}{fix}",
+            source=where,
         )
 
 

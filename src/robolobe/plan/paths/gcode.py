@@ -965,6 +965,8 @@ def _code_spans(raw: str) -> tuple[list[tuple[str, int, int]], int]:
 
     Also the index where a ``;`` comment starts (``len(raw)`` when none).
     """
+    if "(" not in raw and ";" not in raw:  # the common block: no comment to skip
+        return [(m.group(1).upper(), m.start(3), m.end(3)) for m in _SPAN.finditer(raw)], len(raw)
     out: list[tuple[str, int, int]] = []
     depth = 0
     start = 0
@@ -1035,14 +1037,20 @@ def write_gcode(text: str, source: str, edit: ProgramEdit, *, block_delete: bool
     absolute = [True] * (n + 2)
     arc_abs = [False] * (n + 2)
     motion = [""] * (n + 2)
-    spans: dict[int, list[tuple[str, int, int]]] = {}
+    spans: dict[int, list[tuple[str, int, int]]] = {}  # words of lines with G/M/S/F letters
+    live: set[int] = set()
     sc, pr, sp, ab, aa, mo = 1.0, False, "M3", True, False, ""
     for ln, raw in enumerate(src, start=1):
         s = raw.strip()
-        deleted = block_delete and re.match(r"^(N\s*\d+\s*)?/", s, re.I) is not None
+        deleted = block_delete and "/" in s and re.match(r"^(N\s*\d+\s*)?/", s, re.I) is not None
         if s and s[0] != "%" and not deleted:
-            ws, _ = _code_spans(raw)
-            spans[ln] = ws
+            live.add(ln)
+            up = s.upper()
+            if "G" not in up and "M" not in up and "S" not in up and "F" not in up:
+                ws = []  # axis words only: nothing modal here
+            else:
+                ws, _ = _code_spans(raw)
+                spans[ln] = ws
             for letter, a, b in ws:
                 if letter == "G":
                     g = round(float(raw[a:b].replace(" ", "")), 1)
@@ -1110,11 +1118,11 @@ def write_gcode(text: str, source: str, edit: ProgramEdit, *, block_delete: bool
     cut_set = set(cut_lines)
     for ln in range(1, n + 1):
         raw = src[ln - 1]
-        if ln not in spans:
+        if ln not in live:
             continue
         edits: list[tuple[int, int, str]] = []
         for letter in ("S", "F"):
-            for let, a, b in spans[ln]:
+            for let, a, b in spans.get(ln, ()):
                 if let != letter:
                     continue
                 old = raw[a:b].replace(" ", "")
