@@ -1047,7 +1047,7 @@ def write_gcode(text: str, source: str, edit: ProgramEdit, *, block_delete: bool
             live.add(ln)
             up = s.upper()
             if "G" not in up and "M" not in up and "S" not in up and "F" not in up:
-                ws = []  # axis words only: nothing modal here
+                ws: list[tuple[str, int, int]] = []  # axis words only: nothing modal
             else:
                 ws, _ = _code_spans(raw)
                 spans[ln] = ws
