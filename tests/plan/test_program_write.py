@@ -457,3 +457,27 @@ def test_rapid_movel_movec_triggl_round_trip(sync) -> None:
     else:
         assert "Trigg" not in out
         assert out.count("SetAO aoSpindle") == 3
+
+
+def test_program_from_a_plan_folder(pocket, tmp_path) -> None:
+    """A plan folder gives the plan's speed at every move (no lobes there to check a hold)."""
+    from robolobe.plan.report import write_outputs
+
+    out = write_outputs(pocket, tmp_path / "plan", plots=False, html_report=False)
+    assert (out / "program.nc").is_file()
+    prog = write_program(out, tmp_path / "again.nc", job=pocket.job)
+    back = read_toolpath(prog)
+    cut = (back["motion"] == "cut").to_numpy()
+    want = np.round(pocket.table["rpm"].to_numpy()[cut])
+    line = back["line"].to_numpy()[cut]
+    # per block: the plan's speed at the block's tightest waypoint, rounded
+    tab = pocket.table[cut].assign(m=pocket.table["margin"][cut].fillna(np.inf))
+    tight = tab.loc[tab.groupby("line")["m"].idxmin()].set_index("line")["rpm"]
+    np.testing.assert_allclose(back["rpm_programmed"].to_numpy()[cut], np.round(tight[line]))
+    assert want.size == cut.sum()
+    thin = write_outputs(
+        pocket, tmp_path / "thin", plots=False, html_report=False, waypoints_every=5
+    )
+    with pytest.raises(InputError):
+        write_program(thin, tmp_path / "x.nc", job=pocket.job)
+    assert not (tmp_path / "x.nc").exists()

@@ -64,6 +64,7 @@ def _root(
 _COMMAND_MODULES = (
     "plan",
     "verify",
+    "program",
     "simulate",
     "identify",
     "tl",

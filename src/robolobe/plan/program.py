@@ -29,6 +29,7 @@ from __future__ import annotations
 import hashlib
 import math
 import os
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -38,6 +39,7 @@ from numpy.typing import NDArray
 
 from robolobe._atomic import atomic_path, not_a_file
 from robolobe.errors import InputError
+from robolobe.plan.job import Job
 from robolobe.plan.paths import detect_format, read_toolpath, reader_options
 from robolobe.plan.paths._edit import ProgramEdit, expected_table
 from robolobe.plan.paths._table import segment_lengths
@@ -48,10 +50,12 @@ __all__ = [
     "PROGRAM_DEFAULTS",
     "TRANSLATIONS",
     "WRITERS",
+    "FolderPlan",
     "ProgramText",
     "program_changes",
     "program_edit",
     "program_text",
+    "read_folder_plan",
     "write_program",
 ]
 
@@ -95,7 +99,34 @@ TRANSLATIONS: dict[str, tuple[str, ...]] = {
 WRITERS: tuple[str, ...] = ("gcode", "apt", "krl", "rapid", "table")
 
 
-def _options(res: PlanResult) -> dict[str, Any]:
+@dataclass(frozen=True, eq=False)
+class _Record:
+    plan_record: dict[str, Any]
+
+
+@dataclass(frozen=True, eq=False)
+class FolderPlan:
+    """A plan read back from its folder (``robolobe plan -o DIR``), for :func:`write_program`.
+
+    Holds what the writer needs: the job, the source program's path and its
+    waypoint table (read again), the plan's per-waypoint table and its
+    record. Without the lobes, the written speed follows the plan's at every
+    move (a held speed could not be checked against the lobes).
+    """
+
+    job: Job
+    path: str
+    waypoints: pd.DataFrame
+    table: pd.DataFrame
+    summary: _Record
+    lobes: None = None
+
+
+#: What the writer takes: a plan in memory or one read from its folder.
+AnyPlan = PlanResult | FolderPlan
+
+
+def _options(res: AnyPlan) -> dict[str, Any]:
     return {**PROGRAM_DEFAULTS, **res.job.program_options}
 
 
@@ -116,9 +147,11 @@ def _blocks(wp: pd.DataFrame, cut: NDArray[np.bool_]) -> tuple[IntArray, IntArra
     return bid.astype(np.int64), np.flatnonzero(new).astype(np.int64)
 
 
-def _margin_at(res: PlanResult, rows: IntArray, rpm: FloatArray) -> FloatArray:
+def _margin_at(res: AnyPlan, rows: IntArray, rpm: FloatArray) -> FloatArray:
     """Margin of ``rows`` at speeds ``rpm`` by the plan's own lobes (NaN: no lateral limit)."""
     tab = res.table
+    if res.lobes is None:
+        return np.full(len(rows), np.nan)
     lt = res.lobes.table
     g = tab["dynamics_group"].to_numpy()[rows]
     depth = tab["depth_mm"].to_numpy()[rows] * 1e-3
@@ -135,7 +168,7 @@ def _margin_at(res: PlanResult, rows: IntArray, rpm: FloatArray) -> FloatArray:
 
 
 def program_edit(
-    res: PlanResult,
+    res: AnyPlan,
     *,
     passes: ArrayLikeInt | None = None,
     depth_mm: ArrayLikeFloat | None = None,
@@ -189,9 +222,12 @@ def program_edit(
             rel = abs(w - held) / held
             change = rel > hyst and since >= min_seg
             if not change:
-                r = block_rows[b]
-                mg = _margin_at(res, r, np.full(len(r), held))
-                change = bool(np.any(mg < sf))
+                if res.lobes is None:  # a plan read from its folder: a hold cannot be checked
+                    change = True
+                else:
+                    r = block_rows[b]
+                    mg = _margin_at(res, r, np.full(len(r), held))
+                    change = bool(np.any(mg < sf))
             if change:
                 held, since = float(round(w)), 0.0
         s_block[b] = held
@@ -201,7 +237,7 @@ def program_edit(
     mg = np.full(n, np.nan)
     same = np.abs(rpm[rows] - rpm_plan[rows]) < 1.0
     mg[rows[same]] = margin[rows[same]]
-    if np.any(~same):
+    if np.any(~same) and res.lobes is not None:
         r = rows[~same]
         mg[r] = _margin_at(res, r, rpm[r])
     # feed: the program's feed per tooth kept, else the plan's
@@ -253,7 +289,44 @@ class ProgramText(dict[str, str]):
     """The written program: file name -> text (two files for KRL: ``.src`` and ``.dat``)."""
 
 
-def _source_path(res: PlanResult) -> Path:
+def read_folder_plan(
+    plan_dir: str | os.PathLike[str], job: str | os.PathLike[str] | Job | None = None
+) -> FolderPlan:
+    """A plan folder with its source program, checked to belong together.
+
+    Raises
+    ------
+    InputError
+        No plan there (:func:`robolobe.plan.verify.read_plan`), its source
+        program missing, or a program whose moves are not the plan's.
+    """
+    from robolobe.plan.verify import read_plan
+
+    table, summary, j = read_plan(plan_dir, job)
+    d = Path(plan_dir)
+    given = str(summary.get("path") or "")
+    cands = [Path(given), d / Path(given).name, d.parent / Path(given).name] if given else []
+    src = next((c for c in cands if c.is_file()), None)
+    if src is None:
+        raise InputError(
+            f"the plan's source program {given or '(none recorded)'} is not found (looked at "
+            f"{', '.join(str(c) for c in cands) or 'nothing'}): the program is written from it",
+            str(d / "summary.json"),
+        )
+    wp = read_toolpath(src, applicable_only=True, **j.path_options)
+    same = len(wp) == len(table) and bool(
+        np.array_equal(wp["line"].to_numpy(), table["line"].to_numpy())
+    )
+    if not same:
+        raise InputError(
+            f"the program reads to {len(wp)} moves, the plan's table has {len(table)} (thinned "
+            "with --waypoints-every, or another program): plan it again",
+            str(src),
+        )
+    return FolderPlan(j, str(src), wp, table, _Record(summary["plan_record"]))
+
+
+def _source_path(res: AnyPlan) -> Path:
     """The plan's source program, checked against the hash the plan recorded."""
     if res.path in ("<table>", "") or not Path(res.path).is_file():
         where = res.path if res.path not in ("<table>", "") else "the plan"
@@ -275,7 +348,7 @@ def _source_path(res: PlanResult) -> Path:
 
 
 def program_text(
-    res: PlanResult,
+    res: AnyPlan,
     fmt: str | None = None,
     *,
     edit: ProgramEdit | None = None,
@@ -432,9 +505,10 @@ def _analog_options(edit: ProgramEdit, fmt: str) -> dict[str, Any]:
 
 
 def write_program(
-    plan: PlanResult,
+    plan: PlanResult | FolderPlan | str | os.PathLike[str],
     path: str | os.PathLike[str],
     *,
+    job: str | os.PathLike[str] | Job | None = None,
     fmt: str | None = None,
     passes: ArrayLikeInt | None = None,
     depth_mm: ArrayLikeFloat | None = None,
@@ -443,9 +517,13 @@ def write_program(
 
     Parameters
     ----------
-    plan : PlanResult
+    plan : PlanResult, FolderPlan or path-like
+        A plan, or its folder (``robolobe plan -o DIR``; its source program
+        must be where the plan read it).
     path : path-like
         The program file; for KRL the ``.dat`` is written beside it (same stem).
+    job : path-like or Job, optional
+        With a plan folder: its job (default: the job file its summary names).
         The extension follows ``fmt`` (:data:`EXTENSIONS`) when it is missing.
     fmt : str, optional
         Dialect (default: the one read; :data:`TRANSLATIONS`).
@@ -466,6 +544,8 @@ def write_program(
     p = Path(path)
     if p.is_dir():
         raise InputError(f"expected a program file to write, found {not_a_file(p)}", str(p))
+    if not isinstance(plan, PlanResult | FolderPlan):
+        plan = read_folder_plan(plan, job)
     edit = program_edit(plan, passes=passes, depth_mm=depth_mm)
     fmt0 = fmt or detect_format(_source_path(plan))
     if not p.suffix:
@@ -484,7 +564,7 @@ def write_program(
     return p
 
 
-def program_changes(res: PlanResult, edit: ProgramEdit | None = None) -> pd.DataFrame:
+def program_changes(res: AnyPlan, edit: ProgramEdit | None = None) -> pd.DataFrame:
     """Where the written program's S or F is set: the blocks the report lists.
 
     A block is listed where its new S or F differs from the program's own

@@ -579,14 +579,21 @@ def _program_files(res: PlanResult, program: bool, fmt: str | None) -> dict[str,
     if not program or (fmt is None and res.path in ("<table>", "")):
         return {}
     from robolobe.plan.paths import detect_format
-    from robolobe.plan.program import WRITERS, program_text
+    from robolobe.plan.program import PROGRAM_DEFAULTS, program_text
 
-    if fmt is None and Path(res.path).is_file() and detect_format(res.path) not in WRITERS:
+    read_fmt = detect_format(res.path) if Path(res.path).is_file() else None
+    opts = {**PROGRAM_DEFAULTS, **res.job.program_options}
+    if (
+        fmt is None
+        and read_fmt in ("krl", "rapid")
+        and (opts["analog_output"] is None or opts["analog_rpm_full_scale"] is None)
+    ):
+        # asked for implicitly: the plan stands without it (explicitly: refused by key)
         logging.getLogger(__name__).warning(
-            "%s: no program written (the %s writer is not built yet; --program-format table "
-            "writes the waypoint table with rpm and feed)",
+            "%s: no program written: a %s program sets the spindle speed by an analog output; "
+            "give [program] analog_output and analog_rpm_full_scale in the job",
             Path(res.path).name,
-            detect_format(res.path),
+            read_fmt.upper() if read_fmt == "krl" else "RAPID",
         )
         return {}
     return dict(program_text(res, fmt))
