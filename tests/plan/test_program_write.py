@@ -481,3 +481,33 @@ def test_program_from_a_plan_folder(pocket, tmp_path) -> None:
     with pytest.raises(InputError):
         write_program(thin, tmp_path / "x.nc", job=pocket.job)
     assert not (tmp_path / "x.nc").exists()
+
+
+def test_krl_and_rapid_goldens() -> None:
+    """slot.src/.dat and face.mod with test-set schedules match their golden files."""
+    from robolobe.plan.paths.krl import parse_krl, write_krl
+    from robolobe.plan.paths.rapid import parse_rapid, write_rapid
+
+    src, dat = (EX / "slot.src").read_text(), (EX / "slot.dat").read_text()
+    wp = parse_krl(src, "slot.src", dat=dat)
+    edit = _with_options(
+        _edit(wp, lambda ln: 9000 + 250 * (ln % 4), lambda ln: 600.0 + 20 * ln), **ANALOG
+    )
+    s_out, d_out = write_krl(src, "slot.src", edit, name="program", dat=dat)
+    back = parse_krl(s_out, "program.src", dat=d_out, spindle_output="3",
+                     spindle_rpm_per_unit=20000.0)  # fmt: skip
+    _roundtrip(back, edit)
+    assert s_out == (GOLDEN / "slot_schedule.src").read_text()
+    assert d_out == (GOLDEN / "slot_schedule.dat").read_text()
+    text = (EX / "face.mod").read_text()
+    wp = parse_rapid(text, "face.mod")
+    edit = _with_options(
+        _edit(wp, lambda ln: 6000 + 300 * (ln % 3), lambda ln: 1400.0 + ln),
+        analog_output="aoSpindle",
+        analog_rpm_full_scale=10000.0,
+        analog_full_scale=10.0,
+    )
+    out = write_rapid(text, "face.mod", edit)
+    back = parse_rapid(out, "face.mod", spindle_output="aoSpindle", spindle_rpm_per_unit=1000.0)
+    _roundtrip(back, edit)
+    assert out == (GOLDEN / "face_schedule.mod").read_text()
