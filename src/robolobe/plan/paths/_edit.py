@@ -22,6 +22,7 @@ back to; every writer's output is checked against it before it is kept.
 from __future__ import annotations
 
 import math
+from collections.abc import Iterator
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -32,6 +33,7 @@ from numpy.typing import NDArray
 from robolobe.errors import InputError
 
 __all__ = [
+    "LineValues",
     "ProgramEdit",
     "Section",
     "expected_table",
@@ -192,97 +194,128 @@ def link_moves(
     return [up, over, target]
 
 
-def expected_table(edit: ProgramEdit) -> pd.DataFrame:
+def expected_table(edit: ProgramEdit, *, full: bool = True) -> pd.DataFrame:
     """The waypoint table the written program must read back to (positions, motion, S, F).
 
     Columns ``x_mm y_mm z_mm motion rpm feed_mm_per_min`` (S and F NaN on
-    rapids; link moves between passes are rapids), then ``i j k ox oy oz``
-    and the ``source`` and ``line`` each move was copied from.
+    rapids; link moves between passes are rapids); with ``full`` also
+    ``i j k ox oy oz`` and the ``source`` and ``line`` each move was copied
+    from.
     """
     wp = edit.waypoints
     pos = wp[["x_m", "y_m", "z_m"]].to_numpy(dtype=np.float64) * 1e3
-    extra = wp[["i", "j", "k", "ox", "oy", "oz"]].to_numpy(dtype=np.float64)
-    where = wp[["source", "line"]].to_numpy(dtype=object)
-    parts_extra: list[FloatArray] = []
-    parts_where: list[NDArray[np.object_]] = []
-    motion = wp["motion"].to_numpy()
     rpm = np.where(edit.cut, edit.rpm, np.nan)
     feed = np.where(edit.cut, edit.feed_mm_per_min, np.nan)
+    secs = sections(edit)
+    # each expected row: the original row it copies (links: the section's first row),
+    # its position and whether it is a link (a rapid without S and F)
+    parts_row: list[IntArray] = []
     parts_pos: list[FloatArray] = []
-    parts_mot: list[NDArray[np.object_]] = []
-    parts_rpm: list[FloatArray] = []
-    parts_feed: list[FloatArray] = []
+    parts_link: list[NDArray[np.bool_]] = []
 
-    def put(sl: slice, shift: FloatArray | None = None) -> None:
-        p = pos[sl]
-        parts_pos.append(p + shift if shift is not None else p)
-        parts_mot.append(motion[sl].astype(object))
-        parts_rpm.append(rpm[sl])
-        parts_feed.append(feed[sl])
-        parts_extra.append(extra[sl])
-        parts_where.append(where[sl])
-
-    def put_links(points: list[FloatArray], sec: Section) -> None:
-        if points:
-            k = len(points)
-            e = np.full((k, 6), np.nan)
-            e[:, :3] = sec.axis
-            parts_extra.append(e)
-            parts_where.append(np.repeat(where[sec.start : sec.start + 1], k, axis=0))
-            parts_pos.append(np.array(points))
-            parts_mot.append(np.array(["rapid"] * k, dtype=object))
-            parts_rpm.append(np.full(k, np.nan))
-            parts_feed.append(np.full(k, np.nan))
+    def put(lo: int, hi: int, shift: FloatArray | None = None) -> None:
+        parts_row.append(np.arange(lo, hi, dtype=np.int64))
+        parts_pos.append(pos[lo:hi] + shift if shift is not None else pos[lo:hi])
+        parts_link.append(np.zeros(hi - lo, bool))
 
     prev = 0
-    for sec in sections(edit):
-        put(slice(prev, sec.start))
+    for sec in secs:
+        put(prev, sec.start)
         end = pos[sec.start - 1]
         a = np.asarray(sec.axis)
         for off in sec.offsets_mm():
-            put_links(link_moves(edit, sec, pos, end, off), sec)
-            put(slice(sec.start, sec.stop), off * a if off else None)
+            links = link_moves(edit, sec, pos, end, off)
+            if links:
+                parts_row.append(np.full(len(links), sec.start, np.int64))
+                parts_pos.append(np.array(links))
+                parts_link.append(np.ones(len(links), bool))
+            put(sec.start, sec.stop, off * a if off else None)
             end = pos[sec.stop - 1] + off * a
         prev = sec.stop
-    put(slice(prev, len(wp)))
-    p = np.concatenate(parts_pos)
-    e = np.concatenate(parts_extra)
-    w = np.concatenate(parts_where)
-    return pd.DataFrame(
-        {
-            "x_mm": p[:, 0],
-            "y_mm": p[:, 1],
-            "z_mm": p[:, 2],
-            "motion": np.concatenate(parts_mot),
-            "rpm": np.concatenate(parts_rpm),
-            "feed_mm_per_min": np.concatenate(parts_feed),
-            **{c: e[:, n] for n, c in enumerate(("i", "j", "k", "ox", "oy", "oz"))},
-            "source": w[:, 0],
-            "line": w[:, 1].astype(np.int64),
-        }
-    )
+    put(prev, len(wp))
+    row = np.concatenate(parts_row) if len(parts_row) > 1 else parts_row[0]
+    p = np.concatenate(parts_pos) if len(parts_pos) > 1 else parts_pos[0]
+    link = np.concatenate(parts_link) if len(parts_link) > 1 else parts_link[0]
+    motion = wp["motion"].to_numpy()[row]
+    if link.any():
+        motion = np.where(link, "rapid", motion)
+    cols: dict[str, object] = {
+        "x_mm": p[:, 0],
+        "y_mm": p[:, 1],
+        "z_mm": p[:, 2],
+        "motion": motion,
+        "rpm": np.where(link, np.nan, rpm[row]),
+        "feed_mm_per_min": np.where(link, np.nan, feed[row]),
+    }
+    if full:
+        extra = wp[["i", "j", "k", "ox", "oy", "oz"]].to_numpy(dtype=np.float64)[row]
+        if link.any():
+            extra[link, 3:] = np.nan
+        for n, c in enumerate(("i", "j", "k", "ox", "oy", "oz")):
+            cols[c] = extra[:, n]
+        cols["source"] = wp["source"].to_numpy()[row]
+        cols["line"] = wp["line"].to_numpy()[row]
+    return pd.DataFrame(cols)
 
 
-def line_values(edit: ProgramEdit) -> dict[int, tuple[float, float, float]]:
+class LineValues:
+    """Per source line of a cutting move: (rpm, feed [mm/min], lowest margin).
+
+    A mapping from line number to that tuple, held in arrays indexed by line
+    (a million-line program costs 25 bytes a line, not a dict of tuples).
+    The values of a line are those of its first cutting row (all rows of a
+    block carry one S and F); the margin is the lowest of its rows.
+    """
+
+    def __init__(self, line: IntArray, rpm: FloatArray, feed: FloatArray, margin: FloatArray):
+        n = int(line.max()) + 1 if len(line) else 1
+        self._has = np.zeros(n, bool)
+        self._rpm = np.full(n, np.nan)
+        self._feed = np.full(n, np.nan)
+        self._margin = np.full(n, np.nan)
+        uniq, first = np.unique(line, return_index=True)
+        self._has[uniq] = True
+        self._rpm[uniq] = rpm[first]
+        self._feed[uniq] = feed[first]
+        np.fmin.at(self._margin, line, margin)
+
+    def __contains__(self, ln: object) -> bool:
+        if not isinstance(ln, int | np.integer) or not 0 <= ln < len(self._has):
+            return False
+        return bool(self._has[ln])
+
+    def __getitem__(self, ln: int) -> tuple[float, float, float]:
+        if ln not in self:
+            raise KeyError(ln)
+        return float(self._rpm[ln]), float(self._feed[ln]), float(self._margin[ln])
+
+    def __iter__(self) -> Iterator[int]:
+        return iter(np.flatnonzero(self._has).tolist())
+
+    def __len__(self) -> int:
+        return int(self._has.sum())
+
+    def items(self) -> Iterator[tuple[int, tuple[float, float, float]]]:
+        return ((ln, self[ln]) for ln in self)
+
+    def values(self) -> Iterator[tuple[float, float, float]]:
+        return (self[ln] for ln in self)
+
+
+def line_values(edit: ProgramEdit) -> LineValues:
     """Per source line of a cutting move: (rpm, feed [mm/min], lowest margin).
 
     Only rows of the program's main file (the ``source`` of its first row).
     """
     wp = edit.waypoints
-    cut = edit.cut
     main = wp["source"].iloc[0]
-    sel = cut & (wp["source"] == main).to_numpy()
-    out: dict[int, tuple[float, float, float]] = {}
-    lines = wp["line"].to_numpy()[sel]
-    r, f, m = edit.rpm[sel], edit.feed_mm_per_min[sel], edit.margin[sel]
-    for ln, ri, fi, mi in zip(lines.tolist(), r.tolist(), f.tolist(), m.tolist(), strict=True):
-        got = out.get(ln)
-        if got is None:
-            out[ln] = (ri, fi, mi)
-        else:
-            low = mi if math.isnan(got[2]) else (got[2] if math.isnan(mi) else min(got[2], mi))
-            out[ln] = (got[0], got[1], low)
-    return out
+    sel = edit.cut & (wp["source"] == main).to_numpy()
+    return LineValues(
+        wp["line"].to_numpy()[sel].astype(np.int64),
+        edit.rpm[sel],
+        edit.feed_mm_per_min[sel],
+        edit.margin[sel],
+    )
 
 
 def fmt_num(v: float, decimals: int = 6) -> str:

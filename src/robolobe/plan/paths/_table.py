@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import logging
 import math
+from array import array
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -66,6 +67,7 @@ FloatArray = NDArray[np.float64]
 
 logger = logging.getLogger(__name__)
 
+_WIDTH = 10  # numbers per waypoint in WaypointBuilder._rows
 _MAX_POS_M = 1e4  # 10 km: anything beyond is a corrupt or mis-scaled file
 
 
@@ -83,9 +85,11 @@ class WaypointBuilder:
     """
 
     source: str
-    # one row per waypoint: x y z [m], i j k, feed, rpm, rapid (0/1), line
-    _rows: list[tuple[float, ...]] = field(default_factory=list)
-    _ref: dict[int, tuple[float, float, float]] = field(default_factory=dict)
+    # one row per waypoint, flat: x y z [m], i j k, feed, rpm, rapid (0/1), line (80 bytes a
+    # row: a list of tuples would take ~380 at a million waypoints)
+    _rows: array = field(default_factory=lambda: array("d"))
+    # TCP x axes where the path fixes them, flat: row index, x, y, z
+    _ref: array = field(default_factory=lambda: array("d"))
     warnings: list[str] = field(default_factory=list)
     _seen: dict[str, int] = field(default_factory=dict)
 
@@ -148,8 +152,8 @@ class WaypointBuilder:
             rx, ry, rz = rx - d * ax, ry - d * ay, rz - d * az
             rn = math.sqrt(rx * rx + ry * ry + rz * rz)
             if rn > 1e-9:
-                self._ref[len(self._rows)] = (rx / rn, ry / rn, rz / rn)
-        self._rows.append(
+                self._ref.extend((len(self._rows) // _WIDTH, rx / rn, ry / rn, rz / rn))
+        self._rows.extend(
             (
                 float(pos_m[0]),
                 float(pos_m[1]),
@@ -178,18 +182,18 @@ class WaypointBuilder:
         The per-line fast path of the G-code reader (no normalisation, no
         reference axis); positions are checked, vectorised, by :meth:`table`.
         """
-        self._rows.append(
+        self._rows.extend(
             (pos_m[0], pos_m[1], pos_m[2], axis[0], axis[1], axis[2], feed_mm_per_min, rpm,
              1.0 if rapid else 0.0, line)
         )  # fmt: skip
 
     def __len__(self) -> int:
-        return len(self._rows)
+        return len(self._rows) // _WIDTH
 
     @property
     def last_position(self) -> FloatArray | None:
         """The last position [m], or None."""
-        return np.array(self._rows[-1][:3]) if self._rows else None
+        return np.array(self._rows[-_WIDTH : -_WIDTH + 3]) if self._rows else None
 
     def notes(self) -> list[str]:
         """The warnings, each once, with ``(n times)`` where it repeated."""
@@ -212,7 +216,7 @@ class WaypointBuilder:
         """
         if not self._rows:
             raise InputError("expected at least one move, found none", source=self.source)
-        rows = np.array(self._rows, dtype=np.float64)
+        rows = np.frombuffer(self._rows, dtype=np.float64).reshape(-1, _WIDTH).copy()
         pos = rows[:, 0:3]
         axis = rows[:, 3:6]
         line = rows[:, 9].astype(np.int64)
@@ -226,8 +230,8 @@ class WaypointBuilder:
             )
         ref = np.full((len(rows), 3), np.nan)
         if self._ref:
-            idx = np.fromiter(self._ref.keys(), dtype=np.int64, count=len(self._ref))
-            ref[idx] = np.array(list(self._ref.values()))
+            rr = np.frombuffer(self._ref, dtype=np.float64).reshape(-1, 4)
+            ref[rr[:, 0].astype(np.int64)] = rr[:, 1:]
         f = feed_directions(pos, axis)
         df = pd.DataFrame(
             {

@@ -1038,13 +1038,13 @@ def write_gcode(text: str, source: str, edit: ProgramEdit, *, block_delete: bool
     arc_abs = [False] * (n + 2)
     motion = [""] * (n + 2)
     spans: dict[int, list[tuple[str, int, int]]] = {}  # words of lines with G/M/S/F letters
-    live: set[int] = set()
+    live = bytearray(n + 2)
     sc, pr, sp, ab, aa, mo = 1.0, False, "M3", True, False, ""
     for ln, raw in enumerate(src, start=1):
         s = raw.strip()
         deleted = block_delete and "/" in s and re.match(r"^(N\s*\d+\s*)?/", s, re.I) is not None
         if s and s[0] != "%" and not deleted:
-            live.add(ln)
+            live[ln] = 1
             up = s.upper()
             if "G" not in up and "M" not in up and "S" not in up and "F" not in up:
                 ws: list[tuple[str, int, int]] = []  # axis words only: nothing modal
@@ -1093,7 +1093,7 @@ def write_gcode(text: str, source: str, edit: ProgramEdit, *, block_delete: bool
                 return src[ln - 1][a:b].replace(" ", "")
         return None
 
-    cut_lines = sorted(vals)
+    cut_lines = list(vals)
     # S and F words in the file: each governs the cutting lines up to the next such word
     new_word: dict[tuple[int, str], str] = {}
     for letter in ("S", "F"):
@@ -1115,10 +1115,10 @@ def write_gcode(text: str, source: str, edit: ProgramEdit, *, block_delete: bool
     notes: dict[int, list[str]] = {}
     cur_s: str | None = None
     cur_f: str | None = None
-    cut_set = set(cut_lines)
+    cut_set = vals
     for ln in range(1, n + 1):
         raw = src[ln - 1]
-        if ln not in live:
+        if not live[ln]:
             continue
         edits: list[tuple[int, int, str]] = []
         for letter in ("S", "F"):
