@@ -440,6 +440,19 @@ def _write(
 
 
 def _reread(files: ProgramText, fmt: str, name: str, opts: dict[str, Any]) -> pd.DataFrame:
+    """The written program read back, its reader's notes not logged (they were, for the source)."""
+    import logging
+
+    log = logging.getLogger("robolobe.plan.paths")
+    level = log.level
+    log.setLevel(logging.ERROR)
+    try:
+        return _reread_files(files, fmt, name, opts)
+    finally:
+        log.setLevel(level)
+
+
+def _reread_files(files: ProgramText, fmt: str, name: str, opts: dict[str, Any]) -> pd.DataFrame:
     import tempfile
 
     with tempfile.TemporaryDirectory(prefix="robolobe-program-") as tmp:
