@@ -21,7 +21,6 @@ back to; every writer's output is checked against it before it is kept.
 
 from __future__ import annotations
 
-import math
 from collections.abc import Iterator
 from dataclasses import dataclass, field
 from typing import Any
