@@ -511,3 +511,36 @@ def test_krl_and_rapid_goldens() -> None:
     back = parse_rapid(out, "face.mod", spindle_output="aoSpindle", spindle_rpm_per_unit=1000.0)
     _roundtrip(back, edit)
     assert out == (GOLDEN / "face_schedule.mod").read_text()
+
+
+@pytest.mark.parametrize("sync", ["triggio", "setao"])
+def test_rapid_passes(sync) -> None:
+    """Passes in RAPID: the moves' targets in Offs(target, 0, 0, shift), MoveJ links."""
+    from robolobe.plan.paths.rapid import parse_rapid, write_rapid
+
+    wp = parse_rapid(RAPID_MOD, "m.mod")
+    rpm = {6: 9000, 7: 9000, 8: 10000, 9: 11000, 10: 11000}
+    edit = _with_options(
+        _edit(wp, lambda ln: rpm.get(ln, 0), lambda ln: 900.0 + ln, passes=3, depth=3.0),
+        analog_output="aoSpindle",
+        analog_rpm_full_scale=24000.0,
+        analog_full_scale=10.0,
+        rapid_sync=sync,
+    )
+    out = write_rapid(RAPID_MOD, "m.mod", edit)
+    back = parse_rapid(out, "m.mod", spindle_output="aoSpindle", spindle_rpm_per_unit=2400.0)
+    exp = expected_table(edit)
+    np.testing.assert_allclose(
+        back[["x_m", "y_m", "z_m"]].to_numpy() * 1e3, exp[["x_mm", "y_mm", "z_mm"]], atol=1e-6
+    )
+    cut = (wp["motion"] == "cut").to_numpy()
+    bc = (back["motion"] == "cut").to_numpy()
+    z0 = wp["z_m"].to_numpy()[cut] * 1e3
+    np.testing.assert_allclose(
+        back["z_m"].to_numpy()[bc] * 1e3, np.concatenate([z0 + 2.0, z0 + 1.0, z0]), atol=1e-9
+    )
+    np.testing.assert_allclose(back["rpm_programmed"].to_numpy()[bc], np.tile(edit.rpm[cut], 3))
+    np.testing.assert_allclose(
+        back["feed_mm_per_min"].to_numpy()[bc], np.tile(edit.feed_mm_per_min[cut], 3)
+    )
+    assert "MoveL Offs(p0,0,0,2)" in out.replace(".,", ",").replace(".)", ")")

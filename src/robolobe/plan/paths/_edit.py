@@ -317,14 +317,19 @@ def line_values(edit: ProgramEdit) -> LineValues:
     )
 
 
-def fmt_num(v: float, decimals: int = 6) -> str:
-    """A number as a program writes it: fixed point, trailing zeros dropped, ``"10."`` style."""
+def fmt_num(v: float, decimals: int = 6, *, point: bool = True) -> str:
+    """A number as a program writes it: fixed point, trailing zeros dropped.
+
+    ``point``: whole numbers keep their decimal point (``"10."``, as CNC posts
+    write them); without it they are written as integers (``"10"``: KRL and
+    RAPID, whose grammars want digits after a point).
+    """
     s = f"{v:.{decimals}f}"
     if "." in s:
         s = s.rstrip("0")
     if s in ("-0.", "-0"):
         s = "0."
-    return s
+    return s if point else s.rstrip(".")
 
 
 def modal_values(

@@ -804,8 +804,8 @@ def write_krl(
     per_unit = float(opt["analog_rpm_full_scale"]) / float(opt.get("analog_full_scale", 1.0))
     src = lines(text)
     vals = line_values(edit)
-    s_want = {ln: fmt_num(v[0] / per_unit, 12) for ln, v in vals.items()}
-    f_want = {ln: fmt_num(v[1] / 6e4, 12) for ln, v in vals.items()}
+    s_want = {ln: fmt_num(v[0] / per_unit, 12, point=False) for ln, v in vals.items()}
+    f_want = {ln: fmt_num(v[1] / 6e4, 12, point=False) for ln, v in vals.items()}
     if any(float(v) > 1.0 for v in s_want.values()):
         top = max(v[0] for v in vals.values())
         raise InputError(
@@ -854,7 +854,8 @@ def write_krl(
         indent = re.match(r"^\s*", src[first_motion - 1]).group(0)  # type: ignore[union-attr]
         before.setdefault(first_motion, []).append(
             f"{indent}$ANOUT[{n}] = {s_ins.pop(first_cut)} ; ROBOLOBE spindle speed "
-            f"{fmt_num(vals[first_cut][0], 0)} rpm ({fmt_num(per_unit, 6)} rpm per unit)"
+            f"{fmt_num(vals[first_cut][0], 0, point=False)} rpm "
+            f"({fmt_num(per_unit, 6, point=False)} rpm per unit)"
         )
     for ln, v in s_ins.items():
         indent = re.match(r"^\s*", src[ln - 1]).group(0)  # type: ignore[union-attr]
@@ -862,12 +863,13 @@ def write_krl(
         m_txt = f", margin {mg:.2f}" if math.isfinite(mg) else ""
         before.setdefault(ln, []).append(
             f"{indent}TRIGGER WHEN DISTANCE=0 DELAY=0 DO $ANOUT[{n}] = {v} ; ROBOLOBE spindle "
-            f"speed {fmt_num(vals[ln][0], 0)} rpm{m_txt}"
+            f"speed {fmt_num(vals[ln][0], 0, point=False)} rpm{m_txt}"
         )
     for ln, v in f_ins.items():
         indent = re.match(r"^\s*", src[ln - 1]).group(0)  # type: ignore[union-attr]
         before.setdefault(ln, []).append(
-            f"{indent}$VEL.CP = {v} ; ROBOLOBE path speed {fmt_num(vals[ln][1], 3)} mm/min"
+            f"{indent}$VEL.CP = {v} ; ROBOLOBE path speed "
+            f"{fmt_num(vals[ln][1], 3, point=False)} mm/min"
         )
     for edits, what in ((s_edits, "spindle speed"), (f_edits, "path speed")):
         for ln, v in edits.items():

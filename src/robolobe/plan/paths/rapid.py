@@ -54,8 +54,10 @@ from robolobe.errors import InputError
 from robolobe.plan.paths._arcs import arc_through, orientations_along
 from robolobe.plan.paths._edit import (
     ProgramEdit,
+    Section,
     fmt_num,
     line_values,
+    link_moves,
     modal_values,
     sections,
 )
@@ -746,15 +748,11 @@ def write_rapid(text: str, source: str, edit: ProgramEdit) -> str:
     Raises
     ------
     InputError
-        Analog scaling keys missing; passes (not written in RAPID); a move
-        that cannot carry a trigger (``rapid_sync = "triggio"`` on other than
+        Analog scaling keys missing; passes over a run of moves that is not
+        one statement per line in file order; a move that cannot carry a
+        trigger (``rapid_sync = "triggio"`` on other than
         MoveL/MoveC); a move whose speed argument is not on its first line.
     """
-    if sections(edit):
-        raise InputError(
-            "passes in RAPID output are not written (write G-code/APT or a waypoint table)",
-            source=source,
-        )
     opt = edit.options
     missing = [k for k in ("analog_output", "analog_rpm_full_scale") if opt.get(k) is None]
     if missing:
@@ -772,7 +770,7 @@ def write_rapid(text: str, source: str, edit: ProgramEdit) -> str:
     src = lines(text)
     vals = line_values(edit)
     stmts = _statements(text, source)
-    s_want = {ln: fmt_num(v[0] / per_unit, 12) for ln, v in vals.items()}
+    s_want = {ln: fmt_num(v[0] / per_unit, 12, point=False) for ln, v in vals.items()}
     # the module's speeddata literals (to copy their orientation and external-axis speeds)
     sdata: dict[str, list[str]] = {}
     for _, st in stmts:
@@ -785,6 +783,7 @@ def write_rapid(text: str, source: str, edit: ProgramEdit) -> str:
             sdata[m.group(1).upper()] = [x.strip() for x in m.group(2).split(",")]
     s_set: dict[int, str | None] = {}
     moves: dict[int, tuple[str, list[str], str]] = {}
+    all_moves: dict[int, tuple[str, list[str]]] = {}
     first_motion: int | None = None
     first_proc: int | None = None
     for ln, st in stmts:
@@ -801,6 +800,7 @@ def write_rapid(text: str, source: str, edit: ProgramEdit) -> str:
         elif word == "TRIGGIO" and re.search(r"\\AOP\s*:=\s*" + sig + r"\b", rest, re.I):
             s_set[ln] = None
         elif word in _MOVES:
+            all_moves[ln] = (word, [a for a in _split_args(rest) if a])
             if first_motion is None:
                 first_motion = ln
             if ln in vals:
@@ -814,8 +814,8 @@ def write_rapid(text: str, source: str, edit: ProgramEdit) -> str:
     if first_cut is not None and first_cut in s_ins and first_motion is not None:
         before.setdefault(first_motion, []).append(
             f"{_indent(src[first_motion - 1])}SetAO {sig}, {s_ins.pop(first_cut)}; "
-            f"! ROBOLOBE spindle speed {fmt_num(vals[first_cut][0], 0)} rpm "
-            f"({fmt_num(per_unit, 6)} rpm per unit)"
+            f"! ROBOLOBE spindle speed {fmt_num(vals[first_cut][0], 0, point=False)} rpm "
+            f"({fmt_num(per_unit, 6, point=False)} rpm per unit)"
         )
     for ln, v in s_edits.items():
         raw = src[ln - 1]
@@ -846,13 +846,13 @@ def write_rapid(text: str, source: str, edit: ProgramEdit) -> str:
         if comps is None:
             mv = _PREDEFINED_V.match(base)
             comps = [mv.group(1) if mv else base, "500", "5000", "1000"]
-        v_tcp = fmt_num(f / 60.0, 9)
+        v_tcp = fmt_num(f / 60.0, 9, point=False)
         key = (v_tcp, ",".join(comps[1:]))
         if key not in names:
             names[key] = f"vRl{len(names) + 1}"
             decls.append(
                 f"    CONST speeddata {names[key]}:=[{v_tcp},{','.join(comps[1:])}]; "
-                f"! ROBOLOBE {fmt_num(f, 3)} mm/min"
+                f"! ROBOLOBE {fmt_num(f, 3, point=False)} mm/min"
             )
         new_speed = names[key] + tail
         note = [f"speed {base} -> {names[key]}"]
@@ -866,11 +866,11 @@ def write_rapid(text: str, source: str, edit: ProgramEdit) -> str:
         new_raw = raw[:pos] + new_speed + raw[pos + len(speed_arg) :]
         if ln in s_ins:
             m_txt = f", margin {margin:.2f}" if math.isfinite(margin) else ""
-            note.append(f"spindle {fmt_num(rpm, 0)} rpm{m_txt}")
+            note.append(f"spindle {fmt_num(rpm, 0, point=False)} rpm{m_txt}")
             if sync == "setao":
                 before.setdefault(ln, []).append(
                     f"{_indent(raw)}SetAO {sig}, {s_ins[ln]}; ! ROBOLOBE spindle speed "
-                    f"{fmt_num(rpm, 0)} rpm{m_txt}"
+                    f"{fmt_num(rpm, 0, point=False)} rpm{m_txt}"
                 )
             else:
                 if word not in ("MOVEL", "MOVEC"):
@@ -882,7 +882,7 @@ def write_rapid(text: str, source: str, edit: ProgramEdit) -> str:
                 trigg_used = True
                 before.setdefault(ln, []).append(
                     f"{_indent(raw)}TriggIO {_TRIGG}, 0 \\Start \\AOp:={sig}, {s_ins[ln]}; "
-                    f"! ROBOLOBE spindle speed {fmt_num(rpm, 0)} rpm{m_txt}"
+                    f"! ROBOLOBE spindle speed {fmt_num(rpm, 0, point=False)} rpm{m_txt}"
                 )
                 kw = re.search(r"\bMove([LC])\b", new_raw, re.IGNORECASE)
                 assert kw is not None
@@ -894,6 +894,14 @@ def write_rapid(text: str, source: str, edit: ProgramEdit) -> str:
                     new_raw[: p2 + len(new_speed)] + f", {_TRIGG}" + new_raw[p2 + len(new_speed) :]
                 )
         out_lines[ln] = new_raw.rstrip() + " ! ROBOLOBE " + "; ".join(note)
+    secs = sections(edit)
+    if secs:
+        stmt_lines = {ln for ln, _ in stmts}
+        per_unit_sig = (sig, per_unit)
+        for sec in secs:
+            _rapid_pass_block(
+                edit, sec, src, stmt_lines, all_moves, out_lines, before, per_unit_sig, source
+            )
     if trigg_used:
         decls.insert(0, f"    VAR triggdata {_TRIGG};")
     if decls:
@@ -905,6 +913,115 @@ def write_rapid(text: str, source: str, edit: ProgramEdit) -> str:
         res.extend(before.get(ln, []))
         res.append(out_lines.get(ln, src[ln - 1]))
     return "\n".join(res) + "\n"
+
+
+def _targets(word: str, args: list[str]) -> tuple[list[str], int]:
+    """The target arguments of a move (after optional switches) and where its speed is."""
+    k0 = 0
+    while k0 < len(args) and args[k0].startswith("\\"):
+        k0 += 1
+    n_pts = 2 if word.endswith("C") else 1
+    return [a.strip() for a in args[k0 : k0 + n_pts]], k0 + n_pts
+
+
+def _offs(target: str, d: np.ndarray) -> str:
+    x, y, z = (fmt_num(float(v), 9, point=False) for v in d)
+    return f"Offs({target},{x},{y},{z})"
+
+
+def _rapid_pass_block(
+    edit: ProgramEdit,
+    sec: Section,
+    src: list[str],
+    stmt_lines: set[int],
+    all_moves: dict[int, tuple[str, list[str]]],
+    out_lines: dict[int, str],
+    before: dict[int, list[str]],
+    spindle: tuple[str, float],
+    source: str,
+) -> None:
+    """The shallower passes of one section, inserted before it: its moves with their targets
+    in ``Offs(target, shift along the tool axis)``, MoveJ links between them."""
+    wp_lines = edit.waypoints["line"].to_numpy()
+    pos_mm = edit.waypoints[["x_m", "y_m", "z_m"]].to_numpy(dtype=np.float64) * 1e3
+    first, last = int(wp_lines[sec.start]), int(wp_lines[sec.stop - 1])
+    prev = int(wp_lines[sec.start - 1])
+    where = f"{source}:{first}"
+    seq = wp_lines[sec.start : sec.stop]
+    if np.any(np.diff(seq) < 0) or prev not in all_moves or prev >= first:
+        raise InputError(
+            "passes in RAPID: the run of cutting moves must follow the move before it in the "
+            "file (no procedure calls inside)",
+            where,
+        )
+    for ln in range(first, last + 1):
+        code = _strip_comment(src[ln - 1]).strip()
+        if code and (ln not in stmt_lines or not code.endswith(";")):
+            raise InputError(
+                "passes in RAPID: expected one statement per line in the run of cutting moves",
+                f"{source}:{ln}",
+            )
+    (start_t,), _ = _targets(*all_moves[prev])
+    end_word, end_args = all_moves[last]
+    end_ts, _ = _targets(end_word, end_args)
+    end_t = end_ts[-1]
+    w0, a0 = all_moves[first]
+    _, ks = _targets(w0, a0)
+    tail = ", ".join(a.strip() for a in a0[ks + 2 :])
+    pw, pa = all_moves[prev]
+    _, kp = _targets(pw, pa)
+    link_speed = pa[kp].strip()
+    a = np.asarray(sec.axis)
+    p_start, p_end = pos_mm[sec.start - 1], pos_mm[sec.stop - 1]
+    offs = sec.offsets_mm()
+    n = len(offs)
+    sig, per_unit = spindle
+    s_first = edit.rpm[sec.start]
+    s_varies = bool(np.any(edit.rpm[sec.start : sec.stop] != s_first))
+    restate = (
+        f"    SetAO {sig}, {fmt_num(s_first / per_unit, 12, point=False)}; "
+        "! ROBOLOBE spindle speed at the pass start"
+    )
+    block: list[str] = []
+    end = p_start
+    for k, off in enumerate(offs, start=1):
+        pts = link_moves(edit, sec, pos_mm, end, off)
+        bases = (
+            [(end_t, p_end), (start_t, p_start), (start_t, p_start)]
+            if len(pts) == 3
+            else [(start_t, p_start)]
+        )
+        for p, (t, base) in zip(pts, bases, strict=True):
+            block.append(
+                f"    MoveJ {_offs(t, p - base)}, {link_speed}, fine, {tail}; "
+                f"! ROBOLOBE link to pass {k} of {n}"
+            )
+        if s_varies and k > 1:
+            block.append(restate)
+        if off == 0:
+            break
+        block.append(
+            f"    ! ROBOLOBE pass {k} of {n}: {fmt_num(off, 4, point=False)} mm above the "
+            "programmed depth"
+        )
+        d = off * a
+        for ln in range(first, last + 1):
+            block.extend(x for x in before.get(ln, []) if not x.lstrip().startswith("!"))
+            raw = out_lines.get(ln, src[ln - 1])
+            if ln in all_moves:
+                word, args = all_moves[ln]
+                ts, _ = _targets(word, args)
+                pos = raw.upper().find(word) + len(word)
+                for t in ts:
+                    j = raw.find(t, pos)
+                    if j < 0:
+                        raise InputError("passes in RAPID: target not found on its line", where)
+                    new = _offs(t, d)
+                    raw = raw[:j] + new + raw[j + len(t) :]
+                    pos = j + len(new)
+            block.append(raw)
+        end = p_end + d
+    before.setdefault(first, [])[0:0] = block
 
 
 def _indent(raw: str) -> str:
