@@ -473,34 +473,36 @@ def _check(
     source: str,
 ) -> None:
     """Read the written program back; it must give ``expected_table(edit)``."""
-    exp = expected_table(edit, full=False)
     got = _reread(files, fmt, name, {**opts, **_analog_options(edit, fmt)})
+    # what the check needs of it, then the table goes (a million rows: the peak of the check)
+    g_line = got["line"].to_numpy(copy=True)  # copies: views would keep the table alive
+    g_motion = got["motion"].to_numpy(copy=True)
+    g_rpm = got["rpm_programmed"].to_numpy(copy=True)
+    g_feed = got["feed_mm_per_min"].to_numpy(copy=True)
+    p = got[["x_m", "y_m", "z_m"]].to_numpy(dtype=np.float64) * 1e3
+    del got
+    exp = expected_table(edit, full=False)
     where = f"{name}{EXTENSIONS[fmt]} (written from {source})"
     fix = " (not written; --program-format table or --no-program)"
-    if len(got) != len(exp):
+    if len(p) != len(exp):
         raise InputError(
-            f"robolobe cannot write this program faithfully: it reads back to {len(got)} "
+            f"robolobe cannot write this program faithfully: it reads back to {len(p)} "
             f"moves, expected {len(exp)}{fix}",
             source=where,
         )
-    p = got[["x_m", "y_m", "z_m"]].to_numpy(dtype=np.float64) * 1e3
     q = exp[["x_mm", "y_mm", "z_mm"]].to_numpy(dtype=np.float64)
     err = np.max(np.abs(p - q), axis=1)
-    mot = got["motion"].to_numpy() != exp["motion"].to_numpy()
+    mot = g_motion != exp["motion"].to_numpy()
     cut = (exp["motion"] == "cut").to_numpy()
-    s_err = cut & ~np.isclose(got["rpm_programmed"].to_numpy(), exp["rpm"].to_numpy(), rtol=1e-9)
-    f_err = cut & ~np.isclose(
-        got["feed_mm_per_min"].to_numpy(), exp["feed_mm_per_min"].to_numpy(), rtol=1e-7
-    )
+    s_err = cut & ~np.isclose(g_rpm, exp["rpm"].to_numpy(), rtol=1e-9)
+    f_err = cut & ~np.isclose(g_feed, exp["feed_mm_per_min"].to_numpy(), rtol=1e-7)
     bad = (err > 1e-6) | mot | s_err | f_err
     if np.any(bad):
         r = int(np.argmax(bad))
         raise InputError(
             f"robolobe cannot write this program faithfully: move {r} (written line "
-            f"{got['line'].iloc[r]}) reads back as "
-            f"{p[r].round(6).tolist()} mm {got['motion'].iloc[r]} "
-            f"S{got['rpm_programmed'].iloc[r]:g} "
-            f"F{got['feed_mm_per_min'].iloc[r]:g}, expected {q[r].round(6).tolist()} mm "
+            f"{g_line[r]}) reads back as {p[r].round(6).tolist()} mm {g_motion[r]} "
+            f"S{g_rpm[r]:g} F{g_feed[r]:g}, expected {q[r].round(6).tolist()} mm "
             f"{exp['motion'].iloc[r]} S{exp['rpm'].iloc[r]:g} "
             f"F{exp['feed_mm_per_min'].iloc[r]:g}{fix}",
             source=where,

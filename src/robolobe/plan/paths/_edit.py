@@ -206,6 +206,18 @@ def expected_table(edit: ProgramEdit, *, full: bool = True) -> pd.DataFrame:
     rpm = np.where(edit.cut, edit.rpm, np.nan)
     feed = np.where(edit.cut, edit.feed_mm_per_min, np.nan)
     secs = sections(edit)
+    if not secs and not full:  # the program's own moves: no copies (a million rows: 40 MB)
+        return pd.DataFrame(
+            {
+                "x_mm": pos[:, 0],
+                "y_mm": pos[:, 1],
+                "z_mm": pos[:, 2],
+                "motion": wp["motion"].to_numpy(),
+                "rpm": rpm,
+                "feed_mm_per_min": feed,
+            },
+            copy=False,
+        )
     # each expected row: the original row it copies (links: the section's first row),
     # its position and whether it is a link (a rapid without S and F)
     parts_row: list[IntArray] = []

@@ -216,7 +216,8 @@ class WaypointBuilder:
         """
         if not self._rows:
             raise InputError("expected at least one move, found none", source=self.source)
-        rows = np.frombuffer(self._rows, dtype=np.float64).reshape(-1, _WIDTH).copy()
+        # a view of the buffer (no copy): the columns below are copies of their own
+        rows = np.frombuffer(self._rows, dtype=np.float64).reshape(-1, _WIDTH)
         pos = rows[:, 0:3]
         axis = rows[:, 3:6]
         line = rows[:, 9].astype(np.int64)

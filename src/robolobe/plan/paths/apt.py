@@ -55,7 +55,14 @@ from robolobe.plan.paths._edit import (
     sections,
 )
 from robolobe.plan.paths._table import WaypointBuilder
-from robolobe.plan.paths._text import UNIT_CHOICES, check_choice, finite, lines, read_text
+from robolobe.plan.paths._text import (
+    UNIT_CHOICES,
+    check_choice,
+    finite,
+    iter_lines,
+    lines,
+    read_text,
+)
 
 __all__ = ["parse_apt", "read_apt", "write_apt"]
 
@@ -77,7 +84,7 @@ def _statements(text: str) -> list[tuple[int, str]]:
     out: list[tuple[int, str]] = []
     buf: list[str] = []
     start = 0
-    for lineno, raw in enumerate(lines(text), start=1):
+    for lineno, raw in enumerate(iter_lines(text), start=1):
         line = raw.rstrip()
         cut = line.find("$$")
         if cut >= 0:

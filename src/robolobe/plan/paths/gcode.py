@@ -81,7 +81,14 @@ from robolobe.plan.paths._edit import (
     sections,
 )
 from robolobe.plan.paths._table import WaypointBuilder
-from robolobe.plan.paths._text import MAX_ABS, UNIT_CHOICES, check_choice, lines, read_text
+from robolobe.plan.paths._text import (
+    MAX_ABS,
+    UNIT_CHOICES,
+    check_choice,
+    iter_lines,
+    lines,
+    read_text,
+)
 
 __all__ = ["parse_gcode", "read_gcode", "write_gcode"]
 
@@ -284,7 +291,7 @@ def parse_gcode(
     strip_comments = _strip_comments
     tokenize = _tokenize
     block = _block
-    for lineno, raw in enumerate(lines(text), start=1):
+    for lineno, raw in enumerate(iter_lines(text), start=1):
         line = raw.strip()
         if not line:
             continue
