@@ -214,6 +214,9 @@ def register(app: typer.Typer) -> None:
             from robolobe.plan.report import WAYPOINT_FORMATS, require_pyarrow, write_outputs
 
             check_output_dir(output, "--output")
+            from robolobe.plan.program import check_program_format
+
+            check_program_format(program_format)
             if waypoints not in WAYPOINT_FORMATS:
                 expected = ", ".join(WAYPOINT_FORMATS)
                 raise InputError(f"--waypoints: expected one of {expected}, found {waypoints!r}")

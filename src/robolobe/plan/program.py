@@ -52,6 +52,7 @@ __all__ = [
     "WRITERS",
     "FolderPlan",
     "ProgramText",
+    "check_program_format",
     "program_changes",
     "program_edit",
     "program_text",
@@ -124,6 +125,12 @@ class FolderPlan:
 
 #: What the writer takes: a plan in memory or one read from its folder.
 AnyPlan = PlanResult | FolderPlan
+
+
+def check_program_format(fmt: str | None) -> None:
+    """Refuse an unknown ``--program-format`` (before any work)."""
+    if fmt is not None and fmt not in WRITERS:
+        raise InputError(f"--program-format: expected one of {', '.join(WRITERS)}, found {fmt!r}")
 
 
 def _options(res: AnyPlan) -> dict[str, Any]:
@@ -378,15 +385,10 @@ def program_text(
         No source program, a changed one, an undefined translation, missing
         analog scaling keys (KRL/RAPID), passes the dialect cannot hold.
     """
+    check_program_format(fmt)
     src = _source_path(res)
     read_fmt = detect_format(src)
     fmt = fmt or read_fmt
-    if fmt not in WRITERS:
-        raise InputError(
-            f"--program-format: writing {fmt} programs is not built yet; expected one of "
-            f"{[f for f in TRANSLATIONS.get(read_fmt, ()) if f in WRITERS]} (or --no-program)",
-            source=src.name,
-        )
     if fmt not in TRANSLATIONS.get(read_fmt, ()):
         raise InputError(
             f"--program-format: a translation from {read_fmt} to {fmt!r} is not defined; "
