@@ -96,7 +96,7 @@ TRANSLATIONS: dict[str, tuple[str, ...]] = {
 }
 
 
-#: Dialects whose writer is built (KRL and RAPID: not yet, see README).
+#: Dialects a program can be written in (--program-format).
 WRITERS: tuple[str, ...] = ("gcode", "apt", "krl", "rapid", "table")
 
 
