@@ -544,3 +544,21 @@ def test_rapid_passes(sync) -> None:
         back["feed_mm_per_min"].to_numpy()[bc], np.tile(edit.feed_mm_per_min[cut], 3)
     )
     assert "MoveL Offs(p0,0,0,2)" in out.replace(".,", ",").replace(".)", ")")
+
+
+def test_analog_full_scale_below_the_planned_speed_is_refused() -> None:
+    from robolobe.plan.paths.krl import parse_krl, write_krl
+    from robolobe.plan.paths.rapid import parse_rapid, write_rapid
+
+    wp = parse_krl(KRL_NO_DAT, "flat.src")
+    edit = _with_options(_edit(wp, lambda ln: 25000, lambda ln: 600.0), **ANALOG)
+    with pytest.raises(InputError, match="analog_rpm_full_scale"):
+        write_krl(KRL_NO_DAT, "flat.src", edit, name="program")
+    wp = parse_rapid(RAPID_MOD, "m.mod")
+    edit = _with_options(
+        _edit(wp, lambda ln: 25000, lambda ln: 600.0),
+        analog_output="aoS",
+        analog_rpm_full_scale=24000.0,
+    )
+    with pytest.raises(InputError, match="analog_rpm_full_scale"):
+        write_rapid(RAPID_MOD, "m.mod", edit)

@@ -771,6 +771,14 @@ def write_rapid(text: str, source: str, edit: ProgramEdit) -> str:
     vals = line_values(edit)
     stmts = _statements(text, source)
     s_want = {ln: fmt_num(v[0] / per_unit, 12, point=False) for ln, v in vals.items()}
+    full_scale = float(opt.get("analog_full_scale", 1.0))
+    top = max((v[0] for v in vals.values()), default=0.0)
+    if top / per_unit > full_scale * (1 + 1e-12):
+        raise InputError(
+            f"[program] analog_rpm_full_scale: {top:g} rpm is beyond the output's full scale "
+            f"({per_unit * full_scale:g} rpm at {full_scale:g})",
+            source=source,
+        )
     # the module's speeddata literals (to copy their orientation and external-axis speeds)
     sdata: dict[str, list[str]] = {}
     for _, st in stmts:
