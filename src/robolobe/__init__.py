@@ -62,6 +62,7 @@ _API: dict[str, tuple[str, str]] = {
     "plan_path": ("robolobe.plan.pipeline", "plan_path"),
     "PlanSummary": ("robolobe.plan._summary", "PlanSummary"),
     "write_plan": ("robolobe.plan.report", "write_outputs"),
+    "write_program": ("robolobe.plan.program", "write_program"),
     "verify": ("robolobe.plan.verify", "verify_plan"),
     "compare_robots": ("robolobe.plan.compare", "compare_robots"),
     # diagnosis (not "diagnose": importing robolobe.diagnose would replace it

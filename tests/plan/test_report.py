@@ -34,8 +34,9 @@ def test_write_outputs(tmp_path, result):
     assert files == [
         MANIFEST, "plots/lobes.png", "plots/path_margin.png", "plots/speed_map.png",
         "plots/speed_power.png",
-        "report.html", "summary.json", "waypoints.csv",
+        "program.apt", "report.html", "summary.json", "waypoints.csv",
     ]  # fmt: skip
+    assert 'href="program.apt"' in (out / "report.html").read_text()
     table = pd.read_csv(out / "waypoints.csv")
     assert len(table) == len(result.table)
     for col in (
@@ -62,7 +63,9 @@ def test_write_outputs(tmp_path, result):
 
 def test_no_plots_no_html(tmp_path, result):
     out = report.write_outputs(result, tmp_path / "o2", plots=False, html_report=False)
-    assert sorted(p.name for p in out.iterdir()) == [MANIFEST, "summary.json", "waypoints.csv"]
+    assert sorted(p.name for p in out.iterdir()) == [
+        MANIFEST, "program.apt", "summary.json", "waypoints.csv"
+    ]  # fmt: skip
 
 
 def test_failure_leaves_nothing_half_written(tmp_path, result, monkeypatch):
@@ -85,7 +88,7 @@ def test_failure_leaves_nothing_half_written(tmp_path, result, monkeypatch):
 def test_rerun_without_plots_replaces_the_whole_set(tmp_path, result):
     out = report.write_outputs(result, tmp_path / "o3")
     (out / "mine.txt").write_text("kept")
-    report.write_outputs(result, out, plots=False, html_report=False)
+    report.write_outputs(result, out, plots=False, html_report=False, program=False)
     assert sorted(p.name for p in out.iterdir()) == [
         MANIFEST,
         "mine.txt",
@@ -105,7 +108,7 @@ def test_report_is_readable(tmp_path, result):
     assert str(tmp_path) not in html
     assert "contour.apt (bundled example)" in html
     # the tightest table: one row per position, speeds as whole rpm
-    part = html.split("Tightest waypoints")[1]
+    part = html.split("Tightest waypoints")[1].split("<h2>Program")[0]
     header = re.findall(r"<th>([^<]*)</th>", part)
     rows = [re.findall(r"<td>([^<]*)</td>", r) for r in re.findall(r"<tr>(.*?)</tr>", part, re.S)]
     tight = pd.DataFrame([r for r in rows if r], columns=header)
@@ -158,7 +161,9 @@ def test_thinned_waypoints_keep_the_tightest_of_each_block(tmp_path, result):
         assert got["line"].iloc[b] == full["line"].iloc[want]
     assert np.nanmin(got["margin"]) == np.nanmin(m)  # the path's tightest waypoint is kept
     # none: no table; a re-run replaces the set (no stale CSV)
-    report.write_outputs(result, out, plots=False, html_report=False, waypoints="none")
+    report.write_outputs(
+        result, out, plots=False, html_report=False, waypoints="none", program=False
+    )
     assert sorted(p.name for p in out.iterdir()) == [MANIFEST, "summary.json"]
     with pytest.raises(InputError):
         report.write_outputs(result, out, waypoints="xlsx")
@@ -202,7 +207,7 @@ def test_cli_waypoint_options(tmp_path):
     r = runner.invoke(app, [*base, "-o", str(tmp_path / "thin"), "--waypoints-every", "5"])
     assert r.exit_code == 0, r.output
     flat = " ".join(r.output.split())  # rich may wrap the line
-    assert "(waypoints.csv, summary.json)" in flat  # what was written, nothing else
+    assert "(waypoints.csv, summary.json, program.apt)" in flat  # what was written, nothing else
     full = plan_path(example("contour.apt"), load_job(job), refine=True).table
     got = pd.read_csv(tmp_path / "thin" / "waypoints.csv")
     assert len(got) == -(-len(full) // 5)

@@ -222,6 +222,21 @@ def register(app: typer.Typer) -> None:
         coordinates: _Coordinates = None,
         rotary_axes: _RotaryAxes = None,
         circle_axis: _CircleAxis = None,
+        program_format: Annotated[
+            str | None,
+            typer.Option(
+                "--program-format",
+                help="Write OUT/program.<ext> in this dialect (gcode, apt, krl, rapid, table; "
+                "default: the one read; another only where a translation is defined).",
+            ),
+        ] = None,
+        program: Annotated[
+            bool,
+            typer.Option(
+                "--program/--no-program",
+                help="Write the program back with the plan's speeds, feeds and passes.",
+            ),
+        ] = True,
     ) -> None:
         """Plan spindle speed and depth along a toolpath (chatter-free, per waypoint).
 
@@ -251,6 +266,9 @@ def register(app: typer.Typer) -> None:
                 "--output",
                 writes=output_files(plots=plots, html_report=html, waypoints=waypoints),
             )
+            from robolobe.plan.program import check_program_format
+
+            check_program_format(program_format)
             if waypoints not in WAYPOINT_FORMATS:
                 expected = ", ".join(WAYPOINT_FORMATS)
                 raise InputError(f"--waypoints: expected one of {expected}, found {waypoints!r}")
@@ -282,6 +300,8 @@ def register(app: typer.Typer) -> None:
                     waypoints_every=waypoints_every,
                     worker=worker,
                     option="--output",
+                    program=program,
+                    program_format=program_format,
                 )
             _print_summary(res.summary, output)
 

@@ -435,15 +435,17 @@ def write_comparison(
     import json
 
     from robolobe.plan import _plots
-    from robolobe.plan.report import _PLOTTERS, PLOTS, render_html, write_csv
+    from robolobe.plan.report import _PLOTTERS, PLOTS, _program_files, render_html, write_csv
 
     out = Path(out_dir)
     png = _plot(cmp)
     folders = robot_folders([str(r) for r in cmp.table["robot"]])
     per_robot: dict[str, dict[str, bytes]] = {}
+    programs: dict[str, dict[str, str]] = {}
     if plans:
         for key, res in cmp.results.items():
             per_robot[key] = {name: _plots.png(_PLOTTERS[name](res)) for name in PLOTS}
+            programs[key] = _program_files(res, True, None)  # refused before anything is written
     table = cmp.table.copy()
     table["folder"] = [folders[str(r)] if r in cmp.results else "" for r in table["robot"]]
     with atomic_dir(out, "compare", option="--output") as tmp:
@@ -464,6 +466,10 @@ def write_comparison(
             )
             for name, data in per_robot.get(key, {}).items():
                 (d / "plots" / f"{name}.png").write_bytes(data)
+            for name, text in programs.get(key, {}).items():
+                (d / name).write_text(text, encoding="utf-8")
             if key in per_robot:
-                (d / "report.html").write_text(render_html(res, per_robot[key]), encoding="utf-8")
+                (d / "report.html").write_text(
+                    render_html(res, per_robot[key], program=programs.get(key)), encoding="utf-8"
+                )
     return out

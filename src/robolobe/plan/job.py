@@ -83,6 +83,18 @@ Example (all keys; defaults shown where a key is optional)::
     circle_axis = "auto"         # "auto" | "cw" | "ccw": APT CIRCLE sense about i,j,k
                                  # (NX: cw, CATIA: ccw; auto: from tangency)
     arc_tol_mm = 0.01            # chord tolerance of linearised arcs
+    cutter_radius_mm = 10.0      # G-code G41/G42: the D register's radius (tool radius for a
+                                 # part-contour program); without it G41/G42 are refused
+
+    [program]                    # the program robolobe writes (optional; robolobe.plan.program)
+    min_segment_mm = 10.0        # a new spindle speed holds for at least this cutting length
+    hysteresis_pct = 2.0         # S changes only where the plan's differs by more than this
+    retract_mm = 5.0             # links between passes: clearance above the section
+    analog_output = "1"          # KRL: $ANOUT index; RAPID: analog output signal name
+    analog_rpm_full_scale = 24000  # spindle rpm at the analog output's full scale
+    analog_full_scale = 1.0      # the output's full-scale value (KRL $ANOUT: 1.0)
+    rapid_sync = "triggio"       # RAPID: "triggio" (TriggIO + TriggL, path-synchronous)
+                                 # or "setao" (SetAO before the move)
 """
 
 from __future__ import annotations
@@ -298,6 +310,19 @@ class _PathSpec(_Spec):
     arc_tol_mm: Annotated[float, Field(ge=1e-3, le=10, allow_inf_nan=False, strict=True)] | None = (
         None
     )
+    cutter_radius_mm: (
+        Annotated[float, Field(ge=0, le=1000, allow_inf_nan=False, strict=True)] | None
+    ) = None
+
+
+class _ProgramSpec(_Spec):
+    min_segment_mm: NonNegNum = 10.0
+    hysteresis_pct: Annotated[float, Field(ge=0, le=50, allow_inf_nan=False, strict=True)] = 2.0
+    retract_mm: PosNum = 5.0
+    analog_output: Annotated[str, Field(min_length=1)] | None = None
+    analog_rpm_full_scale: PosNum | None = None
+    analog_full_scale: PosNum = 1.0
+    rapid_sync: Literal["triggio", "setao"] = "triggio"
 
 
 class _JobSpec(_Spec):
@@ -311,6 +336,7 @@ class _JobSpec(_Spec):
     spindle: _SpindleSpec
     plan: _PlanSpec = Field(default_factory=_PlanSpec)
     path: _PathSpec = Field(default_factory=_PathSpec)
+    program: _ProgramSpec = Field(default_factory=_ProgramSpec)
 
 
 _KNOWN_KEYS: dict[str, set[str]] = {
@@ -324,6 +350,7 @@ _KNOWN_KEYS: dict[str, set[str]] = {
     "spindle": set(_SpindleSpec.model_fields),
     "plan": set(_PlanSpec.model_fields),
     "path": set(_PathSpec.model_fields),
+    "program": set(_ProgramSpec.model_fields),
 }
 
 
@@ -538,6 +565,9 @@ class Job:
     path_options : dict
         Toolpath reader options (job section ``[path]``; see
         :data:`robolobe.plan.paths.READER_OPTIONS`); only those set.
+    program_options : dict
+        Program writer settings (job section ``[program]``, file units; see
+        :func:`robolobe.plan.program.write_program`); only those set.
     """
 
     robot: str
@@ -557,6 +587,7 @@ class Job:
     name: PrintableText = ""
     source: str = "<code>"
     path_options: dict[str, Any] = field(default_factory=dict)
+    program_options: dict[str, Any] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         p = np.array(self.placement, dtype=np.float64)
@@ -582,7 +613,17 @@ class Job:
 
 def _check_typos(raw: dict[str, Any], where: str) -> None:
     tables: list[tuple[Any, set[str], str]] = [(raw, _KNOWN_KEYS[""], "")]
-    for sec in ("robot", "placement", "tool", "material", "cut", "spindle", "plan", "path"):
+    for sec in (
+        "robot",
+        "placement",
+        "tool",
+        "material",
+        "cut",
+        "spindle",
+        "plan",
+        "path",
+        "program",
+    ):
         tables.append((raw.get(sec), _KNOWN_KEYS[sec], f"{sec}."))
     tool = raw.get("tool")
     if isinstance(tool, dict) and isinstance(tool.get("modes"), list):
@@ -748,6 +789,11 @@ def job_from_dict(d: dict[str, Any], source: str = "<dict>", base_dir: Path | No
             for k, v in spec.path.model_dump().items()
             if v is not None and k in _KNOWN_KEYS["path"]
         },
+        program_options={
+            k: getattr(spec.program, k)
+            for k in spec.program.model_fields_set
+            if k in _KNOWN_KEYS["program"]
+        },
     )
 
 
@@ -878,6 +924,7 @@ def job_to_dict(job: Job) -> dict[str, Any]:
         },
         "plan": plan,
         **({"path": dict(job.path_options)} if job.path_options else {}),
+        **({"program": dict(job.program_options)} if job.program_options else {}),
     }
 
 

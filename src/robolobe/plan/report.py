@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import base64
 import json
+import logging
 import os
 from collections.abc import Callable
 from pathlib import Path
@@ -61,6 +62,13 @@ OUTPUTS: tuple[str, ...] = (
     "summary.json",
     "plots",
     "report.html",
+    # the program written back (plan/program.py); KRL writes its .dat beside it
+    "program.nc",
+    "program.apt",
+    "program.src",
+    "program.dat",
+    "program.mod",
+    "program.csv",
 )
 #: What ``write_outputs(waypoints=...)`` accepts.
 WAYPOINT_FORMATS: tuple[str, ...] = ("csv", "parquet", "none")
@@ -363,7 +371,11 @@ def _tightest(res: PlanResult, n: int = 10) -> pd.DataFrame:
 
 
 def render_html(
-    res: PlanResult, images: dict[str, bytes], base: str | os.PathLike[str] | None = None
+    res: PlanResult,
+    images: dict[str, bytes],
+    base: str | os.PathLike[str] | None = None,
+    *,
+    program: dict[str, str] | None = None,
 ) -> str:
     """The self-contained HTML report (PNG images embedded as base64).
 
@@ -374,6 +386,9 @@ def render_html(
         PNG images by plot name (:data:`PLOTS`).
     base : path-like, optional
         Folder the report is written to; file names are shown relative to it.
+    program : dict of str to str, optional
+        The program files written beside the report: a section lists where
+        the program's S, F or passes change and links the file.
     """
     s = res.summary
     b = Path(base) if base is not None else None
@@ -460,10 +475,43 @@ figcaption {{ font-size: 14px; color: #444; max-width: 800px; }}
 <h2>Tightest waypoints</h2>
 <p>The cutting waypoints with the smallest margin, one row per position.</p>
 {tight_html}
+{_program_html(res, program)}
 <p><small>robolobe {html_text(s.robolobe_version)};
 timings: {html_text(timing)}</small></p>
 </body></html>
 """
+
+
+def _program_html(res: PlanResult, program: dict[str, str] | None, n: int = 30) -> str:
+    """The report's "Program" section: changed S/F/pass lines and a link to the file."""
+    if not program:
+        return ""
+    from robolobe.plan.program import program_changes
+
+    ch = program_changes(res)
+    name = next(iter(program))
+    shown = ch.head(n).rename(
+        columns={
+            "rpm_old": "S old [rpm]",
+            "rpm_new": "S new [rpm]",
+            "feed_old": "F old [mm/min]",
+            "feed_new": "F new [mm/min]",
+        }
+    )
+    for c in shown.select_dtypes(include="object").columns:
+        shown[c] = shown[c].map(visible)  # to_html escapes HTML, not controls
+    body = shown.to_html(
+        index=False,
+        border=0,
+        na_rep="-",
+        float_format=lambda v: f"{v:.6g}",
+    )
+    more = f"<p>... and {len(ch) - n} more.</p>" if len(ch) > n else ""
+    return (
+        f'<h2>Program</h2><p>Written: <a href="{html_text(name)}">{html_text(name)}</a> '
+        f"(changed blocks end with a ROBOLOBE comment). Blocks where the program's spindle "
+        f"speed, feed or passes change ({len(ch)}):</p>{body}{more}"
+    )
 
 
 def write_outputs(
@@ -476,6 +524,8 @@ def write_outputs(
     waypoints_every: int = 1,
     worker: PlotWorker | None = None,
     option: str | None = None,
+    program: bool = True,
+    program_format: str | None = None,
 ) -> Path:
     """Write the plan into ``out_dir`` atomically (see the module docstring).
 
@@ -503,6 +553,13 @@ def write_outputs(
         as drawn here; drawn here if the worker fails.
     option : str, optional
         The option that named ``out_dir``, for messages.
+    program : bool
+        Also write the program with the plan's speeds, feeds and passes
+        (``program.<ext>``, :func:`robolobe.plan.program.program_text`) when
+        the plan read a program file whose dialect has a writer.
+    program_format : str, optional
+        Dialect of that program (default: the one read); refused, before
+        anything is written, where no translation is defined.
 
     Returns
     -------
@@ -522,6 +579,7 @@ def write_outputs(
         from robolobe.errors import InputError
 
         raise InputError(f"waypoints_every: expected an integer >= 1, found {waypoints_every!r}")
+    program_files = _program_files(res, program, program_format)
     records = {name: _DATA[name](res) for name in PLOTS} if plots or html_report else {}
     if worker is not None and records:
         worker.send(records)  # drawn there while the tables are written here
@@ -538,6 +596,35 @@ def write_outputs(
             (tmp / "plots").mkdir()
             for name, data in images.items():
                 (tmp / "plots" / f"{name}.png").write_bytes(data)
+        for name, text in program_files.items():
+            (tmp / name).write_text(text, encoding="utf-8")
         if html_report:
-            (tmp / "report.html").write_text(render_html(res, images, out), encoding="utf-8")
+            (tmp / "report.html").write_text(
+                render_html(res, images, out, program=program_files), encoding="utf-8"
+            )
     return out
+
+
+def _program_files(res: PlanResult, program: bool, fmt: str | None) -> dict[str, str]:
+    """The program files to write with the plan (none for a table given in memory)."""
+    if not program or (fmt is None and res.path in ("<table>", "")):
+        return {}
+    from robolobe.plan.paths import detect_format
+    from robolobe.plan.program import PROGRAM_DEFAULTS, program_text
+
+    read_fmt = detect_format(res.path) if Path(res.path).is_file() else None
+    opts = {**PROGRAM_DEFAULTS, **res.job.program_options}
+    if (
+        fmt is None
+        and read_fmt in ("krl", "rapid")
+        and (opts["analog_output"] is None or opts["analog_rpm_full_scale"] is None)
+    ):
+        # asked for implicitly: the plan stands without it (explicitly: refused by key)
+        logging.getLogger(__name__).warning(
+            "%s: no program written: a %s program sets the spindle speed by an analog output; "
+            "give [program] analog_output and analog_rpm_full_scale in the job",
+            Path(res.path).name,
+            read_fmt.upper() if read_fmt == "krl" else "RAPID",
+        )
+        return {}
+    return dict(program_text(res, fmt))

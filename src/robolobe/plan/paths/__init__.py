@@ -140,6 +140,7 @@ READER_OPTIONS: dict[str, tuple[str, ...] | None] = {
     "rotary_axes": ("auto", "head", "table"),
     "circle_axis": ("auto", "cw", "ccw"),
     "arc_tol_mm": None,
+    "cutter_radius_mm": None,
 }
 
 

@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import logging
 import math
+from array import array
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -31,11 +32,13 @@ import pandas as pd
 from numpy.typing import NDArray
 
 from robolobe.errors import InputError
+from robolobe.plan.paths._edit import ProgramEdit, expected_table
 
 __all__ = [
     "COLUMNS",
     "WaypointBuilder",
     "feed_directions",
+    "program_table",
     "segment_lengths",
     "validate_waypoints",
 ]
@@ -64,6 +67,7 @@ FloatArray = NDArray[np.float64]
 
 logger = logging.getLogger(__name__)
 
+_WIDTH = 10  # numbers per waypoint in WaypointBuilder._rows
 _MAX_POS_M = 1e4  # 10 km: anything beyond is a corrupt or mis-scaled file
 
 
@@ -81,9 +85,11 @@ class WaypointBuilder:
     """
 
     source: str
-    # one row per waypoint: x y z [m], i j k, feed, rpm, rapid (0/1), line
-    _rows: list[tuple[float, ...]] = field(default_factory=list)
-    _ref: dict[int, tuple[float, float, float]] = field(default_factory=dict)
+    # one row per waypoint, flat: x y z [m], i j k, feed, rpm, rapid (0/1), line (80 bytes a
+    # row: a list of tuples would take ~380 at a million waypoints)
+    _rows: array = field(default_factory=lambda: array("d"))
+    # TCP x axes where the path fixes them, flat: row index, x, y, z
+    _ref: array = field(default_factory=lambda: array("d"))
     warnings: list[str] = field(default_factory=list)
     _seen: dict[str, int] = field(default_factory=dict)
 
@@ -146,8 +152,8 @@ class WaypointBuilder:
             rx, ry, rz = rx - d * ax, ry - d * ay, rz - d * az
             rn = math.sqrt(rx * rx + ry * ry + rz * rz)
             if rn > 1e-9:
-                self._ref[len(self._rows)] = (rx / rn, ry / rn, rz / rn)
-        self._rows.append(
+                self._ref.extend((len(self._rows) // _WIDTH, rx / rn, ry / rn, rz / rn))
+        self._rows.extend(
             (
                 float(pos_m[0]),
                 float(pos_m[1]),
@@ -176,18 +182,18 @@ class WaypointBuilder:
         The per-line fast path of the G-code reader (no normalisation, no
         reference axis); positions are checked, vectorised, by :meth:`table`.
         """
-        self._rows.append(
+        self._rows.extend(
             (pos_m[0], pos_m[1], pos_m[2], axis[0], axis[1], axis[2], feed_mm_per_min, rpm,
              1.0 if rapid else 0.0, line)
         )  # fmt: skip
 
     def __len__(self) -> int:
-        return len(self._rows)
+        return len(self._rows) // _WIDTH
 
     @property
     def last_position(self) -> FloatArray | None:
         """The last position [m], or None."""
-        return np.array(self._rows[-1][:3]) if self._rows else None
+        return np.array(self._rows[-_WIDTH : -_WIDTH + 3]) if self._rows else None
 
     def notes(self) -> list[str]:
         """The warnings, each once, with ``(n times)`` where it repeated."""
@@ -210,7 +216,8 @@ class WaypointBuilder:
         """
         if not self._rows:
             raise InputError("expected at least one move, found none", source=self.source)
-        rows = np.array(self._rows, dtype=np.float64)
+        # a view of the buffer (no copy): the columns below are copies of their own
+        rows = np.frombuffer(self._rows, dtype=np.float64).reshape(-1, _WIDTH)
         pos = rows[:, 0:3]
         axis = rows[:, 3:6]
         line = rows[:, 9].astype(np.int64)
@@ -224,8 +231,8 @@ class WaypointBuilder:
             )
         ref = np.full((len(rows), 3), np.nan)
         if self._ref:
-            idx = np.fromiter(self._ref.keys(), dtype=np.int64, count=len(self._ref))
-            ref[idx] = np.array(list(self._ref.values()))
+            rr = np.frombuffer(self._ref, dtype=np.float64).reshape(-1, 4)
+            ref[rr[:, 0].astype(np.int64)] = rr[:, 1:]
         f = feed_directions(pos, axis)
         df = pd.DataFrame(
             {
@@ -412,3 +419,35 @@ def validate_waypoints(df: pd.DataFrame, source: str) -> pd.DataFrame:
             "line": line,
         }
     )
+
+
+def program_table(edit: ProgramEdit) -> str:
+    """A waypoint table (CSV text) with the plan's rpm and feed per move, passes included.
+
+    The columns of :data:`COLUMNS`; ``rpm_programmed`` and
+    ``feed_mm_per_min`` hold the new values on cutting moves (the spindle
+    speed of the move before on rapids); every number at full precision.
+    """
+    exp = expected_table(edit)
+    pos = exp[["x_mm", "y_mm", "z_mm"]].to_numpy(dtype=np.float64) * 1e-3
+    ax = exp[["i", "j", "k"]].to_numpy(dtype=np.float64)
+    rpm = pd.Series(exp["rpm"].to_numpy()).ffill().to_numpy()
+    df = pd.DataFrame(
+        {
+            "x_m": pos[:, 0],
+            "y_m": pos[:, 1],
+            "z_m": pos[:, 2],
+            "i": ax[:, 0],
+            "j": ax[:, 1],
+            "k": ax[:, 2],
+            "ox": exp["ox"].to_numpy(),
+            "oy": exp["oy"].to_numpy(),
+            "oz": exp["oz"].to_numpy(),
+            "feed_mm_per_min": exp["feed_mm_per_min"].to_numpy(),
+            "rpm_programmed": rpm,
+            "motion": exp["motion"].to_numpy(),
+            "source": exp["source"].to_numpy(),
+            "line": exp["line"].to_numpy(),
+        }
+    )
+    return str(df.to_csv(index=False, float_format="%.17g"))

@@ -15,6 +15,7 @@
 from __future__ import annotations
 
 import math
+from collections.abc import Iterator
 from pathlib import Path
 
 import numpy as np
@@ -28,6 +29,7 @@ __all__ = [
     "UNIT_CHOICES",
     "check_choice",
     "finite",
+    "iter_lines",
     "lines",
     "read_text",
     "strip_bom",
@@ -96,6 +98,22 @@ def lines(text: str) -> list[str]:
     if out and out[-1] == "":
         out.pop()
     return out
+
+
+def iter_lines(text: str) -> Iterator[str]:
+    """The lines of :func:`lines`, one at a time (a million-line program never as one list)."""
+    t = strip_bom(text)
+    if "\r" in t:
+        t = t.replace("\r\n", "\n").replace("\r", "\n")
+    start = 0
+    n = len(t)
+    while start < n:
+        end = t.find("\n", start)
+        if end < 0:
+            yield t[start:]
+            return
+        yield t[start:end]
+        start = end + 1
 
 
 def finite(text: str, where: str, what: str) -> float:

@@ -38,6 +38,7 @@ from __future__ import annotations
 import logging
 import math
 import re
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
@@ -45,10 +46,25 @@ import pandas as pd
 
 from robolobe.errors import InputError
 from robolobe.plan.paths._arcs import arc_points, arc_start_tangent
+from robolobe.plan.paths._edit import (
+    ProgramEdit,
+    Section,
+    fmt_num,
+    line_values,
+    link_moves,
+    sections,
+)
 from robolobe.plan.paths._table import WaypointBuilder
-from robolobe.plan.paths._text import UNIT_CHOICES, check_choice, finite, lines, read_text
+from robolobe.plan.paths._text import (
+    UNIT_CHOICES,
+    check_choice,
+    finite,
+    iter_lines,
+    lines,
+    read_text,
+)
 
-__all__ = ["parse_apt", "read_apt"]
+__all__ = ["parse_apt", "read_apt", "write_apt"]
 
 logger = logging.getLogger(__name__)
 
@@ -68,7 +84,7 @@ def _statements(text: str) -> list[tuple[int, str]]:
     out: list[tuple[int, str]] = []
     buf: list[str] = []
     start = 0
-    for lineno, raw in enumerate(lines(text), start=1):
+    for lineno, raw in enumerate(iter_lines(text), start=1):
         line = raw.rstrip()
         cut = line.find("$$")
         if cut >= 0:
@@ -525,3 +541,231 @@ def read_apt(path: str | Path, **options: float | str) -> pd.DataFrame:
     """Read an APT/CL file (see :func:`parse_apt` for ``options``)."""
     p = Path(path)
     return parse_apt(read_text(p), p.name, **options)  # type: ignore[arg-type]
+
+
+# ------------------------------------------------------------------ writer
+# APT/CL conventions (ANSI X3.37 / ISO 4343 CL data, as NX and CATIA posts
+# read it): SPINDL/ and FEDRAT/ are modal records that apply to the GOTOs
+# after them; a CIRCLE/ record belongs to the GOTO after it, so a new record
+# goes before the CIRCLE. Values keep the units the program gave (MMPM, IPM,
+# MMPR, IPR or the UNITS of the file). Changes are announced by a "$$
+# ROBOLOBE ..." comment line before them.
+
+_FIRST_NUM = re.compile(r"[-+]?(?:\d+\.?\d*|\.\d+)(?:[Ee][-+]?\d+)?")
+
+
+def _apt_head(stmt: str) -> str:
+    m = _STMT.match(stmt.upper())
+    return m.group(1).strip() if m else re.split(r"[\s/]", stmt.upper(), maxsplit=1)[0]
+
+
+def _apt_args(stmt: str) -> list[str]:
+    m = _STMT.match(stmt.upper())
+    if not m or m.group(2) is None:
+        return []
+    return [a.strip() for a in m.group(2).split(",") if a.strip()]
+
+
+def write_apt(text: str, source: str, edit: ProgramEdit) -> str:
+    """Write APT/CL data with the speeds, feeds and passes of ``edit``.
+
+    Parameters
+    ----------
+    text : str
+        The CL data as read (:func:`parse_apt` made ``edit.waypoints`` of it).
+    source : str
+        Its file name (messages).
+    edit : ProgramEdit
+
+    Returns
+    -------
+    str
+        The new CL data.
+
+    Raises
+    ------
+    InputError
+        Passes in data with ``MSYS`` records, or a SPINDL/FEDRAT record
+        continued over several lines.
+    """
+    src = lines(text)
+    stmts = _statements(text)
+    vals = line_values(edit)
+    # the statement a move's new records go before: its CIRCLE/ when it has one
+    insert_at: dict[int, int] = {}
+    for k, (ln, _) in enumerate(stmts):
+        if ln in vals:
+            prev = stmts[k - 1] if k else None
+            insert_at[ln] = prev[0] if prev and _apt_head(prev[1]) == "CIRCLE" else ln
+    scale = 1.0
+    feed_unit = ""
+    direction = "CLW"
+    cur_s: float | None = None
+    cur_f: float | None = None
+    # governing records: the first cutting move after each SPINDL / FEDRAT record
+    gov: dict[int, int] = {}
+    pending: list[int] = []
+    for ln, stmt in stmts:
+        h = _apt_head(stmt)
+        if h in ("SPINDL", "FEDRAT"):
+            pending = [p for p in pending if _apt_head(dict(stmts)[p]) != h] + [ln]
+        elif ln in vals:
+            for p in pending:
+                gov[p] = ln
+            pending = []
+    before: dict[int, list[str]] = {}
+    replace: dict[int, str] = {}
+
+    def fed_value(ln: int, unit: str) -> float:
+        rpm, f, _ = vals[ln]
+        if unit in ("IPM", "IPR"):
+            f /= 25.4
+        elif unit == "":
+            f /= scale
+        return f / rpm if unit in ("MMPR", "IPR") else f
+
+    for ln, stmt in stmts:
+        h = _apt_head(stmt)
+        args = _apt_args(stmt)
+        if h == "UNITS" and args:
+            scale = 1.0 if args[0] == "MM" else 25.4
+        elif h == "SPINDL" and args and args[0] not in ("OFF", "ON"):
+            direction = "CCLW" if "CCLW" in args else "CLW"
+            old = float(_FIRST_NUM.search(stmt.split("/", 1)[1]).group(0))  # type: ignore[union-attr]
+            new = vals[gov[ln]][0] if ln in gov else old
+            cur_s = new
+            if new != old:
+                replace[ln] = _apt_number(stmt, fmt_num(new, 0))
+                before.setdefault(ln, []).append(
+                    f"$$ ROBOLOBE SPINDL {fmt_num(old, 3)} > {fmt_num(new, 0)} RPM"
+                )
+        elif h == "FEDRAT":
+            unit = next((a for a in args if a in _MINOR), "")
+            feed_unit = unit
+            old = float(_FIRST_NUM.search(stmt.split("/", 1)[1]).group(0))  # type: ignore[union-attr]
+            new = float(fmt_num(fed_value(gov[ln], unit), 6)) if ln in gov else old
+            cur_f = new
+            if new != old:
+                replace[ln] = _apt_number(stmt, fmt_num(new, 6))
+                before.setdefault(ln, []).append(
+                    f"$$ ROBOLOBE FEDRAT {fmt_num(old, 6)} > {fmt_num(new, 6)} {unit}".rstrip()
+                )
+        elif ln in vals:
+            rpm, _, margin = vals[ln]
+            at = insert_at[ln]
+            m_txt = f", MARGIN {margin:.2f}" if math.isfinite(margin) else ""
+            if cur_s is None or rpm != cur_s:
+                before.setdefault(at, []).extend(
+                    [
+                        f"$$ ROBOLOBE SPINDLE SPEED{m_txt}",
+                        f"SPINDL/ {fmt_num(rpm, 0)},RPM,{direction}",
+                    ]
+                )
+                cur_s = rpm
+            f = float(fmt_num(fed_value(ln, feed_unit), 6))
+            if cur_f is None or f != cur_f:
+                unit_txt = f",{feed_unit}" if feed_unit else ""
+                before.setdefault(at, []).extend(
+                    [f"$$ ROBOLOBE FEED{m_txt}", f"FEDRAT/ {fmt_num(f, 6)}{unit_txt}"]
+                )
+                cur_f = f
+    secs = sections(edit)
+    if secs:
+        _apt_passes(stmts, src, edit, secs, insert_at, before, replace, scale, source,
+                    feed_unit, fed_value, direction)  # fmt: skip
+    out: list[str] = []
+    skip_to = 0
+    for ln in range(1, len(src) + 1):
+        out.extend(before.get(ln, []))
+        if ln <= skip_to:
+            continue
+        if ln in replace:
+            out.append(replace[ln])
+            skip_to = _record_end(src, ln)
+            continue
+        out.append(src[ln - 1])
+    return "\n".join(out) + "\n"
+
+
+def _record_end(src: list[str], ln: int) -> int:
+    """Last line of the record starting at ``ln`` (``$`` continuations)."""
+    k = ln
+    while k <= len(src) and src[k - 1].split("$$")[0].rstrip().endswith("$"):
+        k += 1
+    return k
+
+
+def _apt_number(stmt: str, new: str) -> str:
+    """``stmt`` (one record) with its first number after ``/`` replaced."""
+    head, rest = stmt.split("/", 1)
+    m = _FIRST_NUM.search(rest)
+    assert m is not None
+    return f"{head}/{rest[: m.start()]}{new}{rest[m.end() :]}"
+
+
+def _apt_passes(
+    stmts: list[tuple[int, str]],
+    src: list[str],
+    edit: ProgramEdit,
+    secs: list[Section],
+    insert_at: dict[int, int],
+    before: dict[int, list[str]],
+    replace: dict[int, str],
+    scale: float,
+    source: str,
+    feed_unit: str,
+    fed_value: Callable[[int, str], float],
+    direction: str,
+) -> None:
+    """Insert the shallower passes of each section before it (module notes of ``_edit``)."""
+    if any(_apt_head(s) == "MSYS" for _, s in stmts):
+        raise InputError(
+            "passes in APT data with MSYS records are not written (the shift along the tool "
+            "axis would need the MSYS frame)",
+            source=source,
+        )
+    wp_lines = edit.waypoints["line"].to_numpy()
+    pos_mm = edit.waypoints[["x_m", "y_m", "z_m"]].to_numpy(dtype=np.float64) * 1e3
+    for sec in secs:
+        first, last = int(wp_lines[sec.start]), int(wp_lines[sec.stop - 1])
+        at = insert_at[first]
+        ax = np.asarray(sec.axis)
+        body = [(ln, s) for ln, s in stmts if at <= ln <= last]
+        block: list[str] = []
+        end = pos_mm[sec.start - 1]
+        offs = sec.offsets_mm()
+        rpm0 = line_values(edit)[first][0]
+        f0 = fed_value(first, feed_unit)
+        unit_txt = f",{feed_unit}" if feed_unit else ""
+        for k, off in enumerate(offs, start=1):
+            for p in link_moves(edit, sec, pos_mm, end, off):
+                q = p / scale
+                block += [
+                    f"$$ ROBOLOBE LINK TO PASS {k} OF {len(offs)}",
+                    "RAPID",
+                    f"GOTO  / {fmt_num(q[0], 8)}, {fmt_num(q[1], 8)}, {fmt_num(q[2], 8)}",
+                ]
+            block += [
+                f"SPINDL/ {fmt_num(rpm0, 0)},RPM,{direction}",
+                f"FEDRAT/ {fmt_num(f0, 6)}{unit_txt}",
+            ]
+            if off == 0:
+                break
+            block.append(
+                f"$$ ROBOLOBE PASS {k} OF {len(offs)}: {fmt_num(off, 4)} MM ABOVE THE "
+                f"PROGRAMMED DEPTH"
+            )
+            d = ax * off / scale
+            for ln, stmt in body:
+                block.extend(x for x in before.get(ln, []) if not x.startswith("$$"))
+                h = _apt_head(stmt)
+                text = replace.get(ln, stmt)
+                if h in ("GOTO", "CIRCLE"):
+                    args = _apt_args(text)
+                    v = [float(a) for a in args[:3]]
+                    rest = args[3:]
+                    v = [v[0] + d[0], v[1] + d[1], v[2] + d[2]]
+                    text = f"{h}/ " + ", ".join([*(fmt_num(x, 8) for x in v), *rest])
+                block.append(text)
+            end = pos_mm[sec.stop - 1] + off * ax
+        before.setdefault(at, [])[0:0] = block

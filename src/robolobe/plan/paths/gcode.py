@@ -32,9 +32,16 @@ Supported (Fanuc/Haas/Siemens-ISO/LinuxCNC milling programs as CAM posts write t
   without TCP.
   A rotary-only rapid without TCP (indexing before TCP is switched on) only
   sets the angles. A program uses I/J/K vectors or A/B/C words, not both.
+- cutter radius compensation G41/G42 (G40 cancels) in G17, applied as the
+  controller applies it (:mod:`robolobe.plan.paths._compensation`: offset
+  lines and arcs, arcs around outside corners, intersections at inside
+  ones, straight entry and exit moves) with the radius of the reader option
+  ``cutter_radius_mm`` (job ``[path] cutter_radius_mm``: the D register's
+  radius, whatever the D word); without it G41/G42 are refused, naming
+  that key.
 - ignored on purpose (no effect on the path), each with a note in the
   summary where it is unusual: G4 dwell, G10 blocks (offset data; the whole
-  block, L2/L10/L20...), G15, G40, G43/G44/G49, G54-G59.9, G54.1/G154 (work
+  block, L2/L10/L20...), G15, G40 without compensation on, G43/G44/G49, G54-G59.9, G54.1/G154 (work
   offsets), G61/G64, G80, G98/G99, G17.1, G5.1 Q.. (Fanuc AI contour
   control, no axis words), G5 P.. (Fanuc high-precision mode), G08 P..
   (look-ahead), G103 (look-ahead limit), G187 (smoothness), G255 (cancel
@@ -45,10 +52,11 @@ Supported (Fanuc/Haas/Siemens-ISO/LinuxCNC milling programs as CAM posts write t
 Refused with :class:`~robolobe.errors.InputError` naming ``file:line`` and
 the construct: macros ``#``, expressions ``[ ]``, ``IF``/``GOTO``/``WHILE``,
 O-word subroutines, splines and NURBS (LinuxCNC G5/G5.1/G5.2 with axis
-words, Fanuc G6.2), canned cycles G73-G89, cutter compensation G41/G42,
-inverse-time feed G93, polar/rotated/cylindrical coordinates
-G16/G68/G12.1/G7.1, subprograms M98, Heidenhain conversational, F <= 0,
-S < 0, non-finite or absurd numbers.
+words, Fanuc G6.2), canned cycles G73-G89, G41/G42 without
+``cutter_radius_mm`` (or outside G17, with a helical arc, or where the
+cutter does not fit an inside corner or arc), inverse-time feed G93,
+polar/rotated/cylindrical coordinates G16/G68/G12.1/G7.1, subprograms M98,
+Heidenhain conversational, F <= 0, S < 0, non-finite or absurd numbers.
 """
 
 from __future__ import annotations
@@ -64,10 +72,25 @@ import pandas as pd
 
 from robolobe.errors import InputError
 from robolobe.plan.paths._arcs import arc_point_list
+from robolobe.plan.paths._compensation import Element, compensate
+from robolobe.plan.paths._edit import (
+    ProgramEdit,
+    fmt_num,
+    line_values,
+    link_moves,
+    sections,
+)
 from robolobe.plan.paths._table import WaypointBuilder
-from robolobe.plan.paths._text import MAX_ABS, UNIT_CHOICES, check_choice, lines, read_text
+from robolobe.plan.paths._text import (
+    MAX_ABS,
+    UNIT_CHOICES,
+    check_choice,
+    iter_lines,
+    lines,
+    read_text,
+)
 
-__all__ = ["parse_gcode", "read_gcode"]
+__all__ = ["parse_gcode", "read_gcode", "write_gcode"]
 
 logger = logging.getLogger(__name__)
 
@@ -87,7 +110,7 @@ _UNSUPPORTED_KEYWORDS = re.compile(
 _PROGRAM_NAME = re.compile(r"^(?:O[A-Z0-9_.\-]+|O\s+\d+|:\s*\d+)\s*")
 
 # G codes accepted without effect on the geometry (no note: routine in posts)
-_G_IGNORED = {4.0, 15.0, 17.1, 40.0, 43.0, 44.0, 49.0, 61.0, 61.1, 64.0, 80.0, 98.0, 99.0}
+_G_IGNORED = {4.0, 15.0, 17.1, 43.0, 44.0, 49.0, 61.0, 61.1, 64.0, 80.0, 98.0, 99.0}
 _G_IGNORED |= (
     {54.1} | {float(g) for g in range(54, 60)} | {round(54 + k / 10, 1) for k in range(1, 10)}
 )
@@ -104,8 +127,6 @@ _G_MODE_WORDS = {5.0, 5.1, 8.0, 103.0, 154.0, 187.0}
 # tool centre point control / dynamic work offset on: X/Y/Z are tip positions in the part frame
 _G_TCP_ON = {43.4: "G43.4 TCP", 43.5: "G43.5 TCP", 234.0: "G234 TCPC", 254.0: "G254 DWO"}
 _G_UNSUPPORTED = {
-    41.0: "cutter radius compensation G41 (post the path with compensation applied)",
-    42.0: "cutter radius compensation G42 (post the path with compensation applied)",
     93.0: "inverse-time feed G93",
     16.0: "polar coordinates G16",
     68.0: "coordinate rotation G68",
@@ -160,6 +181,11 @@ class _State:
     tcp: bool = False
     wcs: float | None = None  # active work offset (G54 ...)
     ended: bool = False
+    comp: int = 0  # cutter radius compensation: 0 off, 41 left, 42 right
+    comp_radius: float | None = None  # [mm], reader option cutter_radius_mm
+    comp_where: str = ""
+    comp_moves: list[Element] = field(default_factory=list)  # entry, then the contour
+    comp_exit_next: bool = False  # G40 without motion: the next move is the exit move
 
 
 def _strip_comments(raw: str, where: str) -> str:
@@ -211,6 +237,7 @@ def parse_gcode(
     units: str = "auto",
     no_decimal_scale: float = 1.0,
     rotary_axes: str = "auto",
+    cutter_radius_mm: float | None = None,
 ) -> pd.DataFrame:
     """Read G-code text into the waypoint table.
 
@@ -233,6 +260,11 @@ def parse_gcode(
         10 units; 0.001: classic Fanuc, ``X10`` is 0.010 mm).
     rotary_axes : {"auto", "head", "table"}
         How A/B/C words are read (see the module docstring).
+    cutter_radius_mm : float, optional
+        The radius the controller's D register holds for G41/G42 (job key
+        ``[path] cutter_radius_mm``): the tool radius where the program is
+        the part contour, the wear value where it is the tool centre. Without
+        it, G41/G42 are refused.
 
     Returns
     -------
@@ -248,13 +280,18 @@ def parse_gcode(
     check_choice("units", units, UNIT_CHOICES)
     check_choice("rotary_axes", rotary_axes, _ROTARY_CHOICES)
     st = _State(scale=25.4 if units == "inch" else 1.0)
+    if cutter_radius_mm is not None and not (0.0 <= float(cutter_radius_mm) <= 1000.0):
+        raise InputError(
+            f"cutter_radius_mm: expected a radius 0 to 1000 mm, found {cutter_radius_mm!r}"
+        )
+    st.comp_radius = None if cutter_radius_mm is None else float(cutter_radius_mm)
     out = WaypointBuilder(source)
     seen_motion = False
     last_pct = False
     strip_comments = _strip_comments
     tokenize = _tokenize
     block = _block
-    for lineno, raw in enumerate(lines(text), start=1):
+    for lineno, raw in enumerate(iter_lines(text), start=1):
         line = raw.strip()
         if not line:
             continue
@@ -294,6 +331,13 @@ def parse_gcode(
         if block(words, st, out, lineno, arc_tol_mm, no_decimal_scale, rotary_axes):
             st.ended = True
             break
+    if st.comp:
+        out.warn(
+            f"G{st.comp} cutter radius compensation not cancelled by G40: the last move ends "
+            "offset",
+            None,
+        )
+        _comp_flush(st, out, None, arc_tol_mm)
     df = out.table()
     if not st.ended and not last_pct:
         out.warn(
@@ -386,6 +430,8 @@ def _fast_line(
         motion not in (0, 1)
         or st.vector_mode == "abc"
         or not ("X" in seen or "Y" in seen or "Z" in seen)
+        or st.comp
+        or st.comp_exit_next
     ):
         return False
     st.motion = motion
@@ -429,6 +475,7 @@ def _block(
     dwell = False
     home = False
     g92: float | None = None
+    comp_word: float | None = None
     for g in g_codes:
         if g in (0.0, 1.0, 2.0, 3.0):
             st.motion = int(g)
@@ -467,6 +514,8 @@ def _block(
             return False
         elif g in (92.0, 92.1, 92.2):
             g92 = g
+        elif g in (40.0, 41.0, 42.0):
+            comp_word = g
         elif g in _G_TCP_ON:
             st.tcp = True
         elif g in _G_NOTED:
@@ -485,6 +534,32 @@ def _block(
     if g92 is not None:
         _apply_g92(g92, vals, st, out, lineno)
         return False
+    comp_exit = False
+    if comp_word is not None:
+        where = f"{out.source}:{lineno}"
+        if comp_word == 40.0:
+            comp_exit = st.comp != 0
+        else:
+            if st.comp:
+                raise InputError(
+                    f"G{comp_word:g} while G{st.comp} is on: expected G40 between them", where
+                )
+            if st.comp_radius is None:
+                raise InputError(
+                    f"cutter radius compensation G{comp_word:g}: the cutter radius is not known; "
+                    "set the job key [path] cutter_radius_mm (the D register's radius: the tool "
+                    "radius for a part-contour program, the wear value for a tool-centre one)",
+                    where,
+                )
+            if st.plane != 17:
+                raise InputError(
+                    f"cutter radius compensation G{comp_word:g} in plane G{st.plane}: only G17 "
+                    "is read",
+                    where,
+                )
+            st.comp = int(comp_word)
+            st.comp_where = where
+            st.comp_moves = []
     if any(g in _G_MODE_WORDS for g in g_codes) and not any(k in vals for k in "XYZABC"):
         for k in "EPQR":  # parameters of a mode word (G187 P2 E0.01, G05.1 Q1 R5)
             vals.pop(k, None)
@@ -533,6 +608,8 @@ def _block(
                 f"unsupported axis word {bad} (only X Y Z A B C)", source=f"{out.source}:{lineno}"
             )
     if not vals:
+        if comp_exit:
+            st.comp_exit_next = True
         return end
     where = f"{out.source}:{lineno}"
     moving = "X" in vals or "Y" in vals or "Z" in vals or "A" in vals or "B" in vals or "C" in vals
@@ -548,6 +625,8 @@ def _block(
     if not moving:
         if "R" in vals or "I" in vals or "J" in vals or "K" in vals:
             raise InputError("arc words I/J/K/R without an arc move", source=where)
+        if comp_exit:
+            st.comp_exit_next = True
         return end
     if st.motion is None:
         raise InputError("axis words before any motion mode (G0/G1/G2/G3)", source=where)
@@ -600,9 +679,21 @@ def _block(
             axis = (v[0] / nv, v[1] / nv, v[2] / nv)
         if "R" in vals:
             raise InputError("word R in a linear move", source=where)
-        _emit_line(st, out, target, axis, lineno, rapid=st.motion == 0)
+        if st.comp or st.comp_exit_next:
+            _comp_line(st, out, target, axis, lineno, st.motion == 0, comp_exit, arc_tol, where)
+        else:
+            _emit_line(st, out, target, axis, lineno, rapid=st.motion == 0)
     else:
-        _emit_arc(vals, st, out, target, axis, lineno, arc_tol, where)
+        if st.comp and not comp_exit:
+            _comp_arc(vals, st, out, target, axis, lineno, where)
+        else:
+            if st.comp or st.comp_exit_next:
+                raise InputError(
+                    "cutter radius compensation: expected a straight exit move with G40", where
+                )
+            _emit_arc(vals, st, out, target, axis, lineno, arc_tol, where)
+    if comp_exit and st.comp:
+        st.comp_exit_next = True  # G40 without an XY/Z motion: the next move exits
     return end
 
 
@@ -686,6 +777,110 @@ def _emit_line(
     st.axis = axis
 
 
+def _comp_meta(st: _State, lineno: int, rapid: bool, axis: tuple[float, float, float]) -> tuple:
+    rpm = st.rpm if st.spindle_on else math.nan
+    return (lineno, rapid, math.nan if rapid else _feed_mm_per_min(st), rpm, axis)
+
+
+def _comp_line(
+    st: _State,
+    out: WaypointBuilder,
+    target: list[float],
+    axis: tuple[float, float, float],
+    lineno: int,
+    rapid: bool,
+    exit_here: bool,
+    arc_tol: float,
+    where: str,
+) -> None:
+    """A straight move with compensation on (or the exit move): buffered."""
+    if st.vector_mode is not None:
+        raise InputError("cutter radius compensation with tool axis words (5-axis)", where)
+    e = Element("line", tuple(st.pos), tuple(target), _comp_meta(st, lineno, rapid, axis))  # type: ignore[arg-type]
+    st.pos = target
+    st.pos_known = True
+    st.axis = axis
+    if exit_here or st.comp_exit_next:
+        _comp_flush(st, out, e, arc_tol)
+        return
+    st.comp_moves.append(e)
+
+
+def _comp_arc(
+    vals: dict[str, float],
+    st: _State,
+    out: WaypointBuilder,
+    target: list[float],
+    axis: tuple[float, float, float],
+    lineno: int,
+    where: str,
+) -> None:
+    """An arc with compensation on: its centre (as :func:`_emit_arc` finds it), buffered."""
+    if not st.comp_moves:
+        raise InputError(
+            "cutter radius compensation: expected a straight entry move after G41/G42", where
+        )
+    start = st.pos
+    cw = st.motion == 2
+    if "R" in vals:
+        r = vals["R"] * st.scale
+        da, db = target[0] - start[0], target[1] - start[1]
+        chord = math.hypot(da, db)
+        if chord < 1e-9 or chord > 2 * abs(r) * (1 + 1e-6) + 1e-3:
+            raise InputError(f"arc radius R{abs(r):g} does not fit its chord", source=where)
+        h = math.sqrt(max(r * r - chord * chord / 4, 0.0))
+        sign = (-1.0 if cw else 1.0) * (1.0 if r > 0 else -1.0)
+        centre = (
+            (start[0] + target[0]) / 2 + sign * h * (-db / chord),
+            (start[1] + target[1]) / 2 + sign * h * (da / chord),
+        )
+        full = False
+    else:
+        i, j = vals.get("I", 0.0) * st.scale, vals.get("J", 0.0) * st.scale
+        if st.arc_abs:
+            centre = (
+                (i + st.offset[0]) if "I" in vals else start[0],
+                (j + st.offset[1]) if "J" in vals else start[1],
+            )
+        else:
+            centre = (start[0] + i, start[1] + j)
+        full = math.hypot(target[0] - start[0], target[1] - start[1]) < 1e-9
+    e = Element(
+        "arc", tuple(start), tuple(target), _comp_meta(st, lineno, False, axis),  # type: ignore[arg-type]
+        centre=centre, cw=cw, full=full,
+    )  # fmt: skip
+    st.comp_moves.append(e)
+    st.pos = target
+    st.pos_known = True
+    st.axis = axis
+
+
+def _comp_flush(st: _State, out: WaypointBuilder, exit_move: Element | None, tol: float) -> None:
+    """Emit the compensated moves of one G41/G42 ... G40 stretch."""
+    moves = st.comp_moves
+    radius = st.comp_radius or 0.0
+    if moves:
+        done = compensate(moves[0], moves[1:], exit_move, st.comp, radius, st.comp_where)
+    else:  # G41 and G40 with one move between: entry and exit at once
+        done = [exit_move] if exit_move is not None else []
+    add = out.add_unit
+    for e in done:
+        lineno, rapid, feed, rpm, axis = e.meta
+        if e.kind == "line":
+            p = e.p1
+            add((p[0] * 1e-3, p[1] * 1e-3, p[2] * 1e-3), axis, lineno, rapid, feed, rpm)
+        else:
+            pts = arc_point_list(
+                e.p0, e.p1, (e.centre[0], e.centre[1], e.p0[2]), (0.0, 0.0, 1.0),
+                clockwise=e.cw, tol=tol, full_circle=e.full, where=f"{out.source}:{lineno}",
+            )  # fmt: skip
+            for p in pts:
+                add((p[0] * 1e-3, p[1] * 1e-3, p[2] * 1e-3), axis, lineno, False, feed, rpm)
+    st.comp = 0
+    st.comp_moves = []
+    st.comp_exit_next = False
+
+
 _PLANES = {17: (0, 1, 2), 18: (2, 0, 1), 19: (1, 2, 0)}
 
 
@@ -759,3 +954,334 @@ def read_gcode(path: str | Path, **options: float | bool | str) -> pd.DataFrame:
     """Read a G-code file (see :func:`parse_gcode` for ``options``)."""
     p = Path(path)
     return parse_gcode(read_text(p), p.name, **options)  # type: ignore[arg-type]
+
+
+# ------------------------------------------------------------------ writer
+# Controller conventions (Fanuc/Haas/LinuxCNC operator manuals; LinuxCNC's
+# interpreter applies S, F and M3 of a block before its motion): a new
+# spindle speed goes on a block of its own, "M3 Snnnn" (M4 where the spindle
+# turns counter-clockwise), before the move it applies to; F is modal and is
+# written on the motion block; no dwell is added. Changed blocks end with a
+# "(ROBOLOBE ...)" comment naming the old and new values and the margin.
+
+_SPAN = re.compile(r"([A-Za-z])(\s*=?\s*)(" + _NUM + r")")
+
+
+def _code_spans(raw: str) -> tuple[list[tuple[str, int, int]], int]:
+    """Words outside comments of a raw line: (upper letter, value start, value end).
+
+    Also the index where a ``;`` comment starts (``len(raw)`` when none).
+    """
+    if "(" not in raw and ";" not in raw:  # the common block: no comment to skip
+        return [(m.group(1).upper(), m.start(3), m.end(3)) for m in _SPAN.finditer(raw)], len(raw)
+    out: list[tuple[str, int, int]] = []
+    depth = 0
+    start = 0
+    end = len(raw)
+    segments: list[tuple[int, int]] = []
+    for n, ch in enumerate(raw):
+        if ch == "(":
+            if depth == 0:
+                segments.append((start, n))
+            depth += 1
+        elif ch == ")":
+            depth = max(depth - 1, 0)
+            if depth == 0:
+                start = n + 1
+        elif ch == ";" and depth == 0:
+            end = n
+            break
+    if depth == 0:
+        segments.append((start, end))
+    for a, b in segments:
+        for m in _SPAN.finditer(raw, a, b):
+            out.append((m.group(1).upper(), m.start(3), m.end(3)))
+    return out, end
+
+
+def _comment_at_end(raw: str, note: str) -> str:
+    """``raw`` with ``(note)`` after its words (before a ``;`` comment)."""
+    _, semi = _code_spans(raw)
+    note = note.replace("(", "[").replace(")", "]")
+    head, tail = raw[:semi].rstrip(), raw[semi:]
+    return f"{head} ({note})" + (f" {tail}" if tail else "")
+
+
+def write_gcode(text: str, source: str, edit: ProgramEdit, *, block_delete: bool = True) -> str:
+    """Write a G-code program with the speeds, feeds and passes of ``edit``.
+
+    Parameters
+    ----------
+    text : str
+        The program as read (:func:`parse_gcode` made ``edit.waypoints`` of it).
+    source : str
+        Its file name (messages).
+    edit : ProgramEdit
+        Per move S [rpm], F [mm/min] and passes.
+    block_delete : bool
+        As the reader was told: blocks starting with ``/`` are not the program's.
+
+    Returns
+    -------
+    str
+        The new program text (line endings ``\\n``).
+
+    Raises
+    ------
+    InputError
+        Passes where the program is incremental (G91), arcs with absolute
+        centres (G90.1) or a tool axis other than Z.
+    """
+    src = lines(text)
+    vals = line_values(edit)
+    secs = sections(edit)
+    wp_lines = edit.waypoints["line"].to_numpy()
+    # modal state per line: mm per unit, per-rev feed, spindle word, absolute, motion
+    n = len(src)
+    scale = [1.0] * (n + 2)
+    per_rev = [False] * (n + 2)
+    spindle = ["M3"] * (n + 2)
+    absolute = [True] * (n + 2)
+    arc_abs = [False] * (n + 2)
+    motion = [""] * (n + 2)
+    spans: dict[int, list[tuple[str, int, int]]] = {}  # words of lines with G/M/S/F letters
+    live = bytearray(n + 2)
+    sc, pr, sp, ab, aa, mo = 1.0, False, "M3", True, False, ""
+    for ln, raw in enumerate(src, start=1):
+        s = raw.strip()
+        deleted = block_delete and "/" in s and re.match(r"^(N\s*\d+\s*)?/", s, re.I) is not None
+        if s and s[0] != "%" and not deleted:
+            live[ln] = 1
+            up = s.upper()
+            if "G" not in up and "M" not in up and "S" not in up and "F" not in up:
+                ws: list[tuple[str, int, int]] = []  # axis words only: nothing modal
+            else:
+                ws, _ = _code_spans(raw)
+                spans[ln] = ws
+            for letter, a, b in ws:
+                if letter == "G":
+                    g = round(float(raw[a:b].replace(" ", "")), 1)
+                    if g in (20.0, 70.0):
+                        sc = 25.4
+                    elif g in (21.0, 71.0):
+                        sc = 1.0
+                    elif g == 94.0:
+                        pr = False
+                    elif g == 95.0:
+                        pr = True
+                    elif g == 90.0:
+                        ab = True
+                    elif g == 91.0:
+                        ab = False
+                    elif g == 90.1:
+                        aa = True
+                    elif g == 91.1:
+                        aa = False
+                    elif g in (0.0, 1.0, 2.0, 3.0):
+                        mo = f"G{int(g)}"
+                elif letter == "M":
+                    m = round(float(raw[a:b].replace(" ", "")), 1)
+                    if m in (3.0, 4.0):
+                        sp = f"M{int(m)}"
+        scale[ln], per_rev[ln], spindle[ln], absolute[ln], arc_abs[ln], motion[ln] = (
+            sc, pr, sp, ab, aa, mo,
+        )  # fmt: skip
+
+    def f_text(ln: int) -> str:
+        rpm, f_mm, _ = vals[ln]
+        f = f_mm / scale[ln]
+        if per_rev[ln]:
+            f /= rpm
+        return fmt_num(f, 6)
+
+    def word_value(ln: int, letter: str) -> str | None:
+        for let, a, b in spans.get(ln, []):
+            if let == letter:
+                return src[ln - 1][a:b].replace(" ", "")
+        return None
+
+    cut_lines = list(vals)
+    # S and F words in the file: each governs the cutting lines up to the next such word
+    new_word: dict[tuple[int, str], str] = {}
+    for letter in ("S", "F"):
+        word_lines = [ln for ln in sorted(spans) if word_value(ln, letter) is not None]
+        k = 0
+        taken: set[int] = set()
+        for c in cut_lines:
+            while k < len(word_lines) and word_lines[k] <= c:
+                k += 1
+            if k == 0:
+                continue
+            w = word_lines[k - 1]
+            if w in taken:
+                continue
+            taken.add(w)
+            new_word[(w, letter)] = f"{int(vals[c][0])}" if letter == "S" else f_text(c)
+    out_lines: dict[int, str] = {}
+    before: dict[int, list[str]] = {}
+    notes: dict[int, list[str]] = {}
+    cur_s: str | None = None
+    cur_f: str | None = None
+    cut_set = vals
+    for ln in range(1, n + 1):
+        raw = src[ln - 1]
+        if not live[ln]:
+            continue
+        edits: list[tuple[int, int, str]] = []
+        for letter in ("S", "F"):
+            for let, a, b in spans.get(ln, ()):
+                if let != letter:
+                    continue
+                old = raw[a:b].replace(" ", "")
+                new = new_word.get((ln, letter), old)
+                if letter == "S":
+                    cur_s = new
+                else:
+                    cur_f = new
+                if _num_differs(old, new):
+                    edits.append((a, b, new))
+                    notes.setdefault(ln, []).append(f"{letter}{old}>{new}")
+        if ln in cut_set:
+            rpm, _, margin = vals[ln]
+            s_new = f"{int(rpm)}"
+            if cur_s is None or _num_differs(cur_s, s_new):
+                m_txt = f" MARGIN {margin:.2f}" if math.isfinite(margin) else ""
+                before.setdefault(ln, []).append(
+                    f"{spindle[ln]} S{s_new} (ROBOLOBE SPINDLE SPEED{m_txt})"
+                )
+                cur_s = s_new
+            f_new = f_text(ln)
+            if cur_f is None or _num_differs(cur_f, f_new):
+                edits.append((len(raw[: _code_spans(raw)[1]].rstrip()), -1, f" F{f_new}"))
+                notes.setdefault(ln, []).append(f"F{cur_f or '-'}>{f_new}")
+                cur_f = f_new
+        if edits:
+            new_raw = raw
+            for a, b, t in sorted(edits, key=lambda e: -e[0]):
+                new_raw = new_raw[:a] + t + new_raw[a:] if b < 0 else new_raw[:a] + t + new_raw[b:]
+            if ln in cut_set and math.isfinite(vals[ln][2]):
+                notes[ln].append(f"MARGIN {vals[ln][2]:.2f}")
+            out_lines[ln] = _comment_at_end(new_raw, "ROBOLOBE " + " ".join(notes[ln]))
+    # passes: copies of each section's lines, shifted along Z, with rapid links
+    pos_mm = edit.waypoints[["x_m", "y_m", "z_m"]].to_numpy(dtype=np.float64) * 1e3
+    for sec in secs:
+        first, last = int(wp_lines[sec.start]), int(wp_lines[sec.stop - 1])
+        where = f"{source}:{first}"
+        if abs(sec.axis[2] - 1.0) > 1e-9:
+            raise InputError(
+                "passes in G-code are written along Z; this section's tool axis is "
+                f"{[round(v, 6) for v in sec.axis]}",
+                source=where,
+            )
+        for ln in range(first, last + 1):
+            if not absolute[ln] or (ln > 1 and not absolute[ln - 1]):
+                raise InputError(
+                    "passes need absolute coordinates (G90); the section is incremental (G91)",
+                    source=f"{source}:{ln}",
+                )
+            if arc_abs[ln]:
+                raise InputError(
+                    "passes with absolute arc centres (G90.1) are not written", f"{source}:{ln}"
+                )
+        block: list[str] = []
+        end = pos_mm[sec.start - 1]
+        offs = sec.offsets_mm()
+        s_first = f"{int(vals[first][0])}"
+        s_varies = any(
+            _num_differs(f"{int(vals[int(c)][0])}", s_first)
+            for c in set(wp_lines[sec.start : sec.stop].tolist())
+        )
+        restate_s = f"{spindle[first]} S{s_first} (ROBOLOBE SPINDLE SPEED AT THE PASS START)"
+        for k, off in enumerate(offs, start=1):
+            sc0 = scale[first]
+            for p in link_moves(edit, sec, pos_mm, end, off):
+                block.append(
+                    f"G0 X{fmt_num(p[0] / sc0, 8)} Y{fmt_num(p[1] / sc0, 8)} "
+                    f"Z{fmt_num(p[2] / sc0, 8)} (ROBOLOBE LINK TO PASS {k} OF {len(offs)})"
+                )
+            if s_varies and k > 1:
+                block.append(restate_s)
+            if off == 0:
+                break
+            block.append(
+                f"(ROBOLOBE PASS {k} OF {len(offs)}: {fmt_num(off, 4)} MM ABOVE THE PROGRAMMED "
+                f"DEPTH, {fmt_num(sec.depth_mm / len(offs), 4)} MM PER PASS)"
+            )
+            for ln in range(first, last + 1):
+                raw = out_lines.get(ln, src[ln - 1])
+                block.extend(before.get(ln, []))
+                z_end = pos_mm[sec.start, 2] / scale[ln] + off / scale[ln]
+                block.append(
+                    _pass_copy(raw, off / scale[ln], z_end if ln == first else None,
+                               motion[ln], f_text(first))
+                )  # fmt: skip
+            end = pos_mm[sec.stop - 1] + off * np.asarray(sec.axis)
+        # the program's own pass: its first block states motion and feed (links changed them)
+        raw = out_lines.get(first, src[first - 1])
+        raw = _state_first(raw, motion[first], f_text(first))
+        out_lines[first] = raw
+        before.setdefault(first, [])[0:0] = block
+    result: list[str] = []
+    for ln in range(1, n + 1):
+        result.extend(before.get(ln, []))
+        result.append(out_lines.get(ln, src[ln - 1]))
+    return "\n".join(result) + "\n"
+
+
+_MOTION_TEXT = {"0", "00", "1", "01", "2", "02", "3", "03", "0.", "1.", "2.", "3."}
+
+
+def _num_differs(a: str, b: str) -> bool:
+    return float(a) != float(b)
+
+
+def _prefix(raw: str, word: str) -> str:
+    """``raw`` with ``word`` before its first word after a line number."""
+    m = re.match(r"^(\s*(?:[Nn]\s*\d+\s*)?)", raw)
+    k = m.end() if m else 0
+    return raw[:k] + word + " " + raw[k:]
+
+
+def _has_word(raw: str, letter: str, values: set[str] | None = None) -> bool:
+    ws, _ = _code_spans(raw)
+    return any(
+        w[0] == letter and (values is None or raw[w[1] : w[2]].strip() in values) for w in ws
+    )
+
+
+def _state_first(raw: str, motion: str, f: str) -> str:
+    """The first block of a pass with its motion word and F stated."""
+    if not _has_word(raw, "F"):
+        raw = _comment_free_append(raw, f" F{f}")
+    if not _has_word(raw, "G", _MOTION_TEXT):
+        raw = _prefix(raw, motion)
+    return raw
+
+
+def _pass_copy(raw: str, off_units: float, z_first: float | None, motion: str, f: str) -> str:
+    """A copy of a section's block for a shallower pass: Z raised, no line number.
+
+    ``z_first``: the first block's end Z [program units] (stated with its
+    motion word and F: the link before it was a rapid and the pass before
+    it ended with another feed).
+    """
+    ws, _ = _code_spans(raw)
+    out = raw
+    has_z = False
+    for letter, a, b in sorted(ws, key=lambda w: -w[1]):
+        if letter == "Z":
+            has_z = True
+            out = out[:a] + fmt_num(float(raw[a:b].replace(" ", "")) + off_units, 8) + out[b:]
+    out = re.sub(r"^\s*[Nn]\s*\d+\s*", "", out)
+    if z_first is not None:
+        if not has_z:
+            out = _comment_free_append(out, f" Z{fmt_num(z_first, 8)}")
+        out = _state_first(out, motion, f)
+    return out
+
+
+def _comment_free_append(raw: str, words: str) -> str:
+    _, semi = _code_spans(raw)
+    # before a trailing (comment): words after a comment are still words, but keep it tidy
+    head = raw[:semi].rstrip()
+    return head + words + raw[semi:]

@@ -60,6 +60,13 @@ from robolobe.plan.paths._arcs import (
     circle_through,
     orientations_along,
 )
+from robolobe.plan.paths._edit import (
+    ProgramEdit,
+    fmt_num,
+    line_values,
+    modal_values,
+    sections,
+)
 from robolobe.plan.paths._table import WaypointBuilder
 from robolobe.plan.paths._text import (
     TOOL_DIRECTIONS,
@@ -71,7 +78,7 @@ from robolobe.plan.paths._text import (
 )
 from robolobe.robots.transforms import pose_from_xyz_zyx, rotation_from_zyx, zyx_from_rotation
 
-__all__ = ["parse_krl", "read_krl"]
+__all__ = ["parse_krl", "read_krl", "write_krl"]
 
 logger = logging.getLogger(__name__)
 
@@ -128,9 +135,16 @@ def _aggregate(text: str, where: str) -> dict[str, float | None]:
 
 class _Reader:
     def __init__(
-        self, source: str, tool_direction: str, arc_tol_mm: float, coordinates: str = "workpiece"
+        self,
+        source: str,
+        tool_direction: str,
+        arc_tol_mm: float,
+        coordinates: str = "workpiece",
+        spindle: tuple[int, float] | None = None,
     ) -> None:
         self.source = source
+        self.spindle = spindle  # ($ANOUT index, rpm per unit) of the spindle speed output
+        self.rpm = math.nan
         self.tool_direction = tool_direction
         self.coordinates = coordinates
         self.tol = arc_tol_mm
@@ -141,7 +155,9 @@ class _Reader:
         self.base: np.ndarray | None = None  # $BASE literal (4x4, mm)
         self.base_text: str | None = None
         self.out = WaypointBuilder(source)
-        self.pending: list[tuple[float, float, float, float, float, float, float, int, bool]] = []
+        self.pending: list[
+            tuple[float, float, float, float, float, float, float, int, bool, float]
+        ] = []
         self.pending_base: list[np.ndarray] = []
 
     # ------------------------------------------------------------ helpers
@@ -244,7 +260,7 @@ class _Reader:
         xyz = pose[:3] if at is None else at
         self.pending.append(
             (float(xyz[0]), float(xyz[1]), float(xyz[2]), float(pose[3]), float(pose[4]),
-             float(pose[5]), math.nan if rapid else v * 6e4, lineno, rapid)
+             float(pose[5]), math.nan if rapid else v * 6e4, lineno, rapid, self.rpm)
         )  # fmt: skip
         self.pending_base.append(base)
         if at is None:
@@ -264,7 +280,7 @@ class _Reader:
             for k, r in enumerate(self.pending):
                 self.out.add(
                     pos[k] * 1e-3, axis[k], line=r[7], rapid=r[8], feed_mm_per_min=r[6],
-                    ref=ref[k],
+                    ref=ref[k], rpm=r[9],
                 )  # fmt: skip
         df = self.out.table()
         df.attrs["warnings"] = self.out.notes()
@@ -294,6 +310,8 @@ class _Reader:
                 "run-time conditions; export the motions as a straight sequence)",
                 source=where,
             )
+        if self.spindle is not None and "$ANOUT" in s and self.analog(s, where):
+            return None
         if s.startswith("$"):
             self.system_var(s, where)
             return None
@@ -314,6 +332,26 @@ class _Reader:
         if re.match(r"^[A-Z_][A-Z0-9_.\[\]]*\s*=", s):
             return None  # assignment to a plain variable (LDAT_ACT=..., counters)
         raise InputError(f"unsupported KRL statement {stmt.strip()!r}", source=where)
+
+    def analog(self, s: str, where: str) -> bool:
+        """``$ANOUT[n] = v`` or ``TRIGGER WHEN DISTANCE=0 DELAY=0 DO $ANOUT[n] = v`` on the
+        spindle output: the speed of the motions from the next one on. True if handled."""
+        assert self.spindle is not None
+        n, per_unit = self.spindle
+        m = re.match(r"^(TRIGGER\s+WHEN\s+(.*?)\s+DO\s+)?\$ANOUT\s*\[\s*(\d+)\s*\]\s*=\s*(.+)$", s)
+        if not m or int(m.group(3)) != n:
+            return False
+        if m.group(1):
+            cond = re.sub(r"\s+", "", m.group(2))
+            if cond != "DISTANCE=0DELAY=0":
+                raise InputError(
+                    f"spindle output $ANOUT[{n}] switched at {m.group(2).strip()!r}: expected "
+                    "DISTANCE=0 DELAY=0 (the start of the next motion)",
+                    where,
+                )
+        v = finite(m.group(4).strip(), where, f"$ANOUT[{n}]")
+        self.rpm = v * per_unit if v > 0 else math.nan
+        return True
 
     def system_var(self, s: str, where: str) -> None:
         m = re.match(r"^\$VEL\.CP\s*=\s*(.+)$", s)
@@ -565,6 +603,8 @@ def parse_krl(
     tool_direction: str = "z",
     arc_tol_mm: float = 0.01,
     coordinates: str = "workpiece",
+    spindle_output: str | None = None,
+    spindle_rpm_per_unit: float | None = None,
 ) -> pd.DataFrame:
     """Read KRL text into the waypoint table.
 
@@ -586,6 +626,12 @@ def parse_krl(
     coordinates : {"workpiece", "machine"}
         ``workpiece``: targets as programmed in the active base. ``machine``:
         the literal ``$BASE`` frame applied (robot world/base coordinates).
+    spindle_output, spindle_rpm_per_unit : optional
+        The ``$ANOUT`` index that sets the spindle speed and the rpm per
+        unit of it (job section ``[program]``: ``analog_output``,
+        ``analog_rpm_full_scale / analog_full_scale``); with both, ``$ANOUT[n]
+        = v`` and ``TRIGGER WHEN DISTANCE=0 DELAY=0 DO $ANOUT[n] = v`` set
+        the programmed speed of the motions after them.
 
     Returns
     -------
@@ -599,7 +645,10 @@ def parse_krl(
     """
     check_choice("tool_direction", tool_direction, TOOL_DIRECTIONS)
     check_choice("coordinates", coordinates, ("workpiece", "machine"))
-    rd = _Reader(source, tool_direction, arc_tol_mm, coordinates)
+    spindle = None
+    if spindle_output is not None and spindle_rpm_per_unit is not None:
+        spindle = (_anout_index(spindle_output), float(spindle_rpm_per_unit))
+    rd = _Reader(source, tool_direction, arc_tol_mm, coordinates, spindle)
     if dat is not None:
         dat_name = re.sub(r"\.src$", ".dat", source, flags=re.IGNORECASE)
         rd_dat = _Reader(dat_name, tool_direction, arc_tol_mm)
@@ -664,6 +713,16 @@ def parse_krl(
     return rd.finish()
 
 
+def _anout_index(value: object) -> int:
+    """The ``$ANOUT`` index of the job key ``[program] analog_output`` (1 to 32)."""
+    m = re.fullmatch(r"\s*(?:\$ANOUT\s*\[\s*)?(\d+)\s*\]?\s*", str(value), re.I)
+    if not m or not 1 <= int(m.group(1)) <= 32:
+        raise InputError(
+            f"[program] analog_output: expected a KRL $ANOUT index 1 to 32, found {value!r}"
+        )
+    return int(m.group(1))
+
+
 def read_krl(path: str | Path, **options: float | str) -> pd.DataFrame:
     """Read a KRL ``.src`` file and the ``.dat`` beside it (if any)."""
     p = Path(path)
@@ -677,3 +736,186 @@ def read_krl(path: str | Path, **options: float | str) -> pd.DataFrame:
     dat_path = next((q for q in (p.with_suffix(".dat"), p.with_suffix(".DAT")) if q.exists()), None)
     dat = read_text(dat_path) if dat_path is not None else None
     return parse_krl(read_text(p), p.name, dat=dat, **options)  # type: ignore[arg-type]
+
+
+# ------------------------------------------------------------------ writer
+# KUKA conventions (KUKA System Software 8.x operating and programming
+# manual: $VEL.CP, TRIGGER WHEN DISTANCE, $ANOUT): the path velocity is the
+# modal $VEL.CP [m/s] (or WITH $VEL = SVEL_CP(v, ...) on a motion); the
+# spindle speed is an analog output ($ANOUT[n], -1.0 .. 1.0) scaled by the
+# job keys, set once before the first motion (the spindle is at speed before
+# the cut) and changed path-synchronously by TRIGGER WHEN DISTANCE=0 DELAY=0
+# DO $ANOUT[n] = v before the motion it applies to (switched at its start
+# point, without stopping the advance run). A module's name is its file
+# name: DEF and DEFDAT are renamed to the written file's stem.
+
+
+def _krl_insert_note(raw: str, note: str) -> str:
+    return (
+        f"{raw.rstrip()} ; ROBOLOBE {note}" if ";" not in raw else f"{raw.rstrip()} ROBOLOBE {note}"
+    )
+
+
+def write_krl(
+    text: str, source: str, edit: ProgramEdit, *, name: str, dat: str | None = None
+) -> tuple[str, str | None]:
+    """Write a KRL program (and its ``.dat``) with the speeds and feeds of ``edit``.
+
+    Parameters
+    ----------
+    text : str
+        The ``.src`` as read (:func:`parse_krl` made ``edit.waypoints`` of it).
+    source : str
+        Its file name (messages).
+    edit : ProgramEdit
+        ``edit.options``: ``analog_output`` ($ANOUT index),
+        ``analog_rpm_full_scale``, ``analog_full_scale``.
+    name : str
+        Stem of the written files: the DEF and DEFDAT names.
+    dat : str, optional
+        The ``.dat`` as read.
+
+    Returns
+    -------
+    src, dat : str, str or None
+
+    Raises
+    ------
+    InputError
+        Analog scaling keys missing; passes (not written in KRL).
+    """
+    if sections(edit):
+        raise InputError(
+            "passes in KRL output are not written (write G-code/APT or a waypoint table, or "
+            "shift $BASE per pass by hand)",
+            source=source,
+        )
+    opt = edit.options
+    if opt.get("analog_output") is None or opt.get("analog_rpm_full_scale") is None:
+        raise InputError(
+            "KRL output sets the spindle speed by an analog output: expected the job keys "
+            "[program] analog_output ($ANOUT index) and analog_rpm_full_scale (rpm at full "
+            "scale), found "
+            + ", ".join(k for k in ("analog_output", "analog_rpm_full_scale") if opt.get(k) is None)
+            + " missing",
+            source=source,
+        )
+    n = _anout_index(opt["analog_output"])
+    per_unit = float(opt["analog_rpm_full_scale"]) / float(opt.get("analog_full_scale", 1.0))
+    src = lines(text)
+    vals = line_values(edit)
+    s_want = {ln: fmt_num(v[0] / per_unit, 12, point=False) for ln, v in vals.items()}
+    f_want = {ln: fmt_num(v[1] / 6e4, 12, point=False) for ln, v in vals.items()}
+    if any(float(v) > 1.0 for v in s_want.values()):
+        top = max(v[0] for v in vals.values())
+        raise InputError(
+            f"[program] analog_rpm_full_scale: {top:g} rpm needs $ANOUT[{n}] > 1.0 (full scale "
+            f"{per_unit * 1.0:g} rpm)",
+            source=source,
+        )
+    s_set: dict[int, str | None] = {}
+    f_set: dict[int, str | None] = {}
+    with_vel: dict[int, tuple[int, int]] = {}
+    first_motion: int | None = None
+    an = re.compile(
+        r"^(?:TRIGGER\s+WHEN\s+.*?\s+DO\s+)?\$ANOUT\s*\[\s*" + str(n) + r"\s*\]\s*=\s*(.+)$", re.I
+    )
+    for ln, raw in enumerate(src, start=1):
+        st = _strip(raw).strip()
+        up = st.upper()
+        if not st:
+            continue
+        m = an.match(up)
+        if m:
+            s_set[ln] = m.group(1).strip() if _is_number(m.group(1)) else None
+            continue
+        m = re.match(r"^\$VEL\.CP\s*=\s*(.+)$", up)
+        if m:
+            f_set[ln] = m.group(1).strip() if _is_number(m.group(1)) else None
+            continue
+        if re.match(r"^\$VEL\s*=", up) or re.match(r"^BAS\s*\(\s*#(CP_PARAMS|VEL_CP)", up):
+            f_set[ln] = None
+            continue
+        mm = _MOTION.match(up)
+        if mm:
+            if first_motion is None:
+                first_motion = ln
+            w = re.search(r"SVEL_CP\s*\(\s*([-+0-9.E]+)", raw, re.I)
+            if w and ln in vals:
+                with_vel[ln] = (w.start(1), w.end(1))
+    f_plain = {ln: v for ln, v in f_want.items() if ln not in with_vel}
+    s_edits, s_ins = modal_values(s_set, s_want)
+    f_edits, f_ins = modal_values(f_set, f_plain)
+    before: dict[int, list[str]] = {}
+    out_lines: dict[int, str] = {}
+    # the first speed before the first motion, not path-synchronous: the spindle runs up first
+    first_cut = min(vals) if vals else None
+    if first_cut is not None and first_cut in s_ins and first_motion is not None:
+        indent = re.match(r"^\s*", src[first_motion - 1]).group(0)  # type: ignore[union-attr]
+        before.setdefault(first_motion, []).append(
+            f"{indent}$ANOUT[{n}] = {s_ins.pop(first_cut)} ; ROBOLOBE spindle speed "
+            f"{fmt_num(vals[first_cut][0], 0, point=False)} rpm "
+            f"({fmt_num(per_unit, 6, point=False)} rpm per unit)"
+        )
+    for ln, v in s_ins.items():
+        indent = re.match(r"^\s*", src[ln - 1]).group(0)  # type: ignore[union-attr]
+        mg = vals[ln][2]
+        m_txt = f", margin {mg:.2f}" if math.isfinite(mg) else ""
+        before.setdefault(ln, []).append(
+            f"{indent}TRIGGER WHEN DISTANCE=0 DELAY=0 DO $ANOUT[{n}] = {v} ; ROBOLOBE spindle "
+            f"speed {fmt_num(vals[ln][0], 0, point=False)} rpm{m_txt}"
+        )
+    for ln, v in f_ins.items():
+        indent = re.match(r"^\s*", src[ln - 1]).group(0)  # type: ignore[union-attr]
+        before.setdefault(ln, []).append(
+            f"{indent}$VEL.CP = {v} ; ROBOLOBE path speed "
+            f"{fmt_num(vals[ln][1], 3, point=False)} mm/min"
+        )
+    for edits, what in ((s_edits, "spindle speed"), (f_edits, "path speed")):
+        for ln, v in edits.items():
+            raw = src[ln - 1]
+            code = _strip(raw)
+            k = code.rfind("=")
+            new = code[: k + 1] + " " + v
+            out_lines[ln] = _krl_insert_note(
+                new + raw[len(code) :], f"{what}: was {code[k + 1 :].strip()}"
+            )
+    for ln, (a, b) in with_vel.items():
+        raw = src[ln - 1]
+        if _is_number(raw[a:b]) and float(raw[a:b]) != float(f_want[ln]):
+            out_lines[ln] = _krl_insert_note(
+                raw[:a] + f_want[ln] + raw[b:], f"path speed: was {raw[a:b]}"
+            )
+    # module name = file name
+    for ln, raw in enumerate(src, start=1):
+        m = _DEF.match(_strip(raw).strip())
+        if m and m.group(1).upper() == "DEF":
+            k = raw.upper().find(m.group(2).upper(), raw.upper().find("DEF") + 3)
+            out_lines[ln] = _krl_insert_note(
+                raw[:k] + name + raw[k + len(m.group(2)) :], f"renamed from {m.group(2)}"
+            )
+            break
+    res: list[str] = []
+    for ln in range(1, len(src) + 1):
+        res.extend(before.get(ln, []))
+        res.append(out_lines.get(ln, src[ln - 1]))
+    dat_out = None
+    if dat is not None:
+        d = lines(dat)
+        for k, raw in enumerate(d):
+            m = re.match(r"^(\s*DEFDAT\s+)([A-Za-z_][A-Za-z0-9_]*)", raw, re.I)
+            if m:
+                d[k] = _krl_insert_note(
+                    m.group(1) + name + raw[m.end() :], f"renamed from {m.group(2)}"
+                )
+                break
+        dat_out = "\n".join(d) + "\n"
+    return "\n".join(res) + "\n", dat_out
+
+
+def _is_number(text: str) -> bool:
+    try:
+        float(text.strip())
+    except ValueError:
+        return False
+    return True

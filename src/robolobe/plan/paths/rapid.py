@@ -52,6 +52,15 @@ import pandas as pd
 
 from robolobe.errors import InputError
 from robolobe.plan.paths._arcs import arc_through, orientations_along
+from robolobe.plan.paths._edit import (
+    ProgramEdit,
+    Section,
+    fmt_num,
+    line_values,
+    link_moves,
+    modal_values,
+    sections,
+)
 from robolobe.plan.paths._table import WaypointBuilder
 from robolobe.plan.paths._text import (
     TOOL_DIRECTIONS,
@@ -62,7 +71,7 @@ from robolobe.plan.paths._text import (
     tool_axes,
 )
 
-__all__ = ["parse_rapid", "quaternion_to_rotation", "read_rapid"]
+__all__ = ["parse_rapid", "quaternion_to_rotation", "read_rapid", "write_rapid"]
 
 logger = logging.getLogger(__name__)
 
@@ -238,9 +247,18 @@ def _nested(text: str, where: str) -> list[Any]:
 
 class _Reader:
     def __init__(
-        self, source: str, tol: float, tool_direction: str = "z", coordinates: str = "workpiece"
+        self,
+        source: str,
+        tol: float,
+        tool_direction: str = "z",
+        coordinates: str = "workpiece",
+        spindle: tuple[str, float] | None = None,
     ) -> None:
         self.source = source
+        # (analog output signal, rpm per unit) that sets the spindle speed
+        self.spindle = (spindle[0].upper(), spindle[1]) if spindle is not None else None
+        self.rpm = math.nan
+        self.triggs: dict[str, float] = {}  # triggdata -> spindle speed it switches to
         self.tol = tol
         self.tool_direction = tool_direction
         self.coordinates = coordinates
@@ -413,6 +431,9 @@ class _Reader:
                 else:  # a component (p.trans.x := ...): the value is now the program's
                     self.unresolved[word] = word + rest
             return None  # assignment
+        if self.spindle is not None and word in ("SETAO", "TRIGGIO"):
+            self.analog(word, rest, where)
+            return None
         if word in _MOVES:
             self.move(_MOVES[word], rest, lineno, where)
             return None
@@ -423,8 +444,43 @@ class _Reader:
             return None
         return word
 
+    def analog(self, word: str, rest: str, where: str) -> None:
+        """``SetAO sig, v`` (the speed from the next move on) or ``TriggIO t, 0 \\Start
+        \\AOp:=sig, v`` (the speed from the start of the next move that uses ``t``)."""
+        assert self.spindle is not None
+        sig, per_unit = self.spindle
+        args = [a.strip() for a in _split_args(rest) if a.strip()]
+        if word == "SETAO":
+            if len(args) == 2 and args[0].upper() == sig:
+                v = finite(args[1], where, f"SetAO {args[0]}")
+                self.rpm = v * per_unit if v > 0 else math.nan
+            return
+        joined = " ".join(args)
+        m = re.search(r"\\AOP\s*:=\s*([A-Za-z_]\w*)", joined, re.IGNORECASE)
+        if not m or m.group(1).upper() != sig:
+            return
+        if len(args) < 3:
+            raise InputError(
+                f"TriggIO: expected triggdata, distance and value, found {rest!r}", where
+            )
+        dist = re.split(r"\\", args[1])[0].strip()
+        if finite(dist, where, "TriggIO distance") != 0 or not re.search(
+            r"\\START\b", joined, re.IGNORECASE
+        ):
+            raise InputError(
+                f"TriggIO on the spindle output {m.group(1)}: expected distance 0 \\Start (the "
+                f"start of the move), found {args[1]!r}",
+                where,
+            )
+        v = finite(args[-1], where, f"TriggIO {m.group(1)}")
+        self.triggs[args[0].upper()] = v * per_unit if v > 0 else math.nan
+
     def move(self, kind: str, rest: str, lineno: int, where: str) -> None:
         args = [a for a in _split_args(rest) if a]
+        for a in args:
+            t = re.split(r"\\", a.strip())[0].strip().upper()
+            if t in self.triggs:
+                self.rpm = self.triggs[t]
         # leading optional switches like \Conc
         while args and args[0].startswith("\\"):
             args.pop(0)
@@ -454,11 +510,14 @@ class _Reader:
                 orientations_along(self.pos, rot0, rot, arc), self.tool_direction
             )
             for p, a, r in zip(arc, ax_k, ref_k, strict=True):
-                self.out.add(p * 1e-3, a, line=lineno, rapid=False, feed_mm_per_min=feed, ref=r)
+                self.out.add(
+                    p * 1e-3, a, line=lineno, rapid=False, feed_mm_per_min=feed, ref=r, rpm=self.rpm
+                )
         else:
             self.out.add(
-                end_pos * 1e-3, axis, line=lineno, rapid=rapid, feed_mm_per_min=feed, ref=ref
-            )
+                end_pos * 1e-3, axis, line=lineno, rapid=rapid, feed_mm_per_min=feed, ref=ref,
+                rpm=self.rpm,
+            )  # fmt: skip
         self.pos = end_pos
         self.rot = rot
 
@@ -553,6 +612,8 @@ def parse_rapid(
     arc_tol_mm: float = 0.01,
     tool_direction: str = "z",
     coordinates: str = "workpiece",
+    spindle_output: str | None = None,
+    spindle_rpm_per_unit: float | None = None,
 ) -> pd.DataFrame:
     """Read RAPID text into the waypoint table.
 
@@ -571,6 +632,10 @@ def parse_rapid(
         ``workpiece``: targets as programmed in their work object (a warning
         when moves use different ones). ``machine``: each move's ``\\WObj``
         (uframe and oframe of a literal wobjdata in the module) applied.
+    spindle_output, spindle_rpm_per_unit : optional
+        The analog output signal that sets the spindle speed and the rpm per
+        unit of its value (job section ``[program]``); with both, ``SetAO``
+        and ``TriggIO ... \\AOp`` on that signal set the programmed speed.
 
     Returns
     -------
@@ -584,7 +649,10 @@ def parse_rapid(
     """
     check_choice("tool_direction", tool_direction, TOOL_DIRECTIONS)
     check_choice("coordinates", coordinates, ("workpiece", "machine"))
-    rd = _Reader(source, arc_tol_mm, tool_direction, coordinates)
+    spindle = None
+    if spindle_output is not None and spindle_rpm_per_unit is not None:
+        spindle = (str(spindle_output), float(spindle_rpm_per_unit))
+    rd = _Reader(source, arc_tol_mm, tool_direction, coordinates, spindle)
     stmts = _statements(text, source)
     if not stmts:
         raise InputError("expected a RAPID module, found no statements", source=source)
@@ -639,3 +707,339 @@ def read_rapid(path: str | Path, **options: float | str) -> pd.DataFrame:
     """Read a RAPID module file (see :func:`parse_rapid`)."""
     p = Path(path)
     return parse_rapid(read_text(p), p.name, **options)  # type: ignore[arg-type]
+
+
+# ------------------------------------------------------------------ writer
+# ABB conventions (RAPID Instructions, Functions and Data Types reference:
+# speeddata, SetAO, TriggIO, TriggL, TriggC): the TCP speed is the first
+# component of the move's speeddata [mm/s]: each new feed gets a speeddata of
+# its own (its other components copied from the speeddata it replaces) and
+# the move names it. The spindle speed is an analog output: set by SetAO
+# before the first motion (the spindle runs up before the cut), changed
+# either path-synchronously ("triggio": TriggIO trig, 0 \Start \AOp:=sig,
+# value; and the move as TriggL/TriggC with that triggdata, so the output
+# switches at the move's start point) or by SetAO before the move ("setao":
+# the output switches when the program pointer gets there, which in a zone
+# is ahead of the robot). Changed statements are announced by "! ROBOLOBE"
+# comments.
+
+_PREDEFINED_V = re.compile(r"^V(\d+(?:\.\d*)?)$", re.IGNORECASE)
+_TRIGG = "trRobolobeSpindle"
+
+
+def write_rapid(text: str, source: str, edit: ProgramEdit) -> str:
+    """Write a RAPID module with the speeds and feeds of ``edit``.
+
+    Parameters
+    ----------
+    text : str
+        The module as read (:func:`parse_rapid` made ``edit.waypoints`` of it).
+    source : str
+        Its file name (messages).
+    edit : ProgramEdit
+        ``edit.options``: ``analog_output`` (signal name),
+        ``analog_rpm_full_scale``, ``analog_full_scale``, ``rapid_sync``
+        (``"triggio"`` or ``"setao"``).
+
+    Returns
+    -------
+    str
+
+    Raises
+    ------
+    InputError
+        Analog scaling keys missing; passes over a run of moves that is not
+        one statement per line in file order; a move that cannot carry a
+        trigger (``rapid_sync = "triggio"`` on other than
+        MoveL/MoveC); a move whose speed argument is not on its first line.
+    """
+    opt = edit.options
+    missing = [k for k in ("analog_output", "analog_rpm_full_scale") if opt.get(k) is None]
+    if missing:
+        raise InputError(
+            "RAPID output sets the spindle speed by an analog output: expected the job keys "
+            "[program] analog_output (signal name) and analog_rpm_full_scale (rpm at full "
+            f"scale), found {', '.join(missing)} missing",
+            source=source,
+        )
+    sig = str(opt["analog_output"])
+    if not re.fullmatch(r"[A-Za-z_]\w*", sig):
+        raise InputError(f"[program] analog_output: expected a RAPID signal name, found {sig!r}")
+    per_unit = float(opt["analog_rpm_full_scale"]) / float(opt.get("analog_full_scale", 1.0))
+    sync = str(opt.get("rapid_sync", "triggio"))
+    src = lines(text)
+    vals = line_values(edit)
+    stmts = _statements(text, source)
+    s_want = {ln: fmt_num(v[0] / per_unit, 12, point=False) for ln, v in vals.items()}
+    full_scale = float(opt.get("analog_full_scale", 1.0))
+    top = max((v[0] for v in vals.values()), default=0.0)
+    if top / per_unit > full_scale * (1 + 1e-12):
+        raise InputError(
+            f"[program] analog_rpm_full_scale: {top:g} rpm is beyond the output's full scale "
+            f"({per_unit * full_scale:g} rpm at {full_scale:g})",
+            source=source,
+        )
+    # the module's speeddata literals (to copy their orientation and external-axis speeds)
+    sdata: dict[str, list[str]] = {}
+    for _, st in stmts:
+        m = re.match(
+            r"^(?:LOCAL\s+|TASK\s+)?(?:CONST|PERS|VAR)\s+speeddata\s+([A-Za-z_]\w*)\s*:=\s*\[(.*)\]$",
+            st,
+            re.IGNORECASE | re.DOTALL,
+        )
+        if m:
+            sdata[m.group(1).upper()] = [x.strip() for x in m.group(2).split(",")]
+    s_set: dict[int, str | None] = {}
+    moves: dict[int, tuple[str, list[str], str]] = {}
+    all_moves: dict[int, tuple[str, list[str]]] = {}
+    first_motion: int | None = None
+    first_proc: int | None = None
+    for ln, st in stmts:
+        head = re.match(r"^([A-Za-z_]\w*)\s*(.*)$", st, re.DOTALL)
+        if not head:
+            continue
+        word, rest = head.group(1).upper(), head.group(2)
+        if first_proc is None and re.match(r"^(LOCAL\s+)?PROC\b", st, re.IGNORECASE):
+            first_proc = ln
+        if word == "SETAO":
+            args = [a.strip() for a in _split_args(rest) if a.strip()]
+            if args and args[0].upper() == sig.upper():
+                s_set[ln] = args[1] if len(args) == 2 and _is_number(args[1]) else None
+        elif word == "TRIGGIO" and re.search(r"\\AOP\s*:=\s*" + sig + r"\b", rest, re.I):
+            s_set[ln] = None
+        elif word in _MOVES:
+            all_moves[ln] = (word, [a for a in _split_args(rest) if a])
+            if first_motion is None:
+                first_motion = ln
+            if ln in vals:
+                moves[ln] = (word, [a for a in _split_args(rest) if a], st)
+    s_edits, s_ins = modal_values(s_set, s_want)
+    before: dict[int, list[str]] = {}
+    out_lines: dict[int, str] = {}
+    decls: list[str] = []
+    names: dict[tuple[str, str], str] = {}
+    first_cut = min(vals) if vals else None
+    if first_cut is not None and first_cut in s_ins and first_motion is not None:
+        before.setdefault(first_motion, []).append(
+            f"{_indent(src[first_motion - 1])}SetAO {sig}, {s_ins.pop(first_cut)}; "
+            f"! ROBOLOBE spindle speed {fmt_num(vals[first_cut][0], 0, point=False)} rpm "
+            f"({fmt_num(per_unit, 6, point=False)} rpm per unit)"
+        )
+    for ln, v in s_edits.items():
+        raw = src[ln - 1]
+        m = re.search(r"(SetAO\s+\w+\s*,\s*)([-+0-9.Ee]+)", raw, re.IGNORECASE)
+        if m is None:
+            raise InputError(
+                "SetAO on the spindle output: expected it on one line", f"{source}:{ln}"
+            )
+        out_lines[ln] = (
+            raw[: m.start(2)] + v + raw[m.end(2) :] + f" ! ROBOLOBE spindle speed: was {m.group(2)}"
+        )
+    trigg_used = False
+    for ln, (word, args, _) in moves.items():
+        rpm, f, margin = vals[ln]
+        raw = src[ln - 1]
+        n_pts = 2 if word.endswith("C") or word in ("TRIGGC",) else 1
+        k0 = 0
+        while k0 < len(args) and args[k0].startswith("\\"):
+            k0 += 1
+        if len(args) < k0 + n_pts + 1:
+            raise InputError(f"{word}: expected targets and speeddata", f"{source}:{ln}")
+        speed_arg = args[k0 + n_pts].strip()
+        base = re.split(r"\\", speed_arg)[0].strip()
+        tail = "".join(
+            "\\" + p for p in re.split(r"\\", speed_arg)[1:] if not p.upper().startswith("V")
+        )
+        comps = sdata.get(base.upper())
+        if comps is None:
+            mv = _PREDEFINED_V.match(base)
+            comps = [mv.group(1) if mv else base, "500", "5000", "1000"]
+        v_tcp = fmt_num(f / 60.0, 9, point=False)
+        key = (v_tcp, ",".join(comps[1:]))
+        if key not in names:
+            names[key] = f"vRl{len(names) + 1}"
+            decls.append(
+                f"    CONST speeddata {names[key]}:=[{v_tcp},{','.join(comps[1:])}]; "
+                f"! ROBOLOBE {fmt_num(f, 3, point=False)} mm/min"
+            )
+        new_speed = names[key] + tail
+        note = [f"speed {base} -> {names[key]}"]
+        pos = raw.find(speed_arg)
+        if pos < 0:
+            raise InputError(
+                f"{word}: the speed argument is not on the statement's first line; "
+                "join the statement on one line",
+                f"{source}:{ln}",
+            )
+        new_raw = raw[:pos] + new_speed + raw[pos + len(speed_arg) :]
+        if ln in s_ins:
+            m_txt = f", margin {margin:.2f}" if math.isfinite(margin) else ""
+            note.append(f"spindle {fmt_num(rpm, 0, point=False)} rpm{m_txt}")
+            if sync == "setao":
+                before.setdefault(ln, []).append(
+                    f"{_indent(raw)}SetAO {sig}, {s_ins[ln]}; ! ROBOLOBE spindle speed "
+                    f"{fmt_num(rpm, 0, point=False)} rpm{m_txt}"
+                )
+            else:
+                if word not in ("MOVEL", "MOVEC"):
+                    raise InputError(
+                        f"{word}: a path-synchronous spindle change needs MoveL or MoveC "
+                        "(becoming TriggL/TriggC); set [program] rapid_sync = 'setao'",
+                        f"{source}:{ln}",
+                    )
+                trigg_used = True
+                before.setdefault(ln, []).append(
+                    f"{_indent(raw)}TriggIO {_TRIGG}, 0 \\Start \\AOp:={sig}, {s_ins[ln]}; "
+                    f"! ROBOLOBE spindle speed {fmt_num(rpm, 0, point=False)} rpm{m_txt}"
+                )
+                kw = re.search(r"\bMove([LC])\b", new_raw, re.IGNORECASE)
+                assert kw is not None
+                new_raw = (
+                    new_raw[: kw.start()] + "Trigg" + kw.group(1).upper() + new_raw[kw.end() :]
+                )
+                p2 = new_raw.find(new_speed)
+                new_raw = (
+                    new_raw[: p2 + len(new_speed)] + f", {_TRIGG}" + new_raw[p2 + len(new_speed) :]
+                )
+        out_lines[ln] = new_raw.rstrip() + " ! ROBOLOBE " + "; ".join(note)
+    secs = sections(edit)
+    if secs:
+        stmt_lines = {ln for ln, _ in stmts}
+        per_unit_sig = (sig, per_unit)
+        for sec in secs:
+            _rapid_pass_block(
+                edit, sec, src, stmt_lines, all_moves, out_lines, before, per_unit_sig, source
+            )
+    if trigg_used:
+        decls.insert(0, f"    VAR triggdata {_TRIGG};")
+    if decls:
+        if first_proc is None:
+            raise InputError("expected a PROC in the module", source=source)
+        before.setdefault(first_proc, [])[0:0] = [*decls, ""]
+    res: list[str] = []
+    for ln in range(1, len(src) + 1):
+        res.extend(before.get(ln, []))
+        res.append(out_lines.get(ln, src[ln - 1]))
+    return "\n".join(res) + "\n"
+
+
+def _targets(word: str, args: list[str]) -> tuple[list[str], int]:
+    """The target arguments of a move (after optional switches) and where its speed is."""
+    k0 = 0
+    while k0 < len(args) and args[k0].startswith("\\"):
+        k0 += 1
+    n_pts = 2 if word.endswith("C") else 1
+    return [a.strip() for a in args[k0 : k0 + n_pts]], k0 + n_pts
+
+
+def _offs(target: str, d: np.ndarray) -> str:
+    x, y, z = (fmt_num(float(v), 9, point=False) for v in d)
+    return f"Offs({target},{x},{y},{z})"
+
+
+def _rapid_pass_block(
+    edit: ProgramEdit,
+    sec: Section,
+    src: list[str],
+    stmt_lines: set[int],
+    all_moves: dict[int, tuple[str, list[str]]],
+    out_lines: dict[int, str],
+    before: dict[int, list[str]],
+    spindle: tuple[str, float],
+    source: str,
+) -> None:
+    """The shallower passes of one section, inserted before it: its moves with their targets
+    in ``Offs(target, shift along the tool axis)``, MoveJ links between them."""
+    wp_lines = edit.waypoints["line"].to_numpy()
+    pos_mm = edit.waypoints[["x_m", "y_m", "z_m"]].to_numpy(dtype=np.float64) * 1e3
+    first, last = int(wp_lines[sec.start]), int(wp_lines[sec.stop - 1])
+    prev = int(wp_lines[sec.start - 1])
+    where = f"{source}:{first}"
+    seq = wp_lines[sec.start : sec.stop]
+    if np.any(np.diff(seq) < 0) or prev not in all_moves or prev >= first:
+        raise InputError(
+            "passes in RAPID: the run of cutting moves must follow the move before it in the "
+            "file (no procedure calls inside)",
+            where,
+        )
+    for ln in range(first, last + 1):
+        code = _strip_comment(src[ln - 1]).strip()
+        if code and (ln not in stmt_lines or not code.endswith(";")):
+            raise InputError(
+                "passes in RAPID: expected one statement per line in the run of cutting moves",
+                f"{source}:{ln}",
+            )
+    (start_t,), _ = _targets(*all_moves[prev])
+    end_word, end_args = all_moves[last]
+    end_ts, _ = _targets(end_word, end_args)
+    end_t = end_ts[-1]
+    w0, a0 = all_moves[first]
+    _, ks = _targets(w0, a0)
+    tail = ", ".join(a.strip() for a in a0[ks + 2 :])
+    pw, pa = all_moves[prev]
+    _, kp = _targets(pw, pa)
+    link_speed = pa[kp].strip()
+    a = np.asarray(sec.axis)
+    p_start, p_end = pos_mm[sec.start - 1], pos_mm[sec.stop - 1]
+    offs = sec.offsets_mm()
+    n = len(offs)
+    sig, per_unit = spindle
+    s_first = edit.rpm[sec.start]
+    s_varies = bool(np.any(edit.rpm[sec.start : sec.stop] != s_first))
+    restate = (
+        f"    SetAO {sig}, {fmt_num(s_first / per_unit, 12, point=False)}; "
+        "! ROBOLOBE spindle speed at the pass start"
+    )
+    block: list[str] = []
+    end = p_start
+    for k, off in enumerate(offs, start=1):
+        pts = link_moves(edit, sec, pos_mm, end, off)
+        bases = (
+            [(end_t, p_end), (start_t, p_start), (start_t, p_start)]
+            if len(pts) == 3
+            else [(start_t, p_start)]
+        )
+        for p, (t, base) in zip(pts, bases, strict=True):
+            block.append(
+                f"    MoveJ {_offs(t, p - base)}, {link_speed}, fine, {tail}; "
+                f"! ROBOLOBE link to pass {k} of {n}"
+            )
+        if s_varies and k > 1:
+            block.append(restate)
+        if off == 0:
+            break
+        block.append(
+            f"    ! ROBOLOBE pass {k} of {n}: {fmt_num(off, 4, point=False)} mm above the "
+            "programmed depth"
+        )
+        d = off * a
+        for ln in range(first, last + 1):
+            block.extend(x for x in before.get(ln, []) if not x.lstrip().startswith("!"))
+            raw = out_lines.get(ln, src[ln - 1])
+            if ln in all_moves:
+                word, args = all_moves[ln]
+                ts, _ = _targets(word, args)
+                pos = raw.upper().find(word) + len(word)
+                for t in ts:
+                    j = raw.find(t, pos)
+                    if j < 0:
+                        raise InputError("passes in RAPID: target not found on its line", where)
+                    new = _offs(t, d)
+                    raw = raw[:j] + new + raw[j + len(t) :]
+                    pos = j + len(new)
+            block.append(raw)
+        end = p_end + d
+    before.setdefault(first, [])[0:0] = block
+
+
+def _indent(raw: str) -> str:
+    m = re.match(r"^\s*", raw)
+    return m.group(0) if m else ""
+
+
+def _is_number(text: str) -> bool:
+    try:
+        float(text.strip())
+    except ValueError:
+        return False
+    return True

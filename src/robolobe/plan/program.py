@@ -1,0 +1,630 @@
+"""Hand the program back: a plan's speeds, feeds and passes written into the program it read.
+
+:func:`write_program` turns a plan into the program's own dialect (G-code,
+APT/CL, KUKA KRL, ABB RAPID; or a CSV waypoint table with rpm and feed
+columns from any of them) and checks the result before it keeps it: the
+written text is read back with robolobe's own reader and must reproduce
+every move of :func:`~robolobe.plan.paths._edit.expected_table` to 1e-6 mm
+with its S and F; anything else is an internal error, never a file.
+
+The per-move values (:func:`program_edit`):
+
+- **S**: the plan's speed at the move (for a linearised arc, the speed at
+  its tightest point), rounded to whole rpm, held across moves while the
+  plan's speed stays within ``hysteresis_pct`` of it or less than
+  ``min_segment_mm`` of cutting has run since the last change, unless
+  holding it would take a move below the safety factor by the plan's own
+  lobes (then the plan's speed is taken there). Job section ``[program]``.
+- **F**: the program's feed per tooth kept: ``F_new = F_old * S_new /
+  S_old`` (the program's F and S at the move; ``cut.programmed_rpm`` where
+  the program has no S); where the program has no F or S the plan's feed
+  (``feed_per_tooth_mm * teeth * S_new``); capped by
+  ``cut.max_feed_mm_per_min`` (the robot's path-speed limit) where given.
+- **Passes**: the plan table's ``passes`` column (and ``depth_mm`` per pass)
+  where it has one, else ``passes=`` given here; one pass otherwise.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import math
+import os
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+from numpy.typing import NDArray
+
+from robolobe._atomic import atomic_path, not_a_file
+from robolobe.errors import InputError
+from robolobe.plan.job import Job
+from robolobe.plan.paths import detect_format, read_toolpath, reader_options
+from robolobe.plan.paths._edit import ProgramEdit, expected_table
+from robolobe.plan.paths._table import segment_lengths
+from robolobe.plan.pipeline import PlanResult
+
+__all__ = [
+    "EXTENSIONS",
+    "PROGRAM_DEFAULTS",
+    "TRANSLATIONS",
+    "WRITERS",
+    "FolderPlan",
+    "ProgramText",
+    "check_program_format",
+    "program_changes",
+    "program_edit",
+    "program_text",
+    "read_folder_plan",
+    "write_program",
+]
+
+FloatArray = NDArray[np.float64]
+IntArray = NDArray[np.int64]
+ArrayLikeInt = Any
+ArrayLikeFloat = Any
+
+#: ``[program]`` job keys and their defaults (see the module docstring).
+PROGRAM_DEFAULTS: dict[str, Any] = {
+    "min_segment_mm": 10.0,
+    "hysteresis_pct": 2.0,
+    "retract_mm": 5.0,
+    "analog_output": None,
+    "analog_rpm_full_scale": None,
+    "analog_full_scale": 1.0,
+    "rapid_sync": "triggio",
+}
+
+#: File extension of the written program per dialect.
+EXTENSIONS: dict[str, str] = {
+    "gcode": ".nc",
+    "apt": ".apt",
+    "krl": ".src",
+    "rapid": ".mod",
+    "table": ".csv",
+}
+
+#: Dialects a program may be written in, per dialect read (a translation
+#: between controller languages is not defined: their modal states differ).
+TRANSLATIONS: dict[str, tuple[str, ...]] = {
+    "gcode": ("gcode", "table"),
+    "apt": ("apt", "table"),
+    "krl": ("krl", "table"),
+    "rapid": ("rapid", "table"),
+    "table": ("table",),
+}
+
+
+#: Dialects a program can be written in (--program-format).
+WRITERS: tuple[str, ...] = ("gcode", "apt", "krl", "rapid", "table")
+
+
+@dataclass(frozen=True, eq=False)
+class _Record:
+    plan_record: dict[str, Any]
+
+
+@dataclass(frozen=True, eq=False)
+class FolderPlan:
+    """A plan read back from its folder (``robolobe plan -o DIR``), for :func:`write_program`.
+
+    Holds what the writer needs: the job, the source program's path and its
+    waypoint table (read again), the plan's per-waypoint table and its
+    record. Without the lobes, the written speed follows the plan's at every
+    move (a held speed could not be checked against the lobes).
+    """
+
+    job: Job
+    path: str
+    waypoints: pd.DataFrame
+    table: pd.DataFrame
+    summary: _Record
+    lobes: None = None
+
+
+#: What the writer takes: a plan in memory or one read from its folder.
+AnyPlan = PlanResult | FolderPlan
+
+
+def check_program_format(fmt: str | None) -> None:
+    """Refuse an unknown ``--program-format`` (before any work)."""
+    if fmt is not None and fmt not in WRITERS:
+        raise InputError(f"--program-format: expected one of {', '.join(WRITERS)}, found {fmt!r}")
+
+
+def _options(res: AnyPlan) -> dict[str, Any]:
+    return {**PROGRAM_DEFAULTS, **res.job.program_options}
+
+
+def _blocks(wp: pd.DataFrame, cut: NDArray[np.bool_]) -> tuple[IntArray, IntArray]:
+    """Block id per row (-1 off the cut) and each block's first row.
+
+    A block is a run of cutting rows from one source line (one program block).
+    """
+    n = len(wp)
+    line = wp["line"].to_numpy()
+    src = wp["source"].to_numpy()
+    new = np.zeros(n, bool)
+    new[0] = cut[0]
+    if n > 1:
+        new[1:] = cut[1:] & (~cut[:-1] | (line[1:] != line[:-1]) | (src[1:] != src[:-1]))
+    bid = np.cumsum(new) - 1
+    bid[~cut] = -1
+    return bid.astype(np.int64), np.flatnonzero(new).astype(np.int64)
+
+
+def _margin_at(res: AnyPlan, rows: IntArray, rpm: FloatArray) -> FloatArray:
+    """Margin of ``rows`` at speeds ``rpm`` by the plan's own lobes (NaN: no lateral limit)."""
+    tab = res.table
+    if res.lobes is None:
+        return np.full(len(rows), np.nan)
+    lt = res.lobes.table
+    g = tab["dynamics_group"].to_numpy()[rows]
+    depth = tab["depth_mm"].to_numpy()[rows] * 1e-3
+    out = np.full(len(rows), np.nan)
+    ok = g >= 0
+    if np.any(ok):
+        grid = np.asarray(lt.rpm, dtype=np.float64)
+        j = np.clip(np.searchsorted(grid, rpm[ok]) - 1, 0, len(grid) - 2)
+        t = np.clip((rpm[ok] - grid[j]) / (grid[j + 1] - grid[j]), 0.0, 1.0)
+        a = np.asarray(lt.a_lim, dtype=np.float64)
+        al = a[g[ok], j] * (1 - t) + a[g[ok], j + 1] * t
+        out[ok] = np.where(np.isfinite(al), al / depth[ok], np.nan)
+    return out
+
+
+def program_edit(
+    res: AnyPlan,
+    *,
+    passes: ArrayLikeInt | None = None,
+    depth_mm: ArrayLikeFloat | None = None,
+) -> ProgramEdit:
+    """The per-move S, F and passes the written program carries (module docstring).
+
+    Parameters
+    ----------
+    res : PlanResult
+    passes : int or array of int, shape (n,), optional
+        Passes per waypoint; default: the plan table's ``passes`` column, else 1.
+    depth_mm : float or array, shape (n,), optional
+        Total depth [mm] the passes divide; default: ``passes * depth_mm`` of
+        the plan table (its depth per pass).
+
+    Returns
+    -------
+    ProgramEdit
+    """
+    opts = _options(res)
+    wp = res.waypoints
+    tab = res.table
+    n = len(wp)
+    cut = (wp["motion"] == "cut").to_numpy()
+    bid, first = _blocks(wp, cut)
+    rpm_plan = tab["rpm"].to_numpy(dtype=np.float64)
+    margin = tab["margin"].to_numpy(dtype=np.float64)
+    pos = wp[["x_m", "y_m", "z_m"]].to_numpy(dtype=np.float64)
+    seg = segment_lengths(pos) * 1e3
+    nb = len(first)
+    rows = np.flatnonzero(cut)
+    # the tightest row of each block sets the block's wanted speed
+    m = np.where(np.isfinite(margin[rows]), margin[rows], np.inf)
+    order = np.lexsort((m, bid[rows]))
+    starts = np.searchsorted(bid[rows][order], np.arange(nb))
+    tight = rows[order[starts]]
+    want = rpm_plan[tight]
+    length = np.bincount(bid[rows], weights=seg[rows], minlength=nb)
+    # the rows of block b: rows[b_start[b] : b_start[b + 1]] (not a million small arrays)
+    b_start = np.concatenate([[0], np.flatnonzero(np.diff(bid[rows])) + 1, [len(rows)]])
+    hyst = float(opts["hysteresis_pct"]) / 100.0
+    min_seg = float(opts["min_segment_mm"])
+    sf = res.job.plan.safety_factor
+    s_block = np.empty(nb)
+    held = math.nan
+    since = 0.0
+    for b in range(nb):
+        w = float(want[b])
+        if math.isnan(held):
+            held, since = float(round(w)), 0.0
+        elif held != round(w):
+            rel = abs(w - held) / held
+            change = rel > hyst and since >= min_seg
+            if not change:
+                if res.lobes is None:  # a plan read from its folder: a hold cannot be checked
+                    change = True
+                else:
+                    r = rows[b_start[b] : b_start[b + 1]]
+                    mg = _margin_at(res, r, np.full(len(r), held))
+                    change = bool(np.any(mg < sf))
+            if change:
+                held, since = float(round(w)), 0.0
+        s_block[b] = held
+        since += float(length[b])
+    rpm = np.full(n, np.nan)
+    rpm[rows] = s_block[bid[rows]]
+    mg = np.full(n, np.nan)
+    same = np.abs(rpm[rows] - rpm_plan[rows]) < 1.0
+    mg[rows[same]] = margin[rows[same]]
+    if np.any(~same) and res.lobes is not None:
+        r = rows[~same]
+        mg[r] = _margin_at(res, r, rpm[r])
+    # feed: the program's feed per tooth kept, else the plan's
+    f_old = wp["feed_mm_per_min"].to_numpy(dtype=np.float64)
+    s_old = wp["rpm_programmed"].to_numpy(dtype=np.float64)
+    if res.job.cut.programmed_rpm is not None:
+        s_old = np.where(np.isfinite(s_old), s_old, res.job.cut.programmed_rpm)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        per_rev_plan = tab["feed_mm_per_min"].to_numpy(dtype=np.float64) / rpm_plan
+        own = np.isfinite(f_old) & np.isfinite(s_old) & (s_old > 0)
+        feed = np.where(own, f_old * rpm / s_old, per_rev_plan * rpm)
+    if res.job.cut.max_feed_m_per_s is not None:
+        feed = np.minimum(feed, res.job.cut.max_feed_m_per_s * 6e4)
+    feed[~cut] = np.nan
+    bad = cut & ~(np.isfinite(feed) & (feed > 0) & np.isfinite(rpm) & (rpm > 0))
+    if np.any(bad):
+        i = int(np.argmax(bad))
+        raise InputError(
+            f"expected a spindle speed and feed for every cutting move, found S = {rpm[i]:g}, "
+            f"F = {feed[i]:g} mm/min",
+            source=f"{wp['source'].iloc[i]}:{wp['line'].iloc[i]}",
+        )
+    # passes
+    if passes is None and "passes" in tab.columns:
+        passes = tab["passes"].to_numpy()
+        if depth_mm is None:
+            depth_mm = passes * tab["depth_mm"].to_numpy(dtype=np.float64)
+    p = np.broadcast_to(np.asarray(1 if passes is None else passes), (n,)).astype(np.int64)
+    if np.any(p < 1):
+        raise InputError(f"passes: expected integers >= 1, found {int(p.min())}")
+    d = np.broadcast_to(
+        np.asarray(math.nan if depth_mm is None else depth_mm, dtype=np.float64), (n,)
+    ).copy()
+    d[p <= 1] = math.nan
+    p = np.where(cut, p, 1)
+    return ProgramEdit(
+        waypoints=wp,
+        rpm=rpm,
+        feed_mm_per_min=feed,
+        margin=mg,
+        passes=p,
+        depth_mm=d,
+        retract_mm=float(opts["retract_mm"]),
+        options=opts,
+    )
+
+
+class ProgramText(dict[str, str]):
+    """The written program: file name -> text (two files for KRL: ``.src`` and ``.dat``)."""
+
+
+def read_folder_plan(
+    plan_dir: str | os.PathLike[str], job: str | os.PathLike[str] | Job | None = None
+) -> FolderPlan:
+    """A plan folder with its source program, checked to belong together.
+
+    Raises
+    ------
+    InputError
+        No plan there (:func:`robolobe.plan.verify.read_plan`), its source
+        program missing, or a program whose moves are not the plan's.
+    """
+    from robolobe.plan.verify import read_plan
+
+    table, summary, j = read_plan(plan_dir, job)
+    d = Path(plan_dir)
+    given = str(summary.get("path") or "")
+    cands = [Path(given), d / Path(given).name, d.parent / Path(given).name] if given else []
+    src = next((c for c in cands if c.is_file()), None)
+    if src is None:
+        raise InputError(
+            f"the plan's source program {given or '(none recorded)'} is not found (looked at "
+            f"{', '.join(str(c) for c in cands) or 'nothing'}): the program is written from it",
+            str(d / "summary.json"),
+        )
+    wp = read_toolpath(src, applicable_only=True, **j.path_options)
+    same = len(wp) == len(table) and bool(
+        np.array_equal(wp["line"].to_numpy(), table["line"].to_numpy())
+    )
+    if not same:
+        raise InputError(
+            f"the program reads to {len(wp)} moves, the plan's table has {len(table)} (thinned "
+            "with --waypoints-every, or another program): plan it again",
+            str(src),
+        )
+    return FolderPlan(j, str(src), wp, table, _Record(summary["plan_record"]))
+
+
+def _source_path(res: AnyPlan) -> Path:
+    """The plan's source program, checked against the hash the plan recorded."""
+    if res.path in ("<table>", "") or not Path(res.path).is_file():
+        where = res.path if res.path not in ("<table>", "") else "the plan"
+        raise InputError(
+            "write_program: expected the plan's source program, found "
+            + (not_a_file(Path(res.path)) if res.path not in ("<table>", "") else "none"),
+            source=where,
+        )
+    p = Path(res.path)
+    want = res.summary.plan_record.get("path_sha256")
+    got = hashlib.sha256(p.read_bytes()).hexdigest()
+    if want is not None and got != want:
+        raise InputError(
+            f"the program changed since the plan: sha256 {got[:12]}..., the plan recorded "
+            f"{want[:12]}... (plan it again)",
+            source=str(p),
+        )
+    return p
+
+
+def program_text(
+    res: AnyPlan,
+    fmt: str | None = None,
+    *,
+    edit: ProgramEdit | None = None,
+    name: str = "program",
+) -> ProgramText:
+    """The program text ``write_program`` writes, checked by reading it back.
+
+    Parameters
+    ----------
+    res : PlanResult
+    fmt : {"gcode", "apt", "krl", "rapid", "table"}, optional
+        Dialect to write; default: the one read.
+    edit : ProgramEdit, optional
+        Default: :func:`program_edit` of ``res``.
+    name : str
+        Stem of the written file(s).
+
+    Returns
+    -------
+    ProgramText
+        File name -> text.
+
+    Raises
+    ------
+    InputError
+        No source program, a changed one, an undefined translation, missing
+        analog scaling keys (KRL/RAPID), passes the dialect cannot hold.
+    """
+    check_program_format(fmt)
+    src = _source_path(res)
+    read_fmt = detect_format(src)
+    fmt = fmt or read_fmt
+    if fmt not in TRANSLATIONS.get(read_fmt, ()):
+        raise InputError(
+            f"--program-format: a translation from {read_fmt} to {fmt!r} is not defined; "
+            f"expected one of {list(TRANSLATIONS.get(read_fmt, ()))}",
+            source=src.name,
+        )
+    if edit is None:
+        edit = program_edit(res)
+    opts = reader_options(read_fmt, res.job.path_options) if read_fmt != "table" else {}
+    files = _write(fmt, read_fmt, src, edit, name, opts)
+    _check(files, fmt, name, edit, opts, src.name)
+    return files
+
+
+def _write(
+    fmt: str, read_fmt: str, src: Path, edit: ProgramEdit, name: str, opts: dict[str, Any]
+) -> ProgramText:
+    from robolobe.plan.paths import _text
+
+    out = ProgramText()
+    if fmt == "table":
+        from robolobe.plan.paths._table import program_table
+
+        out[name + ".csv"] = program_table(edit)
+        return out
+    text = _text.read_text(src)
+    if fmt == "gcode":
+        from robolobe.plan.paths.gcode import write_gcode
+
+        out[name + ".nc"] = write_gcode(text, src.name, edit)
+    elif fmt == "apt":
+        from robolobe.plan.paths.apt import write_apt
+
+        out[name + ".apt"] = write_apt(text, src.name, edit)
+    elif fmt == "krl":
+        from robolobe.plan.paths.krl import write_krl
+
+        dat = next(
+            (q for q in (src.with_suffix(".dat"), src.with_suffix(".DAT")) if q.is_file()), None
+        )
+        dat_text = _text.read_text(dat) if dat is not None else None
+        src_out, dat_out = write_krl(text, src.name, edit, name=name, dat=dat_text)
+        out[name + ".src"] = src_out
+        if dat_out is not None:
+            out[name + ".dat"] = dat_out
+    elif fmt == "rapid":
+        from robolobe.plan.paths.rapid import write_rapid
+
+        out[name + ".mod"] = write_rapid(text, src.name, edit)
+    return out
+
+
+def _reread(files: ProgramText, fmt: str, name: str, opts: dict[str, Any]) -> pd.DataFrame:
+    """The written program read back, its reader's notes not logged (they were, for the source)."""
+    import logging
+
+    log = logging.getLogger("robolobe.plan.paths")
+    level = log.level
+    log.setLevel(logging.ERROR)
+    try:
+        return _reread_files(files, fmt, name, opts)
+    finally:
+        log.setLevel(level)
+
+
+def _reread_files(files: ProgramText, fmt: str, name: str, opts: dict[str, Any]) -> pd.DataFrame:
+    import tempfile
+
+    with tempfile.TemporaryDirectory(prefix="robolobe-program-") as tmp:
+        for fname, text in files.items():
+            (Path(tmp) / fname).write_text(text, encoding="utf-8")
+        main = Path(tmp) / (name + EXTENSIONS[fmt])
+        if fmt == "table":
+            return read_toolpath(main, "table")
+        return read_toolpath(main, fmt, applicable_only=True, **opts)
+
+
+def _check(
+    files: ProgramText,
+    fmt: str,
+    name: str,
+    edit: ProgramEdit,
+    opts: dict[str, Any],
+    source: str,
+) -> None:
+    """Read the written program back; it must give ``expected_table(edit)``."""
+    got = _reread(files, fmt, name, {**opts, **_analog_options(edit, fmt)})
+    # what the check needs of it, then the table goes (a million rows: the peak of the check)
+    g_line = got["line"].to_numpy(copy=True)  # copies: views would keep the table alive
+    g_motion = got["motion"].to_numpy(copy=True)
+    g_rpm = got["rpm_programmed"].to_numpy(copy=True)
+    g_feed = got["feed_mm_per_min"].to_numpy(copy=True)
+    p = got[["x_m", "y_m", "z_m"]].to_numpy(dtype=np.float64) * 1e3
+    del got
+    exp = expected_table(edit, full=False)
+    where = f"{name}{EXTENSIONS[fmt]} (written from {source})"
+    fix = " (not written; --program-format table or --no-program)"
+    if len(p) != len(exp):
+        raise InputError(
+            f"robolobe cannot write this program faithfully: it reads back to {len(p)} "
+            f"moves, expected {len(exp)}{fix}",
+            source=where,
+        )
+    q = exp[["x_mm", "y_mm", "z_mm"]].to_numpy(dtype=np.float64)
+    err = np.max(np.abs(p - q), axis=1)
+    mot = g_motion != exp["motion"].to_numpy()
+    cut = (exp["motion"] == "cut").to_numpy()
+    s_err = cut & ~np.isclose(g_rpm, exp["rpm"].to_numpy(), rtol=1e-9)
+    f_err = cut & ~np.isclose(g_feed, exp["feed_mm_per_min"].to_numpy(), rtol=1e-7)
+    bad = (err > 1e-6) | mot | s_err | f_err
+    if np.any(bad):
+        r = int(np.argmax(bad))
+        raise InputError(
+            f"robolobe cannot write this program faithfully: move {r} (written line "
+            f"{g_line[r]}) reads back as {p[r].round(6).tolist()} mm {g_motion[r]} "
+            f"S{g_rpm[r]:g} F{g_feed[r]:g}, expected {q[r].round(6).tolist()} mm "
+            f"{exp['motion'].iloc[r]} S{exp['rpm'].iloc[r]:g} "
+            f"F{exp['feed_mm_per_min'].iloc[r]:g}{fix}",
+            source=where,
+        )
+
+
+def _analog_options(edit: ProgramEdit, fmt: str) -> dict[str, Any]:
+    """Reader options that read the written analog spindle output back as rpm (KRL, RAPID)."""
+    o = edit.options
+    if fmt not in ("krl", "rapid") or o.get("analog_output") is None:
+        return {}
+    return {
+        "spindle_output": str(o["analog_output"]),
+        "spindle_rpm_per_unit": float(o["analog_rpm_full_scale"]) / float(o["analog_full_scale"]),
+    }
+
+
+def write_program(
+    plan: PlanResult | FolderPlan | str | os.PathLike[str],
+    path: str | os.PathLike[str],
+    *,
+    job: str | os.PathLike[str] | Job | None = None,
+    fmt: str | None = None,
+    passes: ArrayLikeInt | None = None,
+    depth_mm: ArrayLikeFloat | None = None,
+) -> Path:
+    """Write the plan's program (speeds, feeds, passes) into ``path`` atomically.
+
+    Parameters
+    ----------
+    plan : PlanResult, FolderPlan or path-like
+        A plan, or its folder (``robolobe plan -o DIR``; its source program
+        must be where the plan read it).
+    path : path-like
+        The program file; for KRL the ``.dat`` is written beside it (same stem).
+    job : path-like or Job, optional
+        With a plan folder: its job (default: the job file its summary names).
+        The extension follows ``fmt`` (:data:`EXTENSIONS`) when it is missing.
+    fmt : str, optional
+        Dialect (default: the one read; :data:`TRANSLATIONS`).
+    passes, depth_mm : optional
+        See :func:`program_edit`.
+
+    Returns
+    -------
+    Path
+        The program written.
+
+    Raises
+    ------
+    InputError
+        See :func:`program_text`; ``path`` an existing directory. Nothing
+        is written then, and an earlier file at ``path`` is left as it was.
+    """
+    p = Path(path)
+    if p.is_dir():
+        raise InputError(f"expected a program file to write, found {not_a_file(p)}", str(p))
+    if not isinstance(plan, PlanResult | FolderPlan):
+        plan = read_folder_plan(plan, job)
+    edit = program_edit(plan, passes=passes, depth_mm=depth_mm)
+    fmt0 = fmt or detect_format(_source_path(plan))
+    if not p.suffix:
+        p = p.with_suffix(EXTENSIONS[fmt0])
+    files = program_text(plan, fmt0, edit=edit, name=p.stem)
+    for fname in files:
+        target = p.with_name(fname) if fname != p.stem + EXTENSIONS[fmt0] else p
+        if target.is_dir():
+            raise InputError(
+                f"expected a program file to write, found {not_a_file(target)}", str(target)
+            )
+    for fname, text in files.items():
+        target = p.with_name(fname) if fname != p.stem + EXTENSIONS[fmt0] else p
+        with atomic_path(target) as tmp:
+            Path(tmp).write_text(text, encoding="utf-8")
+    return p
+
+
+def program_changes(res: AnyPlan, edit: ProgramEdit | None = None) -> pd.DataFrame:
+    """Where the written program's S or F is set: the blocks the report lists.
+
+    A block is listed where its new S or F differs from the program's own
+    (S_old, F_old) and either differs from the block before it (a new value
+    is set there) or the program's own value changes there, and where it
+    gets passes.
+
+    Returns
+    -------
+    pandas.DataFrame
+        ``source line rpm_old rpm_new feed_old feed_new margin passes``
+        (feeds in mm/min), one row per listed block, in program order.
+    """
+    if edit is None:
+        edit = program_edit(res)
+    wp = edit.waypoints
+    cut = edit.cut
+    bid, first = _blocks(wp, cut)
+    f_old = wp["feed_mm_per_min"].to_numpy()[first]
+    s_old = wp["rpm_programmed"].to_numpy()[first]
+    s_new = edit.rpm[first]
+    f_new = edit.feed_mm_per_min[first]
+    low = pd.Series(edit.margin[cut]).groupby(bid[cut]).min().to_numpy()
+    differs = ~np.isclose(s_old, s_new, rtol=0, atol=0.5) | ~np.isclose(f_old, f_new, rtol=1e-9)
+
+    def steps(v: FloatArray) -> NDArray[np.bool_]:
+        out = np.ones(len(v), bool)
+        out[1:] = ~np.isclose(v[1:], v[:-1], rtol=1e-9, equal_nan=True)
+        return out
+
+    new_value = steps(s_new) | steps(f_new) | steps(s_old) | steps(f_old)
+    p = edit.passes[first]
+    changed = (differs & new_value) | ((p > 1) & steps(p.astype(np.float64)))
+    return pd.DataFrame(
+        {
+            "source": wp["source"].to_numpy()[first],
+            "line": wp["line"].to_numpy()[first],
+            "rpm_old": s_old,
+            "rpm_new": s_new,
+            "feed_old": f_old,
+            "feed_new": f_new,
+            "margin": low,
+            "passes": edit.passes[first],
+        }
+    )[changed].reset_index(drop=True)
