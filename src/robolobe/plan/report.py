@@ -498,8 +498,9 @@ def _program_html(res: PlanResult, program: dict[str, str] | None, n: int = 30) 
             "feed_new": "F new [mm/min]",
         }
     )
-    for c in shown.select_dtypes(include="object").columns:
-        shown[c] = shown[c].map(visible)  # to_html escapes HTML, not controls
+    for c in shown.columns:
+        if not pd.api.types.is_numeric_dtype(shown[c]):
+            shown[c] = shown[c].map(visible)  # to_html escapes HTML, not controls
     body = shown.to_html(
         index=False,
         border=0,
