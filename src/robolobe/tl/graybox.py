@@ -132,7 +132,54 @@ def twin_values(
     from robolobe.twin import Twin
 
     q = np.asarray(q_rad, dtype=float)
-    return modal_values(Twin(robot).modes(q), directions, n_modes)
+    return modal_values(Twin(robot).modes(q, overdamped="keep"), directions, n_modes)
+
+
+def _check_some_underdamped(
+    robot: Robot, q_rad: FloatArray, posture_ids: Sequence[str], values: FloatArray
+) -> None:
+    """Refuse a robot file whose damping leaves no resonance at some tested posture.
+
+    Overdamped modes (damping ratio >= 1, two real poles) are calibrated like
+    the others (their natural frequency and damping ratio); a posture where
+    *every* mode is overdamped has nothing a hammer test could show as a
+    resonance, which is a damping value off by orders of magnitude (a unit).
+
+    Parameters
+    ----------
+    robot : Robot
+        The robot file's model.
+    q_rad : ndarray, shape (n, 6)
+        Tested postures [rad].
+    posture_ids : sequence of str
+    values : ndarray, shape (n, n_dir, n_modes, 3)
+        The file's twin values (:meth:`ParametrizedTwin.values`).
+
+    Raises
+    ------
+    InputError
+        Naming the file, the first such posture and the joint of highest
+        damping ratio ``c / (2 sqrt(k M_jj))`` there.
+    """
+    over = np.all(values[:, 0, :, 1] >= 1.0, axis=-1)  # (n,)
+    if not np.any(over):
+        return
+    from robolobe.twin.system import nominal_system
+
+    i = int(np.flatnonzero(over)[0])
+    sys_ = nominal_system(robot, q_rad[i : i + 1])
+    m_jj = np.diagonal(sys_.M.reshape(-1, sys_.n_dof, sys_.n_dof)[0])[:6]
+    c = np.array([jt.damping_Nms_per_rad for jt in robot.joints])
+    k = np.array([jt.stiffness_Nm_per_rad for jt in robot.joints])
+    ratio = c / (2.0 * np.sqrt(k * m_jj))
+    j = int(np.argmax(ratio))
+    raise InputError(
+        f"every mode of the robot file's twin is overdamped (no resonance to measure) at "
+        f"posture {posture_ids[i]!r} ({int(over.sum())} of {len(over)} postures); joint "
+        f"{j + 1}: damping {c[j]:.4g} N m s/rad is {ratio[j]:.3g} x critical: check the "
+        "joints' damping_Nms_per_rad (unit N m s/rad; typical joints 0.5-5 % of critical)",
+        source=robot.source,
+    )
 
 
 def modal_frame_dataset(modal_df: pd.DataFrame) -> ModalDataset:
@@ -417,6 +464,7 @@ class TwinCalibration:
         twin = ParametrizedTwin(base, q, groups, directions=ds.directions, n_modes=6)
         n_twin = twin.modes(np.zeros(p)).f_hz.shape[-1]
         twin.n_modes = n_twin
+        _check_some_underdamped(base, q, ds.posture_ids, twin.values(np.zeros(p)))
         wf, wz, wk = (float(w) for w in self.weights)
         reg = float(self.regularization)
         prior_sd = self._prior_vector(groups)
