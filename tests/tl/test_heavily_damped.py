@@ -129,3 +129,17 @@ def test_fewer_than_six_postures_refused(campaign):
     assert isinstance(five, pd.DataFrame)
     with pytest.raises(InputError, match="at least 6 postures"):
         transfer(five, robot=str(MY_ROBOT))
+
+
+def test_mislabelled_directions_are_refused(campaign):
+    ds = campaign["ds"]
+    swapped = ModalDataset(ds.posture_ids, ds.q_rad, ("zz", "yy", "xx"), ds.y)
+    with pytest.raises(InputError, match=r"direction '(xx|zz)'.*cannot fit.*factor of"):
+        TwinCalibration(robot=campaign["base"], params=("stiffness", "damping")).fit_dataset(
+            swapped
+        )
+
+
+def test_tests_of_another_robot_are_refused(campaign):
+    with pytest.raises(InputError, match=r"cannot fit the measured modes.*posture 'P\d+'"):
+        TwinCalibration(robot="C", params=("stiffness", "damping")).fit_dataset(campaign["ds"])

@@ -182,6 +182,78 @@ def _check_some_underdamped(
     )
 
 
+MISFIT_REFUSE_LOG_K = math.log(3.0)
+"""RMS log modal-stiffness misfit of one direction (a factor of 3) beyond which the
+calibrated twin is refused: model-form errors the twin lacks leave 7-19 % (studies/
+tl_graybox.py), a heavily damped robot's complex close pairs ~30 %; a factor of 3 is a
+wrong robot or mislabelled directions."""
+MISFIT_REFUSE_LOG_F = math.log(1.1)
+"""RMS log frequency misfit (10 %) beyond which the calibrated twin is refused."""
+
+
+def _check_fits_the_robot(
+    ds: ModalDataset, y: FloatArray, model: FloatArray, idx: tuple[NDArray[np.intp], ...]
+) -> None:
+    """Refuse tests that the calibrated twin cannot fit (wrong robot, mislabelled directions).
+
+    Parameters
+    ----------
+    ds : ModalDataset
+    y : ndarray, shape (n, n_dir, n_modes, 3)
+        Measured values.
+    model : ndarray, shape (n, n_dir, n_twin, 3)
+        The calibrated twin's values.
+    idx : tuple of 4 index arrays
+        Matched pairs ``(posture, direction, measured mode, twin mode)``.
+
+    Raises
+    ------
+    InputError
+        Per direction, the RMS log misfit of modal stiffness beyond
+        :data:`MISFIT_REFUSE_LOG_K` or of frequency beyond
+        :data:`MISFIT_REFUSE_LOG_F`; names the direction, the worst posture and,
+        when the stiffnesses fit another direction of the twin, that direction.
+    """
+    i, j, m, t = idx
+    dirs = tuple(ds.directions)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        lf = np.log(y[i, j, m, 0] / model[i, j, t, 0])
+        lk_all = np.log(y[i, j, m, 2][:, None] / model[i, :, t, 2])  # (pairs, n_dir)
+    for d, name in enumerate(dirs):
+        sel = j == d
+        if not sel.any():
+            continue
+        rms_f = float(np.sqrt(np.nanmean(lf[sel] ** 2)))
+        fin = np.isfinite(lk_all[sel])
+        rms_k = np.sqrt(np.nanmean(np.where(fin, lk_all[sel], np.nan) ** 2, axis=0))
+        if rms_f <= MISFIT_REFUSE_LOG_F and not rms_k[d] > MISFIT_REFUSE_LOG_K:
+            continue
+        bad = np.abs(lk_all[sel, d]) if rms_k[d] > MISFIT_REFUSE_LOG_K else np.abs(lf[sel])
+        worst = ds.posture_ids[int(i[sel][int(np.nanargmax(bad))])]
+        what = (
+            f"modal stiffness off by a factor of {math.exp(rms_k[d]):.3g} (RMS)"
+            if rms_k[d] > MISFIT_REFUSE_LOG_K
+            else f"frequencies off by {100 * (math.exp(rms_f) - 1):.3g} % (RMS)"
+        )
+        # the twin was calibrated to the labels given: a swapped direction fits its true
+        # one only better, not well
+        alt = sorted(
+            (e for e in range(len(dirs)) if e != d and rms_k[e] < 0.7 * rms_k[d]),
+            key=lambda e: float(rms_k[e]),
+        )
+        hint = (
+            f"; they fit the twin's {dirs[alt[0]]!r} (factor {math.exp(rms_k[alt[0]]):.3g}): "
+            "mislabelled directions? check the sensor and hammer axes against the TCP frame"
+            if alt and rms_k[d] > MISFIT_REFUSE_LOG_K
+            else "; the tests do not look like this robot file's (a wrong robot or a sensor "
+            "frame other than the TCP frame?)"
+        )
+        raise InputError(
+            f"direction {name!r}: the calibrated twin cannot fit the measured modes: {what}, "
+            f"worst at posture {worst!r}{hint}"
+        )
+
+
 def modal_frame_dataset(modal_df: pd.DataFrame) -> ModalDataset:
     """The driving-point rows (``xx``, ``yy``, ``zz``) of a ``modal.csv`` frame as a dataset.
 
@@ -623,6 +695,7 @@ class TwinCalibration:
             if same:
                 break
         assert sol is not None
+        _check_fits_the_robot(ds, y, model(theta), idx)
         # covariance of theta: s^2 (J^T J)^-1 with the data residual variance
         jac = np.asarray(sol.jac)
         r_data = data_res(theta, idx)

@@ -245,8 +245,13 @@ def transfer(
             n_modes = int(min(5, modes.max()))
     checked_dataset(df, name, dirs, n_modes, rob, MIN_POSTURES[method])
     groups = tuple(params)
-    if method == "twin-calibration":
-        return TwinCalibration(robot=rob, params=groups, random_state=random_state).fit(df)
-    return CorrectedTwin(robot=rob, calibration={"params": groups}, random_state=random_state).fit(
-        df
-    )
+    try:
+        if method == "twin-calibration":
+            return TwinCalibration(robot=rob, params=groups, random_state=random_state).fit(df)
+        return CorrectedTwin(
+            robot=rob, calibration={"params": groups}, random_state=random_state
+        ).fit(df)
+    except InputError as exc:
+        if exc.source:
+            raise
+        raise InputError(exc.detail, source=name) from None
