@@ -143,3 +143,51 @@ def test_mislabelled_directions_are_refused(campaign):
 def test_tests_of_another_robot_are_refused(campaign):
     with pytest.raises(InputError, match=r"cannot fit the measured modes.*posture 'P\d+'"):
         TwinCalibration(robot="C", params=("stiffness", "damping")).fit_dataset(campaign["ds"])
+
+
+def _cli(args, capsys):
+    from robolobe.cli import main as cli_main
+
+    code = 0
+    try:
+        cli_main.main([str(a) for a in args])
+    except SystemExit as exc:
+        code = int(exc.code or 0)
+    out = capsys.readouterr()
+    return code, out.out + out.err
+
+
+@pytest.mark.parametrize("case", ["swapped", "five"])
+def test_cli_bad_campaigns_one_line_exit_2_nothing_written(case, campaign, tmp_path, capsys):
+    from robolobe.modal.modal_csv import write_modal_csv
+
+    ds = campaign["ds"]
+    if case == "swapped":
+        df = ModalDataset(ds.posture_ids, ds.q_rad, ("zz", "yy", "xx"), ds.y).to_frame()
+        want = r"swapped\.csv: direction '(xx|zz)'.*posture 'P\d+'"
+    else:
+        df = ds.to_frame()
+        df = df[df["posture_id"].isin(sorted(set(df["posture_id"]))[:5])]
+        want = r"five\.csv: expected at least 6 postures"
+    path = tmp_path / f"{case}.csv"
+    write_modal_csv(path, df)
+    out = tmp_path / "model.npz"
+    code, text = _cli(
+        [
+            "transfer",
+            path,
+            "--robot",
+            MY_ROBOT,
+            "--method",
+            "twin-calibration",
+            "-o",
+            out.with_suffix(".toml"),
+        ],
+        capsys,
+    )
+    assert code == 2
+    errors = [ln for ln in text.splitlines() if ln.startswith("error:")]
+    assert len(errors) == 1
+    assert re.search(want, errors[0])
+    assert "Traceback" not in text
+    assert not out.with_suffix(".toml").exists()

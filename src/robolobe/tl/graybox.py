@@ -254,6 +254,41 @@ def _check_fits_the_robot(
         )
 
 
+def _unmatched(
+    ds: ModalDataset, idx: tuple[NDArray[np.intp], ...]
+) -> tuple[tuple[str, str, float], ...]:
+    """Measured modes without a twin partner: ``(posture id, direction, f [Hz])`` each."""
+    y = np.asarray(ds.y)
+    left = np.isfinite(y[..., 0])
+    left[idx[0], idx[1], idx[2]] = False
+    return tuple(
+        (ds.posture_ids[i], ds.directions[j], float(y[i, j, m, 0])) for i, j, m in np.argwhere(left)
+    )
+
+
+def _warn_unmatched(
+    unmatched: Sequence[tuple[str, str, float]], match_tol: float, match_k_gate: float
+) -> None:
+    """Say which measured modes the calibrated twin has no counterpart for."""
+    import warnings
+
+    from robolobe.tl.dataset import TrustWarning
+
+    f = np.array([u[2] for u in unmatched])
+    where = ", ".join(f"{p}/{d} {x:.4g} Hz" for p, d, x in unmatched[:6])
+    more = f" and {len(unmatched) - 6} more" if len(unmatched) > 6 else ""
+    warnings.warn(
+        f"{len(unmatched)} measured mode(s) at {f.min():.4g}-{f.max():.4g} Hz have no twin mode "
+        f"within {100 * (np.exp(match_tol) - 1):.0f} % in frequency and a factor of "
+        f"{np.exp(match_k_gate):.3g} in stiffness ({where}{more}): physics the robot file "
+        "lacks (a motor or servo mode, a spindle bracket) or spurious modes; they are left out "
+        "of the calibration and the model does not predict them, so a plan on it does not see "
+        "them",
+        TrustWarning,
+        stacklevel=3,
+    )
+
+
 def modal_frame_dataset(modal_df: pd.DataFrame) -> ModalDataset:
     """The driving-point rows (``xx``, ``yy``, ``zz``) of a ``modal.csv`` frame as a dataset.
 
@@ -314,6 +349,11 @@ class TwinCalibration:
     match_k_weight : float
         Weight of ``|log k_meas / k_twin|`` (capped at 3) in the matching cost,
         which separates close modes seen in different directions.
+    match_k_gate : float
+        Largest ``|log k_meas / k_twin|`` of a pair in the final, gated
+        matching (``log 10``): a measured mode the twin lacks (a motor or
+        bracket mode) is left unmatched rather than paired with a twin mode
+        that the direction does not see.
     n_rematch : int
         Most match-then-solve rounds.
     min_postures : int
@@ -352,12 +392,15 @@ class TwinCalibration:
         RMS of the unweighted log residuals ``f``, ``zeta``, ``k`` at the fit.
     n_matched_ : int
         Matched (posture, direction, mode) pairs; ``n_unmatched_`` measured
-        modes left without a partner.
+        modes left without a partner (``unmatched_``: their posture id,
+        direction and frequency [Hz]; a TrustWarning names them). More
+        measured modes per direction than the twin has are accepted.
     at_bounds_ : tuple of str
         Parameters that ended at a bound (the data want more than allowed).
     directions_ : tuple of str
     n_modes_ : int
-        Modes per direction in the training data (predictions use the same).
+        Modes per direction of the predictions: as many as the training data
+        number, at most the twin's.
     """
 
     def __init__(
@@ -372,6 +415,7 @@ class TwinCalibration:
         weights: tuple[float, float, float] = (1.0, 0.2, 0.3),
         match_tol: float = 0.3,
         match_k_weight: float = 0.1,
+        match_k_gate: float = math.log(10.0),
         n_rematch: int = 4,
         min_postures: int = 5,
         robot_name: str | None = None,
@@ -389,6 +433,7 @@ class TwinCalibration:
         self.weights = weights
         self.match_tol = match_tol
         self.match_k_weight = match_k_weight
+        self.match_k_gate = match_k_gate
         self.n_rematch = n_rematch
         self.min_postures = min_postures
         self.robot_name = robot_name
@@ -480,21 +525,36 @@ class TwinCalibration:
         """
         tol = self.match_tol if tol is None else tol
         y = np.asarray(ds.y)
-        nm, nt = y.shape[2], model.shape[2]
-        if nm > nt:
-            raise InputError(
-                f"expected at most {nt} measured modes per direction (the twin's modes), found {nm}"
-            )
         present = np.isfinite(y[..., 0])  # (n, nd, nm)
         with np.errstate(invalid="ignore", divide="ignore"):
             df = np.abs(np.log(y[..., :, None, 0] / model[..., None, :, 0]))  # (n, nd, nm, nt)
-            dk = np.abs(np.log(y[..., :, None, 2] / model[..., None, :, 2]))
-        dk = np.where(np.isfinite(dk), np.minimum(dk, 3.0), 0.0)
+            dk_raw = np.abs(np.log(y[..., :, None, 2] / model[..., None, :, 2]))
+        dk = np.where(np.isfinite(dk_raw), np.minimum(dk_raw, 3.0), 0.0)
         cost = np.where(present[..., None], df + self.match_k_weight * dk, np.nan)
+        nt = model.shape[2]
+        if y.shape[2] > nt:
+            # more measured modes than the twin has: some are physics the file lacks (a
+            # motor mode). A twin mode whose stiffness at the direction is off by more
+            # than match_k_gate is no partner, so that such a mode does not take the
+            # place of a twin mode that this direction does not see; and in the search
+            # stages (ungated) a measured mode may pair with "none" at _none_cost (the
+            # caller gives it a constant residual: the number of residuals stays fixed).
+            # With at most the twin's modes the matching is as it always was.
+            cost = np.where(np.isfinite(dk_raw) & (dk_raw > self.match_k_gate), np.inf, cost)
+            if not np.isfinite(tol):
+                none = np.where(present[..., None], self._none_cost(), np.nan)
+                cost = np.concatenate(
+                    [cost, np.broadcast_to(none, (*cost.shape[:-1], cost.shape[-2]))], axis=-1
+                )
         ii, jj, mm, tt = match_modes(cost)
-        ok = df[ii, jj, mm, tt] <= tol
+        ok = tt < nt
+        ok[ok] = df[ii[ok], jj[ok], mm[ok], tt[ok]] <= tol
         idx = (ii[ok], jj[ok], mm[ok], tt[ok])
         return tuple(np.asarray(a, dtype=np.intp) for a in idx), int(present.sum() - ok.sum())
+
+    def _none_cost(self) -> float:
+        """Matching cost of leaving a measured mode unpaired in the search stages."""
+        return float(self.match_tol + 3.0 * self.match_k_weight)
 
     # --------------------------------------------------------------- fit
     def fit(self, modal_df: pd.DataFrame) -> TwinCalibration:
@@ -579,14 +639,27 @@ class TwinCalibration:
             rows = d[np.isfinite(y[i, j, m])]
             return np.vstack([rows, np.diag(prior_w[0] / prior_sd)])
 
+        fin_vals = np.isfinite(y)  # (n, nd, nm, 3)
+        n_vals = int(fin_vals.sum())
+        none_res = wf * self._none_cost()
+
+        def n_fill(idx: tuple[NDArray[np.intp], ...]) -> int:
+            """Finite values of the measured modes left unpaired (constant residuals)."""
+            return n_vals - int(fin_vals[idx[0], idx[1], idx[2]].sum())
+
         def dyn_jac(theta: FloatArray) -> FloatArray:
             idx, _ = self._match(ds, model(theta), tol=np.inf)
-            return jacobian(theta, idx)
+            jac_ = jacobian(theta, idx)
+            nd_ = jac_.shape[0] - p
+            return np.vstack([jac_[:nd_], np.zeros((n_fill(idx), p)), jac_[nd_:]])
 
         def dyn_res(theta: FloatArray) -> FloatArray:
-            # every measured mode matched afresh (continuous where modes cross)
+            # every measured mode matched afresh (continuous where modes cross); one left
+            # unpaired adds constant residuals, so that their number stays fixed
             idx, _ = self._match(ds, model(theta), tol=np.inf)
-            return residuals(theta, idx)
+            r_ = residuals(theta, idx)
+            nd_ = r_.size - p
+            return np.concatenate([r_[:nd_], np.full(n_fill(idx), none_res), r_[nd_:]])
 
         def rms_f(theta: FloatArray) -> float:
             idx0, _ = self._match(ds, model(theta), tol=np.inf)
@@ -729,8 +802,14 @@ class TwinCalibration:
         self.n_matched_ = len(i)
         self.n_unmatched_ = unmatched
         self.directions_ = tuple(ds.directions)
-        self.n_modes_ = nm
+        # predictions are the twin's modes: as many as measured, at most the twin's
+        self.n_modes_ = min(nm, n_twin)
         self.n_postures_ = ds.n_postures
+        self.unmatched_ = _unmatched(ds, idx)
+        if self.unmatched_ and nm > n_twin:
+            # more measured modes than the twin: say which ones the model leaves out
+            # (otherwise the count is reported as always, n_unmatched_)
+            _warn_unmatched(self.unmatched_, self.match_tol, self.match_k_gate)
         self.at_bounds_ = tuple(
             n
             for n, th, a, b in zip(names, theta, lo, hi, strict=True)
@@ -900,6 +979,7 @@ class TwinCalibration:
             self.n_postures_ = int(meta["n_postures"])
             self.n_matched_ = int(meta["n_matched"])
             self.n_unmatched_ = int(meta["n_unmatched"])
+            self.unmatched_ = ()  # the fit's warning named them
             self.at_bounds_ = tuple(str(a) for a in meta["at_bounds"])
             self.train_q_rad_ = np.asarray(arrays["train_q_rad"], dtype=float)
         except (KeyError, TypeError, ValueError) as exc:
