@@ -30,7 +30,7 @@ bracket modes are measured) are identified; the default transfer
 bundled jobs plan on it (plain and robust) and on the truth (the oracle);
 each plan is verified on the truth's modes (every waypoint its own lobes).
 
-Run: ``nice python studies/out_of_form.py [--robots B,C] [--draws 2] [--jobs al]
+Run: ``nice python studies/out_of_form.py [--robots B,C] [--draws 2] [--first-draw 0] [--jobs al]
 [--out studies/out_of_form.json]``.
 """
 
@@ -257,6 +257,7 @@ def run_one(key: str, draw: int, jobs: str) -> list[dict[str, Any]]:
             print(f"  transfer failed: {exc}", flush=True)
             return rows
         t_tr = time.perf_counter() - t1
+        rows.append({**head, "transfer": True, "transfer_s": t_tr, "job": None})
         print(f"  default transfer {t_tr:.0f} s", flush=True)
         oracle_src = TruthSource(truth)
         for path, job_name, mat in JOBS:
@@ -319,19 +320,20 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--robots", default="B,C")
     ap.add_argument("--draws", type=int, default=2)
+    ap.add_argument("--first-draw", type=int, default=0)
     ap.add_argument("--jobs", default="al", choices=("all", "al", "steel"))
     ap.add_argument("--out", type=Path, default=None)
     a = ap.parse_args()
     rows: list[dict[str, Any]] = []
     for key in a.robots.split(","):
-        for draw in range(a.draws):
+        for draw in range(a.first_draw, a.first_draw + a.draws):
             try:
                 rows += run_one(key, draw, a.jobs)
             except Exception as exc:  # one robot's failure does not end the study
                 rows.append({"robot": key, "draw": draw, "error": f"{type(exc).__name__}: {exc}"})
                 print(f"{key} draw {draw}: {type(exc).__name__}: {exc}", flush=True)
     plans = [r for r in rows if r.get("source") == "default"]
-    transfers = {(r["robot"], r["draw"]): r.get("transfer", False) for r in rows if "robot" in r}
+    transfers = {(r["robot"], r["draw"]): bool(r.get("transfer")) for r in rows}
     rel = [r["mrr_rel"] for r in plans if "mrr_rel" in r]
     margins = [r["min_true_margin"] for r in plans if "min_true_margin" in r]
     beyond = sum(r.get("n_beyond", 0) for r in plans)
