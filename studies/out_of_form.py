@@ -221,6 +221,42 @@ def draw_truth(base: Robot, key: str, draw: int) -> Truth:
     )
 
 
+def spread_coverage(
+    model_file: Path, truth: Truth, base: Robot, key: str, n: int = 60
+) -> dict[str, float]:
+    """Share of true f and k within 2 sigma of the model's prediction (nominal 95.4 %).
+
+    At ``n`` random postures in the tested ranges, every predicted mode of
+    ``xx`` and ``yy`` is paired with the truth's mode nearest in log frequency
+    among those that move the TCP along the direction (modal stiffness below
+    1e12 N/m); ``z = (log true - center) / std``.
+    """
+    from robolobe.tl.models import load_model
+
+    model = load_model(model_file)
+    ranges = TESTED_RANGES_DEG.get(key)
+    q = design_postures(base, n, rng=np.random.default_rng(99), ranges_deg=ranges).q_rad
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        pred = model.predict(q)
+    true = TruthSource(truth).predict(q).parameters.stacked()  # (n, 3, m, 3)
+    zs: dict[str, list[float]] = {"f": [], "k": []}
+    for jd, d in enumerate(pred.directions):
+        a = DRIVING.index(d)
+        for r in range(pred.center.shape[2]):
+            c = pred.center[:, jd, r]
+            sd = pred.std[:, jd, r]
+            ft, kt = true[:, a, :, 0], true[:, a, :, 2]
+            ok = np.isfinite(kt) & (kt < 1e12)
+            dist = np.where(ok, np.abs(np.log(ft) - c[:, None, 0]), np.inf)
+            m = np.argmin(dist, axis=1)
+            have = np.isfinite(dist[np.arange(len(q)), m]) & np.all(np.isfinite(c), axis=1)
+            i = np.flatnonzero(have)
+            zs["f"] += list((np.log(ft[i, m[i]]) - c[i, 0]) / sd[i, 0])
+            zs["k"] += list((np.log(kt[i, m[i]]) - c[i, 2]) / sd[i, 2])
+    return {f"cover_{qn}": float(np.mean(np.abs(np.asarray(v)) <= 2.0)) for qn, v in zs.items()}
+
+
 def run_one(key: str, draw: int, jobs: str) -> list[dict[str, Any]]:
     """Hammer tests, default transfer and plans on one concealed robot."""
     from plan_safety import default_transfer
@@ -257,8 +293,13 @@ def run_one(key: str, draw: int, jobs: str) -> list[dict[str, Any]]:
             print(f"  transfer failed: {exc}", flush=True)
             return rows
         t_tr = time.perf_counter() - t1
-        rows.append({**head, "transfer": True, "transfer_s": t_tr, "job": None})
-        print(f"  default transfer {t_tr:.0f} s", flush=True)
+        cover = spread_coverage(model_file, truth, base, key)
+        rows.append({**head, "transfer": True, "transfer_s": t_tr, "job": None, **cover})
+        print(
+            f"  default transfer {t_tr:.0f} s; spread coverage (|z| <= 2, nominal 95.4 %): "
+            f"f {100 * cover['cover_f']:.0f} %, k {100 * cover['cover_k']:.0f} %",
+            flush=True,
+        )
         oracle_src = TruthSource(truth)
         for path, job_name, mat in JOBS:
             if jobs != "all" and jobs != mat:
@@ -321,7 +362,7 @@ def main() -> None:
     ap.add_argument("--robots", default="B,C")
     ap.add_argument("--draws", type=int, default=2)
     ap.add_argument("--first-draw", type=int, default=0)
-    ap.add_argument("--jobs", default="al", choices=("all", "al", "steel"))
+    ap.add_argument("--jobs", default="al", choices=("all", "al", "steel", "none"))
     ap.add_argument("--out", type=Path, default=None)
     a = ap.parse_args()
     rows: list[dict[str, Any]] = []
