@@ -57,6 +57,34 @@ def test_modal_stiffness_closed_form() -> None:
     assert modal_stiffness(lam, np.array([R]))[0] == pytest.approx(k0)
 
 
+def test_modal_stiffness_of_a_complex_mode_is_the_best_real_mode_fit() -> None:
+    """A residue far from -90 deg (one of a close pair of complex modes): the stiffness
+    is that of the real-mode term closest (least squares over the resonance) to the
+    complex term, found here by brute force over k."""
+    lam = -0.02 * 70.0 + 70.0j
+    wr2, wd = abs(lam) ** 2, lam.imag
+    w = np.linspace(wd - 10 * abs(lam.real), wd + 10 * abs(lam.real), 2001)
+    s = 1j * w
+
+    def term(r: complex) -> np.ndarray:
+        return r / (s - lam) + np.conj(r) / (s - np.conj(lam))
+
+    for phase_deg in (-90.0, -60.0, -150.0, 170.0):
+        R = 1e-7 * np.exp(1j * np.radians(phase_deg))
+        target = term(R)
+        ks = np.geomspace(1e3, 1e10, 20001)
+        miss = [np.linalg.norm(term(wr2 / (2j * wd * k)) - target) for k in ks]
+        best = ks[int(np.argmin(miss))]
+        got = modal_stiffness(np.array([lam]), np.array([R]))[0]
+        if phase_deg == 170.0:  # a positive imaginary part: a negative stiffness
+            assert got < 0
+            continue
+        # first order: the conjugate term and the band's edges shift the best by a few %
+        assert got == pytest.approx(best, rel=0.05)
+        old = (wr2 / (2j * wd * R)).real  # the older form: sin^2(phase) of it
+        assert old == pytest.approx(got * np.sin(np.radians(phase_deg)) ** 2, rel=1e-9)
+
+
 def test_refine_recovers_perturbed_poles() -> None:
     full = make_system(6)
     inb = full.f_hz < 40

@@ -150,3 +150,21 @@ def test_identify_refuses_absurd_values_without_traceback(
     bad[40, 0, 0] = 1e300
     with pytest.raises(InputError, match=r"posture 'a' xx: line \d+: implausible receptance"):
         identify_frfs(["a"], q[:1], [f], [bad])
+
+
+def test_a_negative_mode_of_a_close_pair_is_named_as_such() -> None:
+    from robolobe.modal.posture import sign_issues
+
+    f = np.array([14.11, 14.29, 23.3])
+    z = np.array([0.02, 0.036, 0.02])
+    k = np.array([[-3.3e5, 1.3e6, np.nan]])
+    (close,) = sign_issues("D02", ["yy"], f, k, z)
+    assert "0.18 Hz from the mode at 14.29 Hz" in close.message
+    assert "close pair" in close.message
+    # far apart (more than three half-power bandwidths): the wiring is suspected
+    (far,) = sign_issues("D02", ["yy"], np.array([14.11, 23.3, 30.0]), k, z)
+    assert "close pair" not in far.message
+    assert "transfer FRF" in far.message
+    # without damping ratios no pair is claimed
+    (plain,) = sign_issues("D02", ["yy"], f, k)
+    assert "close pair" not in plain.message

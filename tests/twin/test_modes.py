@@ -127,5 +127,6 @@ def test_overdamped_robot_is_refused_naming_its_file() -> None:
 
     robot = load_robot("B")
     heavy = robot.with_damping(robot.damping * 300)
-    with pytest.raises(InputError, match=r"built-in.*overdamped.*lower the joint damping"):
+    match = r"built-in.*overdamped.*posture index 0 \(1 of 1.*check the joint damping"
+    with pytest.raises(InputError, match=match):
         Twin(heavy).modes(np.zeros((1, 6)) + 0.3)

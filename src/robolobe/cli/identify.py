@@ -237,7 +237,8 @@ def register(app: typer.Typer) -> None:
             err_console.print(
                 f"{count(len(neg), 'mode')} at {count(neg['posture_id'].nunique(), 'posture')} "
                 f"{have} a negative driving-point residue and are not in modal.csv (dirs "
-                f"{', '.join(sorted(neg['dir'].unique()))}): transfer FRFs or reversed polarity, "
+                f"{', '.join(sorted(neg['dir'].unique()))}): close complex pairs, transfer "
+                "FRFs or reversed polarity, "
                 "see the sign findings below",
                 highlight=False,
             )
@@ -270,8 +271,17 @@ def register(app: typer.Typer) -> None:
         if len(worst) and float(worst["frac"].iloc[0]) < 0.95:
             console.print("worst postures (FRAC):", highlight=False)
             for _, r in worst.iterrows():
+                outside = float(r["outside_share"])
+                why = (
+                    f" (fit with residual terms: FRAC {r['frac_fit']:.3f}; modes outside "
+                    f"{fmin:g}-{fmax:g} Hz carry {100 * outside:.0f} % of this FRF and cannot be "
+                    "rows: not a fit error, a band that leaves them out)"
+                    if outside >= 0.2 and float(r["frac_fit"]) >= 0.95
+                    else ""
+                )
                 console.print(
-                    f"  {r['posture_id']} {r['dir']}: FRAC {r['frac']:.3f}, NRMSE {r['nrmse']:.3f}",
+                    f"  {r['posture_id']} {r['dir']}: FRAC {r['frac']:.3f}, NRMSE {r['nrmse']:.3f}"
+                    + why,
                     highlight=False,
                 )
         issues = [i for i in result.issues if i.severity != "info"]

@@ -67,6 +67,11 @@ __all__ = [
     "settings_from_test",
 ]
 
+#: Columns of :attr:`CampaignModal.fit`.
+FIT_COLUMNS: tuple[str, ...] = (
+    "posture_id", "dir", "n_modes", "frac", "nrmse", "frac_fit", "outside_share",
+)  # fmt: skip
+
 #: Extra columns of the modal table beyond docs/guide/modal.md.
 EXTRA_COLUMNS: tuple[str, ...] = ("source", "visibility", "k_rel_std")
 
@@ -87,7 +92,11 @@ class CampaignModal:
         ``{"xx": (track of mode 1, track of mode 2, ...), ...}``.
     fit : pandas.DataFrame
         ``posture_id, dir, n_modes, frac, nrmse``: the FRF synthesized from
-        the rows of ``table`` against the measured FRF on the analysis band.
+        the rows of ``table`` against the measured FRF on the analysis band;
+        ``frac_fit``: FRAC of the identification's own fit (LSFD with its
+        residual terms); ``outside_share``: the share of the FRF the
+        residual terms carry (modes outside the band, which modal.csv cannot
+        hold; :func:`_residual_share`).
     issues : tuple of QualityIssue
         All data-quality findings.
     n_recovered : int
@@ -461,6 +470,7 @@ def identify_frfs(
                 rows.append({**row, "source": src, "visibility": vis, "k_rel_std": rel})
                 sel_modes.append(i)
             fr, nr = _fit_metrics(pm, d, sel_modes)
+            fr_fit, share = _residual_share(pm, d)
             fit_rows.append(
                 {
                     "posture_id": pm.posture_id,
@@ -468,6 +478,8 @@ def identify_frfs(
                     "n_modes": len(sel_modes),
                     "frac": fr,
                     "nrmse": nr,
+                    "frac_fit": fr_fit,
+                    "outside_share": share,
                 }
             )
     if not rows:
@@ -483,7 +495,7 @@ def identify_frfs(
             source="identify",
         )
     table = validate_modal_frame(pd.DataFrame(rows, columns=[*MODAL_COLUMNS, *EXTRA_COLUMNS]))
-    fit = pd.DataFrame(fit_rows, columns=["posture_id", "dir", "n_modes", "frac", "nrmse"])
+    fit = pd.DataFrame(fit_rows, columns=list(FIT_COLUMNS))
     return CampaignModal(
         table=table,
         postures=tuple(postures),
@@ -495,6 +507,29 @@ def identify_frfs(
         negative=pd.DataFrame(neg_rows, columns=list(MODAL_COLUMNS)),
         settings=s,
     )
+
+
+def _residual_share(pm: PostureModal, d: int) -> tuple[float, float]:
+    """FRAC of the LSFD fit with its residual terms, and the share the residual terms carry.
+
+    The residual terms stand for modes outside the band (and the window's
+    low-frequency distortion); modal.csv cannot hold them. A low FRAC of the
+    rows with a high FRAC here is the band, not the identification: modes
+    outside it (heavily damped ones reach far into it) carry
+    ``outside_share`` (norm of the residual terms' FRF over the measured
+    FRF's norm on the band) of this FRF.
+    """
+    s = pm.settings
+    band = (pm.freq_hz >= s.fmin_hz) & (pm.freq_hz <= s.fmax_hz)
+    if pm.lsfd is None or not band.any():
+        return float("nan"), float("nan")
+    fb = pm.freq_hz[band]
+    hm = pm.H[band, d, d]
+    full = pm.lsfd.synthesize(fb)[:, d, d]
+    modes = pm.lsfd.synthesize(fb, residuals=False)[:, d, d]
+    norm = float(np.linalg.norm(hm))
+    share = float(np.linalg.norm(full - modes)) / norm if norm > 0 else float("nan")
+    return float(frac(full, hm)), share
 
 
 def _fit_metrics(pm: PostureModal, d: int, modes: Sequence[int]) -> tuple[float, float]:

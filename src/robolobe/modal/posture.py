@@ -681,9 +681,19 @@ def clean_poles(
 
 
 def sign_issues(
-    pid: str, labels: Sequence[str], f_hz: NDArray[np.float64], k: NDArray[np.float64]
+    pid: str,
+    labels: Sequence[str],
+    f_hz: NDArray[np.float64],
+    k: NDArray[np.float64],
+    zeta: NDArray[np.float64] | None = None,
 ) -> list[QualityIssue]:
     """``sign`` findings for driving-point FRFs: residues of both signs, or all negative.
+
+    A negative mode within :data:`CLOSE_BANDWIDTHS` half-power bandwidths of
+    another mode is most likely one of a close pair of complex modes
+    (non-proportional damping, e.g. a heavily damped joint): its residue is
+    far from -90 deg and the real-mode stiffness of its projection small
+    and of either sign; the finding says so rather than blaming the wiring.
 
     Parameters
     ----------
@@ -694,6 +704,8 @@ def sign_issues(
     f_hz : ndarray, shape (n_modes,)
     k : ndarray, shape (n_frf, n_modes)
         Signed modal stiffness of the visible modes, NaN where not visible.
+    zeta : ndarray, shape (n_modes,), optional
+        Damping ratios (for the close-pair test); without them no pair is named.
     """
     out = []
     for lab, kd in zip(labels, k, strict=True):
@@ -707,6 +719,13 @@ def sign_issues(
                 f"all {int(neg.sum())} residues negative (modes at {fs} Hz): reversed polarity "
                 "(sensor or hammer the other way round, or a direction code without its sign)"
             )
+        elif (pair := _close_pair(f_hz, zeta, np.flatnonzero(neg))) is not None:
+            msg = (
+                f"residues of both signs ({int(neg.sum())} of {int(vis.sum())} negative, at "
+                f"{fs} Hz), {pair}: most likely complex modes of a close pair (non-proportional "
+                "damping), whose real-mode stiffness is small and of either sign (the mode is "
+                "left out of modal.csv); otherwise a transfer FRF or a sign flip"
+            )
         else:
             msg = (
                 f"residues of both signs ({int(neg.sum())} of {int(vis.sum())} negative, at "
@@ -715,6 +734,27 @@ def sign_issues(
             )
         out.append(QualityIssue(pid, lab, "sign", "warning", msg, float(neg.sum())))
     return out
+
+
+CLOSE_BANDWIDTHS = 3.0
+"""Two modes closer than this many half-power bandwidths (``2 zeta f`` of the
+more damped) are a close pair for :func:`sign_issues`."""
+
+
+def _close_pair(
+    f_hz: NDArray[np.float64], zeta: NDArray[np.float64] | None, negative: NDArray[np.intp]
+) -> str | None:
+    """``"x Hz from the mode at y Hz"`` for the first negative mode with a close neighbour."""
+    if zeta is None:
+        return None
+    for i in negative:
+        gap = np.abs(f_hz - f_hz[i])
+        width = 2.0 * np.maximum(zeta, zeta[i]) * np.maximum(f_hz, f_hz[i])
+        near = (gap > 0) & (gap < CLOSE_BANDWIDTHS * width)
+        if near.any():
+            j = int(np.flatnonzero(near)[np.argmin(gap[near])])
+            return f"{gap[j]:.3g} Hz from the mode at {f_hz[j]:.4g} Hz"
+    return None
 
 
 def _finish(
@@ -826,6 +866,7 @@ def _finish(
             np.array([np.where(vis_ok[d] & in_band, k[d], np.nan) for d in dpts]).reshape(
                 len(dpts), f_true.size
             ),
+            z_true,
         )
     )
     return PostureModal(

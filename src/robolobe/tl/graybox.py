@@ -157,7 +157,161 @@ def twin_values(
     from robolobe.twin import Twin
 
     q = np.asarray(q_rad, dtype=float)
-    return modal_values(Twin(robot).modes(q), directions, n_modes)
+    return modal_values(Twin(robot).modes(q, overdamped="keep"), directions, n_modes)
+
+
+def _check_some_underdamped(
+    robot: Robot, q_rad: FloatArray, posture_ids: Sequence[str], values: FloatArray
+) -> None:
+    """Refuse a robot file whose damping leaves no resonance at some tested posture.
+
+    Overdamped modes (damping ratio >= 1, two real poles) are calibrated like
+    the others (their natural frequency and damping ratio); a posture where
+    *every* mode is overdamped has nothing a hammer test could show as a
+    resonance, which is a damping value off by orders of magnitude (a unit).
+
+    Parameters
+    ----------
+    robot : Robot
+        The robot file's model.
+    q_rad : ndarray, shape (n, 6)
+        Tested postures [rad].
+    posture_ids : sequence of str
+    values : ndarray, shape (n, n_dir, n_modes, 3)
+        The file's twin values (:meth:`ParametrizedTwin.values`).
+
+    Raises
+    ------
+    InputError
+        Naming the file, the first such posture and the joint of highest
+        damping ratio ``c / (2 sqrt(k M_jj))`` there.
+    """
+    over = np.all(values[:, 0, :, 1] >= 1.0, axis=-1)  # (n,)
+    if not np.any(over):
+        return
+    from robolobe.twin.system import nominal_system
+
+    i = int(np.flatnonzero(over)[0])
+    sys_ = nominal_system(robot, q_rad[i : i + 1])
+    m_jj = np.diagonal(sys_.M.reshape(-1, sys_.n_dof, sys_.n_dof)[0])[:6]
+    c = np.array([jt.damping_Nms_per_rad for jt in robot.joints])
+    k = np.array([jt.stiffness_Nm_per_rad for jt in robot.joints])
+    ratio = c / (2.0 * np.sqrt(k * m_jj))
+    j = int(np.argmax(ratio))
+    raise InputError(
+        f"every mode of the robot file's twin is overdamped (no resonance to measure) at "
+        f"posture {posture_ids[i]!r} ({int(over.sum())} of {len(over)} postures); joint "
+        f"{j + 1}: damping {c[j]:.4g} N m s/rad is {ratio[j]:.3g} x critical: check the "
+        "joints' damping_Nms_per_rad (unit N m s/rad; typical joints 0.5-5 % of critical)",
+        source=robot.source,
+    )
+
+
+MISFIT_REFUSE_LOG_K = math.log(3.0)
+"""RMS log modal-stiffness misfit of one direction (a factor of 3) beyond which the
+calibrated twin is refused: model-form errors the twin lacks leave 7-19 % (studies/
+tl_graybox.py), a heavily damped robot's complex close pairs ~30 %; a factor of 3 is a
+wrong robot or mislabelled directions."""
+MISFIT_REFUSE_LOG_F = math.log(1.1)
+"""RMS log frequency misfit (10 %) beyond which the calibrated twin is refused."""
+
+
+def _check_fits_the_robot(
+    ds: ModalDataset, y: FloatArray, model: FloatArray, idx: tuple[NDArray[np.intp], ...]
+) -> None:
+    """Refuse tests that the calibrated twin cannot fit (wrong robot, mislabelled directions).
+
+    Parameters
+    ----------
+    ds : ModalDataset
+    y : ndarray, shape (n, n_dir, n_modes, 3)
+        Measured values.
+    model : ndarray, shape (n, n_dir, n_twin, 3)
+        The calibrated twin's values.
+    idx : tuple of 4 index arrays
+        Matched pairs ``(posture, direction, measured mode, twin mode)``.
+
+    Raises
+    ------
+    InputError
+        Per direction, the RMS log misfit of modal stiffness beyond
+        :data:`MISFIT_REFUSE_LOG_K` or of frequency beyond
+        :data:`MISFIT_REFUSE_LOG_F`; names the direction, the worst posture and,
+        when the stiffnesses fit another direction of the twin, that direction.
+    """
+    i, j, m, t = idx
+    dirs = tuple(ds.directions)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        lf = np.log(y[i, j, m, 0] / model[i, j, t, 0])
+        lk_all = np.log(y[i, j, m, 2][:, None] / model[i, :, t, 2])  # (pairs, n_dir)
+    for d, name in enumerate(dirs):
+        sel = j == d
+        if not sel.any():
+            continue
+        rms_f = float(np.sqrt(np.nanmean(lf[sel] ** 2)))
+        fin = np.isfinite(lk_all[sel])
+        rms_k = np.sqrt(np.nanmean(np.where(fin, lk_all[sel], np.nan) ** 2, axis=0))
+        if rms_f <= MISFIT_REFUSE_LOG_F and not rms_k[d] > MISFIT_REFUSE_LOG_K:
+            continue
+        bad = np.abs(lk_all[sel, d]) if rms_k[d] > MISFIT_REFUSE_LOG_K else np.abs(lf[sel])
+        worst = ds.posture_ids[int(i[sel][int(np.nanargmax(bad))])]
+        what = (
+            f"modal stiffness off by a factor of {math.exp(rms_k[d]):.3g} (RMS)"
+            if rms_k[d] > MISFIT_REFUSE_LOG_K
+            else f"frequencies off by {100 * (math.exp(rms_f) - 1):.3g} % (RMS)"
+        )
+        # the twin was calibrated to the labels given: a swapped direction fits its true
+        # one only better, not well
+        alt = sorted(
+            (e for e in range(len(dirs)) if e != d and rms_k[e] < 0.7 * rms_k[d]),
+            key=lambda e: float(rms_k[e]),
+        )
+        hint = (
+            f"; they fit the twin's {dirs[alt[0]]!r} (factor {math.exp(rms_k[alt[0]]):.3g}): "
+            "mislabelled directions? check the sensor and hammer axes against the TCP frame"
+            if alt and rms_k[d] > MISFIT_REFUSE_LOG_K
+            else "; the tests do not look like this robot file's (a wrong robot or a sensor "
+            "frame other than the TCP frame?)"
+        )
+        raise InputError(
+            f"direction {name!r}: the calibrated twin cannot fit the measured modes: {what}, "
+            f"worst at posture {worst!r}{hint}"
+        )
+
+
+def _unmatched(
+    ds: ModalDataset, idx: tuple[NDArray[np.intp], ...]
+) -> tuple[tuple[str, str, float], ...]:
+    """Measured modes without a twin partner: ``(posture id, direction, f [Hz])`` each."""
+    y = np.asarray(ds.y)
+    left = np.isfinite(y[..., 0])
+    left[idx[0], idx[1], idx[2]] = False
+    return tuple(
+        (ds.posture_ids[i], ds.directions[j], float(y[i, j, m, 0])) for i, j, m in np.argwhere(left)
+    )
+
+
+def _warn_unmatched(
+    unmatched: Sequence[tuple[str, str, float]], match_tol: float, match_k_gate: float
+) -> None:
+    """Say which measured modes the calibrated twin has no counterpart for."""
+    import warnings
+
+    from robolobe.tl.dataset import TrustWarning
+
+    f = np.array([u[2] for u in unmatched])
+    where = ", ".join(f"{p}/{d} {x:.4g} Hz" for p, d, x in unmatched[:6])
+    more = f" and {len(unmatched) - 6} more" if len(unmatched) > 6 else ""
+    warnings.warn(
+        f"{len(unmatched)} measured mode(s) at {f.min():.4g}-{f.max():.4g} Hz have no twin mode "
+        f"within {100 * (np.exp(match_tol) - 1):.0f} % in frequency and a factor of "
+        f"{np.exp(match_k_gate):.3g} in stiffness ({where}{more}): physics the robot file "
+        "lacks (a motor or servo mode, a spindle bracket) or spurious modes; they are left out "
+        "of the calibration and the model does not predict them, so a plan on it does not see "
+        "them",
+        TrustWarning,
+        stacklevel=3,
+    )
 
 
 def modal_frame_dataset(modal_df: pd.DataFrame) -> ModalDataset:
@@ -220,6 +374,11 @@ class TwinCalibration:
     match_k_weight : float
         Weight of ``|log k_meas / k_twin|`` (capped at 3) in the matching cost,
         which separates close modes seen in different directions.
+    match_k_gate : float
+        Largest ``|log k_meas / k_twin|`` of a pair in the final, gated
+        matching (``log 10``): a measured mode the twin lacks (a motor or
+        bracket mode) is left unmatched rather than paired with a twin mode
+        that the direction does not see.
     n_rematch : int
         Most match-then-solve rounds.
     min_postures : int
@@ -258,12 +417,15 @@ class TwinCalibration:
         RMS of the unweighted log residuals ``f``, ``zeta``, ``k`` at the fit.
     n_matched_ : int
         Matched (posture, direction, mode) pairs; ``n_unmatched_`` measured
-        modes left without a partner.
+        modes left without a partner (``unmatched_``: their posture id,
+        direction and frequency [Hz]; a TrustWarning names them). More
+        measured modes per direction than the twin has are accepted.
     at_bounds_ : tuple of str
         Parameters that ended at a bound (the data want more than allowed).
     directions_ : tuple of str
     n_modes_ : int
-        Modes per direction in the training data (predictions use the same).
+        Modes per direction of the predictions: as many as the training data
+        number, at most the twin's.
     """
 
     def __init__(
@@ -278,6 +440,7 @@ class TwinCalibration:
         weights: tuple[float, float, float] = (1.0, 0.2, 0.3),
         match_tol: float = 0.3,
         match_k_weight: float = 0.1,
+        match_k_gate: float = math.log(10.0),
         n_rematch: int = 4,
         min_postures: int = 5,
         robot_name: str | None = None,
@@ -295,6 +458,7 @@ class TwinCalibration:
         self.weights = weights
         self.match_tol = match_tol
         self.match_k_weight = match_k_weight
+        self.match_k_gate = match_k_gate
         self.n_rematch = n_rematch
         self.min_postures = min_postures
         self.robot_name = robot_name
@@ -386,21 +550,36 @@ class TwinCalibration:
         """
         tol = self.match_tol if tol is None else tol
         y = np.asarray(ds.y)
-        nm, nt = y.shape[2], model.shape[2]
-        if nm > nt:
-            raise InputError(
-                f"expected at most {nt} measured modes per direction (the twin's modes), found {nm}"
-            )
         present = np.isfinite(y[..., 0])  # (n, nd, nm)
         with np.errstate(invalid="ignore", divide="ignore"):
             df = np.abs(np.log(y[..., :, None, 0] / model[..., None, :, 0]))  # (n, nd, nm, nt)
-            dk = np.abs(np.log(y[..., :, None, 2] / model[..., None, :, 2]))
-        dk = np.where(np.isfinite(dk), np.minimum(dk, 3.0), 0.0)
+            dk_raw = np.abs(np.log(y[..., :, None, 2] / model[..., None, :, 2]))
+        dk = np.where(np.isfinite(dk_raw), np.minimum(dk_raw, 3.0), 0.0)
         cost = np.where(present[..., None], df + self.match_k_weight * dk, np.nan)
+        nt = model.shape[2]
+        if y.shape[2] > nt:
+            # more measured modes than the twin has: some are physics the file lacks (a
+            # motor mode). A twin mode whose stiffness at the direction is off by more
+            # than match_k_gate is no partner, so that such a mode does not take the
+            # place of a twin mode that this direction does not see; and in the search
+            # stages (ungated) a measured mode may pair with "none" at _none_cost (the
+            # caller gives it a constant residual: the number of residuals stays fixed).
+            # With at most the twin's modes the matching is as it always was.
+            cost = np.where(np.isfinite(dk_raw) & (dk_raw > self.match_k_gate), np.inf, cost)
+            if not np.isfinite(tol):
+                none = np.where(present[..., None], self._none_cost(), np.nan)
+                cost = np.concatenate(
+                    [cost, np.broadcast_to(none, (*cost.shape[:-1], cost.shape[-2]))], axis=-1
+                )
         ii, jj, mm, tt = match_modes(cost)
-        ok = df[ii, jj, mm, tt] <= tol
+        ok = tt < nt
+        ok[ok] = df[ii[ok], jj[ok], mm[ok], tt[ok]] <= tol
         idx = (ii[ok], jj[ok], mm[ok], tt[ok])
         return tuple(np.asarray(a, dtype=np.intp) for a in idx), int(present.sum() - ok.sum())
+
+    def _none_cost(self) -> float:
+        """Matching cost of leaving a measured mode unpaired in the search stages."""
+        return float(self.match_tol + 3.0 * self.match_k_weight)
 
     # --------------------------------------------------------------- fit
     def fit(self, modal_df: pd.DataFrame) -> TwinCalibration:
@@ -442,6 +621,7 @@ class TwinCalibration:
         twin = ParametrizedTwin(base, q, groups, directions=ds.directions, n_modes=6)
         n_twin = twin.modes(np.zeros(p)).f_hz.shape[-1]
         twin.n_modes = n_twin
+        _check_some_underdamped(base, q, ds.posture_ids, twin.values(np.zeros(p)))
         wf, wz, wk = (float(w) for w in self.weights)
         reg = float(self.regularization)
         prior_sd = self._prior_vector(groups)
@@ -484,14 +664,27 @@ class TwinCalibration:
             rows = d[np.isfinite(y[i, j, m])]
             return np.vstack([rows, np.diag(prior_w[0] / prior_sd)])
 
+        fin_vals = np.isfinite(y)  # (n, nd, nm, 3)
+        n_vals = int(fin_vals.sum())
+        none_res = wf * self._none_cost()
+
+        def n_fill(idx: tuple[NDArray[np.intp], ...]) -> int:
+            """Finite values of the measured modes left unpaired (constant residuals)."""
+            return n_vals - int(fin_vals[idx[0], idx[1], idx[2]].sum())
+
         def dyn_jac(theta: FloatArray) -> FloatArray:
             idx, _ = self._match(ds, model(theta), tol=np.inf)
-            return jacobian(theta, idx)
+            jac_ = jacobian(theta, idx)
+            nd_ = jac_.shape[0] - p
+            return np.vstack([jac_[:nd_], np.zeros((n_fill(idx), p)), jac_[nd_:]])
 
         def dyn_res(theta: FloatArray) -> FloatArray:
-            # every measured mode matched afresh (continuous where modes cross)
+            # every measured mode matched afresh (continuous where modes cross); one left
+            # unpaired adds constant residuals, so that their number stays fixed
             idx, _ = self._match(ds, model(theta), tol=np.inf)
-            return residuals(theta, idx)
+            r_ = residuals(theta, idx)
+            nd_ = r_.size - p
+            return np.concatenate([r_[:nd_], np.full(n_fill(idx), none_res), r_[nd_:]])
 
         def rms_f(theta: FloatArray) -> float:
             idx0, _ = self._match(ds, model(theta), tol=np.inf)
@@ -600,6 +793,7 @@ class TwinCalibration:
             if same:
                 break
         assert sol is not None
+        _check_fits_the_robot(ds, y, model(theta), idx)
         # covariance of theta: s^2 (J^T J)^-1 with the data residual variance
         jac = np.asarray(sol.jac)
         r_data = data_res(theta, idx)
@@ -633,8 +827,14 @@ class TwinCalibration:
         self.n_matched_ = len(i)
         self.n_unmatched_ = unmatched
         self.directions_ = tuple(ds.directions)
-        self.n_modes_ = nm
+        # predictions are the twin's modes: as many as measured, at most the twin's
+        self.n_modes_ = min(nm, n_twin)
         self.n_postures_ = ds.n_postures
+        self.unmatched_ = _unmatched(ds, idx)
+        if self.unmatched_ and nm > n_twin:
+            # more measured modes than the twin: say which ones the model leaves out
+            # (otherwise the count is reported as always, n_unmatched_)
+            _warn_unmatched(self.unmatched_, self.match_tol, self.match_k_gate)
         self.at_bounds_ = tuple(
             n
             for n, th, a, b in zip(names, theta, lo, hi, strict=True)
@@ -807,6 +1007,7 @@ class TwinCalibration:
             self.n_postures_ = int(meta["n_postures"])
             self.n_matched_ = int(meta["n_matched"])
             self.n_unmatched_ = int(meta["n_unmatched"])
+            self.unmatched_ = ()  # the fit's warning named them
             self.at_bounds_ = tuple(str(a) for a in meta["at_bounds"])
             self.train_q_rad_ = np.asarray(arrays["train_q_rad"], dtype=float)
         except InputError as exc:

@@ -200,8 +200,8 @@ class CorrectedTwin:
     def _residuals(self, cal: TwinCalibration, ds: ModalDataset) -> FloatArray:
         """``log(measured / twin)`` per posture, direction, twin mode, quantity (NaN: none)."""
         q = ds.q_rad
-        nm = ds.n_modes
         twin = cal.predict(q, directions=ds.directions, n_modes=6, spread=False).values
+        nm = min(ds.n_modes, cal.n_modes_)  # outputs: twin modes (extra measured ones left out)
         (i, j, m, t), _ = cal._match(ds, twin)
         y = np.asarray(ds.y)
         r = np.full((len(q), len(ds.directions), nm, 3), np.nan)

@@ -36,8 +36,9 @@ __all__ = ["METHODS", "MIN_POSTURES", "checked_dataset", "default_method", "tran
 
 METHODS: tuple[str, ...] = ("corrected-twin", "twin-calibration", "network")
 """The predictors :func:`transfer` makes."""
-MIN_POSTURES: dict[str, int] = {"corrected-twin": 5, "twin-calibration": 5, "network": 8}
-"""Fewest tested postures each method accepts."""
+MIN_POSTURES: dict[str, int] = {"corrected-twin": 6, "twin-calibration": 6, "network": 8}
+"""Fewest tested postures each method accepts (the twin's: one more than its
+five lowest modes, so that a leave-one-posture-out check has data left)."""
 
 
 def default_method(robot: object | None, source: object | None, method: str | None) -> str:
@@ -125,6 +126,39 @@ def checked_dataset(
     return ds
 
 
+def _check_network_modes(
+    df: pd.DataFrame, name: str, directions: Sequence[str], n_modes: int
+) -> None:
+    """Refuse a network transfer whose tests lack some of the network's modes.
+
+    The network predicts ``n_modes`` modes per direction; a mode no test
+    measured would be predicted from the source robot alone, with nothing of
+    the target robot in it. Names the direction and the modes found, and
+    what to do instead.
+
+    Raises
+    ------
+    InputError
+    """
+    if not {"dir", "mode"} <= set(df.columns):
+        return  # the dataset reader names the missing columns
+    dirs = df["dir"].astype(str).str.lower()
+    modes = pd.to_numeric(df["mode"], errors="coerce")
+    for d in directions:
+        found = sorted({int(m) for m in modes[dirs == d].dropna()})
+        missing = [m for m in range(1, n_modes + 1) if m not in found]
+        if missing:
+            where = f"modes {found[0]}-{found[-1]}" if found else "no mode"
+            raise InputError(
+                f"direction {d!r}: the network predicts {n_modes} modes per direction, the tests "
+                f"have {where} (mode {missing[0]} at no posture), so it would come from the "
+                "source robot alone; use the default transfer (`robolobe transfer MODAL_CSV "
+                "--robot ROBOT`: the calibrated twin takes the modes measured), or measure a "
+                "band that holds five modes",
+                source=name,
+            )
+
+
 def transfer(
     modal: pd.DataFrame | str | os.PathLike[str],
     *,
@@ -193,7 +227,10 @@ def transfer(
                     source="source",
                 )
             src = loaded
-        ds = checked_dataset(df, name, src.directions, 5, rob, MIN_POSTURES["network"])
+        _check_network_modes(df, name, src.directions, int(src.n_modes))
+        ds = checked_dataset(
+            df, name, src.directions, int(src.n_modes), rob, MIN_POSTURES["network"]
+        )
         kw: dict[str, Any] = {"n_frozen": n_frozen, "random_state": random_state}
         # the label is how the robot was named (a built-in key or a file), so that a
         # prediction's campaign can name it again; a Robot object gives its name
@@ -220,8 +257,13 @@ def transfer(
             n_modes = int(min(5, modes.max()))
     checked_dataset(df, name, dirs, n_modes, rob, MIN_POSTURES[method])
     groups = tuple(params)
-    if method == "twin-calibration":
-        return TwinCalibration(robot=rob, params=groups, random_state=random_state).fit(df)
-    return CorrectedTwin(robot=rob, calibration={"params": groups}, random_state=random_state).fit(
-        df
-    )
+    try:
+        if method == "twin-calibration":
+            return TwinCalibration(robot=rob, params=groups, random_state=random_state).fit(df)
+        return CorrectedTwin(
+            robot=rob, calibration={"params": groups}, random_state=random_state
+        ).fit(df)
+    except InputError as exc:
+        if exc.source:
+            raise
+        raise InputError(exc.detail, source=name) from None

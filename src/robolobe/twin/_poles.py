@@ -81,7 +81,10 @@ _SHIFT = 1e-14
 
 OVERDAMPED_MESSAGE = (
     "damping: expected an underdamped system (complex pole pairs), found an "
-    "overdamped mode (real poles); reduce the damping"
+    "overdamped mode (two real poles, no resonance) at posture index {where} "
+    "({count} of {total} postures); a heavily damped joint can have one: use "
+    "overdamped='keep' (as planning and calibration do), or check the joint "
+    "damping values and their unit (N m s/rad)"
 )
 
 
@@ -150,7 +153,12 @@ def _slots(
     n_under = upper.sum(axis=-1)
     short = n_under < n
     if np.any(short) and overdamped == "raise":
-        raise InputError(OVERDAMPED_MESSAGE)
+        flat = short.reshape(-1)
+        raise InputError(
+            OVERDAMPED_MESSAGE.format(
+                where=int(np.flatnonzero(flat)[0]), count=int(flat.sum()), total=flat.size
+            )
+        )
     key = np.where(upper, size, np.inf)
     pair = np.full((*lam_all.shape, 2), np.nan)
     if np.any(short):

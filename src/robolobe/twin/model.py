@@ -130,7 +130,7 @@ class Twin:
                 raise
             # name the robot file: an overdamped joint mode is a property of its values
             raise InputError(
-                f"{exc.detail} (robot {self.robot.name!r}: lower the joint damping in the file)",
+                f"{exc.detail} (robot {self.robot.name!r})",
                 source=self.robot.source,
             ) from None
 

@@ -53,8 +53,9 @@ from numpy.typing import ArrayLike, NDArray
 from robolobe._directions import DRIVING, dir_index
 from robolobe.errors import InputError
 from robolobe.robots.model import RigidBody, Robot
+from robolobe.twin._poles import overdamped_modes
 from robolobe.twin.dynamics import GRAVITY_M_PER_S2
-from robolobe.twin.modes import Modes, compute_modes, damped_poles, undamped_modes
+from robolobe.twin.modes import Modes, compute_modes, undamped_modes
 
 if TYPE_CHECKING:
     from robolobe.twin.system import SystemMatrices
@@ -587,9 +588,15 @@ class ParametrizedTwin:
         return len(self.names)
 
     def modes(self, theta: ArrayLike) -> Modes:
-        """Modes at every posture for parameters ``theta`` (shape (n_params,))."""
+        """Modes at every posture for parameters ``theta`` (shape (n_params,)).
+
+        An overdamped mode (two real poles) keeps its slot with the natural
+        frequency ``sqrt(p1 p2)`` and damping ratio (>= 1) of its pair
+        (``overdamped="keep"``): a calibration fits the exact poles of heavily
+        damped joints too.
+        """
         m, k, c = self._matrices(theta)
-        return compute_modes(m, k, c, self._J)
+        return compute_modes(m, k, c, self._J, overdamped="keep")
 
     def _mass_parts(self, parts: dict[str, FloatArray]) -> tuple[FloatArray, FloatArray | None]:
         """Mass factors (nb,) and the links' COM offsets [m] (6, 3), None if none."""
@@ -698,7 +705,9 @@ class ParametrizedTwin:
 
         Computes only what the values need (pole frequencies and damping from
         the eigenvalues of the state matrix, modal stiffness from the
-        undamped shapes), as :func:`robolobe.twin.modes.compute_modes` does.
+        undamped shapes), as :func:`robolobe.twin.modes.compute_modes` does;
+        an overdamped mode as under ``overdamped="keep"`` (frequency
+        ``sqrt(p1 p2) / 2 pi`` and damping ratio >= 1 of its real poles).
         """
         m, k, c = self._matrices(theta)
         w0, phi = undamped_modes(m, k)
@@ -706,14 +715,13 @@ class ParametrizedTwin:
         with np.errstate(divide="ignore"):
             k_modal = (w0**2)[:, None, :] / u**2
         nd = m.shape[-1]
-        lam, _ = damped_poles(m, k, c)
-        w = np.abs(lam)
+        _, w, zeta = overdamped_modes(m, k, c)
         nm = self.n_modes
         if nd < nm:
             raise InputError(f"n_modes: the twin has {nd} modes, asked {nm}")
         out = np.empty((m.shape[0], len(self.directions), nm, 3))
         out[..., 0] = w[:, None, :nm] / (2.0 * np.pi)
-        out[..., 1] = (-lam.real / w)[:, None, :nm]
+        out[..., 1] = zeta[:, None, :nm]
         for j, d in enumerate(self.directions):
             kk = np.abs(k_modal[:, dir_index(d)[0], :nm])
             out[:, j, :, 2] = np.where(np.isfinite(kk), np.minimum(kk, K_MAX), K_MAX)

@@ -1,0 +1,393 @@
+"""Concealed robots whose physics lies outside the twin's form, and plans on them (issue 27).
+
+The plan-safety study (``studies/plan_safety.py``) draws its "real" robots as
+robot files: rigid links on joint springs, robolobe's own form. Here the
+truth is assembled outside that form, without robolobe's twin, from the
+robot file's rigid-body matrices (:func:`robolobe.twin.system.nominal_system`,
+as ``studies/diagnose_reference.py`` does):
+
+* **file values off** 15-25 %: joint stiffnesses x (1 +- U(0.15, 0.25)),
+  dampings x (1 +- U(0.15, 0.25)) (random sign each), link and spindle
+  masses x U(0.85, 1.15) (on the robot description, not through
+  :func:`robolobe.twin.params.apply_parameters`);
+* **a motor on a position loop** on axis 1 or 2: a series DOF (rotor plus
+  servo spring, ``diagnose_reference``'s ``servo``) whose mode sits at
+  14-20 Hz at the draw's reference posture;
+* **a spindle on a bracket**: a spring-mass DOF of 40 % of the spindle's
+  mass along a TCP axis (the mass taken out of the arm), 45-115 Hz;
+* **load-dependent joints**: stiffness and damping that grow with the joint's
+  gravity torque (``K_jj += k_j beta |tau_j| / 1e4``, ``C_jj += c_j beta_c
+  |tau_j| / 1e4``, own gravity torques).
+
+The truth's receptance is solved directly (a state-space eigen-decomposition,
+``diagnose_reference._frf``); its modes for the planner's verification are
+the undamped modes of the assembled ``(M, K)`` with modal damping
+``phi^T C phi / (2 w)`` (the planner's real-mode form; exact for the
+receptance only where the damping is proportional). 20 hammer tests at
+``design_postures`` postures (seed-like noise, band 0-150 Hz so that the
+bracket modes are measured) are identified; the default transfer
+(``robolobe transfer modal.csv --robot R``) is run through the CLI; the
+bundled jobs plan on it (plain and robust) and on the truth (the oracle);
+each plan is verified on the truth's modes (every waypoint its own lobes).
+
+Run: ``nice python studies/out_of_form.py [--robots B,C] [--draws 2] [--first-draw 0] [--jobs al]
+[--out studies/out_of_form.json]``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import json
+import sys
+import tempfile
+import time
+import warnings
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+from diagnose_reference import _augment, _frf
+from plan_safety import EX, JOBS, robot_file
+
+from robolobe._directions import DRIVING
+from robolobe._modal_parameters import ModalParameters
+from robolobe.errors import InfeasibleError, ReachabilityError, SingularityError
+from robolobe.modal.identify import identify_campaign
+from robolobe.plan import load_job, plan_path, write_outputs
+from robolobe.plan.modes import RobotModes
+from robolobe.plan.verify import verify_plan
+from robolobe.robots.model import RigidBody, Robot
+from robolobe.sld.frf import ModalModel
+from robolobe.tl.design import design_postures
+from robolobe.twin.campaign import simulate_campaign
+from robolobe.twin.designs import TESTED_RANGES_DEG
+from robolobe.twin.system import nominal_system
+
+FloatArray = np.ndarray
+G = np.array([0.0, 0.0, -9.81])
+
+
+@dataclasses.dataclass(frozen=True)
+class Truth:
+    """One concealed out-of-form robot (the file's values already changed in ``robot``)."""
+
+    robot: Robot
+    servo_joint: int  # 1 or 2
+    servo_f_hz: float
+    rotor_kgm2: float
+    servo_k: float
+    bracket_axis: int  # 0, 1, 2 (TCP x, y, z)
+    bracket_f_hz: float
+    bracket_mass_kg: float
+    beta_k: float
+    beta_c: float
+
+    def describe(self) -> str:
+        return (
+            f"servo on axis {self.servo_joint} at {self.servo_f_hz:.1f} Hz, bracket along "
+            f"{'xyz'[self.bracket_axis]} at {self.bracket_f_hz:.0f} Hz "
+            f"({self.bracket_mass_kg:.1f} kg), load stiffening {self.beta_k:.2f}, "
+            f"load damping {self.beta_c:.2f}"
+        )
+
+    def matrices(self, q_rad: FloatArray) -> list[tuple[FloatArray, ...]]:
+        """Per posture: assembled ``(M, K, C, J)`` (TCP frame, measured point = tool point)."""
+        sm = nominal_system(self.robot, q_rad)
+        out = []
+        k_j = np.asarray(self.robot.stiffness)
+        c_j = np.asarray(self.robot.damping)
+        e = np.eye(3)[self.bracket_axis]
+        for i in range(q_rad.shape[0]):
+            M = sm.M[i].copy()
+            K = np.array(sm.K[i] if sm.K.ndim == 3 else sm.K, dtype=float)
+            C = np.array(sm.C[i] if sm.C.ndim == 3 else sm.C, dtype=float)
+            J = sm.tcp_rotation[i].T @ sm.tcp_jv[i]
+            tau = np.abs(np.einsum("b,bkj,k->j", sm.bodies.mass_kg, sm.bodies.jv[i], G))
+            K[:6, :6] += np.diag(k_j * self.beta_k * tau / 1e4)
+            C[:6, :6] += np.diag(c_j * self.beta_c * tau / 1e4)
+            j = self.servo_joint - 1
+            m = self.bracket_mass_kg
+            # the bracket mass sits at the tool point (taken out of the spindle body in
+            # draw_truth) and moves along e relative to the flange
+            M = M + m * J.T @ J
+            kb = m * (2 * np.pi * self.bracket_f_hz) ** 2
+            Mr, Kr, Cr, Jr = _augment(M, K, C, J, [(m * J.T @ e, m, kb, 0.03, e)])
+            # the servo DOF s turns the arm like q_j (and the rotor): its column is j's
+            col = (Mr[:, j].copy(), Mr[j, j] + self.rotor_kgm2, self.servo_k, 0.05, J[:, j])
+            Mr, Kr, Cr, Jr = _augment(Mr, Kr, Cr, Jr, [col])
+            out.append((Mr, Kr, Cr, Jr))
+        return out
+
+    def receptance(self, q_rad: Any, freq_hz: Any) -> np.ndarray:
+        """``H[n, f, 3, 3]`` [m/N] solved directly (``H[f, 3, 3]`` for one posture (6,))."""
+        q_in = np.asarray(q_rad, dtype=float)
+        q = q_in.reshape(-1, 6)
+        w = 2 * np.pi * np.asarray(freq_hz, dtype=float)
+        h = np.stack([_frf(*mats, w) for mats in self.matrices(q)])
+        return h[0] if q_in.ndim == 1 else h
+
+
+class TruthSource:
+    """The truth's modes for the planner's verification (real-mode form, modal damping)."""
+
+    def __init__(self, truth: Truth) -> None:
+        self.truth = truth
+        self.name = "out-of-form truth"
+
+    def predict(self, q_rad: Any) -> RobotModes:
+        q = np.asarray(q_rad, dtype=float).reshape(-1, 6)
+        ws, zs, us = [], [], []
+        for M, K, C, J in self.truth.matrices(q):
+            # generalized symmetric problem K phi = w^2 M phi via the Cholesky factor of M
+            L = np.linalg.cholesky(M)
+            Li = np.linalg.inv(L)
+            w2, y = np.linalg.eigh(Li @ K @ Li.T)
+            phi = Li.T @ y  # mass-normalised
+            w = np.sqrt(w2)
+            z = np.einsum("ir,ij,jr->r", phi, C, phi) / (2 * w)
+            ws.append(w)
+            zs.append(z)
+            us.append((J @ phi).T)  # (m, 3)
+        w, z, u = np.array(ws), np.array(zs), np.array(us)
+        keep = z < 1.0
+        model = ModalModel.from_shapes(w, np.where(keep, z, 0.999), np.where(keep[..., None], u, 0))
+        with np.errstate(divide="ignore"):
+            k = w[:, None, :] ** 2 / np.swapaxes(u, 1, 2) ** 2  # (n, 3, m)
+        vals = np.stack(
+            [
+                np.broadcast_to((w / (2 * np.pi))[:, None], k.shape),
+                np.broadcast_to(z[:, None], k.shape),
+                np.abs(k),
+            ],
+            axis=-1,
+        )
+        return RobotModes(
+            parameters=ModalParameters.from_stacked(vals, DRIVING),
+            model=model,
+            extrapolation=None,
+            source=self.name,
+            shapes_coupled=True,
+        )
+
+
+def draw_truth(base: Robot, key: str, draw: int) -> Truth:
+    """A concealed out-of-form robot drawn from the file (seed from ``key`` and ``draw``)."""
+    rng = np.random.default_rng(31_000 + 1000 * draw + ord(key[0]))
+
+    def off(n: int) -> FloatArray:
+        return 1.0 + rng.choice([-1.0, 1.0], n) * rng.uniform(0.15, 0.25, n)
+
+    ks, cs, ms = off(6), off(6), rng.uniform(0.85, 1.15, 7)
+    robot = base.with_stiffness(np.asarray(base.stiffness) * ks).with_damping(
+        np.asarray(base.damping) * cs
+    )
+    joints = tuple(
+        dataclasses.replace(
+            jt, body=RigidBody(jt.body.mass_kg * ms[i], jt.body.com_m, jt.body.inertia_kgm2 * ms[i])
+        )
+        for i, jt in enumerate(robot.joints)
+    )
+    robot = robot.replace(joints=joints, name=f"{key}-out-of-form-{draw}")
+    ee = robot.end_effector
+    m_ee = 20.0
+    if ee is not None:
+        m_ee = ee.mass_kg * ms[6]
+        # 40 % of the spindle is on the bracket (Truth.matrices puts it at the tool point)
+        robot = robot.replace(
+            end_effector=RigidBody(0.6 * m_ee, ee.com_m, 0.6 * ee.inertia_kgm2 * ms[6])
+        )
+    servo_joint = int(rng.integers(1, 3))
+    f_servo = float(rng.uniform(14.0, 20.0))
+    rotor = float(rng.uniform(0.5, 2.0)) * 10.0
+    q_ref = np.zeros((1, 6))
+    q_ref[0, 1] = np.radians(-60.0 if key == "B" else 0.0)
+    m_jj = float(nominal_system(robot, q_ref).M[0][servo_joint - 1, servo_joint - 1])
+    k_servo = (m_jj + rotor) * (2 * np.pi * f_servo) ** 2
+    return Truth(
+        robot=robot,
+        servo_joint=servo_joint,
+        servo_f_hz=f_servo,
+        rotor_kgm2=rotor,
+        servo_k=k_servo,
+        bracket_axis=int(rng.integers(0, 3)),
+        bracket_f_hz=float(rng.uniform(45.0, 115.0)),
+        bracket_mass_kg=0.4 * m_ee,
+        beta_k=float(rng.uniform(0.5, 2.0)),
+        beta_c=float(rng.uniform(0.5, 2.0)),
+    )
+
+
+def spread_coverage(
+    model_file: Path, truth: Truth, base: Robot, key: str, n: int = 60
+) -> dict[str, float]:
+    """Share of true f and k within 2 sigma of the model's prediction (nominal 95.4 %).
+
+    At ``n`` random postures in the tested ranges, every predicted mode of
+    ``xx`` and ``yy`` is paired with the truth's mode nearest in log frequency
+    among those that move the TCP along the direction (modal stiffness below
+    1e12 N/m); ``z = (log true - center) / std``.
+    """
+    from robolobe.tl.models import load_model
+
+    model = load_model(model_file)
+    ranges = TESTED_RANGES_DEG.get(key)
+    q = design_postures(base, n, rng=np.random.default_rng(99), ranges_deg=ranges).q_rad
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        pred = model.predict(q)
+    true = TruthSource(truth).predict(q).parameters.stacked()  # (n, 3, m, 3)
+    zs: dict[str, list[float]] = {"f": [], "k": []}
+    for jd, d in enumerate(pred.directions):
+        a = DRIVING.index(d)
+        for r in range(pred.center.shape[2]):
+            c = pred.center[:, jd, r]
+            sd = pred.std[:, jd, r]
+            ft, kt = true[:, a, :, 0], true[:, a, :, 2]
+            ok = np.isfinite(kt) & (kt < 1e12)
+            dist = np.where(ok, np.abs(np.log(ft) - c[:, None, 0]), np.inf)
+            m = np.argmin(dist, axis=1)
+            have = np.isfinite(dist[np.arange(len(q)), m]) & np.all(np.isfinite(c), axis=1)
+            i = np.flatnonzero(have)
+            zs["f"] += list((np.log(ft[i, m[i]]) - c[i, 0]) / sd[i, 0])
+            zs["k"] += list((np.log(kt[i, m[i]]) - c[i, 2]) / sd[i, 2])
+    return {f"cover_{qn}": float(np.mean(np.abs(np.asarray(v)) <= 2.0)) for qn, v in zs.items()}
+
+
+def run_one(key: str, draw: int, jobs: str) -> list[dict[str, Any]]:
+    """Hammer tests, default transfer and plans on one concealed robot."""
+    from plan_safety import default_transfer
+
+    rows: list[dict[str, Any]] = []
+    with tempfile.TemporaryDirectory() as tmp_s:
+        tmp = Path(tmp_s)
+        spec, base = robot_file(key, tmp)
+        truth = draw_truth(base, key, draw)
+        ranges = TESTED_RANGES_DEG.get(key)
+        q = design_postures(
+            base, 20, rng=np.random.default_rng(500 + draw), ranges_deg=ranges
+        ).q_rad
+        ids = [f"T{i + 1:02d}" for i in range(len(q))]
+        t0 = time.perf_counter()
+        camp = simulate_campaign(
+            truth.receptance, key, ids, q, rng=np.random.default_rng(7000 + draw), fmax_hz=150.0
+        )
+        modal = identify_campaign(camp).table
+        head = {"robot": key, "draw": draw, "truth": truth.describe()}
+        per_dir = modal.groupby(["posture_id", "dir"]).size()
+        print(
+            f"{key} draw {draw}: {truth.describe()}; identified {len(modal)} rows, at most "
+            f"{int(per_dir.max())} modes per direction ({time.perf_counter() - t0:.0f} s)",
+            flush=True,
+        )
+        t1 = time.perf_counter()
+        try:
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")
+                model_file = default_transfer(modal, spec, tmp)
+        except RuntimeError as exc:
+            rows.append({**head, "transfer": False, "reason": str(exc)[:300]})
+            print(f"  transfer failed: {exc}", flush=True)
+            return rows
+        t_tr = time.perf_counter() - t1
+        cover = spread_coverage(model_file, truth, base, key)
+        rows.append({**head, "transfer": True, "transfer_s": t_tr, "job": None, **cover})
+        print(
+            f"  default transfer {t_tr:.0f} s; spread coverage (|z| <= 2, nominal 95.4 %): "
+            f"f {100 * cover['cover_f']:.0f} %, k {100 * cover['cover_k']:.0f} %",
+            flush=True,
+        )
+        oracle_src = TruthSource(truth)
+        for path, job_name, mat in JOBS:
+            if jobs != "all" and jobs != mat:
+                continue
+            j = load_job(EX / job_name).replace(robot=spec, model="twin")
+            oracle = None
+            for name, robust in (("oracle", False), ("default", False), ("default", True)):
+                if name == "oracle":
+                    jj = j.replace(plan=dataclasses.replace(j.plan, robust=False))
+                    src: Any = oracle_src
+                else:
+                    jj = j.replace(model=str(model_file))
+                    jj = jj.replace(
+                        plan=dataclasses.replace(jj.plan, robust=None if robust else False)
+                    )
+                    src = None
+                row: dict[str, Any] = {
+                    **head,
+                    "transfer": True,
+                    "transfer_s": t_tr,
+                    "job": job_name,
+                    "source": name,
+                    "robust": robust,
+                }
+                try:
+                    res = plan_path(EX / path, jj, robot=base, source=src)
+                except (ReachabilityError, SingularityError) as exc:
+                    print(f"  {job_name}: unreachable ({exc}); skipped", flush=True)
+                    break
+                except InfeasibleError as exc:
+                    rows.append({**row, "feasible": False, "reason": str(exc)[:200]})
+                    print(f"  {job_name} {name} robust={robust}: infeasible", flush=True)
+                    continue
+                d = tmp / "plan"
+                write_outputs(res, d, plots=False, html_report=False)
+                v = verify_plan(d, source=oracle_src, job=jj, dynamics_tol=0.0)
+                s = res.summary
+                row |= {
+                    "feasible": bool(res.outcome.best.feasible),
+                    "mrr": s.mrr_cm3_per_min,
+                    "n_beyond": int(v.summary["n_beyond_limit"]),
+                    "min_true_margin": v.min_margin,
+                }
+                if name == "oracle":
+                    oracle = row
+                if oracle is not None and oracle["mrr"] > 0:
+                    row["mrr_rel"] = row["mrr"] / oracle["mrr"]
+                rows.append(row)
+                print(
+                    f"  {job_name} {name}{' robust' if robust else ''}: MRR "
+                    f"{row.get('mrr_rel', float('nan')):.2f} x oracle, beyond {row['n_beyond']}, "
+                    f"min true margin {row['min_true_margin']:.3f}",
+                    flush=True,
+                )
+    return rows
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--robots", default="B,C")
+    ap.add_argument("--draws", type=int, default=2)
+    ap.add_argument("--first-draw", type=int, default=0)
+    ap.add_argument("--jobs", default="al", choices=("all", "al", "steel", "none"))
+    ap.add_argument("--out", type=Path, default=None)
+    a = ap.parse_args()
+    rows: list[dict[str, Any]] = []
+    for key in a.robots.split(","):
+        for draw in range(a.first_draw, a.first_draw + a.draws):
+            try:
+                rows += run_one(key, draw, a.jobs)
+            except Exception as exc:  # one robot's failure does not end the study
+                rows.append({"robot": key, "draw": draw, "error": f"{type(exc).__name__}: {exc}"})
+                print(f"{key} draw {draw}: {type(exc).__name__}: {exc}", flush=True)
+    plans = [r for r in rows if r.get("source") == "default"]
+    transfers = {(r["robot"], r["draw"]): bool(r.get("transfer")) for r in rows}
+    rel = [r["mrr_rel"] for r in plans if "mrr_rel" in r]
+    margins = [r["min_true_margin"] for r in plans if "min_true_margin" in r]
+    beyond = sum(r.get("n_beyond", 0) for r in plans)
+    print(
+        f"transfers succeeded {sum(transfers.values())} of {len(transfers)}; default plans "
+        f"{len(plans)}, waypoints beyond the true limit {beyond}, "
+        f"min true margin {min(margins) if margins else float('nan'):.3f}, median MRR "
+        f"{np.median(rel) if rel else float('nan'):.2f} x oracle",
+        flush=True,
+    )
+    if a.out:
+        a.out.write_text(json.dumps(rows, indent=1, default=str))
+
+
+if __name__ == "__main__":
+    main()
