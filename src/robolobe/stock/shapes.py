@@ -76,7 +76,8 @@ class Stock:
         (x0, y0, z0), (x1, y1, z1) = lo, hi
         if not (x0 < x1 and y0 < y1 and z0 < z1):
             raise ValueError(
-                f"box: expected min < max in x, y and z, found min {list(lo)}, max {list(hi)} m"
+                f"box: expected min < max in x, y and z, found min "
+                f"{[round(v * 1e3, 6) for v in lo]}, max {[round(v * 1e3, 6) for v in hi]} mm"
             )
         pts = np.array([[x0, y0], [x1, y0], [x1, y1], [x0, y1]])
         return cls(pts, z0, z1, kind="box")
