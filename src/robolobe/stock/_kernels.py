@@ -5,7 +5,7 @@ The in-process workpiece is a Z-map on a square grid (cell centres
 
 ``h``
     top of the material at the cell centre [m] (the stock top until a sweep
-    lowers it; ``-inf`` outside the stock);
+    lowers it; inside and outside the outline alike);
 ``s``, ``zs``
     clearance ``R - d`` [m] of the cell centre from the tool axis of the
     sweeps at the lowest level ``zs`` [m] that reached the cell (positive
@@ -155,6 +155,8 @@ def _sweep(w, x0, y0, res, radius, band, p0, p1, skip_start, tol):
                         zc = min(az + t1 * dz, az + t2 * dz)
                     if zc < w[j, i, 0]:
                         w[j, i, 0] = zc
+                elif l2 == 0.0:
+                    zc = min(az, az + dz)  # a plunge: every height is as close
                 else:
                     zc = az + t * dz
                 z_old = w[j, i, 2]
@@ -166,30 +168,46 @@ def _sweep(w, x0, y0, res, radius, band, p0, p1, skip_start, tol):
             i += 1
 
 
-def _value(w, i, j, z, res, tol):
-    """Signed material value of one cell at tip height ``z``: negative where material is."""
+def _sweep_value(w, i, j, z, res, tol):
+    """Clearance of one cell at tip height ``z`` from the sweeps: negative where not cleared."""
     ny = w.shape[0]
     nx = w.shape[1]
     if i < 0 or j < 0 or i >= nx or j >= ny:
         return res
-    d = w[j, i, 3]
     valid = w[j, i, 2] <= z + tol
     sv = w[j, i, 1]
-    if d < 0.0 and w[j, i, 0] > z + tol:
-        if valid and sv < 0.0:
-            return max(d, sv)
-        return max(d, -res)
-    if valid and sv > 0.0:
-        return max(d, sv)
-    return max(d, 0.5 * res)
+    if w[j, i, 0] <= z + tol:  # cleared down to the tip (or above the stock top)
+        if valid and sv > 0.0:
+            return sv
+        return 0.5 * res
+    if valid and sv < 0.0:
+        return sv
+    return -res
+
+
+def _top(w, i, j):
+    """Material top of one cell [m] (-inf off the grid)."""
+    if i < 0 or j < 0 or i >= w.shape[1] or j >= w.shape[0]:
+        return -_INF
+    return w[j, i, 0]
+
+
+def _stock_value(w, i, j, res):
+    """Signed distance of one cell to the stock outline (negative inside)."""
+    if i < 0 or j < 0 or i >= w.shape[1] or j >= w.shape[0]:
+        return res
+    return w[j, i, 3]
 
 
 def _edge_value(w, x0, y0, res, radius, cx, cy, z, fx, fy, tol, ph):
     """Interpolated material value at edge angle ``ph`` [rad] (negative: material).
 
-    Shifted by ``_EDGE_EPS * res``: an edge point on the boundary of an earlier
-    cut (a pass retracing a wall, the flanks of a slot's own track) is not in
-    material.
+    The larger of the interpolated sweep clearance and the interpolated
+    distance to the stock outline (each a smooth field; their maximum is
+    taken after the interpolation, so an edge near the stock's outline is not
+    blurred). Shifted by ``_EDGE_EPS * res``: an edge point on the boundary of
+    an earlier cut (a pass retracing a wall, the flanks of a slot's own track)
+    is not in material.
     """
     sp = math.sin(ph)
     cp = math.cos(ph)
@@ -201,13 +219,23 @@ def _edge_value(w, x0, y0, res, radius, cx, cy, z, fx, fy, tol, ph):
     j = math.floor(gy)
     ux = gx - i
     uy = gy - j
-    return (
-        (1.0 - ux) * (1.0 - uy) * _value(w, i, j, z, res, tol)
-        + ux * (1.0 - uy) * _value(w, i + 1, j, z, res, tol)
-        + (1.0 - ux) * uy * _value(w, i, j + 1, z, res, tol)
-        + ux * uy * _value(w, i + 1, j + 1, z, res, tol)
-        + _EDGE_EPS * res
+    w00 = (1.0 - ux) * (1.0 - uy)
+    w10 = ux * (1.0 - uy)
+    w01 = (1.0 - ux) * uy
+    w11 = ux * uy
+    sweep = (
+        w00 * _sweep_value(w, i, j, z, res, tol)
+        + w10 * _sweep_value(w, i + 1, j, z, res, tol)
+        + w01 * _sweep_value(w, i, j + 1, z, res, tol)
+        + w11 * _sweep_value(w, i + 1, j + 1, z, res, tol)
     )
+    stock = (
+        w00 * _stock_value(w, i, j, res)
+        + w10 * _stock_value(w, i + 1, j, res)
+        + w01 * _stock_value(w, i, j + 1, res)
+        + w11 * _stock_value(w, i + 1, j + 1, res)
+    )
+    return max(sweep, stock) + _EDGE_EPS * res
 
 
 def _crossing(w, x0, y0, res, radius, cx, cy, z, fx, fy, tol, a, va, b, vb):
@@ -232,7 +260,9 @@ def _engage(w, x0, y0, res, radius, cx, cy, z, fx, fy, bottom, tol, nphi, vals, 
     n_arcs, depth)``: entry and exit angles [rad] in the feed frame (x along
     ``(fx, fy)``, y to its left, angle clockwise from +y seen from +z), the
     number of separate engaged arcs, and the axial depth [m] of the material
-    under the engaged edge. No engagement: ``n_arcs = 0`` and NaN angles.
+    under the engaged edge (at each engaged edge point the lowest top of the
+    four cells around it that hold material, above the tip or the stock
+    bottom). No engagement: ``n_arcs = 0`` and NaN angles.
     """
     dphi = math.pi / (nphi - 1)
     depth = 0.0
@@ -241,14 +271,21 @@ def _engage(w, x0, y0, res, radius, cx, cy, z, fx, fy, bottom, tol, nphi, vals, 
         v = _edge_value(w, x0, y0, res, radius, cx, cy, z, fx, fy, tol, ph)
         vals[k] = v
         if v < 0.0:
-            px = cx + radius * (math.sin(ph) * fx - math.cos(ph) * fy)
-            py = cy + radius * (math.sin(ph) * fy + math.cos(ph) * fx)
-            ni = math.floor((px - x0) / res)
-            nj = math.floor((py - y0) / res)
-            if 0 <= ni < w.shape[1] and 0 <= nj < w.shape[0]:
-                top = w[nj, ni, 0]
-                if top > z + tol:
-                    depth = max(depth, top - max(z, bottom))
+            # the material top at the edge point: the lowest of the four cells around it
+            # that still hold material at the tip height (where the edge runs along the
+            # wall of an earlier, deeper cut, a cell across the wall would add its height)
+            gx = (cx + radius * (math.sin(ph) * fx - math.cos(ph) * fy) - x0) / res - 0.5
+            gy = (cy + radius * (math.sin(ph) * fy + math.cos(ph) * fx) - y0) / res - 0.5
+            gi = math.floor(gx)
+            gj = math.floor(gy)
+            top = _INF
+            for nj in range(gj, gj + 2):
+                for ni in range(gi, gi + 2):
+                    h = _top(w, ni, nj)
+                    if h > z + tol:
+                        top = min(top, h)
+            if top < _INF:
+                depth = max(depth, top - max(z, bottom))
     narcs = 0
     entry = math.nan
     exit_ = math.nan
@@ -452,7 +489,9 @@ def kernels() -> Any:
             deco = _jit.njit()
             g = globals()
             g["_sweep"] = deco(_sweep)
-            g["_value"] = deco(_value)
+            g["_sweep_value"] = deco(_sweep_value)
+            g["_stock_value"] = deco(_stock_value)
+            g["_top"] = deco(_top)
             g["_edge_value"] = deco(_edge_value)
             g["_crossing"] = deco(_crossing)
             g["_engage"] = deco(_engage)

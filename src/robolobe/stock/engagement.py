@@ -247,7 +247,7 @@ def compute_engagement(
         w[j, :, 3] = np.clip(
             signed_distance(stock.outline, xc, np.full(nx, yc[j])), -4 * res, 4 * res
         )
-    w[..., 0] = np.where(w[..., 3] < 0, np.float32(stock.z_top), np.float32(-np.inf))
+    w[..., 0] = stock.z_top  # the outline is sd's: h, s, zs say what the sweeps cleared
     w[..., 1] = -np.inf
     w[..., 2] = np.inf
 
