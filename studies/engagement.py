@@ -31,7 +31,13 @@ differences of the entry and exit angles (deg) and of the axial depth (mm),
 the moves one calls air and the other not, and the worst move with its
 ``file:line``; then, for the bundled programs, the moves whose engagement
 differs from the job's ``cut.radial_width_mm`` (the immersion every move is
-planned at today) by more than 0.05 in a_e/D, with the first lines.
+planned at today) by more than 0.05 in a_e/D, with the first lines, and
+(``--margins``) their true margin by the planner's own model: the program is
+planned with its job as today, then the same path is planned again with the
+job's radial engagement set to each move class's own (immersion to 0.05 and
+milling side; a move engaged in the middle of the edge as down milling at its
+immersion), and each move's stability limit in that plan at the speed the
+first plan chose, divided by the depth the first plan chose, is its margin.
 
 Goal (issue 26): every angle within 2 deg of the reference at the stated cell.
 """
@@ -49,7 +55,7 @@ from typing import Any
 
 import numpy as np
 
-from robolobe.plan.job import load_job
+from robolobe.plan.job import Job, load_job
 from robolobe.plan.paths import read_toolpath
 from robolobe.stock import compute_engagement, default_stock
 
@@ -227,6 +233,56 @@ def reference_engagement(
     return {"entry": entry, "exit": exit_, "depth": depth, "arcs": arcs, "compared": compared}
 
 
+# ------------------------------------------------------------------ margins
+def true_margins(path: Path, job: Job, imm: np.ndarray, milling: np.ndarray) -> dict[str, Any]:
+    """Margin of each cutting move at its own engagement, by the planner's own model."""
+    import dataclasses
+
+    from robolobe.plan.pipeline import plan_path
+
+    base = plan_path(path, job)
+    tab = base.table
+    ci = base.cut_index
+    rpm = tab["rpm"].to_numpy()[ci]
+    depth = tab["depth_mm"].to_numpy()[ci] * 1e-3
+    planned = tab["margin"].to_numpy()[ci]
+    own = np.full(len(ci), np.nan)
+    cls_imm = np.round(imm[ci] / 0.05) * 0.05
+    side = np.where(milling[ci] == "up", "up", "down")
+    engaged = np.isfinite(cls_imm) & (cls_imm > 0)
+    for key in sorted(
+        {(float(a), str(s)) for a, s in zip(cls_imm[engaged], side[engaged], strict=True)}
+    ):
+        a, s = key
+        members = np.flatnonzero(engaged & (cls_imm == a) & (side == s))
+        cut = dataclasses.replace(
+            job.cut, radial_width_m=min(a, 1.0) * job.tool.diameter_m, milling=s
+        )
+        other = plan_path(path, job.replace(cut=cut))
+        lt = other.lobes.table
+        g = lt.group[members]
+        if lt.exact is not None:
+            lim = lt.exact(rpm[members][:, None], g)[:, 0]
+        else:
+            lim = np.array(
+                [np.interp(r, lt.rpm, lt.a_lim[k]) for r, k in zip(rpm[members], g, strict=True)]
+            )
+        own[members] = lim / depth[members]
+    sf = job.plan.safety_factor
+    lines = tab["line"].to_numpy()[ci]
+    low = np.flatnonzero(own < sf)
+    worst = int(np.nanargmin(own)) if np.isfinite(own).any() else -1
+    return {
+        "safety_factor": sf,
+        "planned_min_margin": float(np.nanmin(planned)),
+        "own_min_margin": float(own[worst]) if worst >= 0 else math.nan,
+        "own_min_line": int(lines[worst]) if worst >= 0 else 0,
+        "own_min_planned_margin": float(planned[worst]) if worst >= 0 else math.nan,
+        "moves_below_safety_factor": int(low.size),
+        "lines_below_safety_factor": sorted({int(x) for x in lines[low]})[:12],
+    }
+
+
 # ------------------------------------------------------------------ programs
 def _diameter_from_header(path: Path) -> float:
     text = path.read_text(errors="replace")[:3000]
@@ -238,15 +294,15 @@ def _diameter_from_header(path: Path) -> float:
     return d * (25.4e-3 if inch else 1e-3)
 
 
-def programs() -> list[tuple[str, Path, float, float | None]]:
-    """(name, file, tool diameter [m], job immersion or None)."""
+def programs() -> list[tuple[str, Path, float, Job | None]]:
+    """(name, file, tool diameter [m], the bundled job or None)."""
     ex = resources.files("robolobe.data.examples")
-    out: list[tuple[str, Path, float, float | None]] = []
+    out: list[tuple[str, Path, float, Job | None]] = []
     for prog, jobname in BUNDLED.items():
         with resources.as_file(ex.joinpath(jobname)) as jp:
             job = load_job(jp)
         with resources.as_file(ex.joinpath(prog)) as pp:
-            out.append((prog, Path(pp), job.tool.diameter_m, job.radial_immersion))
+            out.append((prog, Path(pp), job.tool.diameter_m, job))
     for name in REAL:
         p = REALWORLD / name
         if p.is_file():
@@ -256,9 +312,10 @@ def programs() -> list[tuple[str, Path, float, float | None]]:
     return out
 
 
-def study(max_moves: int) -> list[dict[str, Any]]:
+def study(max_moves: int, margins: bool) -> list[dict[str, Any]]:
     rows = []
-    for name, path, diameter, immersion in programs():
+    for name, path, diameter, job in programs():
+        immersion = job.radial_immersion if job is not None else None
         wp = read_toolpath(path)
         xyz = wp[["x_m", "y_m", "z_m"]].to_numpy()
         cut = (wp["motion"] == "cut").to_numpy()
@@ -310,6 +367,8 @@ def study(max_moves: int) -> list[dict[str, Any]]:
             row["under_planned_lines"] = [
                 f"{name}:{int(lines[j])} ae/D {imm[j]:.2f} ({e.milling()[j]})" for j in first
             ]
+            if margins and job is not None:
+                row["margins"] = true_margins(path, job, imm, e.milling())
         rows.append(row)
         print(_line(row))
     return rows
@@ -332,6 +391,15 @@ def _line(r: dict[str, Any]) -> str:
             f"engaged wider than planned, {r['air_moves']} feed moves in air; first: "
             + "; ".join(r["under_planned_lines"])
         )
+    if "margins" in r:
+        m = r["margins"]
+        s += (
+            f"\n    margin by the planner's own model at each move's own engagement: smallest "
+            f"{m['own_min_margin']:.2f} at line {m['own_min_line']} (the plan states "
+            f"{m['own_min_planned_margin']:.2f} there; its smallest stated "
+            f"{m['planned_min_margin']:.2f}); {m['moves_below_safety_factor']} moves below the "
+            f"safety factor {m['safety_factor']:g}, lines {m['lines_below_safety_factor']}"
+        )
     if r.get("air_mismatch_lines"):
         s += "\n    air in one only: " + ", ".join(r["air_mismatch_lines"])
     return s
@@ -341,8 +409,11 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--max-moves", type=int, default=10**9, help="moves compared per program")
     ap.add_argument("--out", type=Path, help="write the rows as JSON")
+    ap.add_argument(
+        "--margins", action="store_true", help="bundled programs: margins at their own engagement"
+    )
     args = ap.parse_args()
-    rows = study(args.max_moves)
+    rows = study(args.max_moves, args.margins)
     worst = max((max(r["max_entry_err_deg"], r["max_exit_err_deg"]) for r in rows), default=0)
     print(f"largest angle error over all programs: {worst:.3f} deg (goal: within 2 deg)")
     if args.out:
