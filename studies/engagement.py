@@ -20,7 +20,8 @@ reference written here:
   tool tip;
 * the front half of the edge sampled every 0.25 deg and each change refined
   by bisection on that exact test (1e-4 deg); the axial depth is the
-  largest material height at the engaged edge points above the tip;
+  largest material height one cell inside the engaged edge above the tip (at
+  the edge itself it jumps where the edge runs along an earlier, deeper wall);
 * the same definition of a move's engagement as the production (its
   samples every quarter diameter and just after a turn, the workpiece as the
   earlier moves left it, lagged by two cells behind a chain of tiny moves,
@@ -156,7 +157,15 @@ class Reference:
         mat, top = self.material(pts(ph), z, near)
         if not mat.any():
             return math.nan, math.nan, 0, 0.0
-        depth = float(np.max(top[mat] - max(z, self.stock.z_bottom)))
+        # the material height one cell inside the engaged edge (at the edge itself it
+        # jumps where the edge runs along the wall of an earlier, deeper cut)
+        inner = c + (self.r - self.res) * (
+            np.sin(ph[mat])[:, None] * f + np.cos(ph[mat])[:, None] * left
+        )
+        top_in = self.tops(inner, near)
+        base = max(z, self.stock.z_bottom)
+        deep = top_in > z + LEVEL_TOL
+        depth = float(np.max((top_in if deep.any() else top[mat]) - base, initial=0.0))
         runs = int(np.sum(mat & ~np.r_[False, mat[:-1]]))
 
         def refine(a: float, b: float, a_mat: bool) -> float:

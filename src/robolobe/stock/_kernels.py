@@ -260,32 +260,38 @@ def _engage(w, x0, y0, res, radius, cx, cy, z, fx, fy, bottom, tol, nphi, vals, 
     n_arcs, depth)``: entry and exit angles [rad] in the feed frame (x along
     ``(fx, fy)``, y to its left, angle clockwise from +y seen from +z), the
     number of separate engaged arcs, and the axial depth [m] of the material
-    under the engaged edge (at each engaged edge point the lowest top of the
-    four cells around it that hold material, above the tip or the stock
-    bottom). No engagement: ``n_arcs = 0`` and NaN angles.
+    under the engaged edge (the top one cell inside each engaged edge point
+    above the tip or the stock bottom; for a sliver with nothing there, the
+    highest cell around the edge point). No engagement: ``n_arcs = 0`` and NaN angles.
     """
     dphi = math.pi / (nphi - 1)
     depth = 0.0
+    sliver = 0.0
     for k in range(nphi):
         ph = k * dphi
         v = _edge_value(w, x0, y0, res, radius, cx, cy, z, fx, fy, tol, ph)
         vals[k] = v
         if v < 0.0:
-            # the material top at the edge point: the lowest of the four cells around it
-            # that still hold material at the tip height (where the edge runs along the
-            # wall of an earlier, deeper cut, a cell across the wall would add its height)
-            gx = (cx + radius * (math.sin(ph) * fx - math.cos(ph) * fy) - x0) / res - 0.5
-            gy = (cy + radius * (math.sin(ph) * fy + math.cos(ph) * fx) - y0) / res - 0.5
-            gi = math.floor(gx)
-            gj = math.floor(gy)
-            top = _INF
-            for nj in range(gj, gj + 2):
-                for ni in range(gi, gi + 2):
-                    h = _top(w, ni, nj)
-                    if h > z + tol:
-                        top = min(top, h)
-            if top < _INF:
+            # the material top one cell inside the engaged edge point (at the edge itself
+            # the top jumps where the edge runs along the wall of an earlier, deeper cut);
+            # where nothing is there (a sliver), the highest cell around the edge point
+            ux = math.sin(ph) * fx - math.cos(ph) * fy
+            uy = math.sin(ph) * fy + math.cos(ph) * fx
+            rin = radius - res
+            top = _top(
+                w, round((cx + rin * ux - x0) / res - 0.5), round((cy + rin * uy - y0) / res - 0.5)
+            )
+            if top > z + tol:
                 depth = max(depth, top - max(z, bottom))
+            else:
+                gi = math.floor((cx + radius * ux - x0) / res - 0.5)
+                gj = math.floor((cy + radius * uy - y0) / res - 0.5)
+                top = max(
+                    max(_top(w, gi, gj), _top(w, gi + 1, gj)),
+                    max(_top(w, gi, gj + 1), _top(w, gi + 1, gj + 1)),
+                )
+                if top > z + tol:
+                    sliver = max(sliver, top - max(z, bottom))
     narcs = 0
     entry = math.nan
     exit_ = math.nan
@@ -343,7 +349,7 @@ def _engage(w, x0, y0, res, radius, cx, cy, z, fx, fy, bottom, tol, nphi, vals, 
     out[0] = entry
     out[1] = exit_
     out[2] = narcs
-    out[3] = depth
+    out[3] = depth if depth > 0.0 else sliver
 
 
 def _run(
