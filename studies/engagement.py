@@ -101,37 +101,45 @@ class Reference:
         self.r = radius
         self.eps = eps
         self.res = res
+        self._p0: list[np.ndarray] = []
+        self._p1: list[np.ndarray] = []
         self.p0 = np.zeros((0, 3))
         self.p1 = np.zeros((0, 3))
 
     def add(self, a: np.ndarray, b: np.ndarray) -> None:
-        self.p0 = np.vstack([self.p0, a[None]])
-        self.p1 = np.vstack([self.p1, b[None]])
+        self._p0.append(a)
+        self._p1.append(b)
+
+    def sync(self) -> None:
+        """Make the sweeps added so far visible to the queries."""
+        if len(self._p0) != len(self.p0):
+            self.p0 = np.array(self._p0)
+            self.p1 = np.array(self._p1)
 
     def tops(self, q: np.ndarray, near: np.ndarray) -> np.ndarray:
         """Material top at points q (k, 2): stock top, lowered by the sweeps that covered them."""
         top = np.full(len(q), self.stock.z_top)
+        if not near.size:
+            return top
         rr = self.r + self.eps
-        for m in near:
-            a, b = self.p0[m], self.p1[m]
-            d = b[:2] - a[:2]
-            rel = q - a[:2]
-            l2 = float(d @ d)
-            if l2 == 0.0:
-                cov = np.einsum("ij,ij->i", rel, rel) <= rr * rr
-                lev = np.full(len(q), min(a[2], b[2]))
-            else:
-                bb = rel @ d
-                disc = bb * bb - l2 * (np.einsum("ij,ij->i", rel, rel) - rr * rr)
-                sq = np.sqrt(np.maximum(disc, 0.0))
-                t1 = (bb - sq) / l2
-                t2 = (bb + sq) / l2
-                cov = (disc >= 0) & (t2 >= 0) & (t1 <= 1)
-                t1 = np.clip(t1, 0, 1)
-                t2 = np.clip(t2, 0, 1)
-                lev = np.minimum(a[2] + t1 * (b[2] - a[2]), a[2] + t2 * (b[2] - a[2]))
-            top = np.where(cov, np.minimum(top, lev), top)
-        return top
+        a, b = self.p0[near], self.p1[near]  # (m, 3)
+        d = b[:, :2] - a[:, :2]
+        l2 = np.einsum("ij,ij->i", d, d)
+        rel = q[:, None, :] - a[None, :, :2]  # (k, m, 2)
+        r2 = np.einsum("kmi,kmi->km", rel, rel)
+        bb = np.einsum("kmi,mi->km", rel, d)
+        moving = l2 > 0.0
+        safe = np.where(moving, l2, 1.0)
+        disc = bb * bb - safe * (r2 - rr * rr)
+        sq = np.sqrt(np.maximum(disc, 0.0))
+        t1 = (bb - sq) / safe
+        t2 = (bb + sq) / safe
+        cov = np.where(moving, (disc >= 0) & (t2 >= 0) & (t1 <= 1), r2 <= rr * rr)
+        za, dz = a[:, 2], b[:, 2] - a[:, 2]
+        t1 = np.clip(t1, 0, 1)
+        t2 = np.clip(t2, 0, 1)
+        lev = np.where(moving, np.minimum(za + t1 * dz, za + t2 * dz), np.minimum(a[:, 2], b[:, 2]))
+        return np.minimum(top, np.where(cov, lev, np.inf).min(axis=1))
 
     def material(self, q: np.ndarray, z: float, near: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         ins, dist = _inside(self.stock.outline, q[:, 0], q[:, 1])
@@ -140,6 +148,7 @@ class Reference:
         return mat, top
 
     def near(self, c: np.ndarray) -> np.ndarray:
+        self.sync()
         if not len(self.p0):
             return np.zeros(0, np.int64)
         lo = np.minimum(self.p0[:, :2], self.p1[:, :2]) - 2 * self.r - 2 * self.eps
