@@ -2,7 +2,7 @@
 
     python studies/engagement.py                      # bundled + two real CAM programs
     python studies/engagement.py --max-moves 300      # the first 300 cutting moves of each
-    python studies/engagement.py --out engagement.json
+    python studies/engagement.py --max-moves 1500 --margins --out studies/engagement.json
 
 For each program (the bundled pocket, contour, face and slot, and the real
 Fusion 360 programs ``freegroup_CamperGaskastenTuer.nc`` (pockets, 2-D
