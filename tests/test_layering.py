@@ -1,7 +1,7 @@
 """The package layering of DESIGN.md, checked on every import (also inside functions).
 
 Each package depends only on those above it in DESIGN.md's list
-(robots, campaign, twin, modal, tl, sld, plan, diagnose, cli) and not on what its
+(robots, campaign, twin, modal, tl, sld, stock, plan, diagnose, cli) and not on what its
 "knows nothing of" column excludes; the top-level helper modules import no
 package at all (``__main__``, ``python -m robolobe``, is in the CLI's layer).
 """
@@ -24,9 +24,12 @@ ALLOWED: dict[str, set[str]] = {
     "modal": {"campaign"},  # knows nothing of robots (FRFs and modal parameters only)
     "tl": {"robots", "campaign", "twin", "modal"},
     "sld": set(),  # knows nothing of robots or learning
-    "plan": {"robots", "campaign", "twin", "modal", "tl", "sld"},
+    # stock definitions, in-process workpiece, engagement: knows nothing of robots,
+    # dynamics or lobes
+    "stock": set(),
+    "plan": {"robots", "campaign", "twin", "modal", "tl", "sld", "stock"},
     "diagnose": {"robots", "campaign", "twin", "modal", "tl"},  # knows nothing of cutting
-    "cli": {"robots", "campaign", "twin", "modal", "tl", "sld", "plan", "diagnose"},
+    "cli": {"robots", "campaign", "twin", "modal", "tl", "sld", "stock", "plan", "diagnose"},
     "data": set(),
 }
 
@@ -110,7 +113,7 @@ def test_the_checker_sees_imports_inside_functions(tmp_path: Path) -> None:
 
 @pytest.mark.parametrize("package", sorted(ALLOWED))
 def test_allowed_packages_are_above_in_design_order(package: str) -> None:
-    order = ["robots", "campaign", "twin", "modal", "tl", "sld", "plan", "diagnose", "cli"]
+    order = ["robots", "campaign", "twin", "modal", "tl", "sld", "stock", "plan", "diagnose", "cli"]
     if package not in order:
         return
     assert all(order.index(a) < order.index(package) for a in ALLOWED[package])

@@ -26,6 +26,7 @@ BENCHMARKS = {
     "bench_plan.py batch": "bench_plan.py --part batch --paths 2 --waypoints 80",
     "bench_plan.py long": "bench_plan.py --part long --waypoints-long 3000",
     "bench_diagnose.py": "bench_diagnose.py --postures 6",
+    "bench_engagement.py": "bench_engagement.py --moves 2000 --pocket",
     "bench_ik.py": "bench_ik.py --n 2000 --loop 50",
     "bench_load.py": "bench_load.py --busy 1 --reps 1",
     "bench_modal.py": "bench_modal.py --n 6 --repeat 2",
@@ -35,6 +36,7 @@ BENCHMARKS = {
 }
 
 STUDIES = {
+    "engagement": "--max-moves 40",
     "planner_receptance": "--robots A --postures 5",
     "plan_safety": "--draws 1 --robots user --jobs al --out {tmp}/plan_safety.json",
     "sld_validation": "",

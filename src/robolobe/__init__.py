@@ -14,7 +14,7 @@ nothing until a name is used)::
 
 Subpackages (each owns one concept, docs/guide/physics.md): :mod:`robolobe.robots`,
 :mod:`robolobe.campaign` (measured data), :mod:`robolobe.twin`,
-:mod:`robolobe.modal`, :mod:`robolobe.tl`, :mod:`robolobe.sld`,
+:mod:`robolobe.modal`, :mod:`robolobe.tl`, :mod:`robolobe.sld`, :mod:`robolobe.stock`,
 :mod:`robolobe.plan`, :mod:`robolobe.diagnose`, :mod:`robolobe.cli`.
 """
 
@@ -56,6 +56,9 @@ _API: dict[str, tuple[str, str]] = {
     "transfer": ("robolobe.tl.transfer", "transfer"),
     # stability lobes
     "stability_lobes": ("robolobe.sld", "stability_lobes"),
+    # stock and engagement per move
+    "Stock": ("robolobe.stock.shapes", "Stock"),
+    "compute_engagement": ("robolobe.stock.engagement", "compute_engagement"),
     # planning
     "load_job": ("robolobe.plan.job", "load_job"),
     "read_toolpath": ("robolobe.plan.paths", "read_toolpath"),

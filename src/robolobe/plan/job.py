@@ -31,6 +31,8 @@ Example (all keys; defaults shown where a key is optional)::
     teeth = 3
     helix_deg = 30.0
     stickout_mm = 60.0
+    corner_radius_mm = 0.0       # 0: flat end mill (the only shape [stock] engagement
+                                 # models); D/2: ball end; between: bull nose
     [[tool.modes]]               # spindle/holder/tool modes, TCP frame
     dir = "xy"                   # "x" | "y" | "xy" (both, symmetric spindle)
     f_hz = 1900.0
@@ -74,6 +76,15 @@ Example (all keys; defaults shown where a key is optional)::
     n_rpm = 300                  # speed grid of the lobes
     dynamics_tol_pct = 0.3       # waypoints whose modes agree within this share lobes
 
+    [stock]                      # optional: the raw workpiece (workpiece frame); one of
+    box_min_mm = [-60.0, -40.0, -10.0]   # a box: min and max corners, or
+    box_max_mm = [60.0, 40.0, 0.0]
+    # outline_mm = [[0, 0], [120, 0], [120, 80], [0, 80]]  # an extruded outline
+    # z_range_mm = [-10.0, 0.0]          #   with its bottom and top
+    resolution_mm = 0.5          # Z-map cell (default tool diameter / 40; at most / 10);
+                                 # no [stock] or only this key: the default stock
+                                 # (cutting region grown by the tool radius, top Z = 0)
+
     [path]                       # toolpath reader options (optional; each reader takes
                                  # those that apply to its format; CLI flags override)
     units = "auto"               # "auto" | "mm" | "inch": G-code/APT without G20/G21/UNITS
@@ -116,6 +127,8 @@ from robolobe._toml_errors import PrintableText, check_key_typos, describe_error
 from robolobe.errors import InputError, InputTypeError
 from robolobe.robots.transforms import pose_from_xyz_zyx, xyz_zyx_from_pose
 from robolobe.sld.io import F_RANGE_HZ, K_RANGE_N_PER_M
+from robolobe.stock import Stock
+from robolobe.stock.engagement import MIN_CELLS_PER_DIAMETER
 from robolobe.twin.effects import Effect
 from robolobe.twin.effects_file import read_effects
 
@@ -126,6 +139,7 @@ __all__ = [
     "MaterialSpec",
     "PlanSpec",
     "SpindleSpec",
+    "StockSpec",
     "ToolMode",
     "ToolSpec",
     "job_from_dict",
@@ -220,6 +234,7 @@ class _ToolSpec(_Spec):
     teeth: Annotated[int, Field(ge=1, le=64, strict=True)]
     helix_deg: Annotated[float, Field(ge=0, lt=90, allow_inf_nan=False, strict=True)] = 30.0
     stickout_mm: Annotated[float, _upto(1000.0)] = 50.0
+    corner_radius_mm: Annotated[float, Field(ge=0, le=250, allow_inf_nan=False, strict=True)] = 0.0
     modes: list[_ModeSpec] = Field(default_factory=list)
 
 
@@ -300,6 +315,37 @@ class _PlanSpec(_Spec):
         return self
 
 
+MmVec3 = Annotated[
+    list[Annotated[float, Field(ge=-1e5, le=1e5, allow_inf_nan=False, strict=True)]],
+    Field(min_length=3, max_length=3),
+]
+MmVec2 = Annotated[
+    list[Annotated[float, Field(ge=-1e5, le=1e5, allow_inf_nan=False, strict=True)]],
+    Field(min_length=2, max_length=2),
+]
+
+
+class _StockSpec(_Spec):
+    box_min_mm: MmVec3 | None = None
+    box_max_mm: MmVec3 | None = None
+    outline_mm: Annotated[list[MmVec2], Field(min_length=3, max_length=100_000)] | None = None
+    z_range_mm: MmVec2 | None = None
+    mesh: Annotated[str, Field(min_length=1)] | None = None
+    resolution_mm: Annotated[float, _upto(50.0)] | None = None
+
+    @model_validator(mode="after")
+    def _one_shape(self) -> _StockSpec:
+        box = (self.box_min_mm is not None, self.box_max_mm is not None)
+        outline = (self.outline_mm is not None, self.z_range_mm is not None)
+        if any(box) and any(outline):
+            raise ValueError("expected a box (box_min_mm, box_max_mm) or an outline, not both")
+        if any(box) and not all(box):
+            raise ValueError("expected both box_min_mm and box_max_mm, found one")
+        if any(outline) and not all(outline):
+            raise ValueError("expected both outline_mm and z_range_mm, found one")
+        return self
+
+
 class _PathSpec(_Spec):
     units: Literal["auto", "mm", "inch"] | None = None
     tool_direction: Literal["z", "x"] | None = None
@@ -335,6 +381,7 @@ class _JobSpec(_Spec):
     cut: _CutSpec
     spindle: _SpindleSpec
     plan: _PlanSpec = Field(default_factory=_PlanSpec)
+    stock: _StockSpec | None = None
     path: _PathSpec = Field(default_factory=_PathSpec)
     program: _ProgramSpec = Field(default_factory=_ProgramSpec)
 
@@ -349,6 +396,7 @@ _KNOWN_KEYS: dict[str, set[str]] = {
     "cut": set(_CutSpec.model_fields),
     "spindle": set(_SpindleSpec.model_fields),
     "plan": set(_PlanSpec.model_fields),
+    "stock": set(_StockSpec.model_fields),
     "path": set(_PathSpec.model_fields),
     "program": set(_ProgramSpec.model_fields),
 }
@@ -399,6 +447,9 @@ class ToolSpec:
         Stick-out [m] (informative; the modes carry the dynamics).
     modes : tuple of ToolMode
         Spindle/holder/tool modes added to the robot's tool-point FRF.
+    corner_radius_m : float
+        Corner radius [m]: 0 a flat end mill, ``diameter_m / 2`` a ball end,
+        between a bull nose.
     """
 
     diameter_m: float
@@ -406,6 +457,16 @@ class ToolSpec:
     helix_rad: float = math.radians(30.0)
     stickout_m: float = 0.05
     modes: tuple[ToolMode, ...] = ()
+    corner_radius_m: float = 0.0
+
+    @property
+    def shape(self) -> Literal["flat end mill", "ball-end", "bull-nose"]:
+        """The cutter's end shape, from its corner radius."""
+        if self.corner_radius_m <= 0.0:
+            return "flat end mill"
+        if self.corner_radius_m >= 0.5 * self.diameter_m * (1 - 1e-9):
+            return "ball-end"
+        return "bull-nose"
 
 
 @dataclass(frozen=True)
@@ -456,6 +517,24 @@ class CutSpec:
     rapid_feed_m_per_s: float = 0.5
     programmed_rpm: float | None = None
     stock_depth_m: float | None = None
+
+
+@dataclass(frozen=True)
+class StockSpec:
+    """The job's ``[stock]``: the raw workpiece and the Z-map cell.
+
+    Parameters
+    ----------
+    shape : Stock or None
+        The stock (box or extruded outline, workpiece frame); None: derived
+        from the program (:func:`robolobe.stock.default_stock`).
+    resolution_m : float or None
+        Z-map cell [m]; None: the tool diameter / 40
+        (:func:`robolobe.stock.zmap_resolution`).
+    """
+
+    shape: Stock | None = None
+    resolution_m: float | None = None
 
 
 @dataclass(frozen=True)
@@ -554,6 +633,9 @@ class Job:
     placement : ndarray, shape (4, 4)
         Pose of the workpiece (path) frame in the robot base frame.
     tool, material, cut, spindle, plan : see their classes.
+    stock : StockSpec or None
+        The job's ``[stock]``; None: no section (the radial engagement of
+        ``[cut]`` stands for the whole path).
     tool_rotation_rad : float
         Rotation [rad] of the TCP x axis about the tool axis (added to the
         orientation the path gives, or to the default reference direction).
@@ -576,6 +658,7 @@ class Job:
     cut: CutSpec
     spindle: SpindleSpec
     plan: PlanSpec = field(default_factory=PlanSpec)
+    stock: StockSpec | None = None
     model: str = "twin"
     effects: tuple[Effect, ...] = ()
     effects_file: str | None = None
@@ -621,6 +704,7 @@ def _check_typos(raw: dict[str, Any], where: str) -> None:
         "cut",
         "spindle",
         "plan",
+        "stock",
         "path",
         "program",
     ):
@@ -711,7 +795,15 @@ def job_from_dict(d: dict[str, Any], source: str = "<dict>", base_dir: Path | No
         helix_rad=math.radians(t.helix_deg),
         stickout_m=t.stickout_mm * 1e-3,
         modes=tuple(modes),
+        corner_radius_m=t.corner_radius_mm * 1e-3,
     )
+    if t.corner_radius_mm > 0.5 * t.diameter_mm * (1 + 1e-9):
+        raise InputError(
+            f"tool.corner_radius_mm: expected at most half the diameter "
+            f"({0.5 * t.diameter_mm:g}), found {t.corner_radius_mm:g}",
+            source=where,
+        )
+    stock = _stock(spec.stock, tool, where)
 
     mt = spec.material
     kt = mt.Kt_N_per_mm2 * 1e6 if mt.Kt_N_per_mm2 is not None else None
@@ -778,6 +870,7 @@ def job_from_dict(d: dict[str, Any], source: str = "<dict>", base_dir: Path | No
         cut=cut,
         spindle=spindle,
         plan=plan,
+        stock=stock,
         tool_rotation_rad=math.radians(r.tool_rotation_deg),
         tool_rotation=r.tool_rotation,
         tool_rotation_range_rad=(math.radians(lo), math.radians(hi)),
@@ -795,6 +888,54 @@ def job_from_dict(d: dict[str, Any], source: str = "<dict>", base_dir: Path | No
             if k in _KNOWN_KEYS["program"]
         },
     )
+
+
+def _stock(s: _StockSpec | None, tool: ToolSpec, where: str) -> StockSpec | None:
+    """The ``[stock]`` section in SI units, checked against the cutter."""
+    if s is None:
+        return None
+    if s.mesh is not None:
+        raise InputError(
+            f"stock.mesh: expected box_min_mm/box_max_mm or outline_mm with z_range_mm, found "
+            f"a mesh ({s.mesh!r}): mesh stocks (STL) are not supported (no mesh library is a "
+            "dependency; the Z-map needs an outline and a top)",
+            source=where,
+        )
+    if tool.shape != "flat end mill":
+        raise InputError(
+            f"tool.corner_radius_mm: the [stock] engagement (a Z-map) models flat end mills "
+            f"only; expected 0 with [stock], found {tool.corner_radius_m * 1e3:g} (a "
+            f"{tool.shape} cutter): remove [stock] to plan at cut.radial_width_mm",
+            source=where,
+        )
+    res = s.resolution_mm * 1e-3 if s.resolution_mm is not None else None
+    coarsest = tool.diameter_m / MIN_CELLS_PER_DIAMETER
+    if res is not None and res > coarsest * (1 + 1e-9):
+        raise InputError(
+            f"stock.resolution_mm: expected at most the tool diameter / "
+            f"{MIN_CELLS_PER_DIAMETER} = {coarsest * 1e3:.4g} mm for the "
+            f"{tool.diameter_m * 1e3:g} mm cutter, found {s.resolution_mm:g}",
+            source=where,
+        )
+    shape: Stock | None = None
+    key = "stock"
+    try:
+        if s.box_min_mm is not None and s.box_max_mm is not None:
+            key = "stock.box_min_mm"
+            lo = tuple(v * 1e-3 for v in s.box_min_mm)
+            hi = tuple(v * 1e-3 for v in s.box_max_mm)
+            shape = Stock.box((lo[0], lo[1], lo[2]), (hi[0], hi[1], hi[2]))
+        elif s.outline_mm is not None and s.z_range_mm is not None:
+            key = "stock.outline_mm"
+            pts = np.array(s.outline_mm, dtype=np.float64) * 1e-3
+            zb, zt = s.z_range_mm
+            if not zb < zt:
+                key = "stock.z_range_mm"
+                raise ValueError(f"expected [bottom, top] with bottom < top, found {[zb, zt]}")
+            shape = Stock(pts, zb * 1e-3, zt * 1e-3, kind="outline")
+    except ValueError as exc:
+        raise InputError(f"{key}: {exc}", source=where) from None
+    return StockSpec(shape=shape, resolution_m=res)
 
 
 def load_job(path: str | os.PathLike[str] | Job) -> Job:
@@ -912,6 +1053,7 @@ def job_to_dict(job: Job) -> dict[str, Any]:
             "teeth": job.tool.teeth,
             "helix_deg": _clean(math.degrees(job.tool.helix_rad)),
             "stickout_mm": _clean(job.tool.stickout_m * 1e3),
+            "corner_radius_mm": _clean(job.tool.corner_radius_m * 1e3),
             "modes": modes,
         },
         "material": mat,
@@ -923,9 +1065,25 @@ def job_to_dict(job: Job) -> dict[str, Any]:
             "torque_Nm": _clean(job.spindle.torque_Nm),
         },
         "plan": plan,
+        **({"stock": _stock_to_dict(job.stock)} if job.stock is not None else {}),
         **({"path": dict(job.path_options)} if job.path_options else {}),
         **({"program": dict(job.program_options)} if job.program_options else {}),
     }
+
+
+def _stock_to_dict(spec: StockSpec) -> dict[str, Any]:
+    out: dict[str, Any] = {}
+    s = spec.shape
+    if s is not None and s.kind == "box":
+        x0, y0, x1, y1 = s.bounds()
+        out["box_min_mm"] = [_clean(x0 * 1e3), _clean(y0 * 1e3), _clean(s.z_bottom * 1e3)]
+        out["box_max_mm"] = [_clean(x1 * 1e3), _clean(y1 * 1e3), _clean(s.z_top * 1e3)]
+    elif s is not None:
+        out["outline_mm"] = [[_clean(x * 1e3), _clean(y * 1e3)] for x, y in s.outline]
+        out["z_range_mm"] = [_clean(s.z_bottom * 1e3), _clean(s.z_top * 1e3)]
+    if spec.resolution_m is not None:
+        out["resolution_mm"] = _clean(spec.resolution_m * 1e3)
+    return out
 
 
 def job_to_toml(job: Job) -> str:

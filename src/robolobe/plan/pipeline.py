@@ -44,6 +44,7 @@ from numpy.typing import NDArray
 
 from robolobe.errors import InputError, ReachabilityError, SingularityError
 from robolobe.plan._summary import PlanSummary
+from robolobe.plan.engagement import engagement_note, stock_engagement
 from robolobe.plan.job import Job, load_job
 from robolobe.plan.lobes import DynamicsTolerance, GroupedLobes, steep_members, waypoint_lobes
 from robolobe.plan.modes import (
@@ -1011,6 +1012,9 @@ def plan_path(
             "expected at least one cutting move (G1/G2/G3, LIN, MoveL), found none",
             Path(path_name).name,
         )
+    eng = stock_engagement(job, wp, path_name)  # [stock]: refused before any lobes
+    if eng is not None:
+        note = (note + "; " if note else "") + engagement_note(job, wp, eng)
     rpm = np.linspace(job.spindle.rpm_min, job.spindle.rpm_max, job.plan.n_rpm)
     rotation = job.tool_rotation_rad
     cons = constraints_from_job(job, material.kt)

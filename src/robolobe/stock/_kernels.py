@@ -1,0 +1,507 @@
+"""Z-map kernels: material removal by a flat end mill and engagement along the path.
+
+The in-process workpiece is a Z-map on a square grid (cell centres
+``x0 + (i + 1/2) res``, ``y0 + (j + 1/2) res``; arrays ``(ny, nx)``):
+
+``h``
+    top of the material at the cell centre [m] (the stock top until a sweep
+    lowers it; inside and outside the outline alike);
+``s``, ``zs``
+    clearance ``R - d`` [m] of the cell centre from the tool axis of the
+    sweeps at the lowest level ``zs`` [m] that reached the cell (positive
+    inside the swept region; negative in a band of ``w`` outside it);
+``sd``
+    signed distance to the stock outline [m] (negative inside, clipped).
+
+Engagement tests points on the cutting edge with the bilinear interpolation
+of a value that is negative where material is: the clearance is a distance
+field, so the edge of the material is found to a small fraction of a cell
+(error ~ res^2 / 8 R) instead of half a cell as with a height alone.
+
+The functions are plain Python compiled with numba where available
+(:func:`robolobe._jit.available`); without it they run as Python (slow:
+for tests of the reference path only).
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+
+from robolobe import _jit
+
+_INF = math.inf
+#: Bisection steps refining a sign change between two angle samples (4 deg / 2^5).
+_BISECT = 5
+#: Material thinner than this many cells at the edge is none (float rounding on a wall).
+_EDGE_EPS = 0.01
+
+
+def _sweep(w, x0, y0, res, radius, band, p0, p1, skip_start, tol):
+    """Remove the material a flat end mill sweeps from ``p0`` to ``p1`` (x, y, z [m]).
+
+    Every cell centre within ``radius + band`` of the tool axis's x-y track
+    gets the clearance of this sweep (level rule: a lower sweep replaces, one
+    at the same level keeps the larger clearance, a higher one is ignored);
+    those within ``radius`` get their top lowered to the lowest tip height
+    over the part of the move that covers them. ``skip_start``: the move
+    continues a flat move that ended at ``p0`` at the same height, whose end
+    disc already set the cells behind ``p0`` and those deep inside it.
+    """
+    ny = w.shape[0]
+    nx = w.shape[1]
+    ax, ay, az = p0[0], p0[1], p0[2]
+    dx, dy, dz = p1[0] - ax, p1[1] - ay, p1[2] - az
+    l2 = dx * dx + dy * dy
+    ll = math.sqrt(l2)
+    r = radius + band
+    ymin = min(ay, ay + dy) - r
+    ymax = max(ay, ay + dy) + r
+    j0 = max(0, math.ceil((ymin - y0) / res - 0.5))
+    j1 = min(ny - 1, math.floor((ymax - y0) / res - 0.5))
+    rin = radius - band
+    for j in range(j0, j1 + 1):
+        yc = y0 + (j + 0.5) * res
+        lo = _INF
+        hi = -_INF
+        for cx, cy in ((ax, ay), (ax + dx, ay + dy)):
+            e = yc - cy
+            if abs(e) <= r:
+                hw = math.sqrt(r * r - e * e)
+                lo = min(lo, cx - hw)
+                hi = max(hi, cx + hw)
+        if ll > 0.0:
+            # the rectangle part: 0 <= t <= 1 and |u| <= r, both linear in x
+            xa = -_INF
+            xb = _INF
+            # t(x) = (x - ax) dx / l2 + (yc - ay) dy / l2
+            ct = (yc - ay) * dy / l2
+            if abs(dx) > 1e-300:
+                q1 = ax + (0.0 - ct) * l2 / dx
+                q2 = ax + (1.0 - ct) * l2 / dx
+                xa = max(xa, min(q1, q2))
+                xb = min(xb, max(q1, q2))
+            elif not (0.0 <= ct <= 1.0):
+                xa, xb = _INF, -_INF
+            # u(x) = (-(x - ax) dy + (yc - ay) dx) / ll
+            cu = (yc - ay) * dx / ll
+            if abs(dy) > 1e-300:
+                q1 = ax + (cu - r) * ll / dy
+                q2 = ax + (cu + r) * ll / dy
+                xa = max(xa, min(q1, q2))
+                xb = min(xb, max(q1, q2))
+            elif abs(cu) > r:
+                xa, xb = _INF, -_INF
+            if xa <= xb:
+                lo = min(lo, xa)
+                hi = max(hi, xb)
+        if lo > hi:
+            continue
+        if skip_start and ll > 0.0:
+            # only cells ahead of the start: (x - ax) dx + (yc - ay) dy > 0
+            if abs(dx) > 1e-300:
+                xh = ax - (yc - ay) * dy / dx
+                if dx > 0.0:
+                    lo = max(lo, xh)
+                else:
+                    hi = min(hi, xh)
+            elif (yc - ay) * dy <= 0.0:
+                continue
+            if lo > hi:
+                continue
+        i0 = max(0, math.ceil((lo - x0) / res - 0.5))
+        i1 = min(nx - 1, math.floor((hi - x0) / res - 0.5))
+        k0 = 1
+        k1 = 0
+        if skip_start and rin > 0.0:
+            e = yc - ay
+            if abs(e) < rin:
+                hw = math.sqrt(rin * rin - e * e)
+                k0 = math.ceil((ax - hw - x0) / res - 0.5)
+                k1 = math.floor((ax + hw - x0) / res - 0.5)
+        i = i0
+        while i <= i1:
+            if k0 <= i <= k1:
+                i = k1 + 1
+                continue
+            xc = x0 + (i + 0.5) * res
+            qx = xc - ax
+            qy = yc - ay
+            if skip_start and qx * dx + qy * dy <= 0.0:
+                # behind the start: nearest point p0, as for the move that ended there
+                i += 1
+                continue
+            t = 0.0
+            if l2 > 0.0:
+                t = min(1.0, max(0.0, (qx * dx + qy * dy) / l2))
+            ex = qx - t * dx
+            ey = qy - t * dy
+            sv = radius - math.sqrt(ex * ex + ey * ey)
+            if sv >= -band:
+                if sv >= 0.0:
+                    # lowest tip height over the part of the move that covers the centre
+                    if dz == 0.0:
+                        zc = az
+                    elif l2 == 0.0:
+                        zc = min(az, az + dz)
+                    else:
+                        b = qx * dx + qy * dy
+                        disc = b * b - l2 * (qx * qx + qy * qy - radius * radius)
+                        sq = math.sqrt(max(disc, 0.0))
+                        t1 = min(1.0, max(0.0, (b - sq) / l2))
+                        t2 = min(1.0, max(0.0, (b + sq) / l2))
+                        zc = min(az + t1 * dz, az + t2 * dz)
+                    if zc < w[j, i, 0]:
+                        w[j, i, 0] = zc
+                elif l2 == 0.0:
+                    zc = min(az, az + dz)  # a plunge: every height is as close
+                else:
+                    zc = az + t * dz
+                z_old = w[j, i, 2]
+                if zc < z_old - tol:
+                    w[j, i, 1] = sv
+                    w[j, i, 2] = zc
+                elif zc <= z_old + tol and sv > w[j, i, 1]:
+                    w[j, i, 1] = sv
+            i += 1
+
+
+def _sweep_value(w, i, j, z, res, tol):
+    """Clearance of one cell at tip height ``z`` from the sweeps: negative where not cleared."""
+    ny = w.shape[0]
+    nx = w.shape[1]
+    if i < 0 or j < 0 or i >= nx or j >= ny:
+        return res
+    valid = w[j, i, 2] <= z + tol
+    sv = w[j, i, 1]
+    if w[j, i, 0] <= z + tol:  # cleared down to the tip (or above the stock top)
+        if valid and sv > 0.0:
+            return sv
+        return 0.5 * res
+    if valid and sv < 0.0:
+        return sv
+    return -res
+
+
+def _top(w, i, j):
+    """Material top of one cell [m] (-inf off the grid)."""
+    if i < 0 or j < 0 or i >= w.shape[1] or j >= w.shape[0]:
+        return -_INF
+    return w[j, i, 0]
+
+
+def _stock_value(w, i, j, res):
+    """Signed distance of one cell to the stock outline (negative inside)."""
+    if i < 0 or j < 0 or i >= w.shape[1] or j >= w.shape[0]:
+        return res
+    return w[j, i, 3]
+
+
+def _edge_value(w, x0, y0, res, radius, cx, cy, z, fx, fy, tol, ph):
+    """Interpolated material value at edge angle ``ph`` [rad] (negative: material).
+
+    The larger of the interpolated sweep clearance and the interpolated
+    distance to the stock outline (each a smooth field; their maximum is
+    taken after the interpolation, so an edge near the stock's outline is not
+    blurred). Shifted by ``_EDGE_EPS * res``: an edge point on the boundary of
+    an earlier cut (a pass retracing a wall, the flanks of a slot's own track)
+    is not in material.
+    """
+    sp = math.sin(ph)
+    cp = math.cos(ph)
+    px = cx + radius * (sp * fx - cp * fy)
+    py = cy + radius * (sp * fy + cp * fx)
+    gx = (px - x0) / res - 0.5
+    gy = (py - y0) / res - 0.5
+    i = math.floor(gx)
+    j = math.floor(gy)
+    ux = gx - i
+    uy = gy - j
+    w00 = (1.0 - ux) * (1.0 - uy)
+    w10 = ux * (1.0 - uy)
+    w01 = (1.0 - ux) * uy
+    w11 = ux * uy
+    sweep = (
+        w00 * _sweep_value(w, i, j, z, res, tol)
+        + w10 * _sweep_value(w, i + 1, j, z, res, tol)
+        + w01 * _sweep_value(w, i, j + 1, z, res, tol)
+        + w11 * _sweep_value(w, i + 1, j + 1, z, res, tol)
+    )
+    stock = (
+        w00 * _stock_value(w, i, j, res)
+        + w10 * _stock_value(w, i + 1, j, res)
+        + w01 * _stock_value(w, i, j + 1, res)
+        + w11 * _stock_value(w, i + 1, j + 1, res)
+    )
+    return max(sweep, stock) + _EDGE_EPS * res
+
+
+def _crossing(w, x0, y0, res, radius, cx, cy, z, fx, fy, tol, a, va, b, vb):
+    """Angle [rad] between ``a`` and ``b`` where the value changes sign (bisection, then linear)."""
+    for _ in range(_BISECT):
+        m = 0.5 * (a + b)
+        vm = _edge_value(w, x0, y0, res, radius, cx, cy, z, fx, fy, tol, m)
+        if (vm < 0.0) == (va < 0.0):
+            a = m
+            va = vm
+        else:
+            b = m
+            vb = vm
+    return a + (b - a) * va / (va - vb)
+
+
+def _engage(w, x0, y0, res, radius, cx, cy, z, fx, fy, bottom, tol, nphi, vals, out):
+    """Engagement of the cutting edge at one tool position.
+
+    The front half of the edge is sampled at ``nphi`` angles; each change
+    of sign is refined by bisection. Writes ``out = (phi_entry, phi_exit,
+    n_arcs, depth)``: entry and exit angles [rad] in the feed frame (x along
+    ``(fx, fy)``, y to its left, angle clockwise from +y seen from +z), the
+    number of separate engaged arcs, and the axial depth [m] of the material
+    under the engaged edge (the top one cell inside each engaged edge point
+    above the tip or the stock bottom; for a sliver with nothing there, the
+    highest cell around the edge point). No engagement: ``n_arcs = 0`` and NaN angles.
+    """
+    dphi = math.pi / (nphi - 1)
+    depth = 0.0
+    sliver = 0.0
+    for k in range(nphi):
+        ph = k * dphi
+        v = _edge_value(w, x0, y0, res, radius, cx, cy, z, fx, fy, tol, ph)
+        vals[k] = v
+        if v < 0.0:
+            # the material top one cell inside the engaged edge point (at the edge itself
+            # the top jumps where the edge runs along the wall of an earlier, deeper cut);
+            # where nothing is there (a sliver), the highest cell around the edge point
+            ux = math.sin(ph) * fx - math.cos(ph) * fy
+            uy = math.sin(ph) * fy + math.cos(ph) * fx
+            rin = radius - res
+            top = _top(
+                w, round((cx + rin * ux - x0) / res - 0.5), round((cy + rin * uy - y0) / res - 0.5)
+            )
+            if top > z + tol:
+                depth = max(depth, top - max(z, bottom))
+            else:
+                gi = math.floor((cx + radius * ux - x0) / res - 0.5)
+                gj = math.floor((cy + radius * uy - y0) / res - 0.5)
+                top = max(
+                    max(_top(w, gi, gj), _top(w, gi + 1, gj)),
+                    max(_top(w, gi, gj + 1), _top(w, gi + 1, gj + 1)),
+                )
+                if top > z + tol:
+                    sliver = max(sliver, top - max(z, bottom))
+    narcs = 0
+    entry = math.nan
+    exit_ = math.nan
+    prev = 1.0
+    for k in range(nphi):
+        v = vals[k]
+        if v < 0.0 and prev >= 0.0:
+            narcs += 1
+            if narcs == 1:
+                if k == 0:
+                    entry = 0.0
+                else:
+                    entry = _crossing(
+                        w,
+                        x0,
+                        y0,
+                        res,
+                        radius,
+                        cx,
+                        cy,
+                        z,
+                        fx,
+                        fy,
+                        tol,
+                        (k - 1) * dphi,
+                        prev,
+                        k * dphi,
+                        v,
+                    )
+        prev = v
+    if narcs > 0:
+        if prev < 0.0:
+            exit_ = math.pi
+        else:
+            k = nphi - 1
+            while vals[k - 1] >= 0.0:
+                k -= 1
+            exit_ = _crossing(
+                w,
+                x0,
+                y0,
+                res,
+                radius,
+                cx,
+                cy,
+                z,
+                fx,
+                fy,
+                tol,
+                (k - 1) * dphi,
+                vals[k - 1],
+                k * dphi,
+                vals[k],
+            )
+    out[0] = entry
+    out[1] = exit_
+    out[2] = narcs
+    out[3] = depth if depth > 0.0 else sliver
+
+
+def _run(
+    w,
+    x0,
+    y0,
+    res,
+    radius,
+    band,
+    xyz,
+    cutting,
+    cum,
+    lag,
+    step,
+    turn_cos,
+    bottom,
+    tol,
+    nphi,
+    phi_entry,
+    phi_exit,
+    n_arcs,
+    depth,
+    plunge,
+):
+    """Walk the path: engagement of every cutting move, then its material removal.
+
+    Before move ``i`` is queried, every earlier cutting move that ends at
+    least ``lag`` [m] of path before move ``i``'s end has removed its
+    material (so a chain of tiny moves sees the workpiece as it was ``lag``
+    behind the tool, not the boundary of its own last step). Move ``i`` is
+    sampled at ``lag`` into the move after a turn (when longer than
+    ``2 lag``) and every ``step`` [m] up to its end; the move keeps the
+    smallest entry, the largest exit, the most arcs and the largest depth
+    of its samples.
+    """
+    n = xyz.shape[0]
+    vals = np.empty(nphi)
+    out = np.empty(4)
+    p0 = np.empty(3)
+    p1 = np.empty(3)
+    applied = 0  # moves [0, applied) have removed their material
+    last_dir_x = 0.0
+    last_dir_y = 0.0
+    prev_cut_end = -1
+    for i in range(1, n):
+        if not cutting[i]:
+            last_dir_x = 0.0
+            last_dir_y = 0.0
+            continue
+        # bring the workpiece up to date (lagged for tiny moves)
+        while applied < i and cum[applied] <= cum[i] - lag:
+            m = applied
+            applied += 1
+            if m == 0 or not cutting[m]:
+                continue
+            for c in range(3):
+                p0[c] = xyz[m - 1, c]
+                p1[c] = xyz[m, c]
+            flat = abs(p1[2] - p0[2]) <= tol
+            _sweep(w, x0, y0, res, radius, band, p0, p1, flat and prev_cut_end == m - 1, tol)
+            prev_cut_end = m
+        ax, ay, az = xyz[i - 1, 0], xyz[i - 1, 1], xyz[i - 1, 2]
+        dx, dy, dz = xyz[i, 0] - ax, xyz[i, 1] - ay, xyz[i, 2] - az
+        lxy = math.sqrt(dx * dx + dy * dy)
+        if lxy <= 1e-3 * res:
+            # plunge (or a pure z move): the end face cuts what lies under the tool
+            plunge[i] = True
+            last_dir_x = 0.0
+            last_dir_y = 0.0
+            gi = math.floor((ax - x0) / res)
+            gj = math.floor((ay - y0) / res)
+            top = -_INF
+            if 0 <= gi < w.shape[1] and 0 <= gj < w.shape[0] and w[gj, gi, 3] < 0.0:
+                top = w[gj, gi, 0]
+            d = min(top, max(az, az + dz)) - max(min(az, az + dz), bottom)
+            if dz < 0.0 and d > tol:
+                phi_entry[i] = 0.0
+                phi_exit[i] = math.pi
+                n_arcs[i] = 1
+                depth[i] = d
+            continue
+        fx = dx / lxy
+        fy = dy / lxy
+        nseg = max(1, math.ceil(lxy / step))
+        turned = last_dir_x * fx + last_dir_y * fy < turn_cos
+        last_dir_x = fx
+        last_dir_y = fy
+        first = 1 if (turned and lxy > 2.0 * lag) else 0
+        ent = _INF
+        ext = -_INF
+        arcs = 0
+        dep = 0.0
+        for k in range(1 - first, nseg + 1):
+            t = lag / lxy if k == 0 else k / nseg
+            _engage(
+                w,
+                x0,
+                y0,
+                res,
+                radius,
+                ax + t * dx,
+                ay + t * dy,
+                az + t * dz,
+                fx,
+                fy,
+                bottom,
+                tol,
+                nphi,
+                vals,
+                out,
+            )
+            if out[2] > 0:
+                ent = min(ent, out[0])
+                ext = max(ext, out[1])
+                arcs = max(arcs, int(out[2]))
+                dep = max(dep, out[3])
+        if arcs > 0:
+            phi_entry[i] = ent
+            phi_exit[i] = ext
+            n_arcs[i] = arcs
+            depth[i] = dep
+    # the remaining moves remove their material too (the final workpiece)
+    while applied < n:
+        m = applied
+        applied += 1
+        if m == 0 or not cutting[m]:
+            continue
+        for c in range(3):
+            p0[c] = xyz[m - 1, c]
+            p1[c] = xyz[m, c]
+        flat = abs(p1[2] - p0[2]) <= tol
+        _sweep(w, x0, y0, res, radius, band, p0, p1, flat and prev_cut_end == m - 1, tol)
+        prev_cut_end = m
+
+
+_COMPILED: dict[str, Any] = {}
+
+
+def kernels() -> Any:
+    """``run`` and ``sweep`` compiled with numba where available, else the Python functions."""
+    if "run" not in _COMPILED:
+        if _jit.available():
+            deco = _jit.njit()
+            g = globals()
+            g["_sweep"] = deco(_sweep)
+            g["_sweep_value"] = deco(_sweep_value)
+            g["_stock_value"] = deco(_stock_value)
+            g["_top"] = deco(_top)
+            g["_edge_value"] = deco(_edge_value)
+            g["_crossing"] = deco(_crossing)
+            g["_engage"] = deco(_engage)
+            g["_run"] = deco(_run)
+        _COMPILED["run"] = globals()["_run"]
+        _COMPILED["sweep"] = globals()["_sweep"]
+    return _COMPILED["run"], _COMPILED["sweep"]

@@ -1,0 +1,442 @@
+"""Engagement per move: the Z-map of robolobe.stock against an exact dense reference.
+
+    python studies/engagement.py                      # bundled + two real CAM programs
+    python studies/engagement.py --max-moves 300      # the first 300 cutting moves of each
+    python studies/engagement.py --max-moves 1500 --margins --out studies/engagement.json
+
+For each program (the bundled pocket, contour, face and slot, and the real
+Fusion 360 programs ``freegroup_CamperGaskastenTuer.nc`` (pockets, 2-D
+adaptive, 5 mm cutter) and ``rustyford_Tenon_jig.ngc`` (2-D adaptive at four
+step-downs, inch) from ``../shared/realworld/cam``, read with the project's
+readers) it computes the engagement of every cutting move with
+:func:`robolobe.stock.compute_engagement` on the default stock at the default
+Z-map cell (tool diameter / 40), and the same engagement with an independent
+reference written here:
+
+* no raster at all: a point of the cutting edge is in material when it lies
+  inside the stock outline (even-odd rule, exact) and no earlier sweep of the
+  tool (the exact stadium of each feed move, with the lowest tip height over
+  the part of the move that covers the point) has cleared it down to the
+  tool tip;
+* the front half of the edge sampled every 0.25 deg and each change refined
+  by bisection on that exact test (1e-4 deg); the axial depth is the
+  largest material height one cell inside the engaged edge above the tip (at
+  the edge itself it jumps where the edge runs along an earlier, deeper wall);
+* the same definition of a move's engagement as the production (its
+  samples every quarter diameter and just after a turn, the workpiece as the
+  earlier moves left it, lagged by two cells behind a chain of tiny moves,
+  the widest entry/exit of the samples), re-implemented here.
+
+It prints, per program, the moves compared, the largest and 99th-percentile
+differences of the entry and exit angles (deg) and of the axial depth (mm),
+the moves one calls air and the other not, and the worst move with its
+``file:line``; then, for the bundled programs, the moves whose engagement
+differs from the job's ``cut.radial_width_mm`` (the immersion every move is
+planned at today) by more than 0.05 in a_e/D, with the first lines, and
+(``--margins``) their true margin by the planner's own model: the program is
+planned with its job as today, then the same path is planned again with the
+job's radial engagement set to each move class's own (immersion to 0.05 and
+milling side; a move engaged in the middle of the edge as down milling at its
+immersion), and each move's stability limit in that plan at the speed the
+first plan chose, divided by the depth the first plan chose, is its margin.
+
+Goal (issue 26): every angle within 2 deg of the reference at the stated cell.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import re
+import time
+from importlib import resources
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from robolobe.plan.job import Job, load_job
+from robolobe.plan.paths import read_toolpath
+from robolobe.stock import compute_engagement, default_stock
+
+REPO = Path(__file__).resolve().parents[1]
+REALWORLD = REPO.parent / "shared" / "realworld" / "cam"
+BUNDLED = {
+    "pocket.nc": "job_A_pocket.toml",
+    "contour.apt": "job_B_contour.toml",
+    "face.mod": "job_C_face_steel.toml",
+    "slot.src": "job_A_slot_steel.toml",
+}
+REAL = ("freegroup_CamperGaskastenTuer.nc", "rustyford_Tenon_jig.ngc")
+
+LEVEL_TOL = 1e-5  # m, as robolobe.stock
+TURN_COS = math.cos(math.radians(5.0))
+
+
+# ------------------------------------------------------------ the reference
+def _inside(outline: np.ndarray, x: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Even-odd inside test and distance to the outline's edges."""
+    ins = np.zeros(x.shape, bool)
+    d2 = np.full(x.shape, np.inf)
+    for k in range(len(outline)):
+        ax, ay = outline[k]
+        bx, by = outline[(k + 1) % len(outline)]
+        if (ay > y).any() or (by > y).any():
+            cross = (ay > y) != (by > y)
+            with np.errstate(divide="ignore", invalid="ignore"):
+                xi = ax + (y - ay) * (bx - ax) / (by - ay)
+            ins ^= cross & (x < xi)
+        ex, ey = bx - ax, by - ay
+        t = np.clip(((x - ax) * ex + (y - ay) * ey) / (ex * ex + ey * ey), 0, 1)
+        d2 = np.minimum(d2, (x - ax - t * ex) ** 2 + (y - ay - t * ey) ** 2)
+    return ins, np.sqrt(d2)
+
+
+class Reference:
+    """Exact edge-point material test against every earlier sweep (no grid)."""
+
+    def __init__(self, stock: Any, radius: float, eps: float, res: float) -> None:
+        self.stock = stock
+        self.r = radius
+        self.eps = eps
+        self.res = res
+        self._p0: list[np.ndarray] = []
+        self._p1: list[np.ndarray] = []
+        self.p0 = np.zeros((0, 3))
+        self.p1 = np.zeros((0, 3))
+
+    def add(self, a: np.ndarray, b: np.ndarray) -> None:
+        self._p0.append(a)
+        self._p1.append(b)
+
+    def sync(self) -> None:
+        """Make the sweeps added so far visible to the queries."""
+        if len(self._p0) != len(self.p0):
+            self.p0 = np.array(self._p0)
+            self.p1 = np.array(self._p1)
+
+    def tops(self, q: np.ndarray, near: np.ndarray) -> np.ndarray:
+        """Material top at points q (k, 2): stock top, lowered by the sweeps that covered them."""
+        top = np.full(len(q), self.stock.z_top)
+        if not near.size:
+            return top
+        rr = self.r + self.eps
+        a, b = self.p0[near], self.p1[near]  # (m, 3)
+        d = b[:, :2] - a[:, :2]
+        l2 = np.einsum("ij,ij->i", d, d)
+        rel = q[:, None, :] - a[None, :, :2]  # (k, m, 2)
+        r2 = np.einsum("kmi,kmi->km", rel, rel)
+        bb = np.einsum("kmi,mi->km", rel, d)
+        moving = l2 > 0.0
+        safe = np.where(moving, l2, 1.0)
+        disc = bb * bb - safe * (r2 - rr * rr)
+        sq = np.sqrt(np.maximum(disc, 0.0))
+        t1 = (bb - sq) / safe
+        t2 = (bb + sq) / safe
+        cov = np.where(moving, (disc >= 0) & (t2 >= 0) & (t1 <= 1), r2 <= rr * rr)
+        za, dz = a[:, 2], b[:, 2] - a[:, 2]
+        t1 = np.clip(t1, 0, 1)
+        t2 = np.clip(t2, 0, 1)
+        lev = np.where(moving, np.minimum(za + t1 * dz, za + t2 * dz), np.minimum(a[:, 2], b[:, 2]))
+        return np.minimum(top, np.where(cov, lev, np.inf).min(axis=1))
+
+    def material(self, q: np.ndarray, z: float, near: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        ins, dist = _inside(self.stock.outline, q[:, 0], q[:, 1])
+        top = self.tops(q, near)
+        mat = ins & (dist > self.eps) & (top > z + LEVEL_TOL)
+        return mat, top
+
+    def near(self, c: np.ndarray) -> np.ndarray:
+        self.sync()
+        if not len(self.p0):
+            return np.zeros(0, np.int64)
+        lo = np.minimum(self.p0[:, :2], self.p1[:, :2]) - 2 * self.r - 2 * self.eps
+        hi = np.maximum(self.p0[:, :2], self.p1[:, :2]) + 2 * self.r + 2 * self.eps
+        return np.flatnonzero(np.all((c >= lo) & (c <= hi), axis=1))
+
+    def engage(self, c: np.ndarray, z: float, f: np.ndarray) -> tuple[float, float, int, float]:
+        near = self.near(c)
+        left = np.array([-f[1], f[0]])
+
+        def pts(ph: np.ndarray) -> np.ndarray:
+            return c + self.r * (np.sin(ph)[:, None] * f + np.cos(ph)[:, None] * left)
+
+        ph = np.linspace(0.0, math.pi, 721)
+        mat, top = self.material(pts(ph), z, near)
+        if not mat.any():
+            return math.nan, math.nan, 0, 0.0
+        # the material height one cell inside the engaged edge (at the edge itself it
+        # jumps where the edge runs along the wall of an earlier, deeper cut)
+        inner = c + (self.r - self.res) * (
+            np.sin(ph[mat])[:, None] * f + np.cos(ph[mat])[:, None] * left
+        )
+        top_in = self.tops(inner, near)
+        base = max(z, self.stock.z_bottom)
+        deep = top_in > z + LEVEL_TOL
+        depth = float(np.max((top_in if deep.any() else top[mat]) - base, initial=0.0))
+        runs = int(np.sum(mat & ~np.r_[False, mat[:-1]]))
+
+        def refine(a: float, b: float, a_mat: bool) -> float:
+            for _ in range(12):
+                m = 0.5 * (a + b)
+                if bool(self.material(pts(np.array([m])), z, near)[0][0]) == a_mat:
+                    a = m
+                else:
+                    b = m
+            return 0.5 * (a + b)
+
+        k0 = int(np.argmax(mat))
+        k1 = len(mat) - 1 - int(np.argmax(mat[::-1]))
+        entry = 0.0 if k0 == 0 else refine(ph[k0 - 1], ph[k0], False)
+        exit_ = math.pi if k1 == len(mat) - 1 else refine(ph[k1], ph[k1 + 1], True)
+        return entry, exit_, runs, depth
+
+
+def reference_engagement(
+    xyz: np.ndarray, cut: np.ndarray, diameter: float, stock: Any, res: float, max_moves: int
+) -> dict[str, np.ndarray]:
+    """The reference per move (NaN where not compared: plunges, moves past ``max_moves``)."""
+    n = len(xyz)
+    r = 0.5 * diameter
+    lag, step, eps = 2.0 * res, 0.5 * r, 0.01 * res
+    ref = Reference(stock, r, eps, res)
+    cum = np.r_[0.0, np.cumsum(np.linalg.norm(np.diff(xyz, axis=0), axis=1))]
+    entry = np.full(n, np.nan)
+    exit_ = np.full(n, np.nan)
+    depth = np.full(n, np.nan)
+    arcs = np.zeros(n, np.int64)
+    compared = np.zeros(n, bool)
+    applied = 0
+    last = np.zeros(2)
+    done = 0
+    for i in range(1, n):
+        if not cut[i]:
+            last = np.zeros(2)
+            continue
+        while applied < i and cum[applied] <= cum[i] - lag:
+            if applied > 0 and cut[applied]:
+                ref.add(xyz[applied - 1], xyz[applied])
+            applied += 1
+        a, b = xyz[i - 1], xyz[i]
+        d = b - a
+        lxy = math.hypot(d[0], d[1])
+        if lxy <= 1e-3 * res:
+            last = np.zeros(2)
+            continue
+        if done >= max_moves:
+            continue
+        done += 1
+        f = d[:2] / lxy
+        nseg = max(1, math.ceil(lxy / step))
+        ts = [k / nseg for k in range(1, nseg + 1)]
+        if float(last @ f) < TURN_COS and lxy > 2 * lag:
+            ts.insert(0, lag / lxy)
+        last = f
+        es, xs, ds, rs = [], [], [], []
+        for t in ts:
+            e, x, na, dp = ref.engage(a[:2] + t * d[:2], a[2] + t * d[2], f)
+            if na:
+                es.append(e)
+                xs.append(x)
+                ds.append(dp)
+                rs.append(na)
+        compared[i] = True
+        if es:
+            entry[i], exit_[i], depth[i], arcs[i] = min(es), max(xs), max(ds), max(rs)
+        else:
+            depth[i] = 0.0
+    while applied < n:
+        applied += 1
+    return {"entry": entry, "exit": exit_, "depth": depth, "arcs": arcs, "compared": compared}
+
+
+# ------------------------------------------------------------------ margins
+def true_margins(path: Path, job: Job, imm: np.ndarray, milling: np.ndarray) -> dict[str, Any]:
+    """Margin of each cutting move at its own engagement, by the planner's own model."""
+    import dataclasses
+
+    from robolobe.plan.pipeline import plan_path
+
+    base = plan_path(path, job)
+    tab = base.table
+    ci = base.cut_index
+    rpm = tab["rpm"].to_numpy()[ci]
+    depth = tab["depth_mm"].to_numpy()[ci] * 1e-3
+    planned = tab["margin"].to_numpy()[ci]
+    own = np.full(len(ci), np.nan)
+    cls_imm = np.round(imm[ci] / 0.05) * 0.05
+    side = np.where(milling[ci] == "up", "up", "down")
+    engaged = np.isfinite(cls_imm) & (cls_imm > 0)
+    for key in sorted(
+        {(float(a), str(s)) for a, s in zip(cls_imm[engaged], side[engaged], strict=True)}
+    ):
+        a, s = key
+        members = np.flatnonzero(engaged & (cls_imm == a) & (side == s))
+        cut = dataclasses.replace(
+            job.cut, radial_width_m=min(a, 1.0) * job.tool.diameter_m, milling=s
+        )
+        other = plan_path(path, job.replace(cut=cut))
+        lt = other.lobes.table
+        g = lt.group[members]
+        if lt.exact is not None:
+            lim = lt.exact(rpm[members][:, None], g)[:, 0]
+        else:
+            lim = np.array(
+                [np.interp(r, lt.rpm, lt.a_lim[k]) for r, k in zip(rpm[members], g, strict=True)]
+            )
+        own[members] = lim / depth[members]
+    sf = job.plan.safety_factor
+    lines = tab["line"].to_numpy()[ci]
+    low = np.flatnonzero(own < sf)
+    worst = int(np.nanargmin(own)) if np.isfinite(own).any() else -1
+    return {
+        "safety_factor": sf,
+        "planned_min_margin": float(np.nanmin(planned)),
+        "own_min_margin": float(own[worst]) if worst >= 0 else math.nan,
+        "own_min_line": int(lines[worst]) if worst >= 0 else 0,
+        "own_min_planned_margin": float(planned[worst]) if worst >= 0 else math.nan,
+        "moves_below_safety_factor": int(low.size),
+        "lines_below_safety_factor": sorted({int(x) for x in lines[low]})[:12],
+    }
+
+
+# ------------------------------------------------------------------ programs
+def _diameter_from_header(path: Path) -> float:
+    text = path.read_text(errors="replace")[:3000]
+    m = re.search(r"D=([0-9.]+)", text)
+    if not m:
+        raise SystemExit(f"{path.name}: no 'D=' tool diameter in the header")
+    d = float(m.group(1))
+    inch = re.search(r"\bG20\b", text) is not None
+    return d * (25.4e-3 if inch else 1e-3)
+
+
+def programs() -> list[tuple[str, Path, float, Job | None]]:
+    """(name, file, tool diameter [m], the bundled job or None)."""
+    ex = resources.files("robolobe.data.examples")
+    out: list[tuple[str, Path, float, Job | None]] = []
+    for prog, jobname in BUNDLED.items():
+        with resources.as_file(ex.joinpath(jobname)) as jp:
+            job = load_job(jp)
+        with resources.as_file(ex.joinpath(prog)) as pp:
+            out.append((prog, Path(pp), job.tool.diameter_m, job))
+    for name in REAL:
+        p = REALWORLD / name
+        if p.is_file():
+            out.append((name, p, _diameter_from_header(p), None))
+        else:
+            print(f"{name}: not found under {REALWORLD} (skipped)")
+    return out
+
+
+def study(max_moves: int, margins: bool) -> list[dict[str, Any]]:
+    rows = []
+    for name, path, diameter, job in programs():
+        immersion = job.radial_immersion if job is not None else None
+        wp = read_toolpath(path)
+        xyz = wp[["x_m", "y_m", "z_m"]].to_numpy()
+        cut = (wp["motion"] == "cut").to_numpy()
+        lines = wp["line"].to_numpy()
+        stock = default_stock(xyz, cut, 0.5 * diameter)
+        t = time.process_time()
+        e = compute_engagement(xyz, cut, diameter, stock, axis=wp[["i", "j", "k"]].to_numpy())
+        t_prod = time.process_time() - t
+        t = time.process_time()
+        ref = reference_engagement(xyz, cut, diameter, stock, e.resolution_m, max_moves)
+        t_ref = time.process_time() - t
+        cmp_ = ref["compared"] & ~e.plunge
+        both = cmp_ & e.engaged & (ref["arcs"] > 0)
+        air_mismatch = cmp_ & (e.engaged != (ref["arcs"] > 0))
+        de = np.degrees(np.abs(e.phi_entry - ref["entry"]))[both]
+        dx = np.degrees(np.abs(e.phi_exit - ref["exit"]))[both]
+        dd = np.abs(e.depth_m - ref["depth"])[both] * 1e3
+        worst = np.maximum(de, dx)
+        idx = np.flatnonzero(both)
+        row: dict[str, Any] = {
+            "program": name,
+            "tool_mm": round(diameter * 1e3, 3),
+            "cell_mm": round(e.resolution_m * 1e3, 4),
+            "moves": int(cut[1:].sum()),
+            "compared": int(cmp_.sum()),
+            "engaged": int(both.sum()),
+            "air_mismatch": int(air_mismatch.sum()),
+            "max_entry_err_deg": float(de.max()) if de.size else 0.0,
+            "max_exit_err_deg": float(dx.max()) if dx.size else 0.0,
+            "p99_angle_err_deg": float(np.percentile(worst, 99)) if worst.size else 0.0,
+            "over_2deg": int((worst > 2.0).sum()),
+            "max_depth_err_mm": float(dd.max()) if dd.size else 0.0,
+            "worst_line": f"{name}:{int(lines[idx[np.argmax(worst)]])}" if worst.size else "",
+            "cpu_s_engagement": round(t_prod, 3),
+            "cpu_s_reference": round(t_ref, 1),
+        }
+        if air_mismatch.any():
+            k = np.flatnonzero(air_mismatch)
+            row["air_mismatch_lines"] = [f"{name}:{int(lines[j])}" for j in k[:5]]
+        if immersion is not None:
+            imm = e.immersion
+            wrong = e.engaged & (np.abs(imm - immersion) > 0.05)
+            over = e.engaged & (imm > immersion + 0.05)
+            row["job_immersion"] = round(immersion, 3)
+            row["wrong_immersion_moves"] = int(wrong.sum())
+            row["under_planned_moves"] = int(over.sum())
+            row["air_moves"] = int(e.air[1:].sum())
+            first = np.flatnonzero(over)[:6]
+            row["under_planned_lines"] = [
+                f"{name}:{int(lines[j])} ae/D {imm[j]:.2f} ({e.milling()[j]})" for j in first
+            ]
+            if margins and job is not None:
+                row["margins"] = true_margins(path, job, imm, e.milling())
+        rows.append(row)
+        print(_line(row))
+    return rows
+
+
+def _line(r: dict[str, Any]) -> str:
+    s = (
+        f"{r['program']}: D {r['tool_mm']} mm, cell {r['cell_mm']} mm, {r['compared']} of "
+        f"{r['moves']} moves compared ({r['engaged']} cutting in both, {r['air_mismatch']} "
+        f"air in one only): max angle error entry {r['max_entry_err_deg']:.3f} / exit "
+        f"{r['max_exit_err_deg']:.3f} deg (p99 {r['p99_angle_err_deg']:.3f}, "
+        f"{r['over_2deg']} over 2 deg, worst {r['worst_line']}), depth "
+        f"{r['max_depth_err_mm']:.4f} mm; CPU {r['cpu_s_engagement']} s "
+        f"(reference {r['cpu_s_reference']} s)"
+    )
+    if "job_immersion" in r:
+        s += (
+            f"\n    planned today at a_e/D = {r['job_immersion']} everywhere: "
+            f"{r['wrong_immersion_moves']} moves off by > 0.05, {r['under_planned_moves']} "
+            f"engaged wider than planned, {r['air_moves']} feed moves in air; first: "
+            + "; ".join(r["under_planned_lines"])
+        )
+    if "margins" in r:
+        m = r["margins"]
+        s += (
+            f"\n    margin by the planner's own model at each move's own engagement: smallest "
+            f"{m['own_min_margin']:.2f} at line {m['own_min_line']} (the plan states "
+            f"{m['own_min_planned_margin']:.2f} there; its smallest stated "
+            f"{m['planned_min_margin']:.2f}); {m['moves_below_safety_factor']} moves below the "
+            f"safety factor {m['safety_factor']:g}, lines {m['lines_below_safety_factor']}"
+        )
+    if r.get("air_mismatch_lines"):
+        s += "\n    air in one only: " + ", ".join(r["air_mismatch_lines"])
+    return s
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--max-moves", type=int, default=10**9, help="moves compared per program")
+    ap.add_argument("--out", type=Path, help="write the rows as JSON")
+    ap.add_argument(
+        "--margins", action="store_true", help="bundled programs: margins at their own engagement"
+    )
+    args = ap.parse_args()
+    rows = study(args.max_moves, args.margins)
+    worst = max((max(r["max_entry_err_deg"], r["max_exit_err_deg"]) for r in rows), default=0)
+    print(f"largest angle error over all programs: {worst:.3f} deg (goal: within 2 deg)")
+    if args.out:
+        args.out.write_text(json.dumps(rows, indent=1), encoding="utf-8")
+
+
+if __name__ == "__main__":
+    main()
