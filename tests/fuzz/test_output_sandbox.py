@@ -681,3 +681,28 @@ def test_python_writers_stay_inside(tmp_path: Path, pocket_plan, pid: str) -> No
         with pytest.raises(InputError, match="cannot be a file name"):
             rl.write_campaign(sb.w / "c", camp, fmt="uff")
     sb.check(sb.w / "plan", sb.w / "c")
+
+
+def test_program_writes_only_the_file_named(
+    box: Sandbox, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """program PLAN -o FILE: a link at FILE is replaced (its target kept); a folder is refused."""
+    code, err = _cli(_plan_argv("out"), capsys)
+    assert code == 0, err
+    prog = box.w / "prog"
+    prog.mkdir()
+    (prog / "p.nc").symlink_to(box.root / "sentinel.txt")
+    (prog / "d.nc").mkdir()
+    box.freeze()
+    code, err = _cli(["program", "out", "-o", str(prog / "d.nc")], capsys)
+    _one_line_refusal(code, err)
+    box.check(prog)
+    code, err = _cli(["program", "out", "-o", str(prog / "p.nc")], capsys)
+    assert code == 0, err
+    box.check(prog, named=(prog / "p.nc",))
+    assert not (prog / "p.nc").is_symlink()
+    from robolobe.plan.paths import read_toolpath
+
+    back = read_toolpath(prog / "p.nc")
+    assert back.loc[back["motion"] == "cut", "rpm_programmed"].notna().all()
+    assert (box.root / "sentinel.txt").read_text() == "parent sentinel"
