@@ -29,3 +29,33 @@ def test_error_line_keeps_bracketed_key_paths(tmp_path: Path) -> None:
     assert "[[joints]]" in lines[0]
     assert "bad.toml" in lines[0]
     assert not out.exists()
+
+
+@pytest.mark.parametrize(
+    ("argv", "names"),
+    [
+        (["simulate", "B", "--design", "seed", "-o", "c", "--seed", "-1"], "--seed"),
+        (["plan", "--nonsense"], "--nonsense"),
+        (["bogus-command"], "bogus-command"),
+        (["sld", "--modes"], "--modes"),
+        (["identify", "camp", "-o", "m.csv", "--jobs", "x"], "--jobs"),
+    ],
+)
+def test_usage_errors_are_one_line(
+    argv: list[str], names: str, tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
+    capsys: pytest.CaptureFixture[str],
+) -> None:  # fmt: skip
+    """Click's usage errors print one ``error:`` line naming the option, exit 2, no files."""
+    from robolobe.cli.main import main
+
+    monkeypatch.chdir(tmp_path)
+    with pytest.raises(SystemExit) as info:
+        main(argv)
+    out = capsys.readouterr()
+    lines = [ln for ln in out.err.splitlines() if ln.strip()]
+    assert info.value.code == 2
+    assert len(lines) == 1, out.err
+    assert lines[0].startswith("error: robolobe"), out.err
+    assert names in lines[0]
+    assert "--help" in lines[0]
+    assert list(tmp_path.iterdir()) == []

@@ -10,6 +10,7 @@ from __future__ import annotations
 import importlib
 import logging
 import sys
+from typing import Any
 
 import typer
 
@@ -100,6 +101,13 @@ def _show_warnings() -> None:
         log.addHandler(handler)
 
 
+#: Click's usage error (a bad option, value or command), found through typer's public
+#: ``BadParameter`` because typer vendors click in a private module. Caught so that it
+#: prints one ``error:`` line like every other input error, not click's four lines.
+_USAGE_ERROR: Any = next(c for c in typer.BadParameter.__mro__ if c.__name__ == "UsageError")
+_ABORT: type[BaseException] = typer.Abort
+
+
 class _Terminated(BaseException):
     """SIGTERM as an exception: the ``finally`` blocks run (temporary files of
     the atomic writers are removed, worker pools terminate their workers
@@ -125,7 +133,19 @@ def main(argv: list[str] | None = None) -> None:
     if threading.current_thread() is threading.main_thread():
         signal.signal(signal.SIGTERM, _on_sigterm)
     try:
-        app(args=argv, standalone_mode=True)
+        code = app(args=argv, prog_name="robolobe", standalone_mode=False)
+    except _USAGE_ERROR as exc:
+        if type(exc).__name__ == "NoArgsIsHelpError":
+            exc.show()  # the help text, as with any command given no arguments
+            sys.exit(2)
+        ctx = exc.ctx
+        path = ctx.command_path if ctx is not None else "robolobe"
+        where, hint = f"{path}: ", f" (see {path} --help)"
+        err_console.print(error_line(f"{where}{exc.format_message()}{hint}"), soft_wrap=True)
+        sys.exit(2)
+    except _ABORT:
+        err_console.print("aborted", style="bold red")
+        sys.exit(1)
     except RobolobeError as exc:
         err_console.print(error_line(exc), soft_wrap=True)
         sys.exit(exc.exit_code)
@@ -142,6 +162,8 @@ def main(argv: list[str] | None = None) -> None:
     except KeyboardInterrupt:
         err_console.print("interrupted", style="bold red")
         sys.exit(130)
+    if isinstance(code, int) and code:
+        sys.exit(code)
 
 
 if __name__ == "__main__":
