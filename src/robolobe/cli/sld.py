@@ -105,7 +105,7 @@ def register(app: typer.Typer) -> None:
             ),
         ] = None,
         intervals: Annotated[
-            int, typer.Option("--intervals", help="SDM intervals per tooth period.")
+            int, typer.Option("--intervals", help="SDM intervals per tooth period (2 to 400).")
         ] = 40,
         safety: Annotated[
             float | None,
