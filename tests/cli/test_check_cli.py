@@ -20,9 +20,9 @@ def test_missing_s_is_one_line_exit_2_nothing_written(tmp_path: Path) -> None:
     r = run(["check", str(p), "--job", str(EX / "job_A_pocket.toml"), "-o", "out"], tmp_path)
     assert r.returncode == 2, r.stderr
     lines = [ln for ln in r.stderr.splitlines() if ln.strip()]
-    assert (
-        len(lines) == 1 and "nos.nc:3" in lines[0]
-    )  # the plunge into the default stock and "spindle speed S" in lines[0]
+    assert len(lines) == 1
+    assert "nos.nc:3" in lines[0]  # the plunge into the default stock
+    assert "spindle speed S" in lines[0]
     assert "--rpm" in lines[0]
     assert not (tmp_path / "out").exists()
 
@@ -36,7 +36,8 @@ def test_a_foreign_check_csv_is_refused_before_the_work(tmp_path: Path) -> None:
         tmp_path,
     )
     assert r.returncode == 2
-    assert "check.csv" in r.stderr and "Traceback" not in r.stderr
+    assert "check.csv" in r.stderr
+    assert "Traceback" not in r.stderr
     assert (out / "check.csv").read_text() == "mine\n"
 
 
@@ -48,9 +49,11 @@ def test_pocket_as_written_exit_4_names_the_lines(tmp_path: Path) -> None:
     )
     assert r.returncode == 4, r.stderr
     s = json.loads((tmp_path / "out" / "check.json").read_text())
-    assert s["n_beyond_limit"] > 0 and s["min_margin"] < 1
+    assert s["n_beyond_limit"] > 0
+    assert s["min_margin"] < 1
     assert "beyond limit: pocket.nc:" in r.stderr
-    assert "pocket.nc as written" in r.stdout and "min margin" in r.stdout
+    assert "pocket.nc as written" in r.stdout
+    assert "min margin" in r.stdout
     t = pd.read_csv(tmp_path / "out" / "check.csv")
     row = t[t["line"] == 12].iloc[0]  # the full-width centre slot
     assert row["ae_over_D"] == pytest.approx(1.0, abs=1e-3)

@@ -91,7 +91,8 @@ def test_straight_slot_at_its_own_speeds_matches_the_reference_zoa(slot: Path) -
     t = res.table.set_index("line")
     for line, rpm, feed in ((5, 12000.0, 1200.0), (7, 15000.0, 1500.0)):
         row = t.loc[line]
-        assert row["rpm"] == rpm and row["feed_mm_per_min"] == feed
+        assert row["rpm"] == rpm
+        assert row["feed_mm_per_min"] == feed
         assert row["feed_per_tooth_mm"] == pytest.approx(feed / (3 * rpm))
         assert row["ae_over_D"] == pytest.approx(1.0)
         assert (row["phi_entry_deg"], row["phi_exit_deg"]) == pytest.approx((0.0, 180.0), abs=0.2)
@@ -110,7 +111,8 @@ def test_air_moves_have_no_limit(slot: Path) -> None:
     t = res.table.set_index("line")
     for line in (4, 8, 9):  # beside the stock, the retract out of the cut slot, above
         assert t.loc[line, "status"] == "air"
-        assert np.isnan(t.loc[line, "a_lim_mm"]) and np.isnan(t.loc[line, "margin"])
+        assert np.isnan(t.loc[line, "a_lim_mm"])
+        assert np.isnan(t.loc[line, "margin"])
         assert t.loc[line, "depth_mm"] == 0.0
     assert res.summary["counts"]["air"] == 3
     # the bounded moves alone decide the minimum margin and the exit
@@ -141,7 +143,7 @@ def test_write_check_refuses_a_foreign_file_and_writes_the_set(slot: Path, tmp_p
     out = tmp_path / "out"
     out.mkdir()
     (out / "check.csv").write_text("mine\n")
-    with pytest.raises(InputError, match="check.csv"):
+    with pytest.raises(InputError, match=r"check\.csv"):
         write_check(res, out, plots=False)
     assert (out / "check.csv").read_text() == "mine\n"
     out2 = tmp_path / "out2"
@@ -160,7 +162,8 @@ def test_user_text_is_escaped_in_the_report(tmp_path: Path) -> None:
     res = check_program(p, _job(**STOCK), source=_source())
     write_check(res, tmp_path / "o", plots=False)
     html = (tmp_path / "o" / "report.html").read_text()
-    assert "<b>x" not in html and "&lt;b&gt;x" in html
+    assert "<b>x" not in html
+    assert "&lt;b&gt;x" in html
 
 
 @pytest.fixture(scope="module")
@@ -178,12 +181,14 @@ def test_bundled_pocket_first_move_is_a_full_slot_at_its_own_speed(pocket: Any) 
     assert row["ae_over_D"] == pytest.approx(1.0, abs=1e-3)
     assert (row["phi_entry_deg"], row["phi_exit_deg"]) == pytest.approx((0.0, 180.0), abs=0.2)
     assert row["depth_mm"] == pytest.approx(5.0, abs=1e-6)  # ZMIN=-5. from the default stock
-    assert row["rpm"] == 18000 and row["feed_per_tooth_mm"] == pytest.approx(0.1)
+    assert row["rpm"] == 18000
+    assert row["feed_per_tooth_mm"] == pytest.approx(0.1)
     assert row["margin"] == pytest.approx(row["a_lim_mm"] / 5.0)
     m = row["margin"]
     assert row["status"] == ("beyond limit" if m < 1 else "inside SF" if m < 1.3 else "ok")
     # the pocket as written has moves beyond their limit (exit 4), each named
-    assert pocket.n_beyond > 0 and not pocket.ok
+    assert pocket.n_beyond > 0
+    assert not pocket.ok
     assert pocket.min_margin < 1.0
     assert all(s.startswith("pocket.nc:") for s in pocket.beyond)
     assert pocket.summary["counts"]["plunge"] == 1  # N40 Z-5. (no lateral limit)

@@ -87,7 +87,7 @@ def register(app: typer.Typer) -> None:
             str(c["beyond limit"]),
             str(c["air"]),
             str(c["plunge"]),
-            f"{res.min_margin:.3f} at {res.min_margin_at}" if s["min_margin"] else "-",
+            f"{res.min_margin:.3f}" if s["min_margin"] is not None else "-",
         )
         console.print(table)
         for note in res.notes:
@@ -110,6 +110,8 @@ def register(app: typer.Typer) -> None:
             err_console.print(
                 f"... and {count(len(risk) - SHOWN_LINES, 'more move')} at risk (check.csv)"
             )
+        if s["min_margin"] is not None:
+            console.print(f"minimum margin {res.min_margin:.3f} at {shown(res.min_margin_at)}")
         console.print(
             f"{count(res.n_beyond, 'move')} beyond the limit; outputs in {shown(output)}/ "
             f"({', '.join(CHECK_FILES if plots else CHECK_FILES[:2] + CHECK_FILES[3:])})"

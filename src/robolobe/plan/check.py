@@ -297,8 +297,7 @@ def check_program(
     if low:
         notes.append(
             f"low-immersion engagement at {len(low)} bin corners ({sum(m for m, _ in low)} "
-            "move-corners): "
-            + low[-1][1]
+            "move-corners): " + low[-1][1]
         )
     depth = eng.depth_m[ci]
     bounded = on & ~plunge
