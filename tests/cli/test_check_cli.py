@@ -58,7 +58,7 @@ def test_pocket_as_written_exit_4_names_the_lines(tmp_path: Path) -> None:
     row = t[t["line"] == 12].iloc[0]  # the full-width centre slot
     assert row["ae_over_D"] == pytest.approx(1.0, abs=1e-3)
     assert row["status"] in ("beyond limit", "inside SF")  # margin ~1.04 at S18000, a_p 5 mm
-    for name in ("check.csv", "check.json", "check_margin.png", "report.html"):
+    for name in ("check.csv", "check.json", "check_margin.png", "check_report.html"):
         assert (tmp_path / "out" / name).is_file()
 
 
@@ -71,13 +71,17 @@ def test_the_plans_own_program_is_checked_the_same_way(tmp_path: Path) -> None:
     assert r.returncode == 0, r.stderr
     prog = tmp_path / "plan" / "program.nc"
     assert prog.is_file()
-    r = run(["check", str(prog), "--job", str(job), "-o", "chk"], tmp_path)
+    report = (tmp_path / "plan" / "report.html").read_bytes()
+    # checked into the plan's own folder: the plan's files stay as they were
+    r = run(["check", str(prog), "--job", str(job), "-o", "plan"], tmp_path)
     assert r.returncode in (0, 4), r.stderr
-    t = pd.read_csv(tmp_path / "chk" / "check.csv")
+    assert (tmp_path / "plan" / "report.html").read_bytes() == report
+    assert prog.is_file()
+    t = pd.read_csv(tmp_path / "plan" / "check.csv")
     plan = pd.read_csv(tmp_path / "plan" / "waypoints.csv")
     cut = plan[plan["motion"] == "cut"]
     # every move at the S the plan wrote into the program, not the original S18000
     assert len(t) == len(cut)
     assert t["rpm"].to_numpy() == pytest.approx(cut["rpm"].to_numpy(), rel=1e-6)
     assert (t["rpm"] != 18000).any()
-    assert "program.nc:" in (tmp_path / "chk" / "check.json").read_text()
+    assert "program.nc:" in (tmp_path / "plan" / "check.json").read_text()

@@ -148,7 +148,7 @@ def test_write_check_refuses_a_foreign_file_and_writes_the_set(slot: Path, tmp_p
     assert (out / "check.csv").read_text() == "mine\n"
     out2 = tmp_path / "out2"
     write_check(res, out2)
-    for name in ("check.csv", "check.json", "check_margin.png", "report.html"):
+    for name in ("check.csv", "check.json", "check_margin.png", "check_report.html"):
         assert (out2 / name).is_file(), name
     s = json.loads((out2 / "check.json").read_text())
     assert s["n_beyond_limit"] == res.n_beyond
@@ -161,7 +161,7 @@ def test_user_text_is_escaped_in_the_report(tmp_path: Path) -> None:
     p.write_text(SLOT, encoding="utf-8")
     res = check_program(p, _job(**STOCK), source=_source())
     write_check(res, tmp_path / "o", plots=False)
-    html = (tmp_path / "o" / "report.html").read_text()
+    html = (tmp_path / "o" / "check_report.html").read_text()
     assert "<b>x" not in html
     assert "&lt;b&gt;x" in html
 

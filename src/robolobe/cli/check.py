@@ -38,7 +38,7 @@ def register(app: typer.Typer) -> None:
             typer.Option(
                 "-o",
                 "--output",
-                help="Output folder: check.csv, check.json, check_margin.png, report.html.",
+                help="Output folder: check.csv, check.json, check_margin.png, check_report.html.",
             ),
         ],
         rpm: Annotated[

@@ -426,8 +426,9 @@ def plot_check_margin(res: CheckResult) -> Any:
     return fig
 
 
-#: The files :func:`write_check` writes (checked before a run: :mod:`robolobe._atomic`).
-CHECK_FILES: tuple[str, ...] = ("check.csv", "check.json", "check_margin.png", "report.html")
+#: The files :func:`write_check` writes (checked before a run: :mod:`robolobe._atomic`);
+#: not ``report.html``: a check written into a plan's folder keeps the plan's report.
+CHECK_FILES: tuple[str, ...] = ("check.csv", "check.json", "check_margin.png", "check_report.html")
 
 
 def _html(res: CheckResult, png: bool, n: int = 50) -> str:
@@ -477,7 +478,7 @@ def _html(res: CheckResult, png: bool, n: int = 50) -> str:
 
 
 def write_check(res: CheckResult, out_dir: str | os.PathLike[str], *, plots: bool = True) -> Path:
-    """Write check.csv, check.json, check_margin.png and report.html atomically.
+    """Write check.csv, check.json, check_margin.png and check_report.html atomically.
 
     A re-run replaces the set; other files in ``out_dir`` are kept, a file
     robolobe did not write is never replaced (:func:`robolobe._atomic.atomic_dir`,
