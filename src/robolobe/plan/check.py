@@ -278,6 +278,7 @@ def check_program(
     classes = sorted({tuple(float(v) for v in b) for b in bins[on]})
     low: list[tuple[int, str]] = []  # (moves, the lobes' warning) of low-immersion corners
     n_lobes = 0
+    robust = False  # the job's plan.robust, as the planner decides it
     for cls in classes:
         k = np.flatnonzero(on & np.all(bins == np.asarray(cls), axis=1))
         wk = ci[k]
@@ -285,9 +286,10 @@ def check_program(
         f_k = feed_tcp(wp, poses, r_wp, wk)
         lim = np.full(k.size, np.inf)
         for corner in _corners(*cls):
-            _, pl, grouped, _, _, _ = cut_lobes(
+            _, pl, grouped, _, _, bound = cut_lobes(
                 job, modes, f_k, material, tool, grid, engagement=corner
             )
+            robust = robust or bound is not None
             n_lobes += 1
             if not grouped.valid and grouped.message:
                 low.append((k.size, grouped.message))
@@ -369,6 +371,7 @@ def check_program(
         "n_engagement_classes": len(classes),
         "n_lobe_computations": n_lobes,
         "safety_factor": sf,
+        "robust": robust,
         "n_feed_moves": n,
         "counts": counts,
         "n_bounded": int(np.sum(bounded)),
