@@ -67,6 +67,7 @@ _API: dict[str, tuple[str, str]] = {
     "write_plan": ("robolobe.plan.report", "write_outputs"),
     "write_program": ("robolobe.plan.program", "write_program"),
     "verify": ("robolobe.plan.verify", "verify_plan"),
+    "check_program": ("robolobe.plan.check", "check_program"),
     "compare_robots": ("robolobe.plan.compare", "compare_robots"),
     # diagnosis (not "diagnose": importing robolobe.diagnose would replace it
     # by the subpackage of that name)

@@ -66,6 +66,7 @@ def _root(
 _COMMAND_MODULES = (
     "plan",
     "verify",
+    "check",
     "program",
     "simulate",
     "identify",

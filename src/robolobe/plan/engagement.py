@@ -30,8 +30,14 @@ __all__ = ["engagement_note", "stock_engagement"]
 WIDER_BY = 0.05
 
 
-def stock_engagement(job: Job, wp: pd.DataFrame, path_name: str) -> Engagement | None:
+def stock_engagement(
+    job: Job, wp: pd.DataFrame, path_name: str, *, default: bool = False
+) -> Engagement | None:
     """Engagement of every move of ``wp`` on the job's stock (None without ``[stock]``).
+
+    With ``default`` a job without ``[stock]`` gets the stock the program implies
+    (:func:`robolobe.stock.default_stock`, its note in ``Engagement.notes``) at the
+    default Z-map cell.
 
     Raises
     ------
@@ -40,13 +46,13 @@ def stock_engagement(job: Job, wp: pd.DataFrame, path_name: str) -> Engagement |
         file and ``stock``), a tilted tool on a cutting move (naming the
         path's line), a Z-map cell out of range.
     """
-    if job.stock is None:
+    if job.stock is None and not default:
         return None
     xyz = wp[["x_m", "y_m", "z_m"]].to_numpy(dtype=np.float64)
     cut = (wp["motion"] == "cut").to_numpy()
     lines = wp["line"].to_numpy()
     radius = 0.5 * job.tool.diameter_m
-    stock = job.stock.shape
+    stock = job.stock.shape if job.stock is not None else None
     if stock is None:
         stock = default_stock(xyz, cut, radius)
     else:
@@ -56,7 +62,7 @@ def stock_engagement(job: Job, wp: pd.DataFrame, path_name: str) -> Engagement |
         cut,
         job.tool.diameter_m,
         stock,
-        resolution_m=job.stock.resolution_m,
+        resolution_m=job.stock.resolution_m if job.stock is not None else None,
         axis=wp[["i", "j", "k"]].to_numpy(dtype=np.float64),
         lines=lines,
         source=Path(path_name).name,

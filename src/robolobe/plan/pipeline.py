@@ -72,6 +72,7 @@ __all__ = [
     "PlanResult",
     "constraints_from_job",
     "cut_lobes",
+    "feed_tcp",
     "job_fingerprint",
     "material_from_job",
     "plan_path",
@@ -503,9 +504,8 @@ def _lobes_for_rotation(
     poses, r_wp = tcp_targets(wp, robot, job.placement, rotation)
     q, wm = _postures(wp, robot, poses, source)
     ci = np.flatnonzero(cut)
-    f_path = wp[["fx", "fy", "fz"]].to_numpy(dtype=np.float64)[ci]
-    f_tcp = np.einsum("nji,nj->ni", poses[ci, :3, :3], f_path @ r_wp.T)
-    del poses, f_path  # (n, 4, 4): not needed past here
+    f_tcp = feed_tcp(wp, poses, r_wp, ci)
+    del poses  # (n, 4, 4): not needed past here
     timings["ik"] = time.perf_counter() - t
     if ci.size >= _STREAM_MIN:
         q_cut = q if ci.size == q.shape[0] else q[ci]  # (not a copy of every posture)
@@ -527,6 +527,17 @@ def _lobes_for_rotation(
         return cut_lobes(job, modes, f_tcp, material, tool, rpm, own=own, reuse=reuse)[2]
 
     return q, wm, modes, plunge, grouped, timings, feed_angle, bound, split
+
+
+def feed_tcp(
+    wp: pd.DataFrame, poses: FloatArray, r_wp: FloatArray, idx: NDArray[np.int64]
+) -> FloatArray:
+    """Feed direction of the waypoints ``idx`` in their TCP frames, shape (len(idx), 3).
+
+    ``poses`` and ``r_wp`` are :func:`tcp_targets`'s.
+    """
+    f_path = wp[["fx", "fy", "fz"]].to_numpy(dtype=np.float64)[idx]
+    return np.asarray(np.einsum("nji,nj->ni", poses[idx, :3, :3], f_path @ r_wp.T))
 
 
 #: Cutting waypoints from which a nominal plan streams the modes (:func:`_streamed_lobes`).
@@ -805,10 +816,23 @@ def _tool_point_models(
 
 
 def _lobe_args(
-    job: Job, material: Material, rpm: FloatArray, dynamics_tol: float | None = None
+    job: Job,
+    material: Material,
+    rpm: FloatArray,
+    dynamics_tol: float | None = None,
+    engagement: tuple[float, float] | None = None,
 ) -> dict[str, Any]:
-    """The job's arguments of :func:`~robolobe.plan.lobes.waypoint_lobes` (cut, grid, tolerance)."""
-    st, ex = engagement_angles(job.radial_immersion, job.cut.milling)
+    """The job's arguments of :func:`~robolobe.plan.lobes.waypoint_lobes` (cut, grid, tolerance).
+
+    ``engagement`` (entry, exit) [rad] replaces the job's ``cut.radial_width_mm``
+    and ``cut.milling``.
+    """
+    if engagement is None:
+        st, ex = engagement_angles(job.radial_immersion, job.cut.milling)
+        immersion = job.radial_immersion
+    else:
+        st, ex = (float(v) for v in engagement)
+        immersion = 0.5 * (math.cos(st) - math.cos(ex))
     dt = job.plan.dynamics_tol if dynamics_tol is None else dynamics_tol
     tol = DynamicsTolerance(
         freq=dt,
@@ -824,7 +848,7 @@ def _lobe_args(
         "phi_entry": st,
         "phi_exit": ex,
         "rpm": rpm,
-        "immersion": job.radial_immersion,
+        "immersion": immersion,
         "tol": tol,
     }
 
@@ -841,6 +865,7 @@ def cut_lobes(
     robust: bool | None = None,
     own: NDArray[np.bool_] | None = None,
     reuse: GroupedLobes | None = None,
+    engagement: tuple[float, float] | None = None,
 ) -> tuple[
     ModalModel, NDArray[np.bool_], GroupedLobes, dict[str, float], FloatArray, RobustBound | None
 ]:
@@ -871,6 +896,10 @@ def cut_lobes(
     reuse : GroupedLobes, optional
         The result of the same call without ``own``: its grouping and lobes are
         kept, only the added waypoints' lobes are computed (same result).
+    engagement : tuple of float, optional
+        Entry and exit angles [rad] of all ``n`` waypoints (default: the job's
+        ``cut.radial_width_mm`` and ``cut.milling``; :func:`robolobe.plan.check.check_program`
+        gives each engagement class its own).
 
     Returns
     -------
@@ -902,7 +931,7 @@ def cut_lobes(
         window=None if bound is None else bound.window,
         own=own,
         reuse=reuse,
-        **_lobe_args(job, material, rpm, dynamics_tol),
+        **_lobe_args(job, material, rpm, dynamics_tol, engagement),
     )
     timings["lobes"] = time.perf_counter() - t
     feed_angle = np.degrees(np.arctan2(f_use[:, 1], f_use[:, 0]))
