@@ -540,3 +540,443 @@ def envelope_rows(
             out,
         )
     return out
+
+
+# ----------------------------------------------------------------------------------
+# Converged lobes: the refinement of each entry's frequency samples
+# (robolobe.sld.converged: the numpy path and the rule; this is the same rule per entry)
+
+#: As robolobe.sld.converged.PREFILTER (a piece whose ends lie deeper than this multiple
+#: of the relevance bound is not examined).
+_PREFILTER = 2.0
+
+
+@njit()
+def _eig_pt(
+    w: float, om: FloatArray, ze: FloatArray, res: FloatArray, al: FloatArray
+) -> tuple[complex, complex]:
+    """The two eigenvalues of ``alpha G(w)`` (untracked, ``h + root`` first)."""
+    g00 = 0j
+    g01 = 0j
+    g10 = 0j
+    g11 = 0j
+    for r in range(om.shape[0]):
+        wr = om[r]
+        inv = 1.0 / complex(wr * wr - w * w, 2.0 * (ze[r] * wr) * w)
+        g00 += inv * res[r, 0, 0]
+        g01 += inv * res[r, 0, 1]
+        g10 += inv * res[r, 1, 0]
+        g11 += inv * res[r, 1, 1]
+    a00, a01, a10, a11 = al[0, 0], al[0, 1], al[1, 0], al[1, 1]
+    tr = a00 * g00 + a01 * g10 + a10 * g01 + a11 * g11
+    det = (a00 * a11 - a01 * a10) * (g00 * g11 - g01 * g10)
+    h = 0.5 * tr
+    root = _csqrt(h * h - det)
+    return h + root, h - root
+
+
+@njit()
+def _follow2(r1: complex, r2: complex, x1: complex, x2: complex) -> tuple[complex, complex]:
+    """``(x1, x2)`` ordered to continue ``(r1, r2)`` (smaller sum of distances)."""
+    same = abs(x1 - r1) + abs(x2 - r2)
+    cross = abs(x1 - r2) + abs(x2 - r1)
+    if cross < same:
+        return x2, x1
+    return x1, x2
+
+
+@njit()
+def _de(mu: complex, nkt: float) -> tuple[float, float]:
+    re = mu.real
+    if re > 0.0:
+        return _TWO_PI / (nkt * re), math.pi + 2.0 * math.atan(mu.imag / re)
+    return np.inf, np.nan
+
+
+@njit()
+def _reach(
+    c: float, wl: float, wr: float, e_lo: float, e_hi: float, smin: float, smax: float, kmax: int
+) -> tuple[float, float]:
+    klo = math.ceil((c * wl / smax - e_hi) / _TWO_PI)
+    khi = math.floor((c * wr / smin - e_lo) / _TWO_PI)
+    return min(max(klo, 0.0), kmax + 1.0), min(max(khi, -1.0), float(kmax))
+
+
+@njit()
+def _needs_split(
+    wl: float,
+    wr: float,
+    l1: complex,
+    l2: complex,
+    r1: complex,
+    r2: complex,
+    m1: complex,
+    m2: complex,
+    bound: float,
+    c: float,
+    nkt: float,
+    smin: float,
+    smax: float,
+    kmax: int,
+    chord_tol: float,
+    speed_tol: float,
+) -> bool:
+    """The rule of :func:`robolobe.sld.converged._split_mask` for one interval."""
+    r1, r2 = _follow2(l1, l2, r1, r2)
+    m1, m2 = _follow2(l1, l2, m1, m2)
+    wm = 0.5 * (wl + wr)
+    for j in range(2):
+        ml = l1 if j == 0 else l2
+        mr = r1 if j == 0 else r2
+        mm = m1 if j == 0 else m2
+        a_l, e_l = _de(ml, nkt)
+        a_r, e_r = _de(mr, nkt)
+        a_m, e_m = _de(mm, nkt)
+        fl = a_l < np.inf
+        fr = a_r < np.inf
+        fm = a_m < np.inf
+        if fl and fr:
+            e_lo = min(e_l, e_r)
+            e_hi = max(e_l, e_r)
+            amin = min(a_l, a_r)
+            if fm:
+                e_lo = min(e_lo, e_m)
+                e_hi = max(e_hi, e_m)
+                amin = min(amin, a_m)
+            klo, khi = _reach(c, wl, wr, e_lo, e_hi, smin, smax, kmax)
+            if khi >= klo and amin < bound:
+                if not fm:
+                    return True
+                for q in range(3):
+                    k = klo if q == 0 else (khi if q == 1 else math.floor(0.5 * (klo + khi)))
+                    tk = _TWO_PI * k
+                    n_l = c * wl / (e_l + tk)
+                    n_r = c * wr / (e_r + tk)
+                    n_m = c * wm / (e_m + tk)
+                    lo_n = min(n_l, n_r)
+                    hi_n = max(n_l, n_r)
+                    if max(hi_n, n_m) < smin * (1 - 1e-3) or min(lo_n, n_m) > smax * (1 + 1e-3):
+                        continue
+                    if n_m >= lo_n and n_m <= hi_n and hi_n > lo_n:
+                        chord = a_l + (a_r - a_l) * (n_m - n_l) / (n_r - n_l)
+                        err = abs(a_m - chord) / min(a_m, chord)
+                        if not (err <= chord_tol):
+                            return True
+                    else:
+                        err = max(lo_n - n_m, n_m - hi_n) / n_m
+                        if not (err <= speed_tol):
+                            return True
+        elif fl or fr:
+            a_f = a_l if fl else a_r
+            e_f = e_l if fl else e_r
+            e_x = 0.0 if e_f < math.pi else _TWO_PI
+            klo, khi = _reach(c, wl, wr, min(e_f, e_x), max(e_f, e_x), smin, smax, kmax)
+            if khi >= klo and a_f < bound:
+                return True
+    return False
+
+
+@njit()
+def _candidate(
+    wl: float,
+    wr: float,
+    l1: complex,
+    l2: complex,
+    r1: complex,
+    r2: complex,
+    bound: float,
+    c: float,
+    nkt: float,
+    smin: float,
+    smax: float,
+    kmax: int,
+) -> bool:
+    """The rule of :func:`robolobe.sld.converged._candidates` for one interval."""
+    r1, r2 = _follow2(l1, l2, r1, r2)
+    for j in range(2):
+        a_l, e_l = _de(l1 if j == 0 else l2, nkt)
+        a_r, e_r = _de(r1 if j == 0 else r2, nkt)
+        fl = a_l < np.inf
+        fr = a_r < np.inf
+        if fl and fr:
+            klo, khi = _reach(c, wl, wr, min(e_l, e_r), max(e_l, e_r), smin, smax, kmax)
+            if khi >= klo and min(a_l, a_r) < _PREFILTER * bound:
+                return True
+        elif fl or fr:
+            return True
+    return False
+
+
+@njit()
+def _bound_row(
+    w: FloatArray,
+    m1: ComplexArray,
+    m2: ComplexArray,
+    nkt: float,
+    teeth: int,
+    s: FloatArray,
+    uniform: bool,
+    k1: int,
+    relevant: float,
+    depth_span: float,
+) -> float:
+    """The relevance bound of one entry from its (untracked) eigenvalues at ``w``.
+
+    As :func:`robolobe.sld.converged.converged_lobes` forms it from the lobes on
+    the initial samples: ``relevant`` x the highest envelope value, at most
+    ``depth_span`` x the smallest depth (that alone where the envelope is not
+    finite everywhere).
+    """
+    nf = w.shape[0]
+    depth = np.empty((2, nf))
+    eps = np.empty((2, nf))
+    env = np.empty(s.shape[0])
+    p1 = 0j
+    p2 = 0j
+    parity = False
+    dmin = np.inf
+    for i in range(nf):
+        a1 = m1[i]
+        a2 = m2[i]
+        if i > 0 and _crossed(a1, a2, p1, p2):
+            parity = not parity
+        p1 = a1
+        p2 = a2
+        if parity:
+            a1, a2 = a2, a1
+        for j in range(2):
+            d, e = _de(a1 if j == 0 else a2, nkt)
+            depth[j, i] = d
+            eps[j, i] = e
+            dmin = min(dmin, d)
+    _env_row(w, depth, eps, teeth, s, uniform, k1, env, False)
+    amax = -np.inf
+    full = True
+    for jj in range(env.shape[0]):
+        if env[jj] < np.inf:
+            amax = max(amax, env[jj])
+        else:
+            full = False
+    cap = depth_span * dmin
+    if full:
+        return min(relevant * amax, cap)
+    return cap
+
+
+@njit(parallel=True)
+def _refine_batch(
+    om: FloatArray,
+    ze: FloatArray,
+    res: FloatArray,
+    al: FloatArray,
+    w0: FloatArray,
+    start: NDArray[np.int64],
+    count: NDArray[np.int64],
+    bound: FloatArray,
+    c: float,
+    nkt: float,
+    smin: float,
+    smax: float,
+    kmax: int,
+    chord_tol: float,
+    speed_tol: float,
+    max_depth: int,
+    s: FloatArray,
+    uniform: bool,
+    relevant: float,
+    depth_span: float,
+    out: FloatArray,
+    mu1: ComplexArray,
+    mu2: ComplexArray,
+    n_out: NDArray[np.int64],
+    status: NDArray[np.int64],
+) -> None:
+    """Each entry's samples halved where :func:`_needs_split` says so, depth first.
+
+    A NaN ``bound[b]`` is formed first (:func:`_bound_row`, written back).
+    ``status``: 0 done, 1 out of room (``out`` too short), 2 at ``max_depth``
+    halvings or the resolution of doubles.
+    """
+    cap = out.shape[1]
+    teeth = round(60.0 / c)
+    for b in numba.prange(om.shape[0]):
+        o, z, rs, a = om[b], ze[b], res[b], al[b]
+        s0 = start[b]
+        nc = count[b]
+        wi = w0[s0 : s0 + nc]
+        mi1 = np.empty(nc, np.complex128)
+        mi2 = np.empty(nc, np.complex128)
+        for i in range(nc):
+            mi1[i], mi2[i] = _eig_pt(wi[i], o, z, rs, a)
+        if np.isnan(bound[b]):
+            bound[b] = _bound_row(
+                wi, mi1, mi2, nkt, teeth, s, uniform, kmax + 1, relevant, depth_span
+            )
+        bd = bound[b]
+        sw = np.empty(max_depth + 2)
+        s1 = np.empty(max_depth + 2, np.complex128)
+        s2 = np.empty(max_depth + 2, np.complex128)
+        lev = np.empty(max_depth + 2, np.int64)
+        n = 0
+        st = 0
+        wl = wi[0]
+        l1 = mi1[0]
+        l2 = mi2[0]
+        for i in range(1, nc):
+            if st != 0:
+                break
+            wr = wi[i]
+            r1 = mi1[i]
+            r2 = mi2[i]
+            top = 0
+            sw[0] = wr
+            s1[0] = r1
+            s2[0] = r2
+            lev[0] = 0
+            wm = 0.0
+            m1 = 0j
+            m2 = 0j
+            while top >= 0:
+                wr = sw[top]
+                split = False
+                if _candidate(wl, wr, l1, l2, s1[top], s2[top], bd, c, nkt, smin, smax, kmax):
+                    wm = 0.5 * (wl + wr)
+                    m1, m2 = _eig_pt(wm, o, z, rs, a)
+                    split = _needs_split(
+                        wl, wr, l1, l2, s1[top], s2[top], m1, m2, bd, c, nkt, smin, smax,
+                        kmax, chord_tol, speed_tol,
+                    )  # fmt: skip
+                if split:
+                    if lev[top] >= max_depth or wr - wl <= 1e-12 * wl:
+                        st = 2
+                        break
+                    top += 1
+                    sw[top] = wm
+                    s1[top] = m1
+                    s2[top] = m2
+                    lev[top] = lev[top - 1] + 1
+                    continue
+                if n >= cap - 1:
+                    st = 1
+                    break
+                out[b, n] = wl
+                mu1[b, n] = l1
+                mu2[b, n] = l2
+                n += 1
+                wl = wr
+                l1 = s1[top]
+                l2 = s2[top]
+                top -= 1
+        if st == 0:
+            out[b, n] = wl
+            mu1[b, n] = l1
+            mu2[b, n] = l2
+            n += 1
+        n_out[b] = n
+        status[b] = st
+
+
+def refine(
+    om: FloatArray,
+    ze: FloatArray,
+    res: FloatArray,
+    al: FloatArray,
+    w0: FloatArray,
+    start: NDArray[np.int64],
+    count: NDArray[np.int64],
+    bound: FloatArray,
+    *,
+    teeth: int,
+    nkt: float,
+    smin: float,
+    smax: float,
+    kmax: int,
+    chord_tol: float,
+    speed_tol: float,
+    max_depth: int,
+    cap: int,
+    rpm: FloatArray,
+    relevant: float,
+    depth_span: float,
+) -> tuple[
+    FloatArray, ComplexArray, ComplexArray, NDArray[np.int64], NDArray[np.int64], FloatArray
+]:
+    """Refined samples per entry (see :func:`robolobe.sld.converged.converged_lobes`).
+
+    Returns ``out`` (nb, cap) (row ``b`` valid up to ``n_out[b]``), the
+    (untracked) eigenvalue pairs there ``mu1``, ``mu2``, ``n_out``, ``status``
+    (0 done, 1 needs more than ``cap`` samples, 2 unconverged) and the bounds
+    used (NaN entries of ``bound``: formed from the initial samples and the
+    speeds ``rpm``).
+    """
+    nb = om.shape[0]
+    out = np.empty((nb, cap))
+    mu1 = np.empty((nb, cap), np.complex128)
+    mu2 = np.empty((nb, cap), np.complex128)
+    n_out = np.zeros(nb, np.int64)
+    status = np.zeros(nb, np.int64)
+    bd = np.array(bound, dtype=np.float64)
+    s, _, uniform = _sorted_speeds(np.asarray(rpm, dtype=np.float64))
+    with _LOCK:
+        _refine_batch(
+            np.ascontiguousarray(om, dtype=np.float64),
+            np.ascontiguousarray(ze, dtype=np.float64),
+            np.ascontiguousarray(res, dtype=np.float64),
+            np.ascontiguousarray(al, dtype=np.float64),
+            np.ascontiguousarray(w0, dtype=np.float64),
+            np.ascontiguousarray(start, dtype=np.int64),
+            np.ascontiguousarray(count, dtype=np.int64),
+            bd,
+            60.0 / teeth,
+            float(nkt),
+            float(smin),
+            float(smax),
+            int(kmax),
+            float(chord_tol),
+            float(speed_tol),
+            int(max_depth),
+            s,
+            uniform,
+            float(relevant),
+            float(depth_span),
+            out,
+            mu1,
+            mu2,
+            n_out,
+            status,
+        )
+    return out, mu1, mu2, n_out, status, bd
+
+
+@njit(parallel=True)
+def _track_batch(
+    mu1: ComplexArray, mu2: ComplexArray, nkt: float, depth: FloatArray, eps: FloatArray
+) -> None:
+    for b in numba.prange(mu1.shape[0]):
+        p1 = 0j
+        p2 = 0j
+        parity = False
+        for i in range(mu1.shape[1]):
+            a1 = mu1[b, i]
+            a2 = mu2[b, i]
+            if i > 0 and _crossed(a1, a2, p1, p2):
+                parity = not parity
+            p1 = a1
+            p2 = a2
+            if parity:
+                a1, a2 = a2, a1
+            depth[b, 0, i], eps[b, 0, i] = _de(a1, nkt)
+            depth[b, 1, i], eps[b, 1, i] = _de(a2, nkt)
+
+
+def track(mu1: ComplexArray, mu2: ComplexArray, nkt: float) -> tuple[FloatArray, FloatArray]:
+    """Branch-tracked depth and phase (nb, 2, n) from untracked eigenvalue pairs (nb, n).
+
+    The pairing rule, depth and phase of :func:`_eig_row`.
+    """
+    nb, n = mu1.shape
+    depth = np.empty((nb, 2, n))
+    eps = np.empty((nb, 2, n))
+    with _LOCK:
+        _track_batch(np.ascontiguousarray(mu1), np.ascontiguousarray(mu2), float(nkt), depth, eps)
+    return depth, eps
