@@ -576,16 +576,6 @@ def _eig_pt(
 
 
 @njit()
-def _follow2(r1: complex, r2: complex, x1: complex, x2: complex) -> tuple[complex, complex]:
-    """``(x1, x2)`` ordered to continue ``(r1, r2)`` (smaller sum of distances)."""
-    same = abs(x1 - r1) + abs(x2 - r2)
-    cross = abs(x1 - r2) + abs(x2 - r1)
-    if cross < same:
-        return x2, x1
-    return x1, x2
-
-
-@njit()
 def _de(mu: complex, nkt: float) -> tuple[float, float]:
     re = mu.real
     if re > 0.0:
@@ -603,108 +593,91 @@ def _reach(
 
 
 @njit()
-def _needs_split(
+def _chord_bad(
     wl: float,
     wr: float,
-    l1: complex,
-    l2: complex,
-    r1: complex,
-    r2: complex,
-    m1: complex,
-    m2: complex,
+    a_l: float,
+    e_l: float,
+    a_r: float,
+    e_r: float,
+    a_m: float,
+    e_m: float,
     bound: float,
     c: float,
-    nkt: float,
     smin: float,
     smax: float,
     kmax: int,
     chord_tol: float,
     speed_tol: float,
 ) -> bool:
-    """The rule of :func:`robolobe.sld.converged._split_mask` for one interval."""
-    r1, r2 = _follow2(l1, l2, r1, r2)
-    m1, m2 = _follow2(l1, l2, m1, m2)
-    wm = 0.5 * (wl + wr)
-    for j in range(2):
-        ml = l1 if j == 0 else l2
-        mr = r1 if j == 0 else r2
-        mm = m1 if j == 0 else m2
-        a_l, e_l = _de(ml, nkt)
-        a_r, e_r = _de(mr, nkt)
-        a_m, e_m = _de(mm, nkt)
-        fl = a_l < np.inf
-        fr = a_r < np.inf
-        fm = a_m < np.inf
-        if fl and fr:
-            e_lo = min(e_l, e_r)
-            e_hi = max(e_l, e_r)
-            amin = min(a_l, a_r)
-            if fm:
-                e_lo = min(e_lo, e_m)
-                e_hi = max(e_hi, e_m)
-                amin = min(amin, a_m)
-            klo, khi = _reach(c, wl, wr, e_lo, e_hi, smin, smax, kmax)
-            if khi >= klo and amin < bound:
-                if not fm:
+    """One branch of :func:`robolobe.sld.converged._split_mask` for one interval."""
+    fl = a_l < np.inf
+    fr = a_r < np.inf
+    fm = a_m < np.inf
+    if fl and fr:
+        e_lo = min(e_l, e_r)
+        e_hi = max(e_l, e_r)
+        amin = min(a_l, a_r)
+        if fm:
+            e_lo = min(e_lo, e_m)
+            e_hi = max(e_hi, e_m)
+            amin = min(amin, a_m)
+        klo, khi = _reach(c, wl, wr, e_lo, e_hi, smin, smax, kmax)
+        if not (khi >= klo and amin < bound):
+            return False
+        if not fm:
+            return True
+        wm = 0.5 * (wl + wr)
+        for q in range(3):
+            k = klo if q == 0 else (khi if q == 1 else math.floor(0.5 * (klo + khi)))
+            tk = _TWO_PI * k
+            n_l = c * wl / (e_l + tk)
+            n_r = c * wr / (e_r + tk)
+            n_m = c * wm / (e_m + tk)
+            lo_n = min(n_l, n_r)
+            hi_n = max(n_l, n_r)
+            if max(hi_n, n_m) < smin * (1 - 1e-3) or min(lo_n, n_m) > smax * (1 + 1e-3):
+                continue
+            if n_m >= lo_n and n_m <= hi_n and hi_n > lo_n:
+                chord = a_l + (a_r - a_l) * (n_m - n_l) / (n_r - n_l)
+                err = abs(a_m - chord) / min(a_m, chord)
+                if not (err <= chord_tol):
                     return True
-                for q in range(3):
-                    k = klo if q == 0 else (khi if q == 1 else math.floor(0.5 * (klo + khi)))
-                    tk = _TWO_PI * k
-                    n_l = c * wl / (e_l + tk)
-                    n_r = c * wr / (e_r + tk)
-                    n_m = c * wm / (e_m + tk)
-                    lo_n = min(n_l, n_r)
-                    hi_n = max(n_l, n_r)
-                    if max(hi_n, n_m) < smin * (1 - 1e-3) or min(lo_n, n_m) > smax * (1 + 1e-3):
-                        continue
-                    if n_m >= lo_n and n_m <= hi_n and hi_n > lo_n:
-                        chord = a_l + (a_r - a_l) * (n_m - n_l) / (n_r - n_l)
-                        err = abs(a_m - chord) / min(a_m, chord)
-                        if not (err <= chord_tol):
-                            return True
-                    else:
-                        err = max(lo_n - n_m, n_m - hi_n) / n_m
-                        if not (err <= speed_tol):
-                            return True
-        elif fl or fr:
-            a_f = a_l if fl else a_r
-            e_f = e_l if fl else e_r
-            e_x = 0.0 if e_f < math.pi else _TWO_PI
-            klo, khi = _reach(c, wl, wr, min(e_f, e_x), max(e_f, e_x), smin, smax, kmax)
-            if khi >= klo and a_f < bound:
-                return True
+            else:
+                err = max(lo_n - n_m, n_m - hi_n) / n_m
+                if not (err <= speed_tol):
+                    return True
+        return False
+    if fl or fr:
+        a_f = a_l if fl else a_r
+        e_f = e_l if fl else e_r
+        e_x = 0.0 if e_f < math.pi else _TWO_PI
+        klo, khi = _reach(c, wl, wr, min(e_f, e_x), max(e_f, e_x), smin, smax, kmax)
+        return khi >= klo and a_f < bound
     return False
 
 
 @njit()
-def _candidate(
+def _piece_candidate(
     wl: float,
     wr: float,
-    l1: complex,
-    l2: complex,
-    r1: complex,
-    r2: complex,
+    a_l: float,
+    e_l: float,
+    a_r: float,
+    e_r: float,
     bound: float,
     c: float,
-    nkt: float,
     smin: float,
     smax: float,
     kmax: int,
 ) -> bool:
-    """The rule of :func:`robolobe.sld.converged._candidates` for one interval."""
-    r1, r2 = _follow2(l1, l2, r1, r2)
-    for j in range(2):
-        a_l, e_l = _de(l1 if j == 0 else l2, nkt)
-        a_r, e_r = _de(r1 if j == 0 else r2, nkt)
-        fl = a_l < np.inf
-        fr = a_r < np.inf
-        if fl and fr:
-            klo, khi = _reach(c, wl, wr, min(e_l, e_r), max(e_l, e_r), smin, smax, kmax)
-            if khi >= klo and min(a_l, a_r) < _PREFILTER * bound:
-                return True
-        elif fl or fr:
-            return True
-    return False
+    """One branch of :func:`robolobe.sld.converged._candidates` for one interval."""
+    fl = a_l < np.inf
+    fr = a_r < np.inf
+    if fl and fr:
+        klo, khi = _reach(c, wl, wr, min(e_l, e_r), max(e_l, e_r), smin, smax, kmax)
+        return khi >= klo and min(a_l, a_r) < _PREFILTER * bound
+    return fl or fr
 
 
 @njit()
@@ -786,12 +759,13 @@ def _refine_batch(
     relevant: float,
     depth_span: float,
     out: FloatArray,
-    mu1: ComplexArray,
-    mu2: ComplexArray,
+    dep: FloatArray,
+    eps: FloatArray,
     n_out: NDArray[np.int64],
     status: NDArray[np.int64],
 ) -> None:
-    """Each entry's samples halved where :func:`_needs_split` says so, depth first.
+    """Each entry's samples halved where :func:`_chord_bad` says so (after
+    :func:`_piece_candidate`), depth first.
 
     A NaN ``bound[b]`` is formed first (:func:`_bound_row`, written back).
     ``status``: 0 done, 1 out of room (``out`` too short), 2 at ``max_depth``
@@ -813,64 +787,99 @@ def _refine_batch(
                 wi, mi1, mi2, nkt, teeth, s, uniform, kmax + 1, relevant, depth_span
             )
         bd = bound[b]
-        sw = np.empty(max_depth + 2)
-        s1 = np.empty(max_depth + 2, np.complex128)
-        s2 = np.empty(max_depth + 2, np.complex128)
-        lev = np.empty(max_depth + 2, np.int64)
+        # the right ends still to visit: frequency, eigenvalues, depth and phase, level
+        nd = max_depth + 2
+        sw = np.empty(nd)
+        s1 = np.empty(nd, np.complex128)
+        s2 = np.empty(nd, np.complex128)
+        sa = np.empty((nd, 4))
+        lev = np.empty(nd, np.int64)
         n = 0
         st = 0
         wl = wi[0]
         l1 = mi1[0]
         l2 = mi2[0]
+        la1, le1 = _de(l1, nkt)
+        la2, le2 = _de(l2, nkt)
+        # branch tracking of the samples as they are written (the rule of _eig_row)
+        p1 = 0j
+        p2 = 0j
+        parity = False
         for i in range(1, nc):
             if st != 0:
                 break
-            wr = wi[i]
-            r1 = mi1[i]
-            r2 = mi2[i]
             top = 0
-            sw[0] = wr
-            s1[0] = r1
-            s2[0] = r2
+            sw[0] = wi[i]
+            s1[0] = mi1[i]
+            s2[0] = mi2[i]
+            sa[0, 0], sa[0, 1] = _de(mi1[i], nkt)
+            sa[0, 2], sa[0, 3] = _de(mi2[i], nkt)
             lev[0] = 0
-            wm = 0.0
-            m1 = 0j
-            m2 = 0j
             while top >= 0:
                 wr = sw[top]
+                # the right end's branches in the left end's order
+                sw_r = _crossed(s1[top], s2[top], l1, l2)
+                ra1, re1, ra2, re2 = sa[top, 0], sa[top, 1], sa[top, 2], sa[top, 3]
+                if sw_r:
+                    ra1, re1, ra2, re2 = ra2, re2, ra1, re1
                 split = False
-                if _candidate(wl, wr, l1, l2, s1[top], s2[top], bd, c, nkt, smin, smax, kmax):
+                if _piece_candidate(
+                    wl, wr, la1, le1, ra1, re1, bd, c, smin, smax, kmax
+                ) or _piece_candidate(wl, wr, la2, le2, ra2, re2, bd, c, smin, smax, kmax):
                     wm = 0.5 * (wl + wr)
                     m1, m2 = _eig_pt(wm, o, z, rs, a)
-                    split = _needs_split(
-                        wl, wr, l1, l2, s1[top], s2[top], m1, m2, bd, c, nkt, smin, smax,
-                        kmax, chord_tol, speed_tol,
+                    ma1, me1 = _de(m1, nkt)
+                    ma2, me2 = _de(m2, nkt)
+                    if _crossed(m1, m2, l1, l2):
+                        ma1, me1, ma2, me2 = ma2, me2, ma1, me1
+                    split = _chord_bad(
+                        wl, wr, la1, le1, ra1, re1, ma1, me1, bd, c, smin, smax, kmax,
+                        chord_tol, speed_tol,
+                    ) or _chord_bad(
+                        wl, wr, la2, le2, ra2, re2, ma2, me2, bd, c, smin, smax, kmax,
+                        chord_tol, speed_tol,
                     )  # fmt: skip
-                if split:
-                    if lev[top] >= max_depth or wr - wl <= 1e-12 * wl:
-                        st = 2
-                        break
-                    top += 1
-                    sw[top] = wm
-                    s1[top] = m1
-                    s2[top] = m2
-                    lev[top] = lev[top - 1] + 1
-                    continue
+                    if split:
+                        if lev[top] >= max_depth or wr - wl <= 1e-12 * wl:
+                            st = 2
+                            break
+                        top += 1
+                        sw[top] = wm
+                        s1[top] = m1
+                        s2[top] = m2
+                        # (depth and phase in m's own order, as stored for every point)
+                        sa[top, 0], sa[top, 1] = _de(m1, nkt)
+                        sa[top, 2], sa[top, 3] = _de(m2, nkt)
+                        lev[top] = lev[top - 1] + 1
+                        continue
                 if n >= cap - 1:
                     st = 1
                     break
+                if n > 0 and _crossed(l1, l2, p1, p2):
+                    parity = not parity
+                p1 = l1
+                p2 = l2
                 out[b, n] = wl
-                mu1[b, n] = l1
-                mu2[b, n] = l2
+                j1 = 1 if parity else 0
+                dep[b, j1, n] = la1
+                eps[b, j1, n] = le1
+                dep[b, 1 - j1, n] = la2
+                eps[b, 1 - j1, n] = le2
                 n += 1
                 wl = wr
                 l1 = s1[top]
                 l2 = s2[top]
+                la1, le1, la2, le2 = sa[top, 0], sa[top, 1], sa[top, 2], sa[top, 3]
                 top -= 1
         if st == 0:
+            if n > 0 and _crossed(l1, l2, p1, p2):
+                parity = not parity
             out[b, n] = wl
-            mu1[b, n] = l1
-            mu2[b, n] = l2
+            j1 = 1 if parity else 0
+            dep[b, j1, n] = la1
+            eps[b, j1, n] = le1
+            dep[b, 1 - j1, n] = la2
+            eps[b, 1 - j1, n] = le2
             n += 1
         n_out[b] = n
         status[b] = st
@@ -898,21 +907,19 @@ def refine(
     rpm: FloatArray,
     relevant: float,
     depth_span: float,
-) -> tuple[
-    FloatArray, ComplexArray, ComplexArray, NDArray[np.int64], NDArray[np.int64], FloatArray
-]:
+) -> tuple[FloatArray, FloatArray, FloatArray, NDArray[np.int64], NDArray[np.int64], FloatArray]:
     """Refined samples per entry (see :func:`robolobe.sld.converged.converged_lobes`).
 
     Returns ``out`` (nb, cap) (row ``b`` valid up to ``n_out[b]``), the
-    (untracked) eigenvalue pairs there ``mu1``, ``mu2``, ``n_out``, ``status``
+    branch-tracked depth and phase there (nb, 2, cap), ``n_out``, ``status``
     (0 done, 1 needs more than ``cap`` samples, 2 unconverged) and the bounds
     used (NaN entries of ``bound``: formed from the initial samples and the
     speeds ``rpm``).
     """
     nb = om.shape[0]
     out = np.empty((nb, cap))
-    mu1 = np.empty((nb, cap), np.complex128)
-    mu2 = np.empty((nb, cap), np.complex128)
+    dep = np.empty((nb, 2, cap))
+    eps = np.empty((nb, 2, cap))
     n_out = np.zeros(nb, np.int64)
     status = np.zeros(nb, np.int64)
     bd = np.array(bound, dtype=np.float64)
@@ -940,43 +947,9 @@ def refine(
             float(relevant),
             float(depth_span),
             out,
-            mu1,
-            mu2,
+            dep,
+            eps,
             n_out,
             status,
         )
-    return out, mu1, mu2, n_out, status, bd
-
-
-@njit(parallel=True)
-def _track_batch(
-    mu1: ComplexArray, mu2: ComplexArray, nkt: float, depth: FloatArray, eps: FloatArray
-) -> None:
-    for b in numba.prange(mu1.shape[0]):
-        p1 = 0j
-        p2 = 0j
-        parity = False
-        for i in range(mu1.shape[1]):
-            a1 = mu1[b, i]
-            a2 = mu2[b, i]
-            if i > 0 and _crossed(a1, a2, p1, p2):
-                parity = not parity
-            p1 = a1
-            p2 = a2
-            if parity:
-                a1, a2 = a2, a1
-            depth[b, 0, i], eps[b, 0, i] = _de(a1, nkt)
-            depth[b, 1, i], eps[b, 1, i] = _de(a2, nkt)
-
-
-def track(mu1: ComplexArray, mu2: ComplexArray, nkt: float) -> tuple[FloatArray, FloatArray]:
-    """Branch-tracked depth and phase (nb, 2, n) from untracked eigenvalue pairs (nb, n).
-
-    The pairing rule, depth and phase of :func:`_eig_row`.
-    """
-    nb, n = mu1.shape
-    depth = np.empty((nb, 2, n))
-    eps = np.empty((nb, 2, n))
-    with _LOCK:
-        _track_batch(np.ascontiguousarray(mu1), np.ascontiguousarray(mu2), float(nkt), depth, eps)
-    return depth, eps
+    return out, dep, eps, n_out, status, bd

@@ -529,14 +529,14 @@ def converged_lobes(
             return finish(w2, depth, eps, fill, False), bound
         start = np.arange(nb, dtype=np.int64) * grid.shape[1]
         w0 = np.where(np.isfinite(grid), grid, 0.0).ravel()
-        cap = 4 * grid.shape[1]
+        cap = int(count.max()) + max(64, int(count.max()) // 4)
         todo = np.arange(nb)
-        got: list[tuple[FloatArray, ComplexArray, ComplexArray]] = [
-            (np.zeros(0), np.zeros(0, np.complex128), np.zeros(0, np.complex128))
-        ] * nb
+        n_all = np.zeros(nb, np.int64)
+        got: dict[int, tuple[FloatArray, FloatArray, FloatArray]] = {}
         bound = bound.copy()
+        w2 = dep = eps = np.zeros((0, 0))
         while todo.size:
-            out, mu1, mu2, n_out, status, bound[todo] = kern.refine(
+            out, d_o, e_o, n_out, status, bound[todo] = kern.refine(
                 om[todo], ze[todo], res[todo], al[todo], w0, start[todo], count[todo],
                 bound[todo], chord_tol=CHORD_TOL, speed_tol=SPEED_TOL, max_depth=MAX_PASSES,
                 cap=cap, rpm=r, relevant=RELEVANT, depth_span=DEPTH_SPAN, **kw,
@@ -544,39 +544,31 @@ def converged_lobes(
             if np.any(status == 2):
                 bad = int(todo[np.flatnonzero(status == 2)[0]])
                 _unconverged(om, ze, bad, f"{MAX_PASSES} halvings")
-            done = np.flatnonzero(status == 0)
-            if done.size == todo.size and todo.size == nb:
-                # (the usual case: all at once, no per-row copies)
-                n = int(n_out.max())
-                n_all = n_out
-                col = np.arange(n)[None, :]
-                last = n_out[:, None] - 1
-                fill = col >= n_out[:, None]
-                idx = np.where(fill, last, col)
-                w2 = np.take_along_axis(out[:, :n], idx, axis=1)
-                m1 = np.take_along_axis(mu1[:, :n], idx, axis=1)
-                m2 = np.take_along_axis(mu2[:, :n], idx, axis=1)
-                break
-            for i in done:
+            n_all[todo] = n_out
+            if todo.size == nb:
+                w2, dep, eps = out, d_o, e_o  # (the usual case: all at once)
+            for i in np.flatnonzero(status == 0) if todo.size < nb else ():
                 k = int(n_out[i])
-                got[int(todo[i])] = (out[i, :k], mu1[i, :k], mu2[i, :k])
+                got[int(todo[i])] = (out[i, :k], d_o[i, :, :k], e_o[i, :, :k])
             todo = todo[status == 1]
-            if cap >= MAX_SAMPLES and todo.size:
+            if todo.size and cap >= MAX_SAMPLES:
                 _unconverged(om, ze, int(todo[0]), f"more than {MAX_SAMPLES} samples")
             cap = min(4 * cap, MAX_SAMPLES)
-        else:
-            n = max(x[0].size for x in got)
-            n_all = np.array([x[0].size for x in got])
-
-            def pad(x: NDArray[np.generic], n: int = n) -> NDArray[np.generic]:
-                return np.r_[x, np.repeat(x[-1:], n - x.size)]
-
-            w2 = np.stack([pad(x[0]) for x in got])
-            m1 = np.stack([pad(x[1]) for x in got])
-            m2 = np.stack([pad(x[2]) for x in got])
-        depth, eps = kern.track(m1, m2, nkt)
-        fill = np.arange(w2.shape[1])[None, :] >= n_all[:, None]
-        return finish(w2, depth, eps, fill, True), bound
+        n = int(n_all.max())
+        if n > w2.shape[1]:  # some entries needed more room: widen
+            w2 = np.concatenate([w2, np.zeros((nb, n - w2.shape[1]))], axis=1)
+            dep = np.concatenate([dep, np.zeros((nb, 2, n - dep.shape[2]))], axis=2)
+            eps = np.concatenate([eps, np.zeros((nb, 2, n - eps.shape[2]))], axis=2)
+        for b_i, (wb, db, eb) in got.items():
+            k = wb.size
+            w2[b_i, :k], dep[b_i, :, :k], eps[b_i, :, :k] = wb, db, eb
+        w2 = np.ascontiguousarray(w2[:, :n])
+        dep = np.ascontiguousarray(dep[:, :, :n])
+        eps = np.ascontiguousarray(eps[:, :, :n])
+        fill = np.arange(n)[None, :] >= n_all[:, None]
+        # the padding: copies of each row's last frequency (off every branch, below)
+        w2 = np.where(fill, w2[np.arange(nb), n_all - 1][:, None], w2)
+        return finish(w2, dep, eps, fill, True), bound
 
     def finish(
         w2: FloatArray, depth: FloatArray, eps: FloatArray, fill: NDArray[np.bool_], jit: bool
