@@ -132,13 +132,16 @@ def check_resolvable(model: ModalModel) -> None:
 
 
 def _initial_grid(
-    om: FloatArray, ze: FloatArray, present: NDArray[np.bool_]
+    om: FloatArray, ze: FloatArray, present: NDArray[np.bool_], w_speed: tuple[float, float]
 ) -> tuple[FloatArray, IntArray]:
     """Per entry: a log base grid over its own modes' range plus a window per mode.
 
     The rule of :func:`robolobe.sld.frf.frequency_grid` applied to each entry's
     own present modes, so that an entry's samples do not depend on the rest of
-    the batch.
+    the batch; the range widened to ``w_speed`` (from a quarter of the lowest
+    to twice the highest tooth-passing frequency [rad/s]): above the modes,
+    lobe 0 of the mass line (``eps`` near pi) sits at ``n = 60 w / (N pi)``,
+    which a stiff tool or a fast spindle can put in the speed range.
 
     Returns
     -------
@@ -149,8 +152,8 @@ def _initial_grid(
     any_p = np.any(present, axis=1)
     wp = np.where(present, om, np.nan)
     safe = np.where(any_p[:, None], wp, 1.0)
-    lo = 0.5 * np.nanmin(safe, axis=1)
-    hi = 2.0 * np.nanmax(safe, axis=1)
+    lo = np.minimum(0.5 * np.nanmin(safe, axis=1), w_speed[0])
+    hi = np.maximum(2.0 * np.nanmax(safe, axis=1), w_speed[1])
     n_base = np.maximum(np.ceil(_PER_DECADE * np.log10(hi / lo)).astype(np.int64) + 1, 2)
     nbm = int(n_base.max())
     j = np.arange(nbm)[None, :]
@@ -482,7 +485,8 @@ def converged_lobes(
     present = np.any(res != 0.0, axis=(-1, -2))
     smin, smax = float(r.min()), float(r.max())
     nkt = float(teeth) * float(kt)
-    grid, count = _initial_grid(om, ze, present)
+    w_tooth = _TWO_PI * float(teeth) / 60.0  # tooth-passing frequency per rpm [rad/s]
+    grid, count = _initial_grid(om, ze, present, (0.25 * w_tooth * smin, 2.0 * w_tooth * smax))
     w_top = float(np.nanmax(grid)) if grid.size else 1.0
     kmax = (
         int(max_lobe)
