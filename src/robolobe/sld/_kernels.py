@@ -562,7 +562,11 @@ def _eig_pt(
     g11 = 0j
     for r in range(om.shape[0]):
         wr = om[r]
-        inv = 1.0 / complex(wr * wr - w * w, 2.0 * (ze[r] * wr) * w)
+        # 1 / (re + i im) = (re - i im) / (re^2 + im^2), as converged._eig_at forms it
+        re = wr * wr - w * w
+        im = 2.0 * (ze[r] * wr) * w
+        q = 1.0 / (re * re + im * im)
+        inv = complex(re * q, -im * q)
         g00 += inv * res[r, 0, 0]
         g01 += inv * res[r, 0, 1]
         g10 += inv * res[r, 1, 0]

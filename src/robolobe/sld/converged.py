@@ -186,8 +186,11 @@ def _eig_at(
         r = rows[s : s + _EVAL_CHUNK]
         ww = w[s : s + _EVAL_CHUNK, None]
         wr = om[r]
-        den = wr * wr - ww * ww + 2j * (ze[r] * wr) * ww
-        g = np.einsum("pm,pmij->pij", 1.0 / den, res[r])
+        re = wr * wr - ww * ww
+        im = 2.0 * (ze[r] * wr) * ww
+        q = 1.0 / (re * re + im * im)
+        inv = re * q - 1j * (im * q)
+        g = np.einsum("pm,pmij->pij", inv, res[r])
         a = al[r]
         tr = (
             a[:, 0, 0] * g[:, 0, 0]
@@ -533,7 +536,7 @@ def converged_lobes(
             return finish(w2, depth, eps, fill, False), bound
         start = np.arange(nb, dtype=np.int64) * grid.shape[1]
         w0 = np.where(np.isfinite(grid), grid, 0.0).ravel()
-        cap = int(count.max()) + max(64, int(count.max()) // 4)
+        cap = int(count.max()) + max(128, int(count.max()) // 2)
         todo = np.arange(nb)
         n_all = np.zeros(nb, np.int64)
         got: dict[int, tuple[FloatArray, FloatArray, FloatArray]] = {}
