@@ -100,6 +100,8 @@ MAX_SAMPLES = 200_000
 _PER_DECADE = 40
 _PER_MODE = 33
 _HALF_WIDTH = 25.0
+#: Entries refined per call of the compiled kernel (bounds its working arrays).
+_REFINE_CHUNK = 1024
 #: Frequency samples whose FRFs are formed at once (bounds the temporaries).
 _EVAL_CHUNK = 1 << 15
 
@@ -536,42 +538,43 @@ def converged_lobes(
             return finish(w2, depth, eps, fill, False), bound
         start = np.arange(nb, dtype=np.int64) * grid.shape[1]
         w0 = np.where(np.isfinite(grid), grid, 0.0).ravel()
-        cap = int(count.max()) + max(128, int(count.max()) // 2)
-        todo = np.arange(nb)
-        n_all = np.zeros(nb, np.int64)
-        got: dict[int, tuple[FloatArray, FloatArray, FloatArray]] = {}
         bound = bound.copy()
-        w2 = dep = eps = np.zeros((0, 0))
-        while todo.size:
-            out, d_o, e_o, n_out, status, bound[todo] = kern.refine(
-                om[todo], ze[todo], res[todo], al[todo], w0, start[todo], count[todo],
-                bound[todo], chord_tol=CHORD_TOL, speed_tol=SPEED_TOL, max_depth=MAX_PASSES,
-                cap=cap, rpm=r, relevant=RELEVANT, depth_span=DEPTH_SPAN, **kw,
-            )  # fmt: skip
-            if np.any(status == 2):
-                bad = int(todo[np.flatnonzero(status == 2)[0]])
-                _unconverged(om, ze, bad, f"{MAX_PASSES} halvings")
-            n_all[todo] = n_out
-            if todo.size == nb:
-                w2, dep, eps = out, d_o, e_o  # (the usual case: all at once)
-            for i in np.flatnonzero(status == 0) if todo.size < nb else ():
-                k = int(n_out[i])
-                got[int(todo[i])] = (out[i, :k], d_o[i, :, :k], e_o[i, :, :k])
-            todo = todo[status == 1]
-            if todo.size and cap >= MAX_SAMPLES:
-                _unconverged(om, ze, int(todo[0]), f"more than {MAX_SAMPLES} samples")
-            cap = min(4 * cap, MAX_SAMPLES)
+        n_all = np.zeros(nb, np.int64)
+        # in chunks of entries (the room per entry is a guess, retried wider where short):
+        # each chunk's samples kept at that chunk's own width, then put together
+        put: list[tuple[IntArray, FloatArray, FloatArray, FloatArray]] = []
+        for c0 in range(0, nb, _REFINE_CHUNK):
+            idx = np.arange(c0, min(nb, c0 + _REFINE_CHUNK))
+            cap = int(count[idx].max()) + max(128, int(count[idx].max()) // 2)
+            todo = idx
+            while todo.size:
+                out, d_o, e_o, n_out, status, bound[todo] = kern.refine(
+                    om[todo], ze[todo], res[todo], al[todo], w0, start[todo], count[todo],
+                    bound[todo], chord_tol=CHORD_TOL, speed_tol=SPEED_TOL,
+                    max_depth=MAX_PASSES, cap=cap, rpm=r, relevant=RELEVANT,
+                    depth_span=DEPTH_SPAN, **kw,
+                )  # fmt: skip
+                if np.any(status == 2):
+                    bad = int(todo[np.flatnonzero(status == 2)[0]])
+                    _unconverged(om, ze, bad, f"{MAX_PASSES} halvings")
+                ok = status == 0
+                n_all[todo[ok]] = n_out[ok]
+                k = int(n_out[ok].max(initial=1))
+                put.append((todo[ok], out[ok, :k], d_o[ok, :, :k], e_o[ok, :, :k]))
+                del out, d_o, e_o
+                todo = todo[~ok]
+                if todo.size and cap >= MAX_SAMPLES:
+                    _unconverged(om, ze, int(todo[0]), f"more than {MAX_SAMPLES} samples")
+                cap = min(4 * cap, MAX_SAMPLES)
         n = int(n_all.max())
-        if n > w2.shape[1]:  # some entries needed more room: widen
-            w2 = np.concatenate([w2, np.zeros((nb, n - w2.shape[1]))], axis=1)
-            dep = np.concatenate([dep, np.zeros((nb, 2, n - dep.shape[2]))], axis=2)
-            eps = np.concatenate([eps, np.zeros((nb, 2, n - eps.shape[2]))], axis=2)
-        for b_i, (wb, db, eb) in got.items():
-            k = wb.size
-            w2[b_i, :k], dep[b_i, :, :k], eps[b_i, :, :k] = wb, db, eb
-        w2 = np.ascontiguousarray(w2[:, :n])
-        dep = np.ascontiguousarray(dep[:, :, :n])
-        eps = np.ascontiguousarray(eps[:, :, :n])
+        w2 = np.empty((nb, n))
+        dep = np.empty((nb, 2, n))
+        eps = np.empty((nb, 2, n))
+        while put:  # (each part freed once copied)
+            rows, wb, db, eb = put.pop()
+            k = wb.shape[1]
+            w2[rows, :k], dep[rows, :, :k], eps[rows, :, :k] = wb, db, eb
+            del wb, db, eb
         fill = np.arange(n)[None, :] >= n_all[:, None]
         # the padding: copies of each row's last frequency (off every branch, below)
         w2 = np.where(fill, w2[np.arange(nb), n_all - 1][:, None], w2)
