@@ -911,6 +911,7 @@ def refine(
     rpm: FloatArray,
     relevant: float,
     depth_span: float,
+    out: tuple[FloatArray, FloatArray, FloatArray] | None = None,
 ) -> tuple[FloatArray, FloatArray, FloatArray, NDArray[np.int64], NDArray[np.int64], FloatArray]:
     """Refined samples per entry (see :func:`robolobe.sld.converged.converged_lobes`).
 
@@ -918,12 +919,15 @@ def refine(
     branch-tracked depth and phase there (nb, 2, cap), ``n_out``, ``status``
     (0 done, 1 needs more than ``cap`` samples, 2 unconverged) and the bounds
     used (NaN entries of ``bound``: formed from the initial samples and the
-    speeds ``rpm``).
+    speeds ``rpm``). ``out``: C-contiguous arrays of shapes (nb, cap), (nb, 2, cap)
+    and (nb, 2, cap) to write the samples, depth and phase into.
     """
     nb = om.shape[0]
-    out = np.empty((nb, cap))
-    dep = np.empty((nb, 2, cap))
-    eps = np.empty((nb, 2, cap))
+    if out is None:
+        out = (np.empty((nb, cap)), np.empty((nb, 2, cap)), np.empty((nb, 2, cap)))
+    w_o, dep, eps = out
+    if w_o.shape != (nb, cap) or not (w_o.flags.c_contiguous and dep.flags.c_contiguous):
+        raise InputError("refine: out= arrays of the wrong shape or not contiguous")
     n_out = np.zeros(nb, np.int64)
     status = np.zeros(nb, np.int64)
     bd = np.array(bound, dtype=np.float64)
@@ -950,10 +954,10 @@ def refine(
             uniform,
             float(relevant),
             float(depth_span),
-            out,
+            w_o,
             dep,
             eps,
             n_out,
             status,
         )
-    return out, dep, eps, n_out, status, bd
+    return w_o, dep, eps, n_out, status, bd

@@ -406,10 +406,17 @@ def _unconverged(om: FloatArray, ze: FloatArray, row: int, why: str) -> None:
     )
 
 
-def _padded(w: FloatArray, rows: IntArray, nb: int) -> FloatArray:
-    """Flat sorted samples as (nb, n_max), each row padded with copies of its last value."""
+def _room(count: IntArray) -> int:
+    """Samples per entry the results are made with (more where an entry needs more):
+    the initial samples and a quarter again (at least 128 more)."""
+    return int(count.max()) + max(128, int(count.max()) // 4)
+
+
+def _padded(w: FloatArray, rows: IntArray, nb: int, width: int = 0) -> FloatArray:
+    """Flat sorted samples as (nb, max(n_max, width)), each row padded with copies of its
+    last value."""
     counts = np.bincount(rows, minlength=nb)
-    n = int(counts.max())
+    n = max(int(counts.max()), width)
     start = np.r_[0, np.cumsum(counts)[:-1]]
     pos = np.arange(w.size) - start[rows]
     out = np.empty((nb, n))
@@ -531,7 +538,7 @@ def converged_lobes(
             ok = np.isfinite(grid)
             rows = np.broadcast_to(np.arange(nb, dtype=np.int64)[:, None], grid.shape)[ok]
             w, rows = _refine(om, ze, res, al, grid[ok], rows, bound, **kw)  # type: ignore[arg-type]
-            w2 = _padded(w, rows, nb)
+            w2 = _padded(w, rows, nb, _room(count))
             mu = zoa_eigenvalues(flat.frf(w2), al)
             depth, eps = zoa_depth(mu, teeth=int(teeth), kt=float(kt))
             fill = np.arange(w2.shape[1])[None, :] >= np.bincount(rows, minlength=nb)[:, None]
@@ -540,52 +547,59 @@ def converged_lobes(
         w0 = np.where(np.isfinite(grid), grid, 0.0).ravel()
         bound = bound.copy()
         n_all = np.zeros(nb, np.int64)
-        # in chunks of entries (the room per entry is a guess, retried wider where short):
-        # each chunk's samples kept at that chunk's own width, then put together
-        put: list[tuple[IntArray, FloatArray, FloatArray, FloatArray]] = []
+        # written straight into the result, one room for every entry (a guess from the
+        # initial samples); the few entries that need more are refined again wider
+        cap = _room(count)
+        w2 = np.empty((nb, cap))
+        dep = np.empty((nb, 2, cap))
+        eps = np.empty((nb, 2, cap))
+        wide: list[tuple[IntArray, FloatArray, FloatArray, FloatArray]] = []
         for c0 in range(0, nb, _REFINE_CHUNK):
-            idx = np.arange(c0, min(nb, c0 + _REFINE_CHUNK))
-            cap = int(count[idx].max()) + max(128, int(count[idx].max()) // 2)
-            todo = idx
+            c1 = min(nb, c0 + _REFINE_CHUNK)
+            todo = np.arange(c0, c1)
+            room = cap
             while todo.size:
-                out, d_o, e_o, n_out, status, bound[todo] = kern.refine(
+                into = (w2[c0:c1], dep[c0:c1], eps[c0:c1]) if room == cap else None
+                o_w, o_d, o_e, n_out, status, bound[todo] = kern.refine(
                     om[todo], ze[todo], res[todo], al[todo], w0, start[todo], count[todo],
                     bound[todo], chord_tol=CHORD_TOL, speed_tol=SPEED_TOL,
-                    max_depth=MAX_PASSES, cap=cap, rpm=r, relevant=RELEVANT,
-                    depth_span=DEPTH_SPAN, **kw,
+                    max_depth=MAX_PASSES, cap=room, rpm=r, relevant=RELEVANT,
+                    depth_span=DEPTH_SPAN, out=into, **kw,
                 )  # fmt: skip
                 if np.any(status == 2):
                     bad = int(todo[np.flatnonzero(status == 2)[0]])
                     _unconverged(om, ze, bad, f"{MAX_PASSES} halvings")
                 ok = status == 0
                 n_all[todo[ok]] = n_out[ok]
-                k = int(n_out[ok].max(initial=1))
-                put.append((todo[ok], out[ok, :k], d_o[ok, :, :k], e_o[ok, :, :k]))
-                del out, d_o, e_o
+                if room != cap:
+                    k = int(n_out[ok].max(initial=1))
+                    wide.append((todo[ok], o_w[ok, :k], o_d[ok, :, :k], o_e[ok, :, :k]))
+                del o_w, o_d, o_e
                 todo = todo[~ok]
-                if todo.size and cap >= MAX_SAMPLES:
+                if todo.size and room >= MAX_SAMPLES:
                     _unconverged(om, ze, int(todo[0]), f"more than {MAX_SAMPLES} samples")
-                cap = min(4 * cap, MAX_SAMPLES)
+                room = min(4 * room, MAX_SAMPLES)
         n = int(n_all.max())
-        w2 = np.empty((nb, n))
-        dep = np.empty((nb, 2, n))
-        eps = np.empty((nb, 2, n))
-        while put:  # (each part freed once copied)
-            rows, wb, db, eb = put.pop()
+        if n > cap:  # some entries needed more room: widen (rare)
+            w2 = np.concatenate([w2, np.empty((nb, n - cap))], axis=1)
+            dep = np.concatenate([dep, np.empty((nb, 2, n - cap))], axis=2)
+            eps = np.concatenate([eps, np.empty((nb, 2, n - cap))], axis=2)
+        for rows, wb, db, eb in wide:
             k = wb.shape[1]
             w2[rows, :k], dep[rows, :, :k], eps[rows, :, :k] = wb, db, eb
-            del wb, db, eb
-        fill = np.arange(n)[None, :] >= n_all[:, None]
+        del wide
+        fill = np.arange(w2.shape[1])[None, :] >= n_all[:, None]
         # the padding: copies of each row's last frequency (off every branch, below)
-        w2 = np.where(fill, w2[np.arange(nb), n_all - 1][:, None], w2)
+        np.copyto(w2, w2[np.arange(nb), n_all - 1][:, None], where=fill)
         return finish(w2, dep, eps, fill, True), bound
 
     def finish(
         w2: FloatArray, depth: FloatArray, eps: FloatArray, fill: NDArray[np.bool_], jit: bool
     ) -> LobeDiagram:
         # the padding (copies of a row's last sample) is off every branch: no lobe piece
-        depth[fill[:, None, :].repeat(2, axis=1)] = np.inf
-        eps[fill[:, None, :].repeat(2, axis=1)] = np.nan
+        f2 = np.broadcast_to(fill[:, None, :], depth.shape)
+        np.copyto(depth, np.inf, where=f2)
+        np.copyto(eps, np.nan, where=f2)
         return lobes_from_depth(
             w2, depth, eps, teeth=int(teeth), rpm=r, max_lobe=max_lobe, immersion=immersion,
             max_lobe_cap=max_lobe_cap, jit=jit,
