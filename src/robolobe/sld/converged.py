@@ -9,8 +9,9 @@ of a low-frequency (robot) mode at high spindle speed, which lives at phases
 ``eps -> 0`` within a sliver of the resonance.
 
 :func:`converged_lobes` starts from the modal grid of each batch entry
-(:func:`robolobe.sld.frf.frequency_grid` of that entry's own modes) and
-halves every interval of a branch whose lobes reach the speed range below the
+(the rule of :func:`robolobe.sld.frf.frequency_grid` for that entry's own
+modes, its range widened to the tooth-passing frequencies) and halves every
+interval of a branch whose lobes reach the speed range below the
 envelope until
 
 - the sample in the middle of the interval lies within :data:`CHORD_TOL`
@@ -24,11 +25,16 @@ envelope until
   than the envelope's relevance bound or lobe 0's speed there is above the range;
 
 considering only pieces whose smallest depth lies below :data:`RELEVANT`
-times the highest envelope value of that entry. The stated result
+times the highest envelope value of that entry (the envelope on the initial
+samples; formed again on the refined ones, and the refinement repeated where
+it came out higher), and only intervals whose ends lie below
+:data:`PREFILTER` times that. The compiled kernel
+(:func:`robolobe.sld._kernels.refine`, depth first per entry) and the numpy
+path (breadth first over the batch) apply the same rule. The stated result
 (:data:`LOBE_TOL`): the envelope at every speed of the grid, and at any
 speed queried later, lies within 0.5 % of the envelope of the exact lobes of
-the model (tests: an independent dense-grid ZOA in
-``tests/sld/test_converged.py``, property tests over random modal models and
+the model (tests: an independent textbook ZOA solved per speed,
+``tests/sld/zoa_reference.py``, in ``tests/sld/test_converged.py``: property tests over random modal models and
 every waypoint of the bundled plans).
 
 Modes that cannot be resolved this way in reasonable time (damping below
