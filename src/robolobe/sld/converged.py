@@ -34,8 +34,9 @@ path (breadth first over the batch) apply the same rule. The stated result
 (:data:`LOBE_TOL`): the envelope at every speed of the grid, and at any
 speed queried later, lies within 0.5 % of the envelope of the exact lobes of
 the model (tests: an independent textbook ZOA solved per speed,
-``tests/sld/zoa_reference.py``, in ``tests/sld/test_converged.py``: property tests over random modal models and
-every waypoint of the bundled plans).
+``tests/sld/zoa_reference.py``, in ``tests/sld/test_converged.py``: property
+tests over random modal models; ``tests/plan/test_converged_plans.py``: every
+waypoint of the bundled plans).
 
 Modes that cannot be resolved this way in reasonable time (damping below
 :data:`ZETA_MIN`, frequency above :data:`F_MAX_HZ`) are refused with an
