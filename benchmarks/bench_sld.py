@@ -25,8 +25,14 @@ measured in the same process (load average printed with the figures):
   frequencies; Python loops over waypoints, branches, lobes and the monotone
   pieces of each lobe, ``np.interp`` per piece) that computes the same exact
   envelope (checked below);
-- ``FRF synthesis`` and the full modal pipeline (``stability_lobes`` with the
-  refined grid) for context.
+- ``FRF synthesis`` and the full modal pipeline (``stability_lobes``: the
+  lobes converged in frequency) for context;
+- ``lobe stage, before / after`` (issue 25): the planner's lobe stage on the
+  same waypoints, automatic lobe count, as it was (each waypoint's static
+  modal grid, FRFs synthesised, the kernel) and as it is
+  (:func:`robolobe.sld.converged_lobes`: samples refined until the envelope
+  is within 0.5 %), wall and CPU time in the same process, and how far the
+  static grid's envelope is above the converged one.
 
 Run: ``python benchmarks/bench_sld.py [--batch 2000] [--loop 100]``. The
 first run after an install or a change of the kernel compiles it (seconds,
@@ -48,6 +54,7 @@ import numpy as np
 from robolobe.sld import (
     CuttingConditions,
     ModalModel,
+    converged_lobes,
     directional_factors,
     feed_frame,
     get_material,
@@ -326,6 +333,34 @@ def main() -> None:
     )
     t_full = time.perf_counter() - t0
 
+    # issue 25: the lobe stage before (static modal grid) and after (converged), same batch
+    def before() -> np.ndarray:
+        om = models.frequency_grid(shared=False)
+
+        def synth(a: int, b: int) -> np.ndarray:
+            return models.take(slice(a, b)).frf(om[a:b])
+
+        return zoa_lobes(om, synth, alpha=ALPHA, teeth=TEETH, kt=MATERIAL.kt, rpm=RPM,
+                         max_lobe=None, jit=True).a_lim  # fmt: skip
+
+    def after() -> np.ndarray:
+        return converged_lobes(
+            models, ALPHA, teeth=TEETH, kt=MATERIAL.kt, rpm=RPM, max_lobe=None, jit=True
+        ).a_lim
+
+    stage: dict[str, tuple[float, float]] = {}
+    for name, fn in (("before", before), ("after", after)):
+        fn()  # warm (compiled kernels loaded)
+        best = (math.inf, math.inf)
+        for _ in range(args.repeat):
+            t0, c0 = time.perf_counter(), time.process_time()
+            out = fn()
+            best = min(best, (time.perf_counter() - t0, time.process_time() - c0))
+        stage[name] = best
+        _DATA[name] = out
+    with np.errstate(invalid="ignore", divide="ignore"):
+        over = np.where(np.isfinite(_DATA["after"]), _DATA["before"] / _DATA["after"], 1.0)
+
     rate_loop = nl / t_loop
     rate_np = nb / times["numpy"]  # wall-clock rates vs wall, CPU-time rates vs CPU time
     rate_cpu = nb / times["numpy cpu"]
@@ -360,7 +395,17 @@ def main() -> None:
         f"2-process result identical: {np.array_equal(env, env2)}"
     )
     print(f"FRF synthesis: {nb / t_frf:.0f} waypoints/s (per-waypoint grids + 2x2 FRFs)")
-    print(f"full modal pipeline (refined grid, stability_lobes): {nm / t_full:.0f} waypoints/s")
+    print(f"full modal pipeline (converged, stability_lobes): {nm / t_full:.0f} waypoints/s")
+    (wb, cb), (wa, ca) = stage["before"], stage["after"]
+    print(
+        f"lobe stage, {nb} waypoints, automatic lobe count (issue 25), best of {args.repeat}:\n"
+        f"  before (static modal grid):      {wb:7.3f} s wall {cb:7.3f} s CPU "
+        f"({nb / wb:.0f} waypoints/s)\n"
+        f"  after (converged to 0.5 %):      {wa:7.3f} s wall {ca:7.3f} s CPU "
+        f"({nb / wa:.0f} waypoints/s); after/before: {wa / wb:.2f}x wall, {ca / cb:.2f}x CPU\n"
+        f"  static grid's envelope / converged: max {np.nanmax(over):.3f}, "
+        f"{np.mean(np.nanmax(over, axis=1) > 1.005):.1%} of the waypoints above 1.005"
+    )
     rss_mb = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
     print(f"max RSS of this process: {rss_mb:.0f} MB")
     print(

@@ -57,14 +57,14 @@ def test_verify_on_the_plans_own_modes_reproduces_a_lim(plans, job):
 
 
 @pytest.mark.parametrize("job", [c[1] for c in CASES])
-def test_shared_lobes_within_one_percent_of_each_waypoints_own(plans, job):
+def test_shared_lobes_within_half_a_percent_of_each_waypoints_own(plans, job):
     """Lobe sharing keeps its promise: the stated limit vs every waypoint's own lobes."""
     d, j, _ = plans[job]
     v = verify_plan(d, robot=j.robot, job=j, dynamics_tol=0.0)
     t = v.table
     ok = np.isfinite(t["a_lim_plan_mm"])
     rel = np.abs(t["a_lim_mm"][ok] / t["a_lim_plan_mm"][ok] - 1.0)
-    assert rel.max() <= 0.01
+    assert rel.max() <= 0.005  # issue 25: within 0.5 % of each waypoint's own lobes
 
 
 def test_less_damped_robot_is_predicted_to_chatter_with_file_lines(plans, tmp_path):

@@ -13,9 +13,11 @@ eigenvalue ``mu_j`` of ``G0``: the stability boundary at speed ``n`` is made
 of the chatter frequencies ``w`` where some ``u_j`` is real and positive, the
 limit being ``1 / u_j`` there. This module finds them per speed directly (no
 lobe numbers, no phase ``eps``, no branch tracking): ``F_j(w) = Im u_j``
-of each eigenvalue (the one with the larger real part first, no tracking), sampled on a dense grid
-(20,000 log-spaced points, a uniform grid 1/16 of the regeneration period
-apart, 4,001 points around every mode spaced like ``1e-4 sinh(t)`` zeta w) and
+of each eigenvalue (ordered by real part, and once more by modulus; no tracking),
+sampled on a dense grid (20,000 log-spaced points from a fifth of the lowest
+mode or a tenth of the lowest tooth-passing frequency to four times the
+highest of either, a uniform grid 1/16 of the regeneration period apart,
+4,001 points around every mode spaced like ``1e-4 sinh(t)`` zeta w), and
 every sign change is bisected to the root. The envelope is the smallest
 positive limit over all roots.
 """
@@ -92,7 +94,9 @@ def reference_envelope(f_hz, zeta, residues, alpha, *, teeth, kt, rpm, bisection
     z = np.asarray(zeta, float)
     wr = _TWO_PI * f
     rpm = np.asarray(rpm, float)
-    lo, hi = 0.2 * wr.min(), 4.0 * wr.max()
+    w_tooth = 2 * math.pi * teeth / 60.0 * rpm
+    lo = min(0.2 * wr.min(), 0.1 * w_tooth.min())
+    hi = max(4.0 * wr.max(), 4.0 * w_tooth.max())
     t_max = 60.0 / (teeth * rpm.min())
     step = _TWO_PI / t_max / 16.0
     parts = [np.geomspace(lo, hi, 20_000), np.arange(lo, hi, step)]

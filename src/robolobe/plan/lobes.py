@@ -802,31 +802,35 @@ def _extend_diagrams(
 def _joined(parts: list[LobeDiagram]) -> LobeDiagram:
     """Diagrams of consecutive batches (same speeds, lobe count, scenario) as one.
 
-    Frequency rows of different lengths are padded with copies of their last
-    sample (zero-length lobe pieces: the same lobes).
+    Frequency rows of different lengths are padded as
+    :func:`robolobe.sld.converged.converged_lobes` pads them: copies of the
+    last sample, off every branch (no lobe piece: the same lobes).
     """
     if len(parts) == 1:
         return parts[0]
     nf = max(np.asarray(d.omega).shape[-1] for d in parts)
 
-    def pad(x: FloatArray) -> FloatArray:
+    def pad(x: FloatArray, fill: float | None) -> FloatArray:
         x = np.asarray(x)
         if x.shape[-1] == nf:
             return x
-        return np.concatenate([x, np.repeat(x[..., -1:], nf - x.shape[-1], axis=-1)], axis=-1)
+        more = np.repeat(x[..., -1:], nf - x.shape[-1], axis=-1)
+        if fill is not None:
+            more = np.full_like(more, fill)
+        return np.concatenate([x, more], axis=-1)
 
     def cat(name: str) -> FloatArray:
         return np.concatenate([np.asarray(getattr(d, name)) for d in parts], axis=0)
 
-    def cat_padded(name: str) -> FloatArray:
-        return np.concatenate([pad(getattr(d, name)) for d in parts], axis=0)
+    def cat_padded(name: str, fill: float | None) -> FloatArray:
+        return np.concatenate([pad(getattr(d, name), fill) for d in parts], axis=0)
 
     return dataclasses.replace(
         parts[0],
         a_lim=cat("a_lim"),
-        omega=cat_padded("omega"),
-        depth=cat_padded("depth"),
-        eps=cat_padded("eps"),
+        omega=cat_padded("omega", None),
+        depth=cat_padded("depth", np.inf),
+        eps=cat_padded("eps", np.nan),
         complete_above_rpm=cat("complete_above_rpm"),
     )
 

@@ -540,3 +540,424 @@ def envelope_rows(
             out,
         )
     return out
+
+
+# ----------------------------------------------------------------------------------
+# Converged lobes: the refinement of each entry's frequency samples
+# (robolobe.sld.converged: the numpy path and the rule; this is the same rule per entry)
+
+#: As robolobe.sld.converged.PREFILTER (a piece whose ends lie deeper than this multiple
+#: of the relevance bound is not examined).
+_PREFILTER = 2.0
+
+
+@njit()
+def _eig_pt(
+    w: float, om: FloatArray, ze: FloatArray, res: FloatArray, al: FloatArray
+) -> tuple[complex, complex]:
+    """The two eigenvalues of ``alpha G(w)`` (untracked, ``h + root`` first)."""
+    g00 = 0j
+    g01 = 0j
+    g10 = 0j
+    g11 = 0j
+    for r in range(om.shape[0]):
+        wr = om[r]
+        # 1 / (re + i im) = (re - i im) / (re^2 + im^2), as converged._eig_at forms it
+        re = wr * wr - w * w
+        im = 2.0 * (ze[r] * wr) * w
+        q = 1.0 / (re * re + im * im)
+        inv = complex(re * q, -im * q)
+        g00 += inv * res[r, 0, 0]
+        g01 += inv * res[r, 0, 1]
+        g10 += inv * res[r, 1, 0]
+        g11 += inv * res[r, 1, 1]
+    a00, a01, a10, a11 = al[0, 0], al[0, 1], al[1, 0], al[1, 1]
+    tr = a00 * g00 + a01 * g10 + a10 * g01 + a11 * g11
+    det = (a00 * a11 - a01 * a10) * (g00 * g11 - g01 * g10)
+    h = 0.5 * tr
+    root = _csqrt(h * h - det)
+    return h + root, h - root
+
+
+@njit()
+def _de(mu: complex, nkt: float) -> tuple[float, float]:
+    re = mu.real
+    if re > 0.0:
+        return _TWO_PI / (nkt * re), math.pi + 2.0 * math.atan(mu.imag / re)
+    return np.inf, np.nan
+
+
+@njit()
+def _reach(
+    c: float, wl: float, wr: float, e_lo: float, e_hi: float, smin: float, smax: float, kmax: int
+) -> tuple[float, float]:
+    klo = math.ceil((c * wl / smax - e_hi) / _TWO_PI)
+    khi = math.floor((c * wr / smin - e_lo) / _TWO_PI)
+    return min(max(klo, 0.0), kmax + 1.0), min(max(khi, -1.0), float(kmax))
+
+
+@njit()
+def _chord_bad(
+    wl: float,
+    wr: float,
+    a_l: float,
+    e_l: float,
+    a_r: float,
+    e_r: float,
+    a_m: float,
+    e_m: float,
+    bound: float,
+    c: float,
+    smin: float,
+    smax: float,
+    kmax: int,
+    chord_tol: float,
+    speed_tol: float,
+) -> bool:
+    """One branch of :func:`robolobe.sld.converged._split_mask` for one interval."""
+    fl = a_l < np.inf
+    fr = a_r < np.inf
+    fm = a_m < np.inf
+    if fl and fr:
+        e_lo = min(e_l, e_r)
+        e_hi = max(e_l, e_r)
+        amin = min(a_l, a_r)
+        if fm:
+            e_lo = min(e_lo, e_m)
+            e_hi = max(e_hi, e_m)
+            amin = min(amin, a_m)
+        klo, khi = _reach(c, wl, wr, e_lo, e_hi, smin, smax, kmax)
+        if not (khi >= klo and amin < bound):
+            return False
+        if not fm:
+            return True
+        wm = 0.5 * (wl + wr)
+        for q in range(3):
+            k = klo if q == 0 else (khi if q == 1 else math.floor(0.5 * (klo + khi)))
+            tk = _TWO_PI * k
+            n_l = c * wl / (e_l + tk)
+            n_r = c * wr / (e_r + tk)
+            n_m = c * wm / (e_m + tk)
+            lo_n = min(n_l, n_r)
+            hi_n = max(n_l, n_r)
+            if max(hi_n, n_m) < smin * (1 - 1e-3) or min(lo_n, n_m) > smax * (1 + 1e-3):
+                continue
+            if n_m >= lo_n and n_m <= hi_n and hi_n > lo_n:
+                chord = a_l + (a_r - a_l) * (n_m - n_l) / (n_r - n_l)
+                err = abs(a_m - chord) / min(a_m, chord)
+                if not (err <= chord_tol):
+                    return True
+            else:
+                err = max(lo_n - n_m, n_m - hi_n) / n_m
+                if not (err <= speed_tol):
+                    return True
+        return False
+    if fl or fr:
+        a_f = a_l if fl else a_r
+        e_f = e_l if fl else e_r
+        e_x = 0.0 if e_f < math.pi else _TWO_PI
+        klo, khi = _reach(c, wl, wr, min(e_f, e_x), max(e_f, e_x), smin, smax, kmax)
+        return khi >= klo and a_f < bound
+    return False
+
+
+@njit()
+def _piece_candidate(
+    wl: float,
+    wr: float,
+    a_l: float,
+    e_l: float,
+    a_r: float,
+    e_r: float,
+    bound: float,
+    c: float,
+    smin: float,
+    smax: float,
+    kmax: int,
+) -> bool:
+    """One branch of :func:`robolobe.sld.converged._candidates` for one interval."""
+    fl = a_l < np.inf
+    fr = a_r < np.inf
+    if fl and fr:
+        klo, khi = _reach(c, wl, wr, min(e_l, e_r), max(e_l, e_r), smin, smax, kmax)
+        return khi >= klo and min(a_l, a_r) < _PREFILTER * bound
+    return fl or fr
+
+
+@njit()
+def _bound_row(
+    w: FloatArray,
+    m1: ComplexArray,
+    m2: ComplexArray,
+    nkt: float,
+    teeth: int,
+    s: FloatArray,
+    uniform: bool,
+    k1: int,
+    relevant: float,
+    depth_span: float,
+) -> float:
+    """The relevance bound of one entry from its (untracked) eigenvalues at ``w``.
+
+    As :func:`robolobe.sld.converged.converged_lobes` forms it from the lobes on
+    the initial samples: ``relevant`` x the highest envelope value, at most
+    ``depth_span`` x the smallest depth (that alone where the envelope is not
+    finite everywhere).
+    """
+    nf = w.shape[0]
+    depth = np.empty((2, nf))
+    eps = np.empty((2, nf))
+    env = np.empty(s.shape[0])
+    p1 = 0j
+    p2 = 0j
+    parity = False
+    dmin = np.inf
+    for i in range(nf):
+        a1 = m1[i]
+        a2 = m2[i]
+        if i > 0 and _crossed(a1, a2, p1, p2):
+            parity = not parity
+        p1 = a1
+        p2 = a2
+        if parity:
+            a1, a2 = a2, a1
+        for j in range(2):
+            d, e = _de(a1 if j == 0 else a2, nkt)
+            depth[j, i] = d
+            eps[j, i] = e
+            dmin = min(dmin, d)
+    _env_row(w, depth, eps, teeth, s, uniform, k1, env, False)
+    amax = -np.inf
+    full = True
+    for jj in range(env.shape[0]):
+        if env[jj] < np.inf:
+            amax = max(amax, env[jj])
+        else:
+            full = False
+    cap = depth_span * dmin
+    if full:
+        return min(relevant * amax, cap)
+    return cap
+
+
+@njit(parallel=True)
+def _refine_batch(
+    om: FloatArray,
+    ze: FloatArray,
+    res: FloatArray,
+    al: FloatArray,
+    w0: FloatArray,
+    start: NDArray[np.int64],
+    count: NDArray[np.int64],
+    bound: FloatArray,
+    c: float,
+    nkt: float,
+    smin: float,
+    smax: float,
+    kmax: int,
+    chord_tol: float,
+    speed_tol: float,
+    max_depth: int,
+    s: FloatArray,
+    uniform: bool,
+    relevant: float,
+    depth_span: float,
+    out: FloatArray,
+    dep: FloatArray,
+    eps: FloatArray,
+    n_out: NDArray[np.int64],
+    status: NDArray[np.int64],
+) -> None:
+    """Each entry's samples halved where :func:`_chord_bad` says so (after
+    :func:`_piece_candidate`), depth first.
+
+    A NaN ``bound[b]`` is formed first (:func:`_bound_row`, written back).
+    ``status``: 0 done, 1 out of room (``out`` too short), 2 at ``max_depth``
+    halvings or the resolution of doubles.
+    """
+    cap = out.shape[1]
+    teeth = round(60.0 / c)
+    for b in numba.prange(om.shape[0]):
+        o, z, rs, a = om[b], ze[b], res[b], al[b]
+        s0 = start[b]
+        nc = count[b]
+        wi = w0[s0 : s0 + nc]
+        mi1 = np.empty(nc, np.complex128)
+        mi2 = np.empty(nc, np.complex128)
+        for i in range(nc):
+            mi1[i], mi2[i] = _eig_pt(wi[i], o, z, rs, a)
+        if np.isnan(bound[b]):
+            bound[b] = _bound_row(
+                wi, mi1, mi2, nkt, teeth, s, uniform, kmax + 1, relevant, depth_span
+            )
+        bd = bound[b]
+        # the right ends still to visit: frequency, eigenvalues, depth and phase, level
+        nd = max_depth + 2
+        sw = np.empty(nd)
+        s1 = np.empty(nd, np.complex128)
+        s2 = np.empty(nd, np.complex128)
+        sa = np.empty((nd, 4))
+        lev = np.empty(nd, np.int64)
+        n = 0
+        st = 0
+        wl = wi[0]
+        l1 = mi1[0]
+        l2 = mi2[0]
+        la1, le1 = _de(l1, nkt)
+        la2, le2 = _de(l2, nkt)
+        # branch tracking of the samples as they are written (the rule of _eig_row)
+        p1 = 0j
+        p2 = 0j
+        parity = False
+        for i in range(1, nc):
+            if st != 0:
+                break
+            top = 0
+            sw[0] = wi[i]
+            s1[0] = mi1[i]
+            s2[0] = mi2[i]
+            sa[0, 0], sa[0, 1] = _de(mi1[i], nkt)
+            sa[0, 2], sa[0, 3] = _de(mi2[i], nkt)
+            lev[0] = 0
+            while top >= 0:
+                wr = sw[top]
+                # the right end's branches in the left end's order
+                sw_r = _crossed(s1[top], s2[top], l1, l2)
+                ra1, re1, ra2, re2 = sa[top, 0], sa[top, 1], sa[top, 2], sa[top, 3]
+                if sw_r:
+                    ra1, re1, ra2, re2 = ra2, re2, ra1, re1
+                split = False
+                if _piece_candidate(
+                    wl, wr, la1, le1, ra1, re1, bd, c, smin, smax, kmax
+                ) or _piece_candidate(wl, wr, la2, le2, ra2, re2, bd, c, smin, smax, kmax):
+                    wm = 0.5 * (wl + wr)
+                    m1, m2 = _eig_pt(wm, o, z, rs, a)
+                    ma1, me1 = _de(m1, nkt)
+                    ma2, me2 = _de(m2, nkt)
+                    if _crossed(m1, m2, l1, l2):
+                        ma1, me1, ma2, me2 = ma2, me2, ma1, me1
+                    split = _chord_bad(
+                        wl, wr, la1, le1, ra1, re1, ma1, me1, bd, c, smin, smax, kmax,
+                        chord_tol, speed_tol,
+                    ) or _chord_bad(
+                        wl, wr, la2, le2, ra2, re2, ma2, me2, bd, c, smin, smax, kmax,
+                        chord_tol, speed_tol,
+                    )  # fmt: skip
+                    if split:
+                        if lev[top] >= max_depth or wr - wl <= 1e-12 * wl:
+                            st = 2
+                            break
+                        top += 1
+                        sw[top] = wm
+                        s1[top] = m1
+                        s2[top] = m2
+                        # (depth and phase in m's own order, as stored for every point)
+                        sa[top, 0], sa[top, 1] = _de(m1, nkt)
+                        sa[top, 2], sa[top, 3] = _de(m2, nkt)
+                        lev[top] = lev[top - 1] + 1
+                        continue
+                if n >= cap - 1:
+                    st = 1
+                    break
+                if n > 0 and _crossed(l1, l2, p1, p2):
+                    parity = not parity
+                p1 = l1
+                p2 = l2
+                out[b, n] = wl
+                j1 = 1 if parity else 0
+                dep[b, j1, n] = la1
+                eps[b, j1, n] = le1
+                dep[b, 1 - j1, n] = la2
+                eps[b, 1 - j1, n] = le2
+                n += 1
+                wl = wr
+                l1 = s1[top]
+                l2 = s2[top]
+                la1, le1, la2, le2 = sa[top, 0], sa[top, 1], sa[top, 2], sa[top, 3]
+                top -= 1
+        if st == 0:
+            if n > 0 and _crossed(l1, l2, p1, p2):
+                parity = not parity
+            out[b, n] = wl
+            j1 = 1 if parity else 0
+            dep[b, j1, n] = la1
+            eps[b, j1, n] = le1
+            dep[b, 1 - j1, n] = la2
+            eps[b, 1 - j1, n] = le2
+            n += 1
+        n_out[b] = n
+        status[b] = st
+
+
+def refine(
+    om: FloatArray,
+    ze: FloatArray,
+    res: FloatArray,
+    al: FloatArray,
+    w0: FloatArray,
+    start: NDArray[np.int64],
+    count: NDArray[np.int64],
+    bound: FloatArray,
+    *,
+    teeth: int,
+    nkt: float,
+    smin: float,
+    smax: float,
+    kmax: int,
+    chord_tol: float,
+    speed_tol: float,
+    max_depth: int,
+    cap: int,
+    rpm: FloatArray,
+    relevant: float,
+    depth_span: float,
+    out: tuple[FloatArray, FloatArray, FloatArray] | None = None,
+) -> tuple[FloatArray, FloatArray, FloatArray, NDArray[np.int64], NDArray[np.int64], FloatArray]:
+    """Refined samples per entry (see :func:`robolobe.sld.converged.converged_lobes`).
+
+    Returns ``out`` (nb, cap) (row ``b`` valid up to ``n_out[b]``), the
+    branch-tracked depth and phase there (nb, 2, cap), ``n_out``, ``status``
+    (0 done, 1 needs more than ``cap`` samples, 2 unconverged) and the bounds
+    used (NaN entries of ``bound``: formed from the initial samples and the
+    speeds ``rpm``). ``out``: C-contiguous arrays of shapes (nb, cap), (nb, 2, cap)
+    and (nb, 2, cap) to write the samples, depth and phase into.
+    """
+    nb = om.shape[0]
+    if out is None:
+        out = (np.empty((nb, cap)), np.empty((nb, 2, cap)), np.empty((nb, 2, cap)))
+    w_o, dep, eps = out
+    if w_o.shape != (nb, cap) or not (w_o.flags.c_contiguous and dep.flags.c_contiguous):
+        raise InputError("refine: out= arrays of the wrong shape or not contiguous")
+    n_out = np.zeros(nb, np.int64)
+    status = np.zeros(nb, np.int64)
+    bd = np.array(bound, dtype=np.float64)
+    s, _, uniform = _sorted_speeds(np.asarray(rpm, dtype=np.float64))
+    with _LOCK:
+        _refine_batch(
+            np.ascontiguousarray(om, dtype=np.float64),
+            np.ascontiguousarray(ze, dtype=np.float64),
+            np.ascontiguousarray(res, dtype=np.float64),
+            np.ascontiguousarray(al, dtype=np.float64),
+            np.ascontiguousarray(w0, dtype=np.float64),
+            np.ascontiguousarray(start, dtype=np.int64),
+            np.ascontiguousarray(count, dtype=np.int64),
+            bd,
+            60.0 / teeth,
+            float(nkt),
+            float(smin),
+            float(smax),
+            int(kmax),
+            float(chord_tol),
+            float(speed_tol),
+            int(max_depth),
+            s,
+            uniform,
+            float(relevant),
+            float(depth_span),
+            w_o,
+            dep,
+            eps,
+            n_out,
+            status,
+        )
+    return w_o, dep, eps, n_out, status, bd

@@ -9,8 +9,9 @@ of a low-frequency (robot) mode at high spindle speed, which lives at phases
 ``eps -> 0`` within a sliver of the resonance.
 
 :func:`converged_lobes` starts from the modal grid of each batch entry
-(:func:`robolobe.sld.frf.frequency_grid` of that entry's own modes) and
-halves every interval of a branch whose lobes reach the speed range below the
+(the rule of :func:`robolobe.sld.frf.frequency_grid` for that entry's own
+modes, its range widened to the tooth-passing frequencies) and halves every
+interval of a branch whose lobes reach the speed range below the
 envelope until
 
 - the sample in the middle of the interval lies within :data:`CHORD_TOL`
@@ -24,12 +25,18 @@ envelope until
   than the envelope's relevance bound or lobe 0's speed there is above the range;
 
 considering only pieces whose smallest depth lies below :data:`RELEVANT`
-times the highest envelope value of that entry. The stated result
+times the highest envelope value of that entry (the envelope on the initial
+samples; formed again on the refined ones, and the refinement repeated where
+it came out higher), and only intervals whose ends lie below
+:data:`PREFILTER` times that. The compiled kernel
+(:func:`robolobe.sld._kernels.refine`, depth first per entry) and the numpy
+path (breadth first over the batch) apply the same rule. The stated result
 (:data:`LOBE_TOL`): the envelope at every speed of the grid, and at any
 speed queried later, lies within 0.5 % of the envelope of the exact lobes of
-the model (tests: an independent dense-grid ZOA in
-``tests/sld/test_converged.py``, property tests over random modal models and
-every waypoint of the bundled plans).
+the model (tests: an independent textbook ZOA solved per speed,
+``tests/sld/zoa_reference.py``, in ``tests/sld/test_converged.py``: property
+tests over random modal models; ``tests/plan/test_converged_plans.py``: every
+waypoint of the bundled plans).
 
 Modes that cannot be resolved this way in reasonable time (damping below
 :data:`ZETA_MIN`, frequency above :data:`F_MAX_HZ`) are refused with an
@@ -47,9 +54,16 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from robolobe.errors import InputError
+from robolobe.sld import zoa as _zoa
 from robolobe.sld.frf import ModalModel, _mode_window
 from robolobe.sld.lobes import LobeDiagram
-from robolobe.sld.zoa import zoa_lobes
+from robolobe.sld.zoa import (
+    _kernels,
+    lobes_from_depth,
+    zoa_depth,
+    zoa_eigenvalues,
+    zoa_lobes,
+)
 
 __all__ = [
     "CHORD_TOL",
@@ -75,6 +89,9 @@ CHORD_TOL = 1e-3
 SPEED_TOL = 1e-5
 #: Pieces deeper than this multiple of the highest envelope value are left alone.
 RELEVANT = 1.5
+#: Intervals whose two ends lie deeper than this multiple of the bound get no middle
+#: sample (between two phase-resolved samples a lobe is not twice as deep).
+PREFILTER = 2.0
 #: Without a finite envelope value, pieces deeper than this multiple of the smallest
 #: depth are left alone.
 DEPTH_SPAN = 1e4
@@ -90,6 +107,8 @@ MAX_SAMPLES = 200_000
 _PER_DECADE = 40
 _PER_MODE = 33
 _HALF_WIDTH = 25.0
+#: Entries refined per call of the compiled kernel (bounds its working arrays).
+_REFINE_CHUNK = 1024
 #: Frequency samples whose FRFs are formed at once (bounds the temporaries).
 _EVAL_CHUNK = 1 << 15
 
@@ -122,36 +141,41 @@ def check_resolvable(model: ModalModel) -> None:
 
 
 def _initial_grid(
-    om: FloatArray, ze: FloatArray, present: NDArray[np.bool_]
+    om: FloatArray, ze: FloatArray, present: NDArray[np.bool_], w_speed: tuple[float, float]
 ) -> tuple[FloatArray, IntArray]:
     """Per entry: a log base grid over its own modes' range plus a window per mode.
 
     The rule of :func:`robolobe.sld.frf.frequency_grid` applied to each entry's
     own present modes, so that an entry's samples do not depend on the rest of
-    the batch. Returns the samples flat, sorted by (entry, frequency), and
-    each sample's entry.
+    the batch; the range widened to ``w_speed`` (from a quarter of the lowest
+    to twice the highest tooth-passing frequency [rad/s]): above the modes,
+    lobe 0 of the mass line (``eps`` near pi) sits at ``n = 60 w / (N pi)``,
+    which a stiff tool or a fast spindle can put in the speed range.
+
+    Returns
+    -------
+    grid : ndarray, shape (nb, n)
+        Each row sorted, its ``count`` samples first, then NaN.
+    count : ndarray of int, shape (nb,)
     """
-    nb = om.shape[0]
     any_p = np.any(present, axis=1)
     wp = np.where(present, om, np.nan)
     safe = np.where(any_p[:, None], wp, 1.0)
-    lo = 0.5 * np.nanmin(safe, axis=1)
-    hi = 2.0 * np.nanmax(safe, axis=1)
+    lo = np.minimum(0.5 * np.nanmin(safe, axis=1), w_speed[0])
+    hi = np.maximum(2.0 * np.nanmax(safe, axis=1), w_speed[1])
     n_base = np.maximum(np.ceil(_PER_DECADE * np.log10(hi / lo)).astype(np.int64) + 1, 2)
-    rows_b = np.repeat(np.arange(nb, dtype=np.int64), n_base)
-    start = np.r_[0, np.cumsum(n_base)[:-1]]
-    t = (np.arange(rows_b.size) - start[rows_b]) / (n_base[rows_b] - 1.0)
-    base = lo[rows_b] * (hi / lo)[rows_b] ** t
+    nbm = int(n_base.max())
+    j = np.arange(nbm)[None, :]
+    t = j / (n_base[:, None] - 1.0)
+    base = np.where(j < n_base[:, None], lo[:, None] * (hi / lo)[:, None] ** t, np.nan)
     s = _mode_window(_PER_MODE, _HALF_WIDTH)
     width = np.minimum(ze * _HALF_WIDTH, np.log(2.0)) / _HALF_WIDTH
     win = om[..., None] * np.exp(width[..., None] * s)  # (nb, m, P)
-    keep = np.broadcast_to(present[..., None], win.shape)
-    rows_w = np.broadcast_to(np.arange(nb)[:, None, None], win.shape)[keep]
-    win = np.clip(win[keep], lo[rows_w], hi[rows_w])
-    w = np.concatenate([base, win])
-    rows = np.concatenate([rows_b, rows_w])
-    order = np.lexsort((w, rows))
-    return w[order], rows[order]
+    win = np.clip(win, lo[:, None, None], hi[:, None, None])
+    win = np.where(present[..., None], win, np.nan).reshape(om.shape[0], -1)
+    grid = np.sort(np.concatenate([base, win], axis=1), axis=1)  # NaN last
+    count = n_base + _PER_MODE * present.sum(axis=1)
+    return grid, count.astype(np.int64)
 
 
 def _eig_at(
@@ -171,8 +195,11 @@ def _eig_at(
         r = rows[s : s + _EVAL_CHUNK]
         ww = w[s : s + _EVAL_CHUNK, None]
         wr = om[r]
-        den = wr * wr - ww * ww + 2j * (ze[r] * wr) * ww
-        g = np.einsum("pm,pmij->pij", 1.0 / den, res[r])
+        re = wr * wr - ww * ww
+        im = 2.0 * (ze[r] * wr) * ww
+        q = 1.0 / (re * re + im * im)
+        inv = re * q - 1j * (im * q)
+        g = np.einsum("pm,pmij->pij", inv, res[r])
         a = al[r]
         tr = (
             a[:, 0, 0] * g[:, 0, 0]
@@ -282,11 +309,43 @@ def _split_mask(
         e_x = np.where(e_f < np.pi, 0.0, _TWO_PI)
         klo, khi = reach(np.minimum(e_f, e_x), np.maximum(e_f, e_x))
         split |= edge & (khi >= klo) & (a_f < b)
-        # neither end on the branch: a branch appearing in the middle
-        none = ~fin_l & ~fin_r & fin_m
-        klo, khi = reach(em_ok, em_ok)
-        split |= none & (khi >= klo) & (a_m < b)
     return np.asarray(split.any(axis=1))
+
+
+def _candidates(
+    w: FloatArray,
+    rows: IntArray,
+    mu: ComplexArray,
+    i: IntArray,
+    bound: FloatArray,
+    *,
+    teeth: int,
+    nkt: float,
+    smin: float,
+    smax: float,
+    kmax: int,
+) -> NDArray[np.bool_]:
+    """Intervals worth a middle sample, from their ends: an end of a branch, or a
+    branch piece whose lobes reach the speeds and whose ends lie less than
+    :data:`PREFILTER` times the bound deep."""
+    c = 60.0 / teeth
+    mu_l = mu[i]
+    mu_r = _follow(mu_l, mu[i + 1])
+    a_l, e_l = _depth_eps(mu_l, nkt)
+    a_r, e_r = _depth_eps(mu_r, nkt)
+    fin_l, fin_r = np.isfinite(a_l), np.isfinite(a_r)
+    w_l = w[i][:, None]
+    w_r = w[i + 1][:, None]
+    with np.errstate(invalid="ignore"):
+        klo = np.clip(np.ceil((c * w_l / smax - np.fmax(e_l, e_r)) / _TWO_PI), 0, kmax + 1)
+        khi = np.clip(np.floor((c * w_r / smin - np.fmin(e_l, e_r)) / _TWO_PI), -1, kmax)
+        piece = (
+            fin_l
+            & fin_r
+            & (khi >= klo)
+            & (np.minimum(a_l, a_r) < PREFILTER * bound[rows[i]][:, None])
+        )
+    return np.asarray((piece | (fin_l ^ fin_r)).any(axis=1))
 
 
 def _refine(
@@ -303,15 +362,18 @@ def _refine(
     smin: float,
     smax: float,
     kmax: int,
-) -> tuple[FloatArray, IntArray, bool]:
+) -> tuple[FloatArray, IntArray]:
     """Halve intervals until no interval needs its middle sample (flat, sorted by row, w)."""
     mu = _eig_at(om, ze, res, al, rows, w)
     active = np.r_[rows[1:] == rows[:-1], False]
-    added = False
     for _ in range(MAX_PASSES):
         i = np.flatnonzero(active)
+        kw = dict(teeth=teeth, nkt=nkt, smin=smin, smax=smax, kmax=kmax)
+        cand = _candidates(w, rows, mu, i, bound, **kw)  # type: ignore[arg-type]
+        active[i[~cand]] = False
+        i = i[cand]
         if i.size == 0:
-            return w, rows, added
+            return w, rows
         w_mid = 0.5 * (w[i] + w[i + 1])
         mu_mid = _eig_at(om, ze, res, al, rows[i], w_mid)
         split = _split_mask(
@@ -325,8 +387,7 @@ def _refine(
             _unconverged(om, ze, r, "the frequency samples reached the resolution of doubles")
         active[i] = split
         if not np.any(split):
-            return w, rows, added
-        added = True
+            return w, rows
         j = np.flatnonzero(split)
         w = np.concatenate([w, w_mid[j]])
         rows = np.concatenate([rows, rows[i[j]]])
@@ -352,10 +413,17 @@ def _unconverged(om: FloatArray, ze: FloatArray, row: int, why: str) -> None:
     )
 
 
-def _padded(w: FloatArray, rows: IntArray, nb: int) -> FloatArray:
-    """Flat sorted samples as (nb, n_max), each row padded with copies of its last value."""
+def _room(count: IntArray) -> int:
+    """Samples per entry the results are made with (more where an entry needs more):
+    the initial samples and a quarter again (at least 128 more)."""
+    return int(count.max()) + max(128, int(count.max()) // 4)
+
+
+def _padded(w: FloatArray, rows: IntArray, nb: int, width: int = 0) -> FloatArray:
+    """Flat sorted samples as (nb, max(n_max, width)), each row padded with copies of its
+    last value."""
     counts = np.bincount(rows, minlength=nb)
-    n = int(counts.max())
+    n = max(int(counts.max()), width)
     start = np.r_[0, np.cumsum(counts)[:-1]]
     pos = np.arange(w.size) - start[rows]
     out = np.empty((nb, n))
@@ -436,21 +504,26 @@ def converged_lobes(
     present = np.any(res != 0.0, axis=(-1, -2))
     smin, smax = float(r.min()), float(r.max())
     nkt = float(teeth) * float(kt)
-    w, rows = _initial_grid(om, ze, present)
+    w_tooth = _TWO_PI * float(teeth) / 60.0  # tooth-passing frequency per rpm [rad/s]
+    grid, count = _initial_grid(om, ze, present, (0.25 * w_tooth * smin, 2.0 * w_tooth * smax))
+    w_top = float(np.nanmax(grid)) if grid.size else 1.0
     kmax = (
         int(max_lobe)
         if max_lobe is not None
-        else int(min(max_lobe_cap, np.ceil(w.max() * 60.0 / (teeth * smin * _TWO_PI))))
+        else int(min(max_lobe_cap, np.ceil(w_top * 60.0 / (teeth * smin * _TWO_PI))))
     )
     flat = ModalModel(om, ze, res)
+    # the threshold of zoa_lobes (read at call time: one switch for both)
+    use_jit = (nb * grid.shape[1] >= _zoa.JIT_MIN_SAMPLES) if jit is None else bool(jit)
+    kern = _kernels() if use_jit else None
 
-    def lobes(w2: FloatArray) -> LobeDiagram:
+    def lobes(w2: FloatArray, k: int | None) -> LobeDiagram:
         def synth(start: int, stop: int) -> ComplexArray:
             return flat.take(slice(start, stop)).frf(w2[start:stop])
 
         return zoa_lobes(
             w2, synth, alpha=al, teeth=int(teeth), kt=float(kt), rpm=r,
-            max_lobe=max_lobe, immersion=immersion, max_lobe_cap=max_lobe_cap, jit=jit,
+            max_lobe=k, immersion=immersion, max_lobe_cap=max_lobe_cap, jit=use_jit,
         )  # fmt: skip
 
     def bound_of(d: LobeDiagram) -> FloatArray:
@@ -461,15 +534,87 @@ def converged_lobes(
         full = np.all(np.isfinite(d.a_lim), axis=-1)
         return np.asarray(np.where(full, np.minimum(RELEVANT * env, cap), cap))
 
-    diag = lobes(_padded(w, rows, nb))
-    bound = bound_of(diag)
-    for _ in range(4):
-        w, rows, added = _refine(
-            om, ze, res, al, w, rows, bound,
-            teeth=int(teeth), nkt=nkt, smin=smin, smax=smax, kmax=kmax,
+    def refined(bound: FloatArray) -> tuple[LobeDiagram, FloatArray]:
+        """The lobes on the samples refined for ``bound`` and the bound (NaN entries:
+        formed from the lobes on the initial samples)."""
+        kw = dict(teeth=int(teeth), nkt=nkt, smin=smin, smax=smax, kmax=kmax)
+        if kern is None:
+            if np.any(np.isnan(bound)):
+                first = np.where(np.isfinite(grid), grid, np.nanmax(grid, axis=1, keepdims=True))
+                bound = bound_of(lobes(first, kmax))
+            ok = np.isfinite(grid)
+            rows = np.broadcast_to(np.arange(nb, dtype=np.int64)[:, None], grid.shape)[ok]
+            w, rows = _refine(om, ze, res, al, grid[ok], rows, bound, **kw)  # type: ignore[arg-type]
+            w2 = _padded(w, rows, nb, _room(count))
+            mu = zoa_eigenvalues(flat.frf(w2), al)
+            depth, eps = zoa_depth(mu, teeth=int(teeth), kt=float(kt))
+            fill = np.arange(w2.shape[1])[None, :] >= np.bincount(rows, minlength=nb)[:, None]
+            return finish(w2, depth, eps, fill, False), bound
+        start = np.arange(nb, dtype=np.int64) * grid.shape[1]
+        w0 = np.where(np.isfinite(grid), grid, 0.0).ravel()
+        bound = bound.copy()
+        n_all = np.zeros(nb, np.int64)
+        # written straight into the result, one room for every entry (a guess from the
+        # initial samples); the few entries that need more are refined again wider
+        cap = _room(count)
+        w2 = np.empty((nb, cap))
+        dep = np.empty((nb, 2, cap))
+        eps = np.empty((nb, 2, cap))
+        wide: list[tuple[IntArray, FloatArray, FloatArray, FloatArray]] = []
+        for c0 in range(0, nb, _REFINE_CHUNK):
+            c1 = min(nb, c0 + _REFINE_CHUNK)
+            todo = np.arange(c0, c1)
+            room = cap
+            while todo.size:
+                into = (w2[c0:c1], dep[c0:c1], eps[c0:c1]) if room == cap else None
+                o_w, o_d, o_e, n_out, status, bound[todo] = kern.refine(
+                    om[todo], ze[todo], res[todo], al[todo], w0, start[todo], count[todo],
+                    bound[todo], chord_tol=CHORD_TOL, speed_tol=SPEED_TOL,
+                    max_depth=MAX_PASSES, cap=room, rpm=r, relevant=RELEVANT,
+                    depth_span=DEPTH_SPAN, out=into, **kw,
+                )  # fmt: skip
+                if np.any(status == 2):
+                    bad = int(todo[np.flatnonzero(status == 2)[0]])
+                    _unconverged(om, ze, bad, f"{MAX_PASSES} halvings")
+                ok = status == 0
+                n_all[todo[ok]] = n_out[ok]
+                if room != cap:
+                    k = int(n_out[ok].max(initial=1))
+                    wide.append((todo[ok], o_w[ok, :k], o_d[ok, :, :k], o_e[ok, :, :k]))
+                del o_w, o_d, o_e
+                todo = todo[~ok]
+                if todo.size and room >= MAX_SAMPLES:
+                    _unconverged(om, ze, int(todo[0]), f"more than {MAX_SAMPLES} samples")
+                room = min(4 * room, MAX_SAMPLES)
+        n = int(n_all.max())
+        if n > cap:  # some entries needed more room: widen (rare)
+            w2 = np.concatenate([w2, np.empty((nb, n - cap))], axis=1)
+            dep = np.concatenate([dep, np.empty((nb, 2, n - cap))], axis=2)
+            eps = np.concatenate([eps, np.empty((nb, 2, n - cap))], axis=2)
+        for rows, wb, db, eb in wide:
+            k = wb.shape[1]
+            w2[rows, :k], dep[rows, :, :k], eps[rows, :, :k] = wb, db, eb
+        del wide
+        fill = np.arange(w2.shape[1])[None, :] >= n_all[:, None]
+        # the padding: copies of each row's last frequency (off every branch, below)
+        np.copyto(w2, w2[np.arange(nb), n_all - 1][:, None], where=fill)
+        return finish(w2, dep, eps, fill, True), bound
+
+    def finish(
+        w2: FloatArray, depth: FloatArray, eps: FloatArray, fill: NDArray[np.bool_], jit: bool
+    ) -> LobeDiagram:
+        # the padding (copies of a row's last sample) is off every branch: no lobe piece
+        f2 = np.broadcast_to(fill[:, None, :], depth.shape)
+        np.copyto(depth, np.inf, where=f2)
+        np.copyto(eps, np.nan, where=f2)
+        return lobes_from_depth(
+            w2, depth, eps, teeth=int(teeth), rpm=r, max_lobe=max_lobe, immersion=immersion,
+            max_lobe_cap=max_lobe_cap, jit=jit,
         )  # fmt: skip
-        if added:
-            diag = lobes(_padded(w, rows, nb))
+
+    bound = np.full(nb, np.nan)
+    for _ in range(4):
+        diag, bound = refined(bound)
         new = bound_of(diag)
         # the envelope came out higher than the bound assumed: pieces left alone
         # might matter; refine again with the new bound

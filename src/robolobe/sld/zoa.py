@@ -337,6 +337,33 @@ def zoa_lobes(
         depth, eps = zoa_depth(mu, teeth=int(teeth), kt=float(kt))
         a_lim = lobe_envelope(w, depth, eps, teeth=int(teeth), rpm=r, max_lobe=k)
         complete = _complete_above(w, depth, eps, a_lim, int(teeth), k)
+    return _finish(
+        w, depth, eps, a_lim, complete, kern=kern, teeth=int(teeth), rpm=r, max_lobe=max_lobe,
+        k=k, max_lobe_cap=max_lobe_cap, immersion=immersion,
+    )  # fmt: skip
+
+
+def _finish(
+    w: FloatArray,
+    depth: FloatArray,
+    eps: FloatArray,
+    a_lim: FloatArray,
+    complete: FloatArray,
+    *,
+    kern: ModuleType | None,
+    teeth: int,
+    rpm: FloatArray,
+    max_lobe: int | None,
+    k: int,
+    max_lobe_cap: int,
+    immersion: float,
+) -> LobeDiagram:
+    """The diagram from the envelope with ``k`` lobes; with ``max_lobe=None`` the lobes
+    that reach the lowest speed are added first where ``k`` left some out."""
+    r = rpm
+    batch = depth.shape[:-2]
+    nb = math.prod(batch)
+    nf = depth.shape[-1]
     if max_lobe is None and np.any(complete > r.min()):
         # lobes beyond k could still cut the envelope at the low speeds: add them
         rel = np.isfinite(depth)
@@ -372,6 +399,51 @@ def zoa_lobes(
         eps=eps,
         complete_above_rpm=complete,
     )
+
+
+def lobes_from_depth(
+    omega: ArrayLike,
+    depth: ArrayLike,
+    eps: ArrayLike,
+    *,
+    teeth: int,
+    rpm: ArrayLike,
+    max_lobe: int | None = 30,
+    immersion: float = 1.0,
+    max_lobe_cap: int = 400,
+    jit: bool | None = None,
+) -> LobeDiagram:
+    """:func:`zoa_lobes` from limiting depth and phase already formed (branch-tracked).
+
+    Parameters
+    ----------
+    omega : array_like, shape (nb, n_freq)
+        Sorted frequencies [rad/s] per batch entry.
+    depth, eps : array_like, shape (nb, 2, n_freq)
+        Depth [m] (``inf`` off the branch) and phase [rad] per branch.
+    teeth, rpm, max_lobe, immersion, max_lobe_cap, jit
+        As in :func:`zoa_lobes`.
+    """
+    w = np.ascontiguousarray(omega, dtype=np.float64)
+    d = np.ascontiguousarray(depth, dtype=np.float64)
+    e = np.ascontiguousarray(eps, dtype=np.float64)
+    r = np.asarray(rpm, dtype=np.float64)
+    nb, nf = w.shape
+    if d.shape != (nb, 2, nf) or e.shape != d.shape:
+        raise InputError(f"depth/eps: expected shape {(nb, 2, nf)}, found {d.shape}, {e.shape}")
+    k = 30 if max_lobe is None else int(max_lobe)
+    if jit is None:
+        jit = nb * nf >= JIT_MIN_SAMPLES
+    kern = _kernels() if jit else None
+    if kern is not None:
+        a_lim, complete = kern.envelope(w, d, e, teeth=int(teeth), rpm=r, max_lobe=k)
+    else:
+        a_lim = lobe_envelope(w, d, e, teeth=int(teeth), rpm=r, max_lobe=k)
+        complete = _complete_above(w, d, e, a_lim, int(teeth), k)
+    return _finish(
+        w, d, e, a_lim, complete, kern=kern, teeth=int(teeth), rpm=r, max_lobe=max_lobe, k=k,
+        max_lobe_cap=max_lobe_cap, immersion=immersion,
+    )  # fmt: skip
 
 
 @dataclass(frozen=True)

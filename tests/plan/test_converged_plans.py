@@ -1,0 +1,84 @@
+"""The bundled plans' stated limits against an independent ZOA at every waypoint (issue 25).
+
+Each cutting waypoint's feed-frame model (the planner's robot modes at its
+posture plus the job's tool modes, :func:`robolobe.plan.pipeline.cut_lobes`
+with every waypoint on its own) is handed to the test's own textbook ZOA
+(``tests/sld/zoa_reference.py``: the boundary solved per speed, no frequency
+grid of the production code), at the waypoint's planned speed. The stated
+``a_lim_mm`` (the plan's shared lobes, steep-wall split included) must lie
+within [0.99, 1.005] of it. The fast run checks a few waypoints of the
+contour on B (where a fixed grid stated 1.95x); ``-m slow`` every waypoint of
+the three bundled plans.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from robolobe.plan.job import load_job
+from robolobe.plan.modes import TwinSource
+from robolobe.plan.pipeline import _tool_model, cut_lobes, material_from_job, plan_path
+from robolobe.sld.conditions import engagement_angles
+from robolobe.sld.directional import directional_factors
+
+from ..sld.zoa_reference import reference_envelope
+from .conftest import example
+
+PLANS = {
+    "pocket": ("pocket.nc", "job_A_pocket.toml"),
+    "contour": ("contour.apt", "job_B_contour.toml"),
+    "face": ("face.mod", "job_C_face_steel.toml"),
+}
+
+
+def _ratios(name: str, every: int) -> tuple[np.ndarray, list[str]]:
+    path, job = PLANS[name]
+    j = load_job(example(job))
+    res = plan_path(example(path), j)
+    sub = res.table[(res.table["motion"] == "cut").to_numpy()]
+    q = np.radians(sub[[f"q{k}_deg" for k in range(1, 7)]].to_numpy(np.float64))
+    fa = np.radians(sub["feed_angle_deg"].to_numpy(np.float64))
+    f_tcp = np.stack([np.cos(fa), np.sin(fa), np.zeros_like(fa)], axis=1)
+    plunge_rec = (sub["limiting"] == "plunge").to_numpy()
+    f_tcp[plunge_rec] = [0.0, 0.0, 1.0]
+    mat = material_from_job(j)
+    rpm_grid = np.linspace(j.spindle.rpm_min, j.spindle.rpm_max, j.plan.n_rpm)
+    model, plunge, *_ = cut_lobes(
+        j, TwinSource(res.robot).predict(q), f_tcp, mat, _tool_model(j), rpm_grid,
+        dynamics_tol=0.0, robust=False,
+    )  # fmt: skip
+    alpha = directional_factors(*engagement_angles(j.radial_immersion, j.cut.milling), mat.kr)
+    rpm = sub["rpm"].to_numpy(np.float64)
+    stated = sub["a_lim_mm"].to_numpy(np.float64) * 1e-3
+    ratios, where = [], []
+    for i in range(0, len(sub), every):
+        if plunge[i] or not np.isfinite(stated[i]):
+            continue
+        m = model.take(i)
+        on = np.any(m.residues != 0.0, axis=(-1, -2))
+        ref = reference_envelope(
+            m.f_hz[on], m.zeta[on], m.residues[on], alpha, teeth=j.tool.teeth, kt=mat.kt,
+            rpm=[rpm[i]],
+        )[0]  # fmt: skip
+        ratios.append(stated[i] / ref)
+        where.append(f"{sub['source'].iloc[i]}:{sub['line'].iloc[i]}")
+    return np.asarray(ratios), where
+
+
+def _check(r: np.ndarray, where: list[str]) -> None:
+    assert r.size > 0
+    bad = [(w, x) for w, x in zip(where, r, strict=True) if not 0.99 <= x <= 1.005]
+    assert not bad, bad[:5]
+
+
+def test_contour_on_b_states_converged_limits() -> None:
+    r, where = _ratios("contour", every=12)
+    _check(r, where)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name", list(PLANS))
+def test_every_waypoint_of_the_bundled_plans(name: str) -> None:
+    r, where = _ratios(name, every=1)
+    _check(r, where)
