@@ -200,7 +200,7 @@ def part_path(n: int, tmp: Path, sources: list[str], reference: bool) -> None:
             print(f"  {k:<10s} " + " | ".join(cells))
 
 
-def part_long(n: int, tmp: Path, fmt: str, every: int) -> None:
+def part_long(n: int, tmp: Path, fmt: str, every: int, program: bool = True) -> None:
     """A long zig-zag (``n`` waypoints) planned and written; wall, CPU, peak RSS, load."""
     import resource
 
@@ -216,7 +216,13 @@ def part_long(n: int, tmp: Path, fmt: str, every: int) -> None:
     res = plan_path(path, job)
     t1 = time.perf_counter()
     write_outputs(
-        res, tmp / "out_long", plots=False, html_report=False, waypoints=fmt, waypoints_every=every
+        res,
+        tmp / "out_long",
+        plots=False,
+        html_report=False,
+        waypoints=fmt,
+        waypoints_every=every,
+        program=program,
     )
     t2 = time.perf_counter()
     rss = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
@@ -228,7 +234,8 @@ def part_long(n: int, tmp: Path, fmt: str, every: int) -> None:
     for k, v in res.timings.items():
         print(f"  {k:<10s} {v:7.2f} s  ({v / (t2 - t0):5.1%})")
     sizes = {p.name: p.stat().st_size for p in (tmp / "out_long").iterdir() if p.is_file()}
-    print(f"  outputs    {t2 - t1:7.2f} s  (waypoints {fmt}, every {every}: {sizes} bytes)")
+    what = "with program.nc (written, read back)" if program else "no program"
+    print(f"  outputs    {t2 - t1:7.2f} s  (waypoints {fmt}, every {every}, {what}: {sizes} bytes)")
     print(
         f"  total      {t2 - t0:7.2f} s wall, {time.process_time() - c0:.2f} s CPU (target < 60 s)"
     )
@@ -280,6 +287,11 @@ def main() -> None:
     ap.add_argument("--waypoints-long", type=int, default=1_000_000)
     ap.add_argument("--format", default="csv", choices=("csv", "parquet", "none"))
     ap.add_argument("--every", type=int, default=1, help="Long part: write every k-th waypoint.")
+    ap.add_argument(
+        "--no-program",
+        action="store_true",
+        help="Long part: without program.nc (written and read back by default).",
+    )
     args = ap.parse_args()
     with tempfile.TemporaryDirectory() as d:
         tmp = Path(d)
@@ -288,7 +300,7 @@ def main() -> None:
         if args.part in ("batch", "all"):
             part_batch(args.paths, args.waypoints, tmp)
         if args.part == "long":  # alone: the peak RSS is the process's
-            part_long(args.waypoints_long, tmp, args.format, args.every)
+            part_long(args.waypoints_long, tmp, args.format, args.every, not args.no_program)
 
 
 if __name__ == "__main__":
