@@ -83,7 +83,11 @@ def register(app: typer.Typer) -> None:
             ),
         ] = None,
         folds: Annotated[
-            int, typer.Option("--folds", help="Cross-validation folds over postures.")
+            int,
+            typer.Option(
+                "--folds",
+                help="Cross-validation folds over postures (at most one per posture).",
+            ),
         ] = 5,
         jobs: Annotated[
             int,

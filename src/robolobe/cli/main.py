@@ -163,8 +163,8 @@ def main(argv: list[str] | None = None) -> None:
     except KeyboardInterrupt:
         err_console.print("interrupted", style="bold red")
         sys.exit(130)
-    if isinstance(code, int) and code:
-        sys.exit(code)
+    # As click's standalone mode did: the command's exit status, 0 when it returned.
+    sys.exit(code if isinstance(code, int) else 0)
 
 
 if __name__ == "__main__":
