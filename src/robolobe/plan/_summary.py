@@ -350,6 +350,17 @@ class PlanSummary(_Piece):
         The plan against the best constant speed and the programmed speeds
         (None: no such baseline).
     candidates : Candidates
+    engagement : str
+        What each move was planned at: ``"stock"`` (the job's ``[stock]``),
+        ``"default stock"`` (the stock the program implies) -- each move's own
+        engagement and depth, in passes -- or ``"cut.radial_width_mm"`` (one
+        width, the planned depth).
+    passes : tuple of mapping
+        Per section of the program (consecutive cutting moves at one height):
+        ``lines``, ``z_mm``, ``moves``, ``program_depth_mm``, ``passes``,
+        ``depth_per_pass_mm``, ``set_by`` (the move that needs the most
+        passes), ``min_margin``, ``rpm_min``/``rpm_max``, ``cut_time_s`` (all
+        passes). Empty without engagement.
     notes : tuple of str
         Warnings and remarks for the user, one sentence each.
     plan_record : mapping
@@ -397,6 +408,8 @@ class PlanSummary(_Piece):
     vs_best_constant_speed: BaselineComparison | None
     vs_programmed_speed: BaselineComparison | None
     candidates: Candidates
+    engagement: str
+    passes: tuple[Mapping[str, Any], ...]
     notes: tuple[str, ...]
     plan_record: Mapping[str, Any]
     timings_s: Mapping[str, float] = field(default_factory=dict)
@@ -435,6 +448,8 @@ class PlanSummary(_Piece):
         bound: RobustBound | None = None,
         mode_note: str = "",
         n_split: int = 0,
+        sections: Sequence[Mapping[str, Any]] | None = None,
+        engagement: str = "cut.radial_width_mm",
     ) -> PlanSummary:
         """The summary of a plan from the pipeline's results.
 
@@ -473,11 +488,21 @@ class PlanSummary(_Piece):
             The mode source's remark.
         n_split : int
             Waypoints that got lobes of their own next to a steep lobe wall.
+        sections : sequence of mapping, optional
+            The program's sections with their passes (the planner on a
+            stock): the margins are then the table's (each move's own depth
+            per pass) and the cutting time counts every pass.
+        engagement : str
+            :attr:`engagement`.
         """
         import robolobe
 
         best = outcome.best
         mg = best.margin
+        cut_time = best.cut_time_s
+        if sections:
+            mg = table["margin"].to_numpy(dtype=np.float64)[cut_index]
+            cut_time = float(sum(float(r["cut_time_s"]) for r in sections))
         k = int(np.argmin(np.where(np.isfinite(mg), mg, np.inf)))
         i = int(cut_index[k])
         counts = table.loc[table["motion"] == "cut", "limiting"].value_counts().to_dict()
@@ -523,8 +548,8 @@ class PlanSummary(_Piece):
             rpm_min=round(float(best.rpm.min()), 1),
             rpm_max=round(float(best.rpm.max()), 1),
             mrr_cm3_per_min=round(best.volume_rate_cm3_per_min, 3),
-            cycle_time_s=round(best.cycle_time_s, 3),
-            cut_time_s=round(best.cut_time_s, 3),
+            cycle_time_s=round(cut_time + geometry.rapid_time_s, 3),
+            cut_time_s=round(cut_time, 3),
             rapid_time_s=round(geometry.rapid_time_s, 3),
             cut_length_m=round(geometry.length_m, 4),
             min_margin=round(float(mg[k]), 4),
@@ -546,6 +571,8 @@ class PlanSummary(_Piece):
                 nlp=_schedule(outcome.nlp),
                 constant=_schedule(outcome.constant),
             ),
+            engagement=engagement,
+            passes=tuple(dict(r) for r in sections or ()),
             notes=tuple(notes),
             plan_record=plan_record,
         )

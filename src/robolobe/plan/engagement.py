@@ -1,11 +1,13 @@
 """The job's ``[stock]`` applied to a path: engagement per move, checked and summarised.
 
-The planner still plans every cutting move at the job's ``cut.radial_width_mm``
-(issue 26 wires the per-move engagement into the lobes). With a ``[stock]``
-section, :func:`stock_engagement` computes every move's own engagement
-(:mod:`robolobe.stock`), refuses a stock that does not fit the program, and
-:func:`engagement_note` says in the plan's notes which moves engage wider
-than planned and which feed moves cut air, with their ``file:line``.
+:func:`plan_engagement` decides what the planner plans each move at: its own
+engagement on the job's ``[stock]`` (:mod:`robolobe.stock`), else on the
+stock the program implies (:func:`robolobe.stock.default_stock`), else --
+where the program implies none (it cuts at one height at or above part
+zero, or tilts the tool) -- the job's ``cut.radial_width_mm`` and the
+planned depth, with a note saying which. :func:`stock_engagement` refuses a
+stock that does not fit the program; :func:`engagement_note` names the air
+moves and the moves engaged wider than ``cut.radial_width_mm``.
 """
 
 from __future__ import annotations
@@ -15,6 +17,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from robolobe.errors import InputError
 from robolobe.plan.job import Job
 from robolobe.stock import (
     Engagement,
@@ -23,12 +26,7 @@ from robolobe.stock import (
     default_stock,
 )
 
-__all__ = ["engagement_note", "stock_engagement"]
-
-#: Immersion a_e / D by which a move's own engagement may exceed the job's before the
-#: note names it.
-WIDER_BY = 0.05
-
+__all__ = ["engagement_note", "plan_engagement", "stock_engagement"]
 
 def stock_engagement(
     job: Job, wp: pd.DataFrame, path_name: str, *, default: bool = False
@@ -70,29 +68,52 @@ def stock_engagement(
 
 
 def engagement_note(job: Job, wp: pd.DataFrame, eng: Engagement) -> str:
-    """One paragraph for the plan's notes: the stock, the moves engaged wider, air moves."""
-    imm = eng.immersion
-    # plunges are planned without a lateral limit already
-    wider = eng.engaged & ~eng.plunge & (imm > job.radial_immersion + WIDER_BY)
-    names = wp["source"].to_numpy()
-    lines = wp["line"].to_numpy()
-    mill = eng.milling()
+    """One paragraph for the plan's notes: the stock and its Z-map, the air moves."""
     parts = [
         f"[stock]: engagement of every move computed on the {eng.stock.describe()} at a "
         f"{eng.resolution_m * 1e3:.3g} mm Z-map cell",
         *eng.notes,
     ]
-    if wider.any():
-        idx = np.flatnonzero(wider)
-        worst = idx[np.argmax(imm[idx])]
-        first = "; ".join(
-            f"{Path(str(names[k])).name}:{int(lines[k])} a_e/D {imm[k]:.2f} ({mill[k]})"
-            for k in idx[:3]
-        )
-        parts.append(
-            f"this plan still plans every cutting move at cut.radial_width_mm (a_e/D "
-            f"{job.radial_immersion:.2f}): {idx.size} moves engage wider, up to a_e/D "
-            f"{imm[worst]:.2f} at {Path(str(names[worst])).name}:{int(lines[worst])} "
-            f"(first: {first}); their stability limit is lower than the plan states"
-        )
     return "; ".join(parts)
+
+
+def plan_engagement(job: Job, wp: pd.DataFrame, path_name: str) -> tuple[Engagement | None, str]:
+    """The engagement the planner plans each move at, and the sentence that says so.
+
+    Returns
+    -------
+    engagement : Engagement or None
+        Every move's own engagement on the job's ``[stock]`` or the default
+        stock; None where the plan falls back to ``cut.radial_width_mm`` (no
+        ``[stock]`` and the program implies no stock with depth).
+    note : str
+        Which one the plan used, for its notes.
+
+    Raises
+    ------
+    InputError
+        From :func:`stock_engagement` when the job gives a ``[stock]``.
+    """
+    fallback = (
+        f"engagement: every cutting move planned at cut.radial_width_mm (a_e/D "
+        f"{job.radial_immersion:.2f}, {job.cut.milling} milling) and the planned depth"
+    )
+    if job.stock is not None:
+        eng = stock_engagement(job, wp, path_name)
+        assert eng is not None
+        return eng, "engagement: each move's own, on the job's [stock]"
+    try:
+        eng = stock_engagement(job, wp, path_name, default=True)
+    except InputError as exc:
+        return None, f"{fallback}: the program implies no stock ({exc}); give [stock] to plan it"
+    assert eng is not None
+    cut = (wp["motion"] == "cut").to_numpy()
+    if not np.any(cut & eng.engaged & ~eng.plunge):
+        return None, (
+            f"{fallback}: the program cuts at one height at or above part zero, so it "
+            "implies no stock depth; give [stock] to plan each move's own engagement"
+        )
+    return eng, (
+        "engagement: each move's own, on the default stock the program implies (no [stock] in "
+        "the job)"
+    )

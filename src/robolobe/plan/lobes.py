@@ -134,7 +134,8 @@ def _features(
     m = model.n_modes
     # (h-long, issue 16/17 memory: each block written into one array as it is made,
     # not a list of blocks, their weighted copies and their concatenation; same values)
-    out = np.empty((w.shape[0], (3 + len(pairs) + 2 * with_alpha) * m))
+    n_eng = 5 if with_alpha and np.ndim(alpha) == 3 else 0
+    out = np.empty((w.shape[0], (3 + len(pairs) + 2 * with_alpha) * m + n_eng))
     out[:, 0:m] = np.log(w) / np.maximum(tol_f, 1e-15) * weight
     out[:, m : 2 * m] = np.log(z) / max(tol.damping, 1e-15) * weight
     out[:, 2 * m : 3 * m] = np.log(trs) / max(tol.residue, 1e-15) * weight
@@ -148,11 +149,32 @@ def _features(
         # log (relative to the mode's size) is compared to the residue tolerance, with the
         # mode's own weight: near a sign change it varies without bound and splits groups
         # finely there, which is where the limit is most sensitive
-        ori = np.einsum("ij,nmji->nm", np.asarray(alpha, dtype=np.float64), a) / trs
+        al = np.asarray(alpha, dtype=np.float64)
+        if al.ndim == 2:
+            ori = np.einsum("ij,nmji->nm", al, a) / trs
+        else:  # each waypoint's own engagement
+            ori = np.einsum("nij,nmji->nm", al.reshape(-1, 2, 2), a) / trs
         mag = np.log(np.maximum(np.abs(ori), 1e-12)) / max(tol.residue, 1e-15)
         k = 3 + len(pairs)
         out[:, k * m : (k + 1) * m] = mag * weight
-        out[:, (k + 1) * m :] = np.sign(ori) * weight / max(tol.residue, 1e-15)
+        out[:, (k + 1) * m : (k + 2) * m] = np.sign(ori) * weight / max(tol.residue, 1e-15)
+        if np.ndim(alpha) == 3:
+            out[:, (k + 2) * m :] = _engagement_features(al.reshape(-1, 2, 2), tol)
+    return out
+
+
+def _engagement_features(alpha: FloatArray, tol: DynamicsTolerance) -> FloatArray:
+    """Features (n, 5) of per-waypoint directional factors: their size and shape.
+
+    The log of the matrix norm to the residue tolerance (the limit goes as one
+    over it) and the entries over the norm to a quarter of it (the shape, as
+    the residue directions): waypoints of one group then cut with factors
+    within the tolerance of the leader's, on top of each mode's oriented size.
+    """
+    norm = np.maximum(np.sqrt(np.einsum("nij,nij->n", alpha, alpha)), 1e-300)
+    out = np.empty((alpha.shape[0], 5))
+    out[:, 0] = np.log(norm) / max(tol.residue, 1e-15)
+    out[:, 1:] = alpha.reshape(-1, 4) / norm[:, None] / max(tol.residue / 4.0, 1e-15)
     return out
 
 
@@ -458,8 +480,8 @@ def waypoint_lobes(
     teeth: int,
     kt: float,
     kr: float,
-    phi_entry: float,
-    phi_exit: float,
+    phi_entry: float | FloatArray,
+    phi_exit: float | FloatArray,
     rpm: FloatArray,
     immersion: float,
     unbounded: NDArray[np.bool_] | None = None,
@@ -479,8 +501,12 @@ def waypoint_lobes(
         then robust scenarios (same batch).
     teeth, kt, kr : int, float, float
         Flutes, Kt [N/m^2], Kn/Kt.
-    phi_entry, phi_exit : float
-        Engagement angles [rad].
+    phi_entry, phi_exit : float or ndarray, shape (n,)
+        Engagement angles [rad]: of the whole cut, or of each waypoint (its
+        own engagement; NaN allowed only where ``unbounded``). Per-waypoint
+        angles enter the grouping (:func:`_engagement_features`): a group's
+        members cut with directional factors within the tolerance of its
+        leader's, whose own angles give the group's lobes.
     rpm : ndarray, shape (n_rpm,)
         Increasing speed grid [rpm].
     immersion : float
@@ -530,7 +556,7 @@ def waypoint_lobes(
     unb = np.zeros(n, bool) if unbounded is None else np.asarray(unbounded, bool)
     idx_b = np.flatnonzero(~unb)
     t0 = time.perf_counter()
-    alpha = directional_factors(phi_entry, phi_exit, kr)
+    alpha = _cut_alpha(phi_entry, phi_exit, kr, n, idx_b)
     rpm = np.asarray(rpm, dtype=np.float64)
     if idx_b.size:
         if reuse is not None:
@@ -558,7 +584,9 @@ def waypoint_lobes(
                     np.concatenate([joined.zeta, m.zeta[idx_b]], axis=-1),
                     np.concatenate([joined.residues, m.residues[idx_b]], axis=-3),
                 )
-            g_b, lead_b = group_dynamics(joined, tol, alpha)
+            g_b, lead_b = group_dynamics(
+                joined, tol, alpha if alpha.ndim == 2 else alpha[idx_b]
+            )
             del joined
         n_base = int(lead_b.size)
         if own is not None:
@@ -587,7 +615,9 @@ def waypoint_lobes(
     if n_groups and reuse is not None:
         parts = _extend_diagrams(models, reuse, leader, zoa_args)
     elif n_groups:
-        parts = [[_leader_lobes(m.take(leader), zoa_args, max_lobe=None) for m in models]]
+        parts = [
+            [_leader_lobes(m.take(leader), zoa_args, max_lobe=None, idx=leader) for m in models]
+        ]
     a_grid = np.full((n_groups + 1, rpm.size), np.inf)
     start = 0
     for part in parts:
@@ -724,20 +754,50 @@ def waypoint_lobes(
     )
 
 
+def _cut_alpha(
+    phi_entry: float | FloatArray, phi_exit: float | FloatArray, kr: float, n: int, idx_b: IntArray
+) -> FloatArray:
+    """Directional factors of the cut (2, 2), or of each of ``n`` waypoints (n, 2, 2).
+
+    Per-waypoint angles are checked on the bounded waypoints ``idx_b``; the
+    others (plunges, air) get zeros.
+    """
+    if np.ndim(phi_entry) == 0 and np.ndim(phi_exit) == 0:
+        return directional_factors(phi_entry, phi_exit, kr)
+    pe = np.broadcast_to(np.asarray(phi_entry, dtype=np.float64), (n,))
+    px = np.broadcast_to(np.asarray(phi_exit, dtype=np.float64), (n,))
+    e, x = pe[idx_b], px[idx_b]
+    bad = ~(np.isfinite(e) & np.isfinite(x) & (e >= -1e-12) & (x <= math.pi + 1e-12) & (e < x))
+    if np.any(bad):
+        k = int(idx_b[int(np.argmax(bad))])
+        raise InputError(
+            f"phi_entry/phi_exit: expected 0 <= entry < exit <= pi at every bounded waypoint, "
+            f"found {pe[k]!r}, {px[k]!r} at waypoint {k}"
+        )
+    alpha = np.zeros((n, 2, 2))
+    alpha[idx_b] = directional_factors(e, x, kr)
+    return alpha
+
+
 def _leader_lobes(
     reps: ModalModel,
     zoa_args: dict[str, Any],
     *,
     max_lobe: int | None,
     jit: bool | None = None,
+    idx: IntArray | None = None,
 ) -> LobeDiagram:
     """Converged ZOA lobes of a batch of leaders (:func:`robolobe.sld.converged.converged_lobes`).
 
     Each leader's frequency samples are its own (they depend on its dynamics,
-    the cut and the speed range only, not on the other leaders).
+    the cut and the speed range only, not on the other leaders). ``idx``: the
+    leaders' waypoints, where the cut's factors are per waypoint.
     """
     args = dict(zoa_args)
     alpha = args.pop("alpha")
+    if np.ndim(alpha) == 3:
+        assert idx is not None
+        alpha = alpha[idx]
     return converged_lobes(reps, alpha, max_lobe=max_lobe, jit=jit, **args)
 
 
@@ -774,7 +834,9 @@ def _extend_diagrams(
     cap = int(zoa_args["max_lobe_cap"])
 
     def afresh() -> list[list[LobeDiagram]]:
-        return [[_leader_lobes(mm.take(leader), zoa_args, max_lobe=None) for mm in models]]
+        return [
+            [_leader_lobes(mm.take(leader), zoa_args, max_lobe=None, idx=leader) for mm in models]
+        ]
 
     out = []
     for m, prev in zip(models, prev_all, strict=True):
@@ -782,7 +844,7 @@ def _extend_diagrams(
         assert prev.omega is not None
         assert prev.complete_above_rpm is not None
         jit = leader.size * prev.omega.shape[-1] >= JIT_MIN_SAMPLES
-        extra = _leader_lobes(m.take(new), zoa_args, max_lobe=30, jit=jit)
+        extra = _leader_lobes(m.take(new), zoa_args, max_lobe=30, jit=jit, idx=new)
         assert extra.omega is not None
         assert extra.complete_above_rpm is not None
         trig = prev.max_lobe > 30 or bool(np.any(prev.complete_above_rpm > r_min))
@@ -794,7 +856,7 @@ def _extend_diagrams(
         if k != prev.max_lobe:
             return afresh()
         if k != 30:
-            extra = _leader_lobes(m.take(new), zoa_args, max_lobe=k, jit=jit)
+            extra = _leader_lobes(m.take(new), zoa_args, max_lobe=k, jit=jit, idx=new)
         out.append(extra)
     return [prev_all, out]
 

@@ -29,6 +29,7 @@ about ``z_tcp`` (right hand).
 from __future__ import annotations
 
 import contextlib
+import dataclasses
 import logging
 import math
 import os
@@ -44,7 +45,7 @@ from numpy.typing import NDArray
 
 from robolobe.errors import InputError, ReachabilityError, SingularityError
 from robolobe.plan._summary import PlanSummary
-from robolobe.plan.engagement import engagement_note, stock_engagement
+from robolobe.plan.engagement import engagement_note, plan_engagement
 from robolobe.plan.job import Job, load_job
 from robolobe.plan.lobes import DynamicsTolerance, GroupedLobes, steep_members, waypoint_lobes
 from robolobe.plan.modes import (
@@ -58,6 +59,7 @@ from robolobe.plan.modes import (
     plan_bound,
 )
 from robolobe.plan.optimize import Constraints, PathGeometry, PlanOutcome, optimize_schedule
+from robolobe.plan.passes import ProgramDepth, program_depth, schedule_passes, section_passes
 from robolobe.plan.paths import read_toolpath, segment_lengths, validate_waypoints
 from robolobe.robots.ik import ik, ik_batch
 from robolobe.robots.io import load_robot
@@ -66,6 +68,7 @@ from robolobe.robots.model import Robot
 from robolobe.sld.conditions import engagement_angles
 from robolobe.sld.frf import ModalModel
 from robolobe.sld.material import Material, get_material
+from robolobe.stock import Engagement
 from robolobe.sld.toolpoint import feed_frame, tool_point_model
 
 __all__ = [
@@ -481,6 +484,7 @@ def _lobes_for_rotation(
     material: Material,
     tool: ModalModel | None,
     rpm: FloatArray,
+    eng: Engagement | None = None,
 ) -> tuple[
     FloatArray,
     FloatArray,
@@ -497,7 +501,8 @@ def _lobes_for_rotation(
     The last item, ``split(own, reuse)``, gives the lobes again with ``own``
     waypoints on lobes of their own (:func:`cut_lobes`'s ``own``/``reuse``).
     A path of at least :data:`_STREAM_MIN` cutting waypoints is streamed
-    (:func:`_streamed_lobes`) unless the plan is robust.
+    (:func:`_streamed_lobes`) unless the plan is robust. With ``eng`` every
+    cutting move is planned at its own engagement, air moves without a limit.
     """
     timings: dict[str, float] = {}
     t = time.perf_counter()
@@ -507,9 +512,16 @@ def _lobes_for_rotation(
     f_tcp = feed_tcp(wp, poses, r_wp, ci)
     del poses  # (n, 4, 4): not needed past here
     timings["ik"] = time.perf_counter() - t
+    angles: tuple[FloatArray, FloatArray] | None = None
+    air: NDArray[np.bool_] | None = None
+    if eng is not None:
+        angles = (eng.phi_entry[ci], eng.phi_exit[ci])
+        air = ~eng.engaged[ci]
     if ci.size >= _STREAM_MIN:
         q_cut = q if ci.size == q.shape[0] else q[ci]  # (not a copy of every posture)
-        streamed = _streamed_lobes(job, source, q_cut, f_tcp, material, tool, rpm, ci, len(wp))
+        streamed = _streamed_lobes(
+            job, source, q_cut, f_tcp, material, tool, rpm, ci, len(wp), angles, air
+        )
         if streamed is not None:
             cols, plunge, grouped, t_lobes, feed_angle, split_s = streamed
             timings.update(t_lobes)
@@ -519,12 +531,14 @@ def _lobes_for_rotation(
     timings["modes"] = time.perf_counter() - t
     # the nominal tool-point models (the caller does not keep them: ~1 kB per waypoint)
     _, plunge, grouped, t_lobes, feed_angle, bound = cut_lobes(
-        job, modes, f_tcp, material, tool, rpm
+        job, modes, f_tcp, material, tool, rpm, engagement=angles, air=air
     )
     timings.update(t_lobes)
 
     def split(own: NDArray[np.bool_], reuse: GroupedLobes) -> GroupedLobes:
-        return cut_lobes(job, modes, f_tcp, material, tool, rpm, own=own, reuse=reuse)[2]
+        return cut_lobes(
+            job, modes, f_tcp, material, tool, rpm, own=own, reuse=reuse, engagement=angles, air=air
+        )[2]
 
     return q, wm, modes, plunge, grouped, timings, feed_angle, bound, split
 
@@ -647,6 +661,8 @@ def _streamed_lobes(
     rpm: FloatArray,
     cut_rows: NDArray[np.int64],
     n_rows: int,
+    angles: tuple[FloatArray, FloatArray] | None = None,
+    air: NDArray[np.bool_] | None = None,
 ) -> (
     tuple[
         _ModeColumns,
@@ -667,7 +683,8 @@ def _streamed_lobes(
     (:class:`_StreamedModels`). The same groups, lobes and columns as
     :func:`cut_lobes` after :func:`_predict_modes` (every step is per
     waypoint). ``cut_rows`` (n,): the waypoint table's row of each cutting
-    waypoint, of ``n_rows``.
+    waypoint, of ``n_rows``. ``angles`` and ``air``: each cutting waypoint's
+    own engagement (:func:`cut_lobes`).
 
     Returns
     -------
@@ -686,18 +703,25 @@ def _streamed_lobes(
     n = q.shape[0]
     plunge = _feed_lateral(f_tcp) < PLUNGE_LATERAL
     f_use = np.where(plunge[:, None], [[1.0, 0.0, 0.0]], f_tcp)
-    args = _lobe_args(job, material, rpm)
+    args = _lobe_args(job, material, rpm, engagement=angles)
     tol = args["tol"]
-    alpha = directional_factors(args["phi_entry"], args["phi_exit"], args["kr"])
-    n_before = np.r_[0, np.cumsum(~plunge)]  # bounded waypoints before each row
+    unb = plunge if air is None else plunge | air
+    if angles is None:
+        alpha = directional_factors(args["phi_entry"], args["phi_exit"], args["kr"])
+    else:  # each waypoint's own (zeros where unbounded: no features are made there)
+        alpha = np.zeros((n, 2, 2))
+        ib = np.flatnonzero(~unb)
+        alpha[ib] = directional_factors(angles[0][ib], angles[1][ib], args["kr"])
+    n_before = np.r_[0, np.cumsum(~unb)]  # bounded waypoints before each row
 
     def work(c0: int) -> tuple[RobotModes, FloatArray]:
         rows = slice(c0, c0 + _STREAM_CHUNK)
         md = source.predict(q[rows])
         rot = feed_frame(f_use[rows], (0.0, 0.0, -1.0), rotation="cw")
         model = tool_point_model(rot, md.model, tool)
-        b = ~plunge[rows]
-        return md, _features(model if b.all() else model.take(np.flatnonzero(b)), tol, alpha)
+        b = ~unb[rows]
+        al = alpha if alpha.ndim == 2 else alpha[rows][b]
+        return md, _features(model if b.all() else model.take(np.flatnonzero(b)), tol, al)
 
     md0, f0 = work(0)  # alone: a source's lazy set-up happens once
     if plan_bound(job.plan, md0, None)[1]:
@@ -751,12 +775,12 @@ def _streamed_lobes(
     t = time.perf_counter()
     # waypoint_lobes needs only dim, batch_shape and take of the models given features
     models = cast("ModalModel", _StreamedModels(source, q, f_use, tool))
-    grouped = waypoint_lobes([models], unbounded=plunge, features=held.pop(), **args)
+    grouped = waypoint_lobes([models], unbounded=unb, features=held.pop(), **args)
     timings["lobes"] = time.perf_counter() - t
     feed_angle = np.degrees(np.arctan2(f_use[:, 1], f_use[:, 0]))
 
     def split(own: NDArray[np.bool_], reuse: GroupedLobes) -> GroupedLobes:
-        return waypoint_lobes([models], unbounded=plunge, own=own, reuse=reuse, **args)
+        return waypoint_lobes([models], unbounded=unb, own=own, reuse=reuse, **args)
 
     return cols, plunge, grouped, timings, feed_angle, split
 
@@ -820,19 +844,27 @@ def _lobe_args(
     material: Material,
     rpm: FloatArray,
     dynamics_tol: float | None = None,
-    engagement: tuple[float, float] | None = None,
+    engagement: tuple[Any, Any] | None = None,
 ) -> dict[str, Any]:
     """The job's arguments of :func:`~robolobe.plan.lobes.waypoint_lobes` (cut, grid, tolerance).
 
-    ``engagement`` (entry, exit) [rad] replaces the job's ``cut.radial_width_mm``
-    and ``cut.milling``.
+    ``engagement`` (entry, exit) [rad], floats or per-waypoint arrays (n,)
+    (NaN where a move cuts air), replaces the job's ``cut.radial_width_mm``
+    and ``cut.milling``; the validity flag then takes the smallest immersion.
     """
+    st: Any
+    ex: Any
     if engagement is None:
         st, ex = engagement_angles(job.radial_immersion, job.cut.milling)
         immersion = job.radial_immersion
-    else:
+    elif np.ndim(engagement[0]) == 0:
         st, ex = (float(v) for v in engagement)
         immersion = 0.5 * (math.cos(st) - math.cos(ex))
+    else:
+        st, ex = (np.asarray(v, dtype=np.float64) for v in engagement)
+        imm = 0.5 * (np.cos(st) - np.cos(ex))
+        imm = imm[np.isfinite(imm)]
+        immersion = float(imm.min()) if imm.size else job.radial_immersion
     dt = job.plan.dynamics_tol if dynamics_tol is None else dynamics_tol
     tol = DynamicsTolerance(
         freq=dt,
@@ -865,7 +897,8 @@ def cut_lobes(
     robust: bool | None = None,
     own: NDArray[np.bool_] | None = None,
     reuse: GroupedLobes | None = None,
-    engagement: tuple[float, float] | None = None,
+    engagement: tuple[Any, Any] | None = None,
+    air: NDArray[np.bool_] | None = None,
 ) -> tuple[
     ModalModel, NDArray[np.bool_], GroupedLobes, dict[str, float], FloatArray, RobustBound | None
 ]:
@@ -896,10 +929,12 @@ def cut_lobes(
     reuse : GroupedLobes, optional
         The result of the same call without ``own``: its grouping and lobes are
         kept, only the added waypoints' lobes are computed (same result).
-    engagement : tuple of float, optional
-        Entry and exit angles [rad] of all ``n`` waypoints (default: the job's
-        ``cut.radial_width_mm`` and ``cut.milling``; :func:`robolobe.plan.check.check_program`
-        gives each engagement class its own).
+    engagement : tuple, optional
+        Entry and exit angles [rad]: floats for all ``n`` waypoints, or arrays
+        (n,) of each one's own (the planner on a stock; NaN where ``air``).
+        Default: the job's ``cut.radial_width_mm`` and ``cut.milling``.
+    air : ndarray of bool, shape (n,), optional
+        Feed moves that cut no material: no lateral limit (the unbounded row).
 
     Returns
     -------
@@ -927,7 +962,7 @@ def cut_lobes(
     t = time.perf_counter()
     grouped = waypoint_lobes(
         models,
-        unbounded=plunge,
+        unbounded=plunge if air is None else plunge | air,
         window=None if bound is None else bound.window,
         own=own,
         reuse=reuse,
@@ -1041,19 +1076,22 @@ def plan_path(
             "expected at least one cutting move (G1/G2/G3, LIN, MoveL), found none",
             Path(path_name).name,
         )
-    eng = stock_engagement(job, wp, path_name)  # [stock]: refused before any lobes
+    t = time.perf_counter()
+    eng, eng_note = plan_engagement(job, wp, path_name)  # [stock]: refused before any lobes
+    timings["engagement"] = time.perf_counter() - t
+    note = (note + "; " if note else "") + eng_note
     if eng is not None:
-        note = (note + "; " if note else "") + engagement_note(job, wp, eng)
+        note += "; " + engagement_note(job, wp, eng)
     rpm = np.linspace(job.spindle.rpm_min, job.spindle.rpm_max, job.plan.n_rpm)
     rotation = job.tool_rotation_rad
     cons = constraints_from_job(job, material.kt)
     rot_note = ""
     if job.tool_rotation == "stiffest":
         rotation, rot_note = _stiffest_rotation(
-            job, wp, robot, source, cut, material, tool, rpm, cons
+            job, wp, robot, source, cut, material, tool, rpm, cons, eng
         )
     q, wm, modes, plunge, grouped, t_stage, feed_angle, bound, split = _lobes_for_rotation(
-        job, wp, robot, source, rotation, cut, material, tool, rpm
+        job, wp, robot, source, rotation, cut, material, tool, rpm, eng
     )
     timings.update(t_stage)
     t = time.perf_counter()
@@ -1066,17 +1104,32 @@ def plan_path(
     if job.cut.programmed_rpm is not None:
         prog = np.where(np.isfinite(prog), prog, job.cut.programmed_rpm)
     labels = _Labels(wp["source"].to_numpy()[ci], wp["line"].to_numpy()[ci])
+    depth: ProgramDepth | None = None
+    if eng is not None:
+        bounded = ~plunge & eng.engaged[ci]
+        depth = program_depth(eng.depth_m[ci], pos[ci, 2], bounded)
+        if depth is not None:
+            width = float(np.nanmax(np.where(bounded, eng.radial_width_m[ci], np.nan)))
+            cons = dataclasses.replace(cons, width_m=width)  # the widest engagement: power, torque
 
     def schedule(table: Any) -> PlanOutcome:
-        return optimize_schedule(
-            table,
-            geom,
-            cons,
-            programmed_rpm=prog if np.any(np.isfinite(prog)) else None,
-            labels=labels,
-            refine=refine,
-        )
+        def run(c: Constraints) -> PlanOutcome:
+            return optimize_schedule(
+                table if depth is None else table.per_depth(depth.share),
+                geom,
+                c,
+                programmed_rpm=prog if np.any(np.isfinite(prog)) else None,
+                labels=labels,
+                refine=refine,
+            )
 
+        if depth is None:
+            return run(cons)
+        out, passes[0], cons_fixed[0] = schedule_passes(run, cons, depth.deepest_m)
+        return out
+
+    passes = [1]
+    cons_fixed = [cons]
     outcome = schedule(grouped.table)
     # lobe sharing keeps its promise: members planned next to a steep wall of their
     # leader's lobes get lobes of their own, and the schedule is made again
@@ -1092,6 +1145,10 @@ def plan_path(
     table = _result_table(
         wp, q, wm, modes, grouped, outcome, ci, plunge, feed_angle, job, cons, seg
     )
+    sections = None
+    if depth is not None:
+        assert eng is not None
+        sections = _apply_passes(table, grouped, outcome, depth, ci, plunge, eng, cons, seg)
     own_col = np.zeros(len(wp), bool)
     own_col[ci] = steep
     table["lobes_own"] = own_col
@@ -1119,6 +1176,10 @@ def plan_path(
         bound=bound,
         mode_note=note,
         n_split=n_split,
+        sections=sections,
+        engagement="cut.radial_width_mm" if depth is None else (
+            "stock" if job.stock is not None else "default stock"
+        ),
     )
     timings["table"] = time.perf_counter() - t
     summary = summary.with_timings(timings)
@@ -1148,6 +1209,7 @@ def _stiffest_rotation(
     tool: ModalModel | None,
     rpm: FloatArray,
     cons: Constraints,
+    eng: Engagement | None = None,
 ) -> tuple[float, str]:
     """Rotation about the tool axis with the largest worst-case stable depth.
 
@@ -1168,7 +1230,7 @@ def _stiffest_rotation(
     for r in cands:
         try:
             *_, grouped, _, _, _, _ = _lobes_for_rotation(
-                job, wp, robot, source, float(r), keep, material, tool, rpm
+                job, wp, robot, source, float(r), keep, material, tool, rpm, eng
             )
         except (ReachabilityError, SingularityError) as exc:
             tried.append(f"{math.degrees(r):.0f} deg: {type(exc).__name__}")
@@ -1281,6 +1343,87 @@ def _result_table(
     cols["rpm_programmed"] = wp["rpm_programmed"].to_numpy()
     # the columns as they are (not consolidated into one block: a copy of the table)
     return pd.DataFrame(cols, copy=False)
+
+
+def _apply_passes(
+    table: pd.DataFrame,
+    grouped: GroupedLobes,
+    outcome: PlanOutcome,
+    depth: ProgramDepth,
+    ci: NDArray[np.int64],
+    plunge: NDArray[np.bool_],
+    eng: Engagement,
+    cons: Constraints,
+    seg: FloatArray,
+) -> list[dict[str, Any]]:
+    """Each section's passes into the result table; the sections' rows for the summary.
+
+    Columns set (cutting rows): ``passes`` (of the move's section),
+    ``depth_mm`` (the section's step per pass: its deepest move over its
+    passes, the step the program's passes are written at),
+    ``cut_depth_mm`` (this move's own depth per pass), ``program_depth_mm``
+    (as programmed), ``a_lim_mm`` (the move's own limit at its speed and
+    engagement), ``margin`` (``a_lim / cut_depth``), ``section``,
+    ``ae_over_D``, ``phi_entry_deg``, ``phi_exit_deg``; ``limiting`` is
+    ``"air"`` on feed moves that cut nothing.
+    """
+    best = outcome.best
+    a_lim = grouped.table.query(best.rpm)  # each move's own limit (not the depth share's)
+    bounded = ~plunge & eng.engaged[ci]
+    passes_s, set_by = section_passes(
+        depth, a_lim, bounded, cons.safety_factor, cons.depth_cap_m
+    )
+    p = passes_s[depth.section]
+    step = depth.section_depth_m()[depth.section] / p
+    cut_d = depth.depth_m / p
+    n = len(table)
+
+    def col(v: Any, fill: Any = np.nan, dtype: Any = np.float64) -> Any:
+        out = np.full(n, fill, dtype=dtype)
+        out[ci] = v
+        return out
+
+    table["section"] = col(depth.section, -1, np.int64)
+    table["passes"] = col(p, 0, np.int64)
+    table["depth_mm"] = col(step * 1e3)
+    table["cut_depth_mm"] = col(np.where(depth.depth_m > 0, cut_d * 1e3, 0.0))
+    table["program_depth_mm"] = col(depth.depth_m * 1e3)
+    table["a_lim_mm"] = col(np.where(bounded & np.isfinite(a_lim), a_lim * 1e3, np.nan))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        mg = np.where(bounded & (cut_d > 0), a_lim / cut_d, np.nan)
+    table["margin"] = col(mg)
+    table["ae_over_D"] = col(np.where(eng.engaged[ci], eng.immersion[ci], 0.0))
+    table["phi_entry_deg"] = col(np.degrees(eng.phi_entry[ci]))
+    table["phi_exit_deg"] = col(np.degrees(eng.phi_exit[ci]))
+    lim = table["limiting"].to_numpy().copy()
+    lim[ci[~eng.engaged[ci] & ~plunge]] = "air"
+    table["limiting"] = lim
+    src = table["source"].to_numpy()
+    line = table["line"].to_numpy()
+    rows = []
+    t_pass = seg[ci] / np.maximum(table["feed_mm_per_min"].to_numpy()[ci] / 6e4, 1e-300)
+    for k in range(depth.n_sections):
+        idx = np.flatnonzero(depth.section == k)
+        i0, i1 = int(ci[idx[0]]), int(ci[idx[-1]])
+        b = bounded[idx] & (depth.depth_m[idx] > 0)
+        sb = int(set_by[k])
+        rows.append(
+            {
+                "section": k,
+                "lines": f"{src[i0]}:{int(line[i0])}-{int(line[i1])}",
+                "z_mm": round(float(table["z_mm"].iloc[i1]), 4),
+                "moves": int(idx.size),
+                "program_depth_mm": round(float(depth.depth_m[idx].max()) * 1e3, 4),
+                "passes": int(passes_s[k]),
+                "depth_per_pass_mm": round(float(step[idx[0]]) * 1e3, 4),
+                "set_by": f"{src[ci[sb]]}:{int(line[ci[sb]])}" if sb >= 0 else "",
+                "min_margin": round(float(np.nanmin(mg[idx][b])), 4) if b.any() else None,
+                "rpm_min": round(float(best.rpm[idx].min()), 1),
+                "rpm_max": round(float(best.rpm[idx].max()), 1),
+                "cut_time_s": round(float(passes_s[k] * t_pass[idx].sum()), 3),
+            }
+        )
+    return rows
 
 
 def waypoints_hash(table: pd.DataFrame) -> str:

@@ -18,6 +18,8 @@ FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
 
 _TWO_PI = 2.0 * math.pi
+#: Relative step to which :meth:`LobeTable.per_depth` rounds each waypoint's depth share up.
+DEPTH_SHARE_STEP = 0.005
 
 
 # ---------------------------------------------------------------- inputs
@@ -252,6 +254,64 @@ class LobeTable:
         rows[slot, pos] = uniq[:, 1]
         vals = self.rows(rows, used)
         return vals[slot, pos][inv]
+
+    def per_depth(self, share: ArrayLike, step: float = DEPTH_SHARE_STEP) -> LobeTable:
+        """The table for a depth that differs per waypoint: ``share`` of one planned depth.
+
+        A waypoint that cuts ``share`` (0 < share <= 1) of the planned depth
+        ``a`` is stable while ``share a <= a_lim``: its limit on the planned
+        depth is ``a_lim / share``. Shares are rounded *up* to steps of
+        ``step`` (relative), so that waypoints of one group and nearly one
+        depth share a row and no limit is stated above its own.
+
+        Parameters
+        ----------
+        share : array_like, shape (n_cut,)
+            Depth of each cutting waypoint over the planned depth (1 at the
+            deepest; 0 or NaN: no cut there, the unbounded row).
+        step : float
+            Relative step of the rounding.
+
+        Returns
+        -------
+        LobeTable
+            One row per (group, share) pair plus an unbounded last row;
+            ``exact`` divides the original's.
+        """
+        r = np.asarray(share, dtype=np.float64)
+        if r.shape != self.group.shape:
+            raise InputError(f"share: expected shape {self.group.shape}, found {r.shape}")
+        if np.any(r > 1.0 + 1e-9):
+            raise InputError(f"share: expected values <= 1, found {float(np.nanmax(r)):g}")
+        none = ~(r > 0)
+        unb = np.isinf(self.a_lim[:, 0]) & np.all(np.isinf(self.a_lim), axis=1)
+        none |= unb[self.group]
+        lr = math.log1p(step)
+        level = np.where(none, 0.0, np.ceil(np.log(np.where(none, 1.0, r)) / lr - 1e-9))
+        level = np.minimum(level, 0.0)  # 1 at the deepest
+        key = np.stack([np.where(none, -1, self.group).astype(np.float64), level], axis=1)
+        uniq, inv = np.unique(key, axis=0, return_inverse=True)
+        inv = np.asarray(inv).ravel()
+        parent = uniq[:, 0].astype(np.int64)
+        factor = np.exp(uniq[:, 1] * lr)  # the rounded share of each new row
+        bounded = parent >= 0
+        n_new = int(bounded.sum())
+        order = np.full(uniq.shape[0], n_new, np.int64)  # unbounded pairs: the last row
+        order[bounded] = np.arange(n_new)
+        p_b, f_b = parent[bounded], factor[bounded]
+        a_new = np.full((n_new + 1, self.rpm.size), np.inf)
+        a_new[:n_new] = self.a_lim[p_b] / f_b[:, None]
+        base = self
+
+        def exact(rows: FloatArray, groups: IntArray) -> FloatArray:
+            out = np.full(rows.shape, np.inf)  # the last row: unbounded
+            sel = groups < n_new
+            if np.any(sel):
+                g = groups[sel]
+                out[sel] = base.rows(rows[sel], p_b[g]) / f_b[g][:, None]
+            return out
+
+        return LobeTable(rpm=self.rpm, a_lim=a_new, group=order[inv], exact=exact)
 
 
 @dataclass(frozen=True, eq=False)

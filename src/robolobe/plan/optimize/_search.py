@@ -200,8 +200,8 @@ def _search(ctx: _Ctx, max_blocks: int, n_depth: int) -> tuple[Schedule | None, 
         kb = blk.start.size
         best_blk = np.where(ctx.allowed, blk.a_blk, 0.0).max(axis=1) / cons.safety_factor
         depth_hi = min(cons.depth_cap_m, float(best_blk.min()))
-        if depth_hi >= cons.depth_min_m or kb >= n_cut:
-            break
+        if depth_hi >= cons.depth_min_m or kb >= n_cut or k_blocks >= n_cut:
+            break  # (blocks of zero length merge: kb can stay below n_cut)
         k_blocks = min(n_cut, 4 * k_blocks)  # blocks too coarse to be feasible at one speed
     if depth_hi < cons.depth_min_m:
         b = int(np.argmin(best_blk))
