@@ -35,7 +35,24 @@ def _print_summary(s: PlanSummary, out: Path) -> None:
     t.add_column("")
     t.add_row("robot / modes", f"{s.robot} / {s.mode_source}")
     t.add_row("waypoints (cutting)", f"{s.n_waypoints} ({s.n_cut})")
-    t.add_row("depth per pass", f"{s.depth_mm:.3f} mm")
+    if s.passes:
+        deep = [r for r in s.passes if r["program_depth_mm"] > 0]
+        t.add_row(
+            "engagement",
+            f"each move's own ({s.engagement}); {len(deep)} cutting section"
+            f"{'s' if len(deep) != 1 else ''}",
+        )
+        for r in deep[:6]:
+            t.add_row(
+                f"  {r['lines']}",
+                f"{r['passes']} x {r['depth_per_pass_mm']:.3f} mm of {r['program_depth_mm']:.3f} "
+                f"mm at {r['rpm_min']:.0f}-{r['rpm_max']:.0f} rpm"
+                + (f" (set by {r['set_by']})" if r["set_by"] else ""),
+            )
+        if len(deep) > 6:
+            t.add_row("", f"... {len(deep) - 6} more sections in summary.json")
+    else:
+        t.add_row("depth per pass", f"{s.depth_mm:.3f} mm (cut.radial_width_mm)")
     t.add_row("speed", f"{s.rpm_min:.0f} - {s.rpm_max:.0f} rpm ({s.speed_mode}, {s.method})")
     t.add_row("MRR", f"{s.mrr_cm3_per_min:.1f} cm^3/min")
     t.add_row("cycle time", f"{s.cycle_time_s:.2f} s")

@@ -431,6 +431,10 @@ def render_html(
                     f"{'feasible' if g.feasible else 'infeasible: ' + g.reason})",
                 )
             )
+    if s.passes:
+        rows[4] = ("Engagement", f"each move's own on the {s.engagement}, in passes (below)")
+    else:
+        rows[4] = ("Depth per pass [mm]", f"{s.depth_mm:.3f} (cut.radial_width_mm: one width)")
     table = "\n".join(
         f"<tr><th>{html_text(k)}</th><td>{html_text(str(v))}</td></tr>" for k, v in rows
     )
@@ -468,6 +472,7 @@ figure {{ margin: 1.5em 0; }} img {{ max-width: 100%; }}
 figcaption {{ font-size: 14px; color: #444; max-width: 800px; }}
 </style></head><body>
 <h1>robolobe plan</h1>
+{_program_sections_html(res)}
 <table>{table}</table>
 <h2>Notes</h2><ul>{notes or "<li>none</li>"}</ul>
 <h2>Plots</h2>
@@ -480,6 +485,60 @@ figcaption {{ font-size: 14px; color: #444; max-width: 800px; }}
 timings: {html_text(timing)}</small></p>
 </body></html>
 """
+
+
+def _program_sections_html(res: PlanResult, n: int = 20) -> str:
+    """"What to program": per section of the program, S, F, passes, depth, binding limit, margin."""
+    s = res.summary
+    deep = [r for r in s.passes if r["program_depth_mm"] > 0]
+    if not deep:
+        return ""
+    tab = res.table
+    cut = tab["motion"] == "cut"
+    rows = []
+    for r in deep[:n]:
+        sel = cut & (tab["section"] == r["section"])
+        lim = tab.loc[sel, "limiting"].value_counts()
+        feed = tab.loc[sel, "feed_mm_per_min"]
+        rows.append(
+            "<tr>"
+            + "".join(
+                f"<td>{html_text(str(v))}</td>"
+                for v in (
+                    r["lines"],
+                    f"{r['rpm_min']:.0f}"
+                    + (f"-{r['rpm_max']:.0f}" if r["rpm_max"] > r["rpm_min"] + 0.5 else ""),
+                    f"{feed.min():.0f}"
+                    + (f"-{feed.max():.0f}" if feed.max() > feed.min() + 0.5 else ""),
+                    r["passes"],
+                    f"{r['depth_per_pass_mm']:.3f} of {r['program_depth_mm']:.3f}",
+                    ", ".join(str(k) for k in lim.index[:2]),
+                    "-" if r["min_margin"] is None else f"{r['min_margin']:.3f}",
+                    r["set_by"] or "-",
+                )
+            )
+            + "</tr>"
+        )
+    more = f"<p>... and {len(deep) - n} more sections (summary.json).</p>" if len(deep) > n else ""
+    head = "".join(
+        f"<th>{h}</th>"
+        for h in (
+            "Program lines",
+            "S [rpm]",
+            "F [mm/min]",
+            "Passes",
+            "Depth per pass [mm]",
+            "Binding limit",
+            "Min margin",
+            "Passes set by",
+        )
+    )
+    return (
+        "<h2>What to program</h2><p>Per section of the program (consecutive cutting moves at "
+        f"one height): each move planned at its own engagement and depth on the {s.engagement}, "
+        f"safety factor {s.safety_factor:g}.</p>"
+        f"<table><tr>{head}</tr>{''.join(rows)}</table>{more}"
+    )
 
 
 def _program_html(res: PlanResult, program: dict[str, str] | None, n: int = 30) -> str:
