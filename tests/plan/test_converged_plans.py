@@ -9,6 +9,13 @@ grid of the production code), at the waypoint's planned speed. The stated
 within [0.99, 1.005] of it. The fast run checks a few waypoints of the
 contour on B (where a fixed grid stated 1.95x); ``-m slow`` every waypoint of
 the three bundled plans.
+
+The plans are made at each move's own engagement (entry/exit angles from the
+stock, depth in passes, issue 26): the reference takes each waypoint's own
+angles (its own directional factors, ``zoa_reference.alphas``), and every
+engaged move's depth per pass (its programmed depth over its section's
+passes) must leave the reference limit at least the safety factor (to the
+0.5 % lobe tolerance).
 """
 
 from __future__ import annotations
@@ -22,7 +29,7 @@ from robolobe.plan.pipeline import _tool_model, cut_lobes, material_from_job, pl
 from robolobe.sld.conditions import engagement_angles
 from robolobe.sld.directional import directional_factors
 
-from ..sld.zoa_reference import reference_envelope
+from ..sld.zoa_reference import alphas, reference_envelope
 from .conftest import example
 
 PLANS = {
@@ -48,13 +55,19 @@ def _ratios(name: str, every: int) -> tuple[np.ndarray, list[str]]:
         j, TwinSource(res.robot).predict(q), f_tcp, mat, _tool_model(j), rpm_grid,
         dynamics_tol=0.0, robust=False,
     )  # fmt: skip
-    alpha = directional_factors(*engagement_angles(j.radial_immersion, j.cut.milling), mat.kr)
+    alpha_job = directional_factors(*engagement_angles(j.radial_immersion, j.cut.milling), mat.kr)
+    own = "phi_entry_deg" in sub.columns
     rpm = sub["rpm"].to_numpy(np.float64)
     stated = sub["a_lim_mm"].to_numpy(np.float64) * 1e-3
     ratios, where = [], []
     for i in range(0, len(sub), every):
         if plunge[i] or not np.isfinite(stated[i]):
             continue
+        alpha = alpha_job
+        if own:
+            pe, px = np.radians(sub[["phi_entry_deg", "phi_exit_deg"]].iloc[i].to_numpy(float))
+            alpha = alphas(float(pe), float(px), mat.kr)
+            per_pass = sub["program_depth_mm"].iloc[i] / sub["passes"].iloc[i] * 1e-3
         m = model.take(i)
         on = np.any(m.residues != 0.0, axis=(-1, -2))
         ref = reference_envelope(
@@ -63,6 +76,9 @@ def _ratios(name: str, every: int) -> tuple[np.ndarray, list[str]]:
         )[0]  # fmt: skip
         ratios.append(stated[i] / ref)
         where.append(f"{sub['source'].iloc[i]}:{sub['line'].iloc[i]}")
+        if own:
+            # the move's own depth per pass against the reference limit
+            assert ref / per_pass >= j.plan.safety_factor * (1 - 0.005), (where[-1], ref, per_pass)
     return np.asarray(ratios), where
 
 

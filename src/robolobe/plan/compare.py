@@ -34,6 +34,7 @@ from robolobe.errors import (
     RobolobeError,
     SingularityError,
 )
+from robolobe.plan._summary import PlanSummary
 from robolobe.plan.job import Job, load_job
 from robolobe.plan.modes import ModeSource, mode_source
 from robolobe.plan.paths import read_toolpath, validate_waypoints
@@ -257,8 +258,8 @@ def compare_robots(
                 rpm_max=s.rpm_max,
                 mrr_cm3_per_min=s.mrr_cm3_per_min,
                 cycle_time_s=s.cycle_time_s,
-                passes=_passes(jr, s.depth_mm),
-                part_time_s=_passes(jr, s.depth_mm) * s.cycle_time_s,
+                passes=_passes(jr, s),
+                part_time_s=_part_time(jr, s),
                 time_per_mm_depth_s=s.cycle_time_s / s.depth_mm,
                 min_margin=s.min_margin,
                 worst_waypoint=s.min_margin_at.waypoint,
@@ -302,8 +303,20 @@ def moved_note(robot: str, xyz_m: Any) -> str:
     )
 
 
-def _passes(job: Job, depth_mm: float) -> float:
-    """Passes needed to remove the job's stock at ``depth_mm`` per pass (NaN: no stock given)."""
+def _part_time(job: Job, s: PlanSummary) -> float:
+    """Time per part [s]: the plan's cycle time where it plans the program's own depth in
+    passes, else its passes of the job's stock depth times its cycle time (NaN: neither)."""
+    if s.passes:
+        return s.cycle_time_s
+    return _passes(job, s) * s.cycle_time_s
+
+
+def _passes(job: Job, s: PlanSummary) -> float:
+    """Passes: the most of any section where the plan plans the program's own depth, else
+    those needed to remove the job's stock depth at the plan's depth (NaN: no stock given)."""
+    if s.passes:
+        return float(max(int(r["passes"]) for r in s.passes))
+    depth_mm = s.depth_mm
     stock = job.cut.stock_depth_m
     if stock is None or depth_mm <= 0:
         return math.nan

@@ -28,6 +28,7 @@ from robolobe.stock import (
 
 __all__ = ["engagement_note", "plan_engagement", "stock_engagement"]
 
+
 def stock_engagement(
     job: Job, wp: pd.DataFrame, path_name: str, *, default: bool = False
 ) -> Engagement | None:

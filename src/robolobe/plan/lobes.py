@@ -584,9 +584,7 @@ def waypoint_lobes(
                     np.concatenate([joined.zeta, m.zeta[idx_b]], axis=-1),
                     np.concatenate([joined.residues, m.residues[idx_b]], axis=-3),
                 )
-            g_b, lead_b = group_dynamics(
-                joined, tol, alpha if alpha.ndim == 2 else alpha[idx_b]
-            )
+            g_b, lead_b = group_dynamics(joined, tol, alpha if alpha.ndim == 2 else alpha[idx_b])
             del joined
         n_base = int(lead_b.size)
         if own is not None:

@@ -131,9 +131,7 @@ def schedule_passes(
     """
     p_lo = max(1, math.ceil(deepest_m / cons.depth_cap_m - 1e-9))
     d_hi = deepest_m / p_lo
-    free = dataclasses.replace(
-        cons, depth_min_m=min(cons.depth_min_m, d_hi), depth_max_m=d_hi
-    )
+    free = dataclasses.replace(cons, depth_min_m=min(cons.depth_min_m, d_hi), depth_max_m=d_hi)
     first = run(free)
     p0 = max(p_lo, math.ceil(deepest_m / first.best.depth_m - 1e-9))
     best: tuple[float, int, PlanOutcome, Constraints] | None = None
@@ -182,9 +180,7 @@ def section_passes(
     """
     d = pd_.depth_m
     with np.errstate(divide="ignore", invalid="ignore"):
-        need = np.where(
-            bounded & (d > 0), np.ceil(d * safety_factor / a_lim_m - 1e-9), 1.0
-        )
+        need = np.where(bounded & (d > 0), np.ceil(d * safety_factor / a_lim_m - 1e-9), 1.0)
     need = np.maximum(np.nan_to_num(need, nan=1.0, posinf=1.0), 1.0).astype(np.int64)
     ns = pd_.n_sections
     passes = np.ones(ns, np.int64)

@@ -68,8 +68,8 @@ from robolobe.robots.model import Robot
 from robolobe.sld.conditions import engagement_angles
 from robolobe.sld.frf import ModalModel
 from robolobe.sld.material import Material, get_material
-from robolobe.stock import Engagement
 from robolobe.sld.toolpoint import feed_frame, tool_point_model
+from robolobe.stock import Engagement
 
 __all__ = [
     "PlanResult",
@@ -1125,11 +1125,8 @@ def plan_path(
 
         if depth is None:
             return run(cons)
-        out, passes[0], cons_fixed[0] = schedule_passes(run, cons, depth.deepest_m)
-        return out
+        return schedule_passes(run, cons, depth.deepest_m)[0]
 
-    passes = [1]
-    cons_fixed = [cons]
     outcome = schedule(grouped.table)
     # lobe sharing keeps its promise: members planned next to a steep wall of their
     # leader's lobes get lobes of their own, and the schedule is made again
@@ -1177,9 +1174,9 @@ def plan_path(
         mode_note=note,
         n_split=n_split,
         sections=sections,
-        engagement="cut.radial_width_mm" if depth is None else (
-            "stock" if job.stock is not None else "default stock"
-        ),
+        engagement="cut.radial_width_mm"
+        if depth is None
+        else ("stock" if job.stock is not None else "default stock"),
     )
     timings["table"] = time.perf_counter() - t
     summary = summary.with_timings(timings)
@@ -1370,9 +1367,7 @@ def _apply_passes(
     best = outcome.best
     a_lim = grouped.table.query(best.rpm)  # each move's own limit (not the depth share's)
     bounded = ~plunge & eng.engaged[ci]
-    passes_s, set_by = section_passes(
-        depth, a_lim, bounded, cons.safety_factor, cons.depth_cap_m
-    )
+    passes_s, set_by = section_passes(depth, a_lim, bounded, cons.safety_factor, cons.depth_cap_m)
     p = passes_s[depth.section]
     step = depth.section_depth_m()[depth.section] / p
     cut_d = depth.depth_m / p

@@ -68,7 +68,9 @@ class VerifyResult:
         plan's), ``a_lim_mm`` (on the verifying modes), ``margin``
         (``a_lim_mm / depth_mm``; inf for plunges), ``status`` (``"chatter"``
         where ``margin < 1``, ``"inside SF"`` where ``margin`` is below the
-        plan's safety factor, ``"ok"``, ``"plunge"``).
+        plan's safety factor, ``"ok"``, ``"plunge"``, ``"air"``). A plan made
+        at each move's own engagement is verified at it: ``depth_mm`` is then
+        the move's own depth per pass (``cut_depth_mm`` of the plan).
     n_beyond : int
         Waypoints predicted to chatter (depth above the limit).
     n_inside_sf : int
@@ -338,6 +340,16 @@ def verify_plan(
         if "lobes_own" in sub.columns
         else None
     )
+    # a plan made at each move's own engagement is checked at it, at each move's own depth
+    engagement = None
+    air = None
+    depth_col = "depth_mm"
+    if {"phi_entry_deg", "phi_exit_deg", "cut_depth_mm"} <= set(sub.columns):
+        pe = np.radians(sub["phi_entry_deg"].to_numpy(dtype=np.float64))
+        px = np.radians(sub["phi_exit_deg"].to_numpy(dtype=np.float64))
+        air = ~(np.isfinite(pe) & np.isfinite(px))
+        engagement = (pe, px)
+        depth_col = "cut_depth_mm"
     _, plunge, grouped, _, _, _ = cut_lobes(
         j,
         modes,
@@ -348,15 +360,19 @@ def verify_plan(
         dynamics_tol=dynamics_tol,
         robust=False,
         own=own,
+        engagement=engagement,
+        air=air,
     )
     rpm = sub["rpm"].to_numpy(dtype=np.float64)
-    depth = sub["depth_mm"].to_numpy(dtype=np.float64) * 1e-3
+    depth = sub[depth_col].to_numpy(dtype=np.float64) * 1e-3
     a_lim = grouped.table.query(rpm)
+    is_air = np.zeros(plunge.shape, bool) if air is None else air & ~plunge
+    plunge = plunge | is_air  # no lateral limit either way
     margin = np.where(plunge, np.inf, a_lim / np.maximum(depth, 1e-300))
     sf = float(j.plan.safety_factor)
     status = np.where(
         plunge,
-        "plunge",
+        np.where(is_air, "air", "plunge"),
         np.where(margin < 1.0, "chatter", np.where(margin < sf * (1 - 1e-9), "inside SF", "ok")),
     )
     labels = [f"{a}:{int(b)}" for a, b in zip(sub["source"], sub["line"], strict=True)]
