@@ -13,7 +13,7 @@ import pytest
 
 from robolobe.plan.lobes import DynamicsTolerance, waypoint_lobes
 from robolobe.plan.optimize import LobeTable
-from robolobe.plan.passes import program_depth, section_passes
+from robolobe.plan.passes import program_depth, section_passes, sections
 from robolobe.sld.frf import ModalModel
 
 from ..sld.zoa_reference import alphas, reference_envelope
@@ -52,7 +52,9 @@ def test_per_depth_air_and_refusals() -> None:
     s = t.per_depth(np.array([1.0, 0.0, np.nan, 1.0, 1.0]))
     assert np.isinf(s.query(np.full(5, 2000.0))[1:3]).all()
     with pytest.raises(Exception, match="share"):
-        t.per_depth(np.array([1.5, 1, 1, 1, 1]))
+        t.per_depth(np.array([np.inf, 1, 1, 1, 1]))
+    # a move deeper than the planned depth (share above 1): its limit goes down
+    assert t.per_depth(np.array([2.0, 1, 1, 1, 1])).query(np.full(5, 2000.0))[0] <= 1e-3
     with pytest.raises(Exception, match="share"):
         t.per_depth(np.ones(3))
 
@@ -61,9 +63,11 @@ def test_sections_and_passes_by_hand() -> None:
     depth = np.array([0.0, 5e-3, 5e-3, 5e-3, 2e-3, 2e-3])
     z = np.array([1e-3, -5e-3, -5e-3, -5e-3, -2e-3, -2e-3])
     bounded = np.array([False, True, True, True, True, True])
-    pd_ = program_depth(depth, z, bounded)
+    sec = sections(np.array([3, 5, 6, 7, 10, 11]))  # rows of the waypoint table
+    assert sec.tolist() == [0, 1, 1, 1, 2, 2]
+    pd_ = program_depth(depth, z, bounded, sec)
     assert pd_ is not None
-    assert pd_.section.tolist() == [0, 1, 1, 1, 2, 2]
+    assert not pd_.fixed.any()
     assert pd_.deepest_m == 5e-3
     a_lim = np.array([np.nan, 4e-3, 2.4e-3, 3e-3, 1e-3, 5e-3])
     passes, set_by = section_passes(pd_, a_lim, bounded, 1.2, 0.1)
@@ -73,7 +77,22 @@ def test_sections_and_passes_by_hand() -> None:
     # the depth cap per pass binds: 5 mm at most 1 mm a pass
     passes, _ = section_passes(pd_, np.full(6, 1.0), bounded, 1.0, 1e-3)
     assert passes.tolist() == [1, 5, 2]
-    assert program_depth(np.zeros(3), np.zeros(3), np.ones(3, bool)) is None
+    assert program_depth(np.zeros(3), np.zeros(3), np.ones(3, bool), np.zeros(3, int)) is None
+
+
+def test_a_section_that_steps_down_itself_keeps_one_pass_at_its_own_depth() -> None:
+    # one run of cutting moves: 3 mm at Z-3, then (a ramp) 3 mm at Z-6
+    depth = np.array([3e-3, 3e-3, 3e-3, 3e-3])
+    z = np.array([-3e-3, -3e-3, -6e-3, -6e-3])
+    bounded = np.ones(4, bool)
+    pd_ = program_depth(depth, z, bounded, np.zeros(4, np.int64))
+    assert pd_ is not None
+    assert pd_.fixed.all()
+    # shifting it up whole would cut the lower level deeper than a pass: one pass, and
+    # each move is planned at its own full depth whatever the planned depth per pass
+    np.testing.assert_allclose(pd_.share(3) * pd_.deepest_m / 3, depth)
+    passes, _ = section_passes(pd_, np.full(4, 1e-3), bounded, 1.0, 1.0)
+    assert passes.tolist() == [1]
 
 
 def _model(n: int) -> ModalModel:

@@ -32,12 +32,23 @@ def pocket(pocket_job):
 def test_plan_respects_every_constraint(pocket, pocket_job):
     t = pocket.table
     job = pocket_job
-    cut = (t["motion"] == "cut") & (t["limiting"] != "plunge")
-    depth = t.loc[cut, "depth_mm"].to_numpy()
-    assert np.ptp(depth) == 0.0  # one depth per pass
+    cut = (t["motion"] == "cut") & ~t["limiting"].isin(["plunge", "air"])
+    # the pocket is planned at each move's own engagement, in passes per section
+    assert pocket.summary.engagement == "default stock"
+    for _, sec in t[cut].groupby("section"):
+        assert np.ptp(sec["depth_mm"]) == 0.0  # one step per pass in a section
+        assert np.ptp(sec["passes"]) == 0
+        np.testing.assert_allclose(
+            sec["cut_depth_mm"], sec["program_depth_mm"] / sec["passes"], rtol=1e-12
+        )
+        assert np.all(sec["cut_depth_mm"] <= sec["depth_mm"] * (1 + 1e-12))
+    depth = t.loc[cut, "cut_depth_mm"].to_numpy()
     # stable with the safety factor at every cutting waypoint (a_lim: exact, at the planned speed)
     assert np.all(t.loc[cut, "a_lim_mm"] >= job.plan.safety_factor * depth * (1 - 1e-9))
-    assert t.loc[cut, "margin"].min() == pytest.approx(job.plan.safety_factor, rel=1e-6)
+    assert t.loc[cut, "margin"].min() >= job.plan.safety_factor * (1 - 1e-9)
+    # the full-width slot at the start (pocket.nc:12) is planned at its full engagement
+    slot = t[(t["line"] == 12) & cut]
+    assert (slot["ae_over_D"] > 0.99).all()
     rpm = t.loc[t["motion"] == "cut", "rpm"].to_numpy()
     assert np.all((rpm >= job.spindle.rpm_min - 1e-6) & (rpm <= job.spindle.rpm_max + 1e-6))
     assert t["power_kW"].max() <= job.spindle.power_W * 1e-3 * (1 + 1e-9)

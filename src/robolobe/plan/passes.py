@@ -3,9 +3,13 @@
 A program cuts each move at its own depth (the stock above the tool tip
 under the engaged edge, :mod:`robolobe.stock`). Where that depth is more
 than the stable depth at the planned speed, the move's *section* (a maximal
-run of consecutive cutting moves at one tool-tip height, e.g. one level of a
-pocket) is cut in ``n = ceil(a / a_stable)`` even passes of ``a / n``, as
-CAM systems step down.
+run of consecutive cutting moves, between rapids: one level of a pocket with
+its approach and plunge) is cut in ``n = ceil(a / a_stable)`` even passes of
+``a / n``, as CAM systems step down: the section repeated, shifted up the
+tool axis by ``a / n`` per pass. A section that cuts material at more than
+one height steps down itself (a CAM program's own levels joined by ramps):
+shifting it whole would cut a lower level deeper than its pass, so it keeps
+one pass and its moves are planned at their own full depth (``fixed``).
 
 The optimizer plans one depth for the whole path; with a depth that differs
 per move, the planned depth is the depth of the deepest move per pass and
@@ -29,7 +33,7 @@ from numpy.typing import NDArray
 from robolobe.errors import InfeasibleError
 from robolobe.plan.optimize import Constraints, PlanOutcome
 
-__all__ = ["ProgramDepth", "program_depth", "schedule_passes", "section_passes"]
+__all__ = ["ProgramDepth", "program_depth", "schedule_passes", "section_passes", "sections"]
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
@@ -52,16 +56,23 @@ class ProgramDepth:
         Section of each cutting move (consecutive moves at one tip height).
     deepest_m : float
         The largest depth of a move with a lateral limit [m].
+    fixed : ndarray of bool, shape (n_cut,)
+        Moves of sections that step down themselves: one pass, their own depth.
     """
 
     depth_m: FloatArray
     section: IntArray
     deepest_m: float
+    fixed: NDArray[np.bool_]
 
-    @property
-    def share(self) -> FloatArray:
-        """Each move's depth over the deepest (0 for air)."""
-        return np.asarray(self.depth_m / self.deepest_m)
+    def share(self, passes: int) -> FloatArray:
+        """Each move's depth per pass over the planned depth ``deepest_m / passes``.
+
+        At most 1 for moves cut in passes; a ``fixed`` move's full depth
+        over it (above 1 where it is deeper than a pass); 0 for air.
+        """
+        d = np.where(self.fixed, self.depth_m * passes, self.depth_m)
+        return np.asarray(d / self.deepest_m)
 
     @property
     def n_sections(self) -> int:
@@ -76,7 +87,7 @@ class ProgramDepth:
 
 
 def program_depth(
-    depth_m: FloatArray, z_m: FloatArray, bounded: NDArray[np.bool_]
+    depth_m: FloatArray, z_m: FloatArray, bounded: NDArray[np.bool_], section: IntArray
 ) -> ProgramDepth | None:
     """The program's depths and sections; None where no bounded move cuts material.
 
@@ -88,29 +99,46 @@ def program_depth(
         Tool-tip height at the end of each cutting move [m].
     bounded : ndarray of bool, shape (n_cut,)
         Moves with a lateral stability limit (not plunges, not air).
+    section : ndarray of int, shape (n_cut,)
+        Section of each cutting move (:func:`sections`).
     """
     d = np.where(np.isfinite(depth_m) & (depth_m > 0), depth_m, 0.0)
     if not np.any(bounded & (d > 0)):
         return None
     z = np.asarray(z_m, dtype=np.float64)
-    new = np.r_[True, np.abs(np.diff(z)) > LEVEL_TOL_M]
-    section = np.cumsum(new) - 1
-    return ProgramDepth(
-        depth_m=d, section=section.astype(np.int64), deepest_m=float(d[bounded].max())
-    )
+    sec = np.asarray(section, dtype=np.int64)
+    fixed = np.zeros(d.size, bool)
+    cuts = d > 0
+    for k in np.unique(sec[cuts]):
+        zk = z[(sec == k) & cuts]
+        if np.ptp(zk) > LEVEL_TOL_M:
+            fixed[sec == k] = True
+    return ProgramDepth(depth_m=d, section=sec, deepest_m=float(d[bounded].max()), fixed=fixed)
+
+
+def sections(cut_rows: IntArray) -> IntArray:
+    """Section of each cutting move: runs of consecutive rows of the waypoint table.
+
+    Parameters
+    ----------
+    cut_rows : ndarray of int, shape (n_cut,)
+        Row of each cutting move in the waypoint table (increasing).
+    """
+    rows = np.asarray(cut_rows, dtype=np.int64)
+    return np.cumsum(np.r_[True, np.diff(rows) != 1]).astype(np.int64) - 1
 
 
 def schedule_passes(
-    run: Callable[[Constraints], PlanOutcome], cons: Constraints, deepest_m: float
+    run: Callable[[Constraints, int], PlanOutcome], cons: Constraints, deepest_m: float
 ) -> tuple[PlanOutcome, int, Constraints]:
     """The speed schedule and pass count with the shortest cutting time.
 
     Parameters
     ----------
     run : callable
-        ``run(constraints) -> PlanOutcome``: the optimizer on the table of
-        :meth:`LobeTable.per_depth` (the depth it plans is the deepest move's
-        per pass).
+        ``run(constraints, passes) -> PlanOutcome``: the optimizer on the
+        table of :meth:`LobeTable.per_depth` with :meth:`ProgramDepth.share`
+        of ``passes`` (the depth it plans is the deepest move's per pass).
     cons : Constraints
         The job's limits (depth bounds per pass).
     deepest_m : float
@@ -132,14 +160,14 @@ def schedule_passes(
     p_lo = max(1, math.ceil(deepest_m / cons.depth_cap_m - 1e-9))
     d_hi = deepest_m / p_lo
     free = dataclasses.replace(cons, depth_min_m=min(cons.depth_min_m, d_hi), depth_max_m=d_hi)
-    first = run(free)
+    first = run(free, p_lo)
     p0 = max(p_lo, math.ceil(deepest_m / first.best.depth_m - 1e-9))
     best: tuple[float, int, PlanOutcome, Constraints] | None = None
     for p in range(max(p_lo, p0 - PASS_SPAN), p0 + PASS_SPAN + 1):
         d = deepest_m / p
         fixed = dataclasses.replace(cons, depth_min_m=d, depth_max_m=d)
         try:
-            out = run(fixed)
+            out = run(fixed, p)
         except InfeasibleError:
             continue
         t = p * out.best.cut_time_s
@@ -180,13 +208,18 @@ def section_passes(
     """
     d = pd_.depth_m
     with np.errstate(divide="ignore", invalid="ignore"):
-        need = np.where(bounded & (d > 0), np.ceil(d * safety_factor / a_lim_m - 1e-9), 1.0)
+        need = np.where(
+            bounded & (d > 0) & ~pd_.fixed, np.ceil(d * safety_factor / a_lim_m - 1e-9), 1.0
+        )
     need = np.maximum(np.nan_to_num(need, nan=1.0, posinf=1.0), 1.0).astype(np.int64)
     ns = pd_.n_sections
     passes = np.ones(ns, np.int64)
     np.maximum.at(passes, pd_.section, need)
     cap = np.maximum(np.ceil(pd_.section_depth_m() / depth_cap_m - 1e-9), 1).astype(np.int64)
     passes = np.maximum(passes, cap)
+    fixed_s = np.zeros(ns, bool)
+    fixed_s[pd_.section[pd_.fixed]] = True
+    passes[fixed_s] = 1
     set_by = np.full(ns, -1, np.int64)
     order = np.lexsort((-(d * safety_factor / np.where(bounded, a_lim_m, np.inf)), pd_.section))
     first = np.r_[True, np.diff(pd_.section[order]) != 0]

@@ -59,7 +59,13 @@ from robolobe.plan.modes import (
     plan_bound,
 )
 from robolobe.plan.optimize import Constraints, PathGeometry, PlanOutcome, optimize_schedule
-from robolobe.plan.passes import ProgramDepth, program_depth, schedule_passes, section_passes
+from robolobe.plan.passes import (
+    ProgramDepth,
+    program_depth,
+    schedule_passes,
+    section_passes,
+    sections,
+)
 from robolobe.plan.paths import read_toolpath, segment_lengths, validate_waypoints
 from robolobe.robots.ik import ik, ik_batch
 from robolobe.robots.io import load_robot
@@ -69,6 +75,7 @@ from robolobe.sld.conditions import engagement_angles
 from robolobe.sld.frf import ModalModel
 from robolobe.sld.material import Material, get_material
 from robolobe.sld.toolpoint import feed_frame, tool_point_model
+from robolobe.sld.zoa import LOW_IMMERSION
 from robolobe.stock import Engagement
 
 __all__ = [
@@ -1107,15 +1114,15 @@ def plan_path(
     depth: ProgramDepth | None = None
     if eng is not None:
         bounded = ~plunge & eng.engaged[ci]
-        depth = program_depth(eng.depth_m[ci], pos[ci, 2], bounded)
+        depth = program_depth(eng.depth_m[ci], pos[ci, 2], bounded, sections(ci))
         if depth is not None:
             width = float(np.nanmax(np.where(bounded, eng.radial_width_m[ci], np.nan)))
             cons = dataclasses.replace(cons, width_m=width)  # the widest engagement: power, torque
 
     def schedule(table: Any) -> PlanOutcome:
-        def run(c: Constraints) -> PlanOutcome:
+        def run(c: Constraints, p: int = 1) -> PlanOutcome:
             return optimize_schedule(
-                table if depth is None else table.per_depth(depth.share),
+                table if depth is None else table.per_depth(depth.share(p)),
                 geom,
                 c,
                 programmed_rpm=prog if np.any(np.isfinite(prog)) else None,
@@ -1142,10 +1149,19 @@ def plan_path(
     table = _result_table(
         wp, q, wm, modes, grouped, outcome, ci, plunge, feed_angle, job, cons, seg
     )
-    sections = None
+    passes_rows = None
     if depth is not None:
         assert eng is not None
-        sections = _apply_passes(table, grouped, outcome, depth, ci, plunge, eng, cons, seg)
+        passes_rows = _apply_passes(table, grouped, outcome, depth, ci, plunge, eng, cons, seg)
+        imm = eng.immersion[ci]
+        low = ~plunge & eng.engaged[ci] & (imm < LOW_IMMERSION)
+        if low.any():
+            k = int(np.flatnonzero(low)[0])
+            note = (note + "; " if note else "") + (
+                f"{int(low.sum())} of {int((~plunge & eng.engaged[ci]).sum())} engaged moves "
+                f"cut at a_e/D < {LOW_IMMERSION:g} (first {labels[k]}: {imm[k]:.3f}), where "
+                "the zero-order lobes are least reliable"
+            )
     own_col = np.zeros(len(wp), bool)
     own_col[ci] = steep
     table["lobes_own"] = own_col
@@ -1173,7 +1189,7 @@ def plan_path(
         bound=bound,
         mode_note=note,
         n_split=n_split,
-        sections=sections,
+        sections=passes_rows,
         engagement="cut.radial_width_mm"
         if depth is None
         else ("stock" if job.stock is not None else "default stock"),
@@ -1379,7 +1395,7 @@ def _apply_passes(
         return out
 
     table["section"] = col(depth.section, -1, np.int64)
-    table["passes"] = col(p, 0, np.int64)
+    table["passes"] = col(p, 1, np.int64)
     table["depth_mm"] = col(step * 1e3)
     table["cut_depth_mm"] = col(np.where(depth.depth_m > 0, cut_d * 1e3, 0.0))
     table["program_depth_mm"] = col(depth.depth_m * 1e3)

@@ -488,7 +488,7 @@ timings: {html_text(timing)}</small></p>
 
 
 def _program_sections_html(res: PlanResult, n: int = 20) -> str:
-    """ "What to program": per section of the program, S, F, passes, depth, binding limit, margin."""
+    """The "What to program" section: per program section S, F, passes, limit, margin."""
     s = res.summary
     deep = [r for r in s.passes if r["program_depth_mm"] > 0]
     if not deep:

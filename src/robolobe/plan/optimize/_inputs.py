@@ -258,7 +258,7 @@ class LobeTable:
     def per_depth(self, share: ArrayLike, step: float = DEPTH_SHARE_STEP) -> LobeTable:
         """The table for a depth that differs per waypoint: ``share`` of one planned depth.
 
-        A waypoint that cuts ``share`` (0 < share <= 1) of the planned depth
+        A waypoint that cuts ``share`` (> 0) of the planned depth
         ``a`` is stable while ``share a <= a_lim``: its limit on the planned
         depth is ``a_lim / share``. Shares are rounded *up* to steps of
         ``step`` (relative), so that waypoints of one group and nearly one
@@ -268,7 +268,8 @@ class LobeTable:
         ----------
         share : array_like, shape (n_cut,)
             Depth of each cutting waypoint over the planned depth (1 at the
-            deepest; 0 or NaN: no cut there, the unbounded row).
+            deepest move cut in passes; above 1 for a move cut deeper than
+            the planned depth; 0 or NaN: no cut there, the unbounded row).
         step : float
             Relative step of the rounding.
 
@@ -281,14 +282,13 @@ class LobeTable:
         r = np.asarray(share, dtype=np.float64)
         if r.shape != self.group.shape:
             raise InputError(f"share: expected shape {self.group.shape}, found {r.shape}")
-        if np.any(r > 1.0 + 1e-9):
-            raise InputError(f"share: expected values <= 1, found {float(np.nanmax(r)):g}")
+        if np.any(np.isinf(r)):
+            raise InputError("share: expected finite values, found inf")
         none = ~(r > 0)
         unb = np.isinf(self.a_lim[:, 0]) & np.all(np.isinf(self.a_lim), axis=1)
         none |= unb[self.group]
         lr = math.log1p(step)
         level = np.where(none, 0.0, np.ceil(np.log(np.where(none, 1.0, r)) / lr - 1e-9))
-        level = np.minimum(level, 0.0)  # 1 at the deepest
         key = np.stack([np.where(none, -1, self.group).astype(np.float64), level], axis=1)
         uniq, inv = np.unique(key, axis=0, return_inverse=True)
         inv = np.asarray(inv).ravel()
