@@ -30,7 +30,8 @@ TOP_KEYS = [
     "safety_factor", "method", "nlp_status", "depth_mm", "rpm_min", "rpm_max", "mrr_cm3_per_min",
     "cycle_time_s", "cut_time_s", "rapid_time_s", "cut_length_m", "min_margin", "min_margin_at",
     "max_power_kW", "torque_Nm", "limiting_counts", "vs_best_constant_speed",
-    "vs_programmed_speed", "candidates", "notes", "plan_record", "timings_s",
+    "vs_programmed_speed", "candidates", "engagement", "passes", "notes", "plan_record",
+    "timings_s",
 ]  # fmt: skip
 SCHEDULE_KEYS = [
     "method", "feasible", "reason", "depth_mm", "rpm_min", "rpm_max", "rpm_mean",
