@@ -27,6 +27,7 @@ if TYPE_CHECKING:
     import pandas as pd
 
     from robolobe.plan.job import Job
+    from robolobe.plan.limits import ProcessLimits
     from robolobe.plan.lobes import GroupedLobes
     from robolobe.plan.modes import RobustBound
     from robolobe.plan.optimize import Constraints, PathGeometry, PlanOutcome, Schedule
@@ -435,6 +436,7 @@ class PlanSummary(_Piece):
         bound: RobustBound | None = None,
         mode_note: str = "",
         n_split: int = 0,
+        limits: ProcessLimits | None = None,
     ) -> PlanSummary:
         """The summary of a plan from the pipeline's results.
 
@@ -473,6 +475,10 @@ class PlanSummary(_Piece):
             The mode source's remark.
         n_split : int
             Waypoints that got lobes of their own next to a steep lobe wall.
+        limits : ProcessLimits, optional
+            The limits the plan kept (:func:`robolobe.plan.limits.process_limits`);
+            default: the job's alone, as :func:`~robolobe.plan.pipeline.constraints_from_job`
+            makes them without.
         """
         import robolobe
 
@@ -496,6 +502,7 @@ class PlanSummary(_Piece):
             mode_note=mode_note,
             n_split=n_split,
         )
+        notes += _limit_notes(job, robot, table, cut_index, limits)
         return cls(
             robolobe_version=robolobe.__version__,
             job=job.name,
@@ -557,6 +564,24 @@ def _schedule(s: Schedule | None) -> ScheduleSummary | None:
 
 def _comparison(best: Schedule, base: Schedule | None) -> BaselineComparison | None:
     return None if base is None else BaselineComparison.between(best, base)
+
+
+def _limit_notes(
+    job: Job,
+    robot: Robot,
+    table: pd.DataFrame,
+    cut_index: NDArray[np.int64],
+    limits: ProcessLimits | None,
+) -> list[str]:
+    """The process limits kept (vc, chip load, path speed) and which limit binds where."""
+    from robolobe.plan.limits import binding_notes, process_limits
+
+    lim = limits if limits is not None else process_limits(job, robot=robot)
+    cut = table.iloc[cut_index]
+    return [
+        *lim.notes,
+        *binding_notes(cut["limiting"].to_numpy(), cut["source"], cut["line"], lim, job),
+    ]
 
 
 def _notes(
