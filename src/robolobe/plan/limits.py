@@ -176,8 +176,8 @@ def _ranges(
     if not lo < hi:
         key = "cut.vc_min_m_per_min" if lo_src.startswith("cut.") else "cut.vc_max_m_per_min"
         raise InputError(
-            f"{key}: expected vc_min < vc_max, found vc_min {lo:g} m/min ({lo_src or 'none'}) "
-            f">= vc_max {hi:g} m/min ({hi_src or 'none'})",
+            f"{key}: expected vc_min < vc_max, found vc_min {lo:g} m/min ({_short(lo_src) or 'none'}) "
+            f">= vc_max {hi:g} m/min ({_short(hi_src) or 'none'})",
             source=_where(job),
         )
     fz_job = job.cut.feed_per_tooth_range_m
