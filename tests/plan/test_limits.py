@@ -82,9 +82,11 @@ def test_rpm_range_is_the_spindle_range_within_the_vc_range() -> None:
 
 def test_every_table_row_has_ranges_and_a_source() -> None:
     for m in rl.sld.material_table():
-        assert m.vc_range_m_per_min is not None and 0 < m.vc_range_m_per_min[0]
+        assert m.vc_range_m_per_min is not None
+        assert m.vc_range_m_per_min[0] > 0
         assert m.vc_range_m_per_min[0] < m.vc_range_m_per_min[1] <= 5000
-        assert m.fz_range_mm is not None and 0 < m.fz_range_mm[0] < m.fz_range_mm[1] < 1
+        assert m.fz_range_mm is not None
+        assert 0 < m.fz_range_mm[0] < m.fz_range_mm[1] < 1
         assert m.cutting_source
 
 
@@ -260,7 +262,8 @@ def test_plan_with_unreachable_vc_exits_2_and_writes_nothing(
         main(["plan", str(EX / "face.mod"), "--job", str(job), "-o", str(out)])
     err = capsys.readouterr().err
     assert info.value.code == 2, err
-    assert "cut.vc_min_m_per_min" in err and "Traceback" not in err
+    assert "cut.vc_min_m_per_min" in err
+    assert "Traceback" not in err
     assert len(err.strip().splitlines()) == 1, err
     assert not out.exists() or not any(out.iterdir())
 
@@ -292,9 +295,12 @@ def test_binding_notes_name_the_physical_limit() -> None:
     assert notes[0].startswith("binding limit at 3 of 7 cutting waypoints (first f.nc:10)")
     assert "vc_max 300 m/min" in notes[0]
     # ties (1 each) in path order: stability (line 11), feed_max (14), power (16)
-    assert "f.nc:11" in notes[1] and "stability" in notes[1]
-    assert "f.nc:14" in notes[2] and "cut.max_feed_mm_per_min 6000" in notes[2]
-    assert "f.nc:16" in notes[3] and "spindle.power_kW" in notes[3]
+    assert "f.nc:11" in notes[1]
+    assert "stability" in notes[1]
+    assert "f.nc:14" in notes[2]
+    assert "cut.max_feed_mm_per_min 6000" in notes[2]
+    assert "f.nc:16" in notes[3]
+    assert "spindle.power_kW" in notes[3]
     assert "spindle.rpm_min" not in binding_limit("rpm_min", lim, job)  # vc_min binds there
     assert binding_limit("rpm_min", lim, job).startswith("the lowest speed: vc_min 100 m/min")
 
@@ -313,7 +319,8 @@ def test_check_reports_vc_chip_load_and_path_speed_per_move() -> None:
     assert s["limits"]["vc_m_per_min"] == [100.0, 300.0]
     # the link move MoveL ... v200 (12000 mm/min) is above the job's 6000 mm/min path speed
     fast = t["feed_mm_per_min"] > 6000
-    assert fast.sum() == 1 and (t.loc[fast, "feed_check"] == "high").all()
+    assert fast.sum() == 1
+    assert (t.loc[fast, "feed_check"] == "high").all()
     assert s["out_of_range"]["feed_high"] == 1
     first = s["out_of_range_first_at"]["vc_high"]
     assert any(f"first {first}: 565.7 m/min" in n for n in res.notes)

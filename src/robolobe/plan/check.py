@@ -546,6 +546,11 @@ def _html(res: CheckResult, png: bool, n: int = 50) -> str:
             *((f"status {k}", v) for k, v in s["counts"].items()),
             ("safety factor", s["safety_factor"]),
             ("minimum margin", f"{s['min_margin']} at {s['min_margin_at']}"),
+            *(
+                (f"out of range: {k}", f"{v} (first {s['out_of_range_first_at'][k]})")
+                for k, v in s["out_of_range"].items()
+                if v
+            ),
             ("verdict", s["verdict"]),
         )
     )
@@ -553,6 +558,7 @@ def _html(res: CheckResult, png: bool, n: int = 50) -> str:
     risk = t[t["status"].isin([BEYOND, INSIDE_SF])].sort_values("margin").head(n)
     cols = ["source", "line", "rpm", "feed_mm_per_min", "feed_per_tooth_mm", "ae_over_D"]
     cols += ["phi_entry_deg", "phi_exit_deg", "depth_mm", "a_lim_mm", "margin", "status"]
+    cols += ["vc_m_per_min", "vc_check", "feed_per_tooth_check", "feed_check"]
 
     def cell(v: Any) -> str:
         return h(f"{v:.4g}" if isinstance(v, float) else v)

@@ -175,9 +175,10 @@ def _ranges(
         )
     if not lo < hi:
         key = "cut.vc_min_m_per_min" if lo_src.startswith("cut.") else "cut.vc_max_m_per_min"
+        lo_why, hi_why = _short(lo_src) or "none", _short(hi_src) or "none"
         raise InputError(
-            f"{key}: expected vc_min < vc_max, found vc_min {lo:g} m/min ({_short(lo_src) or 'none'}) "
-            f">= vc_max {hi:g} m/min ({_short(hi_src) or 'none'})",
+            f"{key}: expected vc_min < vc_max, found vc_min {lo:g} m/min ({lo_why}) "
+            f">= vc_max {hi:g} m/min ({hi_why})",
             source=_where(job),
         )
     fz_job = job.cut.feed_per_tooth_range_m
@@ -458,7 +459,7 @@ def _chip_load_notes(
     off = states & (np.abs(np.where(states, fz_prog, fz_job) / fz_job - 1.0) > FZ_DISAGREE)
     if np.any(off):
         k = int(np.argmax(off))
-        f, s = float(wp["feed_mm_per_min"].iloc[k]), float(wp["rpm_programmed"].iloc[k])
+        f_k, s_k = float(wp["feed_mm_per_min"].iloc[k]), float(wp["rpm_programmed"].iloc[k])
         which = (
             'the program\'s (cut.feed_per_tooth_from = "program"; "job" keeps the job\'s)'
             if src == "program"
@@ -468,7 +469,7 @@ def _chip_load_notes(
             f"the program's chip load differs from the job's cut.feed_per_tooth_mm "
             f"{fz_job * 1e3:g} mm by more than {FZ_DISAGREE * 100:g} % on "
             f"{count(int(off.sum()), 'cutting move')} (first {_label(wp, k)}: "
-            f"F{f:g} / (S{s:g} x {teeth}) = {fz_prog[k] * 1e3:.3g} mm); the plan keeps {which}"
+            f"F{f_k:g} / (S{s_k:g} x {teeth}) = {fz_prog[k] * 1e3:.3g} mm); the plan keeps {which}"
         )
     if src == "program" and distinct.size > 1:
         notes.append(
