@@ -577,11 +577,8 @@ def _limit_notes(
     from robolobe.plan.limits import binding_notes, process_limits
 
     lim = limits if limits is not None else process_limits(job, robot=robot)
-    cut = table.iloc[cut_index]
-    return [
-        *lim.notes,
-        *binding_notes(cut["limiting"].to_numpy(), cut["source"], cut["line"], lim, job),
-    ]
+    col = {c: table[c].to_numpy()[cut_index] for c in ("limiting", "source", "line")}
+    return [*lim.notes, *binding_notes(col["limiting"], col["source"], col["line"], lim, job)]
 
 
 def _notes(

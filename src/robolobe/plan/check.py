@@ -54,7 +54,7 @@ from robolobe._text import count, html_text, plot_text
 from robolobe.errors import InputError
 from robolobe.plan.engagement import stock_engagement
 from robolobe.plan.job import Job, load_job
-from robolobe.plan.limits import ProcessLimits, process_limits
+from robolobe.plan.limits import ProcessLimits, brief_source, process_limits
 from robolobe.plan.modes import ModeSource, mode_source
 from robolobe.plan.pipeline import (
     _postures,
@@ -443,16 +443,16 @@ def _range_checks(
     tol = 1e-9
     checks = (
         ("vc_check", vc, on, limits.vc_min_m_per_min, limits.vc_max_m_per_min, "m/min",
-         1.0, "cutting speed vc", limits.vc_source),
+         1.0, "cutting speed vc", limits.vc_source, ".4g"),
         ("feed_per_tooth_check", fz, lateral, limits.fz_min_m, limits.fz_max_m, "mm", 1e3,
-         "chip load", limits.fz_range_source),
+         "chip load", limits.fz_range_source, ".3g"),
         ("feed_check", feed, np.isfinite(feed), 0.0, limits.max_feed_m_per_s, "mm/min", 6e4,
-         "feed (robot path speed)", limits.max_feed_why),
+         "feed (robot path speed)", limits.max_feed_why, ".6g"),
     )  # fmt: skip
     cols: dict[str, NDArray[np.str_]] = {}
     counts: dict[str, int] = {}
     first: dict[str, str] = {}
-    for col, v, judged, lo, hi, unit, scale, what, why in checks:
+    for col, v, judged, lo, hi, unit, scale, what, why, fmt in checks:
         word = np.full(v.size, "", dtype=object)
         low = judged & (v < lo * (1 - tol))
         high = judged & (v > hi * (1 + tol))
@@ -472,8 +472,8 @@ def _range_checks(
                 bound_word = {"below": "minimum", "above": "maximum"}[side]
                 notes.append(
                     f"{count(n, 'move')} {side} the {what} {bound_word} "
-                    f"{bound * scale:.4g} {unit} ({why.split(';')[0]}) (first {labels[k]}: "
-                    f"{v[k] * scale:.4g} {unit})"
+                    f"{bound * scale:{fmt}} {unit} ({brief_source(why)}) (first {labels[k]}: "
+                    f"{v[k] * scale:{fmt}} {unit})"
                 )
     summary = {
         "limits": {

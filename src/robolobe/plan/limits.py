@@ -51,6 +51,7 @@ __all__ = [
     "ProcessLimits",
     "binding_limit",
     "binding_notes",
+    "brief_source",
     "process_limits",
     "rpm_from_vc",
     "vc_from_rpm",
@@ -170,12 +171,11 @@ def _ranges(
     elif len(srcs) == 1:
         vc_source = srcs[0] if srcs[0] == table else "job " + " and ".join(srcs)
     else:
-        vc_source = (
-            f"vc_min from {_short(lo_src) or 'none'}; vc_max from {_short(hi_src) or 'none'}"
-        )
+        lo_b, hi_b = brief_source(lo_src) or "none", brief_source(hi_src) or "none"
+        vc_source = f"vc_min from {lo_b}; vc_max from {hi_b}"
     if not lo < hi:
         key = "cut.vc_min_m_per_min" if lo_src.startswith("cut.") else "cut.vc_max_m_per_min"
-        lo_why, hi_why = _short(lo_src) or "none", _short(hi_src) or "none"
+        lo_why, hi_why = brief_source(lo_src) or "none", brief_source(hi_src) or "none"
         raise InputError(
             f"{key}: expected vc_min < vc_max, found vc_min {lo:g} m/min ({lo_why}) "
             f">= vc_max {hi:g} m/min ({hi_why})",
@@ -207,7 +207,7 @@ def _ranges(
     return lo, hi, lo_src, hi_src, vc_source, fz[0], fz[1], fz_source
 
 
-def _short(src: str) -> str:
+def brief_source(src: str) -> str:
     """A reason without its long citation: ``material table: steel, carbide; estimate``."""
     if not src.startswith("material table"):
         return src
@@ -267,7 +267,7 @@ def process_limits(
     sp = job.spindle
     r_lo, r_hi = rpm_from_vc(vc_lo, d), rpm_from_vc(vc_hi, d)
     if r_lo >= sp.rpm_max:
-        key = lo_src if lo_src.startswith("cut.") else f"vc_min ({_short(lo_src)})"
+        key = lo_src if lo_src.startswith("cut.") else f"vc_min ({brief_source(lo_src)})"
         raise InputError(
             f"{key}: expected a cutting speed the spindle reaches with the {d_mm:g} mm tool "
             f"(at most pi D spindle.rpm_max = {vc_from_rpm(sp.rpm_max, d):.4g} m/min), found "
@@ -276,7 +276,7 @@ def process_limits(
             source=where,
         )
     if r_hi <= sp.rpm_min:
-        key = hi_src if hi_src.startswith("cut.") else f"vc_max ({_short(hi_src)})"
+        key = hi_src if hi_src.startswith("cut.") else f"vc_max ({brief_source(hi_src)})"
         raise InputError(
             f"{key}: expected a cutting speed the spindle reaches with the {d_mm:g} mm tool "
             f"(at least pi D spindle.rpm_min = {vc_from_rpm(sp.rpm_min, d):.4g} m/min), found "
@@ -286,17 +286,21 @@ def process_limits(
         )
     if r_lo > sp.rpm_min:
         rpm_min = r_lo
-        rpm_min_why = f"vc_min {vc_lo:g} m/min ({_short(lo_src)}) = {r_lo:.0f} rpm at D {d_mm:g} mm"
+        rpm_min_why = (
+            f"vc_min {vc_lo:g} m/min ({brief_source(lo_src)}) = {r_lo:.0f} rpm at D {d_mm:g} mm"
+        )
     else:
         rpm_min, rpm_min_why = sp.rpm_min, f"spindle.rpm_min {sp.rpm_min:g} rpm"
     if r_hi < sp.rpm_max:
         rpm_max = r_hi
-        rpm_max_why = f"vc_max {vc_hi:g} m/min ({_short(hi_src)}) = {r_hi:.0f} rpm at D {d_mm:g} mm"
+        rpm_max_why = (
+            f"vc_max {vc_hi:g} m/min ({brief_source(hi_src)}) = {r_hi:.0f} rpm at D {d_mm:g} mm"
+        )
     else:
         rpm_max, rpm_max_why = sp.rpm_max, f"spindle.rpm_max {sp.rpm_max:g} rpm"
     if math.isfinite(vc_hi) or vc_lo > 0:
         notes.append(
-            f"cutting speed kept within vc {vc_lo:g}-{vc_hi:g} m/min ({_short(vc_source)}): "
+            f"cutting speed kept within vc {vc_lo:g}-{vc_hi:g} m/min ({brief_source(vc_source)}): "
             f"{rpm_min:.0f}-{rpm_max:.0f} rpm for the {d_mm:g} mm cutter"
             + (
                 ""
@@ -317,13 +321,15 @@ def process_limits(
     kept, kept_src = fz_job, "job"
     if wp is not None:
         cutm = (wp["motion"] == "cut").to_numpy() if cut is None else np.asarray(cut, bool)
+        if cutm.shape != (n,):
+            raise InputError(f"cut: expected a mask of shape ({n},), found shape {cutm.shape}")
         fz_prog, lateral = _program_chip_load(wp, cutm, teeth, path_name)
         states = lateral & np.isfinite(fz_prog)
         kept, kept_src = _chip_load_notes(job, wp, fz_prog, states, cutm, notes)
     if (fz_lo > 0 or math.isfinite(fz_hi)) and not fz_lo <= kept <= fz_hi:
         notes.append(
             f"the chip load the plan keeps, {kept * 1e3:.3g} mm per tooth, lies outside "
-            f"{fz_lo * 1e3:g}-{fz_hi * 1e3:g} mm ({_short(fz_src)})"
+            f"{fz_lo * 1e3:g}-{fz_hi * 1e3:g} mm ({brief_source(fz_src)})"
         )
 
     # --- robot path speed
@@ -552,7 +558,7 @@ def binding_notes(
         Most frequent first (ties in path order); plunges left out (the
         summary counts them).
     """
-    codes, names = pd.factorize(np.asarray(limiting).astype(str))
+    codes, names = pd.factorize(np.asarray(limiting))
     n = codes.size
     counts = np.bincount(codes, minlength=len(names))
     _, first = np.unique(codes, return_index=True)  # factorize numbers in order of appearance
