@@ -379,6 +379,7 @@ def process_limits(
             "mm/min)",
             source=where,
         )
+    fz_prog.setflags(write=False)
     return ProcessLimits(
         rpm_min=float(rpm_min),
         rpm_max=float(rpm_max),
