@@ -147,6 +147,38 @@ def test_arc_tolerance_bounded(tol: float) -> None:
         job_from_dict(d, source="j.toml")
 
 
+@FUZZ
+@given(
+    key=st.sampled_from(
+        ["vc_min_m_per_min", "vc_max_m_per_min", "feed_per_tooth_min_mm", "feed_per_tooth_max_mm"]
+    ),
+    value=st.floats(max_value=0.0)
+    | st.floats(min_value=1.0001e4)
+    | st.sampled_from([math.nan, math.inf, -math.inf]),
+)
+def test_process_limit_keys_bounded(key: str, value: float) -> None:
+    from robolobe.plan.job import job_from_dict, job_to_dict, load_job
+
+    d = job_to_dict(load_job(EX / "job_C_face_steel.toml"))
+    d["cut"][key] = value
+    with pytest.raises(InputError, match=key):
+        job_from_dict(d, source="j.toml", base_dir=EX)
+
+
+@FUZZ
+@given(vc_min=st.floats(min_value=628.4, max_value=9000.0))
+def test_vc_the_spindle_cannot_reach_is_refused(vc_min: float) -> None:
+    # D25 at spindle.rpm_max 8000: vc = pi 25 8000 / 1000 = 628.3 m/min at most
+    from robolobe.plan.job import job_from_dict, job_to_dict, load_job
+    from robolobe.plan.limits import process_limits
+
+    d = job_to_dict(load_job(EX / "job_C_face_steel.toml"))
+    d["cut"].update(vc_min_m_per_min=vc_min, vc_max_m_per_min=1e4)
+    job = job_from_dict(d, source="j.toml", base_dir=EX)
+    with pytest.raises(InputError, match=r"j\.toml: cut\.vc_min_m_per_min: .* 628\.3 m/min"):
+        process_limits(job)
+
+
 #: Numeric options of the quick commands, the class of their edge values.
 EDGE_VALUES = (
     st.sampled_from(

@@ -124,7 +124,7 @@ def test_without_stock_the_default_stock_is_used_and_said(slot: Path) -> None:
     res = check_program(slot, _job(), source=_source())
     assert res.summary["stock_given"] is False
     assert any("no [stock] in the job" in n for n in res.notes)
-    assert any("vc not checked" in n for n in res.notes)
+    assert "out_of_range" in res.summary  # vc, chip load and path speed are judged (test_limits)
 
 
 def test_missing_spindle_speed_is_refused_with_file_line(tmp_path: Path) -> None:

@@ -28,10 +28,12 @@ __all__ = [
     "Job",
     "PlanResult",
     "PlanSummary",
+    "ProcessLimits",
     "batch_plan",
     "compare_robots",
     "load_job",
     "plan_path",
+    "process_limits",
     "read_toolpath",
     "write_outputs",
 ]
@@ -46,6 +48,8 @@ _WHERE = {
     "write_outputs": "robolobe.plan.report",
     "compare_robots": "robolobe.plan.compare",
     "batch_plan": "robolobe.plan.batch",
+    "ProcessLimits": "robolobe.plan.limits",
+    "process_limits": "robolobe.plan.limits",
 }
 
 

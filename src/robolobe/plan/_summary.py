@@ -27,6 +27,7 @@ if TYPE_CHECKING:
     import pandas as pd
 
     from robolobe.plan.job import Job
+    from robolobe.plan.limits import ProcessLimits
     from robolobe.plan.lobes import GroupedLobes
     from robolobe.plan.modes import RobustBound
     from robolobe.plan.optimize import Constraints, PathGeometry, PlanOutcome, Schedule
@@ -450,6 +451,7 @@ class PlanSummary(_Piece):
         n_split: int = 0,
         sections: Sequence[Mapping[str, Any]] | None = None,
         engagement: str = "cut.radial_width_mm",
+        limits: ProcessLimits | None = None,
     ) -> PlanSummary:
         """The summary of a plan from the pipeline's results.
 
@@ -494,6 +496,10 @@ class PlanSummary(_Piece):
             per pass) and the cutting time counts every pass.
         engagement : str
             :attr:`engagement`.
+        limits : ProcessLimits, optional
+            The limits the plan kept (:func:`robolobe.plan.limits.process_limits`);
+            default: the job's alone, as :func:`~robolobe.plan.pipeline.constraints_from_job`
+            makes them without.
         """
         import robolobe
 
@@ -521,6 +527,7 @@ class PlanSummary(_Piece):
             mode_note=mode_note,
             n_split=n_split,
         )
+        notes += _limit_notes(job, robot, table, cut_index, limits)
         return cls(
             robolobe_version=robolobe.__version__,
             job=job.name,
@@ -584,6 +591,21 @@ def _schedule(s: Schedule | None) -> ScheduleSummary | None:
 
 def _comparison(best: Schedule, base: Schedule | None) -> BaselineComparison | None:
     return None if base is None else BaselineComparison.between(best, base)
+
+
+def _limit_notes(
+    job: Job,
+    robot: Robot,
+    table: pd.DataFrame,
+    cut_index: NDArray[np.int64],
+    limits: ProcessLimits | None,
+) -> list[str]:
+    """The process limits kept (vc, chip load, path speed) and which limit binds where."""
+    from robolobe.plan.limits import binding_notes, process_limits
+
+    lim = limits if limits is not None else process_limits(job, robot=robot)
+    col = {c: table[c].to_numpy()[cut_index] for c in ("limiting", "source", "line")}
+    return [*lim.notes, *binding_notes(col["limiting"], col["source"], col["line"], lim, job)]
 
 
 def _notes(

@@ -29,7 +29,12 @@ Per move: ``margin = a_lim / a_p``; status ``"ok"``, ``"inside SF"``
 (``1 <= margin <`` the job's safety factor), ``"beyond limit"``
 (``margin < 1``), ``"air"`` (a feed move that meets no material: no limit)
 or ``"plunge"`` (a move along the tool axis: no lateral limit, as the
-planner).
+planner). Each move's cutting speed, chip load and feed are also judged
+against the process limits (:mod:`robolobe.plan.limits`: the material
+table's or the job's vc and chip-load ranges, the robot's path speed):
+columns in check.csv, counts in check.json (``out_of_range``), a note naming
+the first ``file:line`` out of each range. They do not change the verdict
+(stability) or the exit status.
 """
 
 from __future__ import annotations
@@ -45,10 +50,11 @@ import numpy as np
 import pandas as pd
 from numpy.typing import NDArray
 
-from robolobe._text import html_text, plot_text
+from robolobe._text import count, html_text, plot_text
 from robolobe.errors import InputError
 from robolobe.plan.engagement import stock_engagement
 from robolobe.plan.job import Job, load_job
+from robolobe.plan.limits import ProcessLimits, brief_source, process_limits
 from robolobe.plan.modes import ModeSource, mode_source
 from robolobe.plan.pipeline import (
     _postures,
@@ -89,7 +95,11 @@ class CheckResult:
         (the move's own), ``class_entry_deg``, ``class_exit_deg`` (the outer
         corner of its engagement bin, module docstring),
         ``depth_mm`` (a_p), ``a_lim_mm``, ``margin`` (a_lim / a_p; NaN for air
-        and plunges), ``status``.
+        and plunges), ``status``; against the process limits
+        (:func:`robolobe.plan.limits.process_limits`) ``vc_check`` (engaged
+        moves), ``feed_per_tooth_check`` (engaged moves but plunges),
+        ``feed_check`` (every feed move against the robot's path speed):
+        ``"ok"``, ``"low"``, ``"high"``, ``""`` where not judged.
     n_beyond, n_inside_sf : int
         Moves beyond their limit; moves with a margin below the safety factor
         (beyond included).
@@ -232,6 +242,7 @@ def check_program(
     )
     f_all = _filled(wp["feed_mm_per_min"].to_numpy(), feed, labels_all, engaged, "feed")
     rob = load_robot(job.robot if robot is None else robot)
+    limits = process_limits(job, wp, engaged, path_name, robot=rob)
     if source is None:
         source, mnote = mode_source(job.model, rob, job.robot, job.effects)
         if mnote:
@@ -258,7 +269,15 @@ def check_program(
     rotation = job.tool_rotation_rad
     if job.tool_rotation == "stiffest":
         rotation, tried = _stiffest_rotation(
-            job, wp, rob, source, cut, material, tool, grid, constraints_from_job(job, material.kt)
+            job,
+            wp,
+            rob,
+            source,
+            cut,
+            material,
+            tool,
+            grid,
+            constraints_from_job(job, material.kt, limits),
         )
         notes.append(
             f"tool rotation: the planner's stiffest choice {math.degrees(rotation):.0f} deg "
@@ -348,10 +367,9 @@ def check_program(
                 f"{fz_job:g} by more than 10 % on {int(off.sum())} cutting moves (first "
                 f"{labels[k]}: {fz[k]:.3g} mm); the check uses the program's"
             )
-    notes.append(
-        "cutting speed vc not checked: neither the job nor the material table holds a vc "
-        "range yet (vc_m_per_min is in check.csv)"
-    )
+    in_range, range_summary = _range_checks(table, on, on & ~plunge, labels, limits, notes)
+    for col, v in in_range.items():
+        table[col] = v
     if np.any(bounded):
         kmin = int(np.nanargmin(np.where(bounded, margin, np.inf)))
         mmin, at = float(margin[kmin]), labels[kmin]
@@ -382,6 +400,7 @@ def check_program(
         "beyond_limit_at": beyond,
         "inside_safety_factor_at": inside,
         "verdict": "moves beyond their stability limit" if beyond else "no move beyond its limit",
+        **range_summary,
         "notes": notes,
     }
     return CheckResult(
@@ -396,6 +415,85 @@ def check_program(
         notes=tuple(notes),
         summary=summary,
     )
+
+
+#: Words of the range columns (``vc_check``, ``feed_per_tooth_check``, ``feed_check``).
+IN_RANGE, LOW, HIGH = "ok", "low", "high"
+
+
+def _range_checks(
+    table: pd.DataFrame,
+    on: NDArray[np.bool_],
+    lateral: NDArray[np.bool_],
+    labels: list[str],
+    limits: ProcessLimits,
+    notes: list[str],
+) -> tuple[dict[str, NDArray[np.str_]], dict[str, Any]]:
+    """Each move's vc, chip load and feed against the process limits.
+
+    vc is judged on the engaged moves (``on``), the chip load on those that
+    are not plunges (``lateral``: plunges are fed slower by design), the feed
+    on every feed move against the robot's path speed. Returns the columns
+    (``""`` where not judged) and the summary keys; appends a note per limit
+    some move breaks, naming the first ``file:line``.
+    """
+    vc = table["vc_m_per_min"].to_numpy(dtype=np.float64)
+    fz = table["feed_per_tooth_mm"].to_numpy(dtype=np.float64) * 1e-3
+    feed = table["feed_mm_per_min"].to_numpy(dtype=np.float64) / 6e4
+    tol = 1e-9
+    checks = (
+        ("vc_check", vc, on, limits.vc_min_m_per_min, limits.vc_max_m_per_min, "m/min",
+         1.0, "cutting speed vc", limits.vc_source, ".4g"),
+        ("feed_per_tooth_check", fz, lateral, limits.fz_min_m, limits.fz_max_m, "mm", 1e3,
+         "chip load", limits.fz_range_source, ".3g"),
+        ("feed_check", feed, np.isfinite(feed), 0.0, limits.max_feed_m_per_s, "mm/min", 6e4,
+         "feed (robot path speed)", limits.max_feed_why, ".6g"),
+    )  # fmt: skip
+    cols: dict[str, NDArray[np.str_]] = {}
+    counts: dict[str, int] = {}
+    first: dict[str, str] = {}
+    for col, v, judged, lo, hi, unit, scale, what, why, fmt in checks:
+        word = np.full(v.size, "", dtype=object)
+        low = judged & (v < lo * (1 - tol))
+        high = judged & (v > hi * (1 + tol))
+        word[judged] = IN_RANGE
+        word[low], word[high] = LOW, HIGH
+        cols[col] = word.astype(str)
+        name = col.removesuffix("_check")
+        for side, sel, bound in (("below", low, lo), ("above", high, hi)):
+            n = int(sel.sum())
+            if col == "feed_check" and side == "below":
+                continue
+            key = f"{name}_{'low' if side == 'below' else 'high'}"
+            counts[key] = n
+            if n:
+                k = int(np.argmax(sel))
+                first[key] = labels[k]
+                bound_word = {"below": "minimum", "above": "maximum"}[side]
+                notes.append(
+                    f"{count(n, 'move')} {side} the {what} {bound_word} "
+                    f"{bound * scale:{fmt}} {unit} ({brief_source(why)}) (first {labels[k]}: "
+                    f"{v[k] * scale:{fmt}} {unit})"
+                )
+    summary = {
+        "limits": {
+            "vc_m_per_min": [limits.vc_min_m_per_min, _finite(limits.vc_max_m_per_min)],
+            "vc_source": limits.vc_source,
+            "rpm": [round(limits.rpm_min, 1), round(limits.rpm_max, 1)],
+            "rpm_why": [limits.rpm_min_why, limits.rpm_max_why],
+            "feed_per_tooth_mm": [limits.fz_min_m * 1e3, _finite(limits.fz_max_m * 1e3)],
+            "feed_per_tooth_source": limits.fz_range_source,
+            "max_feed_mm_per_min": round(limits.max_feed_m_per_s * 6e4, 3),
+            "max_feed_why": limits.max_feed_why,
+        },
+        "out_of_range": counts,
+        "out_of_range_first_at": first,
+    }
+    return cols, summary
+
+
+def _finite(v: float) -> float | None:
+    return v if math.isfinite(v) else None
 
 
 def plot_check_margin(res: CheckResult) -> Any:
@@ -448,6 +546,11 @@ def _html(res: CheckResult, png: bool, n: int = 50) -> str:
             *((f"status {k}", v) for k, v in s["counts"].items()),
             ("safety factor", s["safety_factor"]),
             ("minimum margin", f"{s['min_margin']} at {s['min_margin_at']}"),
+            *(
+                (f"out of range: {k}", f"{v} (first {s['out_of_range_first_at'][k]})")
+                for k, v in s["out_of_range"].items()
+                if v
+            ),
             ("verdict", s["verdict"]),
         )
     )
@@ -455,6 +558,7 @@ def _html(res: CheckResult, png: bool, n: int = 50) -> str:
     risk = t[t["status"].isin([BEYOND, INSIDE_SF])].sort_values("margin").head(n)
     cols = ["source", "line", "rpm", "feed_mm_per_min", "feed_per_tooth_mm", "ae_over_D"]
     cols += ["phi_entry_deg", "phi_exit_deg", "depth_mm", "a_lim_mm", "margin", "status"]
+    cols += ["vc_m_per_min", "vc_check", "feed_per_tooth_check", "feed_check"]
 
     def cell(v: Any) -> str:
         return h(f"{v:.4g}" if isinstance(v, float) else v)

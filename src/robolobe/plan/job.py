@@ -47,8 +47,15 @@ Example (all keys; defaults shown where a key is optional)::
     [cut]
     radial_width_mm = 10.0       # or immersion = 0.5 (a_e / D)
     milling = "down"             # "down" | "up"
-    feed_per_tooth_mm = 0.1
-    max_feed_mm_per_min = 20000  # optional cap on the feed rate (robot path speed)
+    feed_per_tooth_mm = 0.1      # used where the program states no F and S
+    feed_per_tooth_from = "program"  # "program": the program's own chip load (F / (S N))
+                                 # where it states one; "job": feed_per_tooth_mm everywhere
+    max_feed_mm_per_min = 20000  # optional cap on the feed rate (robot path speed; default
+                                 # the robot file's max_path_speed_mm_per_s, else 1 m/s)
+    vc_min_m_per_min = 200.0     # optional cutting-speed range (vc = pi D n / 1000);
+    vc_max_m_per_min = 2500.0    #   default: the material table's (carbide)
+    feed_per_tooth_min_mm = 0.05 # optional chip-load range; default: the material table's
+    feed_per_tooth_max_mm = 0.25
     rapid_feed_mm_per_min = 30000
     programmed_rpm = 18000       # optional: used where the path has no S word
     stock_depth_mm = 12.0        # optional: total depth to remove (all passes), for
@@ -260,6 +267,12 @@ class _CutSpec(_Spec):
     immersion: Annotated[float, Field(gt=0, le=1, allow_inf_nan=False, strict=True)] | None = None
     milling: Literal["down", "up"] = "down"
     feed_per_tooth_mm: Annotated[float, _upto(5.0)]
+    feed_per_tooth_from: Literal["program", "job"] = "program"
+    feed_per_tooth_min_mm: Annotated[float, _upto(5.0)] | None = None
+    feed_per_tooth_max_mm: Annotated[float, _upto(5.0)] | None = None
+    # 1e4 m/min: far above any cutter (HSM of aluminium reaches ~5000): a unit slip (m/s, ft/min)
+    vc_min_m_per_min: Annotated[float, _upto(1e4)] | None = None
+    vc_max_m_per_min: Annotated[float, _upto(1e4)] | None = None
     max_feed_mm_per_min: Annotated[float, _upto(1e6)] | None = None
     rapid_feed_mm_per_min: Annotated[float, _upto(1e6)] = 30000.0
     programmed_rpm: Annotated[float, _upto(1e5)] | None = None
@@ -269,6 +282,15 @@ class _CutSpec(_Spec):
     def _width(self) -> _CutSpec:
         if (self.radial_width_mm is None) == (self.immersion is None):
             raise ValueError("expected exactly one of radial_width_mm and immersion")
+        for what, lo, hi in (
+            ("vc", self.vc_min_m_per_min, self.vc_max_m_per_min),
+            ("feed_per_tooth", self.feed_per_tooth_min_mm, self.feed_per_tooth_max_mm),
+        ):
+            unit = "m_per_min" if what == "vc" else "mm"
+            if lo is not None and hi is not None and not lo < hi:
+                raise ValueError(
+                    f"expected {what}_min_{unit} < {what}_max_{unit}, found {lo:g} >= {hi:g}"
+                )
         return self
 
 
@@ -499,8 +521,20 @@ class CutSpec:
         Down (climb) or up (conventional) milling.
     feed_per_tooth_m : float
         Feed per tooth f_z [m]; the feed rate is ``f_z * teeth * rpm / 60``.
+        Where the program states F and S, the plan keeps the program's chip
+        load instead unless ``feed_per_tooth_from`` is ``"job"``
+        (:mod:`robolobe.plan.limits`).
     max_feed_m_per_s : float or None
-        Cap on the feed rate [m/s] (robot path speed), or None.
+        Cap on the feed rate [m/s] (robot path speed), or None (the robot
+        file's ``max_path_speed_mm_per_s`` then caps it).
+    feed_per_tooth_from : {"program", "job"}
+        Which chip load the plan keeps where the program states one.
+    feed_per_tooth_range_m : (float or None, float or None)
+        Chip-load range (min, max) [m] replacing the material table's; None
+        where not given.
+    vc_range_m_per_s : (float or None, float or None)
+        Cutting-speed range (min, max) [m/s] replacing the material table's
+        (file keys in m/min); None where not given.
     rapid_feed_m_per_s : float
         Speed of rapid moves [m/s], for the cycle time.
     programmed_rpm : float or None
@@ -517,6 +551,9 @@ class CutSpec:
     rapid_feed_m_per_s: float = 0.5
     programmed_rpm: float | None = None
     stock_depth_m: float | None = None
+    feed_per_tooth_from: Literal["program", "job"] = "program"
+    feed_per_tooth_range_m: tuple[float | None, float | None] = (None, None)
+    vc_range_m_per_s: tuple[float | None, float | None] = (None, None)
 
 
 @dataclass(frozen=True)
@@ -830,6 +867,12 @@ def job_from_dict(d: dict[str, Any], source: str = "<dict>", base_dir: Path | No
         rapid_feed_m_per_s=c.rapid_feed_mm_per_min * 1e-3 / 60,
         programmed_rpm=c.programmed_rpm,
         stock_depth_m=c.stock_depth_mm * 1e-3 if c.stock_depth_mm else None,
+        feed_per_tooth_from=c.feed_per_tooth_from,
+        feed_per_tooth_range_m=(
+            _scaled(c.feed_per_tooth_min_mm, 1e-3),
+            _scaled(c.feed_per_tooth_max_mm, 1e-3),
+        ),
+        vc_range_m_per_s=(_scaled(c.vc_min_m_per_min, 1 / 60), _scaled(c.vc_max_m_per_min, 1 / 60)),
     )
     s = spec.spindle
     spindle = SpindleSpec(s.rpm_min, s.rpm_max, s.power_kW * 1e3, s.torque_Nm)
@@ -888,6 +931,10 @@ def job_from_dict(d: dict[str, Any], source: str = "<dict>", base_dir: Path | No
             if k in _KNOWN_KEYS["program"]
         },
     )
+
+
+def _scaled(v: float | None, factor: float) -> float | None:
+    return None if v is None else v * factor
 
 
 def _stock(s: _StockSpec | None, tool: ToolSpec, where: str) -> StockSpec | None:
@@ -1005,6 +1052,16 @@ def job_to_dict(job: Job) -> dict[str, Any]:
         cut["programmed_rpm"] = _clean(job.cut.programmed_rpm)
     if job.cut.stock_depth_m is not None:
         cut["stock_depth_mm"] = _clean(job.cut.stock_depth_m * 1e3)
+    if job.cut.feed_per_tooth_from != "program":
+        cut["feed_per_tooth_from"] = job.cut.feed_per_tooth_from
+    for key, val, f in (
+        ("feed_per_tooth_min_mm", job.cut.feed_per_tooth_range_m[0], 1e3),
+        ("feed_per_tooth_max_mm", job.cut.feed_per_tooth_range_m[1], 1e3),
+        ("vc_min_m_per_min", job.cut.vc_range_m_per_s[0], 60.0),
+        ("vc_max_m_per_min", job.cut.vc_range_m_per_s[1], 60.0),
+    ):
+        if val is not None:
+            cut[key] = _clean(val * f)
     pl = job.plan
     plan: dict[str, Any] = {
         "safety_factor": _clean(pl.safety_factor),

@@ -47,6 +47,7 @@ from robolobe.errors import InputError, ReachabilityError, SingularityError
 from robolobe.plan._summary import PlanSummary
 from robolobe.plan.engagement import engagement_note, plan_engagement
 from robolobe.plan.job import Job, load_job
+from robolobe.plan.limits import ProcessLimits, process_limits
 from robolobe.plan.lobes import DynamicsTolerance, GroupedLobes, steep_members, waypoint_lobes
 from robolobe.plan.modes import (
     CorrectedTwinSource,
@@ -168,21 +169,29 @@ def material_from_job(job: Job) -> Material:
     return Material(name="user", kt=kt, kr=float(kr or 0.0), source="job file")
 
 
-def constraints_from_job(job: Job, kt: float) -> Constraints:
-    """Process limits of a job (``kt`` [N/m^2] for power and torque)."""
+def constraints_from_job(job: Job, kt: float, limits: ProcessLimits | None = None) -> Constraints:
+    """Process limits of a job (``kt`` [N/m^2] for power and torque).
+
+    The speed range, chip load and feed cap come from ``limits``
+    (:func:`robolobe.plan.limits.process_limits` of the job and its program);
+    without, from the job alone (``process_limits(job)``: spindle range within
+    the vc range, the job's chip load, the path-speed cap of the job or the
+    robot file).
+    """
+    lim = limits if limits is not None else process_limits(job)
     return Constraints(
         teeth=job.tool.teeth,
-        feed_per_tooth_m=job.cut.feed_per_tooth_m,
+        feed_per_tooth_m=lim.feed_per_tooth_m,
         width_m=job.cut.radial_width_m,
         kt_N_per_m2=kt,
         power_W=job.spindle.power_W,
         torque_Nm=job.spindle.torque_Nm,
-        rpm_min=job.spindle.rpm_min,
-        rpm_max=job.spindle.rpm_max,
+        rpm_min=lim.rpm_min,
+        rpm_max=lim.rpm_max,
         depth_min_m=job.plan.depth_min_m,
         depth_max_m=job.plan.depth_max_m,
         safety_factor=job.plan.safety_factor,
-        max_feed_m_per_s=job.cut.max_feed_m_per_s,
+        max_feed_m_per_s=lim.max_feed_m_per_s,
         max_rate_rpm_per_s=job.plan.max_rate_rpm_per_s,
         max_rate_rpm_per_m=job.plan.max_rate_rpm_per_m,
         constant_speed=job.plan.speed == "constant",

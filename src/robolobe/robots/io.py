@@ -131,6 +131,10 @@ class _RobotSpec(_Spec):
     tool: _PoseSpec = Field(default_factory=_PoseSpec)
     end_effector: _EndEffectorSpec | None = None
     joints: Annotated[list[_JointSpec], Field(min_length=6, max_length=6)]
+    # TCP path speed while milling [mm/s]; 1e5 mm/s (100 m/s) is far above any arm: a unit slip
+    max_path_speed_mm_per_s: (
+        Annotated[float, Field(gt=0, le=1e5, allow_inf_nan=False, strict=True)] | None
+    ) = None
 
 
 _KNOWN_KEYS: dict[str, set[str]] = {
@@ -321,6 +325,9 @@ def _build(d: dict[str, Any], source: str, where: str) -> Robot:
         source=source,
         mount_stiffness_Nm_per_rad=mount_k,
         mount_damping_Nms_per_rad=mount_c,
+        max_path_speed_m_per_s=(
+            None if spec.max_path_speed_mm_per_s is None else spec.max_path_speed_mm_per_s * 1e-3
+        ),
     )
     findings = robot_findings(robot)
     for f in findings:
@@ -445,6 +452,8 @@ def robot_to_dict(robot: Robot) -> dict[str, Any]:
         "kinematics": kin,
         "tool": _pose_dict(robot.tool),
     }
+    if robot.max_path_speed_m_per_s is not None:
+        out["max_path_speed_mm_per_s"] = _clean(robot.max_path_speed_m_per_s * 1e3)
     if robot.end_effector is not None:
         out["end_effector"] = _body_dict(robot.end_effector)
         if robot.mount_stiffness_Nm_per_rad is not None:

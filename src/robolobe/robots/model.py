@@ -223,6 +223,10 @@ class Robot:
         TCP. None: rigid mount (docs/guide/robots.md). Needs an end effector.
     mount_damping_Nms_per_rad : tuple of 2 floats or None
         Their viscous dampers [N m s/rad]; given exactly when the stiffness is.
+    max_path_speed_m_per_s : float or None
+        The TCP path speed [m/s] the robot follows while milling (file key
+        ``max_path_speed_mm_per_s``): plans never ask for a feed above it
+        (:mod:`robolobe.plan.limits`); None: not stated.
     """
 
     name: str
@@ -236,8 +240,12 @@ class Robot:
     source: str = "<code>"
     mount_stiffness_Nm_per_rad: tuple[float, float] | None = None
     mount_damping_Nms_per_rad: tuple[float, float] | None = None
+    max_path_speed_m_per_s: float | None = None
 
     def __post_init__(self) -> None:
+        v = self.max_path_speed_m_per_s
+        if v is not None and not (math.isfinite(v) and v > 0):
+            raise InputError(f"max_path_speed: expected a positive speed in m/s, found {v!r}")
         ks, cs = _pair(self.mount_stiffness_Nm_per_rad), _pair(self.mount_damping_Nms_per_rad)
         if (ks is None) != (cs is None):
             raise InputError(
@@ -472,6 +480,11 @@ def robots_allclose(a: Robot, b: Robot, *, rtol: float = 1e-9, atol: float = 1e-
     for name in ("mount_stiffness_Nm_per_rad", "mount_damping_Nms_per_rad"):
         if not _pairs_close(getattr(a, name), getattr(b, name), rtol, atol):
             return False
+    va, vb = a.max_path_speed_m_per_s, b.max_path_speed_m_per_s
+    if (va is None) != (vb is None) or (
+        va is not None and vb is not None and not np.isclose(va, vb, rtol=rtol, atol=atol)
+    ):
+        return False
     for ca, cb in zip(a.constraints, b.constraints, strict=True):
         if not (
             np.allclose(ca.coeffs, cb.coeffs, rtol=rtol, atol=atol)

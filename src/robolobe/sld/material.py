@@ -4,7 +4,10 @@ The linear edge-free force model ``F_t = Kt a h``, ``F_n = Kr F_t`` is what
 the stability solvers use; ``Kr = Kn / Kt``. The built-in table ships as
 ``robolobe/data/materials.csv`` with a source for every row; rows marked
 ``estimated`` are engineering estimates, not published data. User values
-override table values (:func:`get_material`).
+override table values (:func:`get_material`). Each row also holds the cutting
+data an engineer checks first: a cutting-speed range vc [m/min] and a feed
+per tooth range fz [mm] for carbide cutters, with their own source
+(``cutting_source``; the plan's limits: :mod:`robolobe.plan.limits`).
 """
 
 from __future__ import annotations
@@ -50,11 +53,19 @@ class Material:
         Where the numbers come from.
     estimated : bool
         True for engineering estimates (not published data).
+    vc_range_m_per_min : (float, float) or None
+        Cutting-speed range (vc_min, vc_max) [m/min] for carbide cutters;
+        None: not known.
+    fz_range_mm : (float, float) or None
+        Feed per tooth range (fz_min, fz_max) [mm]; None: not known.
+    cutting_source : str
+        Where the vc and fz ranges come from.
 
     Raises
     ------
     InputError
-        On a non-positive ``kt`` or a negative ``kr``.
+        On a non-positive ``kt`` or a negative ``kr``, or a vc or fz range
+        that is not ``0 < min < max``.
     """
 
     name: str
@@ -62,6 +73,9 @@ class Material:
     kr: float
     source: str = "user"
     estimated: bool = False
+    vc_range_m_per_min: tuple[float, float] | None = None
+    fz_range_mm: tuple[float, float] | None = None
+    cutting_source: str = ""
 
     def __post_init__(self) -> None:
         if not (math.isfinite(self.kt) and self.kt > 0.0):
@@ -78,6 +92,11 @@ class Material:
             )
         if not (math.isfinite(self.kr) and 0.0 <= self.kr <= KR_MAX):
             raise InputError(f"Kr: expected Kn/Kt in [0, {KR_MAX:g}], found {self.kr:g}")
+        for what, rng in (("vc", self.vc_range_m_per_min), ("fz", self.fz_range_mm)):
+            if rng is not None and not (
+                all(math.isfinite(v) for v in rng) and 0.0 < rng[0] < rng[1]
+            ):
+                raise InputError(f"{what} range: expected 0 < min < max, found {rng}")
 
     @property
     def kn(self) -> float:
@@ -103,6 +122,9 @@ def _load() -> tuple[tuple[Material, ...], dict[str, Material]]:
             kr=float(row["kr"]),
             source=row["source"],
             estimated=row["estimated"].strip().lower() in ("yes", "true", "1"),
+            vc_range_m_per_min=(float(row["vc_min_m_per_min"]), float(row["vc_max_m_per_min"])),
+            fz_range_mm=(float(row["fz_min_mm"]), float(row["fz_max_mm"])),
+            cutting_source=row["cutting_source"],
         )
         table.append(m)
         for alias in [m.name, *row["aliases"].split(";")]:
