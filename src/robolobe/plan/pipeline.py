@@ -1098,9 +1098,12 @@ def plan_path(
     note = (note + "; " if note else "") + eng_note
     if eng is not None:
         note += "; " + engagement_note(job, wp, eng)
-    rpm = np.linspace(job.spindle.rpm_min, job.spindle.rpm_max, job.plan.n_rpm)
+    engaged = cut if eng is None else cut & eng.engaged
+    limits = process_limits(job, wp, engaged, path_name, robot=robot)
+    # the lobes over the speeds the plan may use (the spindle's range within the vc range)
+    rpm = np.linspace(limits.rpm_min, limits.rpm_max, job.plan.n_rpm)
     rotation = job.tool_rotation_rad
-    cons = constraints_from_job(job, material.kt)
+    cons = constraints_from_job(job, material.kt, limits)
     rot_note = ""
     if job.tool_rotation == "stiffest":
         rotation, rot_note = _stiffest_rotation(
@@ -1158,6 +1161,12 @@ def plan_path(
     table = _result_table(
         wp, q, wm, modes, grouped, outcome, ci, plunge, feed_angle, job, cons, seg
     )
+    if limits.feed_per_tooth_source == "program":
+        # each move at the program's own chip load (the optimizer planned on the largest)
+        fz = np.where(np.isfinite(limits.fz_program_m), limits.fz_program_m, cons.feed_per_tooth_m)
+        feed = table["feed_mm_per_min"].to_numpy().copy()
+        feed[ci] = fz[ci] * job.tool.teeth * table["rpm"].to_numpy()[ci] * 1e3
+        table["feed_mm_per_min"] = feed
     passes_rows = None
     if depth is not None:
         assert eng is not None
@@ -1199,6 +1208,7 @@ def plan_path(
         mode_note=note,
         n_split=n_split,
         sections=passes_rows,
+        limits=limits,
         engagement="cut.radial_width_mm"
         if depth is None
         else ("stock" if job.stock is not None else "default stock"),
@@ -1431,7 +1441,9 @@ def _apply_passes(
             {
                 "section": k,
                 "lines": f"{src[i0]}:{int(line[i0])}-{int(line[i1])}",
-                "z_mm": round(float(table["z_mm"].iloc[i1]), 4),
+                "z_mm": round(
+                    float(table["z_mm"].iloc[int(ci[idx[np.argmax(depth.depth_m[idx])]])]), 4
+                ),
                 "moves": int(idx.size),
                 "program_depth_mm": round(float(depth.depth_m[idx].max()) * 1e3, 4),
                 "passes": int(passes_s[k]),
