@@ -12,18 +12,13 @@ the planner's inverse kinematics and mode prediction) and the converged lobes
 (:func:`~robolobe.plan.pipeline.cut_lobes`, :func:`robolobe.plan.lobes.waypoint_lobes`)
 queried exactly at the move's S.
 
-Engagement classes: the lobes take one pair of entry/exit angles per call, so
-the moves are grouped into bins of :data:`ANGLE_STEP_DEG` in entry and in
-exit angle, and each move's limit is the smallest of the lobes computed at
-the bin's corners (entry and exit each at both ends of its bin; an angle on
-the bin grid, such as a slot's 0 and 180 deg, is used as it is). Rounding
-the angles towards the wider engagement alone would not do: the limit is not
-monotone in the angles (the directional factors change sign; on the bundled
-pocket the limit at entry 55-180 deg is 8.1 mm and at 60-180 deg 7.1 mm,
-at 85-180 deg 2.9 mm). Measured against each move's exact angles (bins of
-0.01 deg) on the bundled pocket and face programs, the corner bound never
-exceeded the exact limit and was below it by at most 2.9 % at the default
-0.25 deg (21 % at 2 deg), at about the same cost (1.1 s CPU for the pocket).
+Each move's lobes use its own entry and exit angles, as the planner's
+(:func:`~robolobe.plan.pipeline.cut_lobes` with per-waypoint angles: lobe
+sharing groups moves by engagement as well as dynamics, each group's lobes
+at its leader's own angles), so a plan's own program checks at the margins
+the plan states. (Until issue 26 the lobes took one pair of angles per
+call and check bounded each 0.25 deg bin by its corners: up to 2.9 % below
+the exact limit and one lobe computation per class and corner.)
 
 Per move: ``margin = a_lim / a_p``; status ``"ok"``, ``"inside SF"``
 (``1 <= margin <`` the job's safety factor), ``"beyond limit"``
@@ -71,12 +66,10 @@ from robolobe.plan.pipeline import (
 from robolobe.robots.io import load_robot
 from robolobe.robots.model import Robot
 
-__all__ = ["ANGLE_STEP_DEG", "CHECK_FILES", "CheckResult", "check_program", "write_check"]
+__all__ = ["CHECK_FILES", "CheckResult", "check_program", "write_check"]
 
 FloatArray = NDArray[np.float64]
 
-#: Bin [deg] of the engagement classes (module docstring).
-ANGLE_STEP_DEG = 0.25
 #: Status words of the check table.
 OK, INSIDE_SF, BEYOND, AIR, PLUNGE = "ok", "inside SF", "beyond limit", "air", "plunge"
 
@@ -131,22 +124,6 @@ class CheckResult:
         return self.n_beyond == 0
 
 
-def _bins(angle: FloatArray, step_deg: float) -> tuple[FloatArray, FloatArray]:
-    """Lower and upper ends [rad] of each angle's bin (both the angle where it is on the grid)."""
-    step = math.radians(step_deg)
-    x = angle / step
-    on_grid = np.abs(x - np.round(x)) < 1e-9
-    lo = np.where(on_grid, np.round(x), np.floor(x)) * step
-    hi = np.where(on_grid, np.round(x), np.ceil(x)) * step
-    return np.clip(lo, 0.0, math.pi), np.clip(hi, 0.0, math.pi)
-
-
-def _corners(e0: float, e1: float, x0: float, x1: float) -> list[tuple[float, float]]:
-    """The distinct (entry, exit) corners of a bin with an engaged arc (exit > entry)."""
-    pairs = {(e, x) for e in (e0, e1) for x in (x0, x1) if x > e + 1e-12}
-    return sorted(pairs) or [(e0, x1)]
-
-
 def _filled(
     values: FloatArray,
     constant: float | None,
@@ -182,7 +159,6 @@ def check_program(
     feed: float | None = None,
     robot: Robot | str | os.PathLike[str] | None = None,
     source: ModeSource | None = None,
-    angle_step_deg: float = ANGLE_STEP_DEG,
 ) -> CheckResult:
     """Check every cutting move of a program at its own S, F and engagement.
 
@@ -200,8 +176,6 @@ def check_program(
         Overrides ``job.robot``.
     source : ModeSource, optional
         Overrides ``job.model``.
-    angle_step_deg : float
-        Engagement class step [deg] (module docstring).
 
     Returns
     -------
@@ -215,8 +189,6 @@ def check_program(
         tool; also :class:`~robolobe.errors.ReachabilityError` /
         :class:`~robolobe.errors.SingularityError` from the postures.
     """
-    if not (0 < angle_step_deg <= 30):
-        raise InputError(f"angle_step_deg: expected 0 < step <= 30, found {angle_step_deg:g}")
     job = load_job(job)
     wp, path_name = _read(program, job.path_options)
     cut = (wp["motion"] == "cut").to_numpy()
@@ -289,37 +261,24 @@ def check_program(
     n = ci.size
     pe_all, px_all = eng.phi_entry[ci], eng.phi_exit[ci]
     on = engaged[ci]
-    bins = np.full((n, 4), np.nan)  # entry lo, entry hi, exit lo, exit hi [rad]
-    bins[on, 0], bins[on, 1] = _bins(pe_all[on], angle_step_deg)
-    bins[on, 2], bins[on, 3] = _bins(px_all[on], angle_step_deg)
     a_lim = np.full(n, np.nan)
     plunge = np.zeros(n, bool)
-    classes = sorted({tuple(float(v) for v in b) for b in bins[on]})
-    low: list[tuple[int, str]] = []  # (moves, the lobes' warning) of low-immersion corners
-    n_lobes = 0
     robust = False  # the job's plan.robust, as the planner decides it
-    for cls in classes:
-        k = np.flatnonzero(on & np.all(bins == np.asarray(cls), axis=1))
+    n_groups = 0
+    if np.any(on):
+        k = np.flatnonzero(on)
         wk = ci[k]
         modes = _predict_modes(source, q[wk])
         f_k = feed_tcp(wp, poses, r_wp, wk)
-        lim = np.full(k.size, np.inf)
-        for corner in _corners(*cls):
-            _, pl, grouped, _, _, bound = cut_lobes(
-                job, modes, f_k, material, tool, grid, engagement=corner
-            )
-            robust = robust or bound is not None
-            n_lobes += 1
-            if not grouped.valid and grouped.message:
-                low.append((k.size, grouped.message))
-            lim = np.minimum(lim, np.where(pl, np.inf, grouped.table.query(s_all[wk])))
-            plunge[k] = pl
-        a_lim[k] = lim
-    if low:
-        notes.append(
-            f"low-immersion engagement at {len(low)} bin corners ({sum(m for m, _ in low)} "
-            "move-corners): " + low[-1][1]
+        _, pl, grouped, _, _, bound = cut_lobes(
+            job, modes, f_k, material, tool, grid, engagement=(pe_all[k], px_all[k])
         )
+        robust = bound is not None
+        n_groups = grouped.n_groups
+        if not grouped.valid and grouped.message:
+            notes.append(grouped.message)
+        a_lim[k] = np.where(pl, np.inf, grouped.table.query(s_all[wk]))
+        plunge[k] = pl
     depth = eng.depth_m[ci]
     bounded = on & ~plunge
     margin = np.full(n, np.nan)
@@ -348,8 +307,6 @@ def check_program(
             "ae_over_D": np.where(on, eng.immersion[ci], 0.0),
             "phi_entry_deg": np.degrees(pe_all),
             "phi_exit_deg": np.degrees(px_all),
-            "class_entry_deg": np.degrees(bins[:, 0]),
-            "class_exit_deg": np.degrees(bins[:, 3]),
             "depth_mm": depth * 1e3,
             "a_lim_mm": np.where(np.isfinite(a_lim), a_lim * 1e3, np.nan),
             "margin": margin,
@@ -385,9 +342,7 @@ def check_program(
         "stock": eng.stock.describe(),
         "stock_given": job.stock is not None,
         "zmap_cell_mm": round(eng.resolution_m * 1e3, 6),
-        "engagement_class_step_deg": angle_step_deg,
-        "n_engagement_classes": len(classes),
-        "n_lobe_computations": n_lobes,
+        "n_dynamics_groups": n_groups,
         "safety_factor": sf,
         "robust": robust,
         "n_feed_moves": n,
