@@ -33,12 +33,11 @@ the moves one calls air and the other not, and the worst move with its
 ``file:line``; then, for the bundled programs, the moves whose engagement
 differs from the job's ``cut.radial_width_mm`` (the immersion every move is
 planned at today) by more than 0.05 in a_e/D, with the first lines, and
-(``--margins``) their true margin by the planner's own model: the program is
-planned with its job as today, then the same path is planned again with the
-job's radial engagement set to each move class's own (immersion to 0.05 and
-milling side; a move engaged in the middle of the edge as down milling at its
-immersion), and each move's stability limit in that plan at the speed the
-first plan chose, divided by the depth the first plan chose, is its margin.
+(``--margins``) the plan's own margins: since issue 26 the planner plans
+every move at its own engagement and depth per pass, so its per-move margin
+is the margin by its own model (the last session measured, with every move
+planned at ``cut.radial_width_mm``: pocket 0.50, contour 0.65, face 0.70
+at their own engagement).
 
 Goal (issue 26): every angle within 2 deg of the reference at the stated cell.
 """
@@ -253,49 +252,36 @@ def reference_engagement(
 
 # ------------------------------------------------------------------ margins
 def true_margins(path: Path, job: Job, imm: np.ndarray, milling: np.ndarray) -> dict[str, Any]:
-    """Margin of each cutting move at its own engagement, by the planner's own model."""
-    import dataclasses
+    """Margin of each cutting move at its own engagement and depth per pass, by the planner.
 
+    Since issue 26 the plan itself is made at each move's own engagement and in
+    passes: its per-move margin (``a_lim_mm / cut_depth_mm``) is the margin by
+    the planner's own model (``tests/plan/test_converged_plans.py`` checks it
+    against an independent ZOA). ``imm`` and ``milling`` (this study's
+    engagement) name the moves engaged wider than ``cut.radial_width_mm``.
+    """
     from robolobe.plan.pipeline import plan_path
 
-    base = plan_path(path, job)
-    tab = base.table
-    ci = base.cut_index
-    rpm = tab["rpm"].to_numpy()[ci]
-    depth = tab["depth_mm"].to_numpy()[ci] * 1e-3
-    planned = tab["margin"].to_numpy()[ci]
-    own = np.full(len(ci), np.nan)
-    cls_imm = np.round(imm[ci] / 0.05) * 0.05
-    side = np.where(milling[ci] == "up", "up", "down")
-    engaged = np.isfinite(cls_imm) & (cls_imm > 0)
-    for key in sorted(
-        {(float(a), str(s)) for a, s in zip(cls_imm[engaged], side[engaged], strict=True)}
-    ):
-        a, s = key
-        members = np.flatnonzero(engaged & (cls_imm == a) & (side == s))
-        cut = dataclasses.replace(
-            job.cut, radial_width_m=min(a, 1.0) * job.tool.diameter_m, milling=s
-        )
-        other = plan_path(path, job.replace(cut=cut))
-        lt = other.lobes.table
-        g = lt.group[members]
-        if lt.exact is not None:
-            lim = lt.exact(rpm[members][:, None], g)[:, 0]
-        else:
-            lim = np.array(
-                [np.interp(r, lt.rpm, lt.a_lim[k]) for r, k in zip(rpm[members], g, strict=True)]
-            )
-        own[members] = lim / depth[members]
+    res = plan_path(path, job)
+    tab = res.table
+    ci = res.cut_index
+    own = tab["margin"].to_numpy()[ci]
     sf = job.plan.safety_factor
     lines = tab["line"].to_numpy()[ci]
-    low = np.flatnonzero(own < sf)
+    wider = np.isfinite(imm[ci]) & (imm[ci] > job.radial_immersion + 0.05)
+    low = np.flatnonzero(own < sf * (1 - 1e-9))
     worst = int(np.nanargmin(own)) if np.isfinite(own).any() else -1
     return {
         "safety_factor": sf,
-        "planned_min_margin": float(np.nanmin(planned)),
+        "engagement": res.summary.engagement,
+        "passes": [
+            {k: r[k] for k in ("lines", "passes", "depth_per_pass_mm", "set_by")}
+            for r in res.summary.passes
+            if r["program_depth_mm"] > 0
+        ],
+        "moves_wider_than_job": int(wider.sum()),
         "own_min_margin": float(own[worst]) if worst >= 0 else math.nan,
         "own_min_line": int(lines[worst]) if worst >= 0 else 0,
-        "own_min_planned_margin": float(planned[worst]) if worst >= 0 else math.nan,
         "moves_below_safety_factor": int(low.size),
         "lines_below_safety_factor": sorted({int(x) for x in lines[low]})[:12],
     }
@@ -412,11 +398,11 @@ def _line(r: dict[str, Any]) -> str:
     if "margins" in r:
         m = r["margins"]
         s += (
-            f"\n    margin by the planner's own model at each move's own engagement: smallest "
-            f"{m['own_min_margin']:.2f} at line {m['own_min_line']} (the plan states "
-            f"{m['own_min_planned_margin']:.2f} there; its smallest stated "
-            f"{m['planned_min_margin']:.2f}); {m['moves_below_safety_factor']} moves below the "
-            f"safety factor {m['safety_factor']:g}, lines {m['lines_below_safety_factor']}"
+            f"\n    the plan at each move's own engagement ({m['engagement']}): "
+            f"{m['moves_wider_than_job']} moves engage wider than cut.radial_width_mm; "
+            f"passes {m['passes']}; smallest margin {m['own_min_margin']:.3f} at line "
+            f"{m['own_min_line']}; {m['moves_below_safety_factor']} moves below the "
+            f"safety factor {m['safety_factor']:g}"
         )
     if r.get("air_mismatch_lines"):
         s += "\n    air in one only: " + ", ".join(r["air_mismatch_lines"])

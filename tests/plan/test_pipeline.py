@@ -60,9 +60,12 @@ def test_plan_respects_every_constraint(pocket, pocket_job):
     dn = np.abs(np.diff(s["rpm"].to_numpy()))
     ok = dt > 0
     assert np.all(dn[ok] <= job.plan.max_rate_rpm_per_s * dt[ok] * (1 + 1e-6) + 1e-6)
-    # feed follows the speed at the program's chip load (F5400 at S18000, 3 flutes: 0.1 mm;
-    # the job says 0.08): fz N n
-    assert np.allclose(s["feed_mm_per_min"], 5400.0 / 18000.0 * s["rpm"])
+    # feed follows the speed at each move's own programmed chip load (the cut at F5400 and
+    # S18000 with 3 flutes: 0.1 mm, the job says 0.08; the plunge at F600): F S_new / S_old
+    prog = read_toolpath(example("pocket.nc"))
+    f_old = prog.loc[prog["motion"] == "cut", "feed_mm_per_min"].to_numpy()
+    assert np.allclose(s["feed_mm_per_min"], f_old * s["rpm"] / 18000.0)
+    assert np.isclose(f_old, 5400.0).sum() > 100
 
 
 def test_postures_reach_the_targets(pocket, pocket_job):

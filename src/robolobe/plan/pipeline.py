@@ -1163,7 +1163,15 @@ def plan_path(
     )
     if limits.feed_per_tooth_source == "program":
         # each move at the program's own chip load (the optimizer planned on the largest)
-        fz = np.where(np.isfinite(limits.fz_program_m), limits.fz_program_m, cons.feed_per_tooth_m)
+        # (air moves too: the program's F over S there, which the limits leave out)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            fz_all = (
+                wp["feed_mm_per_min"].to_numpy(dtype=np.float64)
+                * 1e-3
+                / (wp["rpm_programmed"].to_numpy(dtype=np.float64) * job.tool.teeth)
+            )
+        fz = np.where(np.isfinite(limits.fz_program_m), limits.fz_program_m, fz_all)
+        fz = np.where(np.isfinite(fz) & (fz > 0), fz, cons.feed_per_tooth_m)
         feed = table["feed_mm_per_min"].to_numpy().copy()
         feed[ci] = fz[ci] * job.tool.teeth * table["rpm"].to_numpy()[ci] * 1e3
         table["feed_mm_per_min"] = feed
@@ -1426,6 +1434,24 @@ def _apply_passes(
     table["phi_entry_deg"] = col(np.degrees(eng.phi_entry[ci]))
     table["phi_exit_deg"] = col(np.degrees(eng.phi_exit[ci]))
     lim = table["limiting"].to_numpy().copy()
+    lab = lim[ci]
+    fix = lab == "depth_max"
+    if np.any(fix):
+        # the pass depth is fixed (its own bound): name what binds besides it, with each
+        # move's own margin for stability
+        r = best.rpm
+        pw = table["power_kW"].to_numpy()[ci] * 1e3
+        with np.errstate(divide="ignore", invalid="ignore"):
+            slack = {
+                "stability": np.where(np.isfinite(mg), mg / cons.safety_factor - 1.0, np.inf),
+                "power": cons.power_W / np.maximum(pw, 1e-300) - 1.0,
+                "rpm_min": r / cons.rpm_min - 1.0,
+                "rpm_max" if cons.rpm_hi >= cons.rpm_max else "feed_max": cons.rpm_hi / r - 1.0,
+            }
+        names = np.asarray(list(slack))
+        pick = names[np.argmin(np.stack(list(slack.values())), axis=0)]
+        lab[fix] = pick[fix]
+        lim[ci] = lab
     lim[ci[~eng.engaged[ci] & ~plunge]] = "air"
     table["limiting"] = lim
     src = table["source"].to_numpy()
