@@ -134,7 +134,8 @@ def _features(
     m = model.n_modes
     # (h-long, issue 16/17 memory: each block written into one array as it is made,
     # not a list of blocks, their weighted copies and their concatenation; same values)
-    n_eng = 5 if with_alpha and np.ndim(alpha) == 3 else 0
+    per_wp = alpha is not None and np.asarray(alpha).ndim == 3  # each waypoint's own cut
+    n_eng = 5 if with_alpha and per_wp else 0
     out = np.empty((w.shape[0], (3 + len(pairs) + 2 * with_alpha) * m + n_eng))
     out[:, 0:m] = np.log(w) / np.maximum(tol_f, 1e-15) * weight
     out[:, m : 2 * m] = np.log(z) / max(tol.damping, 1e-15) * weight
@@ -158,7 +159,7 @@ def _features(
         k = 3 + len(pairs)
         out[:, k * m : (k + 1) * m] = mag * weight
         out[:, (k + 1) * m : (k + 2) * m] = np.sign(ori) * weight / max(tol.residue, 1e-15)
-        if np.ndim(alpha) == 3:
+        if per_wp:
             out[:, (k + 2) * m :] = _engagement_features(al.reshape(-1, 2, 2), tol)
     return out
 
