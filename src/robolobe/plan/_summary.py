@@ -361,7 +361,9 @@ class PlanSummary(_Piece):
         ``lines``, ``z_mm``, ``moves``, ``program_depth_mm``, ``passes``,
         ``depth_per_pass_mm``, ``set_by`` (the move that needs the most
         passes), ``min_margin``, ``rpm_min``/``rpm_max``, ``cut_time_s`` (all
-        passes). Empty without engagement.
+        passes), ``volume_cm3`` (removed: depth x radial width x length of
+        its engaged moves). Empty without engagement; with it ``mrr_cm3_per_min``
+        is that volume over the cutting time of all passes.
     notes : tuple of str
         Warnings and remarks for the user, one sentence each.
     plan_record : mapping
@@ -506,9 +508,12 @@ class PlanSummary(_Piece):
         best = outcome.best
         mg = best.margin
         cut_time = best.cut_time_s
+        mrr = best.volume_rate_cm3_per_min
         if sections:
             mg = table["margin"].to_numpy(dtype=np.float64)[cut_index]
             cut_time = float(sum(float(r["cut_time_s"]) for r in sections))
+            vol = float(sum(float(r["volume_cm3"]) for r in sections))
+            mrr = vol / max(cut_time, 1e-300) * 60.0
         k = int(np.argmin(np.where(np.isfinite(mg), mg, np.inf)))
         i = int(cut_index[k])
         counts = table.loc[table["motion"] == "cut", "limiting"].value_counts().to_dict()
@@ -554,7 +559,7 @@ class PlanSummary(_Piece):
             depth_mm=round(best.depth_m * 1e3, 4),
             rpm_min=round(float(best.rpm.min()), 1),
             rpm_max=round(float(best.rpm.max()), 1),
-            mrr_cm3_per_min=round(best.volume_rate_cm3_per_min, 3),
+            mrr_cm3_per_min=round(mrr, 3),
             cycle_time_s=round(cut_time + geometry.rapid_time_s, 3),
             cut_time_s=round(cut_time, 3),
             rapid_time_s=round(geometry.rapid_time_s, 3),

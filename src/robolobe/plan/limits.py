@@ -502,7 +502,8 @@ def binding_limit(label: str, limits: ProcessLimits, job: Job) -> str:
     label : str
         ``"stability"``, ``"power"``, ``"torque"``, ``"depth_max"``,
         ``"rpm_min"``, ``"rpm_max"``, ``"feed_max"`` or ``"plunge"``
-        (:func:`robolobe.plan.optimize.optimize_schedule`).
+        (:func:`robolobe.plan.optimize.optimize_schedule`); ``"air"`` and
+        ``"schedule"`` (nothing binds at the move) from a plan in passes.
     limits : ProcessLimits
     job : Job
 
@@ -532,6 +533,13 @@ def binding_limit(label: str, limits: ProcessLimits, job: Job) -> str:
         )
     if label == "plunge":
         return "none (a plunge: no lateral stability limit)"
+    if label == "air":
+        return "none (a feed move in air: no stability limit)"
+    if label == "schedule":
+        return (
+            "the speed schedule: none binds at the move itself (its speed is held by the "
+            "stability of the moves around it at the speeds the rate limit lets it reach)"
+        )
     return label
 
 

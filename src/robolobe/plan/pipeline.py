@@ -1182,6 +1182,8 @@ def plan_path(
         imm = eng.immersion[ci]
         low = ~plunge & eng.engaged[ci] & (imm < LOW_IMMERSION)
         if low.any():
+            # said per move here, not as the lobes' one sentence of the smallest immersion
+            grouped = dataclasses.replace(grouped, message="")
             k = int(np.flatnonzero(low)[0])
             note = (note + "; " if note else "") + (
                 f"{int(low.sum())} of {int((~plunge & eng.engaged[ci]).sum())} engaged moves "
@@ -1385,6 +1387,11 @@ def _result_table(
     return pd.DataFrame(cols, copy=False)
 
 
+#: Relative slack under which a limit binds at a move of a plan in passes (above it for
+#: every limit the move's speed is held by the schedule: ``limiting = "schedule"``).
+BINDING_SLACK = 0.01
+
+
 def _apply_passes(
     table: pd.DataFrame,
     grouped: GroupedLobes,
@@ -1449,7 +1456,9 @@ def _apply_passes(
                 "rpm_max" if cons.rpm_hi >= cons.rpm_max else "feed_max": cons.rpm_hi / r - 1.0,
             }
         names = np.asarray(list(slack))
-        pick = names[np.argmin(np.stack(list(slack.values())), axis=0)]
+        mat = np.stack(list(slack.values()))
+        pick = names[np.argmin(mat, axis=0)]
+        pick = np.where(mat.min(axis=0) > BINDING_SLACK, "schedule", pick)
         lab[fix] = pick[fix]
         lim[ci] = lab
     lim[ci[~eng.engaged[ci] & ~plunge]] = "air"
@@ -1458,6 +1467,8 @@ def _apply_passes(
     line = table["line"].to_numpy()
     rows = []
     t_pass = seg[ci] / np.maximum(table["feed_mm_per_min"].to_numpy()[ci] / 6e4, 1e-300)
+    width = np.where(eng.engaged[ci], eng.radial_width_m[ci], 0.0)
+    vol = np.where(bounded, depth.depth_m * width * seg[ci], 0.0)
     for k in range(depth.n_sections):
         idx = np.flatnonzero(depth.section == k)
         i0, i1 = int(ci[idx[0]]), int(ci[idx[-1]])
@@ -1479,6 +1490,8 @@ def _apply_passes(
                 "rpm_min": round(float(best.rpm[idx].min()), 1),
                 "rpm_max": round(float(best.rpm[idx].max()), 1),
                 "cut_time_s": round(float(passes_s[k] * t_pass[idx].sum()), 3),
+                # removed once whatever the passes: depth x radial width x length
+                "volume_cm3": round(float(vol[idx].sum()) * 1e6, 4),
             }
         )
     return rows

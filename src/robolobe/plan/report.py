@@ -534,8 +534,9 @@ def _program_sections_html(res: PlanResult, n: int = 20) -> str:
         )
     )
     return (
-        "<h2>What to program</h2><p>Per section of the program (consecutive cutting moves at "
-        f"one height): each move planned at its own engagement and depth on the {s.engagement}, "
+        "<h2>What to program</h2><p>Per section of the program (a run of cutting moves "
+        "between rapids, repeated per pass, each pass shifted up the tool axis by the depth "
+        f"per pass): each move planned at its own engagement and depth on the {s.engagement}, "
         f"safety factor {s.safety_factor:g}.</p>"
         f"<table><tr>{head}</tr>{''.join(rows)}</table>{more}"
     )
