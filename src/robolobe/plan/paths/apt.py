@@ -51,7 +51,7 @@ from robolobe.plan.paths._edit import (
     Section,
     fmt_num,
     line_values,
-    link_moves,
+    pass_layout,
     sections,
 )
 from robolobe.plan.paths._table import WaypointBuilder
@@ -729,19 +729,16 @@ def _apt_passes(
     for sec in secs:
         first, last = int(wp_lines[sec.start]), int(wp_lines[sec.stop - 1])
         at = insert_at[first]
-        ax = np.asarray(sec.axis)
         body = [(ln, s) for ln, s in stmts if at <= ln <= last]
         block: list[str] = []
-        end = pos_mm[sec.start - 1]
-        offs = sec.offsets_mm()
         rpm0 = line_values(edit)[first][0]
         f0 = fed_value(first, feed_unit)
         unit_txt = f",{feed_unit}" if feed_unit else ""
-        for k, off in enumerate(offs, start=1):
-            for p in link_moves(edit, sec, pos_mm, end, off):
+        for ps in pass_layout(edit, sec, pos_mm):
+            for p, _ in ps.links:
                 q = p / scale
                 block += [
-                    f"$$ ROBOLOBE LINK TO PASS {k} OF {len(offs)}",
+                    f"$$ ROBOLOBE LINK TO PASS {ps.index} OF {ps.count}",
                     "RAPID",
                     f"GOTO  / {fmt_num(q[0], 8)}, {fmt_num(q[1], 8)}, {fmt_num(q[2], 8)}",
                 ]
@@ -749,13 +746,13 @@ def _apt_passes(
                 f"SPINDL/ {fmt_num(rpm0, 0)},RPM,{direction}",
                 f"FEDRAT/ {fmt_num(f0, 6)}{unit_txt}",
             ]
-            if off == 0:
+            if ps.own:
                 break
             block.append(
-                f"$$ ROBOLOBE PASS {k} OF {len(offs)}: {fmt_num(off, 4)} MM ABOVE THE "
-                f"PROGRAMMED DEPTH"
+                f"$$ ROBOLOBE PASS {ps.index} OF {ps.count}: {fmt_num(ps.offset_mm, 4)} MM "
+                "ABOVE THE PROGRAMMED DEPTH"
             )
-            d = ax * off / scale
+            d = ps.shift_mm / scale
             for ln, stmt in body:
                 block.extend(x for x in before.get(ln, []) if not x.startswith("$$"))
                 h = _apt_head(stmt)
@@ -767,5 +764,4 @@ def _apt_passes(
                     v = [v[0] + d[0], v[1] + d[1], v[2] + d[2]]
                     text = f"{h}/ " + ", ".join([*(fmt_num(x, 8) for x in v), *rest])
                 block.append(text)
-            end = pos_mm[sec.stop - 1] + off * ax
         before.setdefault(at, [])[0:0] = block

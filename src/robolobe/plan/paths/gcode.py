@@ -77,7 +77,7 @@ from robolobe.plan.paths._edit import (
     ProgramEdit,
     fmt_num,
     line_values,
-    link_moves,
+    pass_layout,
     sections,
 )
 from robolobe.plan.paths._table import WaypointBuilder
@@ -1184,28 +1184,24 @@ def write_gcode(text: str, source: str, edit: ProgramEdit, *, block_delete: bool
                     "passes with absolute arc centres (G90.1) are not written", f"{source}:{ln}"
                 )
         block: list[str] = []
-        end = pos_mm[sec.start - 1]
-        offs = sec.offsets_mm()
-        s_first = f"{int(vals[first][0])}"
-        s_varies = any(
-            _num_differs(f"{int(vals[int(c)][0])}", s_first)
-            for c in set(wp_lines[sec.start : sec.stop].tolist())
+        sc0 = scale[first]
+        restate_s = (
+            f"{spindle[first]} S{int(vals[first][0])} (ROBOLOBE SPINDLE SPEED AT THE PASS START)"
         )
-        restate_s = f"{spindle[first]} S{s_first} (ROBOLOBE SPINDLE SPEED AT THE PASS START)"
-        for k, off in enumerate(offs, start=1):
-            sc0 = scale[first]
-            for p in link_moves(edit, sec, pos_mm, end, off):
+        for ps in pass_layout(edit, sec, pos_mm):
+            for p, _ in ps.links:
                 block.append(
                     f"G0 X{fmt_num(p[0] / sc0, 8)} Y{fmt_num(p[1] / sc0, 8)} "
-                    f"Z{fmt_num(p[2] / sc0, 8)} (ROBOLOBE LINK TO PASS {k} OF {len(offs)})"
+                    f"Z{fmt_num(p[2] / sc0, 8)} (ROBOLOBE LINK TO PASS {ps.index} OF {ps.count})"
                 )
-            if s_varies and k > 1:
+            if ps.restate:
                 block.append(restate_s)
-            if off == 0:
+            if ps.own:
                 break
+            off = ps.offset_mm
             block.append(
-                f"(ROBOLOBE PASS {k} OF {len(offs)}: {fmt_num(off, 4)} MM ABOVE THE PROGRAMMED "
-                f"DEPTH, {fmt_num(sec.depth_mm / len(offs), 4)} MM PER PASS)"
+                f"(ROBOLOBE PASS {ps.index} OF {ps.count}: {fmt_num(off, 4)} MM ABOVE THE "
+                f"PROGRAMMED DEPTH, {fmt_num(sec.depth_mm / ps.count, 4)} MM PER PASS)"
             )
             for ln in range(first, last + 1):
                 raw = out_lines.get(ln, src[ln - 1])
@@ -1215,7 +1211,6 @@ def write_gcode(text: str, source: str, edit: ProgramEdit, *, block_delete: bool
                     _pass_copy(raw, off / scale[ln], z_end if ln == first else None,
                                motion[ln], f_text(first))
                 )  # fmt: skip
-            end = pos_mm[sec.stop - 1] + off * np.asarray(sec.axis)
         # the program's own pass: its first block states motion and feed (links changed them)
         raw = out_lines.get(first, src[first - 1])
         raw = _state_first(raw, motion[first], f_text(first))
