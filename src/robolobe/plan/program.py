@@ -430,7 +430,7 @@ def _write(
             (q for q in (src.with_suffix(".dat"), src.with_suffix(".DAT")) if q.is_file()), None
         )
         dat_text = _text.read_text(dat) if dat is not None else None
-        src_out, dat_out = write_krl(text, src.name, edit, name=name, dat=dat_text)
+        src_out, dat_out = write_krl(text, src.name, edit, name=name, dat=dat_text, options=opts)
         out[name + ".src"] = src_out
         if dat_out is not None:
             out[name + ".dat"] = dat_out

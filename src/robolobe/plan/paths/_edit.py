@@ -238,9 +238,12 @@ def pass_layout(edit: ProgramEdit, sec: Section, pos_mm: FloatArray) -> Iterator
         if k == 1:  # from the section's own start point: straight up along the axis
             if off != 0:
                 links.append((target, start_row))
-        else:  # retract, across at the safe height, down to the pass start
-            links.append((end + (safe - float(end @ a)) * a, end_row))
-            links.append((start + (safe - float(start @ a)) * a, start_row))
+        else:  # retract, across at the safe height (where the pass ended elsewhere), down
+            up = end + (safe - float(end @ a)) * a
+            over = start + (safe - float(start @ a)) * a
+            links.append((up, end_row))
+            if np.max(np.abs(over - up)) > 1e-9:
+                links.append((over, start_row))
             links.append((target, start_row))
         yield Pass(k, len(offs), off, off * a, tuple(links), varies and k > 1)
         end = pos_mm[end_row] + off * a

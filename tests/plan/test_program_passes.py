@@ -1,0 +1,303 @@
+"""Passes per section in every dialect (issue 29): plan tables made here, programs read back.
+
+A *section* is a maximal run of consecutive cutting moves; the plan gives it
+``passes`` (constant along it) and ``depth_mm`` (depth per pass). The
+written program must cut the section ``passes`` times, whole, pass ``k``
+(0-based) at the programmed depth plus ``(passes - 1 - k) * depth_mm`` along
+the tool axis, with rapid links between passes, and carry the plan's S and F
+on every move of every pass.
+
+The references are made here from the source program's own moves (read by
+robolobe's reader, before any writer ran) and the plan table written for the
+test; the writers' own layout (``expected_table``) is not used.
+"""
+
+from __future__ import annotations
+
+import hashlib
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from robolobe.errors import InputError
+from robolobe.plan.job import load_job
+from robolobe.plan.paths import read_toolpath
+from robolobe.plan.program import FolderPlan, _Record, write_program
+
+EX = Path(__file__).resolve().parents[2] / "src" / "robolobe" / "data" / "examples"
+
+# three sections in each program: lines 0-40 at Z-1, an arc section at Z-2, a closed
+# rectangle at Z-1.5 (same geometry in every dialect, mm)
+GCODE = """%
+O0001 (THREE SECTIONS)
+G21 G90 G94 G17
+S10000 M3
+G0 X0. Y0. Z5.
+G1 Z-1. F600.
+X40. F800.
+Y10.
+G0 Z5.
+X60. Y0.
+G1 Z-2. F600.
+G2 X80. Y20. I20. J0. F900.
+G1 X100.
+G0 Z5.
+X0. Y40.
+G1 Z-1.5 F500.
+X50. F1000.
+Y60.
+X0.
+Y40.
+G0 Z5.
+M5
+M30
+%
+"""
+
+APT = """PARTNO THREE SECTIONS
+UNITS/MM
+SPINDL/10000,RPM,CLW
+RAPID
+GOTO/0,0,5
+FEDRAT/600,MMPM
+GOTO/0,0,-1
+FEDRAT/800,MMPM
+GOTO/40,0,-1
+GOTO/40,10,-1
+RAPID
+GOTO/40,10,5
+RAPID
+GOTO/60,0,5
+FEDRAT/600,MMPM
+GOTO/60,0,-2
+FEDRAT/900,MMPM
+GOTO/80,20,-2
+GOTO/100,20,-2
+RAPID
+GOTO/100,20,5
+RAPID
+GOTO/0,40,5
+FEDRAT/500,MMPM
+GOTO/0,40,-1.5
+FEDRAT/1000,MMPM
+GOTO/50,40,-1.5
+GOTO/50,60,-1.5
+GOTO/0,60,-1.5
+GOTO/0,40,-1.5
+RAPID
+GOTO/0,40,5
+FINI
+"""
+
+KRL = """DEF sect( )
+$VEL.CP = 0.2
+PTP {X 0, Y 0, Z 5, A 0, B 0, C 180}
+$VEL.CP = 0.01
+LIN {X 0, Y 0, Z -1} C_DIS
+$VEL.CP = 0.0133333
+LIN {X 40, Y 0, Z -1} C_DIS
+LIN {X 40, Y 10, Z -1}
+PTP {X 40, Y 10, Z 5}
+PTP {X 60, Y 0, Z 5}
+LIN {X 60, Y 0, Z -2}
+CIRC {X 74.142136, Y 5.857864, Z -2}, {X 80, Y 20, Z -2} C_DIS
+LIN {X 100, Y 20, Z -2} WITH $VEL = SVEL_CP(0.015, , LCPDAT1)
+PTP {X 100, Y 20, Z 5}
+PTP {X 0, Y 40, Z 5}
+LIN {X 0, Y 40, Z -1.5}
+LIN {X 50, Y 40, Z -1.5}
+LIN {X 50, Y 60, Z -1.5}
+LIN {X 0, Y 60, Z -1.5}
+LIN {X 0, Y 40, Z -1.5}
+PTP {X 0, Y 40, Z 5}
+END
+"""
+
+RAPID = """MODULE Sect
+    CONST speeddata vCut:=[10,300,4000,900];
+    CONST robtarget p0:=[[0,0,0],[0,1,0,0],[0,0,0,0],[9E+09,9E+09,9E+09,9E+09,9E+09,9E+09]];
+    PROC main()
+        MoveJ Offs(p0,0,0,5), v500, fine, tool0;
+        MoveL Offs(p0,0,0,-1), v10, z1, tool0;
+        MoveL Offs(p0,40,0,-1), vCut, z1, tool0;
+        MoveL Offs(p0,40,10,-1), vCut, z1, tool0;
+        MoveJ Offs(p0,40,10,5), v500, z10, tool0;
+        MoveJ Offs(p0,60,0,5), v500, fine, tool0;
+        MoveL Offs(p0,60,0,-2), v10, z1, tool0;
+        MoveC Offs(p0,74.142136,5.857864,-2), Offs(p0,80,20,-2), vCut, z1, tool0;
+        MoveL Offs(p0,100,20,-2), vCut, z1, tool0;
+        MoveJ Offs(p0,100,20,5), v500, z10, tool0;
+        MoveJ Offs(p0,0,40,5), v500, fine, tool0;
+        MoveL Offs(p0,0,40,-1.5), v10, z1, tool0;
+        MoveL Offs(p0,50,40,-1.5), vCut, z1, tool0;
+        MoveL Offs(p0,50,60,-1.5), vCut, z1, tool0;
+        MoveL Offs(p0,0,60,-1.5), vCut, z1, tool0;
+        MoveL Offs(p0,0,40,-1.5), vCut, z1, tool0;
+        MoveJ Offs(p0,0,40,5), v500, fine, tool0;
+    ENDPROC
+ENDMODULE
+"""
+
+PROGRAMS = {"gcode": ("s.nc", GCODE), "apt": ("s.apt", APT), "krl": ("s.src", KRL),
+            "rapid": ("s.mod", RAPID)}  # fmt: skip
+ANALOG = {
+    "krl": {"analog_output": "2", "analog_rpm_full_scale": 30000.0},
+    "rapid": {"analog_output": "aoSpindle", "analog_rpm_full_scale": 30000.0,
+              "analog_full_scale": 10.0},
+}  # fmt: skip
+READ_S = {
+    "krl": {"spindle_output": "2", "spindle_rpm_per_unit": 30000.0},
+    "rapid": {"spindle_output": "aoSpindle", "spindle_rpm_per_unit": 3000.0},
+}
+PASSES = (1, 2, 3)  # per section, in program order
+DEPTH = (1.0, 1.0, 0.5)  # depth per pass [mm]
+
+
+def _sections(cut: np.ndarray) -> list[tuple[int, int]]:
+    """Runs of consecutive cutting rows (start, stop), made here for the reference."""
+    out, i = [], 0
+    while i < len(cut):
+        if cut[i]:
+            j = i
+            while j < len(cut) and cut[j]:
+                j += 1
+            out.append((i, j))
+            i = j
+        else:
+            i += 1
+    return out
+
+
+def _plan(fmt: str, tmp: Path, rpm_step: float) -> tuple[FolderPlan, pd.DataFrame]:
+    """A plan of the program: per-line speeds (stepping along each section), passes per section."""
+    name, text = PROGRAMS[fmt]
+    src = tmp / name
+    src.write_text(text)
+    job = load_job(EX / "job_A_pocket.toml")
+    job = job.replace(program_options=ANALOG.get(fmt, {}))
+    wp = read_toolpath(src)
+    n = len(wp)
+    cut = (wp["motion"] == "cut").to_numpy()
+    secs = _sections(cut)
+    assert len(secs) == 3
+    line = wp["line"].to_numpy()
+    rpm = 12000.0 + rpm_step * (line % 4)
+    passes = np.ones(n, np.int64)
+    depth = np.full(n, 2.0)
+    for (a, b), p, d in zip(secs, PASSES, DEPTH, strict=True):
+        passes[a:b] = p
+        depth[a:b] = d
+    table = pd.DataFrame(
+        {
+            "line": line,
+            "motion": wp["motion"],
+            "rpm": np.where(cut, rpm, np.nan),
+            "feed_mm_per_min": np.where(cut, 0.05 * 4 * rpm, np.nan),
+            "margin": np.where(cut, 1.5, np.nan),
+            "dynamics_group": np.where(cut, 0, -1),
+            "passes": passes,
+            "depth_mm": depth,
+        }
+    )
+    record = _Record({"path_sha256": hashlib.sha256(src.read_bytes()).hexdigest()})
+    return FolderPlan(job, str(src), wp, table, record), wp
+
+
+def _reference(fmt: str, wp: pd.DataFrame, table: pd.DataFrame) -> dict[str, np.ndarray]:
+    """Cut moves the written program must hold: each section whole, once per pass."""
+    cut = (wp["motion"] == "cut").to_numpy()
+    pos = wp[["x_m", "y_m", "z_m"]].to_numpy() * 1e3
+    s_new = np.round(table["rpm"].to_numpy())
+    f_old = wp["feed_mm_per_min"].to_numpy()
+    s_old = wp["rpm_programmed"].to_numpy()
+    # read without the analog keys, KRL and RAPID have no S: the job's cut.programmed_rpm
+    s_old = np.where(np.isfinite(s_old), s_old, 18000.0)
+    own = np.isfinite(f_old)
+    f_new = np.where(own, f_old * s_new / np.where(own, s_old, 1.0),
+                     0.05 * 4 * s_new)  # fmt: skip
+    xyz, s, f, sec_of = [], [], [], []
+    for n_sec, ((a, b), p, d) in enumerate(zip(_sections(cut), PASSES, DEPTH, strict=True)):
+        for k in range(p):
+            xyz.append(pos[a:b] + np.array([0.0, 0.0, (p - 1 - k) * d]))
+            s.append(s_new[a:b])
+            f.append(f_new[a:b])
+            sec_of.append(np.full(b - a, n_sec))
+    return {"xyz": np.concatenate(xyz), "rpm": np.concatenate(s), "feed": np.concatenate(f),
+            "section": np.concatenate(sec_of), "top": pos[:, 2].max()}  # fmt: skip
+
+
+@pytest.mark.parametrize("fmt", ["gcode", "apt", "krl", "rapid"])
+@pytest.mark.parametrize("rpm_step", [0.0, 250.0], ids=["S constant", "S steps"])
+def test_sections_are_repeated_whole_per_pass(fmt, rpm_step, tmp_path) -> None:
+    plan, wp = _plan(fmt, tmp_path, rpm_step)
+    out = write_program(plan, tmp_path / "out" / "prog")
+    back = read_toolpath(out, **READ_S.get(fmt, {}))
+    ref = _reference(fmt, wp, plan.table)
+    bc = (back["motion"] == "cut").to_numpy()
+    got = back[["x_m", "y_m", "z_m"]].to_numpy() * 1e3
+    assert bc.sum() == len(ref["xyz"])
+    np.testing.assert_allclose(got[bc], ref["xyz"], atol=1e-6, rtol=0)
+    # S exact in G-code and APT; KRL and RAPID write the analog value to 12 decimals
+    np.testing.assert_allclose(back["rpm_programmed"].to_numpy()[bc], ref["rpm"], rtol=1e-11)
+    np.testing.assert_allclose(back["feed_mm_per_min"].to_numpy()[bc], ref["feed"], rtol=1e-7)
+    # a pass is the whole section: the cut rows come back as runs of whole sections
+    runs = _sections(bc)
+    assert [b - a for a, b in runs] == [
+        int((ref["section"] == s).sum() / p) for s, p in enumerate(PASSES) for _ in range(p)
+    ]
+    # links between passes are rapids, none below the programmed start height (Z5) plus
+    # nothing lower than the section's lowest pass start; the retract clears the top by 5 mm
+    rapid_z = got[~bc, 2]
+    assert rapid_z.max() == pytest.approx(max(ref["top"], 5.0) + 5.0, abs=1e-6)
+    assert rapid_z.min() >= 5.0 - 1e-9
+    # the rows before and after the passes are the program's own
+    np.testing.assert_allclose(got[0], wp[["x_m", "y_m", "z_m"]].to_numpy()[0] * 1e3, atol=1e-9)
+    np.testing.assert_allclose(got[-1], wp[["x_m", "y_m", "z_m"]].to_numpy()[-1] * 1e3, atol=1e-9)
+
+
+def test_passes_must_be_constant_along_a_section(tmp_path) -> None:
+    plan, wp = _plan("gcode", tmp_path, 0.0)
+    cut = (wp["motion"] == "cut").to_numpy()
+    a = _sections(cut)[1][0]
+    plan.table.loc[a + 1, "passes"] = 3
+    target = tmp_path / "prog.nc"
+    target.write_text("previous\n")
+    with pytest.raises(InputError, match=r"one pass count .* found \[2, 3\]"):
+        write_program(plan, target)
+    assert target.read_text() == "previous\n"
+
+
+def test_krl_passes_with_dat_variables(tmp_path) -> None:
+    """The bundled slot (targets from its .dat, a CIRC): three passes, the .dat untouched."""
+    import shutil
+
+    for name in ("slot.src", "slot.dat"):
+        shutil.copy(EX / name, tmp_path / name)
+    src = tmp_path / "slot.src"
+    wp = read_toolpath(src)
+    job = load_job(EX / "job_A_slot_steel.toml").replace(program_options=ANALOG["krl"])
+    cut = (wp["motion"] == "cut").to_numpy()
+    n = len(wp)
+    table = pd.DataFrame(
+        {"line": wp["line"], "rpm": np.where(cut, 11000.0, np.nan),
+         "feed_mm_per_min": np.where(cut, 2200.0, np.nan), "margin": np.full(n, np.nan),
+         "dynamics_group": np.where(cut, 0, -1), "passes": np.where(cut, 3, 1),
+         "depth_mm": np.full(n, 1.0)}
+    )  # fmt: skip
+    record = _Record({"path_sha256": hashlib.sha256(src.read_bytes()).hexdigest()})
+    out = write_program(FolderPlan(job, str(src), wp, table, record), tmp_path / "o" / "slotp")
+    dat = (tmp_path / "o" / "slotp.dat").read_text()
+    original = (EX / "slot.dat").read_text()
+    assert dat.replace("slotp ; ROBOLOBE renamed from slot", "slot") == original
+    back = read_toolpath(out, **READ_S["krl"])
+    bc = (back["motion"] == "cut").to_numpy()
+    p0 = wp[["x_m", "y_m", "z_m"]].to_numpy()[cut] * 1e3
+    up = np.array([0.0, 0.0, 1.0])
+    want = np.concatenate([p0 + 2 * up, p0 + up, p0])
+    np.testing.assert_allclose(back[["x_m", "y_m", "z_m"]].to_numpy()[bc] * 1e3, want, atol=1e-6)
+    np.testing.assert_allclose(back["rpm_programmed"].to_numpy()[bc], 11000.0, rtol=1e-11)
+    text = out.read_text()
+    assert "LIN {X 170, Y 150, Z -1, A 90, B 0, C 180, E1 0" in text  # XP1 as a literal
+    assert text.count("; ROBOLOBE link to pass") == 1 + 3 + 3
