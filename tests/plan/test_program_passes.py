@@ -301,3 +301,28 @@ def test_krl_passes_with_dat_variables(tmp_path) -> None:
     text = out.read_text()
     assert "LIN {X 170, Y 150, Z -1, A 90, B 0, C 180, E1 0" in text  # XP1 as a literal
     assert text.count("; ROBOLOBE link to pass") == 1 + 3 + 3
+
+
+# the programs above without their ends (a controller rejects each; robolobe reads them)
+TRUNCATIONS = {
+    "gcode": ("M30\n%\n", "no M30/M2 program end"),
+    "apt": ("FINI\n", "no FINI or END-OF-PATH"),
+    "krl": ("END\n", "DEF PROG has no END"),  # the DEF as written (named after the file)
+    "rapid": ("    ENDPROC\nENDMODULE\n", "PROC main has no ENDPROC"),
+}
+
+
+@pytest.mark.parametrize("fmt", ["gcode", "apt", "krl", "rapid"])
+def test_a_truncated_program_is_read_but_not_written_back(fmt, tmp_path, monkeypatch) -> None:
+    end, why = TRUNCATIONS[fmt]
+    name, text = PROGRAMS[fmt]
+    assert text.endswith(end)
+    monkeypatch.setitem(PROGRAMS, fmt, (name, text[: -len(end)]))
+    plan, wp = _plan(fmt, tmp_path, 0.0)  # read (with a warning) and planned
+    assert any("may be truncated" in w for w in wp.attrs["warnings"])
+    target = tmp_path / ("prog" + Path(name).suffix)
+    target.write_text("previous\n")
+    with pytest.raises(InputError, match=f"expected a complete program.*{why}"):
+        write_program(plan, target)
+    assert target.read_text() == "previous\n"
+    assert sorted(p.name for p in tmp_path.iterdir()) == sorted([name, target.name])

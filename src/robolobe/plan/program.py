@@ -43,6 +43,7 @@ from robolobe.plan.job import Job
 from robolobe.plan.paths import detect_format, read_toolpath, reader_options
 from robolobe.plan.paths._edit import ProgramEdit, expected_table
 from robolobe.plan.paths._table import segment_lengths
+from robolobe.plan.paths._text import TRUNCATED
 from robolobe.plan.pipeline import PlanResult
 
 __all__ = [
@@ -476,6 +477,16 @@ def _check(
 ) -> None:
     """Read the written program back; it must give ``expected_table(edit)``."""
     got = _reread(files, fmt, name, {**opts, **_analog_options(edit, fmt)})
+    # a program without its end (M30/M2 or %...%, FINI, END, ENDPROC/ENDMODULE): read
+    # tolerantly, but a controller rejects it, and a copy of a truncated program is one too
+    cut_off = [w for w in got.attrs.get("warnings", []) if TRUNCATED in w]
+    if cut_off:
+        why = cut_off[0].split(": ", 1)[-1].split(f": {TRUNCATED}")[0]
+        raise InputError(
+            f"expected a complete program to write back, found {why} ({TRUNCATED}; a "
+            "controller rejects it): complete the program and plan it again",
+            source=source,
+        )
     # what the check needs of it, then the table goes (a million rows: the peak of the check)
     g_line = got["line"].to_numpy(copy=True)  # copies: views would keep the table alive
     g_motion = got["motion"].to_numpy(copy=True)

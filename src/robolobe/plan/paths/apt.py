@@ -56,6 +56,7 @@ from robolobe.plan.paths._edit import (
 )
 from robolobe.plan.paths._table import WaypointBuilder
 from robolobe.plan.paths._text import (
+    TRUNCATED,
     UNIT_CHOICES,
     check_choice,
     finite,
@@ -429,8 +430,7 @@ def parse_apt(
     df = out.table()
     if not ended:
         out.warn(
-            "no FINI or END-OF-PATH at the end: the file may be truncated "
-            "(the path read so far is planned)"
+            f"no FINI or END-OF-PATH at the end: {TRUNCATED} (the path read so far is planned)"
         )
     if file_units is None and unit0 == "mm" and units == "auto":
         cut = (df["motion"] == "cut").to_numpy()

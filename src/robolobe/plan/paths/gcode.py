@@ -83,6 +83,7 @@ from robolobe.plan.paths._edit import (
 from robolobe.plan.paths._table import WaypointBuilder
 from robolobe.plan.paths._text import (
     MAX_ABS,
+    TRUNCATED,
     UNIT_CHOICES,
     check_choice,
     iter_lines,
@@ -340,9 +341,7 @@ def parse_gcode(
         _comp_flush(st, out, None, arc_tol_mm)
     df = out.table()
     if not st.ended and not last_pct:
-        out.warn(
-            "no M30/M2 program end: the file may be truncated (the path read so far is planned)"
-        )
+        out.warn(f"no M30/M2 program end: {TRUNCATED} (the path read so far is planned)")
     if not st.units_set and units == "auto":
         cut = (df["motion"] == "cut").to_numpy()
         p = df[["x_m", "y_m", "z_m"]].to_numpy()[cut] * 1e3

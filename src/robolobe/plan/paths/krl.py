@@ -72,6 +72,7 @@ from robolobe.plan.paths._edit import (
 from robolobe.plan.paths._table import WaypointBuilder
 from robolobe.plan.paths._text import (
     TOOL_DIRECTIONS,
+    TRUNCATED,
     check_choice,
     finite,
     lines,
@@ -696,8 +697,7 @@ def _run_krl(text: str, source: str, dat: str | None, rd: _Reader) -> _Reader:
             raise InputError(f"statement outside DEF ... END: {st!r}", source=f"{source}:{ln}")
     if unterminated:
         rd.out.warn(
-            f"DEF {unterminated[0]} has no END: the file may be truncated "
-            "(the path read so far is planned)"
+            f"DEF {unterminated[0]} has no END: {TRUNCATED} (the path read so far is planned)"
         )
 
     def run(body: list[tuple[int, str]], depth: int) -> None:

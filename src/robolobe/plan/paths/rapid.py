@@ -64,6 +64,7 @@ from robolobe.plan.paths._edit import (
 from robolobe.plan.paths._table import WaypointBuilder
 from robolobe.plan.paths._text import (
     TOOL_DIRECTIONS,
+    TRUNCATED,
     check_choice,
     finite,
     lines,
@@ -659,12 +660,11 @@ def parse_rapid(
     top, procs, order, ended = _procedures(stmts)
     if "\x00open" in order:
         rd.out.warn(
-            f"PROC {order[-2]} has no ENDPROC: the file may be truncated "
-            "(the path read so far is planned)"
+            f"PROC {order[-2]} has no ENDPROC: {TRUNCATED} (the path read so far is planned)"
         )
         order = order[:-1]
     elif not ended and any(re.match(r"^MODULE\b", s, re.IGNORECASE) for _, s in stmts):
-        rd.out.warn("MODULE without ENDMODULE: the file may be truncated")
+        rd.out.warn(f"MODULE without ENDMODULE: {TRUNCATED}")
     for lineno, st in top:
         called = rd.statement(lineno, st)
         if called is not None:
