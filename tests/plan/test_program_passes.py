@@ -308,7 +308,7 @@ TRUNCATIONS = {
     "gcode": ("M30\n%\n", "no M30/M2 program end"),
     "apt": ("FINI\n", "no FINI or END-OF-PATH"),
     "krl": ("END\n", "DEF PROG has no END"),  # the DEF as written (named after the file)
-    "rapid": ("    ENDPROC\nENDMODULE\n", "PROC main has no ENDPROC"),
+    "rapid": ("    ENDPROC\nENDMODULE\n", "PROC MAIN has no ENDPROC"),
 }
 
 
