@@ -47,7 +47,8 @@ def test_plan_writes_the_program_and_program_rewrites_it(planned) -> None:
 @pytest.mark.parametrize(
     ("args", "message"),
     [
-        (["-o", "x.apt", "--program-format", "apt"], "translation from gcode to 'apt'"),
+        (["-o", "x.src", "--program-format", "krl"], "translation from gcode to 'krl'"),
+        (["-o", "x.nc", "--program-format", "nc"], "--program-format: expected one of"),
         (["-o", "adir"], "found a directory"),
     ],
 )

@@ -326,3 +326,90 @@ def test_a_truncated_program_is_read_but_not_written_back(fmt, tmp_path, monkeyp
         write_program(plan, target)
     assert target.read_text() == "previous\n"
     assert sorted(p.name for p in tmp_path.iterdir()) == sorted([name, target.name])
+
+
+# ------------------------------------------------------------------ translations
+@pytest.mark.parametrize(("src", "dst"), [("gcode", "apt"), ("apt", "gcode")])
+@pytest.mark.parametrize("rpm_step", [0.0, 250.0], ids=["S constant", "S steps"])
+def test_gcode_and_apt_translate_into_each_other(src, dst, rpm_step, tmp_path) -> None:
+    """The plan's moves, passes and S/F come back from the other dialect as from the source."""
+    plan, wp = _plan(src, tmp_path, rpm_step)
+    out = write_program(plan, tmp_path / "out" / "prog", fmt=dst)
+    assert out.suffix == {"gcode": ".nc", "apt": ".apt"}[dst]
+    back = read_toolpath(out)
+    ref = _reference(src, wp, plan.table)
+    bc = (back["motion"] == "cut").to_numpy()
+    got = back[["x_m", "y_m", "z_m"]].to_numpy() * 1e3
+    np.testing.assert_allclose(got[bc], ref["xyz"], atol=1e-6, rtol=0)
+    np.testing.assert_array_equal(back["rpm_programmed"].to_numpy()[bc], ref["rpm"])
+    np.testing.assert_allclose(back["feed_mm_per_min"].to_numpy()[bc], ref["feed"], rtol=1e-7)
+    assert got[~bc, 2].min() >= 5.0 - 1e-9  # rapids only at or above the programmed clearance
+    text = out.read_text()
+    assert not back.attrs.get("warnings")  # complete, with its units: nothing to warn about
+    assert text.rstrip().endswith({"gcode": "M30\n%", "apt": "FINI"}[dst])
+    assert "translated from s." in text.lower()
+
+
+def test_translated_gcode_read_by_pygcode(tmp_path) -> None:
+    """An independent interpreter agrees on the translated program's end points, F and S."""
+    pygcode = pytest.importorskip("pygcode")
+    plan, _ = _plan("apt", tmp_path, 250.0)
+    text = write_program(plan, tmp_path / "prog.nc", fmt="gcode").read_text()
+    ours = read_toolpath(tmp_path / "prog.nc")
+    m = pygcode.Machine()
+    rows = []
+    s_now = np.nan
+    for raw in text.splitlines():
+        if raw.startswith(("%", "(")):
+            continue
+        line = pygcode.Line(raw)
+        for g in line.block.gcodes:
+            if g.word_letter == "S":
+                s_now = float(g.word.value)
+        m.process_block(line.block)
+        if any(w.letter in "XYZ" for w in line.block.words):  # a move: its end point
+            p = m.pos
+            rows.append((p.X, p.Y, p.Z, float(m.mode.feed_rate.word.value), s_now))
+    theirs = np.array(rows)
+    assert len(theirs) == len(ours)
+    np.testing.assert_allclose(theirs[:, :3], ours[["x_m", "y_m", "z_m"]].to_numpy() * 1e3,
+                               atol=1e-6)  # fmt: skip
+    cut = (ours["motion"] == "cut").to_numpy()
+    np.testing.assert_allclose(theirs[cut, 3], ours["feed_mm_per_min"].to_numpy()[cut])
+    np.testing.assert_allclose(theirs[cut, 4], ours["rpm_programmed"].to_numpy()[cut])
+
+
+@pytest.mark.parametrize(
+    ("src", "dst", "missing"),
+    [
+        ("gcode", "krl", "orientation A, B, C"),
+        ("apt", "rapid", "robtargets"),
+        ("krl", "apt", "TCP path in its base"),
+        ("rapid", "gcode", "TCP path in its base"),
+        ("krl", "rapid", "robtargets"),
+    ],
+)
+def test_undefined_translations_are_refused(src, dst, missing, tmp_path) -> None:
+    plan, _ = _plan(src, tmp_path, 0.0)
+    target = tmp_path / "prog.out"
+    target.write_text("previous\n")
+    with pytest.raises(InputError, match=f"translation from {src} to '{dst}' is not defined: .*"
+                       f"{missing}") as e:  # fmt: skip
+        write_program(plan, target, fmt=dst)
+    assert "\n" not in str(e.value)
+    assert target.read_text() == "previous\n"
+    assert len(list(tmp_path.iterdir())) == 2
+
+
+def test_translation_refuses_two_tools_or_directions(tmp_path, monkeypatch) -> None:
+    name, text = PROGRAMS["gcode"]
+    monkeypatch.setitem(PROGRAMS, "gcode", (name, text.replace("X60. Y0.", "T2 M6\nX60. Y0.")
+                                            .replace("S10000 M3", "T1 M6\nS10000 M3")))  # fmt: skip
+    plan, _ = _plan("gcode", tmp_path, 0.0)
+    with pytest.raises(InputError, match=r"uses tools \['1', '2'\]"):
+        write_program(plan, tmp_path / "p.apt", fmt="apt")
+    monkeypatch.setitem(PROGRAMS, "gcode", (name, text.replace("X60. Y0.", "M4\nX60. Y0.")))
+    plan, _ = _plan("gcode", tmp_path, 0.0)
+    with pytest.raises(InputError, match=r"spindle directions \['M3', 'M4'\]"):
+        write_program(plan, tmp_path / "p.apt", fmt="apt")
+    assert not (tmp_path / "p.apt").exists()

@@ -327,8 +327,8 @@ def test_bad_inputs_write_nothing(tmp_path) -> None:
     res = plan_path(src, load_job(EX / "job_A_pocket.toml"), refine=False)
     target = tmp_path / "out.nc"
     target.write_text("previous\n")
-    with pytest.raises(InputError, match="translation from gcode to 'apt' is not defined"):
-        write_program(res, target, fmt="apt")
+    with pytest.raises(InputError, match="translation from gcode to 'rapid' is not defined"):
+        write_program(res, target, fmt="rapid")
     with pytest.raises(InputError, match="translation from gcode to 'krl' is not defined"):
         write_program(res, target, fmt="krl")
     (tmp_path / "adir.nc").mkdir()

@@ -27,6 +27,7 @@ The per-move values (:func:`program_edit`):
 from __future__ import annotations
 
 import hashlib
+import logging
 import math
 import os
 from dataclasses import dataclass
@@ -50,6 +51,7 @@ __all__ = [
     "EXTENSIONS",
     "PROGRAM_DEFAULTS",
     "TRANSLATIONS",
+    "UNDEFINED",
     "WRITERS",
     "FolderPlan",
     "ProgramText",
@@ -60,6 +62,8 @@ __all__ = [
     "read_folder_plan",
     "write_program",
 ]
+
+logger = logging.getLogger(__name__)
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
@@ -86,14 +90,28 @@ EXTENSIONS: dict[str, str] = {
     "table": ".csv",
 }
 
-#: Dialects a program may be written in, per dialect read (a translation
-#: between controller languages is not defined: their modal states differ).
+#: Dialects a program may be written in, per dialect read. G-code and APT
+#: translate into each other (both are cutter-location data with F and S: the
+#: plan's moves, passes included, written as the other's moves); any dialect
+#: writes the waypoint table. Other translations are refused (:data:`UNDEFINED`).
 TRANSLATIONS: dict[str, tuple[str, ...]] = {
-    "gcode": ("gcode", "table"),
-    "apt": ("apt", "table"),
+    "gcode": ("gcode", "apt", "table"),
+    "apt": ("apt", "gcode", "table"),
     "krl": ("krl", "table"),
     "rapid": ("rapid", "table"),
     "table": ("table",),
+}
+
+#: Why a translation is not defined, by the dialect asked for (robot programs
+#: out of CNC data) or read (CNC data out of robot programs).
+UNDEFINED: dict[str, str] = {
+    "krl": "a KRL program needs the robot's targets (orientation A, B, C and status/turn "
+    "per point, $BASE and $TOOL), which {read} does not hold",
+    "rapid": "a RAPID module needs robtargets (orientation quaternion and robot "
+    "configuration per point, tool and work object data), which {read} does not hold",
+    "robot": "{read} holds the robot's TCP path in its base, with the tool's turn about "
+    "its axis; CNC data of it is not defined",
+    "table": "a waypoint table holds no program to write {fmt} into",
 }
 
 
@@ -391,16 +409,19 @@ def program_text(
     read_fmt = detect_format(src)
     fmt = fmt or read_fmt
     if fmt not in TRANSLATIONS.get(read_fmt, ()):
+        why = UNDEFINED.get(fmt) or UNDEFINED["robot" if read_fmt in ("krl", "rapid") else read_fmt]
         raise InputError(
-            f"--program-format: a translation from {read_fmt} to {fmt!r} is not defined; "
-            f"expected one of {list(TRANSLATIONS.get(read_fmt, ()))}",
+            f"--program-format: a translation from {read_fmt} to {fmt!r} is not defined: "
+            f"{why.format(read=read_fmt, fmt=fmt)}; expected one of "
+            f"{list(TRANSLATIONS.get(read_fmt, ()))}",
             source=src.name,
         )
     if edit is None:
         edit = program_edit(res)
     opts = reader_options(read_fmt, res.job.path_options) if read_fmt != "table" else {}
     files = _write(fmt, read_fmt, src, edit, name, opts)
-    _check(files, fmt, name, edit, opts, src.name)
+    # a translation states its units and frame itself: read back without the source's options
+    _check(files, fmt, name, edit, opts if fmt == read_fmt else {}, src.name)
     return files
 
 
@@ -416,6 +437,9 @@ def _write(
         out[name + ".csv"] = program_table(edit)
         return out
     text = _text.read_text(src)
+    if fmt != read_fmt:
+        out[name + EXTENSIONS[fmt]] = _translate(fmt, read_fmt, src, text, edit)
+        return out
     if fmt == "gcode":
         from robolobe.plan.paths.gcode import write_gcode
 
@@ -440,6 +464,55 @@ def _write(
 
         out[name + ".mod"] = write_rapid(text, src.name, edit)
     return out
+
+
+def _translate(fmt: str, read_fmt: str, src: Path, text: str, edit: ProgramEdit) -> str:
+    """The plan's moves (passes and links included) written in the other CL dialect.
+
+    What is translated: every move (arcs as the reader linearised them, to
+    ``arc_tol_mm``), the spindle speed, its direction, the feed and the tool
+    number. What is not: coolant, stops, cycles, comments and other machine
+    functions of the source (said in the written program's head).
+
+    Raises
+    ------
+    InputError
+        A source that uses both spindle directions or more than one tool.
+    """
+    from robolobe.plan.paths.apt import apt_setup, translate_apt
+    from robolobe.plan.paths.gcode import gcode_setup, translate_gcode
+
+    directions, tools = gcode_setup(text) if read_fmt == "gcode" else apt_setup(text)
+    if len(directions) > 1 or len(tools) > 1:
+        what = (
+            f"spindle directions {sorted(directions)}"
+            if len(directions) > 1
+            else (f"tools {tools}")
+        )
+        raise InputError(
+            f"--program-format {fmt}: the program uses {what}; a translation carries one "
+            f"tool turning one way (write it as {read_fmt}, or split the program)",
+            source=src.name,
+        )
+    ccw = bool(directions & {"M4", "CCLW"})
+    tool = tools[0] if tools else None
+    note = [
+        f"ROBOLOBE: translated from {src.name} ({read_fmt}) with the plan's spindle speeds, "
+        "feeds and passes",
+        "ROBOLOBE: moves (arcs as line segments), spindle speed and direction, feed and tool "
+        "only; coolant, stops, cycles and other machine functions of the source are not "
+        "carried over",
+    ]
+    logger.warning(
+        "%s: translated to %s: coolant, stops, cycles and other machine functions of the "
+        "source are not carried over",
+        src.name,
+        fmt,
+    )
+    exp = expected_table(edit, full=True)
+    if fmt == "gcode":
+        return translate_gcode(exp, src.name, spindle="M4" if ccw else "M3", tool=tool, note=note)
+    return translate_apt(exp, src.name, direction="CCLW" if ccw else "CLW", tool=tool, note=note)
 
 
 def _reread(files: ProgramText, fmt: str, name: str, opts: dict[str, Any]) -> pd.DataFrame:

@@ -21,6 +21,7 @@ back to; every writer's output is checked against it before it is kept.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Iterator
 from dataclasses import dataclass, field
 from typing import Any
@@ -32,10 +33,12 @@ from numpy.typing import NDArray
 from robolobe.errors import InputError
 
 __all__ = [
+    "ClRecord",
     "LineValues",
     "Pass",
     "ProgramEdit",
     "Section",
+    "cl_records",
     "expected_table",
     "fmt_num",
     "line_values",
@@ -319,6 +322,58 @@ def expected_table(edit: ProgramEdit, *, full: bool = True) -> pd.DataFrame:
         cols["source"] = wp["source"].to_numpy()[row]
         cols["line"] = wp["line"].to_numpy()[row]
     return pd.DataFrame(cols)
+
+
+@dataclass(frozen=True)
+class ClRecord:
+    """One record of a translated program (:func:`cl_records`).
+
+    ``kind``: ``"spindle"`` (``value``: rpm), ``"feed"`` (``value``: mm/min),
+    ``"rapid"`` or ``"cut"`` (a move to ``xyz`` [mm] with tool axis ``ijk``,
+    copied from ``where``, the source's ``file:line``).
+    """
+
+    kind: str
+    value: float = math.nan
+    xyz: tuple[float, float, float] = (math.nan, math.nan, math.nan)
+    ijk: tuple[float, float, float] = (0.0, 0.0, 1.0)
+    where: str = ""
+
+
+def cl_records(table: pd.DataFrame) -> Iterator[ClRecord]:
+    """The moves of ``expected_table(edit)`` as cutter-location records, in order.
+
+    What a translation writes, whatever its dialect: the spindle speed of
+    the first cutting move before the first move (the spindle runs up before
+    the approach), a new speed before each cutting move whose S differs from
+    the one in effect, a new feed likewise, then the move. Each dialect
+    formats these records only.
+    """
+    cut = (table["motion"] == "cut").to_numpy()
+    rpm = table["rpm"].to_numpy(dtype=np.float64)
+    feed = table["feed_mm_per_min"].to_numpy(dtype=np.float64)
+    xyz = table[["x_mm", "y_mm", "z_mm"]].to_numpy(dtype=np.float64)
+    ijk = table[["i", "j", "k"]].to_numpy(dtype=np.float64)
+    where = (table["source"].astype(str) + ":" + table["line"].astype(str)).to_numpy()
+    s_cur = math.nan
+    f_cur = math.nan
+    if cut.any():
+        s_cur = float(rpm[int(np.argmax(cut))])
+        yield ClRecord("spindle", s_cur)
+    for r in range(len(table)):
+        if cut[r]:
+            if rpm[r] != s_cur:
+                s_cur = float(rpm[r])
+                yield ClRecord("spindle", s_cur)
+            if feed[r] != f_cur:
+                f_cur = float(feed[r])
+                yield ClRecord("feed", f_cur)
+        yield ClRecord(
+            "cut" if cut[r] else "rapid",
+            xyz=(float(xyz[r, 0]), float(xyz[r, 1]), float(xyz[r, 2])),
+            ijk=(float(ijk[r, 0]), float(ijk[r, 1]), float(ijk[r, 2])),
+            where=str(where[r]),
+        )
 
 
 class LineValues:

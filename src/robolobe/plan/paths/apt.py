@@ -49,6 +49,7 @@ from robolobe.plan.paths._arcs import arc_points, arc_start_tangent
 from robolobe.plan.paths._edit import (
     ProgramEdit,
     Section,
+    cl_records,
     fmt_num,
     line_values,
     pass_layout,
@@ -65,7 +66,7 @@ from robolobe.plan.paths._text import (
     read_text,
 )
 
-__all__ = ["parse_apt", "read_apt", "write_apt"]
+__all__ = ["apt_setup", "parse_apt", "read_apt", "translate_apt", "write_apt"]
 
 logger = logging.getLogger(__name__)
 
@@ -765,3 +766,56 @@ def _apt_passes(
                     text = f"{h}/ " + ", ".join([*(fmt_num(x, 8) for x in v), *rest])
                 block.append(text)
         before.setdefault(at, [])[0:0] = block
+
+
+# ------------------------------------------------------------------ translation
+def apt_setup(text: str) -> tuple[set[str], list[str]]:
+    """The spindle directions (``"CLW"``, ``"CCLW"``) and tools (``LOADTL``, ``LOAD/TOOL``) used."""
+    directions: set[str] = set()
+    tools: list[str] = []
+    for _, stmt in _statements(text):
+        h = _apt_head(stmt)
+        args = _apt_args(stmt)
+        if h == "SPINDL" and args and args[0] not in ("OFF", "ON"):
+            directions.add("CCLW" if "CCLW" in args else "CLW")
+        elif (h == "LOADTL" and args) or (h == "LOAD" and len(args) > 1 and args[0] == "TOOL"):
+            t = args[0] if h == "LOADTL" else args[1]
+            if t not in tools:
+                tools.append(t)
+    return directions, tools
+
+
+def translate_apt(
+    table: pd.DataFrame, source: str, *, direction: str, tool: str | None, note: list[str]
+) -> str:
+    """APT/CL data (mm, ``GOTO/x,y,z,i,j,k``) of a waypoint table, a translation.
+
+    Parameters
+    ----------
+    table : pandas.DataFrame
+        :func:`~robolobe.plan.paths._edit.expected_table` with ``full``.
+    source : str
+        The program translated (messages).
+    direction : {"CLW", "CCLW"}
+        The spindle's direction.
+    tool : str, optional
+        The tool number (``LOADTL/`` at the start).
+    note : list of str
+        Comment lines for the head.
+    """
+    out = [f"$$ {t}" for t in note]
+    out += [f"PARTNO {Path(source).stem.upper()}", "UNITS/MM", "MULTAX"]
+    if tool is not None:
+        out.append(f"LOADTL/{tool}")
+    for rec in cl_records(table):
+        if rec.kind == "spindle":
+            out.append(f"SPINDL/ {fmt_num(rec.value, 0)},RPM,{direction}")
+        elif rec.kind == "feed":
+            out.append(f"FEDRAT/ {fmt_num(rec.value, 6)},MMPM")
+        else:
+            if rec.kind == "rapid":
+                out.append("RAPID")
+            nums = [fmt_num(v, 8) for v in rec.xyz] + [fmt_num(v, 9) for v in rec.ijk]
+            out.append("GOTO  / " + ", ".join(nums))
+    out.append("FINI")
+    return "\n".join(out) + "\n"

@@ -75,6 +75,7 @@ from robolobe.plan.paths._arcs import arc_point_list
 from robolobe.plan.paths._compensation import Element, compensate
 from robolobe.plan.paths._edit import (
     ProgramEdit,
+    cl_records,
     fmt_num,
     line_values,
     pass_layout,
@@ -91,7 +92,7 @@ from robolobe.plan.paths._text import (
     read_text,
 )
 
-__all__ = ["parse_gcode", "read_gcode", "write_gcode"]
+__all__ = ["gcode_setup", "parse_gcode", "read_gcode", "translate_gcode", "write_gcode"]
 
 logger = logging.getLogger(__name__)
 
@@ -1279,3 +1280,78 @@ def _comment_free_append(raw: str, words: str) -> str:
     # before a trailing (comment): words after a comment are still words, but keep it tidy
     head = raw[:semi].rstrip()
     return head + words + raw[semi:]
+
+
+# ------------------------------------------------------------------ translation
+def gcode_setup(text: str, *, block_delete: bool = True) -> tuple[set[str], list[str]]:
+    """The spindle directions (``"M3"``, ``"M4"``) and tool numbers (``T`` words) a program uses."""
+    directions: set[str] = set()
+    tools: list[str] = []
+    for raw in lines(text):
+        s = raw.strip()
+        if not s or s[0] == "%" or (block_delete and re.match(r"^(N\s*\d+\s*)?/", s, re.I)):
+            continue
+        ws, _ = _code_spans(raw)
+        for letter, a, b in ws:
+            v = raw[a:b].replace(" ", "")
+            if letter == "M" and float(v) in (3.0, 4.0):
+                directions.add(f"M{int(float(v))}")
+            elif letter == "T" and v not in tools:
+                tools.append(v)
+    return directions, tools
+
+
+def translate_gcode(
+    table: pd.DataFrame, source: str, *, spindle: str, tool: str | None, note: list[str]
+) -> str:
+    """A G-code program (mm, absolute, three axes) of a waypoint table, a translation.
+
+    Parameters
+    ----------
+    table : pandas.DataFrame
+        :func:`~robolobe.plan.paths._edit.expected_table` with ``full``.
+    source : str
+        The program translated (messages).
+    spindle : {"M3", "M4"}
+        The spindle's direction.
+    tool : str, optional
+        The tool number (``T.. M6`` at the start).
+    note : list of str
+        Comment lines for the head (what was translated, what was not).
+
+    Raises
+    ------
+    InputError
+        A move whose tool axis is not +Z (G-code is written for three axes here).
+    """
+    ax = table[["i", "j", "k"]].to_numpy(dtype=np.float64)
+    off = np.max(np.abs(ax - np.array([0.0, 0.0, 1.0])), axis=1) > 1e-9
+    if np.any(off):
+        r = int(np.argmax(off))
+        raise InputError(
+            "a translation to G-code is written for three axes (tool axis +Z); the tool axis "
+            f"here is {[round(float(v), 6) for v in ax[r]]}: write APT or a waypoint table",
+            source=f"{table['source'].iloc[r]}:{table['line'].iloc[r]}",
+        )
+    out = ["%", *(f"({t.replace('(', '[').replace(')', ']').upper()})" for t in note)]
+    out.append("G21 G90 G94 G17 G40")
+    if tool is not None:
+        out.append(f"T{tool} M6")
+    f_new: str | None = None
+    mode = ""
+    for rec in cl_records(table):
+        if rec.kind == "spindle":
+            out.append(f"{spindle} S{fmt_num(rec.value, 0, point=False)}")
+        elif rec.kind == "feed":
+            f_new = fmt_num(rec.value, 6)
+        else:
+            g = "G1" if rec.kind == "cut" else "G0"
+            words = [g] if g != mode else []
+            mode = g
+            words += [f"{k}{fmt_num(v, 8)}" for k, v in zip("XYZ", rec.xyz, strict=True)]
+            if g == "G1" and f_new is not None:
+                words.append(f"F{f_new}")
+                f_new = None
+            out.append(" ".join(words))
+    out += ["M5", "M30", "%"]
+    return "\n".join(out) + "\n"
