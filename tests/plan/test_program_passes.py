@@ -413,3 +413,36 @@ def test_translation_refuses_two_tools_or_directions(tmp_path, monkeypatch) -> N
     with pytest.raises(InputError, match=r"spindle directions \['M3', 'M4'\]"):
         write_program(plan, tmp_path / "p.apt", fmt="apt")
     assert not (tmp_path / "p.apt").exists()
+
+
+def test_plan_of_a_truncated_program_stands_without_the_program(tmp_path, caplog) -> None:
+    """plan -o: the plan is written (its notes say why), the program not; asked for: refused."""
+    from robolobe.plan.pipeline import plan_path
+    from robolobe.plan.program import IncompleteProgramError
+    from robolobe.plan.report import write_outputs
+
+    src = tmp_path / "s.nc"
+    src.write_text(GCODE.replace("M30\n%\n", ""))
+    res = plan_path(src, load_job(EX / "job_A_pocket.toml"), refine=False)
+    out = write_outputs(res, tmp_path / "plan", plots=False, html_report=False)
+    assert (out / "summary.json").is_file()
+    assert not list(out.glob("program.*"))
+    assert any("no program written" in r.getMessage() for r in caplog.records)
+    assert any("may be truncated" in n for n in res.summary.to_dict()["notes"])
+    with pytest.raises(IncompleteProgramError, match="no M30/M2 program end"):
+        write_outputs(res, tmp_path / "plan2", plots=False, html_report=False,
+                      program_format="gcode")  # fmt: skip
+    assert not (tmp_path / "plan2").exists()
+
+
+def test_missing_analog_keys_are_refused_by_name(tmp_path) -> None:
+    for fmt in ("krl", "rapid"):
+        plan, _ = _plan(fmt, tmp_path, 0.0)
+        plan = FolderPlan(plan.job.replace(program_options={"analog_output": ANALOG[fmt][
+            "analog_output"]}), plan.path, plan.waypoints, plan.table, plan.summary)  # fmt: skip
+        target = tmp_path / f"prog{PROGRAMS[fmt][0][1:]}"
+        target.write_text("previous\n")
+        with pytest.raises(InputError, match="analog_rpm_full_scale") as e:
+            write_program(plan, target)
+        assert "\n" not in str(e.value)
+        assert target.read_text() == "previous\n"

@@ -325,6 +325,9 @@ def test_bad_inputs_write_nothing(tmp_path) -> None:
     src = tmp_path / "p.nc"
     shutil.copy(EX / "pocket.nc", src)
     res = plan_path(src, load_job(EX / "job_A_pocket.toml"), refine=False)
+    from robolobe.plan.report import write_outputs
+
+    folder = write_outputs(res, tmp_path / "plan", plots=False, html_report=False)
     target = tmp_path / "out.nc"
     target.write_text("previous\n")
     with pytest.raises(InputError, match="translation from gcode to 'rapid' is not defined"):
@@ -337,11 +340,15 @@ def test_bad_inputs_write_nothing(tmp_path) -> None:
     src.write_text(src.read_text().replace("F5400.", "F5000."))
     with pytest.raises(InputError, match="changed since the plan"):
         write_program(res, target)
+    with pytest.raises(InputError, match="changed since the plan"):
+        write_program(folder, target, job=res.job)  # the plan folder's record
     src.unlink()
     with pytest.raises(InputError, match="source program"):
         write_program(res, target)
+    with pytest.raises(InputError, match=r"source program .*p\.nc is not found"):
+        write_program(folder, target, job=res.job)
     assert target.read_text() == "previous\n"
-    assert sorted(p.name for p in tmp_path.iterdir()) == ["adir.nc", "out.nc"]
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["adir.nc", "out.nc", "plan"]
 
 
 def test_changes_table_lists_where_values_are_set(pocket) -> None:

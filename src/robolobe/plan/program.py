@@ -54,6 +54,7 @@ __all__ = [
     "UNDEFINED",
     "WRITERS",
     "FolderPlan",
+    "IncompleteProgramError",
     "ProgramText",
     "check_program_format",
     "program_changes",
@@ -146,10 +147,30 @@ class FolderPlan:
 AnyPlan = PlanResult | FolderPlan
 
 
-def check_program_format(fmt: str | None) -> None:
-    """Refuse an unknown ``--program-format`` (before any work)."""
+class IncompleteProgramError(InputError):
+    """The program has no end (M30/M2 or %...%, FINI, END, ENDPROC/ENDMODULE): not written back."""
+
+
+def check_program_format(fmt: str | None, path: str | os.PathLike[str] | None = None) -> None:
+    """Refuse an unknown ``--program-format``, or one not defined from ``path``'s dialect.
+
+    Called before any work (the plan is not computed to be refused after).
+    """
     if fmt is not None and fmt not in WRITERS:
         raise InputError(f"--program-format: expected one of {', '.join(WRITERS)}, found {fmt!r}")
+    if fmt is not None and path is not None and Path(path).is_file():
+        _check_translation(detect_format(path), fmt, Path(path).name)
+
+
+def _check_translation(read_fmt: str, fmt: str, source: str) -> None:
+    if fmt not in TRANSLATIONS.get(read_fmt, ()):
+        why = UNDEFINED.get(fmt) or UNDEFINED["robot" if read_fmt in ("krl", "rapid") else read_fmt]
+        raise InputError(
+            f"--program-format: a translation from {read_fmt} to {fmt!r} is not defined: "
+            f"{why.format(read=read_fmt, fmt=fmt)}; expected one of "
+            f"{list(TRANSLATIONS.get(read_fmt, ()))}",
+            source=source,
+        )
 
 
 def _options(res: AnyPlan) -> dict[str, Any]:
@@ -408,14 +429,7 @@ def program_text(
     src = _source_path(res)
     read_fmt = detect_format(src)
     fmt = fmt or read_fmt
-    if fmt not in TRANSLATIONS.get(read_fmt, ()):
-        why = UNDEFINED.get(fmt) or UNDEFINED["robot" if read_fmt in ("krl", "rapid") else read_fmt]
-        raise InputError(
-            f"--program-format: a translation from {read_fmt} to {fmt!r} is not defined: "
-            f"{why.format(read=read_fmt, fmt=fmt)}; expected one of "
-            f"{list(TRANSLATIONS.get(read_fmt, ()))}",
-            source=src.name,
-        )
+    _check_translation(read_fmt, fmt, src.name)
     if edit is None:
         edit = program_edit(res)
     opts = reader_options(read_fmt, res.job.path_options) if read_fmt != "table" else {}
@@ -555,7 +569,7 @@ def _check(
     cut_off = [w for w in got.attrs.get("warnings", []) if TRUNCATED in w]
     if cut_off:
         why = cut_off[0].split(": ", 1)[-1].split(f": {TRUNCATED}")[0]
-        raise InputError(
+        raise IncompleteProgramError(
             f"expected a complete program to write back, found {why} ({TRUNCATED}; a "
             "controller rejects it): complete the program and plan it again",
             source=source,
