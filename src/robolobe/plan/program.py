@@ -461,7 +461,8 @@ def _write(
     elif fmt == "apt":
         from robolobe.plan.paths.apt import write_apt
 
-        out[name + ".apt"] = write_apt(text, src.name, edit)
+        coords = str(opts.get("coordinates", "workpiece"))
+        out[name + ".apt"] = write_apt(text, src.name, edit, coordinates=coords)
     elif fmt == "krl":
         from robolobe.plan.paths.krl import write_krl
 

@@ -567,7 +567,7 @@ def _apt_args(stmt: str) -> list[str]:
     return [a.strip() for a in m.group(2).split(",") if a.strip()]
 
 
-def write_apt(text: str, source: str, edit: ProgramEdit) -> str:
+def write_apt(text: str, source: str, edit: ProgramEdit, *, coordinates: str = "workpiece") -> str:
     """Write APT/CL data with the speeds, feeds and passes of ``edit``.
 
     Parameters
@@ -577,6 +577,9 @@ def write_apt(text: str, source: str, edit: ProgramEdit) -> str:
     source : str
         Its file name (messages).
     edit : ProgramEdit
+    coordinates : {"workpiece", "machine"}
+        As the reader was told: with ``machine`` the points were read through
+        ``MSYS``, and a pass's shift is not written in the file's frame.
 
     Returns
     -------
@@ -586,8 +589,8 @@ def write_apt(text: str, source: str, edit: ProgramEdit) -> str:
     Raises
     ------
     InputError
-        Passes in data with ``MSYS`` records, or a SPINDL/FEDRAT record
-        continued over several lines.
+        Passes in data whose ``MSYS`` records were applied, or a SPINDL/FEDRAT
+        record continued over several lines.
     """
     src = lines(text)
     stmts = _statements(text)
@@ -672,6 +675,13 @@ def write_apt(text: str, source: str, edit: ProgramEdit) -> str:
                 cur_f = f
     secs = sections(edit)
     if secs:
+        if coordinates == "machine" and any(_apt_head(s) == "MSYS" for _, s in stmts):
+            raise InputError(
+                "passes in APT data read with coordinates = 'machine' through MSYS records are "
+                "not written (the shift along the tool axis would need the MSYS frame); plan "
+                "with coordinates = 'workpiece'",
+                source=source,
+            )
         _apt_passes(stmts, src, edit, secs, insert_at, before, replace, scale, source,
                     feed_unit, fed_value, direction)  # fmt: skip
     out: list[str] = []
@@ -719,12 +729,6 @@ def _apt_passes(
     direction: str,
 ) -> None:
     """Insert the shallower passes of each section before it (module notes of ``_edit``)."""
-    if any(_apt_head(s) == "MSYS" for _, s in stmts):
-        raise InputError(
-            "passes in APT data with MSYS records are not written (the shift along the tool "
-            "axis would need the MSYS frame)",
-            source=source,
-        )
     wp_lines = edit.waypoints["line"].to_numpy()
     pos_mm = edit.waypoints[["x_m", "y_m", "z_m"]].to_numpy(dtype=np.float64) * 1e3
     for sec in secs:
