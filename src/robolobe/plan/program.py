@@ -21,7 +21,16 @@ The per-move values (:func:`program_edit`):
   (``feed_per_tooth_mm * teeth * S_new``); capped by
   ``cut.max_feed_mm_per_min`` (the robot's path-speed limit) where given.
 - **Passes**: the plan table's ``passes`` column (and ``depth_mm`` per pass)
-  where it has one, else ``passes=`` given here; one pass otherwise.
+  where it has one, else ``passes=`` given here; one pass otherwise. Each
+  section (a run of cutting moves) is cut whole once per pass, pass ``k`` of
+  ``n`` at ``(n - k) * depth_mm`` above the programmed depth along the tool
+  axis, with rapid links (:func:`robolobe.plan.paths._edit.pass_layout`).
+
+Translations (:data:`TRANSLATIONS`): G-code and APT into each other (the
+plan's moves as cutter-location records), any dialect into the CSV table;
+others are refused with what the target needs (:data:`UNDEFINED`). A
+program without its end (M30/M2 or a closing %, FINI, END, ENDPROC/
+ENDMODULE) is not written back (:class:`IncompleteProgramError`).
 """
 
 from __future__ import annotations

@@ -8,9 +8,11 @@ rows of the waypoint table the dialect's reader made of that text, so a
 writer knows which source line each move came from.
 
 Passes: the cutting moves of a *section* (a maximal run of consecutive
-cutting waypoints) are repeated ``n`` times, shifted along the (constant)
-tool axis by ``(n - k) * depth / n`` for pass ``k = 1 .. n``; the last pass
-is the program's own moves. Between passes the tool leaves along the tool
+cutting waypoints) are repeated ``n`` times, whole, shifted along the
+(constant) tool axis by ``(n - k) * depth / n`` for pass ``k = 1 .. n``
+(``depth``: the total, ``depth / n`` per pass); the last pass is the
+program's own moves. :func:`pass_layout` lays the passes out once for every
+writer (each dialect formats its lines only). Between passes the tool leaves along the tool
 axis to ``retract_mm`` above the highest point of the section, moves across
 at that height and comes down along the axis to the next pass's start
 (rapids: the program's own approach reached the section's start point with
