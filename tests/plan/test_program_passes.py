@@ -24,6 +24,7 @@ import pytest
 from robolobe.errors import InputError
 from robolobe.plan.job import load_job
 from robolobe.plan.paths import read_toolpath
+from robolobe.plan.paths._edit import ProgramEdit
 from robolobe.plan.program import FolderPlan, _Record, write_program
 
 EX = Path(__file__).resolve().parents[2] / "src" / "robolobe" / "data" / "examples"
@@ -446,3 +447,55 @@ def test_missing_analog_keys_are_refused_by_name(tmp_path) -> None:
             write_program(plan, target)
         assert "\n" not in str(e.value)
         assert target.read_text() == "previous\n"
+
+
+def test_krl_passes_in_a_rotated_base(tmp_path) -> None:
+    """coordinates = 'machine': the shift is along the tool axis in the base the targets are in."""
+    from robolobe.plan.paths.krl import parse_krl, write_krl
+    from robolobe.robots.transforms import pose_from_xyz_zyx
+
+    base = "{X 100, Y 20, Z 5, A 30, B 20, C 10}"
+    text = KRL.replace("$VEL.CP = 0.2\n", f"$VEL.CP = 0.2\n$BASE = {base}\n", 1)
+    wp = parse_krl(text, "s.src", coordinates="machine")
+    cut = (wp["motion"] == "cut").to_numpy()
+    n = len(wp)
+    edit = ProgramEdit(
+        waypoints=wp, rpm=np.where(cut, 10000.0, np.nan),
+        feed_mm_per_min=np.where(cut, 600.0, np.nan), margin=np.full(n, np.nan),
+        passes=np.where(cut, 2, 1), depth_mm=np.full(n, 2.0),
+        options={"analog_output": "2", "analog_rpm_full_scale": 30000.0},
+    )  # fmt: skip
+    src, _ = write_krl(text, "s.src", edit, name="p", options={"coordinates": "machine"})
+    back = parse_krl(src, "p.src", coordinates="machine")
+    # reference: the programmed (base) points, 1 mm up the base's Z for the first pass
+    t = pose_from_xyz_zyx(np.array([100.0, 20.0, 5.0]), np.radians([30.0, 20.0, 10.0]))
+    up = t[:3, :3] @ np.array([0.0, 0.0, 1.0])  # the tool axis (C 180: tool z down)
+    p0 = wp[["x_m", "y_m", "z_m"]].to_numpy() * 1e3
+    bc = (back["motion"] == "cut").to_numpy()
+    want = []
+    for a, b in _sections(cut):
+        want += [p0[a:b] + up, p0[a:b]]
+    np.testing.assert_allclose(back[["x_m", "y_m", "z_m"]].to_numpy()[bc] * 1e3,
+                               np.concatenate(want), atol=1e-6)  # fmt: skip
+    assert "LIN {X 40, Y 0, Z 0, A 0, B 0, C 180}" in src  # written in the base: Z -1 + 1
+
+
+def test_rapid_passes_through_a_work_object_read_as_machine_are_refused() -> None:
+    from robolobe.plan.paths.rapid import parse_rapid, write_rapid
+
+    text = RAPID.replace("tool0;", "tool0\\WObj:=wobjT;").replace(
+        "    PROC main",
+        '    PERS wobjdata wobjT:=[FALSE,TRUE,"",[[100,0,0],[1,0,0,0]],[[0,0,0],[1,0,0,0]]];\n'
+        "    PROC main",
+    )
+    wp = parse_rapid(text, "s.mod", coordinates="machine")
+    cut = (wp["motion"] == "cut").to_numpy()
+    n = len(wp)
+    edit = ProgramEdit(
+        waypoints=wp, rpm=np.where(cut, 9000.0, np.nan),
+        feed_mm_per_min=np.where(cut, 600.0, np.nan), margin=np.full(n, np.nan),
+        passes=np.where(cut, 2, 1), depth_mm=np.full(n, 1.0), options=ANALOG["rapid"],
+    )  # fmt: skip
+    with pytest.raises(InputError, match="Offs shifts in the work object's frame"):
+        write_rapid(text, "s.mod", edit, coordinates="machine")
+    assert "Offs(Offs(p0,40,0,-1),0,0,0.5)" in write_rapid(text, "s.mod", edit)

@@ -486,7 +486,8 @@ def _write(
     elif fmt == "rapid":
         from robolobe.plan.paths.rapid import write_rapid
 
-        out[name + ".mod"] = write_rapid(text, src.name, edit)
+        coords = str(opts.get("coordinates", "workpiece"))
+        out[name + ".mod"] = write_rapid(text, src.name, edit, coordinates=coords)
     return out
 
 

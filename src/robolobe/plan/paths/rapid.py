@@ -727,7 +727,9 @@ _PREDEFINED_V = re.compile(r"^V(\d+(?:\.\d*)?)$", re.IGNORECASE)
 _TRIGG = "trRobolobeSpindle"
 
 
-def write_rapid(text: str, source: str, edit: ProgramEdit) -> str:
+def write_rapid(
+    text: str, source: str, edit: ProgramEdit, *, coordinates: str = "workpiece"
+) -> str:
     """Write a RAPID module with the speeds and feeds of ``edit``.
 
     Parameters
@@ -740,6 +742,9 @@ def write_rapid(text: str, source: str, edit: ProgramEdit) -> str:
         ``edit.options``: ``analog_output`` (signal name),
         ``analog_rpm_full_scale``, ``analog_full_scale``, ``rapid_sync``
         (``"triggio"`` or ``"setao"``).
+    coordinates : {"workpiece", "machine"}
+        As the reader was told: with ``machine`` the points were read through
+        the work objects, whose frame ``Offs`` shifts a pass in.
 
     Returns
     -------
@@ -903,6 +908,13 @@ def write_rapid(text: str, source: str, edit: ProgramEdit) -> str:
                 )
         out_lines[ln] = new_raw.rstrip() + " ! ROBOLOBE " + "; ".join(note)
     secs = sections(edit)
+    if secs and coordinates == "machine" and re.search(r"\\WObj\s*:=", text, re.IGNORECASE):
+        raise InputError(
+            "passes in RAPID read with coordinates = 'machine' through work objects are not "
+            "written (Offs shifts in the work object's frame); plan with coordinates = "
+            "'workpiece'",
+            source=source,
+        )
     if secs:
         stmt_lines = {ln for ln, _ in stmts}
         per_unit_sig = (sig, per_unit)
