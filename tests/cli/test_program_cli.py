@@ -47,7 +47,8 @@ def test_plan_writes_the_program_and_program_rewrites_it(planned) -> None:
 @pytest.mark.parametrize(
     ("args", "message"),
     [
-        (["-o", "x.apt", "--program-format", "apt"], "translation from gcode to 'apt'"),
+        (["-o", "x.src", "--program-format", "krl"], "translation from gcode to 'krl'"),
+        (["-o", "x.nc", "--program-format", "nc"], "--program-format: expected one of"),
         (["-o", "adir"], "found a directory"),
     ],
 )
@@ -82,3 +83,31 @@ def test_program_refuses_a_changed_or_missing_source(tmp_path) -> None:
     assert r.returncode == 2
     assert "source program pocket.nc is not found" in r.stderr
     assert (tmp_path / "old.nc").read_text() == "previous\n"
+
+
+def test_plan_refuses_an_undefined_translation_before_planning(tmp_path) -> None:
+    for name in ("pocket.nc", "job_A_pocket.toml"):
+        shutil.copy(EX / name, tmp_path / name)
+    r = run(
+        ["plan", "pocket.nc", "--job", "job_A_pocket.toml", "-o", "out", "--no-plots",
+         "--no-html", "--program-format", "rapid"],
+        tmp_path,
+    )  # fmt: skip
+    assert r.returncode == 2
+    assert "translation from gcode to 'rapid' is not defined" in r.stderr
+    assert "robtargets" in r.stderr
+    assert "Traceback" not in r.stderr
+    assert len(r.stderr.strip().splitlines()) == 1
+    assert not (tmp_path / "out").exists()
+
+
+def test_program_translates_gcode_to_apt(planned) -> None:
+    r = run(["program", "out", "-o", "again.apt", "--program-format", "apt"], planned)
+    assert r.returncode == 0, r.stderr
+    a = read_toolpath(planned / "again.apt")
+    b = read_toolpath(planned / "pocket.nc")
+    cut_a = (a["motion"] == "cut").to_numpy()
+    cut_b = (b["motion"] == "cut").to_numpy()
+    pa = a[["x_m", "y_m", "z_m"]].to_numpy()[cut_a] * 1e3
+    pb = b[["x_m", "y_m", "z_m"]].to_numpy()[cut_b] * 1e3
+    assert abs(pa - pb).max() < 1e-6

@@ -282,12 +282,16 @@ def _rw_programs() -> list[Path]:
 
 
 @pytest.mark.slow
+@pytest.mark.parametrize("passes", [1, 2], ids=["1 pass", "2 passes"])
 @pytest.mark.parametrize("path", _rw_programs(), ids=lambda p: p.name)
-def test_real_programs_round_trip(path) -> None:
-    """Every real program robolobe reads comes back with a test-set S/F per move."""
-    from robolobe.plan.paths.krl import parse_krl, write_krl
-    from robolobe.plan.paths.rapid import parse_rapid, write_rapid
+def test_real_programs_round_trip(path, passes) -> None:
+    """Every real program robolobe reads comes back with a test-set S/F per move.
 
+    With two passes per section (1 mm in all): each run of cuts comes back
+    twice, first 0.5 mm up its tool axis, or the program is refused for a
+    reason robolobe states (a tool axis that changes along the run, a program
+    that starts cutting).
+    """
     try:
         wp = read_toolpath(path)
     except InputError:
@@ -295,8 +299,41 @@ def test_real_programs_round_trip(path) -> None:
     text = path.read_text(encoding="utf-8", errors="replace")
     if not (wp["motion"] == "cut").any():
         pytest.skip("no cutting move")
-    edit = _edit(wp, lambda ln: 8000 + 7 * (ln % 50), lambda ln: 500.0 + ln % 13)
+    edit = _edit(wp, lambda ln: 8000 + 7 * (ln % 50), lambda ln: 500.0 + ln % 13,
+                 passes=passes, depth=1.0)  # fmt: skip
     kind = path.parent.name
+    try:
+        back, edit = _write_and_read(kind, path, text, edit)
+    except InputError as exc:
+        if passes == 1 or not re.search("tool axis changes|starts with a cutting move", str(exc)):
+            raise
+        pytest.skip(f"passes refused: {exc}")
+    if passes == 1:
+        _roundtrip(back, edit)
+        return
+    cut = edit.cut
+    pos = wp[["x_m", "y_m", "z_m"]].to_numpy() * 1e3
+    axis = wp[["i", "j", "k"]].to_numpy()
+    want = []
+    starts = np.flatnonzero(cut & ~np.r_[False, cut[:-1]])
+    stops = np.flatnonzero(cut & ~np.r_[cut[1:], False]) + 1
+    for a, b in zip(starts, stops, strict=True):
+        want += [pos[a:b] + 0.5 * axis[a], pos[a:b]]
+    bc = (back["motion"] == "cut").to_numpy()
+    np.testing.assert_allclose(
+        back[["x_m", "y_m", "z_m"]].to_numpy()[bc] * 1e3, np.concatenate(want), atol=1e-6
+    )
+    s_want = [edit.rpm[a:b] for a, b in zip(starts, stops, strict=True) for _ in range(2)]
+    np.testing.assert_allclose(
+        back["rpm_programmed"].to_numpy()[bc], np.concatenate(s_want), rtol=1e-9
+    )
+
+
+def _write_and_read(kind: str, path: Path, text: str, edit: ProgramEdit):
+    """A real program written with ``edit`` in its own dialect and read back."""
+    from robolobe.plan.paths.krl import parse_krl, write_krl
+    from robolobe.plan.paths.rapid import parse_rapid, write_rapid
+
     if kind == "gcode":
         back = parse_gcode(write_gcode(text, path.name, edit), path.name)
     elif kind == "apt":
@@ -317,7 +354,7 @@ def test_real_programs_round_trip(path) -> None:
             edit = _with_options(edit, rapid_sync="setao")
             out = write_rapid(text, path.name, edit)
         back = parse_rapid(out, path.name, spindle_output="aoS", spindle_rpm_per_unit=24000.0)
-    _roundtrip(back, edit)
+    return back, edit
 
 
 # ------------------------------------------------------------------ bad input
@@ -325,10 +362,13 @@ def test_bad_inputs_write_nothing(tmp_path) -> None:
     src = tmp_path / "p.nc"
     shutil.copy(EX / "pocket.nc", src)
     res = plan_path(src, load_job(EX / "job_A_pocket.toml"), refine=False)
+    from robolobe.plan.report import write_outputs
+
+    folder = write_outputs(res, tmp_path / "plan", plots=False, html_report=False)
     target = tmp_path / "out.nc"
     target.write_text("previous\n")
-    with pytest.raises(InputError, match="translation from gcode to 'apt' is not defined"):
-        write_program(res, target, fmt="apt")
+    with pytest.raises(InputError, match="translation from gcode to 'rapid' is not defined"):
+        write_program(res, target, fmt="rapid")
     with pytest.raises(InputError, match="translation from gcode to 'krl' is not defined"):
         write_program(res, target, fmt="krl")
     (tmp_path / "adir.nc").mkdir()
@@ -337,11 +377,15 @@ def test_bad_inputs_write_nothing(tmp_path) -> None:
     src.write_text(src.read_text().replace("F5400.", "F5000."))
     with pytest.raises(InputError, match="changed since the plan"):
         write_program(res, target)
+    with pytest.raises(InputError, match="changed since the plan"):
+        write_program(folder, target, job=res.job)  # the plan folder's record
     src.unlink()
     with pytest.raises(InputError, match="source program"):
         write_program(res, target)
+    with pytest.raises(InputError, match=r"source program .*p\.nc is not found"):
+        write_program(folder, target, job=res.job)
     assert target.read_text() == "previous\n"
-    assert sorted(p.name for p in tmp_path.iterdir()) == ["adir.nc", "out.nc"]
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["adir.nc", "out.nc", "plan"]
 
 
 def test_changes_table_lists_where_values_are_set(pocket) -> None:

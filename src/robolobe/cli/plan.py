@@ -296,6 +296,7 @@ def register(app: typer.Typer) -> None:
                 err_console.print(f"running the bundled example: {path.name} with {job.name}")
             elif path is None or job is None:
                 raise InputError("give both PATH and --job (or neither, for the bundled example)")
+            check_program_format(program_format, path)
             j = _with_path_opts(
                 load_job(job),
                 _path_opts(units=units, tool_direction=tool_direction, coordinates=coordinates,

@@ -21,12 +21,22 @@ The per-move values (:func:`program_edit`):
   (``feed_per_tooth_mm * teeth * S_new``); capped by
   ``cut.max_feed_mm_per_min`` (the robot's path-speed limit) where given.
 - **Passes**: the plan table's ``passes`` column (and ``depth_mm`` per pass)
-  where it has one, else ``passes=`` given here; one pass otherwise.
+  where it has one, else ``passes=`` given here; one pass otherwise. Each
+  section (a run of cutting moves) is cut whole once per pass, pass ``k`` of
+  ``n`` at ``(n - k) * depth_mm`` above the programmed depth along the tool
+  axis, with rapid links (:func:`robolobe.plan.paths._edit.pass_layout`).
+
+Translations (:data:`TRANSLATIONS`): G-code and APT into each other (the
+plan's moves as cutter-location records), any dialect into the CSV table;
+others are refused with what the target needs (:data:`UNDEFINED`). A
+program without its end (M30/M2 or a closing %, FINI, END, ENDPROC/
+ENDMODULE) is not written back (:class:`IncompleteProgramError`).
 """
 
 from __future__ import annotations
 
 import hashlib
+import logging
 import math
 import os
 from dataclasses import dataclass
@@ -43,14 +53,17 @@ from robolobe.plan.job import Job
 from robolobe.plan.paths import detect_format, read_toolpath, reader_options
 from robolobe.plan.paths._edit import ProgramEdit, expected_table
 from robolobe.plan.paths._table import segment_lengths
+from robolobe.plan.paths._text import TRUNCATED
 from robolobe.plan.pipeline import PlanResult
 
 __all__ = [
     "EXTENSIONS",
     "PROGRAM_DEFAULTS",
     "TRANSLATIONS",
+    "UNDEFINED",
     "WRITERS",
     "FolderPlan",
+    "IncompleteProgramError",
     "ProgramText",
     "check_program_format",
     "program_changes",
@@ -59,6 +72,8 @@ __all__ = [
     "read_folder_plan",
     "write_program",
 ]
+
+logger = logging.getLogger(__name__)
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
@@ -85,14 +100,28 @@ EXTENSIONS: dict[str, str] = {
     "table": ".csv",
 }
 
-#: Dialects a program may be written in, per dialect read (a translation
-#: between controller languages is not defined: their modal states differ).
+#: Dialects a program may be written in, per dialect read. G-code and APT
+#: translate into each other (both are cutter-location data with F and S: the
+#: plan's moves, passes included, written as the other's moves); any dialect
+#: writes the waypoint table. Other translations are refused (:data:`UNDEFINED`).
 TRANSLATIONS: dict[str, tuple[str, ...]] = {
-    "gcode": ("gcode", "table"),
-    "apt": ("apt", "table"),
+    "gcode": ("gcode", "apt", "table"),
+    "apt": ("apt", "gcode", "table"),
     "krl": ("krl", "table"),
     "rapid": ("rapid", "table"),
     "table": ("table",),
+}
+
+#: Why a translation is not defined, by the dialect asked for (robot programs
+#: out of CNC data) or read (CNC data out of robot programs).
+UNDEFINED: dict[str, str] = {
+    "krl": "a KRL program needs the robot's targets (orientation A, B, C and status/turn "
+    "per point, $BASE and $TOOL), which {read} does not hold",
+    "rapid": "a RAPID module needs robtargets (orientation quaternion and robot "
+    "configuration per point, tool and work object data), which {read} does not hold",
+    "robot": "{read} holds the robot's TCP path in its base, with the tool's turn about "
+    "its axis; CNC data of it is not defined",
+    "table": "a waypoint table holds no program to write {fmt} into",
 }
 
 
@@ -127,10 +156,30 @@ class FolderPlan:
 AnyPlan = PlanResult | FolderPlan
 
 
-def check_program_format(fmt: str | None) -> None:
-    """Refuse an unknown ``--program-format`` (before any work)."""
+class IncompleteProgramError(InputError):
+    """The program has no end (M30/M2 or %...%, FINI, END, ENDPROC/ENDMODULE): not written back."""
+
+
+def check_program_format(fmt: str | None, path: str | os.PathLike[str] | None = None) -> None:
+    """Refuse an unknown ``--program-format``, or one not defined from ``path``'s dialect.
+
+    Called before any work (the plan is not computed to be refused after).
+    """
     if fmt is not None and fmt not in WRITERS:
         raise InputError(f"--program-format: expected one of {', '.join(WRITERS)}, found {fmt!r}")
+    if fmt is not None and path is not None and Path(path).is_file():
+        _check_translation(detect_format(path), fmt, Path(path).name)
+
+
+def _check_translation(read_fmt: str, fmt: str, source: str) -> None:
+    if fmt not in TRANSLATIONS.get(read_fmt, ()):
+        why = UNDEFINED.get(fmt) or UNDEFINED["robot" if read_fmt in ("krl", "rapid") else read_fmt]
+        raise InputError(
+            f"--program-format: a translation from {read_fmt} to {fmt!r} is not defined: "
+            f"{why.format(read=read_fmt, fmt=fmt)}; expected one of "
+            f"{list(TRANSLATIONS.get(read_fmt, ()))}",
+            source=source,
+        )
 
 
 def _options(res: AnyPlan) -> dict[str, Any]:
@@ -389,17 +438,13 @@ def program_text(
     src = _source_path(res)
     read_fmt = detect_format(src)
     fmt = fmt or read_fmt
-    if fmt not in TRANSLATIONS.get(read_fmt, ()):
-        raise InputError(
-            f"--program-format: a translation from {read_fmt} to {fmt!r} is not defined; "
-            f"expected one of {list(TRANSLATIONS.get(read_fmt, ()))}",
-            source=src.name,
-        )
+    _check_translation(read_fmt, fmt, src.name)
     if edit is None:
         edit = program_edit(res)
     opts = reader_options(read_fmt, res.job.path_options) if read_fmt != "table" else {}
     files = _write(fmt, read_fmt, src, edit, name, opts)
-    _check(files, fmt, name, edit, opts, src.name)
+    # a translation states its units and frame itself: read back without the source's options
+    _check(files, fmt, name, edit, opts if fmt == read_fmt else {}, src.name)
     return files
 
 
@@ -415,6 +460,9 @@ def _write(
         out[name + ".csv"] = program_table(edit)
         return out
     text = _text.read_text(src)
+    if fmt != read_fmt:
+        out[name + EXTENSIONS[fmt]] = _translate(fmt, read_fmt, src, text, edit)
+        return out
     if fmt == "gcode":
         from robolobe.plan.paths.gcode import write_gcode
 
@@ -422,7 +470,8 @@ def _write(
     elif fmt == "apt":
         from robolobe.plan.paths.apt import write_apt
 
-        out[name + ".apt"] = write_apt(text, src.name, edit)
+        coords = str(opts.get("coordinates", "workpiece"))
+        out[name + ".apt"] = write_apt(text, src.name, edit, coordinates=coords)
     elif fmt == "krl":
         from robolobe.plan.paths.krl import write_krl
 
@@ -430,15 +479,65 @@ def _write(
             (q for q in (src.with_suffix(".dat"), src.with_suffix(".DAT")) if q.is_file()), None
         )
         dat_text = _text.read_text(dat) if dat is not None else None
-        src_out, dat_out = write_krl(text, src.name, edit, name=name, dat=dat_text)
+        src_out, dat_out = write_krl(text, src.name, edit, name=name, dat=dat_text, options=opts)
         out[name + ".src"] = src_out
         if dat_out is not None:
             out[name + ".dat"] = dat_out
     elif fmt == "rapid":
         from robolobe.plan.paths.rapid import write_rapid
 
-        out[name + ".mod"] = write_rapid(text, src.name, edit)
+        coords = str(opts.get("coordinates", "workpiece"))
+        out[name + ".mod"] = write_rapid(text, src.name, edit, coordinates=coords)
     return out
+
+
+def _translate(fmt: str, read_fmt: str, src: Path, text: str, edit: ProgramEdit) -> str:
+    """The plan's moves (passes and links included) written in the other CL dialect.
+
+    What is translated: every move (arcs as the reader linearised them, to
+    ``arc_tol_mm``), the spindle speed, its direction, the feed and the tool
+    number. What is not: coolant, stops, cycles, comments and other machine
+    functions of the source (said in the written program's head).
+
+    Raises
+    ------
+    InputError
+        A source that uses both spindle directions or more than one tool.
+    """
+    from robolobe.plan.paths.apt import apt_setup, translate_apt
+    from robolobe.plan.paths.gcode import gcode_setup, translate_gcode
+
+    directions, tools = gcode_setup(text) if read_fmt == "gcode" else apt_setup(text)
+    if len(directions) > 1 or len(tools) > 1:
+        what = (
+            f"spindle directions {sorted(directions)}"
+            if len(directions) > 1
+            else (f"tools {tools}")
+        )
+        raise InputError(
+            f"--program-format {fmt}: the program uses {what}; a translation carries one "
+            f"tool turning one way (write it as {read_fmt}, or split the program)",
+            source=src.name,
+        )
+    ccw = bool(directions & {"M4", "CCLW"})
+    tool = tools[0] if tools else None
+    note = [
+        f"ROBOLOBE: translated from {src.name} ({read_fmt}) with the plan's spindle speeds, "
+        "feeds and passes",
+        "ROBOLOBE: moves (arcs as line segments), spindle speed and direction, feed and tool "
+        "only; coolant, stops, cycles and other machine functions of the source are not "
+        "carried over",
+    ]
+    logger.warning(
+        "%s: translated to %s: coolant, stops, cycles and other machine functions of the "
+        "source are not carried over",
+        src.name,
+        fmt,
+    )
+    exp = expected_table(edit, full=True)
+    if fmt == "gcode":
+        return translate_gcode(exp, src.name, spindle="M4" if ccw else "M3", tool=tool, note=note)
+    return translate_apt(exp, src.name, direction="CCLW" if ccw else "CLW", tool=tool, note=note)
 
 
 def _reread(files: ProgramText, fmt: str, name: str, opts: dict[str, Any]) -> pd.DataFrame:
@@ -476,6 +575,16 @@ def _check(
 ) -> None:
     """Read the written program back; it must give ``expected_table(edit)``."""
     got = _reread(files, fmt, name, {**opts, **_analog_options(edit, fmt)})
+    # a program without its end (M30/M2 or %...%, FINI, END, ENDPROC/ENDMODULE): read
+    # tolerantly, but a controller rejects it, and a copy of a truncated program is one too
+    cut_off = [w for w in got.attrs.get("warnings", []) if TRUNCATED in w]
+    if cut_off:
+        why = cut_off[0].split(": ", 1)[-1].split(f": {TRUNCATED}")[0]
+        raise IncompleteProgramError(
+            f"expected a complete program to write back, found {why} ({TRUNCATED}; a "
+            "controller rejects it): complete the program and plan it again",
+            source=source,
+        )
     # what the check needs of it, then the table goes (a million rows: the peak of the check)
     g_line = got["line"].to_numpy(copy=True)  # copies: views would keep the table alive
     g_motion = got["motion"].to_numpy(copy=True)

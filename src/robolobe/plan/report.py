@@ -671,7 +671,7 @@ def _program_files(res: PlanResult, program: bool, fmt: str | None) -> dict[str,
     if not program or (fmt is None and res.path in ("<table>", "")):
         return {}
     from robolobe.plan.paths import detect_format
-    from robolobe.plan.program import PROGRAM_DEFAULTS, program_text
+    from robolobe.plan.program import PROGRAM_DEFAULTS, IncompleteProgramError, program_text
 
     read_fmt = detect_format(res.path) if Path(res.path).is_file() else None
     opts = {**PROGRAM_DEFAULTS, **res.job.program_options}
@@ -688,4 +688,11 @@ def _program_files(res: PlanResult, program: bool, fmt: str | None) -> dict[str,
             read_fmt.upper() if read_fmt == "krl" else "RAPID",
         )
         return {}
-    return dict(program_text(res, fmt))
+    try:
+        return dict(program_text(res, fmt))
+    except IncompleteProgramError as exc:
+        if fmt is not None:
+            raise  # asked for explicitly: refused
+        # a program without its end is planned (its reader warned) but not written back
+        logging.getLogger(__name__).warning("no program written: %s", exc)
+        return {}

@@ -8,9 +8,11 @@ rows of the waypoint table the dialect's reader made of that text, so a
 writer knows which source line each move came from.
 
 Passes: the cutting moves of a *section* (a maximal run of consecutive
-cutting waypoints) are repeated ``n`` times, shifted along the (constant)
-tool axis by ``(n - k) * depth / n`` for pass ``k = 1 .. n``; the last pass
-is the program's own moves. Between passes the tool leaves along the tool
+cutting waypoints) are repeated ``n`` times, whole, shifted along the
+(constant) tool axis by ``(n - k) * depth / n`` for pass ``k = 1 .. n``
+(``depth``: the total, ``depth / n`` per pass); the last pass is the
+program's own moves. :func:`pass_layout` lays the passes out once for every
+writer (each dialect formats its lines only). Between passes the tool leaves along the tool
 axis to ``retract_mm`` above the highest point of the section, moves across
 at that height and comes down along the axis to the next pass's start
 (rapids: the program's own approach reached the section's start point with
@@ -21,6 +23,7 @@ back to; every writer's output is checked against it before it is kept.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Iterator
 from dataclasses import dataclass, field
 from typing import Any
@@ -32,14 +35,17 @@ from numpy.typing import NDArray
 from robolobe.errors import InputError
 
 __all__ = [
+    "ClRecord",
     "LineValues",
+    "Pass",
     "ProgramEdit",
     "Section",
+    "cl_records",
     "expected_table",
     "fmt_num",
     "line_values",
-    "link_moves",
     "modal_values",
+    "pass_layout",
     "sections",
 ]
 
@@ -166,31 +172,86 @@ def sections(edit: ProgramEdit) -> list[Section]:
     return out
 
 
-def _link_points(edit: ProgramEdit, sec: Section, pos_mm: FloatArray) -> tuple[float, FloatArray]:
-    """Safe height along the axis [mm] and the section's start point [mm] (row before it)."""
-    a = np.asarray(sec.axis)
-    pts = pos_mm[sec.start - 1 : sec.stop]
-    return float(np.max(pts @ a)) + edit.retract_mm, pos_mm[sec.start - 1]
+@dataclass(frozen=True)
+class Pass:
+    """One pass of a :class:`Section`, as :func:`pass_layout` lays it out.
+
+    Attributes
+    ----------
+    index, count : int
+        Pass ``index`` of ``count`` (1-based; the last is the program's own moves).
+    offset_mm : float
+        Shift [mm] along the tool axis above the programmed depth:
+        ``(count - index) * depth_per_pass``; 0 for the last pass.
+    shift_mm : ndarray, shape (3,)
+        ``offset_mm`` times the tool axis [mm].
+    links : tuple of (ndarray, int)
+        The rapid link points [mm] into this pass's start, in order, each
+        with the row it lies above along the tool axis (the section's last
+        row: above where the pass before ended; the row before the section:
+        above the section's start point). Empty where the pass starts where
+        the program already is.
+    restate : bool
+        Whether the spindle speed and feed in effect at the pass start must
+        be set anew: a pass after the first, in a section whose S or F
+        changes along it (the pass before ended with other values).
+    """
+
+    index: int
+    count: int
+    offset_mm: float
+    shift_mm: FloatArray
+    links: tuple[tuple[FloatArray, int], ...]
+    restate: bool
+
+    @property
+    def own(self) -> bool:
+        """The last pass: the program's own moves, written where they are."""
+        return self.index == self.count
 
 
-def link_moves(
-    edit: ProgramEdit, sec: Section, pos_mm: FloatArray, end: FloatArray, offset_mm: float
-) -> list[FloatArray]:
-    """Rapid link points [mm] from ``end`` to the start of the pass at ``offset_mm``.
+def pass_layout(edit: ProgramEdit, sec: Section, pos_mm: FloatArray) -> Iterator[Pass]:
+    """The passes of ``sec`` in program order, with their rapid links (module notes).
 
-    Retract along the tool axis to the safe height, across at that height,
-    down along the axis to the section's start point shifted by the pass's
-    offset. From the program's start point itself (before the first pass):
-    one move straight up along the axis.
+    Every dialect writer takes this one layout and formats its lines: the
+    link moves, the restated S and F, then the section's lines shifted by
+    ``shift_mm`` (nothing to copy for the last pass, the program's own).
+
+    Parameters
+    ----------
+    edit : ProgramEdit
+    sec : Section
+    pos_mm : ndarray, shape (n, 3)
+        The waypoints' positions [mm].
+
+    Yields
+    ------
+    Pass
     """
     a = np.asarray(sec.axis)
-    safe, start = _link_points(edit, sec, pos_mm)
-    target = start + offset_mm * a
-    if np.allclose(end, start, atol=1e-9, rtol=0):
-        return [target] if offset_mm != 0 else []
-    up = end + (safe - float(end @ a)) * a
-    over = start + (safe - float(start @ a)) * a
-    return [up, over, target]
+    start_row, end_row = sec.start - 1, sec.stop - 1
+    start = pos_mm[start_row]
+    safe = float(np.max(pos_mm[start_row : sec.stop] @ a)) + edit.retract_mm
+    rpm = edit.rpm[sec.start : sec.stop]
+    feed = edit.feed_mm_per_min[sec.start : sec.stop]
+    varies = bool(np.ptp(rpm) > 0 or np.ptp(feed) > 0)
+    offs = sec.offsets_mm()
+    end = start
+    for k, off in enumerate(offs, start=1):
+        target = start + off * a
+        links: list[tuple[FloatArray, int]] = []
+        if k == 1:  # from the section's own start point: straight up along the axis
+            if off != 0:
+                links.append((target, start_row))
+        else:  # retract, across at the safe height (where the pass ended elsewhere), down
+            up = end + (safe - float(end @ a)) * a
+            over = start + (safe - float(start @ a)) * a
+            links.append((up, end_row))
+            if np.max(np.abs(over - up)) > 1e-9:
+                links.append((over, start_row))
+            links.append((target, start_row))
+        yield Pass(k, len(offs), off, off * a, tuple(links), varies and k > 1)
+        end = pos_mm[end_row] + off * a
 
 
 def expected_table(edit: ProgramEdit, *, full: bool = True) -> pd.DataFrame:
@@ -232,16 +293,12 @@ def expected_table(edit: ProgramEdit, *, full: bool = True) -> pd.DataFrame:
     prev = 0
     for sec in secs:
         put(prev, sec.start)
-        end = pos[sec.start - 1]
-        a = np.asarray(sec.axis)
-        for off in sec.offsets_mm():
-            links = link_moves(edit, sec, pos, end, off)
-            if links:
-                parts_row.append(np.full(len(links), sec.start, np.int64))
-                parts_pos.append(np.array(links))
-                parts_link.append(np.ones(len(links), bool))
-            put(sec.start, sec.stop, off * a if off else None)
-            end = pos[sec.stop - 1] + off * a
+        for ps in pass_layout(edit, sec, pos):
+            if ps.links:
+                parts_row.append(np.full(len(ps.links), sec.start, np.int64))
+                parts_pos.append(np.array([p for p, _ in ps.links]))
+                parts_link.append(np.ones(len(ps.links), bool))
+            put(sec.start, sec.stop, None if ps.own else ps.shift_mm)
         prev = sec.stop
     put(prev, len(wp))
     row = np.concatenate(parts_row) if len(parts_row) > 1 else parts_row[0]
@@ -267,6 +324,58 @@ def expected_table(edit: ProgramEdit, *, full: bool = True) -> pd.DataFrame:
         cols["source"] = wp["source"].to_numpy()[row]
         cols["line"] = wp["line"].to_numpy()[row]
     return pd.DataFrame(cols)
+
+
+@dataclass(frozen=True)
+class ClRecord:
+    """One record of a translated program (:func:`cl_records`).
+
+    ``kind``: ``"spindle"`` (``value``: rpm), ``"feed"`` (``value``: mm/min),
+    ``"rapid"`` or ``"cut"`` (a move to ``xyz`` [mm] with tool axis ``ijk``,
+    copied from ``where``, the source's ``file:line``).
+    """
+
+    kind: str
+    value: float = math.nan
+    xyz: tuple[float, float, float] = (math.nan, math.nan, math.nan)
+    ijk: tuple[float, float, float] = (0.0, 0.0, 1.0)
+    where: str = ""
+
+
+def cl_records(table: pd.DataFrame) -> Iterator[ClRecord]:
+    """The moves of ``expected_table(edit)`` as cutter-location records, in order.
+
+    What a translation writes, whatever its dialect: the spindle speed of
+    the first cutting move before the first move (the spindle runs up before
+    the approach), a new speed before each cutting move whose S differs from
+    the one in effect, a new feed likewise, then the move. Each dialect
+    formats these records only.
+    """
+    cut = (table["motion"] == "cut").to_numpy()
+    rpm = table["rpm"].to_numpy(dtype=np.float64)
+    feed = table["feed_mm_per_min"].to_numpy(dtype=np.float64)
+    xyz = table[["x_mm", "y_mm", "z_mm"]].to_numpy(dtype=np.float64)
+    ijk = table[["i", "j", "k"]].to_numpy(dtype=np.float64)
+    where = (table["source"].astype(str) + ":" + table["line"].astype(str)).to_numpy()
+    s_cur = math.nan
+    f_cur = math.nan
+    if cut.any():
+        s_cur = float(rpm[int(np.argmax(cut))])
+        yield ClRecord("spindle", s_cur)
+    for r in range(len(table)):
+        if cut[r]:
+            if rpm[r] != s_cur:
+                s_cur = float(rpm[r])
+                yield ClRecord("spindle", s_cur)
+            if feed[r] != f_cur:
+                f_cur = float(feed[r])
+                yield ClRecord("feed", f_cur)
+        yield ClRecord(
+            "cut" if cut[r] else "rapid",
+            xyz=(float(xyz[r, 0]), float(xyz[r, 1]), float(xyz[r, 2])),
+            ijk=(float(ijk[r, 0]), float(ijk[r, 1]), float(ijk[r, 2])),
+            where=str(where[r]),
+        )
 
 
 class LineValues:

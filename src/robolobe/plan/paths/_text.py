@@ -26,6 +26,7 @@ from robolobe.errors import InputError
 __all__ = [
     "MAX_ABS",
     "TOOL_DIRECTIONS",
+    "TRUNCATED",
     "UNIT_CHOICES",
     "check_choice",
     "finite",
@@ -35,6 +36,10 @@ __all__ = [
     "strip_bom",
     "tool_axes",
 ]
+
+#: Words of every reader's warning that a program has no end (END, FINI, M30, ...): read
+#: tolerantly, such a program is refused when written back (a controller rejects it).
+TRUNCATED = "the file may be truncated"
 
 #: Largest magnitude accepted for any number in a toolpath (mm, deg, mm/min, rpm).
 MAX_ABS = 1e7

@@ -49,13 +49,15 @@ from robolobe.plan.paths._arcs import arc_points, arc_start_tangent
 from robolobe.plan.paths._edit import (
     ProgramEdit,
     Section,
+    cl_records,
     fmt_num,
     line_values,
-    link_moves,
+    pass_layout,
     sections,
 )
 from robolobe.plan.paths._table import WaypointBuilder
 from robolobe.plan.paths._text import (
+    TRUNCATED,
     UNIT_CHOICES,
     check_choice,
     finite,
@@ -64,7 +66,7 @@ from robolobe.plan.paths._text import (
     read_text,
 )
 
-__all__ = ["parse_apt", "read_apt", "write_apt"]
+__all__ = ["apt_setup", "parse_apt", "read_apt", "translate_apt", "write_apt"]
 
 logger = logging.getLogger(__name__)
 
@@ -429,8 +431,7 @@ def parse_apt(
     df = out.table()
     if not ended:
         out.warn(
-            "no FINI or END-OF-PATH at the end: the file may be truncated "
-            "(the path read so far is planned)"
+            f"no FINI or END-OF-PATH at the end: {TRUNCATED} (the path read so far is planned)"
         )
     if file_units is None and unit0 == "mm" and units == "auto":
         cut = (df["motion"] == "cut").to_numpy()
@@ -566,7 +567,7 @@ def _apt_args(stmt: str) -> list[str]:
     return [a.strip() for a in m.group(2).split(",") if a.strip()]
 
 
-def write_apt(text: str, source: str, edit: ProgramEdit) -> str:
+def write_apt(text: str, source: str, edit: ProgramEdit, *, coordinates: str = "workpiece") -> str:
     """Write APT/CL data with the speeds, feeds and passes of ``edit``.
 
     Parameters
@@ -576,6 +577,9 @@ def write_apt(text: str, source: str, edit: ProgramEdit) -> str:
     source : str
         Its file name (messages).
     edit : ProgramEdit
+    coordinates : {"workpiece", "machine"}
+        As the reader was told: with ``machine`` the points were read through
+        ``MSYS``, and a pass's shift is not written in the file's frame.
 
     Returns
     -------
@@ -585,8 +589,8 @@ def write_apt(text: str, source: str, edit: ProgramEdit) -> str:
     Raises
     ------
     InputError
-        Passes in data with ``MSYS`` records, or a SPINDL/FEDRAT record
-        continued over several lines.
+        Passes in data whose ``MSYS`` records were applied, or a SPINDL/FEDRAT
+        record continued over several lines.
     """
     src = lines(text)
     stmts = _statements(text)
@@ -671,6 +675,13 @@ def write_apt(text: str, source: str, edit: ProgramEdit) -> str:
                 cur_f = f
     secs = sections(edit)
     if secs:
+        if coordinates == "machine" and any(_apt_head(s) == "MSYS" for _, s in stmts):
+            raise InputError(
+                "passes in APT data read with coordinates = 'machine' through MSYS records are "
+                "not written (the shift along the tool axis would need the MSYS frame); plan "
+                "with coordinates = 'workpiece'",
+                source=source,
+            )
         _apt_passes(stmts, src, edit, secs, insert_at, before, replace, scale, source,
                     feed_unit, fed_value, direction)  # fmt: skip
     out: list[str] = []
@@ -718,30 +729,21 @@ def _apt_passes(
     direction: str,
 ) -> None:
     """Insert the shallower passes of each section before it (module notes of ``_edit``)."""
-    if any(_apt_head(s) == "MSYS" for _, s in stmts):
-        raise InputError(
-            "passes in APT data with MSYS records are not written (the shift along the tool "
-            "axis would need the MSYS frame)",
-            source=source,
-        )
     wp_lines = edit.waypoints["line"].to_numpy()
     pos_mm = edit.waypoints[["x_m", "y_m", "z_m"]].to_numpy(dtype=np.float64) * 1e3
     for sec in secs:
         first, last = int(wp_lines[sec.start]), int(wp_lines[sec.stop - 1])
         at = insert_at[first]
-        ax = np.asarray(sec.axis)
         body = [(ln, s) for ln, s in stmts if at <= ln <= last]
         block: list[str] = []
-        end = pos_mm[sec.start - 1]
-        offs = sec.offsets_mm()
         rpm0 = line_values(edit)[first][0]
         f0 = fed_value(first, feed_unit)
         unit_txt = f",{feed_unit}" if feed_unit else ""
-        for k, off in enumerate(offs, start=1):
-            for p in link_moves(edit, sec, pos_mm, end, off):
+        for ps in pass_layout(edit, sec, pos_mm):
+            for p, _ in ps.links:
                 q = p / scale
                 block += [
-                    f"$$ ROBOLOBE LINK TO PASS {k} OF {len(offs)}",
+                    f"$$ ROBOLOBE LINK TO PASS {ps.index} OF {ps.count}",
                     "RAPID",
                     f"GOTO  / {fmt_num(q[0], 8)}, {fmt_num(q[1], 8)}, {fmt_num(q[2], 8)}",
                 ]
@@ -749,13 +751,13 @@ def _apt_passes(
                 f"SPINDL/ {fmt_num(rpm0, 0)},RPM,{direction}",
                 f"FEDRAT/ {fmt_num(f0, 6)}{unit_txt}",
             ]
-            if off == 0:
+            if ps.own:
                 break
             block.append(
-                f"$$ ROBOLOBE PASS {k} OF {len(offs)}: {fmt_num(off, 4)} MM ABOVE THE "
-                f"PROGRAMMED DEPTH"
+                f"$$ ROBOLOBE PASS {ps.index} OF {ps.count}: {fmt_num(ps.offset_mm, 4)} MM "
+                "ABOVE THE PROGRAMMED DEPTH"
             )
-            d = ax * off / scale
+            d = ps.shift_mm / scale
             for ln, stmt in body:
                 block.extend(x for x in before.get(ln, []) if not x.startswith("$$"))
                 h = _apt_head(stmt)
@@ -767,5 +769,57 @@ def _apt_passes(
                     v = [v[0] + d[0], v[1] + d[1], v[2] + d[2]]
                     text = f"{h}/ " + ", ".join([*(fmt_num(x, 8) for x in v), *rest])
                 block.append(text)
-            end = pos_mm[sec.stop - 1] + off * ax
         before.setdefault(at, [])[0:0] = block
+
+
+# ------------------------------------------------------------------ translation
+def apt_setup(text: str) -> tuple[set[str], list[str]]:
+    """The spindle directions (``"CLW"``, ``"CCLW"``) and tools (``LOADTL``, ``LOAD/TOOL``) used."""
+    directions: set[str] = set()
+    tools: list[str] = []
+    for _, stmt in _statements(text):
+        h = _apt_head(stmt)
+        args = _apt_args(stmt)
+        if h == "SPINDL" and args and args[0] not in ("OFF", "ON"):
+            directions.add("CCLW" if "CCLW" in args else "CLW")
+        elif (h == "LOADTL" and args) or (h == "LOAD" and len(args) > 1 and args[0] == "TOOL"):
+            t = args[0] if h == "LOADTL" else args[1]
+            if t not in tools:
+                tools.append(t)
+    return directions, tools
+
+
+def translate_apt(
+    table: pd.DataFrame, source: str, *, direction: str, tool: str | None, note: list[str]
+) -> str:
+    """APT/CL data (mm, ``GOTO/x,y,z,i,j,k``) of a waypoint table, a translation.
+
+    Parameters
+    ----------
+    table : pandas.DataFrame
+        :func:`~robolobe.plan.paths._edit.expected_table` with ``full``.
+    source : str
+        The program translated (messages).
+    direction : {"CLW", "CCLW"}
+        The spindle's direction.
+    tool : str, optional
+        The tool number (``LOADTL/`` at the start).
+    note : list of str
+        Comment lines for the head.
+    """
+    out = [f"$$ {t}" for t in note]
+    out += [f"PARTNO {Path(source).stem.upper()}", "UNITS/MM", "MULTAX"]
+    if tool is not None:
+        out.append(f"LOADTL/{tool}")
+    for rec in cl_records(table):
+        if rec.kind == "spindle":
+            out.append(f"SPINDL/ {fmt_num(rec.value, 0)},RPM,{direction}")
+        elif rec.kind == "feed":
+            out.append(f"FEDRAT/ {fmt_num(rec.value, 6)},MMPM")
+        else:
+            if rec.kind == "rapid":
+                out.append("RAPID")
+            nums = [fmt_num(v, 8) for v in rec.xyz] + [fmt_num(v, 9) for v in rec.ijk]
+            out.append("GOTO  / " + ", ".join(nums))
+    out.append("FINI")
+    return "\n".join(out) + "\n"

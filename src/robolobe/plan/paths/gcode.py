@@ -75,14 +75,16 @@ from robolobe.plan.paths._arcs import arc_point_list
 from robolobe.plan.paths._compensation import Element, compensate
 from robolobe.plan.paths._edit import (
     ProgramEdit,
+    cl_records,
     fmt_num,
     line_values,
-    link_moves,
+    pass_layout,
     sections,
 )
 from robolobe.plan.paths._table import WaypointBuilder
 from robolobe.plan.paths._text import (
     MAX_ABS,
+    TRUNCATED,
     UNIT_CHOICES,
     check_choice,
     iter_lines,
@@ -90,7 +92,7 @@ from robolobe.plan.paths._text import (
     read_text,
 )
 
-__all__ = ["parse_gcode", "read_gcode", "write_gcode"]
+__all__ = ["gcode_setup", "parse_gcode", "read_gcode", "translate_gcode", "write_gcode"]
 
 logger = logging.getLogger(__name__)
 
@@ -340,9 +342,7 @@ def parse_gcode(
         _comp_flush(st, out, None, arc_tol_mm)
     df = out.table()
     if not st.ended and not last_pct:
-        out.warn(
-            "no M30/M2 program end: the file may be truncated (the path read so far is planned)"
-        )
+        out.warn(f"no M30/M2 program end: {TRUNCATED} (the path read so far is planned)")
     if not st.units_set and units == "auto":
         cut = (df["motion"] == "cut").to_numpy()
         p = df[["x_m", "y_m", "z_m"]].to_numpy()[cut] * 1e3
@@ -1184,28 +1184,24 @@ def write_gcode(text: str, source: str, edit: ProgramEdit, *, block_delete: bool
                     "passes with absolute arc centres (G90.1) are not written", f"{source}:{ln}"
                 )
         block: list[str] = []
-        end = pos_mm[sec.start - 1]
-        offs = sec.offsets_mm()
-        s_first = f"{int(vals[first][0])}"
-        s_varies = any(
-            _num_differs(f"{int(vals[int(c)][0])}", s_first)
-            for c in set(wp_lines[sec.start : sec.stop].tolist())
+        sc0 = scale[first]
+        restate_s = (
+            f"{spindle[first]} S{int(vals[first][0])} (ROBOLOBE SPINDLE SPEED AT THE PASS START)"
         )
-        restate_s = f"{spindle[first]} S{s_first} (ROBOLOBE SPINDLE SPEED AT THE PASS START)"
-        for k, off in enumerate(offs, start=1):
-            sc0 = scale[first]
-            for p in link_moves(edit, sec, pos_mm, end, off):
+        for ps in pass_layout(edit, sec, pos_mm):
+            for p, _ in ps.links:
                 block.append(
                     f"G0 X{fmt_num(p[0] / sc0, 8)} Y{fmt_num(p[1] / sc0, 8)} "
-                    f"Z{fmt_num(p[2] / sc0, 8)} (ROBOLOBE LINK TO PASS {k} OF {len(offs)})"
+                    f"Z{fmt_num(p[2] / sc0, 8)} (ROBOLOBE LINK TO PASS {ps.index} OF {ps.count})"
                 )
-            if s_varies and k > 1:
+            if ps.restate:
                 block.append(restate_s)
-            if off == 0:
+            if ps.own:
                 break
+            off = ps.offset_mm
             block.append(
-                f"(ROBOLOBE PASS {k} OF {len(offs)}: {fmt_num(off, 4)} MM ABOVE THE PROGRAMMED "
-                f"DEPTH, {fmt_num(sec.depth_mm / len(offs), 4)} MM PER PASS)"
+                f"(ROBOLOBE PASS {ps.index} OF {ps.count}: {fmt_num(off, 4)} MM ABOVE THE "
+                f"PROGRAMMED DEPTH, {fmt_num(sec.depth_mm / ps.count, 4)} MM PER PASS)"
             )
             for ln in range(first, last + 1):
                 raw = out_lines.get(ln, src[ln - 1])
@@ -1215,7 +1211,6 @@ def write_gcode(text: str, source: str, edit: ProgramEdit, *, block_delete: bool
                     _pass_copy(raw, off / scale[ln], z_end if ln == first else None,
                                motion[ln], f_text(first))
                 )  # fmt: skip
-            end = pos_mm[sec.stop - 1] + off * np.asarray(sec.axis)
         # the program's own pass: its first block states motion and feed (links changed them)
         raw = out_lines.get(first, src[first - 1])
         raw = _state_first(raw, motion[first], f_text(first))
@@ -1285,3 +1280,78 @@ def _comment_free_append(raw: str, words: str) -> str:
     # before a trailing (comment): words after a comment are still words, but keep it tidy
     head = raw[:semi].rstrip()
     return head + words + raw[semi:]
+
+
+# ------------------------------------------------------------------ translation
+def gcode_setup(text: str, *, block_delete: bool = True) -> tuple[set[str], list[str]]:
+    """The spindle directions (``"M3"``, ``"M4"``) and tool numbers (``T`` words) a program uses."""
+    directions: set[str] = set()
+    tools: list[str] = []
+    for raw in lines(text):
+        s = raw.strip()
+        if not s or s[0] == "%" or (block_delete and re.match(r"^(N\s*\d+\s*)?/", s, re.I)):
+            continue
+        ws, _ = _code_spans(raw)
+        for letter, a, b in ws:
+            v = raw[a:b].replace(" ", "")
+            if letter == "M" and float(v) in (3.0, 4.0):
+                directions.add(f"M{int(float(v))}")
+            elif letter == "T" and v not in tools:
+                tools.append(v)
+    return directions, tools
+
+
+def translate_gcode(
+    table: pd.DataFrame, source: str, *, spindle: str, tool: str | None, note: list[str]
+) -> str:
+    """A G-code program (mm, absolute, three axes) of a waypoint table, a translation.
+
+    Parameters
+    ----------
+    table : pandas.DataFrame
+        :func:`~robolobe.plan.paths._edit.expected_table` with ``full``.
+    source : str
+        The program translated (messages).
+    spindle : {"M3", "M4"}
+        The spindle's direction.
+    tool : str, optional
+        The tool number (``T.. M6`` at the start).
+    note : list of str
+        Comment lines for the head (what was translated, what was not).
+
+    Raises
+    ------
+    InputError
+        A move whose tool axis is not +Z (G-code is written for three axes here).
+    """
+    ax = table[["i", "j", "k"]].to_numpy(dtype=np.float64)
+    off = np.max(np.abs(ax - np.array([0.0, 0.0, 1.0])), axis=1) > 1e-9
+    if np.any(off):
+        r = int(np.argmax(off))
+        raise InputError(
+            "a translation to G-code is written for three axes (tool axis +Z); the tool axis "
+            f"here is {[round(float(v), 6) for v in ax[r]]}: write APT or a waypoint table",
+            source=f"{table['source'].iloc[r]}:{table['line'].iloc[r]}",
+        )
+    out = ["%", *(f"({t.replace('(', '[').replace(')', ']').upper()})" for t in note)]
+    out.append("G21 G90 G94 G17 G40")
+    if tool is not None:
+        out.append(f"T{tool} M6")
+    f_new: str | None = None
+    mode = ""
+    for rec in cl_records(table):
+        if rec.kind == "spindle":
+            out.append(f"{spindle} S{fmt_num(rec.value, 0, point=False)}")
+        elif rec.kind == "feed":
+            f_new = fmt_num(rec.value, 6)
+        else:
+            g = "G1" if rec.kind == "cut" else "G0"
+            words = [g] if g != mode else []
+            mode = g
+            words += [f"{k}{fmt_num(v, 8)}" for k, v in zip("XYZ", rec.xyz, strict=True)]
+            if g == "G1" and f_new is not None:
+                words.append(f"F{f_new}")
+                f_new = None
+            out.append(" ".join(words))
+    out += ["M5", "M30", "%"]
+    return "\n".join(out) + "\n"

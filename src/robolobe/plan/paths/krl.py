@@ -62,14 +62,17 @@ from robolobe.plan.paths._arcs import (
 )
 from robolobe.plan.paths._edit import (
     ProgramEdit,
+    Section,
     fmt_num,
     line_values,
     modal_values,
+    pass_layout,
     sections,
 )
 from robolobe.plan.paths._table import WaypointBuilder
 from robolobe.plan.paths._text import (
     TOOL_DIRECTIONS,
+    TRUNCATED,
     check_choice,
     finite,
     lines,
@@ -159,6 +162,11 @@ class _Reader:
             tuple[float, float, float, float, float, float, float, int, bool, float]
         ] = []
         self.pending_base: list[np.ndarray] = []
+        # for the writer's pass copies: external-axis components of the last target, and
+        # per row ending a CIRC its programmed auxiliary and end point (X..C, as written)
+        self.extra: dict[str, float] = {}
+        self.row_extra: dict[int, dict[str, float]] = {}
+        self.circ: dict[int, tuple[np.ndarray, np.ndarray]] = {}
 
     # ------------------------------------------------------------ helpers
     def declare(self, stmt: str, where: str) -> bool:
@@ -219,6 +227,9 @@ class _Reader:
             agg = self.vars[name]
         if "__axis__" in agg or any(k.startswith("A") and k[1:].isdigit() for k in agg):
             return None
+        self.extra = {
+            k: v for k, v in agg.items() if v is not None and re.fullmatch(r"E[1-6]|S|T", k)
+        }
         vals = {k: v for k, v in agg.items() if k in _POS_KEYS and v is not None}
         if relative:
             if self.pose is None:
@@ -265,6 +276,8 @@ class _Reader:
         self.pending_base.append(base)
         if at is None:
             self.pose = pose
+            if self.extra:
+                self.row_extra[len(self.pending) - 1] = self.extra
 
     def finish(self) -> pd.DataFrame:
         """The waypoint table: all tool frames at once (one rotation call, not one per line)."""
@@ -442,7 +455,10 @@ class _Reader:
             abc = np.degrees(zyx_from_rotation(rots))
             for p, a in zip(pts[:-1], abc[:-1], strict=True):
                 self.emit(np.concatenate([p, a]), lineno, rapid=False, at=p, vel=vel)
+            programmed_end = self.target(parts[1], where)
             self.emit(end, lineno, rapid=False, vel=vel)
+            assert programmed_end is not None
+            self.circ[len(self.pending) - 1] = (aux[:3].copy(), programmed_end)
             return
         if word == "SPL":
             self.out.warn(
@@ -648,7 +664,13 @@ def parse_krl(
     spindle = None
     if spindle_output is not None and spindle_rpm_per_unit is not None:
         spindle = (_anout_index(spindle_output), float(spindle_rpm_per_unit))
-    rd = _Reader(source, tool_direction, arc_tol_mm, coordinates, spindle)
+    return _run_krl(text, source, dat, _Reader(source, tool_direction, arc_tol_mm, coordinates,
+                                              spindle)).finish()  # fmt: skip
+
+
+def _run_krl(text: str, source: str, dat: str | None, rd: _Reader) -> _Reader:
+    """Run the program's main routine through ``rd`` (:func:`parse_krl`); ``rd`` returned."""
+    tool_direction, arc_tol_mm = rd.tool_direction, rd.tol
     if dat is not None:
         dat_name = re.sub(r"\.src$", ".dat", source, flags=re.IGNORECASE)
         rd_dat = _Reader(dat_name, tool_direction, arc_tol_mm)
@@ -675,8 +697,7 @@ def parse_krl(
             raise InputError(f"statement outside DEF ... END: {st!r}", source=f"{source}:{ln}")
     if unterminated:
         rd.out.warn(
-            f"DEF {unterminated[0]} has no END: the file may be truncated "
-            "(the path read so far is planned)"
+            f"DEF {unterminated[0]} has no END: {TRUNCATED} (the path read so far is planned)"
         )
 
     def run(body: list[tuple[int, str]], depth: int) -> None:
@@ -710,7 +731,7 @@ def parse_krl(
                 )
 
     run(main_body, 0)
-    return rd.finish()
+    return rd
 
 
 def _anout_index(value: object) -> int:
@@ -757,7 +778,13 @@ def _krl_insert_note(raw: str, note: str) -> str:
 
 
 def write_krl(
-    text: str, source: str, edit: ProgramEdit, *, name: str, dat: str | None = None
+    text: str,
+    source: str,
+    edit: ProgramEdit,
+    *,
+    name: str,
+    dat: str | None = None,
+    options: dict[str, object] | None = None,
 ) -> tuple[str, str | None]:
     """Write a KRL program (and its ``.dat``) with the speeds and feeds of ``edit``.
 
@@ -774,6 +801,10 @@ def write_krl(
         Stem of the written files: the DEF and DEFDAT names.
     dat : str, optional
         The ``.dat`` as read.
+    options : dict, optional
+        The reader options ``edit.waypoints`` was read with (``arc_tol_mm``,
+        ``tool_direction``, ``coordinates``): the pass copies are written
+        from the program's own targets, read again with them.
 
     Returns
     -------
@@ -782,14 +813,10 @@ def write_krl(
     Raises
     ------
     InputError
-        Analog scaling keys missing; passes (not written in KRL).
+        Analog scaling keys missing; passes over a run of moves that is not
+        in file order, holds a routine call or a spline block, or changes
+        ``$BASE``.
     """
-    if sections(edit):
-        raise InputError(
-            "passes in KRL output are not written (write G-code/APT or a waypoint table, or "
-            "shift $BASE per pass by hand)",
-            source=source,
-        )
     opt = edit.options
     if opt.get("analog_output") is None or opt.get("analog_rpm_full_scale") is None:
         raise InputError(
@@ -886,6 +913,24 @@ def write_krl(
             out_lines[ln] = _krl_insert_note(
                 raw[:a] + f_want[ln] + raw[b:], f"path speed: was {raw[a:b]}"
             )
+    secs = sections(edit)
+    if secs:
+        rd = _Reader(
+            source,
+            str((options or {}).get("tool_direction", "z")),
+            float((options or {}).get("arc_tol_mm", 0.01)),  # type: ignore[arg-type]
+            str((options or {}).get("coordinates", "workpiece")),
+        )
+        _run_krl(text, source, dat, rd)
+        if len(rd.pending) != len(edit.waypoints):
+            raise InputError(
+                f"passes in KRL: the program reads to {len(rd.pending)} moves, the plan's "
+                f"table has {len(edit.waypoints)} (other reader options?)",
+                source=source,
+            )
+        speeds = (n, s_want, f_plain)
+        for sec in secs:
+            _krl_pass_block(edit, sec, src, rd, out_lines, before, speeds, source)
     # module name = file name
     for ln, raw in enumerate(src, start=1):
         m = _DEF.match(_strip(raw).strip())
@@ -911,6 +956,155 @@ def write_krl(
                 break
         dat_out = "\n".join(d) + "\n"
     return "\n".join(res) + "\n", dat_out
+
+
+_NOT_IN_PASSES = re.compile(
+    r"^((GLOBAL\s+)?DEF|DEFFCT|END|ENDFCT|SPLINE|ENDSPLINE|SPL|SLIN|SCIRC)\b|^[A-Z_][A-Z0-9_]*\s*\(.*\)$"
+)
+
+
+def _krl_agg(xyz: np.ndarray, abc: np.ndarray, extra: dict[str, float]) -> str:
+    """A literal target aggregate ``{X .., Y .., Z .., A .., B .., C ..[, E1 ..]}``."""
+    parts = [
+        f"{k} {fmt_num(float(v), 9, point=False)}"
+        for k, v in zip(_POS_KEYS, [*xyz, *abc], strict=True)
+    ]
+    parts += [f"{k} {fmt_num(v, 9, point=False)}" for k, v in sorted(extra.items())]
+    return "{" + ", ".join(parts) + "}"
+
+
+def _krl_pass_block(
+    edit: ProgramEdit,
+    sec: Section,
+    src: list[str],
+    rd: _Reader,
+    out_lines: dict[int, str],
+    before: dict[int, list[str]],
+    speeds: tuple[int, dict[int, str], dict[int, str]],
+    source: str,
+) -> None:
+    """The shallower passes of one section, inserted before it (module notes of ``_edit``).
+
+    Each motion of a pass copy goes to a literal target: the program's own
+    target (as read, with its orientation and external axes) shifted along
+    the tool axis in the base it is programmed in; links are ``PTP`` to
+    literal targets with the orientation of the point they lie above. The
+    ``.dat`` needs no new points.
+    """
+    n_out, s_want, f_plain = speeds
+    wp_lines = edit.waypoints["line"].to_numpy()
+    pos_mm = edit.waypoints[["x_m", "y_m", "z_m"]].to_numpy(dtype=np.float64) * 1e3
+    first, last = int(wp_lines[sec.start]), int(wp_lines[sec.stop - 1])
+    prev = int(wp_lines[sec.start - 1])
+    where = f"{source}:{first}"
+    seq = wp_lines[sec.start : sec.stop]
+    if np.any(np.diff(seq) < 0) or prev >= first:
+        raise InputError(
+            "passes in KRL: the run of cutting moves must follow the move before it in the "
+            "file (no routine calls inside)",
+            where,
+        )
+    opened = 0
+    for ln in range(1, last + 1):
+        code = _strip(src[ln - 1]).strip().upper()
+        if re.match(r"^SPLINE\b", code):
+            opened += 1
+        elif re.match(r"^ENDSPLINE\b", code):
+            opened -= 1
+        if ln >= first and code and _NOT_IN_PASSES.match(code):
+            raise InputError(
+                f"passes in KRL: {code.split()[0]} within the run of cutting moves is not "
+                "repeated (routine calls and spline blocks cannot take the PTP links)",
+                f"{source}:{ln}",
+            )
+        if ln == first - 1 and opened > 0:
+            raise InputError(
+                "passes in KRL: the run of cutting moves is inside a SPLINE block", where
+            )
+    bases = np.array(rd.pending_base[sec.start - 1 : sec.stop])
+    if np.max(np.abs(bases - bases[0])) > 1e-12:
+        raise InputError("passes in KRL: $BASE changes within the run of cutting moves", where)
+    rot, org = bases[0][:3, :3], bases[0][:3, 3]
+    pose = np.array([r[:6] for r in rd.pending], dtype=np.float64)  # as programmed
+
+    def programmed(p: np.ndarray) -> np.ndarray:  # a point [mm] of the table in the base
+        return np.asarray(rot.T @ (p - org))
+
+    end_row = {int(wp_lines[r]): r for r in range(sec.start, sec.stop)}
+    indent = re.match(r"^\s*", src[first - 1]).group(0)  # type: ignore[union-attr]
+    plain = [ln for ln in range(first, last + 1) if ln in f_plain]
+    restate = [f"{indent}TRIGGER WHEN DISTANCE=0 DELAY=0 DO $ANOUT[{n_out}] = {s_want[first]} "
+               "; ROBOLOBE spindle speed at the pass start"]  # fmt: skip
+    if plain:
+        restate.append(
+            f"{indent}$VEL.CP = {f_plain[plain[0]]} ; ROBOLOBE path speed at the pass start"
+        )
+    block: list[str] = []
+    for ps in pass_layout(edit, sec, pos_mm):
+        for p, row in ps.links:
+            agg = _krl_agg(programmed(p), pose[row, 3:6], rd.row_extra.get(row, {}))
+            block.append(f"{indent}PTP {agg} ; ROBOLOBE link to pass {ps.index} of {ps.count}")
+        if ps.restate:
+            block.extend(restate)
+        if ps.own:
+            break
+        block.append(
+            f"{indent}; ROBOLOBE pass {ps.index} of {ps.count}: "
+            f"{fmt_num(ps.offset_mm, 4, point=False)} mm above the programmed depth"
+        )
+        d = rot.T @ ps.shift_mm
+        for ln in range(first, last + 1):
+            block.extend(x for x in before.get(ln, []) if not x.lstrip().startswith(";"))
+            raw = out_lines.get(ln, src[ln - 1])
+            code = _strip(raw)
+            if not code.strip():
+                continue  # comments and folds are not repeated
+            m = _MOTION.match(code.strip().upper())
+            if m:
+                raw = _krl_shifted(raw, code, m, end_row[ln], pose, rd, d, where)
+            block.append(raw)
+    before.setdefault(first, [])[0:0] = block
+
+
+def _krl_shifted(
+    raw: str,
+    code: str,
+    m: re.Match[str],
+    row: int,
+    pose: np.ndarray,
+    rd: _Reader,
+    d: np.ndarray,
+    where: str,
+) -> str:
+    """A motion line with its target(s) replaced by literal aggregates shifted by ``d`` [mm]."""
+    word = m.group(1)
+    lead = len(code) - len(code.lstrip())
+    rest_at = lead + m.start(2)
+    rest = code[rest_at:]
+    up = rest.upper()
+    mw = re.search(r"\bWITH\b", up)
+    head = rest[: mw.start()] if mw else rest
+    ma = _APPROX.search(head.upper())
+    tgt = head[: ma.start()] if ma else head
+    tail = rest[len(tgt.rstrip()) :]
+    extra = rd.row_extra.get(row, {})
+    if word in ("CIRC", "SCIRC"):
+        aux, end = rd.circ[row]
+        parts = _split_top(tgt)
+        ca = f", {parts[2].strip()}" if len(parts) == 3 else ""
+        new_t = (
+            "{" + ", ".join(f"{k} {fmt_num(float(v), 9, point=False)}"
+                            for k, v in zip("XYZ", aux + d, strict=True)) + "}, "
+            + _krl_agg(end[:3] + d, end[3:6], extra) + ca
+        )  # fmt: skip
+    elif word in ("LIN", "LIN_REL"):
+        new_t = _krl_agg(pose[row, :3] + d, pose[row, 3:6], extra)
+        word = "LIN"
+    else:
+        raise InputError(f"passes in KRL: {word} within the run of cutting moves", where)
+    return (
+        raw[:lead] + word + " " + new_t + tail + raw[len(code) :]
+    ).rstrip() + " ; ROBOLOBE pass copy" * (";" not in raw[len(code) :])
 
 
 def _is_number(text: str) -> bool:

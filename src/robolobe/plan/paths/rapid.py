@@ -57,13 +57,14 @@ from robolobe.plan.paths._edit import (
     Section,
     fmt_num,
     line_values,
-    link_moves,
     modal_values,
+    pass_layout,
     sections,
 )
 from robolobe.plan.paths._table import WaypointBuilder
 from robolobe.plan.paths._text import (
     TOOL_DIRECTIONS,
+    TRUNCATED,
     check_choice,
     finite,
     lines,
@@ -659,12 +660,11 @@ def parse_rapid(
     top, procs, order, ended = _procedures(stmts)
     if "\x00open" in order:
         rd.out.warn(
-            f"PROC {order[-2]} has no ENDPROC: the file may be truncated "
-            "(the path read so far is planned)"
+            f"PROC {order[-2]} has no ENDPROC: {TRUNCATED} (the path read so far is planned)"
         )
         order = order[:-1]
     elif not ended and any(re.match(r"^MODULE\b", s, re.IGNORECASE) for _, s in stmts):
-        rd.out.warn("MODULE without ENDMODULE: the file may be truncated")
+        rd.out.warn(f"MODULE without ENDMODULE: {TRUNCATED}")
     for lineno, st in top:
         called = rd.statement(lineno, st)
         if called is not None:
@@ -727,7 +727,9 @@ _PREDEFINED_V = re.compile(r"^V(\d+(?:\.\d*)?)$", re.IGNORECASE)
 _TRIGG = "trRobolobeSpindle"
 
 
-def write_rapid(text: str, source: str, edit: ProgramEdit) -> str:
+def write_rapid(
+    text: str, source: str, edit: ProgramEdit, *, coordinates: str = "workpiece"
+) -> str:
     """Write a RAPID module with the speeds and feeds of ``edit``.
 
     Parameters
@@ -740,6 +742,9 @@ def write_rapid(text: str, source: str, edit: ProgramEdit) -> str:
         ``edit.options``: ``analog_output`` (signal name),
         ``analog_rpm_full_scale``, ``analog_full_scale``, ``rapid_sync``
         (``"triggio"`` or ``"setao"``).
+    coordinates : {"workpiece", "machine"}
+        As the reader was told: with ``machine`` the points were read through
+        the work objects, whose frame ``Offs`` shifts a pass in.
 
     Returns
     -------
@@ -903,6 +908,13 @@ def write_rapid(text: str, source: str, edit: ProgramEdit) -> str:
                 )
         out_lines[ln] = new_raw.rstrip() + " ! ROBOLOBE " + "; ".join(note)
     secs = sections(edit)
+    if secs and coordinates == "machine" and re.search(r"\\WObj\s*:=", text, re.IGNORECASE):
+        raise InputError(
+            "passes in RAPID read with coordinates = 'machine' through work objects are not "
+            "written (Offs shifts in the work object's frame); plan with coordinates = "
+            "'workpiece'",
+            source=source,
+        )
     if secs:
         stmt_lines = {ln for ln, _ in stmts}
         per_unit_sig = (sig, per_unit)
@@ -979,40 +991,28 @@ def _rapid_pass_block(
     pw, pa = all_moves[prev]
     _, kp = _targets(pw, pa)
     link_speed = pa[kp].strip()
-    a = np.asarray(sec.axis)
-    p_start, p_end = pos_mm[sec.start - 1], pos_mm[sec.stop - 1]
-    offs = sec.offsets_mm()
-    n = len(offs)
+    # the target each link point is written from, by the row it lies above
+    anchor = {sec.start - 1: start_t, sec.stop - 1: end_t}
     sig, per_unit = spindle
-    s_first = edit.rpm[sec.start]
-    s_varies = bool(np.any(edit.rpm[sec.start : sec.stop] != s_first))
     restate = (
-        f"    SetAO {sig}, {fmt_num(s_first / per_unit, 12, point=False)}; "
+        f"    SetAO {sig}, {fmt_num(edit.rpm[sec.start] / per_unit, 12, point=False)}; "
         "! ROBOLOBE spindle speed at the pass start"
     )
     block: list[str] = []
-    end = p_start
-    for k, off in enumerate(offs, start=1):
-        pts = link_moves(edit, sec, pos_mm, end, off)
-        bases = (
-            [(end_t, p_end), (start_t, p_start), (start_t, p_start)]
-            if len(pts) == 3
-            else [(start_t, p_start)]
-        )
-        for p, (t, base) in zip(pts, bases, strict=True):
+    for ps in pass_layout(edit, sec, pos_mm):
+        for p, row in ps.links:
             block.append(
-                f"    MoveJ {_offs(t, p - base)}, {link_speed}, fine, {tail}; "
-                f"! ROBOLOBE link to pass {k} of {n}"
+                f"    MoveJ {_offs(anchor[row], p - pos_mm[row])}, {link_speed}, fine, {tail}; "
+                f"! ROBOLOBE link to pass {ps.index} of {ps.count}"
             )
-        if s_varies and k > 1:
+        if ps.restate:
             block.append(restate)
-        if off == 0:
+        if ps.own:
             break
         block.append(
-            f"    ! ROBOLOBE pass {k} of {n}: {fmt_num(off, 4, point=False)} mm above the "
-            "programmed depth"
+            f"    ! ROBOLOBE pass {ps.index} of {ps.count}: "
+            f"{fmt_num(ps.offset_mm, 4, point=False)} mm above the programmed depth"
         )
-        d = off * a
         for ln in range(first, last + 1):
             block.extend(x for x in before.get(ln, []) if not x.lstrip().startswith("!"))
             raw = out_lines.get(ln, src[ln - 1])
@@ -1024,11 +1024,10 @@ def _rapid_pass_block(
                     j = raw.find(t, pos)
                     if j < 0:
                         raise InputError("passes in RAPID: target not found on its line", where)
-                    new = _offs(t, d)
+                    new = _offs(t, ps.shift_mm)
                     raw = raw[:j] + new + raw[j + len(t) :]
                     pos = j + len(new)
             block.append(raw)
-        end = p_end + d
     before.setdefault(first, [])[0:0] = block
 
 
