@@ -60,19 +60,49 @@ def _edit(wp: pd.DataFrame, rpm_of_line, feed_of_line, passes=1, depth=np.nan) -
     )
 
 
+def _runs(cut: np.ndarray) -> list[tuple[int, int]]:
+    """Runs of consecutive cutting rows (start, stop), made here for the reference."""
+    edges = np.flatnonzero(np.diff(np.r_[0, cut.astype(int), 0]))
+    return list(zip(edges[::2].tolist(), edges[1::2].tolist(), strict=True))
+
+
 def _roundtrip(written: pd.DataFrame, edit: ProgramEdit) -> None:
-    """The written program reads back to the original moves with the edit's S and F."""
+    """The written program reads back to the original moves with the edit's S and F.
+
+    Where the edit has passes, each run of cutting moves comes back once per pass,
+    pass ``k`` of ``p`` shifted up the tool axis (+z here) by ``(p - 1 - k)`` depths per
+    pass, with the same S and F; the rows outside the cut are the program's own then.
+    """
     orig = edit.waypoints
-    assert len(written) == len(orig)
+    cut = edit.cut
     p0 = orig[["x_m", "y_m", "z_m"]].to_numpy() * 1e3
     p1 = written[["x_m", "y_m", "z_m"]].to_numpy() * 1e3
-    assert np.max(np.abs(p1 - p0)) <= 1e-6
-    assert (written["motion"].to_numpy() == orig["motion"].to_numpy()).all()
-    cut = edit.cut
-    np.testing.assert_allclose(written["rpm_programmed"].to_numpy()[cut], edit.rpm[cut])
+    if np.all(edit.passes[cut] == 1):
+        assert len(written) == len(orig)
+        assert np.max(np.abs(p1 - p0)) <= 1e-6
+        assert (written["motion"].to_numpy() == orig["motion"].to_numpy()).all()
+        np.testing.assert_allclose(written["rpm_programmed"].to_numpy()[cut], edit.rpm[cut])
+        np.testing.assert_allclose(
+            written["feed_mm_per_min"].to_numpy()[cut], edit.feed_mm_per_min[cut], rtol=1e-7
+        )
+        return
+    xyz, rpm, feed = [], [], []
+    for a, b in _runs(cut):
+        p = int(edit.passes[a])
+        d = float(edit.depth_mm[a]) / p  # (the edit holds the total depth)
+        for k in range(p):
+            xyz.append(p0[a:b] + np.array([0.0, 0.0, (p - 1 - k) * d]))
+            rpm.append(edit.rpm[a:b])
+            feed.append(edit.feed_mm_per_min[a:b])
+    wc = (written["motion"] == "cut").to_numpy()
+    assert wc.sum() == sum(len(x) for x in xyz)
+    assert np.max(np.abs(p1[wc] - np.concatenate(xyz))) <= 1e-6
+    np.testing.assert_allclose(written["rpm_programmed"].to_numpy()[wc], np.concatenate(rpm))
     np.testing.assert_allclose(
-        written["feed_mm_per_min"].to_numpy()[cut], edit.feed_mm_per_min[cut], rtol=1e-7
+        written["feed_mm_per_min"].to_numpy()[wc], np.concatenate(feed), rtol=1e-7
     )
+    np.testing.assert_allclose(p1[0], p0[0], atol=1e-9)  # the program's own first and last
+    np.testing.assert_allclose(p1[-1], p0[-1], atol=1e-9)
 
 
 # ------------------------------------------------------------------ plans of the bundled jobs
@@ -91,7 +121,7 @@ def test_bundled_plan_round_trip(which, request, tmp_path) -> None:
     # F keeps the program's own feed per tooth: F_new / S_new == F_old / S_old
     wp = res.waypoints
     np.testing.assert_allclose(
-        back["feed_mm_per_min"].to_numpy()[cut] / back["rpm_programmed"].to_numpy()[cut],
+        edit.feed_mm_per_min[cut] / edit.rpm[cut],
         wp["feed_mm_per_min"].to_numpy()[cut] / wp["rpm_programmed"].to_numpy()[cut],
         rtol=1e-6,
     )
@@ -106,14 +136,24 @@ def test_constant_speed_plan_changes_only_s_and_f(pocket, tmp_path) -> None:
     text = program_text(res)["program.nc"]
     orig = (EX / "pocket.nc").read_text().splitlines()
     new = text.splitlines()
-    assert len(new) == len(orig)  # S changes once, on the program's own S block
+    # the plan cuts the 5 mm pocket in passes: its lines are the program's, the section
+    # (N35-N195, the cutting moves between the rapids) once per pass, shifted in Z
+    p = int(res.summary.passes[0]["passes"])
+    assert p > 1
 
     def strip(s: str) -> str:
         s = re.sub(r"\s*\(ROBOLOBE[^)]*\)", "", s)
-        return re.sub(r"\s*[SF][-+]?[\d.]+", "", s)
+        s = re.sub(r"^N\d+\s*", "", s)
+        return re.sub(r"\s*[SFZ][-+]?[\d.]+", "", s)
 
-    assert [strip(a) for a in new] == [strip(a) for a in orig]
-    assert sum(a != b for a, b in zip(new, orig, strict=True)) >= 1
+    links = [a for a in new if a.startswith("(ROBOLOBE PASS") or "(ROBOLOBE LINK" in a]
+    kept = [strip(a) for a in new if a not in links]
+    first = next(i for i, a in enumerate(orig) if a.startswith("N35 "))
+    last = next(i for i, a in enumerate(orig) if a.startswith("N195 "))
+    section = [strip(a) for a in orig[first : last + 1]]
+    want = [strip(a) for a in orig[:first]] + section * p + [strip(a) for a in orig[last + 1 :]]
+    assert kept == want
+    assert any("ROBOLOBE S18000>" in a for a in new)  # S changed once, on its own block
 
 
 def test_passes_repeat_the_section_along_the_tool_axis(pocket) -> None:
