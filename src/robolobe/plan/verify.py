@@ -32,6 +32,7 @@ from robolobe._atomic import check_input_file
 from robolobe._text import plot_text
 from robolobe.errors import InputError
 from robolobe.plan.job import Job, load_job
+from robolobe.plan.limits import process_limits
 from robolobe.plan.modes import ModeSource, TwinSource, model_file_source
 from robolobe.plan.pipeline import (
     _tool_model,
@@ -334,7 +335,9 @@ def verify_plan(
     plunge_rec = (sub["limiting"] == "plunge").to_numpy()
     f_tcp = np.stack([np.cos(fa), np.sin(fa), np.zeros_like(fa)], axis=1)
     f_tcp[plunge_rec] = [0.0, 0.0, 1.0]
-    rpm_grid = np.linspace(j.spindle.rpm_min, j.spindle.rpm_max, j.plan.n_rpm)
+    # the plan's own grid: the spindle's range within the vc range (plan_path)
+    lim = process_limits(j)
+    rpm_grid = np.linspace(lim.rpm_min, lim.rpm_max, j.plan.n_rpm)
     own = (
         sub["lobes_own"].astype(str).str.lower().isin(("true", "1")).to_numpy()
         if "lobes_own" in sub.columns
