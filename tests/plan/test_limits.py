@@ -52,11 +52,14 @@ def test_face_in_c45_no_longer_plans_above_the_steel_vc_max() -> None:
     assert n_max == pytest.approx(3819.72, abs=0.01)
     assert s["rpm_max"] <= n_max + 0.1  # summary rounds to 0.1 rpm
     assert math.pi * 25 * s["rpm_max"] / 1000 <= vc_max + 0.01
-    # the binding limit is named where it binds: the vc limit, not the spindle's 8000 rpm
+    # the binding limit is named where it binds (the face in passes: stability); on the slot
+    # in C45 (D16, vc_max 300 m/min = 5968 rpm) the vc limit, not the spindle's 12000 rpm
+    assert any(n.startswith("binding limit") for n in s["notes"]), s["notes"]
+    slot = rl.plan_path(EX / "slot.src", load_job(EX / "job_A_slot_steel.toml")).summary
     assert any(
-        n.startswith("binding limit") and "vc_max 300 m/min" in n and "3820 rpm" in n
-        for n in s["notes"]
-    ), s["notes"]
+        n.startswith("binding limit") and "vc_max 300 m/min" in n and "5968 rpm" in n
+        for n in slot.notes
+    ), slot.notes
     assert any("cutting speed kept within vc 100-300 m/min" in n for n in s["notes"])
 
 

@@ -9,6 +9,7 @@ import tomllib
 from importlib import resources
 from typing import Any
 
+import numpy as np
 import pytest
 
 from robolobe.errors import InputError
@@ -24,15 +25,23 @@ def _job(stock: dict[str, Any]) -> Any:
     return job_from_dict(d, source="job_A_pocket.toml")
 
 
-def test_pocket_slot_is_named_as_engaged_wider_than_planned() -> None:
+def test_pocket_slot_is_planned_at_its_own_full_engagement() -> None:
     job = _job({"box_min_mm": [-60.0, -40.0, -10.0], "box_max_mm": [60.0, 40.0, 0.0]})
     with resources.as_file(EX.joinpath("pocket.nc")) as p:
         res = plan_path(p, job)
     notes = " ".join(res.summary.notes)
     assert "[stock]: engagement of every move computed on the box x -60..60" in notes
-    # pocket.nc:12 is the full-width centre slot, planned at a_e/D 0.5 today
-    assert "moves engage wider, up to a_e/D 1.00" in notes
-    assert "up to a_e/D 1.00 at pocket.nc:12 (first: pocket.nc:12 a_e/D 1.00 (slot)" in notes
+    assert res.summary.engagement == "stock"
+    # pocket.nc:12 is the full-width centre slot (the job's cut.radial_width_mm says 0.5):
+    # planned at a_e/D 1, 0..180 deg, at the 10 mm the stock holds above the pocket floor
+    # (the program cuts at Z-5 in a 10 mm box: 5 mm of it)
+    t = res.table
+    slot = t[(t["line"] == 12) & (t["motion"] == "cut")]
+    assert (slot["ae_over_D"] > 0.999).all()
+    assert np.allclose(slot["phi_entry_deg"], 0.0, atol=0.5)
+    assert np.allclose(slot["phi_exit_deg"], 180.0, atol=0.5)
+    assert np.allclose(slot["program_depth_mm"], 5.0, atol=0.01)
+    assert (slot["margin"] >= job.plan.safety_factor * (1 - 1e-9)).all()
 
 
 def test_a_stock_elsewhere_is_refused_before_planning() -> None:

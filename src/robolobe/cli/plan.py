@@ -39,8 +39,7 @@ def _print_summary(s: PlanSummary, out: Path) -> None:
         deep = [r for r in s.passes if r["program_depth_mm"] > 0]
         t.add_row(
             "engagement",
-            f"each move's own ({s.engagement}); {len(deep)} cutting section"
-            f"{'s' if len(deep) != 1 else ''}",
+            f"each move's own ({s.engagement}); {count(len(deep), 'cutting section')}",
         )
         for r in deep[:6]:
             t.add_row(
