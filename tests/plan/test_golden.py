@@ -19,32 +19,44 @@ import robolobe as rl
 EXAMPLES = resources.files("robolobe.data").joinpath("examples")
 
 #: job, path, n_waypoints, n_cut, cut length [m], depth [mm], rpm min, rpm max,
-#: MRR [cm^3/min], cycle time [s], safety factor
+#: MRR [cm^3/min], cycle time [s], safety factor, passes of the deepest section
 GOLDEN = [
-    # issue 25: lobes converged in frequency; the static grid had stated the pocket's
-    # limits up to 1.18x too high (2.8786 mm at 22,514-22,676 rpm before)
-    ("job_A_pocket", "pocket.nc", 168, 165, 0.7859, 2.6034, 24000.0, 24000.0, 149.953, 8.257, 1.3),
-    ("job_B_contour", "contour.apt", 75, 72, 0.7158, 2.0369, 24000.0, 24000.0, 70.394, 7.588, 1.3),
-    # issue 26: the cutting-speed limit of the material table (carbide): steel vc <= 300 m/min
-    # is 3819.7 rpm with D25 (7202.8 rpm = 565.7 m/min, depth 1.6142 mm, 41.857 cm^3/min
-    # before), 5968.3 rpm with D16 (12000 rpm = 603 m/min, 1.0692 mm, 41.059 cm^3/min
-    # before); Ti-6Al-4V vc <= 120 m/min is 1527.9 rpm with D25 (2500 rpm = 196 m/min,
-    # 0.1145 mm before; the job's depth_min_mm lowered to 0.01 to stay feasible)
-    ("job_C_face_steel", "face.mod", 24, 23, 2.4315, 0.5373, 3819.7, 3819.7, 7.388, 159.141, 1.5),
+    # issue 26: each move at its own engagement on the stock (default stock; the contour
+    # job's raw plate), the program's own depth in passes, the program's chip load, the
+    # material table's vc range (before, one width and a free depth: pocket 2.6034 mm at
+    # 24,000 rpm, contour 2.0369 mm, face 1.6142 mm at 7,202.8 rpm, slot 1.0692 mm at
+    # 12,000 rpm, face in Ti 0.1145 mm at 2,500 rpm)
+    (
+        "job_A_pocket",
+        "pocket.nc",
+        168,
+        165,
+        0.7859,
+        1.6667,
+        20665.4,
+        20665.4,
+        162.036,
+        24.973,
+        1.3,
+        3,
+    ),
+    ("job_B_contour", "contour.apt", 75, 72, 0.7158, 2.0, 24000.0, 24000.0, 42.162, 26.324, 1.3, 4),
+    ("job_C_face_steel", "face.mod", 24, 23, 2.4315, 0.3, 3745.9, 3745.9, 5.407, 811.382, 1.5, 5),
     (
         "job_C_face_ti_lowspeed",
         "face.mod",
         24,
         23,
         2.4315,
-        0.033,
+        0.0211,
         1527.9,
         1527.9,
-        0.242,
-        298.39,
+        0.207,
+        21185.686,
         1.5,
+        71,
     ),
-    ("job_A_slot_steel", "slot.src", 46, 44, 0.4515, 0.5291, 5968.3, 5968.3, 10.106, 22.826, 1.5),
+    ("job_A_slot_steel", "slot.src", 46, 44, 0.4515, 0.5, 5968.3, 5968.3, 8.638, 136.309, 1.5, 6),
 ]
 #: relative tolerance of depth, speed, MRR and cycle time (the optimizer's
 #: refinement and lobe sharing may move them a little; the geometry may not)
@@ -52,7 +64,7 @@ REL = 0.03
 
 
 def _check(row: tuple) -> None:
-    job_name, path, n_wp, n_cut, length, depth, rpm_lo, rpm_hi, mrr, cycle, sf = row
+    job_name, path, n_wp, n_cut, length, depth, rpm_lo, rpm_hi, mrr, cycle, sf, passes = row
     job = rl.load_job(EXAMPLES.joinpath(f"{job_name}.toml"))
     s = rl.plan_path(EXAMPLES.joinpath(path), job).summary.to_dict()  # summary.json
     assert (s["n_waypoints"], s["n_cut"]) == (n_wp, n_cut)
@@ -64,6 +76,7 @@ def _check(row: tuple) -> None:
     assert s["rpm_max"] == pytest.approx(rpm_hi, rel=REL)
     assert s["mrr_cm3_per_min"] == pytest.approx(mrr, rel=REL)
     assert s["cycle_time_s"] == pytest.approx(cycle, rel=REL)
+    assert max(r["passes"] for r in s["passes"]) == passes
 
 
 def test_bundled_pocket_headline_numbers() -> None:

@@ -1179,6 +1179,14 @@ def plan_path(
     if depth is not None:
         assert eng is not None
         passes_rows = _apply_passes(table, grouped, outcome, depth, ci, plunge, eng, cons, seg)
+        most = max(passes_rows, key=lambda r: r["passes"])
+        if most["passes"] > MANY_PASSES:
+            note = (note + "; " if note else "") + (
+                f"{most['lines']} needs {most['passes']} passes of {most['depth_per_pass_mm']:g} "
+                f"mm for its {most['program_depth_mm']:g} mm (set by {most['set_by']}): the "
+                "robot is far too soft for this cut here; a stiffer posture or placement "
+                "(robolobe compare), a shorter or stiffer tool, or a lighter program"
+            )
         imm = eng.immersion[ci]
         low = ~plunge & eng.engaged[ci] & (imm < LOW_IMMERSION)
         if low.any():
@@ -1387,6 +1395,8 @@ def _result_table(
     return pd.DataFrame(cols, copy=False)
 
 
+#: Passes of one section above which the plan's notes say the cut is far beyond the robot.
+MANY_PASSES = 10
 #: Relative slack under which a limit binds at a move of a plan in passes (above it for
 #: every limit the move's speed is held by the schedule: ``limiting = "schedule"``).
 BINDING_SLACK = 0.01
