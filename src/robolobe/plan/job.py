@@ -123,6 +123,7 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_valida
 
 from robolobe._atomic import not_a_file
 from robolobe._documents import parse_toml
+from robolobe._frf_checks import tool_mode_k_floor
 from robolobe._toml_errors import PrintableText, check_key_typos, describe_error, key_path
 from robolobe.errors import InputError, InputTypeError
 from robolobe.robots.transforms import pose_from_xyz_zyx, xyz_zyx_from_pose
@@ -444,7 +445,9 @@ class ToolSpec:
     helix_rad : float
         Helix angle [rad].
     stickout_m : float
-        Stick-out [m] (informative; the modes carry the dynamics).
+        Stick-out [m]: bounds how soft a tool mode can be (a stiffness in N/mm is
+        refused, :func:`robolobe._frf_checks.tool_mode_k_floor`); the modes carry
+        the dynamics.
     modes : tuple of ToolMode
         Spindle/holder/tool modes added to the robot's tool-point FRF.
     corner_radius_m : float
@@ -716,6 +719,28 @@ def _check_typos(raw: dict[str, Any], where: str) -> None:
     check_key_typos(tables, where)
 
 
+# ------------------------------------------------------------ tool modes
+def _check_tool_modes(t: _ToolSpec, where: str) -> None:
+    """Refuse a tool mode softer than a tool of its size can be (a stiffness in N/mm).
+
+    The bound (:func:`robolobe._frf_checks.tool_mode_k_floor`) takes the
+    tool's diameter and stick-out; a stick-out left at its default is said,
+    as the other way out of the refusal.
+    """
+    for i, m in enumerate(t.modes):
+        floor, why = tool_mode_k_floor(m.f_hz, t.diameter_mm * 1e-3, t.stickout_mm * 1e-3)
+        if m.k_N_per_m >= floor:
+            continue
+        stick = "" if "stickout_mm" in t.model_fields_set else " (the default)"
+        raise InputError(
+            f"tool.modes[{i + 1}].k_N_per_m: expected at least {floor:.3g} N/m for a mode at "
+            f"{m.f_hz:g} Hz of a {t.diameter_mm:g} mm tool at tool.stickout_mm = "
+            f"{t.stickout_mm:g}{stick} ({why}), found {m.k_N_per_m:g}: a stiffness in N/mm? "
+            f"In N/m it is {m.k_N_per_m * 1e3:.3g}; or give the tool's real tool.stickout_mm",
+            source=where,
+        )
+
+
 # ---------------------------------------------------------------- build
 def _resolve_file(value: str, base_dir: Path | None) -> str:
     p = Path(value)
@@ -785,6 +810,7 @@ def job_from_dict(d: dict[str, Any], source: str = "<dict>", base_dir: Path | No
         effects = read_effects(effects_file)
 
     t = spec.tool
+    _check_tool_modes(t, where)
     modes: list[ToolMode] = []
     for m in t.modes:
         dirs: tuple[Literal["x", "y"], ...] = ("x", "y") if m.dir == "xy" else (m.dir,)
