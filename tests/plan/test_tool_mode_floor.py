@@ -62,7 +62,8 @@ def test_threshold_of_the_pocket_tool(pocket: dict[str, Any], f_hz: float, floor
     assert msg.startswith("j.toml: tool.modes[1].k_N_per_m: expected at least ")
     assert f"{floor:.3g} N/m" in msg
     assert "N/mm" in msg
-    assert "tool.stickout_mm = 60" in msg
+    assert "a stick-out of 60 mm (" in msg
+    assert msg.endswith("or give the tool's real tool.stickout_mm")
     assert "(the default)" not in msg
     assert "\n" not in msg
 
@@ -84,7 +85,7 @@ def test_slender_tool_and_default_stickout(pocket: dict[str, Any]) -> None:
     # stick-out not given: the default 50 mm, said as such
     del d["tool"]["stickout_mm"]
     d["tool"]["modes"][0]["k_N_per_m"] = 56_772.0 * 0.999
-    with pytest.raises(InputError, match=r"5\.68e\+04 N/m .*stickout_mm = 50 \(the default\)"):
+    with pytest.raises(InputError, match=r"5\.68e\+04 N/m .*stick-out of 50 mm \(the default\)"):
         job_from_dict(d, source="j.toml")
     d["tool"]["modes"][0]["k_N_per_m"] = 56_772.0 * 1.001
     job_from_dict(d, source="j.toml")
@@ -111,3 +112,14 @@ def test_cli_refuses_with_one_line(tmp_path: Path) -> None:
     assert "tool.modes[1].k_N_per_m" in lines[0]
     assert "Traceback" not in r.stderr
     assert not out.exists()
+
+
+def test_python_api_tool_spec_is_checked() -> None:
+    from robolobe.plan.job import ToolMode, ToolSpec
+
+    ok = ToolMode("x", 1850.0, 0.035, 1.5994e6 * 1.001)
+    ToolSpec(diameter_m=0.02, teeth=3, stickout_m=0.06, modes=(ok,))
+    slip = ToolMode("y", 1850.0, 0.035, 2.2e4)
+    want = r"^ToolSpec\.modes\[1\]\.k_N_per_m: expected at least 1\.6e\+06 .*real stickout_m$"
+    with pytest.raises(InputError, match=want):
+        ToolSpec(diameter_m=0.02, teeth=3, stickout_m=0.06, modes=(ok, slip))

@@ -462,6 +462,15 @@ class ToolSpec:
     modes: tuple[ToolMode, ...] = ()
     corner_radius_m: float = 0.0
 
+    def __post_init__(self) -> None:
+        # the job file's check names the file and key first; this one guards the Python API
+        for i, m in enumerate(self.modes):
+            problem = _soft_tool_mode(
+                m.f_hz, m.k_N_per_m, self.diameter_m, self.stickout_m, "stickout_m"
+            )
+            if problem is not None:
+                raise InputError(f"ToolSpec.modes[{i}].k_N_per_m: {problem}")
+
     @property
     def shape(self) -> Literal["flat end mill", "ball-end", "bull-nose"]:
         """The cutter's end shape, from its corner radius."""
@@ -727,18 +736,44 @@ def _check_tool_modes(t: _ToolSpec, where: str) -> None:
     tool's diameter and stick-out; a stick-out left at its default is said,
     as the other way out of the refusal.
     """
+    default = "stickout_mm" not in t.model_fields_set
     for i, m in enumerate(t.modes):
-        floor, why = tool_mode_k_floor(m.f_hz, t.diameter_mm * 1e-3, t.stickout_mm * 1e-3)
-        if m.k_N_per_m >= floor:
-            continue
-        stick = "" if "stickout_mm" in t.model_fields_set else " (the default)"
-        raise InputError(
-            f"tool.modes[{i + 1}].k_N_per_m: expected at least {floor:.3g} N/m for a mode at "
-            f"{m.f_hz:g} Hz of a {t.diameter_mm:g} mm tool at tool.stickout_mm = "
-            f"{t.stickout_mm:g}{stick} ({why}), found {m.k_N_per_m:g}: a stiffness in N/mm? "
-            f"In N/m it is {m.k_N_per_m * 1e3:.3g}; or give the tool's real tool.stickout_mm",
-            source=where,
-        )
+        problem = _soft_tool_mode(
+            m.f_hz, m.k_N_per_m, t.diameter_mm * 1e-3, t.stickout_mm * 1e-3,
+            "tool.stickout_mm", default=default,
+        )  # fmt: skip
+        if problem is not None:
+            raise InputError(f"tool.modes[{i + 1}].k_N_per_m: {problem}", source=where)
+
+
+def _soft_tool_mode(
+    f_hz: float,
+    k: float,
+    diameter_m: float,
+    stickout_m: float,
+    stick_key: str,
+    *,
+    default: bool = False,
+) -> str | None:
+    """Why a tool mode is softer than a tool of its size can be (expected vs found), or None.
+
+    ``stick_key`` names the stick-out in the message (``default``: it was not given).
+    """
+    try:
+        vals = [float(x) for x in (f_hz, k, diameter_m, stickout_m)]
+    except (TypeError, ValueError):
+        return None  # the fields' own checks say what is wrong
+    if not all(math.isfinite(x) and x > 0 for x in vals):
+        return None
+    floor, why = tool_mode_k_floor(vals[0], vals[2], vals[3])
+    if vals[1] >= floor:
+        return None
+    return (
+        f"expected at least {floor:.3g} N/m for a mode at {vals[0]:g} Hz of a "
+        f"{vals[2] * 1e3:g} mm tool at a stick-out of {vals[3] * 1e3:g} mm"
+        f"{' (the default)' if default else ''} ({why}), found {vals[1]:g}: a stiffness in "
+        f"N/mm? In N/m it is {vals[1] * 1e3:.3g}; or give the tool's real {stick_key}"
+    )
 
 
 # ---------------------------------------------------------------- build
