@@ -53,8 +53,9 @@ TOOL_BAR_DIAMETER_SHARE = 0.8
 TOOL_MOUNT_K_MIN_N_PER_M = 1.0e5
 #: Lightest tip-normalised modal mass of a tool mode, as a share of the bar's
 #: mass: every bending mode of a uniform cantilever has a quarter of the beam's
-#: mass (int phi^2 = L phi(L)^2 / 4), so does the stiffest rigid tilt of the bar;
-#: half of that for a necked tool and the fit's error.
+#: mass (int phi^2 = L phi(L)^2 / 4), and a rigid tilt of the bar about any
+#: pivot no less (exactly 1/4 at a pivot L/3 from the clamp); half of that for a
+#: necked tool and the fit's error.
 TOOL_MODAL_MASS_SHARE = 1.0 / 8.0
 
 
