@@ -2,8 +2,13 @@
 
 Prints computed values next to the references: directional factors, the
 1-DOF and 2-DOF zero-order minima, semi-discretization (SDM) against ZOA for
-slotting, half immersion and low immersion, and the up/down symmetry. Runs in
-well under a minute. Usage: ``python studies/sld_validation.py``.
+slotting, half immersion and low immersion, and the up/down symmetry; then
+the converged lobes (:func:`robolobe.sld.converged_lobes`) against the tests'
+independent textbook ZOA (``tests/sld/zoa_reference.py``) on the cases of
+``tests/sld/test_converged.py`` (robot modes with a tool mode, overdamped
+robot modes) and the bundled plans' stated limits at every cutting waypoint
+(``tests/plan/test_converged_plans.py``). About 75 s of CPU. Usage:
+``python studies/sld_validation.py`` (from the repository root).
 
 Reference system (Insperger, Mann, Stepan & Bayly 2003; REFERENCES.md): N = 2,
 Kt = 6e8 N/m^2, Kn = 2e8 N/m^2, f_n = 922 Hz, zeta = 0.011,
@@ -13,6 +18,8 @@ k = m (2 pi f_n)^2 with m = 0.03993 kg.
 from __future__ import annotations
 
 import math
+import sys
+from pathlib import Path
 
 import numpy as np
 
@@ -142,6 +149,48 @@ def main() -> None:
             "0" if name == "2-DOF" else "> 0",
             "identical only for isotropic 2-DOF",
         )
+    converged()
+
+
+def converged() -> None:
+    """Converged lobes / reference ZOA at every speed, the cases of tests/sld/test_converged.py."""
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+    from tests.sld.test_converged import _ratio, _robot_and_tool
+    from tests.sld.zoa_reference import alphas, reference_envelope
+
+    from robolobe.sld import converged_lobes, zoa_lobes
+
+    print(f"\n{'converged lobes / reference ZOA, every speed':48s} {'min':>12s} {'max':>12s}  note")
+    f, z, res = _robot_and_tool()
+    al = alphas(0.0, math.pi / 2, 0.3)
+    rpm = np.linspace(1000.0, 30000.0, 300)
+    ref = reference_envelope(f, z, res, al, teeth=3, kt=7e8, rpm=rpm)
+    model = ModalModel(2 * np.pi * f, z, res)
+    r = _ratio(converged_lobes(model, al, teeth=3, kt=7e8, rpm=rpm).a_lim, ref)
+    w = model.frequency_grid()
+    fixed = zoa_lobes(w, model.frf(w), alpha=al, teeth=3, kt=7e8, rpm=rpm, max_lobe=None)
+    print(
+        f"{'robot 12/25 Hz + tool 1.5 kHz, 1,000-30,000 rpm':48s} {r.min():12.6f} {r.max():12.6f}"
+        f"  fixed grid: max {_ratio(fixed.a_lim, ref).max():.3f}"
+    )
+    for zeta in (0.6, 1.0, 2.5):
+        z2 = z.copy()
+        z2[0] = zeta
+        al2 = alphas(0.0, math.pi, 0.3)
+        rpm2 = np.linspace(600.0, 24000.0, 80)
+        ref2 = reference_envelope(f, z2, res, al2, teeth=2, kt=7e8, rpm=rpm2)
+        got = converged_lobes(ModalModel(2 * np.pi * f, z2, res), al2, teeth=2, kt=7e8, rpm=rpm2)
+        r2 = _ratio(got.a_lim, ref2)
+        print(
+            f"{f'robot mode 12 Hz with zeta {zeta:g}, slot':48s} {r2.min():12.6f} {r2.max():12.6f}"
+        )
+    # the bundled plans' stated a_lim_mm at every cutting waypoint (tests/plan/test_converged_plans)
+    from tests.plan.test_converged_plans import PLANS, _ratios
+
+    for name, (path, job) in PLANS.items():
+        r3, _ = _ratios(name, every=1)
+        what = f"{name} on {job[4]}, {r3.size} waypoints (stated a_lim_mm)"
+        print(f"{what:48s} {r3.min():12.6f} {r3.max():12.6f}  {path}, {job}, at the planned rpm")
 
 
 if __name__ == "__main__":

@@ -32,7 +32,8 @@ FUZZ = settings(
 #: Modal stiffnesses [N/m] of the modes that limit robot milling: the robot's
 #: (the twins' lowest over the shipped designs is 1.2e5 N/m) and a soft tool's,
 #: up to 1e7. A stiffer mode in N/mm reads like a soft real one (1e4 N/m and
-#: more): no reader can tell; ``sld`` then warns about its absurd depths.
+#: more): a modes file cannot tell (``sld`` then warns about its absurd
+#: depths); a job can, from its tool's size (below).
 real_k = st.floats(1.2e5, 9.9e6)
 #: A unit slip: N/mm (x 1e-3) or kN/mm mixed up the other way is out of scope.
 slip = st.sampled_from([1e-3, 1e-4, 1e-5, 1e-6])
@@ -76,6 +77,25 @@ def test_job_tool_mode_in_n_per_mm(factor: float) -> None:
     d = job_to_dict(load_job(EX / "job_A_pocket.toml"))
     d["tool"]["modes"][0]["k_N_per_m"] = 5e6 * factor  # a soft tool's mode, in N/mm
     with pytest.raises(InputError, match="k_N_per_m"):
+        job_from_dict(d, source="j.toml")
+
+
+@FUZZ
+@given(f=st.floats(300.0, 3000.0), k=st.floats(1e7, 9.8e7), factor=slip)
+def test_job_stiff_tool_mode_in_n_per_mm(f: float, k: float, factor: float) -> None:
+    """A stiff tool mode (1e7-1e8 N/m) in N/mm: softer than the job's tool can be.
+
+    The pocket's 20 mm tool at 60 mm (a 16 mm steel bar: 9.38e6 N/m, 94.7 g)
+    cannot carry a mode softer than 98,945 N/m (on a 1e5 N/m mount) nor one
+    lighter than 11.8 g (4.2e6 N/m at 3 kHz); every such mode reads, its slip does not.
+    """
+    from robolobe.plan.job import job_from_dict, job_to_dict, load_job
+
+    d = job_to_dict(load_job(EX / "job_A_pocket.toml"))
+    d["tool"]["modes"][0].update(f_hz=f, k_N_per_m=k)
+    job_from_dict(d, source="j.toml")
+    d["tool"]["modes"][0]["k_N_per_m"] = k * factor
+    with pytest.raises(InputError, match=r"^j\.toml: tool\.modes\[1\]\.k_N_per_m: expected"):
         job_from_dict(d, source="j.toml")
 
 

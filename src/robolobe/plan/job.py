@@ -130,6 +130,7 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_valida
 
 from robolobe._atomic import not_a_file
 from robolobe._documents import parse_toml
+from robolobe._frf_checks import tool_mode_k_floor
 from robolobe._toml_errors import PrintableText, check_key_typos, describe_error, key_path
 from robolobe.errors import InputError, InputTypeError
 from robolobe.robots.transforms import pose_from_xyz_zyx, xyz_zyx_from_pose
@@ -466,7 +467,9 @@ class ToolSpec:
     helix_rad : float
         Helix angle [rad].
     stickout_m : float
-        Stick-out [m] (informative; the modes carry the dynamics).
+        Stick-out [m]: bounds how soft a tool mode can be (a stiffness in N/mm is
+        refused, :func:`robolobe._frf_checks.tool_mode_k_floor`); the modes carry
+        the dynamics.
     modes : tuple of ToolMode
         Spindle/holder/tool modes added to the robot's tool-point FRF.
     corner_radius_m : float
@@ -480,6 +483,15 @@ class ToolSpec:
     stickout_m: float = 0.05
     modes: tuple[ToolMode, ...] = ()
     corner_radius_m: float = 0.0
+
+    def __post_init__(self) -> None:
+        # the job file's check names the file and key first; this one guards the Python API
+        for i, m in enumerate(self.modes):
+            problem = _soft_tool_mode(
+                m.f_hz, m.k_N_per_m, self.diameter_m, self.stickout_m, "stickout_m"
+            )
+            if problem is not None:
+                raise InputError(f"ToolSpec.modes[{i}].k_N_per_m: {problem}")
 
     @property
     def shape(self) -> Literal["flat end mill", "ball-end", "bull-nose"]:
@@ -753,6 +765,54 @@ def _check_typos(raw: dict[str, Any], where: str) -> None:
     check_key_typos(tables, where)
 
 
+# ------------------------------------------------------------ tool modes
+def _check_tool_modes(t: _ToolSpec, where: str) -> None:
+    """Refuse a tool mode softer than a tool of its size can be (a stiffness in N/mm).
+
+    The bound (:func:`robolobe._frf_checks.tool_mode_k_floor`) takes the
+    tool's diameter and stick-out; a stick-out left at its default is said,
+    as the other way out of the refusal.
+    """
+    default = "stickout_mm" not in t.model_fields_set
+    for i, m in enumerate(t.modes):
+        problem = _soft_tool_mode(
+            m.f_hz, m.k_N_per_m, t.diameter_mm * 1e-3, t.stickout_mm * 1e-3,
+            "tool.stickout_mm", default=default,
+        )  # fmt: skip
+        if problem is not None:
+            raise InputError(f"tool.modes[{i + 1}].k_N_per_m: {problem}", source=where)
+
+
+def _soft_tool_mode(
+    f_hz: float,
+    k: float,
+    diameter_m: float,
+    stickout_m: float,
+    stick_key: str,
+    *,
+    default: bool = False,
+) -> str | None:
+    """Why a tool mode is softer than a tool of its size can be (expected vs found), or None.
+
+    ``stick_key`` names the stick-out in the message (``default``: it was not given).
+    """
+    try:
+        vals = [float(x) for x in (f_hz, k, diameter_m, stickout_m)]
+    except (TypeError, ValueError):
+        return None  # the fields' own checks say what is wrong
+    if not all(math.isfinite(x) and x > 0 for x in vals):
+        return None
+    floor, why = tool_mode_k_floor(vals[0], vals[2], vals[3])
+    if vals[1] >= floor:
+        return None
+    return (
+        f"expected at least {floor:.3g} N/m for a mode at {vals[0]:g} Hz of a "
+        f"{vals[2] * 1e3:g} mm tool at a stick-out of {vals[3] * 1e3:g} mm"
+        f"{' (the default)' if default else ''} ({why}), found {vals[1]:g}: a stiffness in "
+        f"N/mm? In N/m it is {vals[1] * 1e3:.3g}; or give the tool's real {stick_key}"
+    )
+
+
 # ---------------------------------------------------------------- build
 def _resolve_file(value: str, base_dir: Path | None) -> str:
     p = Path(value)
@@ -822,6 +882,7 @@ def job_from_dict(d: dict[str, Any], source: str = "<dict>", base_dir: Path | No
         effects = read_effects(effects_file)
 
     t = spec.tool
+    _check_tool_modes(t, where)
     modes: list[ToolMode] = []
     for m in t.modes:
         dirs: tuple[Literal["x", "y"], ...] = ("x", "y") if m.dir == "xy" else (m.dir,)
