@@ -23,7 +23,8 @@ EXAMPLES = resources.files("robolobe.data").joinpath("examples")
 GOLDEN = [
     # issue 26: each move at its own engagement on the stock (default stock; the contour
     # job's raw plate), the program's own depth in passes, the program's chip load, the
-    # material table's vc range (before, one width and a free depth: pocket 2.6034 mm at
+    # material table's vc range, the passes planned with the lobes' 0.5 % tolerance as
+    # headroom (before, one width and a free depth: pocket 2.6034 mm at
     # 24,000 rpm, contour 2.0369 mm, face 1.6142 mm at 7,202.8 rpm, slot 1.0692 mm at
     # 12,000 rpm, face in Ti 0.1145 mm at 2,500 rpm)
     (
@@ -41,20 +42,20 @@ GOLDEN = [
         3,
     ),
     ("job_B_contour", "contour.apt", 75, 72, 0.7158, 2.0, 24000.0, 24000.0, 42.162, 26.324, 1.3, 4),
-    ("job_C_face_steel", "face.mod", 24, 23, 2.4315, 0.3, 3745.9, 3745.9, 5.407, 811.382, 1.5, 5),
+    ("job_C_face_steel", "face.mod", 24, 23, 2.4315, 0.3, 3740.9, 3740.9, 5.399, 812.474, 1.5, 5),
     (
         "job_C_face_ti_lowspeed",
         "face.mod",
         24,
         23,
         2.4315,
-        0.0211,
+        0.0208,
         1527.9,
         1527.9,
-        0.207,
-        21185.686,
+        0.204,
+        21484.076,
         1.5,
-        71,
+        72,
     ),
     ("job_A_slot_steel", "slot.src", 46, 44, 0.4515, 0.5, 5968.3, 5968.3, 8.638, 136.309, 1.5, 6),
 ]

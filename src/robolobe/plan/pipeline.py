@@ -73,6 +73,7 @@ from robolobe.robots.io import load_robot
 from robolobe.robots.kinematics import joint_axes, link_frames
 from robolobe.robots.model import Robot
 from robolobe.sld.conditions import engagement_angles
+from robolobe.sld.converged import LOBE_TOL
 from robolobe.sld.frf import ModalModel
 from robolobe.sld.material import Material, get_material
 from robolobe.sld.toolpoint import feed_frame, tool_point_model
@@ -1144,7 +1145,10 @@ def plan_path(
 
         if depth is None:
             return run(cons)
-        return schedule_passes(run, cons, depth.deepest_m)[0]
+        # headroom of the lobes' stated tolerance: the program's own check (its own lobe
+        # sharing, whole-rpm speeds) then finds every move at the safety factor too
+        room = dataclasses.replace(cons, safety_factor=cons.safety_factor * (1 + LOBE_TOL))
+        return schedule_passes(run, room, depth.deepest_m)[0]
 
     outcome = schedule(grouped.table)
     # lobe sharing keeps its promise: members planned next to a steep wall of their
@@ -1427,7 +1431,9 @@ def _apply_passes(
     best = outcome.best
     a_lim = grouped.table.query(best.rpm)  # each move's own limit (not the depth share's)
     bounded = ~plunge & eng.engaged[ci]
-    passes_s, set_by = section_passes(depth, a_lim, bounded, cons.safety_factor, cons.depth_cap_m)
+    passes_s, set_by = section_passes(
+        depth, a_lim, bounded, cons.safety_factor * (1 + LOBE_TOL), cons.depth_cap_m
+    )
     p = passes_s[depth.section]
     step = depth.section_depth_m()[depth.section] / p
     cut_d = depth.depth_m / p

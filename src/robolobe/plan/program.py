@@ -50,6 +50,7 @@ from numpy.typing import NDArray
 from robolobe._atomic import atomic_path, not_a_file
 from robolobe.errors import InputError
 from robolobe.plan.job import Job
+from robolobe.plan.limits import process_limits
 from robolobe.plan.paths import detect_format, read_toolpath, reader_options
 from robolobe.plan.paths._edit import ProgramEdit, expected_table
 from robolobe.plan.paths._table import segment_lengths
@@ -204,23 +205,48 @@ def _blocks(wp: pd.DataFrame, cut: NDArray[np.bool_]) -> tuple[IntArray, IntArra
 
 
 def _margin_at(res: AnyPlan, rows: IntArray, rpm: FloatArray) -> FloatArray:
-    """Margin of ``rows`` at speeds ``rpm`` by the plan's own lobes (NaN: no lateral limit)."""
+    """Margin of ``rows`` at speeds ``rpm`` by the plan's own lobes (NaN: no lateral limit).
+
+    The exact limit (the lobes' own boundary, as the planner verifies) over each
+    move's own depth per pass (``cut_depth_mm`` of a plan in passes, else
+    ``depth_mm``).
+    """
     tab = res.table
     if res.lobes is None:
         return np.full(len(rows), np.nan)
     lt = res.lobes.table
     g = tab["dynamics_group"].to_numpy()[rows]
-    depth = tab["depth_mm"].to_numpy()[rows] * 1e-3
+    col = "cut_depth_mm" if "cut_depth_mm" in tab.columns else "depth_mm"
+    depth = tab[col].to_numpy(dtype=np.float64)[rows] * 1e-3
     out = np.full(len(rows), np.nan)
-    ok = g >= 0
+    ok = (g >= 0) & (depth > 0)
     if np.any(ok):
-        grid = np.asarray(lt.rpm, dtype=np.float64)
-        j = np.clip(np.searchsorted(grid, rpm[ok]) - 1, 0, len(grid) - 2)
-        t = np.clip((rpm[ok] - grid[j]) / (grid[j + 1] - grid[j]), 0.0, 1.0)
-        a = np.asarray(lt.a_lim, dtype=np.float64)
-        al = a[g[ok], j] * (1 - t) + a[g[ok], j + 1] * t
+        al = lt.rows(np.asarray(rpm, dtype=np.float64)[ok][:, None], g[ok])[:, 0]
         out[ok] = np.where(np.isfinite(al), al / depth[ok], np.nan)
     return out
+
+
+def _whole_rpm(res: AnyPlan, rows: IntArray, w: float, sf: float) -> float:
+    """``w`` [rpm] to whole rpm: the neighbour that keeps ``rows`` at the safety factor.
+
+    Rounding to the nearest can cross a lobe wall by a fraction of a rpm at a
+    move planned right at the safety factor; of the two whole neighbours the
+    nearer one that keeps every move of ``rows`` at ``sf`` is taken, else the
+    one with the larger smallest margin (a plan read from its folder: the nearest).
+    """
+    near = float(round(w))
+    if res.lobes is None or float(w).is_integer():
+        return near
+    cands = sorted((math.floor(w), math.ceil(w)), key=lambda c: abs(c - w))
+    mins = []
+    for c in cands:
+        mg = _margin_at(res, rows, np.full(len(rows), float(c)))
+        mg = mg[np.isfinite(mg)]
+        mins.append(float(mg.min()) if mg.size else math.inf)
+    for c, m in zip(cands, mins, strict=True):
+        if m >= sf * (1 - 1e-12):
+            return float(c)
+    return float(cands[int(np.argmax(mins))])
 
 
 def program_edit(
@@ -273,8 +299,9 @@ def program_edit(
     since = 0.0
     for b in range(nb):
         w = float(want[b])
+        r_b = rows[b_start[b] : b_start[b + 1]]
         if math.isnan(held):
-            held, since = float(round(w)), 0.0
+            held, since = _whole_rpm(res, r_b, w, sf), 0.0
         elif held != round(w):
             rel = abs(w - held) / held
             change = rel > hyst and since >= min_seg
@@ -282,11 +309,10 @@ def program_edit(
                 if res.lobes is None:  # a plan read from its folder: a hold cannot be checked
                     change = True
                 else:
-                    r = rows[b_start[b] : b_start[b + 1]]
-                    mg = _margin_at(res, r, np.full(len(r), held))
+                    mg = _margin_at(res, r_b, np.full(len(r_b), held))
                     change = bool(np.any(mg < sf))
             if change:
-                held, since = float(round(w)), 0.0
+                held, since = _whole_rpm(res, r_b, w, sf), 0.0
         s_block[b] = held
         since += float(length[b])
     rpm = np.full(n, np.nan)
@@ -306,8 +332,8 @@ def program_edit(
         per_rev_plan = tab["feed_mm_per_min"].to_numpy(dtype=np.float64) / rpm_plan
         own = np.isfinite(f_old) & np.isfinite(s_old) & (s_old > 0)
         feed = np.where(own, f_old * rpm / s_old, per_rev_plan * rpm)
-    if res.job.cut.max_feed_m_per_s is not None:
-        feed = np.minimum(feed, res.job.cut.max_feed_m_per_s * 6e4)
+    # the robot's path speed (the job's key, else the robot file's, else the stated default)
+    feed = np.minimum(feed, process_limits(res.job).max_feed_m_per_s * 6e4)
     feed[~cut] = np.nan
     bad = cut & ~(np.isfinite(feed) & (feed > 0) & np.isfinite(rpm) & (rpm > 0))
     if np.any(bad):
