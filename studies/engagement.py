@@ -3,6 +3,7 @@
     python studies/engagement.py                      # bundled + two real CAM programs
     python studies/engagement.py --max-moves 300      # the first 300 cutting moves of each
     python studies/engagement.py --max-moves 1500 --margins --out studies/engagement.json
+    python studies/engagement.py --max-moves 1500 --cells 80 --only rustyford   # a finer cell
 
 For each program (the bundled pocket, contour, face and slot, and the real
 Fusion 360 programs ``freegroup_CamperGaskastenTuer.nc`` (pockets, 2-D
@@ -316,9 +317,13 @@ def programs() -> list[tuple[str, Path, float, Job | None]]:
     return out
 
 
-def study(max_moves: int, margins: bool) -> list[dict[str, Any]]:
+def study(
+    max_moves: int, margins: bool, cells: float | None = None, only: str | None = None
+) -> list[dict[str, Any]]:
     rows = []
     for name, path, diameter, job in programs():
+        if only and only not in name:
+            continue
         immersion = job.radial_immersion if job is not None else None
         wp = read_toolpath(path)
         xyz = wp[["x_m", "y_m", "z_m"]].to_numpy()
@@ -326,7 +331,10 @@ def study(max_moves: int, margins: bool) -> list[dict[str, Any]]:
         lines = wp["line"].to_numpy()
         stock = default_stock(xyz, cut, 0.5 * diameter)
         t = time.process_time()
-        e = compute_engagement(xyz, cut, diameter, stock, axis=wp[["i", "j", "k"]].to_numpy())
+        res_m = diameter / cells if cells else None
+        e = compute_engagement(
+            xyz, cut, diameter, stock, resolution_m=res_m, axis=wp[["i", "j", "k"]].to_numpy()
+        )
         t_prod = time.process_time() - t
         t = time.process_time()
         ref = reference_engagement(xyz, cut, diameter, stock, e.resolution_m, max_moves)
@@ -414,10 +422,14 @@ def main() -> None:
     ap.add_argument("--max-moves", type=int, default=10**9, help="moves compared per program")
     ap.add_argument("--out", type=Path, help="write the rows as JSON")
     ap.add_argument(
+        "--cells", type=float, help="Z-map cells per tool diameter (default: robolobe's, 40)"
+    )
+    ap.add_argument("--only", help="only the programs whose name contains this")
+    ap.add_argument(
         "--margins", action="store_true", help="bundled programs: margins at their own engagement"
     )
     args = ap.parse_args()
-    rows = study(args.max_moves, args.margins)
+    rows = study(args.max_moves, args.margins, args.cells, args.only)
     worst = max((max(r["max_entry_err_deg"], r["max_exit_err_deg"]) for r in rows), default=0)
     print(f"largest angle error over all programs: {worst:.3f} deg (goal: within 2 deg)")
     if args.out:
