@@ -414,9 +414,25 @@ def summarize(rows: list[dict[str, Any]]) -> dict[str, Any]:
         "transfers": f"{sum(transfers.values())} of {len(transfers)}",
         "lines": [f"transfers succeeded {sum(transfers.values())} of {len(transfers)}"],
     }
+    # a (robot, job) whose truth has no feasible plan (the oracle's) has no MRR to compare:
+    # its plans count for safety only
+    no_oracle = {
+        (r["robot"], r["draw"], r["job"])
+        for r in rows
+        if r.get("source") == "oracle" and not r.get("feasible", False)
+    }
+    out["no_oracle"] = sorted(f"{k[0]}{k[1]} {k[2]}" for k in no_oracle)
+    if no_oracle:
+        out["lines"].append(
+            f"no oracle (the truth infeasible; MRR not compared): {', '.join(out['no_oracle'])}"
+        )
     for label, robust in (("default (robust) plans", True), ("plain plans", False)):
         plans = [r for r in rows if r.get("source") == "default" and r.get("robust") == robust]
-        rel = [r.get("mrr_rel", 0.0) if r.get("feasible") else 0.0 for r in plans]
+        rel = [
+            r.get("mrr_rel", 0.0) if r.get("feasible") else 0.0
+            for r in plans
+            if (r["robot"], r["draw"], r["job"]) not in no_oracle
+        ]
         margins = [r["min_true_margin"] for r in plans if "min_true_margin" in r]
         beyond = sum(r.get("n_beyond", 0) for r in plans)
         infeasible = sum(1 for r in plans if not r.get("feasible", True))
