@@ -30,8 +30,16 @@ bracket modes are measured) are identified; the default transfer
 bundled jobs plan on it (plain and robust) and on the truth (the oracle);
 each plan is verified on the truth's modes (every waypoint its own lobes).
 
-Run: ``nice python studies/out_of_form.py [--robots B,C] [--draws 2] [--first-draw 0] [--jobs al]
-[--out studies/out_of_form.json]``.
+The spread's coverage is that of the spread robust plans use (the model's
+calibrated prediction-error spread, :func:`spread_coverage`); the MRR figures
+leave out (robot, job) pairs whose truth has no feasible plan (no oracle).
+
+Run: ``nice python studies/out_of_form.py [--robots B,C] [--draws 2] [--first-draw 0]
+[--jobs al|steel|all|none|JOB,...] [--out FILE.json]``; the figures in
+``studies/out_of_form.json`` (issue 27): ``--robots B --draws 8 --jobs all`` and
+``--robots C --draws 8 --jobs all`` (in parts by ``--first-draw``), draws 0-1
+used while developing the spread calibration and the robust rule, draws 2-7
+held back (not looked at before the code was fixed).
 """
 
 from __future__ import annotations
