@@ -96,3 +96,24 @@ def test_parameter_variance_counts_and_few_tests_leave_the_scale_at_one():
     np.testing.assert_array_equal(scale, 1.0)
     assert np.all(np.isnan(cover))
     assert np.all(np.isnan(raw))
+
+
+def test_compliance_share_and_the_error_per_share_class():
+    from robolobe.tl.residual import compliance_share, share_factor
+
+    # one posture, one direction, three modes: 1 / (k zeta) = 1/(1e6*0.02), 1/(4e6*0.05),
+    # and a mode not seen (k = inf): shares 50/(50+5) and 5/(50+5), 0
+    v = np.array([[[[10.0, 0.02, 1e6], [20.0, 0.05, 4e6], [30.0, 0.03, np.inf]]]])
+    share = compliance_share(v)
+    np.testing.assert_allclose(share[0, 0], [50 / 55, 5 / 55, 0.0], rtol=1e-12)
+    # held-out residuals 0.3 where a mode has under 5 % of the compliance, 0.1 above half:
+    # relative sizes 0.3 / rms and 0.1 / rms, rms over all tests
+    rng = np.random.default_rng(3)
+    n = 40
+    sh = np.where(rng.uniform(size=(n, 1, 2)) < 0.5, 0.01, 0.9)
+    held = np.where(sh[..., None] < 0.05, 0.3, 0.1) * rng.choice([-1.0, 1.0], (n, 1, 2, 3))
+    h = share_factor(held, sh)
+    rms = np.sqrt(np.mean(held[..., 0] ** 2))
+    np.testing.assert_allclose(h[:, 0], 0.3 / rms, rtol=1e-12)
+    np.testing.assert_allclose(h[:, 3], 0.1 / rms, rtol=1e-12)
+    np.testing.assert_array_equal(h[:, 1:3], 1.0)  # no tests in those classes

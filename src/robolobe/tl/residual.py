@@ -30,7 +30,8 @@ smooth, posture-dependent residual. :class:`CorrectedTwin` learns it:
    RMS error of the corrected residual, scaled up where the process is less
    certain than at the training postures (away from the tests); the spread
    robust plans use (:meth:`CorrectedTwin.planning_spread`) takes that
-   model-form term for f, zeta and k alike, times a scale per quantity
+   model-form term for f, zeta and k alike, sized by the mode's share of
+   the direction's compliance (:func:`share_factor`), times a scale per quantity
    calibrated on held-out tests (:func:`calibrate_spread`: the share of
    held-out tests within two spreads is :data:`SPREAD_CONFIDENCE`), and
    the cross-validated coverage is kept (``spread_cover_``).
@@ -75,7 +76,9 @@ __all__ = [
     "SPREAD_SIGMA",
     "CorrectedTwin",
     "calibrate_spread",
+    "compliance_share",
     "is_corrected_twin_file",
+    "share_factor",
 ]
 
 FloatArray = NDArray[np.float64]
@@ -95,7 +98,7 @@ _SCALE_BOUNDS = (0.25, 10.0)  # least and largest calibration scale of a quantit
 
 
 def calibrate_spread(
-    held: FloatArray, var_p: FloatArray
+    held: FloatArray, var_p: FloatArray, h: FloatArray | None = None
 ) -> tuple[FloatArray, FloatArray, FloatArray]:
     """Scale per quantity of the model-form spread, from held-out tests, and its coverage.
 
@@ -115,6 +118,10 @@ def calibrate_spread(
         Held-out log residuals of f, zeta, k (NaN: no test).
     var_p : ndarray, shape (n, n_dir, n_modes, 3)
         Variance of the logs from the calibrated parameters at the tests.
+    h : ndarray, shape (n, n_dir, n_modes, 3), optional
+        Relative size of the model-form error at each test (default 1): the
+        output's spread is the RMS of ``e / h`` times ``h`` at the test
+        (:func:`share_factor`).
 
     Returns
     -------
@@ -127,12 +134,13 @@ def calibrate_spread(
         The same at scale 1 (the spread before calibration).
     """
     e = np.asarray(held, dtype=float)
+    hh = np.ones_like(e) if h is None else np.asarray(h, dtype=float)
     ok = np.isfinite(e)
     n_out = ok.sum(axis=0)  # (nd, nm, 3)
-    ss = np.where(ok, e, 0.0) ** 2
+    ss = np.where(ok, e / hh, 0.0) ** 2
     tot = ss.sum(axis=0)
     with np.errstate(invalid="ignore", divide="ignore"):
-        s_i = np.sqrt(np.clip(tot - ss, 0.0, None) / (n_out - 1))
+        s_i = hh * np.sqrt(np.clip(tot - ss, 0.0, None) / (n_out - 1))
         need = np.sqrt(np.clip(e**2 / SPREAD_SIGMA**2 - var_p, 0.0, None)) / s_i
     use = ok & (n_out >= 3) & np.isfinite(need)
     need = np.where(use, need, np.nan)
@@ -155,6 +163,71 @@ def calibrate_spread(
         cover[c] = float(hit.mean())
         cover_raw[c] = float(np.mean(v <= 1.0))
     return scale, cover, cover_raw
+
+
+#: Edges of the compliance-share classes of :func:`share_factor`.
+SHARE_EDGES = (0.05, 0.2, 0.5)
+
+
+def compliance_share(values: FloatArray) -> FloatArray:
+    """Each mode's share of its direction's summed peak compliance ``1 / (k zeta)``.
+
+    Parameters
+    ----------
+    values : ndarray, shape (n, n_dir, n_modes, 3)
+        f [Hz], zeta, k [N/m] (NaN: none; k >= K_MAX: not seen).
+
+    Returns
+    -------
+    ndarray, shape (n, n_dir, n_modes)
+        In [0, 1]; 0 where a mode is not seen.
+    """
+    v = np.asarray(values, dtype=float)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        c = 1.0 / (v[..., 2] * v[..., 1])
+    c = np.where(np.isfinite(c) & (v[..., 2] < K_MAX) & (c > 0), c, 0.0)
+    tot = c.sum(axis=-1, keepdims=True)
+    return np.asarray(np.where(tot > 0, c / np.where(tot > 0, tot, 1.0), 0.0))
+
+
+def share_classes(share: FloatArray) -> NDArray[np.intp]:
+    """Class of each compliance share (:data:`SHARE_EDGES`), 0 (smallest) to 3."""
+    return np.asarray(np.searchsorted(np.asarray(SHARE_EDGES), share, side="right"))
+
+
+def share_factor(held: FloatArray, share: FloatArray, min_count: int = 10) -> FloatArray:
+    """Relative size of the model-form error per quantity and compliance-share class.
+
+    A mode that dominates a direction's compliance is known better than one
+    that barely moves the tool point that way (its modal stiffness is the
+    inverse square of a small shape component): on out-of-form robots the
+    held-out log k error of modes with over half a direction's compliance is
+    a third of that of modes under a fifth. Per quantity, the RMS of the
+    held-out residuals of each class over the RMS of all (1 for a class with
+    fewer than ``min_count`` tests).
+
+    Parameters
+    ----------
+    held : ndarray, shape (n, n_dir, n_modes, 3)
+    share : ndarray, shape (n, n_dir, n_modes)
+
+    Returns
+    -------
+    ndarray, shape (3, len(SHARE_EDGES) + 1)
+    """
+    cls = share_classes(share)
+    out = np.ones((3, len(SHARE_EDGES) + 1))
+    for c in range(3):
+        e = held[..., c]
+        ok = np.isfinite(e)
+        if ok.sum() < min_count:
+            continue
+        rms = float(np.sqrt(np.mean(e[ok] ** 2)))
+        for b in range(out.shape[1]):
+            sel = ok & (cls == b)
+            if sel.sum() >= min_count and rms > 0:
+                out[c, b] = max(float(np.sqrt(np.mean(e[sel] ** 2))) / rms, 1e-3)
+    return out
 
 
 def _kernel(xa: FloatArray, xb: FloatArray, ell: FloatArray) -> FloatArray:
@@ -248,6 +321,11 @@ class CorrectedTwin:
     spread_scale_ : ndarray, shape (3,)
         Calibration scale of the model-form spread per quantity (f, zeta, k)
         (:func:`calibrate_spread`).
+    share_h_ : ndarray, shape (3, 4)
+        Relative model-form error per quantity and compliance-share class
+        (:func:`share_factor`).
+    form_std_ : ndarray, shape (n_dir, n_modes, 3)
+        Model-form spread per output at share factor 1.
     spread_cover_, spread_cover_raw_ : ndarray, shape (3,)
         Cross-validated share of held-out tests within ``SPREAD_SIGMA``
         planning spreads, calibrated and at scale 1 (NaN: too few tests).
@@ -420,20 +498,33 @@ class CorrectedTwin:
         self.directions_ = tuple(ds.directions)
         self.n_modes_ = nm
         self.train_q_rad_ = x
-        var_p = self._parameter_variance(x, ds.directions, nm)
+        center, var_p = self._parameter_variance(x, ds.directions, nm)
+        share = compliance_share(np.exp(center))
+        self.share_h_ = share_factor(held, share)
+        h = np.moveaxis(self.share_h_[:, share_classes(share)], 0, -1)  # (n, nd, nm, 3)
         self.spread_scale_, self.spread_cover_, self.spread_cover_raw_ = calibrate_spread(
-            held, var_p
+            held, var_p, h
         )
+        with np.errstate(invalid="ignore", divide="ignore"):
+            u = held / h
+            n_u = np.isfinite(u).sum(axis=0)
+            form = np.sqrt(np.nansum(u**2, axis=0) / n_u)
+        # the output's model-form spread at a share of factor 1 (its RMS where no tests)
+        self.form_std_ = np.where(n_u > 0, form, loo)
         return self
 
     def _parameter_variance(
         self, q: FloatArray, directions: Sequence[str], n_modes: int
-    ) -> FloatArray:
-        """Variance of the calibrated twin's logs from its parameters alone, (n, n_dir, nm, 3)."""
+    ) -> tuple[FloatArray, FloatArray]:
+        """The calibrated twin's logs and their variance from its parameters alone.
+
+        Both of shape (n, n_dir, nm, 3).
+        """
         cal = self.calibration_
         base = cal.predict(q, directions=directions, n_modes=n_modes, spread=True)
         rms = np.nan_to_num([cal.residual_rms_[c] for c in _QUANTITIES])
-        return np.asarray(np.clip(np.asarray(base.std) ** 2 - rms**2, 0.0, None))
+        var = np.clip(np.asarray(base.std) ** 2 - rms**2, 0.0, None)
+        return np.asarray(base.center), np.asarray(var)
 
     # ------------------------------------------------------------- predict
     def _check_fitted(self) -> None:
@@ -577,6 +668,8 @@ class CorrectedTwin:
           residual left out by the process, or the calibrated twin's residual
           where uncorrected: what the twin's form misses, which on a robot
           outside that form is mostly real error, not identification scatter),
+          sized by the mode's share of the direction's compliance at the
+          posture (:func:`share_factor`: a dominant mode is known better),
           widened away from the tests as the process is less certain there
           (:meth:`correction`), times the quantity's calibration scale
           :attr:`spread_scale_` (:func:`calibrate_spread`: held-out tests
@@ -602,16 +695,22 @@ class CorrectedTwin:
         q = np.asarray(q_rad, dtype=float)
         dirs = tuple(directions) if directions is not None else self.directions_
         nm = int(n_modes) if n_modes is not None else self.n_modes_
-        var_p = self._parameter_variance(q, dirs, nm)
+        center, var_p = self._parameter_variance(q, dirs, nm)
         rms = np.nan_to_num([self.calibration_.residual_rms_[c] for c in _QUANTITIES])
         form = np.broadcast_to(rms, var_p.shape).copy()
         _, std_c = self.correction(q)
+        share = compliance_share(np.exp(center))
+        h = np.moveaxis(self.share_h_[:, share_classes(share)], 0, -1)  # (n, n_dir, nm, 3)
         for jj, d in enumerate(dirs):
             if d not in self.directions_:
                 continue
             j = self.directions_.index(d)
             mm = min(nm, self.n_modes_)
-            sc = std_c[:, j, :mm]  # (n, mm, 3)
+            # the output's spread at this mode's compliance share, widened away from the
+            # tests as the correction's
+            with np.errstate(invalid="ignore", divide="ignore"):
+                widen = std_c[:, j, :mm] / self.loo_rmse_[j, :mm]
+            sc = self.form_std_[j, :mm] * h[:, jj, :mm] * np.where(np.isfinite(widen), widen, 1.0)
             form[:, jj, :mm] = np.where(np.isfinite(sc), sc, rms)
         return np.asarray(np.sqrt(var_p + (form * self.spread_scale_) ** 2))
 
@@ -675,6 +774,8 @@ class CorrectedTwin:
             spread_scale=self.spread_scale_,
             spread_cover=self.spread_cover_,
             spread_cover_raw=self.spread_cover_raw_,
+            share_h=self.share_h_,
+            form_std=self.form_std_,
         )
         path = Path(path)
         with atomic_path(path) as tmp, tmp.open("wb") as fh:
@@ -739,6 +840,10 @@ class CorrectedTwin:
             self.spread_cover_raw_ = np.asarray(
                 arrays.get("spread_cover_raw", np.full(3, np.nan)), dtype=float
             )
+            self.share_h_ = np.asarray(
+                arrays.get("share_h", np.ones((3, len(SHARE_EDGES) + 1))), dtype=float
+            )
+            self.form_std_ = np.asarray(arrays.get("form_std", self.loo_rmse_), dtype=float)
         except (KeyError, TypeError, ValueError, AttributeError) as exc:
             raise InputError(f"inconsistent model file ({exc})", source=where) from None
         check_meta_counts(self.directions_, self.n_modes_, where)
@@ -775,6 +880,14 @@ class CorrectedTwin:
                 source=where,
             )
         check_range(self.spread_scale_, "spread_scale", where, low=0.0, open_low=True)
+        if self.share_h_.shape != (3, len(SHARE_EDGES) + 1) or self.form_std_.shape != (nd, nm, 3):
+            raise InputError(
+                "inconsistent model file: share_h and form_std: expected shapes "
+                f"(3, {len(SHARE_EDGES) + 1}) and ({nd}, {nm}, 3)",
+                source=where,
+            )
+        check_range(self.share_h_, "share_h", where, low=0.0, open_low=True)
+        check_range(self.form_std_, "form_std", where, low=0.0, nan_ok=True)
         check_range(self.spread_cover_, "spread_cover", where, low=0.0, high=1.0, nan_ok=True)
         return self
 
