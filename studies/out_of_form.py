@@ -37,9 +37,11 @@ leave out (robot, job) pairs whose truth has no feasible plan (no oracle).
 Run: ``nice python studies/out_of_form.py [--robots B,C] [--draws 2] [--first-draw 0]
 [--jobs al|steel|all|none|JOB,...] [--out FILE.json]``; the figures in
 ``studies/out_of_form.json`` (issue 27): ``--robots B --draws 8 --jobs all`` and
-``--robots C --draws 8 --jobs all`` (in parts by ``--first-draw``), draws 0-1
-used while developing the spread calibration and the robust rule, draws 2-7
-held back (not looked at before the code was fixed).
+``--robots C --draws 8 --jobs all`` (in parts by ``--first-draw``); draws 0-1
+were used while developing the spread calibration and the robust rule, draws
+2-7 were held back from its first version (their figures were seen before the
+spread was sized by compliance share), draws 8-9 from the last
+(``meta.held_back``).
 """
 
 from __future__ import annotations
