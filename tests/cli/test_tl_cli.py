@@ -194,6 +194,17 @@ def test_default_transfer_makes_a_corrected_twin_a_job_plans_on(tmp_path, b_moda
     assert "correction of log f" not in text
     model = load_model(out)
     assert isinstance(model, CorrectedTwin)
+    # the planning spread's calibration on held-out tests, as stored in the file
+    m = re.search(
+        r"spread \(robust plans\): calibrated on held-out tests \(scale f x([\d.]+), zeta "
+        r"x([\d.]+), k x([\d.]+)\); cross-validated share of held-out tests within 2 sigma, "
+        r"f/zeta/k: (\S+) % \(stated 95\.4 %",
+        text,
+    )
+    assert m, text
+    np.testing.assert_allclose([float(v) for v in m.groups()[:3]], model.spread_scale_, atol=0.006)
+    shown = [float("nan") if v == "-" else float(v) / 100 for v in m.group(4).split("/")]
+    np.testing.assert_allclose(shown, model.spread_cover_, atol=0.006)
     post = tmp_path / "postures.csv"
     write_postures(post, [f"T{i}" for i in range(1, 6)], np.radians(B_TEST_DEG))
     res = run(["predict", out, post, "-o", tmp_path / "pred.csv"])

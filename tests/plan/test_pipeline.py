@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import dataclasses
+import re
 
 import numpy as np
 import pytest
@@ -177,26 +178,27 @@ def test_robust_mode_plans_on_the_lower_bound(pocket_job):
     assert b.spread_pct_max.f == pytest.approx(100 * np.expm1(0.05), abs=1e-3)
     assert any(n.startswith("robust plan:") for n in robust.summary.notes)
     assert robust.summary.min_margin_at.source.startswith("pocket.nc:")
-    # the stated limit is the smallest of the lowered model's lobes over the speed window
+    # the stated limit is the smallest of the nominal and the lowered model's lobes over
+    # the speed window (the bound held at margin 1: its scenario's lobes are the
+    # bound's times the safety factor)
     tab = robust.lobes.table
     rpm = robust.outcome.best.rpm
     k = int(np.argmin(robust.outcome.best.a_lim_m))
     g = tab.group[k]
-    d1 = robust.lobes.diagrams[1]
     from robolobe.sld.lobes import lobe_envelope
 
+    def env(d, speeds):
+        om = d.omega[g] if np.ndim(d.omega) > 1 else d.omega
+        return lobe_envelope(
+            om, d.depth[g], d.eps[g], teeth=d.teeth, rpm=speeds, max_lobe=d.max_lobe
+        )
+
     shifts = np.clip(rpm[k] * (1 + np.linspace(-0.1, 0.1, 201)), tab.rpm[0], tab.rpm[-1])
-    dense = lobe_envelope(
-        d1.omega[g] if np.ndim(d1.omega) > 1 else d1.omega,
-        d1.depth[g],
-        d1.eps[g],
-        teeth=d1.teeth,
-        rpm=shifts,
-        max_lobe=d1.max_lobe,
-    )
+    dense = env(robust.lobes.diagrams[1], shifts)
+    nom = env(robust.lobes.diagrams[0], shifts)
     stated = robust.outcome.best.a_lim_m[k]
-    assert stated <= dense.max()
-    assert stated == pytest.approx(dense.min(), rel=0.05)
+    assert stated <= max(dense.max(), nom.max())
+    assert stated == pytest.approx(min(nom.min(), dense.min()), rel=0.05)
 
 
 def test_twin_robust_uses_the_jobs_assumed_spread_and_never_nan(pocket_job):
@@ -220,6 +222,12 @@ def test_robust_infeasible_says_why_and_where(pocket_job):
     with pytest.raises(InfeasibleError, match=r"pocket\.nc:\d+") as exc:
         plan_path(example("pocket.nc"), job, refine=False)
     assert "nan" not in str(exc.value).lower()
+    # why (the bound's lowering, the deepest cut on it and on the prediction) and what to do
+    msg = str(exc.value)
+    assert "robust plan: on the bound, stiffness to" in msg
+    assert re.search(r"the deepest stable cut of the worst dynamics is [\d.]+ mm", msg)
+    assert "plan.k_sigma (now 3)" in msg
+    assert "plan.depth_min" in msg
 
 
 def test_degenerate_paths(tmp_path, pocket_job):

@@ -156,6 +156,7 @@ def _calibrate(
     )
     if isinstance(model, CorrectedTwin):
         console.print(f"  learned correction: {_correction_line(model.summary())}", highlight=False)
+        console.print(f"  spread (robust plans): {_spread_line(model)}", highlight=False)
     if verbose:
         _print_calibration(params_table)
         if isinstance(model, CorrectedTwin):
@@ -241,6 +242,24 @@ def _correction_line(summ: Any) -> str:
     return (
         f"corrects {used} of {outputs} (direction x mode x f, zeta, k); cross-validated RMS "
         f"of log f/zeta/k {loo} (the calibrated twin alone {twin})"
+    )
+
+
+def _spread_line(model: Any) -> str:
+    """How the planning spread was calibrated on held-out tests, and its coverage."""
+    from robolobe.tl.residual import SPREAD_CONFIDENCE, SPREAD_SIGMA
+
+    names = ("f", "zeta", "k")
+    scale = ", ".join(f"{q} x{v:.2f}" for q, v in zip(names, model.spread_scale_, strict=True))
+
+    def pct(vals: Any) -> str:
+        return "/".join("-" if not np.isfinite(v) else f"{100 * v:.0f}" for v in vals)
+
+    return (
+        f"calibrated on held-out tests (scale {scale}); cross-validated share of held-out "
+        f"tests within {SPREAD_SIGMA:g} sigma, f/zeta/k: {pct(model.spread_cover_)} % "
+        f"(stated {100 * SPREAD_CONFIDENCE:.1f} %; before calibration "
+        f"{pct(model.spread_cover_raw_)} %)"
     )
 
 

@@ -53,6 +53,7 @@ __all__ = [
     "RobustBound",
     "TwinSource",
     "as_mode_source",
+    "bound_scenario",
     "mode_source",
     "model_file_source",
     "plan_bound",
@@ -303,9 +304,40 @@ class RobustBound:
                 f"stiffness above {100 * math.exp(-ks * sk):.3g} % and damping above "
                 f"{100 * math.exp(-ks * sz):.3g} % of the prediction (k_sigma = {ks:g}: "
                 f"{100 * self.confidence:.1f} % one-sided per quantity if the spread is "
-                "normal in log)"
+                "normal in log); planned at margin 1 on this bound and the safety factor on "
+                "the prediction"
             ),
         }
+
+
+def bound_scenario(model: ModalModel, safety_factor: float) -> ModalModel:
+    """The robust bound's tool-point model as the planner's scenario: held at margin 1.
+
+    A robust plan keeps the job's safety factor on the nominal modes and a
+    margin of at least 1 on the bound (the bound is itself the margin for
+    the quantified error: ``k_sigma`` spreads), so that its limit at each
+    waypoint is ``min(a_nominal / SF, a_bound)``: a robust plan never gives
+    less than a plain plan that is stable on the bound, and never more than
+    the plain plan. Receptance is linear in the residues and the stability
+    limit inverse in them, so dividing the bound's residues by ``SF`` puts
+    ``SF * a_bound`` among the scenarios whose smallest limit is divided by
+    ``SF``.
+
+    Parameters
+    ----------
+    model : ModalModel
+        The bound's tool-point (feed-frame) model, batch (n,).
+    safety_factor : float
+        The job's ``plan.safety_factor`` (>= 1).
+
+    Returns
+    -------
+    ModalModel
+    """
+    sf = float(safety_factor)
+    if sf == 1.0:
+        return model
+    return ModalModel(model.omega, model.zeta, model.residues / sf)
 
 
 def plan_bound(

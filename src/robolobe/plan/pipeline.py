@@ -43,7 +43,7 @@ import numpy as np
 import pandas as pd
 from numpy.typing import NDArray
 
-from robolobe.errors import InputError, ReachabilityError, SingularityError
+from robolobe.errors import InfeasibleError, InputError, ReachabilityError, SingularityError
 from robolobe.plan._summary import PlanSummary
 from robolobe.plan.engagement import engagement_note, plan_engagement
 from robolobe.plan.job import Job, load_job
@@ -56,6 +56,7 @@ from robolobe.plan.modes import (
     RobustBound,
     TwinSource,
     as_mode_source,
+    bound_scenario,
     mode_source,
     plan_bound,
 )
@@ -974,7 +975,8 @@ def cut_lobes(
     models = [_tool_point_models(rot, modes.model, tool)]
     bound, _ = plan_bound(job.plan, modes, robust)
     if bound is not None:
-        models.append(_tool_point_models(rot, bound.model, tool))
+        bm = _tool_point_models(rot, bound.model, tool)
+        models.append(bound_scenario(bm, job.plan.safety_factor))
     timings["frf"] = time.perf_counter() - t
     t = time.perf_counter()
     grouped = waypoint_lobes(
@@ -1016,6 +1018,34 @@ def _heavy_damping_note(table: pd.DataFrame, source: ModeSource) -> str:
         f"(damping ratio up to {z_max.max():.2f}): the planner's real-mode receptance "
         "can be 30 % or more off the twin's exact one there (README, known limit); plan "
         "robustly, or check the plan on measured FRFs with robolobe verify"
+    )
+
+
+def _robust_infeasible(
+    reason: str, grouped: GroupedLobes, bound: RobustBound, cons: Constraints
+) -> str:
+    """Why a robust plan is infeasible and what would make it feasible (issue 27)."""
+    rpm = grouped.table.rpm
+    ok = (rpm >= cons.rpm_min) & (rpm <= cons.rpm_hi)
+    nominal, held = grouped.diagrams[0].a_lim, grouped.diagrams[1].a_lim
+    sf = cons.safety_factor
+    best_nom = np.where(ok, nominal, 0.0).max(axis=1) / sf  # per group
+    best_bound = np.where(ok, held, 0.0).max(axis=1) / sf  # the bound at margin 1
+    worst = int(np.argmin(best_bound))
+    d = bound.describe()
+    plain = (
+        "a plain plan (plan.robust = false) on the prediction is feasible"
+        if np.all(best_nom >= cons.depth_min_m)
+        else "the prediction alone is infeasible too"
+    )
+    return (
+        f"{reason} (robust plan: on the bound, stiffness to {d['stiffness_lowered_to_pct']:.3g} % "
+        f"and damping to {d['damping_lowered_to_pct']:.3g} % of the prediction, speed window "
+        f"+-{d['frequency_window_pct_max']:.3g} %, the deepest stable cut of the worst "
+        f"dynamics is {best_bound[worst] * 1e3:.3g} mm, the prediction's "
+        f"{best_nom[worst] * 1e3:.3g} mm; {plain}). To plan robustly: a smaller plan.k_sigma "
+        f"(now {bound.k_sigma:g}), a narrower spread from hammer tests near these postures, "
+        "or a smaller plan.depth_min"
     )
 
 
@@ -1150,7 +1180,12 @@ def plan_path(
         room = dataclasses.replace(cons, safety_factor=cons.safety_factor * (1 + LOBE_TOL))
         return schedule_passes(run, room, depth.deepest_m)[0]
 
-    outcome = schedule(grouped.table)
+    try:
+        outcome = schedule(grouped.table)
+    except InfeasibleError as exc:
+        if bound is None:
+            raise
+        raise InfeasibleError(_robust_infeasible(str(exc), grouped, bound, cons)) from None
     # lobe sharing keeps its promise: members planned next to a steep wall of their
     # leader's lobes get lobes of their own, and the schedule is made again
     steep = steep_members(grouped, outcome.best.rpm)

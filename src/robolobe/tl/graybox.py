@@ -800,6 +800,9 @@ class TwinCalibration:
         dof = max(r_data.size - p, 1)
         s2 = float(r_data @ r_data) / dof
         cov = s2 * np.linalg.pinv(jac.T @ jac)
+        # pinv of an ill-conditioned J^T J is symmetric only to rounding, which the
+        # saved model's check refuses (a default transfer wrote a file it could not read)
+        cov = 0.5 * (cov + cov.T)
         i, j, m, t = idx
         raw = np.log(y[i, j, m] / model(theta)[i, j, t])
         rms = {

@@ -28,7 +28,13 @@ smooth, posture-dependent residual. :class:`CorrectedTwin` learns it:
    output's: where the twin's form is right for a quantity, it stays as is);
 5. spread: the twin's parameter spread plus, per output, the leave-one-out
    RMS error of the corrected residual, scaled up where the process is less
-   certain than at the training postures (away from the tests).
+   certain than at the training postures (away from the tests); the spread
+   robust plans use (:meth:`CorrectedTwin.planning_spread`) takes that
+   model-form term for f, zeta and k alike, sized by the mode's share of
+   the direction's compliance (:func:`share_factor`), times a scale per quantity
+   calibrated on held-out tests (:func:`calibrate_spread`: the share of
+   held-out tests within two spreads is :data:`SPREAD_CONFIDENCE`), and
+   the cross-validated coverage is kept (``spread_cover_``).
 
 The correction tends to zero away from the tested postures (the process has
 zero mean), so the predictor falls back on the calibrated twin where the
@@ -40,6 +46,7 @@ reads it, so a job's ``robot.model`` can name it.
 from __future__ import annotations
 
 import json
+import math
 import os
 import warnings
 import zipfile
@@ -63,7 +70,16 @@ from robolobe.tl.estimator import ModalPrediction
 from robolobe.tl.graybox import TwinCalibration, modal_frame_dataset
 from robolobe.twin.params import K_MAX
 
-__all__ = ["CORRECTED_TWIN_FORMAT", "CorrectedTwin", "is_corrected_twin_file"]
+__all__ = [
+    "CORRECTED_TWIN_FORMAT",
+    "SPREAD_CONFIDENCE",
+    "SPREAD_SIGMA",
+    "CorrectedTwin",
+    "calibrate_spread",
+    "compliance_share",
+    "is_corrected_twin_file",
+    "share_factor",
+]
 
 FloatArray = NDArray[np.float64]
 #: ``format`` of a saved :class:`CorrectedTwin`.
@@ -71,6 +87,147 @@ CORRECTED_TWIN_FORMAT = "robolobe-corrected-twin/1"
 _QUANTITIES = ("f", "zeta", "k")
 _LOG_ELL_BOUNDS = (np.log(0.05), np.log(20.0))  # length scales [rad]
 _RHO_BOUNDS = (0.01, 0.99)
+
+
+#: Width [std] at which the planning spread is calibrated, and the share of held-out
+#: tests it must cover there (two-sided normal: 95.45 %; a robust plan's default
+#: ``k_sigma = 2`` bound is this one-sided, 97.7 % per quantity).
+SPREAD_SIGMA = 2.0
+SPREAD_CONFIDENCE = math.erf(SPREAD_SIGMA / math.sqrt(2.0))
+_SCALE_BOUNDS = (0.25, 10.0)  # least and largest calibration scale of a quantity's spread
+
+
+def calibrate_spread(
+    held: FloatArray, var_p: FloatArray, h: FloatArray | None = None
+) -> tuple[FloatArray, FloatArray, FloatArray]:
+    """Scale per quantity of the model-form spread, from held-out tests, and its coverage.
+
+    Each output's (direction, mode, quantity) model-form spread is the RMS of
+    its held-out residuals; here that spread is taken at each test ``i``
+    without the test itself, ``s_-i = sqrt((sum e^2 - e_i^2) / (n - 1))``,
+    and the test is covered at the scale ``lam`` when
+    ``|e_i| <= SPREAD_SIGMA * sqrt(var_p_i + lam^2 s_-i^2)``. Per quantity
+    the scale is the :data:`SPREAD_CONFIDENCE` quantile of the scale each
+    test needs (pooled over the outputs), clipped to [0.25, 10]. The coverage
+    reported is cross-validated over postures: each posture's tests are
+    checked at the scale found without that posture.
+
+    Parameters
+    ----------
+    held : ndarray, shape (n, n_dir, n_modes, 3)
+        Held-out log residuals of f, zeta, k (NaN: no test).
+    var_p : ndarray, shape (n, n_dir, n_modes, 3)
+        Variance of the logs from the calibrated parameters at the tests.
+    h : ndarray, shape (n, n_dir, n_modes, 3), optional
+        Relative size of the model-form error at each test (default 1): the
+        output's spread is the RMS of ``e / h`` times ``h`` at the test
+        (:func:`share_factor`).
+
+    Returns
+    -------
+    scale : ndarray, shape (3,)
+        Factor on the model-form spread per quantity (1 where there are no data).
+    cover : ndarray, shape (3,)
+        Cross-validated share of held-out tests within ``SPREAD_SIGMA`` spreads
+        at the calibrated scale (NaN: no data).
+    cover_raw : ndarray, shape (3,)
+        The same at scale 1 (the spread before calibration).
+    """
+    e = np.asarray(held, dtype=float)
+    hh = np.ones_like(e) if h is None else np.asarray(h, dtype=float)
+    ok = np.isfinite(e)
+    n_out = ok.sum(axis=0)  # (nd, nm, 3)
+    ss = np.where(ok, e / hh, 0.0) ** 2
+    tot = ss.sum(axis=0)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        s_i = hh * np.sqrt(np.clip(tot - ss, 0.0, None) / (n_out - 1))
+        need = np.sqrt(np.clip(e**2 / SPREAD_SIGMA**2 - var_p, 0.0, None)) / s_i
+    use = ok & (n_out >= 3) & np.isfinite(need)
+    need = np.where(use, need, np.nan)
+    scale = np.ones(3)
+    cover = np.full(3, np.nan)
+    cover_raw = np.full(3, np.nan)
+    post = np.broadcast_to(np.arange(e.shape[0])[:, None, None], e.shape[:3])
+    for c in range(3):
+        u = use[..., c]
+        if u.sum() < 10:
+            continue
+        v = need[..., c][u]
+        p = post[u]
+        scale[c] = float(np.clip(np.quantile(v, SPREAD_CONFIDENCE), *_SCALE_BOUNDS))
+        hit = np.empty(v.size, bool)
+        for k in np.unique(p):
+            here = p == k
+            lam = np.clip(np.quantile(v[~here], SPREAD_CONFIDENCE), *_SCALE_BOUNDS)
+            hit[here] = v[here] <= lam
+        cover[c] = float(hit.mean())
+        cover_raw[c] = float(np.mean(v <= 1.0))
+    return scale, cover, cover_raw
+
+
+#: Edges of the compliance-share classes of :func:`share_factor`.
+SHARE_EDGES = (0.05, 0.2, 0.5)
+
+
+def compliance_share(values: FloatArray) -> FloatArray:
+    """Each mode's share of its direction's summed peak compliance ``1 / (k zeta)``.
+
+    Parameters
+    ----------
+    values : ndarray, shape (n, n_dir, n_modes, 3)
+        f [Hz], zeta, k [N/m] (NaN: none; k >= K_MAX: not seen).
+
+    Returns
+    -------
+    ndarray, shape (n, n_dir, n_modes)
+        In [0, 1]; 0 where a mode is not seen.
+    """
+    v = np.asarray(values, dtype=float)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        c = 1.0 / (v[..., 2] * v[..., 1])
+    c = np.where(np.isfinite(c) & (v[..., 2] < K_MAX) & (c > 0), c, 0.0)
+    tot = c.sum(axis=-1, keepdims=True)
+    return np.asarray(np.where(tot > 0, c / np.where(tot > 0, tot, 1.0), 0.0))
+
+
+def share_classes(share: FloatArray) -> NDArray[np.intp]:
+    """Class of each compliance share (:data:`SHARE_EDGES`), 0 (smallest) to 3."""
+    return np.asarray(np.searchsorted(np.asarray(SHARE_EDGES), share, side="right"))
+
+
+def share_factor(held: FloatArray, share: FloatArray, min_count: int = 10) -> FloatArray:
+    """Relative size of the model-form error per quantity and compliance-share class.
+
+    A mode that dominates a direction's compliance is known better than one
+    that barely moves the tool point that way (its modal stiffness is the
+    inverse square of a small shape component): on out-of-form robots the
+    held-out log k error of modes with over half a direction's compliance is
+    a third of that of modes under a fifth. Per quantity, the RMS of the
+    held-out residuals of each class over the RMS of all (1 for a class with
+    fewer than ``min_count`` tests).
+
+    Parameters
+    ----------
+    held : ndarray, shape (n, n_dir, n_modes, 3)
+    share : ndarray, shape (n, n_dir, n_modes)
+
+    Returns
+    -------
+    ndarray, shape (3, len(SHARE_EDGES) + 1)
+    """
+    cls = share_classes(share)
+    out = np.ones((3, len(SHARE_EDGES) + 1))
+    for c in range(3):
+        e = held[..., c]
+        ok = np.isfinite(e)
+        if ok.sum() < min_count:
+            continue
+        rms = float(np.sqrt(np.mean(e[ok] ** 2)))
+        for b in range(out.shape[1]):
+            sel = ok & (cls == b)
+            if sel.sum() >= min_count and rms > 0:
+                out[c, b] = max(float(np.sqrt(np.mean(e[sel] ** 2))) / rms, 1e-3)
+    return out
 
 
 def _kernel(xa: FloatArray, xb: FloatArray, ell: FloatArray) -> FloatArray:
@@ -161,6 +318,17 @@ class CorrectedTwin:
         Leave-one-out RMS log error of the corrected residual per output.
     loo_rmse_twin_ : ndarray, shape (n_dir, n_modes, 3)
         The same for the calibrated twin alone (in-sample residual RMS).
+    spread_scale_ : ndarray, shape (3,)
+        Calibration scale of the model-form spread per quantity (f, zeta, k)
+        (:func:`calibrate_spread`).
+    share_h_ : ndarray, shape (3, 4)
+        Relative model-form error per quantity and compliance-share class
+        (:func:`share_factor`).
+    form_std_ : ndarray, shape (n_dir, n_modes, 3)
+        Model-form spread per output at share factor 1.
+    spread_cover_, spread_cover_raw_ : ndarray, shape (3,)
+        Cross-validated share of held-out tests within ``SPREAD_SIGMA``
+        planning spreads, calibrated and at scale 1 (NaN: too few tests).
     directions_ : tuple of str
     n_modes_ : int
     train_q_rad_ : ndarray, shape (n, 6)
@@ -252,6 +420,7 @@ class CorrectedTwin:
         alpha = np.zeros((nd, nm, 3))
         loo = np.where(count > 0, scale, np.nan)
         inv_var_mean = np.ones((nd, nm, 3))
+        held = r.copy()  # held-out residuals (filled per quantity below)
         for c in range(3):
             outs = [
                 (j, m) for j in range(nd) for m in range(nm) if count[j, m, c] >= self.min_points
@@ -288,11 +457,13 @@ class CorrectedTwin:
             rho = float(1.0 / (1.0 + np.exp(-hyp[n_ell])))
             ells[c], rhos[c] = ell, rho
             pooled = [0.0, 0.0]  # squared error of the twin, of the corrected twin (scaled)
+            loo_g: dict[tuple[int, int], FloatArray] = {}
             for (j, m), xo, to in zip(outs, xs, ts, strict=True):
                 kmat = rho * _kernel(xo, xo, ell) + (1.0 - rho) * np.eye(len(xo))
                 a = np.linalg.inv(kmat)
                 d = np.diag(a)
                 g = to - (a @ to) / d  # leave-one-out means (closed form)
+                loo_g[j, m] = g
                 gg = float(g @ g)
                 al = float(np.clip((to @ g) / gg, 0.0, 1.0)) if gg > 0 else 0.0
                 sse0 = float(to @ to)
@@ -308,6 +479,12 @@ class CorrectedTwin:
             if outs and pooled[0] - pooled[1] <= self.pooled_gain * pooled[0]:
                 alpha[..., c] = 0.0  # not worth it for this quantity: the twin as is
                 loo[..., c] = np.where(count[..., c] > 0, scale[..., c], np.nan)
+            # held-out residual per test: the corrected residual left out (the process'
+            # leave-one-out mean), or the calibrated twin's residual where uncorrected
+            for (j, m), g in loo_g.items():
+                if alpha[j, m, c] > 0:
+                    sel = ok[:, j, m, c]
+                    held[sel, j, m, c] = r[sel, j, m, c] - alpha[j, m, c] * scale[j, m, c] * g
         self.calibration_ = cal
         self.robot_ = cal.robot_
         self.length_scales_ = ells
@@ -321,7 +498,33 @@ class CorrectedTwin:
         self.directions_ = tuple(ds.directions)
         self.n_modes_ = nm
         self.train_q_rad_ = x
+        center, var_p = self._parameter_variance(x, ds.directions, nm)
+        share = compliance_share(np.exp(center))
+        self.share_h_ = share_factor(held, share)
+        h = np.moveaxis(self.share_h_[:, share_classes(share)], 0, -1)  # (n, nd, nm, 3)
+        self.spread_scale_, self.spread_cover_, self.spread_cover_raw_ = calibrate_spread(
+            held, var_p, h
+        )
+        with np.errstate(invalid="ignore", divide="ignore"):
+            u = held / h
+            n_u = np.isfinite(u).sum(axis=0)
+            form = np.sqrt(np.nansum(u**2, axis=0) / n_u)
+        # the output's model-form spread at a share of factor 1 (its RMS where no tests)
+        self.form_std_ = np.where(n_u > 0, form, loo)
         return self
+
+    def _parameter_variance(
+        self, q: FloatArray, directions: Sequence[str], n_modes: int
+    ) -> tuple[FloatArray, FloatArray]:
+        """The calibrated twin's logs and their variance from its parameters alone.
+
+        Both of shape (n, n_dir, nm, 3).
+        """
+        cal = self.calibration_
+        base = cal.predict(q, directions=directions, n_modes=n_modes, spread=True)
+        rms = np.nan_to_num([cal.residual_rms_[c] for c in _QUANTITIES])
+        var = np.clip(np.asarray(base.std) ** 2 - rms**2, 0.0, None)
+        return np.asarray(base.center), np.asarray(var)
 
     # ------------------------------------------------------------- predict
     def _check_fitted(self) -> None:
@@ -457,23 +660,22 @@ class CorrectedTwin:
     ) -> FloatArray:
         """Spread of the prediction's *error* at postures: what a robust plan lowers by.
 
-        :meth:`predict`'s spread covers a new hammer test (it holds the
-        identification's scatter); a plan needs the error of the predicted
-        modes against the robot itself. Per direction, mode and posture:
+        Per direction, mode and posture, the variance of
 
-        * the calibration's parameter covariance propagated to the posture;
-        * a model-form term: for log f and log zeta the leave-one-out error of
-          the corrected residual (widened away from the tests, see
-          :meth:`correction`); for log k twice the frequency term (``k ~ m
-          omega^2``: a form error that moves a frequency by ``e`` moves the
-          stiffness by about ``2 e``), plus the leave-one-out error of the
-          stiffness correction where one is used. The stiffness residual of
-          an uncorrected output is not used: it is mostly identification
-          scatter (5-50 % leave-one-out on 20 simulated tests, of which the
-          identification's own ``k_rel_std`` explains 0.2-2 %), which a fit
-          over all tests averages out. Without a data-based term (an output
-          with no tests, a direction not tested) the calibration's in-sample
-          residual of f and zeta, and twice that of f for k.
+        * the calibration's parameter covariance propagated to the posture, plus
+        * a model-form term calibrated on held-out tests: the output's
+          held-out RMS error of log f, log zeta and log k (the corrected
+          residual left out by the process, or the calibrated twin's residual
+          where uncorrected: what the twin's form misses, which on a robot
+          outside that form is mostly real error, not identification scatter),
+          sized by the mode's share of the direction's compliance at the
+          posture (:func:`share_factor`: a dominant mode is known better),
+          widened away from the tests as the process is less certain there
+          (:meth:`correction`), times the quantity's calibration scale
+          :attr:`spread_scale_` (:func:`calibrate_spread`: held-out tests
+          within ``SPREAD_SIGMA`` spreads at :data:`SPREAD_CONFIDENCE`).
+          Without tests of an output (a direction not tested) the
+          calibration's in-sample residual RMS of the quantity, scaled alike.
 
         Parameters
         ----------
@@ -493,25 +695,24 @@ class CorrectedTwin:
         q = np.asarray(q_rad, dtype=float)
         dirs = tuple(directions) if directions is not None else self.directions_
         nm = int(n_modes) if n_modes is not None else self.n_modes_
-        base = self.calibration_.predict(q, directions=dirs, n_modes=nm, spread=True)
+        center, var_p = self._parameter_variance(q, dirs, nm)
         rms = np.nan_to_num([self.calibration_.residual_rms_[c] for c in _QUANTITIES])
-        var_p = np.clip(np.asarray(base.std) ** 2 - rms**2, 0.0, None)
-        form = np.broadcast_to(np.array([rms[0], rms[1], 2.0 * rms[0]]), var_p.shape).copy()
+        form = np.broadcast_to(rms, var_p.shape).copy()
         _, std_c = self.correction(q)
+        share = compliance_share(np.exp(center))
+        h = np.moveaxis(self.share_h_[:, share_classes(share)], 0, -1)  # (n, n_dir, nm, 3)
         for jj, d in enumerate(dirs):
             if d not in self.directions_:
                 continue
             j = self.directions_.index(d)
             mm = min(nm, self.n_modes_)
-            sc = std_c[:, j, :mm]  # (n, mm, 3)
-            f_form = np.where(np.isfinite(sc[..., 0]), sc[..., 0], rms[0])
-            z_form = np.where(np.isfinite(sc[..., 1]), sc[..., 1], rms[1])
-            used_k = self.alpha_[j, :mm, 2] > 0
-            k_corr = np.where(used_k, np.nan_to_num(sc[..., 2], nan=0.0), 0.0)
-            form[:, jj, :mm, 0] = f_form
-            form[:, jj, :mm, 1] = z_form
-            form[:, jj, :mm, 2] = np.sqrt((2.0 * f_form) ** 2 + k_corr**2)
-        return np.asarray(np.sqrt(var_p + form**2))
+            # the output's spread at this mode's compliance share, widened away from the
+            # tests as the correction's
+            with np.errstate(invalid="ignore", divide="ignore"):
+                widen = std_c[:, j, :mm] / self.loo_rmse_[j, :mm]
+            sc = self.form_std_[j, :mm] * h[:, jj, :mm] * np.where(np.isfinite(widen), widen, 1.0)
+            form[:, jj, :mm] = np.where(np.isfinite(sc), sc, rms)
+        return np.asarray(np.sqrt(var_p + (form * self.spread_scale_) ** 2))
 
     def extrapolation(self, q_rad: ArrayLike) -> FloatArray:
         """Zero per posture: the twin is physics over the whole workspace.
@@ -570,6 +771,11 @@ class CorrectedTwin:
             loo_var_mean=self.loo_var_mean_,
             train_r=self.train_r_,
             train_q_rad=self.train_q_rad_,
+            spread_scale=self.spread_scale_,
+            spread_cover=self.spread_cover_,
+            spread_cover_raw=self.spread_cover_raw_,
+            share_h=self.share_h_,
+            form_std=self.form_std_,
         )
         path = Path(path)
         with atomic_path(path) as tmp, tmp.open("wb") as fh:
@@ -626,6 +832,18 @@ class CorrectedTwin:
                 "train_q_rad",
             ):
                 setattr(self, f"{name}_", np.asarray(arrays[name], dtype=float))
+            # files written before the spread was calibrated: scale 1, coverage unknown
+            self.spread_scale_ = np.asarray(arrays.get("spread_scale", np.ones(3)), dtype=float)
+            self.spread_cover_ = np.asarray(
+                arrays.get("spread_cover", np.full(3, np.nan)), dtype=float
+            )
+            self.spread_cover_raw_ = np.asarray(
+                arrays.get("spread_cover_raw", np.full(3, np.nan)), dtype=float
+            )
+            self.share_h_ = np.asarray(
+                arrays.get("share_h", np.ones((3, len(SHARE_EDGES) + 1))), dtype=float
+            )
+            self.form_std_ = np.asarray(arrays.get("form_std", self.loo_rmse_), dtype=float)
         except (KeyError, TypeError, ValueError, AttributeError) as exc:
             raise InputError(f"inconsistent model file ({exc})", source=where) from None
         check_meta_counts(self.directions_, self.n_modes_, where)
@@ -656,6 +874,21 @@ class CorrectedTwin:
         check_range(self.loo_var_mean_, "loo_var_mean", where, low=0.0, open_low=True, nan_ok=True)
         check_range(self.train_r_, "train_r", where, nan_ok=True)
         check_range(self.train_q_rad_, "train_q_rad", where, low=-2 * np.pi, high=2 * np.pi)
+        if self.spread_scale_.shape != (3,) or self.spread_cover_.shape != (3,):
+            raise InputError(
+                "inconsistent model file: spread_scale and spread_cover: expected 3 values each",
+                source=where,
+            )
+        check_range(self.spread_scale_, "spread_scale", where, low=0.0, open_low=True)
+        if self.share_h_.shape != (3, len(SHARE_EDGES) + 1) or self.form_std_.shape != (nd, nm, 3):
+            raise InputError(
+                "inconsistent model file: share_h and form_std: expected shapes "
+                f"(3, {len(SHARE_EDGES) + 1}) and ({nd}, {nm}, 3)",
+                source=where,
+            )
+        check_range(self.share_h_, "share_h", where, low=0.0, open_low=True)
+        check_range(self.form_std_, "form_std", where, low=0.0, nan_ok=True)
+        check_range(self.spread_cover_, "spread_cover", where, low=0.0, high=1.0, nan_ok=True)
         return self
 
     def __repr__(self) -> str:
