@@ -166,7 +166,9 @@ def test_robust_mode_plans_on_the_lower_bound(pocket_job):
     job = pocket_job.replace(plan=dataclasses.replace(pocket_job.plan, robust=True, k_sigma=2.0))
     robust = plan_path(example("pocket.nc"), job, source=src, refine=False)
     assert robust.summary.robust is True
-    assert robust.outcome.best.depth_m < nominal.outcome.best.depth_m
+    # in passes of the program's 5 mm: the robust plan is the slower one (more passes or
+    # a lower speed)
+    assert robust.summary.cycle_time_s > nominal.summary.cycle_time_s
     assert len(robust.lobes.diagrams) == 2  # nominal + stiffness and damping lowered
     b = robust.summary.robust_bound
     assert b is not None
