@@ -954,8 +954,12 @@ def _heavy_damping_note(table: pd.DataFrame, source: ModeSource) -> str:
     cut = (table["motion"] == "cut").to_numpy()
     if not cols or not cut.any():
         return ""
-    z = table.loc[cut, cols].to_numpy(dtype=np.float64)
-    z_max = np.max(np.where(np.isfinite(z), z, -np.inf), axis=1)  # per waypoint
+    # per waypoint, column by column (the (n_cut, n_cols) block of a long path at once
+    # was its plan's peak memory)
+    z_max = np.full(int(cut.sum()), -np.inf)
+    for c in cols:
+        z = table[c].to_numpy(dtype=np.float64)[cut]
+        np.fmax(z_max, np.where(np.isfinite(z), z, -np.inf), out=z_max)
     n = int(np.count_nonzero(z_max >= HEAVY_DAMPING))
     if not n:
         return ""
