@@ -115,16 +115,18 @@ def _children_cpu() -> float:
 
 
 @contextlib.contextmanager
-def _engagement_timed() -> Iterator[dict[str, float]]:
-    """Seconds of the plan's engagement stage (``stock_engagement``) into the dict yielded."""
+def _engagement_timed(cpu: bool = False) -> Iterator[dict[str, float]]:
+    """Seconds of the plan's engagement stage (``stock_engagement``) into the dict yielded
+    (CPU seconds with ``cpu``)."""
     inner = _pipeline.stock_engagement
     got: dict[str, float] = {}
+    clock = time.process_time if cpu else time.perf_counter
 
     def timed(*args: Any, **kwargs: Any) -> Any:
-        t = time.perf_counter()
+        t = clock()
         out = inner(*args, **kwargs)
         if out is not None:  # None: no [stock], no stage
-            got["engagement"] = got.get("engagement", 0.0) + time.perf_counter() - t
+            got["engagement"] = got.get("engagement", 0.0) + clock() - t
         return out
 
     _pipeline.stock_engagement = timed
@@ -144,6 +146,28 @@ def _with_engagement(timings: dict[str, float], got: dict[str, float]) -> dict[s
         if k == "read":
             out["engagement"] = got["engagement"]
     return out
+
+
+@contextlib.contextmanager
+def _stage_cpu(on: bool) -> Iterator[None]:
+    """With ``on``, the plan's stage timings are CPU seconds of the process (all threads).
+
+    The pipeline times its stages with ``time.perf_counter``; its module's
+    ``time`` is replaced by one whose ``perf_counter`` is ``process_time``
+    (on a shared machine the CPU seconds compare where wall seconds do not).
+    """
+    if not on:
+        yield
+        return
+    import types
+
+    clock = types.SimpleNamespace(perf_counter=time.process_time, process_time=time.process_time)
+    old = _pipeline.time
+    _pipeline.time = clock  # type: ignore[assignment]
+    try:
+        yield
+    finally:
+        _pipeline.time = old
 
 
 def _with_stock(job: Job) -> Job:
@@ -248,7 +272,13 @@ def part_path(n: int, tmp: Path, sources: list[str], reference: bool) -> None:
 
 
 def part_long(
-    n: int, tmp: Path, fmt: str, every: int, program: bool = True, stock: bool = False
+    n: int,
+    tmp: Path,
+    fmt: str,
+    every: int,
+    program: bool = True,
+    stock: bool = False,
+    cpu_stages: bool = False,
 ) -> None:
     """A long zig-zag (``n`` waypoints) planned and written; wall, CPU, peak RSS, load."""
     import resource
@@ -264,7 +294,7 @@ def part_long(
     rss0 = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
     t0 = time.perf_counter()
     c0 = time.process_time()
-    with _engagement_timed() as eng:
+    with _engagement_timed(cpu_stages) as eng, _stage_cpu(cpu_stages):
         res = plan_path(path, job)
     t1 = time.perf_counter()
     c1 = time.process_time()
@@ -286,8 +316,14 @@ def part_long(
         f"{s.n_dynamics_groups} distinct dynamics, cores {os.cpu_count()}, {_load()}"
         + (", [stock] engagement" if stock else "")
     )
-    for k, v in _with_engagement(res.timings, eng).items():
-        print(f"  {k:<10s} {v:7.2f} s  ({v / (t2 - t0):5.1%})")
+    stages = _with_engagement(res.timings, eng)
+    if cpu_stages:
+        print(f"  (stages in CPU seconds, all threads; plan CPU {c1 - c0:.2f} s)")
+        for k, v in stages.items():
+            print(f"  {k:<10s} {v:7.2f} s CPU ({v / max(c1 - c0, 1e-9):5.1%} of the plan's CPU)")
+    else:
+        for k, v in stages.items():
+            print(f"  {k:<10s} {v:7.2f} s  ({v / (t2 - t0):5.1%})")
     sizes = {p.name: p.stat().st_size for p in (tmp / "out_long").iterdir() if p.is_file()}
     what = "with program.nc (written, read back)" if program else "no program"
     print(f"  outputs    {t2 - t1:7.2f} s  (waypoints {fmt}, every {every}, {what}: {sizes} bytes)")
@@ -352,6 +388,11 @@ def main() -> None:
         help="Long part: without program.nc (written and read back by default).",
     )
     ap.add_argument(
+        "--cpu-stages",
+        action="store_true",
+        help="Long part: the stages in CPU seconds (all threads) instead of wall seconds.",
+    )
+    ap.add_argument(
         "--stock",
         action="store_true",
         help="Long part: with the default [stock] (the engagement stage included).",
@@ -365,7 +406,13 @@ def main() -> None:
             part_batch(args.paths, args.waypoints, tmp)
         if args.part == "long":  # alone: the peak RSS is the process's
             part_long(
-                args.waypoints_long, tmp, args.format, args.every, not args.no_program, args.stock
+                args.waypoints_long,
+                tmp,
+                args.format,
+                args.every,
+                not args.no_program,
+                args.stock,
+                args.cpu_stages,
             )
 
 
