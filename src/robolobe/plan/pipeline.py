@@ -327,11 +327,26 @@ _THREADS = min(2, os.cpu_count() or 1)
 
 
 def _wrist_measure(robot: Robot, q: FloatArray) -> FloatArray:
+    """|sin| of the wrist bend per posture (n,), in chunks on up to :data:`_THREADS`
+    threads (numpy's batched products release the GIL; each chunk is its own)."""
     out = np.empty(q.shape[0])
-    for c0 in range(0, q.shape[0], _CHUNK):
+
+    def part(c0: int) -> None:
         frames = link_frames(robot, q[c0 : c0 + _CHUNK])
         axes, _ = joint_axes(robot, frames)  # (m, 6, 3)
         out[c0 : c0 + _CHUNK] = np.linalg.norm(np.cross(axes[:, 3], axes[:, 5]), axis=-1)
+
+    starts = range(0, q.shape[0], _CHUNK)
+    if _THREADS > 1 and len(starts) > 1:
+        from concurrent.futures import ThreadPoolExecutor
+
+        from robolobe._threads import one_blas_thread
+
+        with one_blas_thread(), ThreadPoolExecutor(_THREADS) as ex:
+            list(ex.map(part, starts))
+    else:
+        for c0 in starts:
+            part(c0)
     return out
 
 
