@@ -30,10 +30,13 @@ and prints the throughput per worker and the scaling from 1 to 2 workers.
 Part 3 (``long``, run alone so that the peak RSS is the plan's) plans a
 zig-zag of ``--waypoints-long`` waypoints (default 1e6) on the twin and
 writes the waypoints (``--format csv|parquet|none``, ``--every K`` thins
-them) without plots; it prints wall and CPU time per stage, the peak
-resident memory and the load average; ``--stock`` plans with the default
-``[stock]`` (the engagement stage included). Target (issues 16, 17, 26):
-< 60 s and < 2 GB on 2 cores, with the engagement too.
+them) without plots; it prints the seconds per stage, the total wall and
+CPU time, the peak resident memory and the load average; ``--stock`` plans
+with the default ``[stock]`` (the engagement stage included);
+``--cpu-stages`` gives the stages in CPU seconds of the process (all
+threads) instead of wall seconds: on a shared machine these compare between
+runs where wall seconds do not. Target (issues 16, 17, 26): < 60 s and
+< 2 GB on 2 cores, with the engagement too.
 
 The numbers are for the machine the script runs on; compare runs side by
 side on one machine (the ratios), not against a fixed threshold.
