@@ -4,6 +4,7 @@
     python benchmarks/bench_plan.py --part path     # 10k-waypoint path only
     python benchmarks/bench_plan.py --part batch --paths 40 --waypoints 1000
     python benchmarks/bench_plan.py --part long     # 1e6 waypoints: time, peak RSS
+    python benchmarks/bench_plan.py --part long --stock    # the same with [stock] engagement
 
 Part 1 (``path``) plans a dense zig-zag finishing path (10,000 waypoints,
 3-axis, tool down) on robot A with each mode source of ``--sources``
@@ -16,7 +17,11 @@ the seconds per stage (read, IK, modes, FRFs, lobes, optimization, table,
 outputs) per source, each as a share of the total and beside the same plan
 on the numpy reference paths (compiled kernels off, same process; whether
 the plan came out the same), then the sources side by side as ratios to the
-first, with the load average. Targets: < 10 s (issues 6, 11), < 2 s (issue 17).
+first, with the load average. A source ending in ``+stock`` plans with the
+job's ``[stock]`` at its default (the stock the program implies, cell
+diameter / 40): the engagement of every move on the Z-map is then its own
+stage (``engagement``, between ``read`` and ``ik``). Targets: < 10 s (issues
+6, 11), < 2 s (issue 17), < 3 s with the stock (issue 26).
 
 Part 2 (``batch``) plans ``--paths`` paths of ``--waypoints`` waypoints each
 (shifted copies of a pocket-like path) with 1 and then 2 worker processes
@@ -25,9 +30,13 @@ and prints the throughput per worker and the scaling from 1 to 2 workers.
 Part 3 (``long``, run alone so that the peak RSS is the plan's) plans a
 zig-zag of ``--waypoints-long`` waypoints (default 1e6) on the twin and
 writes the waypoints (``--format csv|parquet|none``, ``--every K`` thins
-them) without plots; it prints wall and CPU time per stage, the peak
-resident memory and the load average. Target (issues 16, 17): < 60 s and
-< 2 GB on 2 cores.
+them) without plots; it prints the seconds per stage, the total wall and
+CPU time, the peak resident memory and the load average; ``--stock`` plans
+with the default ``[stock]`` (the engagement stage included);
+``--cpu-stages`` gives the stages in CPU seconds of the process (all
+threads) instead of wall seconds: on a shared machine these compare between
+runs where wall seconds do not. Target (issues 16, 17, 26): < 60 s and
+< 2 GB on 2 cores, with the engagement too.
 
 The numbers are for the machine the script runs on; compare runs side by
 side on one machine (the ratios), not against a fixed threshold.
@@ -47,9 +56,10 @@ from typing import Any
 
 import numpy as np
 
+from robolobe.plan import pipeline as _pipeline
 from robolobe.plan._plots import PlotWorker
 from robolobe.plan.batch import batch_plan
-from robolobe.plan.job import load_job
+from robolobe.plan.job import Job, StockSpec, load_job
 from robolobe.plan.pipeline import plan_path
 from robolobe.plan.report import write_outputs
 
@@ -107,16 +117,77 @@ def _children_cpu() -> float:
     return ru.ru_utime + ru.ru_stime
 
 
+@contextlib.contextmanager
+def _engagement_timed(cpu: bool = False) -> Iterator[dict[str, float]]:
+    """Seconds of the plan's engagement stage (``stock_engagement``) into the dict yielded
+    (CPU seconds with ``cpu``)."""
+    inner = _pipeline.stock_engagement
+    got: dict[str, float] = {}
+    clock = time.process_time if cpu else time.perf_counter
+
+    def timed(*args: Any, **kwargs: Any) -> Any:
+        t = clock()
+        out = inner(*args, **kwargs)
+        if out is not None:  # None: no [stock], no stage
+            got["engagement"] = got.get("engagement", 0.0) + clock() - t
+        return out
+
+    _pipeline.stock_engagement = timed
+    try:
+        yield got
+    finally:
+        _pipeline.stock_engagement = inner
+
+
+def _with_engagement(timings: dict[str, float], got: dict[str, float]) -> dict[str, float]:
+    """The plan's stage timings with the engagement stage after ``read`` (when it ran)."""
+    if "engagement" in timings or "engagement" not in got:
+        return dict(timings)
+    out: dict[str, float] = {}
+    for k, v in timings.items():
+        out[k] = v
+        if k == "read":
+            out["engagement"] = got["engagement"]
+    return out
+
+
+@contextlib.contextmanager
+def _stage_cpu(on: bool) -> Iterator[None]:
+    """With ``on``, the plan's stage timings are CPU seconds of the process (all threads).
+
+    The pipeline times its stages with ``time.perf_counter``; its module's
+    ``time`` is replaced by one whose ``perf_counter`` is ``process_time``
+    (on a shared machine the CPU seconds compare where wall seconds do not).
+    """
+    if not on:
+        yield
+        return
+    import types
+
+    clock = types.SimpleNamespace(perf_counter=time.process_time, process_time=time.process_time)
+    old = _pipeline.time
+    _pipeline.time = clock  # type: ignore[assignment]
+    try:
+        yield
+    finally:
+        _pipeline.time = old
+
+
+def _with_stock(job: Job) -> Job:
+    """The job with ``[stock]`` at its default (the program's stock, default cell)."""
+    return job.replace(stock=StockSpec())
+
+
 def _timed_plan(path: Path, job: Any, out: Path) -> tuple[Any, dict[str, float]]:
     t0 = time.perf_counter()
     c0 = time.process_time() + _children_cpu()
-    with PlotWorker() as worker:  # as `robolobe plan` does: plots drawn on the other core
+    with PlotWorker() as worker, _engagement_timed() as eng:  # plots drawn on the other core
         res = plan_path(path, job)
         t1 = time.perf_counter()
         write_outputs(res, out, plots=True, html_report=False, worker=worker)
     t2 = time.perf_counter()
     cpu = time.process_time() + _children_cpu() - c0  # the plot worker's CPU included
-    st = {**res.timings, "outputs": t2 - t1, "total": t2 - t0, "cpu": cpu}
+    st = {**_with_engagement(res.timings, eng), "outputs": t2 - t1, "total": t2 - t0, "cpu": cpu}
     return res, st
 
 
@@ -150,12 +221,14 @@ def part_path(n: int, tmp: Path, sources: list[str], reference: bool) -> None:
     base_job = base_job.replace(placement=pl)
     stages: dict[str, dict[str, float]] = {}
     for spec in sources:
-        model, _, mode = spec.partition("+")
+        model, *modes = spec.split("+")
         if model == "corrected":
             model = _corrected_model(tmp)
         job = base_job.replace(model=model)
-        if mode == "robust":
+        if "robust" in modes:
             job = job.replace(plan=dataclasses.replace(job.plan, robust=True))
+        if "stock" in modes:
+            job = _with_stock(job)
         plan_path(EXAMPLES / "pocket.nc", job)  # warm-up: imports, model load, casadi
         res, st = _timed_plan(path, job, tmp / "out")
         s = res.summary
@@ -192,15 +265,24 @@ def part_path(n: int, tmp: Path, sources: list[str], reference: bool) -> None:
             f"stage seconds side by side ({_load()}; ratio to {first} in brackets): "
             + " | ".join(names)
         )
-        for k in stages[first]:
+        keys = list(dict.fromkeys(k for m in names for k in stages[m]))
+        for k in keys:
             cells = []
             for m in names:
                 v = stages[m].get(k, float("nan"))
-                cells.append(f"{v:7.3f} (x{v / max(stages[first][k], 1e-9):4.2f})")
+                cells.append(f"{v:7.3f} (x{v / max(stages[first].get(k, 0.0), 1e-9):4.2f})")
             print(f"  {k:<10s} " + " | ".join(cells))
 
 
-def part_long(n: int, tmp: Path, fmt: str, every: int, program: bool = True) -> None:
+def part_long(
+    n: int,
+    tmp: Path,
+    fmt: str,
+    every: int,
+    program: bool = True,
+    stock: bool = False,
+    cpu_stages: bool = False,
+) -> None:
     """A long zig-zag (``n`` waypoints) planned and written; wall, CPU, peak RSS, load."""
     import resource
 
@@ -210,11 +292,15 @@ def part_long(n: int, tmp: Path, fmt: str, every: int, program: bool = True) -> 
     pl = job.placement.copy()
     pl[:3, 3] = [1.55, -0.15, 0.30]
     job = job.replace(placement=pl)
+    if stock:
+        job = _with_stock(job)
     rss0 = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
     t0 = time.perf_counter()
     c0 = time.process_time()
-    res = plan_path(path, job)
+    with _engagement_timed(cpu_stages) as eng, _stage_cpu(cpu_stages):
+        res = plan_path(path, job)
     t1 = time.perf_counter()
+    c1 = time.process_time()
     write_outputs(
         res,
         tmp / "out_long",
@@ -225,19 +311,28 @@ def part_long(n: int, tmp: Path, fmt: str, every: int, program: bool = True) -> 
         program=program,
     )
     t2 = time.perf_counter()
+    c2 = time.process_time()
     rss = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
     s = res.summary
     print(
         f"long path: {s.n_waypoints} waypoints ({s.n_cut} cutting), "
         f"{s.n_dynamics_groups} distinct dynamics, cores {os.cpu_count()}, {_load()}"
+        + (", [stock] engagement" if stock else "")
     )
-    for k, v in res.timings.items():
-        print(f"  {k:<10s} {v:7.2f} s  ({v / (t2 - t0):5.1%})")
+    stages = _with_engagement(res.timings, eng)
+    if cpu_stages:
+        print(f"  (stages in CPU seconds, all threads; plan CPU {c1 - c0:.2f} s)")
+        for k, v in stages.items():
+            print(f"  {k:<10s} {v:7.2f} s CPU ({v / max(c1 - c0, 1e-9):5.1%} of the plan's CPU)")
+    else:
+        for k, v in stages.items():
+            print(f"  {k:<10s} {v:7.2f} s  ({v / (t2 - t0):5.1%})")
     sizes = {p.name: p.stat().st_size for p in (tmp / "out_long").iterdir() if p.is_file()}
     what = "with program.nc (written, read back)" if program else "no program"
     print(f"  outputs    {t2 - t1:7.2f} s  (waypoints {fmt}, every {every}, {what}: {sizes} bytes)")
     print(
-        f"  total      {t2 - t0:7.2f} s wall, {time.process_time() - c0:.2f} s CPU (target < 60 s)"
+        f"  total      {t2 - t0:7.2f} s wall, {c2 - c0:.2f} s CPU (plan {c1 - c0:.2f} s, "
+        f"outputs {c2 - c1:.2f} s; target < 60 s wall)"
     )
     print(f"  peak RSS   {rss:7.0f} MB (before planning {rss0:.0f} MB; target < 2048 MB)")
     print(f"  plan: {s.method}, depth {s.depth_mm} mm; refinement: {s.nlp_status}")
@@ -278,8 +373,11 @@ def main() -> None:
     ap.add_argument("--waypoints", type=int, default=1000)
     ap.add_argument(
         "--sources",
-        default="twin,builtin,twin+robust,corrected",
-        help="Mode sources of part 1 (robot.model values; '+robust' plans robustly).",
+        default="twin,twin+stock,builtin,twin+robust,corrected",
+        help=(
+            "Mode sources of part 1 (robot.model values; '+robust' plans robustly, "
+            "'+stock' with the default [stock] and its engagement stage)."
+        ),
     )
     ap.add_argument(
         "--no-reference", action="store_true", help="Part 1 without the numpy reference run."
@@ -292,6 +390,16 @@ def main() -> None:
         action="store_true",
         help="Long part: without program.nc (written and read back by default).",
     )
+    ap.add_argument(
+        "--cpu-stages",
+        action="store_true",
+        help="Long part: the stages in CPU seconds (all threads) instead of wall seconds.",
+    )
+    ap.add_argument(
+        "--stock",
+        action="store_true",
+        help="Long part: with the default [stock] (the engagement stage included).",
+    )
     args = ap.parse_args()
     with tempfile.TemporaryDirectory() as d:
         tmp = Path(d)
@@ -300,7 +408,15 @@ def main() -> None:
         if args.part in ("batch", "all"):
             part_batch(args.paths, args.waypoints, tmp)
         if args.part == "long":  # alone: the peak RSS is the process's
-            part_long(args.waypoints_long, tmp, args.format, args.every, not args.no_program)
+            part_long(
+                args.waypoints_long,
+                tmp,
+                args.format,
+                args.every,
+                not args.no_program,
+                args.stock,
+                args.cpu_stages,
+            )
 
 
 if __name__ == "__main__":

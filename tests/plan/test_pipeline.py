@@ -124,6 +124,22 @@ def test_wrist_measure_vanishes_with_a_straight_wrist():
     assert wm[1] == pytest.approx(0.5, rel=1e-9)  # |sin 30 deg|
 
 
+@pytest.mark.parametrize("threads", [1, 2])
+def test_wrist_measure_in_chunks_on_threads_equals_one_call(monkeypatch, threads):
+    """Chunks (on threads) that do not divide the postures give each posture's value of
+    one call over all of them, and |sin q5| (robot A's wrist is the usual one)."""
+    from robolobe.plan import pipeline
+
+    robot = load_robot("A")
+    rng = np.random.default_rng(4)
+    q = np.radians([10.0, -80.0, 90.0, 5.0, 40.0, 3.0]) + rng.normal(0.0, 0.4, (50, 6))
+    whole = _wrist_measure(robot, q)
+    monkeypatch.setattr(pipeline, "_CHUNK", 7)
+    monkeypatch.setattr(pipeline, "_THREADS", threads)
+    np.testing.assert_array_equal(_wrist_measure(robot, q), whole)
+    np.testing.assert_allclose(whole, np.abs(np.sin(q[:, 4])), rtol=1e-9, atol=1e-12)
+
+
 def test_impossible_limits_are_infeasible(pocket_job):
     job = pocket_job.replace(plan=dataclasses.replace(pocket_job.plan, depth_min_m=0.014))
     with pytest.raises(InfeasibleError) as ei:

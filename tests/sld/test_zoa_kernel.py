@@ -195,6 +195,43 @@ def test_envelope_rows_equals_lobe_envelope_per_row() -> None:
     assert np.all(got[:, 0] == got[:, 1])
 
 
+def test_envelope_rows_of_one_entry_asked_together_equal_each_row_alone() -> None:
+    """Rows of one entry are answered together (its lobes visited once for all their
+    speeds): each row's values are bit for bit those of the row asked alone, and the
+    numpy reference's to rounding, whatever the other rows ask (many rows per entry,
+    speeds spread over the range so that the rows' envelopes lie far apart)."""
+    from robolobe.sld import _kernels
+    from robolobe.sld.lobes import lobe_envelope
+
+    m = _models(6, seed=5)
+    alpha = directional_factors(0.0, math.pi, MAT.kr)
+    omega = m.frequency_grid(shared=False)
+    d = zoa_lobes(omega, m.frf(omega), alpha=alpha, teeth=2, kt=MAT.kt, rpm=[4e3, 3e4], jit=True)
+    rng = np.random.default_rng(8)
+    groups = rng.integers(0, 6, 400)
+    rows = rng.uniform(4000.0, 30000.0, (400, 5))
+    rows[::7] = rng.uniform(29000.0, 30000.0, (rows[::7].shape[0], 5))  # a narrow window
+    kw = dict(teeth=2, max_lobe=d.max_lobe)
+    got = _kernels.envelope_rows(d.omega, d.depth, d.eps, groups, rpm=rows, **kw)
+    alone = np.concatenate(
+        [
+            _kernels.envelope_rows(
+                d.omega, d.depth, d.eps, groups[i : i + 1], rpm=rows[i : i + 1], **kw
+            )
+            for i in range(groups.size)
+        ]
+    )
+    np.testing.assert_array_equal(got, alone)
+    ref = np.stack(
+        [
+            lobe_envelope(d.omega[g], d.depth[g], d.eps[g], teeth=2, rpm=r, max_lobe=d.max_lobe)
+            for g, r in zip(groups, rows, strict=True)
+        ]
+    )
+    _compare(got, ref, 1e-12)
+    assert np.isfinite(got).mean() > 0.9  # the rows cross lobes: the comparison bites
+
+
 @pytest.mark.parametrize(("jit", "shuffled"), [(True, False), (True, True), (False, False)])
 def test_frf_synthesis_in_chunks_equals_the_whole_array(monkeypatch, jit, shuffled) -> None:
     from robolobe.sld import zoa

@@ -348,11 +348,26 @@ _THREADS = min(2, os.cpu_count() or 1)
 
 
 def _wrist_measure(robot: Robot, q: FloatArray) -> FloatArray:
+    """|sin| of the wrist bend per posture (n,), in chunks on up to :data:`_THREADS`
+    threads (numpy's batched products release the GIL; each chunk is its own)."""
     out = np.empty(q.shape[0])
-    for c0 in range(0, q.shape[0], _CHUNK):
+
+    def part(c0: int) -> None:
         frames = link_frames(robot, q[c0 : c0 + _CHUNK])
         axes, _ = joint_axes(robot, frames)  # (m, 6, 3)
         out[c0 : c0 + _CHUNK] = np.linalg.norm(np.cross(axes[:, 3], axes[:, 5]), axis=-1)
+
+    starts = range(0, q.shape[0], _CHUNK)
+    if _THREADS > 1 and len(starts) > 1:
+        from concurrent.futures import ThreadPoolExecutor
+
+        from robolobe._threads import one_blas_thread
+
+        with one_blas_thread(), ThreadPoolExecutor(_THREADS) as ex:
+            list(ex.map(part, starts))
+    else:
+        for c0 in starts:
+            part(c0)
     return out
 
 
@@ -1008,8 +1023,12 @@ def _heavy_damping_note(table: pd.DataFrame, source: ModeSource) -> str:
     cut = (table["motion"] == "cut").to_numpy()
     if not cols or not cut.any():
         return ""
-    z = table.loc[cut, cols].to_numpy(dtype=np.float64)
-    z_max = np.max(np.where(np.isfinite(z), z, -np.inf), axis=1)  # per waypoint
+    # per waypoint, column by column (the (n_cut, n_cols) block of a long path at once
+    # was its plan's peak memory)
+    z_max = np.full(int(cut.sum()), -np.inf)
+    for c in cols:
+        z = table[c].to_numpy(dtype=np.float64)[cut]
+        np.fmax(z_max, np.where(np.isfinite(z), z, -np.inf), out=z_max)
     n = int(np.count_nonzero(z_max >= HEAVY_DAMPING))
     if not n:
         return ""

@@ -100,6 +100,43 @@ def _csqrt(z: complex) -> complex:
 
 
 @njit()
+def _tracked(m1: complex, m2: complex, p1: complex, p2: complex, parity: bool, i: int) -> bool:
+    """Branch tracking: whether sample ``i``'s eigenvalues ``(m1, m2)`` (``h + root``
+    first) are stored swapped, given the previous sample's ``(p1, p2)`` and ``parity``."""
+    if i > 0 and _crossed(m1, m2, p1, p2):
+        return not parity
+    return parity
+
+
+@njit()
+def _de(mu: complex, nkt: float) -> tuple[float, float]:
+    """ZOA depth [m] and phase [rad] of one eigenvalue (``inf``, NaN off the branch)."""
+    re = mu.real
+    if re > 0.0:
+        return _TWO_PI / (nkt * re), math.pi + 2.0 * math.atan(mu.imag / re)
+    return np.inf, np.nan
+
+
+@njit()
+def _put(
+    depth: FloatArray,
+    eps: FloatArray,
+    i: int,
+    parity: bool,
+    d1: float,
+    e1: float,
+    d2: float,
+    e2: float,
+) -> None:
+    """Column ``i`` of the tracked rows: ``(d1, e1)`` of ``h + root`` on branch 0 unless swapped."""
+    j1 = 1 if parity else 0
+    depth[j1, i] = d1
+    eps[j1, i] = e1
+    depth[1 - j1, i] = d2
+    eps[1 - j1, i] = e2
+
+
+@njit()
 def _eig_row(
     w: FloatArray,
     g: ComplexArray,
@@ -125,21 +162,12 @@ def _eig_row(
         root = _csqrt(_cmul(h, h) - det)
         m1 = h + root
         m2 = h - root
-        if i > 0 and _crossed(m1, m2, p1, p2):
-            parity = not parity
+        parity = _tracked(m1, m2, p1, p2, parity, i)
         p1 = m1
         p2 = m2
-        if parity:
-            m1, m2 = m2, m1
-        for j in range(2):
-            m = m1 if j == 0 else m2
-            re = m.real
-            if re > 0.0:
-                depth[j, i] = _TWO_PI / (nkt * re)
-                eps[j, i] = math.pi + 2.0 * math.atan(m.imag / re)
-            else:
-                depth[j, i] = np.inf
-                eps[j, i] = np.nan
+        d1, e1 = _de(m1, nkt)
+        d2, e2 = _de(m2, nkt)
+        _put(depth, eps, i, parity, d1, e1, d2, e2)
 
 
 @njit()
@@ -162,7 +190,10 @@ def _piece(
 
     ``q0``, ``q1`` (length >= ``k1``) are scratch: the lobes' end coordinates
     are formed in one loop over ``k`` first (divisions, vectorised by LLVM),
-    then scattered.
+    then scattered. A value is never below the segment's lower end
+    ``min(a0, a1)`` (the chord rounded there otherwise): skipping a segment
+    whose lower end is at least the envelope then changes no value, so each
+    speed's envelope is that of every segment, whatever the other speeds.
     """
     ns = s.shape[0]
     smin, smax = s[0], s[ns - 1]
@@ -187,6 +218,7 @@ def _piece(
             q0[i] = cw0 / (e0 + twopik)
             q1[i] = cw1 / (e1 + twopik)
     top = float(ns)
+    a_lo = min(a0, a1)
     for i in range(nk):
         p0 = q0[i]
         p1 = q1[i]
@@ -201,16 +233,16 @@ def _piece(
         den = p1 - p0
         if den == 0.0:
             beta = 0.0
-            alpha = min(a0, a1)
+            alpha = a_lo
         else:
             beta = (a1 - a0) / den
             alpha = a0 - beta * p0
         if uniform:
             for jj in range(jlo, jhi + 1):
-                env[jj] = min(env[jj], alpha + beta * jj)
+                env[jj] = min(env[jj], max(alpha + beta * jj, a_lo))
         else:
             for jj in range(jlo, jhi + 1):
-                env[jj] = min(env[jj], alpha + beta * s[jj])
+                env[jj] = min(env[jj], max(alpha + beta * s[jj], a_lo))
 
 
 @njit()
@@ -471,23 +503,38 @@ def _rows_batch(
     depth: FloatArray,
     eps: FloatArray,
     groups: NDArray[np.int64],
+    order: NDArray[np.int64],
+    run: NDArray[np.int64],
     teeth: int,
     speeds: FloatArray,
     k1: int,
     out: FloatArray,
 ) -> None:
-    """Envelope of group ``groups[r]`` at the speeds ``speeds[r]`` (any order), per row."""
+    """Envelope of group ``groups[r]`` at the speeds ``speeds[r]`` (any order), per row.
+
+    The rows ``order[run[u]:run[u + 1]]`` share one group: its lobes are
+    visited once for all their speeds (each speed's value is that of its row
+    alone, :func:`_piece`); the groups run in parallel.
+    """
     m = speeds.shape[1]
-    for r in numba.prange(groups.shape[0]):
-        g = groups[r]
-        order = np.argsort(speeds[r], kind="mergesort")
-        s = np.empty(m)
-        for i in range(m):
-            s[i] = speeds[r, order[i]]
-        env = np.empty(m)
+    for u in numba.prange(run.shape[0] - 1):
+        r0 = run[u]
+        nr = run[u + 1] - r0
+        g = groups[order[r0]]
+        flat = np.empty(nr * m)
+        for a in range(nr):
+            r = order[r0 + a]
+            for i in range(m):
+                flat[a * m + i] = speeds[r, i]
+        idx = np.argsort(flat, kind="mergesort")
+        s = np.empty(nr * m)
+        for t in range(nr * m):
+            s[t] = flat[idx[t]]
+        env = np.empty(nr * m)
         _env_row(w[g], depth[g], eps[g], teeth, s, False, k1, env, False)
-        for i in range(m):
-            out[r, order[i]] = env[i]
+        for t in range(nr * m):
+            a, i = divmod(idx[t], m)
+            out[order[r0 + a], i] = env[t]
 
 
 def envelope_rows(
@@ -504,7 +551,9 @@ def envelope_rows(
 
     The compiled counterpart of ``lobe_envelope(omega[groups], depth[groups],
     eps[groups], rpm=rpm, ...)`` with one speed row per entry, without
-    gathering the entries' lobe data.
+    gathering the entries' lobe data. Rows of one entry are answered
+    together (its lobes visited once); each row's values are those of the
+    row asked alone.
 
     Parameters
     ----------
@@ -528,12 +577,18 @@ def envelope_rows(
     out = np.empty(s.shape)
     if s.size == 0:
         return out
+    g = np.ascontiguousarray(groups, dtype=np.int64)
+    order = np.argsort(g, kind="stable")
+    gs = g[order]
+    run = np.flatnonzero(np.r_[True, gs[1:] != gs[:-1], True]).astype(np.int64)
     with _LOCK:
         _rows_batch(
             np.ascontiguousarray(omega, dtype=np.float64),
             np.ascontiguousarray(depth, dtype=np.float64),
             np.ascontiguousarray(eps, dtype=np.float64),
-            np.ascontiguousarray(groups, dtype=np.int64),
+            g,
+            order,
+            run,
             int(teeth),
             s,
             int(max_lobe) + 1,
@@ -577,14 +632,6 @@ def _eig_pt(
     h = 0.5 * tr
     root = _csqrt(h * h - det)
     return h + root, h - root
-
-
-@njit()
-def _de(mu: complex, nkt: float) -> tuple[float, float]:
-    re = mu.real
-    if re > 0.0:
-        return _TWO_PI / (nkt * re), math.pi + 2.0 * math.atan(mu.imag / re)
-    return np.inf, np.nan
 
 
 @njit()
@@ -713,19 +760,13 @@ def _bound_row(
     parity = False
     dmin = np.inf
     for i in range(nf):
-        a1 = m1[i]
-        a2 = m2[i]
-        if i > 0 and _crossed(a1, a2, p1, p2):
-            parity = not parity
-        p1 = a1
-        p2 = a2
-        if parity:
-            a1, a2 = a2, a1
-        for j in range(2):
-            d, e = _de(a1 if j == 0 else a2, nkt)
-            depth[j, i] = d
-            eps[j, i] = e
-            dmin = min(dmin, d)
+        parity = _tracked(m1[i], m2[i], p1, p2, parity, i)
+        p1 = m1[i]
+        p2 = m2[i]
+        d1, e1 = _de(p1, nkt)
+        d2, e2 = _de(p2, nkt)
+        _put(depth, eps, i, parity, d1, e1, d2, e2)
+        dmin = min(dmin, d1, d2)
     _env_row(w, depth, eps, teeth, s, uniform, k1, env, False)
     amax = -np.inf
     full = True
@@ -859,16 +900,11 @@ def _refine_batch(
                 if n >= cap - 1:
                     st = 1
                     break
-                if n > 0 and _crossed(l1, l2, p1, p2):
-                    parity = not parity
+                parity = _tracked(l1, l2, p1, p2, parity, n)
                 p1 = l1
                 p2 = l2
                 out[b, n] = wl
-                j1 = 1 if parity else 0
-                dep[b, j1, n] = la1
-                eps[b, j1, n] = le1
-                dep[b, 1 - j1, n] = la2
-                eps[b, 1 - j1, n] = le2
+                _put(dep[b], eps[b], n, parity, la1, le1, la2, le2)
                 n += 1
                 wl = wr
                 l1 = s1[top]
@@ -876,14 +912,9 @@ def _refine_batch(
                 la1, le1, la2, le2 = sa[top, 0], sa[top, 1], sa[top, 2], sa[top, 3]
                 top -= 1
         if st == 0:
-            if n > 0 and _crossed(l1, l2, p1, p2):
-                parity = not parity
+            parity = _tracked(l1, l2, p1, p2, parity, n)
             out[b, n] = wl
-            j1 = 1 if parity else 0
-            dep[b, j1, n] = la1
-            eps[b, j1, n] = le1
-            dep[b, 1 - j1, n] = la2
-            eps[b, 1 - j1, n] = le2
+            _put(dep[b], eps[b], n, parity, la1, le1, la2, le2)
             n += 1
         n_out[b] = n
         status[b] = st

@@ -256,7 +256,10 @@ def lobe_envelope(
                     coord = s_sorted[js]
                 else:
                     coord = s_sorted.ravel()[rowbase[q] + js]
-                np.minimum.at(flat_out, rowbase[q] + js, alpha[q] + beta[q] * coord)
+                # never below the piece's lower end (rounding): skipping a piece
+                # above the envelope then changes no value
+                val = np.maximum(alpha[q] + beta[q] * coord, amin[q])
+                np.minimum.at(flat_out, rowbase[q] + js, val)
             rowmax = out_sorted[b0:b1].max(axis=1)
             open_row = rowmax > tau
             rest = todo & open_row[row] & (amin < rowmax[row])

@@ -252,6 +252,14 @@ def _crossing(w, x0, y0, res, radius, cx, cy, z, fx, fy, tol, a, va, b, vb):
     return a + (b - a) * va / (va - vb)
 
 
+def _sample_crossing(w, x0, y0, res, radius, cx, cy, z, fx, fy, tol, dphi, vals, k):
+    """:func:`_crossing` between the edge samples ``k - 1`` and ``k`` (values ``vals``)."""
+    return _crossing(
+        w, x0, y0, res, radius, cx, cy, z, fx, fy, tol, (k - 1) * dphi, vals[k - 1], k * dphi,
+        vals[k],
+    )  # fmt: skip
+
+
 def _engage(w, x0, y0, res, radius, cx, cy, z, fx, fy, bottom, tol, nphi, vals, out):
     """Engagement of the cutting edge at one tool position.
 
@@ -304,22 +312,8 @@ def _engage(w, x0, y0, res, radius, cx, cy, z, fx, fy, bottom, tol, nphi, vals, 
                 if k == 0:
                     entry = 0.0
                 else:
-                    entry = _crossing(
-                        w,
-                        x0,
-                        y0,
-                        res,
-                        radius,
-                        cx,
-                        cy,
-                        z,
-                        fx,
-                        fy,
-                        tol,
-                        (k - 1) * dphi,
-                        prev,
-                        k * dphi,
-                        v,
+                    entry = _sample_crossing(
+                        w, x0, y0, res, radius, cx, cy, z, fx, fy, tol, dphi, vals, k
                     )
         prev = v
     if narcs > 0:
@@ -329,27 +323,24 @@ def _engage(w, x0, y0, res, radius, cx, cy, z, fx, fy, bottom, tol, nphi, vals, 
             k = nphi - 1
             while vals[k - 1] >= 0.0:
                 k -= 1
-            exit_ = _crossing(
-                w,
-                x0,
-                y0,
-                res,
-                radius,
-                cx,
-                cy,
-                z,
-                fx,
-                fy,
-                tol,
-                (k - 1) * dphi,
-                vals[k - 1],
-                k * dphi,
-                vals[k],
-            )
+            exit_ = _sample_crossing(w, x0, y0, res, radius, cx, cy, z, fx, fy, tol, dphi, vals, k)
     out[0] = entry
     out[1] = exit_
     out[2] = narcs
     out[3] = depth if depth > 0.0 else sliver
+
+
+def _remove(w, x0, y0, res, radius, band, xyz, cutting, tol, m, prev_cut_end, p0, p1):
+    """Move ``m``'s material removal (a cutting move: its sweep); returns the last
+    cutting move that has removed its material (``p0``, ``p1``: scratch (3,))."""
+    if m == 0 or not cutting[m]:
+        return prev_cut_end
+    for c in range(3):
+        p0[c] = xyz[m - 1, c]
+        p1[c] = xyz[m, c]
+    flat = abs(p1[2] - p0[2]) <= tol
+    _sweep(w, x0, y0, res, radius, band, p0, p1, flat and prev_cut_end == m - 1, tol)
+    return m
 
 
 def _run(
@@ -401,16 +392,9 @@ def _run(
             continue
         # bring the workpiece up to date (lagged for tiny moves)
         while applied < i and cum[applied] <= cum[i] - lag:
-            m = applied
+            prev_cut_end = _remove(w, x0, y0, res, radius, band, xyz, cutting, tol, applied,
+                                   prev_cut_end, p0, p1)  # fmt: skip
             applied += 1
-            if m == 0 or not cutting[m]:
-                continue
-            for c in range(3):
-                p0[c] = xyz[m - 1, c]
-                p1[c] = xyz[m, c]
-            flat = abs(p1[2] - p0[2]) <= tol
-            _sweep(w, x0, y0, res, radius, band, p0, p1, flat and prev_cut_end == m - 1, tol)
-            prev_cut_end = m
         ax, ay, az = xyz[i - 1, 0], xyz[i - 1, 1], xyz[i - 1, 2]
         dx, dy, dz = xyz[i, 0] - ax, xyz[i, 1] - ay, xyz[i, 2] - az
         lxy = math.sqrt(dx * dx + dy * dy)
@@ -473,16 +457,9 @@ def _run(
             depth[i] = dep
     # the remaining moves remove their material too (the final workpiece)
     while applied < n:
-        m = applied
+        prev_cut_end = _remove(w, x0, y0, res, radius, band, xyz, cutting, tol, applied,
+                               prev_cut_end, p0, p1)  # fmt: skip
         applied += 1
-        if m == 0 or not cutting[m]:
-            continue
-        for c in range(3):
-            p0[c] = xyz[m - 1, c]
-            p1[c] = xyz[m, c]
-        flat = abs(p1[2] - p0[2]) <= tol
-        _sweep(w, x0, y0, res, radius, band, p0, p1, flat and prev_cut_end == m - 1, tol)
-        prev_cut_end = m
 
 
 _COMPILED: dict[str, Any] = {}
@@ -500,6 +477,8 @@ def kernels() -> Any:
             g["_top"] = deco(_top)
             g["_edge_value"] = deco(_edge_value)
             g["_crossing"] = deco(_crossing)
+            g["_sample_crossing"] = deco(_sample_crossing)
+            g["_remove"] = deco(_remove)
             g["_engage"] = deco(_engage)
             g["_run"] = deco(_run)
         _COMPILED["run"] = globals()["_run"]

@@ -239,19 +239,23 @@ class LobeTable:
             raise InputError(f"rpm: expected shape {self.group.shape}, found {r.shape}")
         if r.size == 0:
             return np.zeros(0)
-        # unique (group, speed) pairs, one padded row per group
-        key = np.stack([self.group.astype(np.float64), r], axis=1)
-        uniq, inv = np.unique(key, axis=0, return_inverse=True)
-        inv = np.asarray(inv).ravel()
-        g = uniq[:, 0].astype(np.int64)
+        # unique (group, speed) pairs in (group, speed) order, one padded row per group
+        # (a sort of both keys: numpy.unique(axis=0) of the pairs is ~20x slower)
+        order = np.lexsort((r, self.group))
+        gs, rs = self.group[order], r[order]
+        new = np.r_[True, (gs[1:] != gs[:-1]) | (rs[1:] != rs[:-1])]
+        inv = np.empty(r.size, np.int64)
+        inv[order] = np.cumsum(new) - 1
+        us = rs[new]
+        g = gs[new].astype(np.int64)
         used, slot = np.unique(g, return_inverse=True)
         counts = np.bincount(slot)
         m = int(counts.max())
         start = np.concatenate([[0], np.cumsum(counts)[:-1]])
-        pos = np.arange(len(uniq)) - start[slot]
+        pos = np.arange(us.size) - start[slot]
         rows = np.empty((used.size, m))
-        rows[:] = uniq[start, 1][:, None]  # pad with the group's first speed
-        rows[slot, pos] = uniq[:, 1]
+        rows[:] = us[start][:, None]  # pad with the group's first speed
+        rows[slot, pos] = us
         vals = self.rows(rows, used)
         return vals[slot, pos][inv]
 
