@@ -1182,9 +1182,19 @@ def plan_path(
             cons = dataclasses.replace(cons, width_m=width)  # the widest engagement: power, torque
 
     def schedule(table: Any) -> PlanOutcome:
+        made: dict[int, Any] = {}  # the depth-share tables (one unless a section is fixed)
+
+        def scaled(p: int) -> Any:
+            assert depth is not None
+            key = p if depth.fixed.any() else 1
+            if key not in made:
+                made.clear()
+                made[key] = table.per_depth(depth.share(p))
+            return made[key]
+
         def run(c: Constraints, p: int = 1) -> PlanOutcome:
             return optimize_schedule(
-                table if depth is None else table.per_depth(depth.share(p)),
+                table if depth is None else scaled(p),
                 geom,
                 c,
                 programmed_rpm=prog if np.any(np.isfinite(prog)) else None,

@@ -292,12 +292,16 @@ class LobeTable:
         unb = np.isinf(self.a_lim[:, 0]) & np.all(np.isinf(self.a_lim), axis=1)
         none |= unb[self.group]
         lr = math.log1p(step)
-        level = np.where(none, 0.0, np.ceil(np.log(np.where(none, 1.0, r)) / lr - 1e-9))
-        key = np.stack([np.where(none, -1, self.group).astype(np.float64), level], axis=1)
-        uniq, inv = np.unique(key, axis=0, return_inverse=True)
+        level = np.where(none, 0, np.ceil(np.log(np.where(none, 1.0, r)) / lr - 1e-9))
+        level = level.astype(np.int64)
+        # one integer key per (group, level) (a long path: no (n, 2) rows to sort)
+        lo = int(level.min())
+        span = int(level.max()) - lo + 1
+        key = (np.where(none, -1, self.group).astype(np.int64) + 1) * span + (level - lo)
+        uniq, inv = np.unique(key, return_inverse=True)
         inv = np.asarray(inv).ravel()
-        parent = uniq[:, 0].astype(np.int64)
-        factor = np.exp(uniq[:, 1] * lr)  # the rounded share of each new row
+        parent = uniq // span - 1
+        factor = np.exp((uniq % span + lo) * lr)  # the rounded share of each new row
         bounded = parent >= 0
         n_new = int(bounded.sum())
         order = np.full(uniq.shape[0], n_new, np.int64)  # unbounded pairs: the last row
