@@ -63,7 +63,9 @@ never while developing). Scoring (:class:`IndependentResult`) uses the
 *truth*: a claim is false when a named family is not acceptable for the
 case, or when the claimed model's held-out prediction misses the
 recordings by more than 2x the *true* noise (measured against the
-noise-free receptance, not the diagnosis's own estimate).
+noise-free receptance, not the diagnosis's own estimate). ``named`` holds
+the claims only: an ``ambiguous`` step (an other-family alternative about
+as good) is not a claim, an ``unexplained`` verdict claims nothing.
 """
 
 from __future__ import annotations
@@ -319,7 +321,9 @@ def assemble(robot: Robot, extras: Sequence[Extra], q: FloatArray) -> Structure:
         )
     ee = robot.end_effector
     if ee is not None:
-        bodies.append(_Body(ee.mass_kg, R_tcp @ ee.inertia_kgm2 @ R_tcp.T, R_tcp @ ee.com_m + p_tcp, 7))
+        bodies.append(
+            _Body(ee.mass_kg, R_tcp @ ee.inertia_kgm2 @ R_tcp.T, R_tcp @ ee.com_m + p_tcp, 7)
+        )
     for x in extras:
         if x.kind == "mass":
             bodies.append(_Body(float(x.get("mass_kg")), np.zeros((3, 3)), p_tcp.copy(), 7))
@@ -375,7 +379,9 @@ def assemble(robot: Robot, extras: Sequence[Extra], q: FloatArray) -> Structure:
         Jv = np.zeros((3, n))
         Jw = np.zeros((3, n))
         # DH joint k moves links >= k+1 (standard: about z_{k}, point p_k; same list)
-        jv_th = np.array([np.cross(z[k], point - p[k]) if link >= k + 1 else np.zeros(3) for k in range(6)]).T
+        jv_th = np.array(
+            [np.cross(z[k], point - p[k]) if link >= k + 1 else np.zeros(3) for k in range(6)]
+        ).T
         jw_th = np.array([z[k] if link >= k + 1 else np.zeros(3) for k in range(6)]).T
         Jv[:, :6] = jv_th @ coup
         Jw[:, :6] = jw_th @ coup
@@ -534,24 +540,71 @@ def independent_cases(
     dev = [
         ("D", "TCP 5 cm out and 3 cm aside", (X("tcp_offset", offset_m=(0.03, 0.0, 0.05)),)),
         ("B", "load-dependent damping", (X("load_damping", bc=1.5, tau_c=2e3),)),
-        ("D", "servo mode axis 1 ~3.5 Hz", (X("servo", joint=1, k_Nm_per_rad=2.0e5, rotor_kgm2=30.0, zeta=0.08),)),
-        ("B", "spindle on a rotating bracket 72 Hz", (X("bracket", axis="y", f_hz=72.0, pivot_m=0.45, zeta=0.03),)),
-        ("D", "hammer x 10 deg toward z", (X("hammer", tilts=((10 * deg, "z"), (0.0, "x"), (0.0, "x"))),)),
+        (
+            "D",
+            "servo mode axis 1 ~3.5 Hz",
+            (X("servo", joint=1, k_Nm_per_rad=2.0e5, rotor_kgm2=30.0, zeta=0.08),),
+        ),
+        (
+            "B",
+            "spindle on a rotating bracket 72 Hz",
+            (X("bracket", axis="y", f_hz=72.0, pivot_m=0.45, zeta=0.03),),
+        ),
+        (
+            "D",
+            "hammer x 10 deg toward z",
+            (X("hammer", tilts=((10 * deg, "z"), (0.0, "x"), (0.0, "x"))),),
+        ),
         ("B", "+4 kg at the tool", (X("mass", mass_kg=4.0),)),
-        ("D", "link 2 bending out of plane", (X("flex", link=2, axis="out", k_Nm_per_rad=4e6, zeta=0.02),)),
+        (
+            "D",
+            "link 2 bending out of plane",
+            (X("flex", link=2, axis="out", k_Nm_per_rad=4e6, zeta=0.02),),
+        ),
         ("B", "base tilting", (X("base", kx=4e7, ky=9e7, zeta=0.04),)),
         ("D", "null", ()),
     ]
     held = [
         ("B", "TCP 4 cm out, 2 cm aside (y)", (X("tcp_offset", offset_m=(0.0, -0.02, 0.04)),)),
-        ("D", "load-dependent stiffness and damping", (X("load", bk=0.6, tau_s=800.0, bc=1.0, tau_c=1.5e3),)),
-        ("B", "servo mode axis 2", (X("servo", joint=2, k_Nm_per_rad=1.2e6, rotor_kgm2=60.0, zeta=0.1),)),
-        ("D", "spindle on a rotating bracket 58 Hz", (X("bracket", axis="x", f_hz=58.0, pivot_m=0.38, zeta=0.025),)),
-        ("B", "hammers x 8 deg, z 6 deg off", (X("hammer", tilts=((8 * deg, "y"), (0.0, "x"), (6 * deg, "x"))),)),
+        (
+            "D",
+            "load-dependent stiffness and damping",
+            (X("load", bk=0.6, tau_s=800.0, bc=1.0, tau_c=1.5e3),),
+        ),
+        (
+            "B",
+            "servo mode axis 2",
+            (X("servo", joint=2, k_Nm_per_rad=1.2e6, rotor_kgm2=60.0, zeta=0.1),),
+        ),
+        (
+            "D",
+            "spindle on a rotating bracket 58 Hz",
+            (X("bracket", axis="x", f_hz=58.0, pivot_m=0.38, zeta=0.025),),
+        ),
+        (
+            "B",
+            "hammers x 8 deg, z 6 deg off",
+            (X("hammer", tilts=((8 * deg, "y"), (0.0, "x"), (6 * deg, "x"))),),
+        ),
         ("D", "+7 kg at the tool", (X("mass", mass_kg=7.0),)),
-        ("B", "link 2 bending in plane", (X("flex", link=2, axis="in", k_Nm_per_rad=8e6, zeta=0.02),)),
-        ("D", "+3 kg and servo axis 1", (X("mass", mass_kg=3.0), X("servo", joint=1, k_Nm_per_rad=3.0e5, rotor_kgm2=20.0, zeta=0.1))),
-        ("B", "TCP 6 cm out and +5 kg", (X("tcp_offset", offset_m=(0.0, 0.0, 0.06)), X("mass", mass_kg=5.0))),
+        (
+            "B",
+            "link 2 bending in plane",
+            (X("flex", link=2, axis="in", k_Nm_per_rad=8e6, zeta=0.02),),
+        ),
+        (
+            "D",
+            "+3 kg and servo axis 1",
+            (
+                X("mass", mass_kg=3.0),
+                X("servo", joint=1, k_Nm_per_rad=3.0e5, rotor_kgm2=20.0, zeta=0.1),
+            ),
+        ),
+        (
+            "B",
+            "TCP 6 cm out and +5 kg",
+            (X("tcp_offset", offset_m=(0.0, 0.0, 0.06)), X("mass", mass_kg=5.0)),
+        ),
         ("B", "null", ()),
     ]
     out: list[ICase] = []
@@ -560,7 +613,9 @@ def independent_cases(
             continue
         for i, (rb, label, ex) in enumerate(rows):
             fe = 0.0 if label == "null" else file_error
-            out.append(ICase(rb, ex, label, name, fe, n_postures, (0 if name == "dev" else 500) + i))
+            out.append(
+                ICase(rb, ex, label, name, fe, n_postures, (0 if name == "dev" else 500) + i)
+            )
     return out
 
 
@@ -570,7 +625,9 @@ def make_campaign(case: ICase) -> tuple[Campaign, Robot, tuple[Extra, ...]]:
     nominal = study_robot(case.robot)
     truth = file_off(nominal, case.file_error, case.seed) if case.file_error > 0 else nominal
     rng_key = "A" if case.robot == "D" else case.robot
-    design = space_filling_design(nominal, case.n_postures, rng, ranges_deg=TESTED_RANGES_DEG[rng_key])
+    design = space_filling_design(
+        nominal, case.n_postures, rng, ranges_deg=TESTED_RANGES_DEG[rng_key]
+    )
     ids = tuple(str(x) for x in design["posture_id"])
     q = np.radians(design[[f"q{i}_deg" for i in range(1, 7)]].to_numpy(dtype=float))
     s = HammerTestSettings()
@@ -664,7 +721,7 @@ class IndependentResult:
 
     @property
     def found_all(self) -> bool:
-        """Every exactly-held family named (and the verdict not unexplained)."""
+        """Every exactly-held family named (claimed: not unexplained, not ambiguous)."""
         return set(self.case.required) <= set(self.named) and not self.unexplained
 
 
@@ -678,13 +735,17 @@ def run_independent_case(
     secs, cpu = time.perf_counter() - t0, time.process_time() - c0
     fw = d.forward
     where = "; ".join(
-        f"{b.direction} {b.f_lo_hz:.0f}-{b.f_hi_hz:.0f} Hz ({b.score:.1f}x)" for b in fw.noise.worst_bands
+        f"{b.direction} {b.f_lo_hz:.0f}-{b.f_hi_hz:.0f} Hz ({b.score:.1f}x)"
+        for b in fw.noise.worst_bands
     )
     r = IndependentResult(
         case=case,
         verdict=d.verdict,
         named=d.named,
-        closest=tuple(st.label for st in fw.steps),
+        closest=tuple(
+            st.label + (f" (or {', '.join(st.alternatives)})" if st.ambiguous else "")
+            for st in fw.steps
+        ),
         unexplained=d.unexplained,
         misfit_x_noise=max(fw.noise.misfit_x_noise, fw.noise.nrmse_x_noise),
         true_misfit_x_noise=true_misfit_x_noise(d, truth, extras),

@@ -12,7 +12,8 @@ claim whose held-out misfit exceeds 2x the *true* noise), ``unexplained``
 
 Run::
 
-    nice -n 10 python studies/diagnose_independent_study.py --subset held --out studies/out/independent
+    nice -n 10 python studies/diagnose_independent_study.py --subset held \
+        --out studies/out/independent
     python studies/diagnose_independent_study.py --subset dev --postures 12      # quicker
 
 Options: ``--subset dev,held``, ``--postures 30``, ``--jobs 1`` (workers of

@@ -80,7 +80,7 @@ def test_servo_drive_has_a_low_mode_and_the_static_series_compliance() -> None:
 
 
 def test_bracket_rotates_the_spindle_not_a_point_mass() -> None:
-    """A rotational bracket mode: the tool point's motion is not a translation of the spindle mass."""
+    """A rotational bracket mode: the tool point and the spindle's centre move by other levers."""
     rb = load_robot("B")
     ex = resolve(rb, [X("bracket", axis="y", f_hz=72.0, pivot_m=0.45, zeta=0.03)], Q[0])[0]
     h = receptance(rb, [ex], Q[:1], F)[0]
@@ -125,5 +125,6 @@ def test_cases_are_split_and_campaign_names_only_the_robot() -> None:
     dev_labels = {c.label for c in cases if c.subset == "dev"}
     assert not dev_labels & {c.label for c in held if c.label != "null"}
     camp, truth, _ = make_campaign(ICase("B", (X("mass", mass_kg=4.0),), "t", "dev", n_postures=3))
-    assert camp.robot == "B" and len(camp.frfs) == 3
+    assert camp.robot == "B"
+    assert len(camp.frfs) == 3
     assert not np.allclose(truth.stiffness, load_robot("B").stiffness)

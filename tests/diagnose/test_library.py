@@ -95,7 +95,8 @@ def test_one_hit_off_axis_changes_only_its_column() -> None:
     assert [p.name for p in hx.params] == ["ry_rad", "rz_rad"]
     a = np.radians(10.0)
     (eff,) = hx.effects(np.array([-a, 0.0]))  # Ry(-a) e_x = (cos a, 0, sin a)
-    assert isinstance(eff, HammerDirection) and eff.hit == "x"
+    assert isinstance(eff, HammerDirection)
+    assert eff.hit == "x"
     q = np.radians([[0, 10, -60, 0, 30, 0]])
     f = np.array([5.0, 9.0, 15.0])
     H = Twin(r).receptance(q, f)

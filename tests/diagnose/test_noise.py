@@ -110,5 +110,6 @@ def test_roughness_is_not_fooled_by_sharp_close_modes() -> None:
     flat = np.full((20, f.size, 3, 3), np.nan + 0j)
     flat[:, :, 0, 0] = np.exp(e)
     np.testing.assert_allclose(
-        roughness_sigma(f, flat, floor=0.0), roughness_sigma(f, flat, floor=0.0, curvature_guard=0.0)
+        roughness_sigma(f, flat, floor=0.0),
+        roughness_sigma(f, flat, floor=0.0, curvature_guard=0.0),
     )

@@ -393,8 +393,11 @@ def _family(
         ]
         # one hit direction off on its own (each is hit by hand): the two angles that
         # tilt e_hit (the rotation about the hit's own axis does not move it)
-        for hit, free in (("x", ("ry_rad", "rz_rad")), ("y", ("rx_rad", "rz_rad")),
-                          ("z", ("rx_rad", "ry_rad"))):
+        for hit, free in (
+            ("x", ("ry_rad", "rz_rad")),
+            ("y", ("rx_rad", "rz_rad")),
+            ("z", ("rx_rad", "ry_rad")),
+        ):
             out.append(
                 Candidate(
                     name,

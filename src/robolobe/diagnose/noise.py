@@ -63,7 +63,6 @@ __all__ = [
 ]
 
 
-
 def coherence_sigma(
     coherence: ArrayLike, n_avg: int, *, floor: float = 0.01, cap: float = 1.0
 ) -> NDArray[np.float64]:
@@ -157,10 +156,7 @@ def difference_variance(order: int, df_hz: float, window_decay_per_s: float) -> 
     c = np.array([(-1) ** k * math.comb(order, k) for k in range(order + 1)], dtype=float)
     a = float(window_decay_per_s)
     lag = np.abs(np.subtract.outer(np.arange(order + 1), np.arange(order + 1)))
-    if a > 0:
-        rho = (2 * a / (2 * a + 2j * np.pi * lag * df_hz)).real
-    else:
-        rho = (lag == 0).astype(float)
+    rho = (2 * a / (2 * a + 2j * np.pi * lag * df_hz)).real if a > 0 else (lag == 0).astype(float)
     return float(c @ rho @ c)
 
 
@@ -182,11 +178,9 @@ def _difference_scale(
         d = np.abs(d)
     d = np.where(np.isfinite(d), d, np.nan)
     # edge lines take their neighbour's value
-    d = np.concatenate(
-        [np.repeat(np.take(d, [0], axis=ax), mid, axis=ax), d]
-        + [np.repeat(np.take(d, [-1], axis=ax), order - mid, axis=ax)],
-        axis=ax,
-    )
+    first = np.repeat(np.take(d, [0], axis=ax), mid, axis=ax)
+    last = np.repeat(np.take(d, [-1], axis=ax), order - mid, axis=ax)
+    d = np.concatenate([first, d, last], axis=ax)
     pad = [(0, 0)] * d.ndim
     pad[ax] = (half, half)
     # NaN padding: windows at the band's ends take the median of the lines they hold
