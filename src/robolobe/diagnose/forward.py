@@ -62,6 +62,7 @@ candidates only as the closest ones.
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
@@ -658,6 +659,19 @@ def forward_select(
             )
             a = b
         steps = out
+    # an alternative that is itself in the model, or the file calibration (a generic
+    # correction, named or not on its own held-out merit), is no rival explanation
+    in_model = {s.candidate.name for s in steps}
+    cal = (CALIBRATION, *SUBSUMED_BY_CALIBRATION)
+    steps = [
+        dataclasses.replace(
+            s,
+            alternatives=tuple(
+                a for a in s.alternatives if a.split("[")[0] not in in_model | set(cal)
+            ),
+        )
+        for s in steps
+    ]
     nt = noise_test(model_cv, obs_eval, limit=st.max_misfit_x_noise)
     return ForwardResult(
         steps=tuple(steps),

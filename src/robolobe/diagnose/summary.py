@@ -96,10 +96,11 @@ def describe_fit(fit: CandidateFit) -> str:
         )
     if c.name == "hammer_direction":
         deg = 180.0 / np.pi
+        hit = c.fixed.get("hit", "")
         return (
-            "the hammer hits off axis by "
-            f"rx {_pm(fit, 'rx_rad', '.2f', deg)}, ry {_pm(fit, 'ry_rad', '.2f', deg)}, "
-            f"rz {_pm(fit, 'rz_rad', '.2f', deg)} deg"
+            (f"the hammer's {hit} hits are off axis by " if hit else "the hammer hits off axis by ")
+            + ", ".join(f"{p.name[:2]} {_pm(fit, p.name, '.2f', deg)}" for p in c.params)
+            + " deg"
         )
     if c.name == "friction_damping":
         return (
