@@ -38,24 +38,63 @@ from robolobe.diagnose import DiagnoseSettings
 
 
 def summary(df: pd.DataFrame) -> pd.DataFrame:
-    """Per class: cases, named (exactly-held families), false claims, unexplained."""
-    rows = []
-    for cls, d in df.groupby("classes", sort=False):
-        req = d[d["required"] != "-"]
-        rows.append(
-            {
-                "class": cls,
-                "cases": len(d),
-                "must name": len(req),
-                "named": int(req["found_all"].sum()),
-                "false claims": int(d["false_claim"].sum()),
-                "unexplained": int(d["unexplained"].sum()),
-            }
-        )
-    out = pd.DataFrame(rows)
+    """Per physics class: effects, how many the library holds exactly, named, missed, false claims.
+
+    An effect is *named* when its family is among the claims (``named``), the
+    verdict neither ``unexplained`` nor ``ambiguous`` for it; *missed* when the
+    library holds it exactly and it is not named. False claims are counted
+    per case (a case with two classes counts for both).
+    """
+    rows: dict[str, dict[str, int]] = {}
+    for r in df.itertuples():
+        kinds = str(r.classes).split("+")
+        fams = str(r.families).split("+") if r.families != "-" else []
+        exact = str(r.exact).split("+") if r.exact != "-" else []
+        named = set(str(r.named).split("+")) if r.named != "-" else set()
+        fams = fams or [""] * len(kinds)
+        exact = exact or ["0"] * len(kinds)
+        for k, fam, ex in zip(kinds, fams, exact, strict=True):
+            row = rows.setdefault(
+                k,
+                {
+                    "effects": 0,
+                    "exact": 0,
+                    "named": 0,
+                    "missed": 0,
+                    "false claims": 0,
+                    "unexplained": 0,
+                },
+            )
+            row["effects"] += 1
+            row["exact"] += int(ex == "1")
+            got = fam in named
+            row["named"] += int(got)
+            row["missed"] += int(ex == "1" and not got)
+            row["false claims"] += int(bool(r.false_claim))
+            row["unexplained"] += int(bool(r.unexplained))
+    out = pd.DataFrame([{"class": k, **v} for k, v in rows.items()])
     tot = out.drop(columns="class").sum()
     out.loc[len(out)] = ["all", *tot.tolist()]
     return out
+
+
+def _read(path: Path) -> pd.DataFrame:
+    """A ``cases.csv`` ("null" is a case label, not a missing value)."""
+    return pd.read_csv(path, keep_default_na=False, na_values=[""])
+
+
+def _complete(df: pd.DataFrame) -> pd.DataFrame:
+    """Columns a CSV written before they existed lacks, from the case table and the verdict."""
+    cases = {(c.subset, c.robot, c.label): c for c in independent_cases()}
+    df = df.copy()
+    if "families" not in df:
+        ex = [cases[(r.subset, r.robot, r.case)].extras for r in df.itertuples()]
+        df["families"] = ["+".join(str(x.family) for x in e) or "-" for e in ex]
+        df["exact"] = ["+".join(str(int(x.exact)) for x in e) or "-" for e in ex]
+    if "named" not in df:
+        bad = ("unexplained", "ambiguous", "none")
+        df["named"] = [v if v not in bad else "-" for v in df["verdict"]]
+    return df
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -73,7 +112,7 @@ def main(argv: list[str] | None = None) -> int:
     pd.set_option("display.max_columns", 30)
     pd.set_option("display.max_colwidth", 70)
     if a.from_csv:
-        df = pd.concat([pd.read_csv(f) for f in a.from_csv], ignore_index=True)
+        df = _complete(pd.concat([_read(f) for f in a.from_csv], ignore_index=True))
         print(df.to_string(index=False))
         print("\n" + summary(df).to_string(index=False))
         return 0
