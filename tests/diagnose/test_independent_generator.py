@@ -128,3 +128,31 @@ def test_cases_are_split_and_campaign_names_only_the_robot() -> None:
     assert camp.robot == "B"
     assert len(camp.frfs) == 3
     assert not np.allclose(truth.stiffness, load_robot("B").stiffness)
+
+
+def test_study_tables_from_the_committed_results(capsys: pytest.CaptureFixture[str]) -> None:
+    """The held-back figures in docs/figures/mismatch_diagnosis.md come from this CSV."""
+    from pathlib import Path
+
+    import diagnose_independent_study as study
+
+    csv = Path(__file__).resolve().parents[2] / "studies" / "diagnose_independent_held.csv"
+    df = study._complete(study._read(csv))
+    assert len(df) == 10
+    assert set(df["subset"]) == {"held"}
+    tab = study.summary(df).set_index("class")
+    assert tab.loc["all", "false claims"] == 0
+    assert tab.loc["all", "exact"] == 8
+    assert tab.loc["all", "named"] == 5
+    assert study.main(["--from-csv", str(csv)]) == 0
+    assert "tcp_offset" in capsys.readouterr().out
+
+
+@pytest.mark.slow
+def test_study_runs_one_small_case(tmp_path: object) -> None:
+    import diagnose_independent_study as study
+
+    assert (
+        study.main(["--subset", "dev", "--postures", "3", "--only", "8", "--out", str(tmp_path)])
+        == 0
+    )
