@@ -79,3 +79,29 @@ def test_family_subset_and_unknown_name() -> None:
     assert [c.name for c in cands] == ["none", "added_mass"]
     with pytest.raises(InputError, match="expected one of"):
         build_library(r, directions=ALL, n_force_levels=0, band_hz=(2, 40), families=["magic"])
+
+
+def test_one_hit_off_axis_changes_only_its_column() -> None:
+    """``hammer_direction[hit x]``: the x hits tilt toward z by 10 deg, y and z hits stay.
+
+    Reference written for the test: column x of the measured receptance is
+    ``cos(a) H e_x + sin(a) H e_z`` (the hit's direction vector), the rest is ``H``.
+    """
+    from robolobe.twin.effects import HammerDirection
+
+    r = load_robot("B")
+    cands, _ = build_library(r, directions=ALL, n_force_levels=1, band_hz=(2.0, 40.0))
+    hx = next(c for c in cands if c.label == "hammer_direction[hit x]")
+    assert [p.name for p in hx.params] == ["ry_rad", "rz_rad"]
+    a = np.radians(10.0)
+    (eff,) = hx.effects(np.array([-a, 0.0]))  # Ry(-a) e_x = (cos a, 0, sin a)
+    assert isinstance(eff, HammerDirection)
+    assert eff.hit == "x"
+    q = np.radians([[0, 10, -60, 0, 30, 0]])
+    f = np.array([5.0, 9.0, 15.0])
+    H = Twin(r).receptance(q, f)
+    Hh = Twin(r, (eff,)).receptance(q, f)
+    assert np.allclose(Hh[..., :, 0], np.cos(a) * H[..., :, 0] + np.sin(a) * H[..., :, 2])
+    assert np.array_equal(Hh[..., :, 1:], H[..., :, 1:])
+    with pytest.raises(InputError, match="hit"):
+        HammerDirection(hit="w")

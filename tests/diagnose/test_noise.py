@@ -70,3 +70,46 @@ def test_roughness_corrects_exponential_window_correlation() -> None:
     fixed = roughness_sigma(f[band], H, floor=0.0, window_decay_per_s=a)
     assert np.median(plain[:, :, 1, 1]) < 0.8 * s_true  # correlation hides noise
     assert np.median(fixed[:, :, 1, 1]) == pytest.approx(s_true, rel=0.12)
+
+
+def test_difference_variance_white_and_windowed() -> None:
+    from robolobe.diagnose.noise import difference_variance
+
+    assert difference_variance(2, 0.25, 0.0) == pytest.approx(6.0)
+    assert difference_variance(4, 0.25, 0.0) == pytest.approx(70.0)
+    a = -np.log(0.05) / 4.0
+    x = 2 * a / (2 * a + 2j * np.pi * np.array([1, 2]) * 0.25)
+    assert difference_variance(2, 0.25, a) == pytest.approx(6 - 8 * x[0].real + 2 * x[1].real)
+
+
+def test_roughness_is_not_fooled_by_sharp_close_modes() -> None:
+    """Three modes (3 % damping) 3 Hz apart at 0.25 Hz lines, true log-noise 0.002.
+
+    The second difference alone reads the peaks' curvature as noise (20x the
+    truth here); the curvature guard takes it down to 3x the fourth difference's
+    (6x the truth, 1.2x the default 1 % floor).
+    """
+    rng = np.random.default_rng(3)
+    f = np.arange(2.0, 60.0, 0.25)
+    w = 2 * np.pi * f
+    H0 = sum(
+        1.0 / (k * (1 - (w / (2 * np.pi * fr)) ** 2 + 2j * 0.03 * w / (2 * np.pi * fr)))
+        for fr, k in ((20.0, 1e6), (23.0, 2e6), (26.0, 1.5e6))
+    )
+    s_true = 0.002
+    e = s_true * (rng.standard_normal((20, f.size)) + 1j * rng.standard_normal((20, f.size)))
+    H = np.full((20, f.size, 3, 3), np.nan + 0j)
+    H[:, :, 2, 2] = H0 * np.exp(e)
+    band = (f > 18) & (f < 28)
+    plain = roughness_sigma(f, H, floor=0.0, curvature_guard=0.0)[:, band, 2, 2]
+    guarded = roughness_sigma(f, H, floor=0.0)[:, band, 2, 2]
+    assert np.median(plain) > 10 * s_true
+    assert np.median(guarded) < 0.35 * np.median(plain)
+    assert np.median(guarded) < 8 * s_true
+    # white noise alone: the guard changes nothing
+    flat = np.full((20, f.size, 3, 3), np.nan + 0j)
+    flat[:, :, 0, 0] = np.exp(e)
+    np.testing.assert_allclose(
+        roughness_sigma(f, flat, floor=0.0),
+        roughness_sigma(f, flat, floor=0.0, curvature_guard=0.0),
+    )

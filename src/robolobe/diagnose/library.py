@@ -19,6 +19,8 @@ family                     fitted parameters (bounds)                 variants
 ``tool_mode``              f_hz (to 1.5 f_max), zeta, mass_kg         direction x, y, z, xyz
 ``sensor_misalignment``    rx_rad, ry_rad, rz_rad (+-0.35)            -
 ``sensor_delay``           delay_s (+-0.02)                           -
+``hammer_direction``       rx_rad, ry_rad, rz_rad (+-0.35); one hit:  all hits, hit x, y, z
+                           the two angles that tilt it
 ``link_flexibility``       stiffness_Nm_per_rad (1e5..1e10, log)      link 1..5, axis x, y
 ``friction_damping``       torque_Nm (0.1..1e4, log)                  -
 =========================  =========================================  ==========================
@@ -376,7 +378,7 @@ def _family(
             )
         ]
     if name == "hammer_direction":
-        return [
+        out = [
             Candidate(
                 name,
                 _rotation_params(),
@@ -389,6 +391,30 @@ def _family(
                 ),
             )
         ]
+        # one hit direction off on its own (each is hit by hand): the two angles that
+        # tilt e_hit (the rotation about the hit's own axis does not move it)
+        for hit, free in (
+            ("x", ("ry_rad", "rz_rad")),
+            ("y", ("rx_rad", "rz_rad")),
+            ("z", ("rx_rad", "ry_rad")),
+        ):
+            out.append(
+                Candidate(
+                    name,
+                    tuple(p for p in _rotation_params() if p.name in free),
+                    _builder(HammerDirection, list(free), hit=hit),
+                    variant=f"hit {hit}",
+                    description=f"the hammer hits along {hit} off the axis (input side)",
+                    requirement=Requirement(
+                        min_directions=2,
+                        any_of_directions=tuple(r + hit for r in AXES),
+                        why=f"an off-axis {hit} hit shows only in the FRFs of {hit} hits, "
+                        "and in more than one response direction",
+                    ),
+                    fixed={"hit": hit},
+                )
+            )
+        return out
     if name == "friction_damping":
         return [
             Candidate(

@@ -116,10 +116,13 @@ class Diagnosis:
     ----------
     verdict : str
         ``"none"`` (the file fits within the noise), the family names of the
-        named candidates joined by ``+`` (``"file_parameters+tool_mode"``), or
+        named candidates joined by ``+`` (``"file_parameters+tool_mode"``),
         ``"unexplained"`` (the best model found still misses the held-out
         postures by more than 1.5 x the noise; the candidates are then only
-        the closest ones, see ``forward.steps``).
+        the closest ones, see ``forward.steps``), or ``"ambiguous"`` (the
+        model fits, but a step has an other-family alternative about as good:
+        ``forward.steps[i].alternatives``; only unambiguous steps are in
+        :attr:`named`).
     selection : Selection
         Round-1 ranking with scores (every candidate on the nominal model).
     fits : tuple of CandidateFit
@@ -186,7 +189,7 @@ class Diagnosis:
         """Family names of the candidates presented as found (empty if none or unexplained)."""
         if self.forward.noise.unexplained:
             return ()
-        return tuple(s.candidate.name for s in self.forward.steps)
+        return tuple(s.candidate.name for s in self.forward.steps if not s.ambiguous)
 
     @property
     def unexplained(self) -> bool:
@@ -374,6 +377,8 @@ def _diagnose(
     modes_after = modes_before if not effects else _mode_table(model, effects, obs, peaks, band)
     if fw.noise.unexplained:
         verdict = "unexplained"
+    elif fw.ambiguous:
+        verdict = "ambiguous"
     elif fw.steps:
         verdict = "+".join(s.candidate.name for s in fw.steps)
     else:

@@ -3,7 +3,7 @@
 ``format = "robolobe-diagnosis/1"``. Top-level keys:
 
 - ``verdict``: ``none``, the named families joined by ``+``
-  (``file_parameters+tool_mode``) or ``unexplained``; ``verdict_label`` adds
+  (``file_parameters+tool_mode``), ``unexplained`` or ``ambiguous``; ``verdict_label`` adds
   the variants; ``unexplained``: whether the best model still misses the
   held-out postures by more than twice the noise (then ``steps`` are only
   the closest candidates); ``steps``: the named candidates in order with
@@ -173,6 +173,10 @@ class StepOut(_Model):
     gain: float | None = Field(description="held-out deviance drop per point [noise variances]")
     share: float = Field(description="share of the explained held-out misfit (0..1)")
     misfit_x_noise_after: float | None
+    alternatives: list[str] = Field(
+        default_factory=list,
+        description="other-family candidates about as good (non-empty: ambiguous, not claimed)",
+    )
 
 
 class NoiseTestOut(_Model):
@@ -304,6 +308,7 @@ def to_report(d: Diagnosis) -> DiagnosisReport:
         verdict=d.verdict,
         verdict_label=(
             ("unexplained; closest: " if nt.unexplained else "")
+            + ("ambiguous; " if d.verdict == "ambiguous" else "")
             + (" + ".join(st.label for st in fw.steps) or "none")
         ),
         unexplained=nt.unexplained,
@@ -317,6 +322,7 @@ def to_report(d: Diagnosis) -> DiagnosisReport:
                 gain=_f(st.gain),
                 share=st.share,
                 misfit_x_noise_after=_f(math.sqrt(max(st.per_residual, 0.0))),
+                alternatives=list(st.alternatives),
             )
             for st in fw.steps
         ],

@@ -96,10 +96,11 @@ def describe_fit(fit: CandidateFit) -> str:
         )
     if c.name == "hammer_direction":
         deg = 180.0 / np.pi
+        hit = c.fixed.get("hit", "")
         return (
-            "the hammer hits off axis by "
-            f"rx {_pm(fit, 'rx_rad', '.2f', deg)}, ry {_pm(fit, 'ry_rad', '.2f', deg)}, "
-            f"rz {_pm(fit, 'rz_rad', '.2f', deg)} deg"
+            (f"the hammer's {hit} hits are off axis by " if hit else "the hammer hits off axis by ")
+            + ", ".join(f"{p.name[:2]} {_pm(fit, p.name, '.2f', deg)}" for p in c.params)
+            + " deg"
         )
     if c.name == "friction_damping":
         return (
@@ -245,9 +246,21 @@ def summarize(
         if cal:
             parts.append(cal)
     elif fw.steps:
+        sure = [st for st in fw.steps if not st.ambiguous]
+        amb = [st for st in fw.steps if st.ambiguous]
+        if amb:
+            parts.append(
+                "AMBIGUOUS: "
+                + "; ".join(
+                    f"{st.label} and {', '.join(st.alternatives)} explain the recordings "
+                    "about equally well"
+                    for st in amb
+                )
+                + " (the data do not tell them apart; none of them is claimed)."
+            )
         parts.append(
-            "Found: "
-            + "; ".join(f"{describe_fit(st.fit)} ({st.label})" for st in fw.steps)
+            ("Found: " if sure else "Model used for the corrected predictions: ")
+            + "; ".join(f"{describe_fit(st.fit)} ({st.label})" for st in (sure or amb))
             + _shares(fw)
             + f". The corrected model predicts held-out postures within the noise "
             f"(misfit {nt.misfit_x_noise:.1f} x the noise, was {base_x:.1f} x); {fit_txt}."

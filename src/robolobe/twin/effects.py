@@ -957,21 +957,38 @@ class HammerDirection(_AxesRotation):
 
     The hit meant along TCP axis ``j`` goes along ``R e_j`` with
     ``R = Rz(rz) Ry(ry) Rx(rx)``, so the measured receptance is ``H R``
-    (columns mixed; a rotated sensor mixes rows, ``R^T H``).
+    (columns mixed; a rotated sensor mixes rows, ``R^T H``). With ``hit``
+    set, only that hit is off (each direction is hit by hand on its own, so
+    its error is its own): column ``j`` becomes ``H R e_j``, the others stay.
 
     Parameters
     ----------
     rx_rad, ry_rad, rz_rad : float
         Rotation angles [rad], each |angle| <= pi/2.
+    hit : {"", "x", "y", "z"}
+        The one hit direction that is off ("": all hits, one rotation).
     """
 
     name: ClassVar[str] = "hammer_direction"
     stage: ClassVar[int] = 5
 
+    hit: str = ""
+
+    def __post_init__(self) -> None:
+        super().__post_init__()
+        if self.hit not in ("", "x", "y", "z"):
+            raise InputError(f"{self.name}.hit: expected '', 'x', 'y' or 'z', found {self.hit!r}")
+
     def modify_frf(self, H: ComplexArray, freq_hz: FloatArray) -> ComplexArray:
-        """``H R``."""
-        out: ComplexArray = H @ self.rotation()
-        return out
+        """``H R``, or only column ``hit`` replaced by ``H R e_hit``."""
+        R = self.rotation()
+        if not self.hit:
+            out: ComplexArray = H @ R
+            return out
+        j = "xyz".index(self.hit)
+        one = np.array(H, copy=True)
+        one[..., :, j] = H @ R[:, j]
+        return one
 
 
 # ------------------------------------------------------------ registry
