@@ -8,6 +8,8 @@ bundled pocket's full-width slot against the same reference.
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 
@@ -151,3 +153,24 @@ def test_waypoint_lobes_refuse_bad_angles_on_bounded_waypoints() -> None:
         unbounded=np.array([False, True]),
     )  # fmt: skip
     assert np.isinf(g.table.query(np.array([5000.0, 5000.0]))[1])
+
+
+def test_a_program_that_starts_with_a_cut_keeps_one_pass_there_and_is_written(tmp_path) -> None:
+    import robolobe as rl
+    from robolobe.plan.program import write_program
+
+    prog = tmp_path / "startcut.nc"
+    prog.write_text(
+        "%\nO1\nG90 G21 G17\nS18000 M3\nG1 X0. Y0. Z-3. F1000.\nX40. F5400.\nY10.\nX0.\n"
+        "G0 Z10.\nM30\n%\n"
+    )
+    job = rl.load_job(Path(__file__).parents[2] / "src/robolobe/data/examples/job_A_pocket.toml")
+    res = rl.plan_path(prog, job)
+    (sec,) = res.summary.passes
+    assert sec["passes"] == 1
+    assert sec["program_depth_mm"] == pytest.approx(3.0)
+    assert any("starts with a cutting move (startcut.nc:5)" in n for n in res.summary.notes)
+    # every move at its own full depth, at the safety factor
+    assert res.summary.min_margin >= job.plan.safety_factor
+    out = write_program(res, tmp_path / "out" / "prog")  # no passes to refuse
+    assert out.is_file()

@@ -1177,6 +1177,16 @@ def plan_path(
     if eng is not None:
         bounded = ~plunge & eng.engaged[ci]
         depth = program_depth(eng.depth_m[ci], pos[ci, 2], bounded, sections(ci))
+        if depth is not None and ci[0] == 0 and not depth.fixed[0]:
+            # a program that starts with a cut has no start point to come back to between
+            # passes (the writers refuse them there): its first section keeps one pass
+            first = depth.section == depth.section[0]
+            depth = dataclasses.replace(depth, fixed=depth.fixed | first)
+            note = (note + "; " if note else "") + (
+                f"the program starts with a cutting move ({labels[0]}): its first run of "
+                "cutting moves is planned in one pass at its own depth (no start point to "
+                "return to between passes); program an approach move to allow passes there"
+            )
         if depth is not None:
             width = float(np.nanmax(np.where(bounded, eng.radial_width_m[ci], np.nan)))
             cons = dataclasses.replace(cons, width_m=width)  # the widest engagement: power, torque
