@@ -255,7 +255,7 @@ def test_a_robust_plan_gives_no_less_than_a_plain_plan_safe_on_the_bound(tmp_pat
     plain = plan_path(example("pocket.nc"), job, refine=False)
     d_plain = tmp_path / "plain"
     write_outputs(plain, d_plain, plots=False, html_report=False)
-    for s_k, same in ((0.04, True), (0.30, False)):
+    for s_k, same in ((0.04, True), (0.45, False)):
         rj = job.replace(
             plan=dataclasses.replace(
                 job.plan,
