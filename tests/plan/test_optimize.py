@@ -10,6 +10,8 @@ from robolobe.plan.optimize import (
     Constraints,
     LobeTable,
     PathGeometry,
+    limit_slacks,
+    limiting_labels,
     optimize_schedule,
 )
 from robolobe.plan.optimize._common import _rate_fix, _rate_ok, _window_min
@@ -348,3 +350,25 @@ def test_compiled_dp_windows_equal_the_sparse_table():
         np.testing.assert_array_equal(got, v)
         _, kept = _dp_kernels.dp(a_blk, length, inv_n, sf_d[3:4], ok[3:4], lo, hi, keep=True)
         np.testing.assert_array_equal(kept, np.array(ref_vals))
+
+
+def test_limit_slacks_name_the_least_slack_and_leave_out_a_fixed_depth():
+    c = cons(safety_factor=1.5)
+    rpm = np.array([9000.0, 12000.0, 24000.0])  # the last sits on rpm_max
+    depth = np.array([1e-3, 1e-3, 2e-3])
+    a_lim = np.array([1.5e-3 * 1.005, 10e-3, 10e-3])  # the first sits on stability
+    power = c.power_W_at(1.0, rpm) * depth
+    slack = limit_slacks(c, rpm, depth, a_lim, power)
+    assert "depth_max" in slack
+    np.testing.assert_allclose(slack["stability"], a_lim / (1.5 * depth) - 1.0)
+    torque = c.kt_N_per_m2 * depth * c.width_m * c.feed_per_rev_m / (2 * np.pi)
+    np.testing.assert_allclose(slack["torque"], c.torque_Nm / torque - 1.0)
+    assert limiting_labels(slack)[0] == "stability"
+    fixed = limit_slacks(c, rpm, depth, a_lim, power, fixed_depth=True)
+    assert "depth_max" not in fixed
+    # where every limit has more than the stated slack, the schedule holds the speed
+    lab = limiting_labels(fixed, free=0.01)
+    assert lab[0] == "stability"
+    assert lab[2] == "rpm_max"
+    mins = np.min(np.stack(list(fixed.values())), axis=0)
+    assert all((lab[k] == "schedule") == (mins[k] > 0.01) for k in range(3))

@@ -99,8 +99,8 @@ class ProcessLimits:
     feed_per_tooth_source : {"program", "job"}
         Whose chip load that is.
     fz_program_m : ndarray, shape (n,)
-        Per waypoint, the program's F / (S N) [m]; NaN where the program
-        states no F or no S, and off the cutting moves.
+        Per waypoint, the program's F / (S N) [m] on every feed move (air
+        moves too); NaN where the program states no F or no S, and on rapids.
     max_feed_m_per_s : float
         Robot path speed cap [m/s].
     max_feed_why : str
@@ -407,8 +407,8 @@ def _label(wp: pd.DataFrame, k: int) -> str:
 def _program_chip_load(
     wp: pd.DataFrame, cut: NDArray[np.bool_], teeth: int, path_name: str
 ) -> tuple[FloatArray, NDArray[np.bool_]]:
-    """The program's F / (S N) [m] per waypoint (NaN off the cut or where unstated), and
-    the lateral cutting moves (not along the tool axis)."""
+    """The program's F / (S N) [m] per waypoint (every feed move, air moves too; NaN on
+    rapids or where unstated), and the lateral cutting moves (not along the tool axis)."""
     from robolobe.plan.pipeline import PLUNGE_LATERAL  # pipeline imports this module
 
     f = wp["feed_mm_per_min"].to_numpy(dtype=np.float64)
@@ -422,7 +422,9 @@ def _program_chip_load(
                 _label(wp, k) if "source" in wp else Path(path_name).name,
             )
     with np.errstate(invalid="ignore", divide="ignore"):
-        fz = np.where(cut & np.isfinite(f) & np.isfinite(s), f * 1e-3 / (s * teeth), np.nan)
+        fed = (wp["motion"] == "cut").to_numpy() | cut
+        ok = fed & np.isfinite(f) & np.isfinite(s) & (s > 0)
+        fz = np.where(ok, f * 1e-3 / (s * teeth), np.nan)
     fdir = wp[["fx", "fy", "fz"]].to_numpy(dtype=np.float64)
     axis = wp[["i", "j", "k"]].to_numpy(dtype=np.float64)
     along = np.einsum("ij,ij->i", fdir, axis)

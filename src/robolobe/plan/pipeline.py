@@ -60,7 +60,14 @@ from robolobe.plan.modes import (
     mode_source,
     plan_bound,
 )
-from robolobe.plan.optimize import Constraints, PathGeometry, PlanOutcome, optimize_schedule
+from robolobe.plan.optimize import (
+    Constraints,
+    PathGeometry,
+    PlanOutcome,
+    limit_slacks,
+    limiting_labels,
+    optimize_schedule,
+)
 from robolobe.plan.passes import (
     ProgramDepth,
     program_depth,
@@ -1241,14 +1248,7 @@ def plan_path(
     )
     if limits.feed_per_tooth_source == "program":
         # each move at the program's own chip load (the optimizer planned on the largest)
-        # (air moves too: the program's F over S there, which the limits leave out)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            fz_all = (
-                wp["feed_mm_per_min"].to_numpy(dtype=np.float64)
-                * 1e-3
-                / (wp["rpm_programmed"].to_numpy(dtype=np.float64) * job.tool.teeth)
-            )
-        fz = np.where(np.isfinite(limits.fz_program_m), limits.fz_program_m, fz_all)
+        fz = limits.fz_program_m
         fz = np.where(np.isfinite(fz) & (fz > 0), fz, cons.feed_per_tooth_m)
         feed = table["feed_mm_per_min"].to_numpy().copy()
         feed[ci] = fz[ci] * job.tool.teeth * table["rpm"].to_numpy()[ci] * 1e3
@@ -1534,22 +1534,12 @@ def _apply_passes(
     lab = lim[ci]
     fix = lab == "depth_max"
     if np.any(fix):
-        # the pass depth is fixed (its own bound): name what binds besides it, with each
-        # move's own margin for stability
-        r = best.rpm
+        # the pass depth is fixed (not a limit that binds): name what binds besides it,
+        # each move at its own depth and margin
         pw = table["power_kW"].to_numpy()[ci] * 1e3
-        with np.errstate(divide="ignore", invalid="ignore"):
-            slack = {
-                "stability": np.where(np.isfinite(mg), mg / cons.safety_factor - 1.0, np.inf),
-                "power": cons.power_W / np.maximum(pw, 1e-300) - 1.0,
-                "rpm_min": r / cons.rpm_min - 1.0,
-                "rpm_max" if cons.rpm_hi >= cons.rpm_max else "feed_max": cons.rpm_hi / r - 1.0,
-            }
-        names = np.asarray(list(slack))
-        mat = np.stack(list(slack.values()))
-        pick = names[np.argmin(mat, axis=0)]
-        pick = np.where(mat.min(axis=0) > BINDING_SLACK, "schedule", pick)
-        lab[fix] = pick[fix]
+        slack = limit_slacks(cons, best.rpm, cut_d, a_lim, pw, fixed_depth=True)
+        slack["stability"] = np.where(bounded, slack["stability"], np.inf)
+        lab[fix] = limiting_labels(slack, free=BINDING_SLACK)[fix]
         lim[ci] = lab
     lim[ci[~eng.engaged[ci] & ~plunge]] = "air"
     table["limiting"] = lim

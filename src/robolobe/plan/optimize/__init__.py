@@ -43,7 +43,7 @@ Modules: ``_inputs`` (constraints, lobe table, path geometry), ``_results``
 ``_search`` (stage 1), ``_nlp`` (stage 2), ``_api`` (the stages in order).
 """
 
-from robolobe.plan.optimize._api import optimize_schedule
+from robolobe.plan.optimize._api import limit_slacks, limiting_labels, optimize_schedule
 from robolobe.plan.optimize._inputs import Constraints, LobeTable, PathGeometry
 from robolobe.plan.optimize._results import PlanOutcome, Schedule
 
@@ -53,5 +53,7 @@ __all__ = [
     "PathGeometry",
     "PlanOutcome",
     "Schedule",
+    "limit_slacks",
+    "limiting_labels",
     "optimize_schedule",
 ]

@@ -26,24 +26,76 @@ _TWO_PI = 2.0 * math.pi
 
 
 # ------------------------------------------------------------- limiting
-def _limiting(ctx: _Ctx, sch: Schedule) -> tuple[NDArray[np.str_], FloatArray]:
-    cons = ctx.cons
-    n = sch.rpm
-    a = max(sch.depth_m, 1e-300)
-    power = cons.power_W_at(a, n)
+def limit_slacks(
+    cons: Constraints,
+    rpm: FloatArray,
+    depth_m: float | FloatArray,
+    a_lim_m: FloatArray,
+    power_W: FloatArray,
+    *,
+    fixed_depth: bool = False,
+) -> dict[str, FloatArray]:
+    """Relative slack of every process limit at each cutting waypoint.
+
+    Parameters
+    ----------
+    cons : Constraints
+    rpm : ndarray, shape (n,)
+        Speed at each waypoint [rpm].
+    depth_m : float or ndarray, shape (n,)
+        Depth cut at each waypoint [m].
+    a_lim_m : ndarray, shape (n,)
+        Stability limit at each waypoint at its speed [m] (NaN or inf: none).
+    power_W : ndarray, shape (n,)
+        Cutting power at each waypoint [W].
+    fixed_depth : bool
+        The depth is given (a plan in passes): ``depth_max`` is then not a
+        limit that binds.
+
+    Returns
+    -------
+    dict of str to ndarray, shape (n,)
+        ``limit / demand - 1`` per limit (0: the limit binds; ``inf``: no limit).
+    """
+    n = np.asarray(rpm, dtype=np.float64)
+    a = np.maximum(np.broadcast_to(np.asarray(depth_m, dtype=np.float64), n.shape), 1e-300)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        stab = a_lim_m / (cons.safety_factor * a) - 1.0
     slack = {
-        "stability": sch.a_lim_m / (cons.safety_factor * a) - 1.0,
-        "power": cons.power_W / np.maximum(power, 1e-300) - 1.0,
-        "torque": np.full(n.size, cons.torque_Nm / cons.torque_Nm_at(a) - 1.0),
-        "depth_max": np.full(n.size, cons.depth_max_m / a - 1.0),
-        "rpm_min": n / cons.rpm_min - 1.0,
-        "rpm_max" if cons.rpm_hi >= cons.rpm_max else "feed_max": cons.rpm_hi / n - 1.0,
+        "stability": np.where(np.isfinite(stab), stab, np.inf),
+        "power": cons.power_W / np.maximum(power_W, 1e-300) - 1.0,
+        "torque": cons.torque_Nm / np.maximum(cons.torque_Nm_at(1.0) * a, 1e-300) - 1.0,
     }
-    names = list(slack)
-    mat = np.stack([slack[k] for k in names])
+    if not fixed_depth:
+        slack["depth_max"] = cons.depth_max_m / a - 1.0
+    slack["rpm_min"] = n / cons.rpm_min - 1.0
+    slack["rpm_max" if cons.rpm_hi >= cons.rpm_max else "feed_max"] = cons.rpm_hi / n - 1.0
+    return slack
+
+
+def limiting_labels(slack: dict[str, FloatArray], free: float | None = None) -> NDArray[np.str_]:
+    """The limit that binds at each waypoint: the one with the least slack.
+
+    Parameters
+    ----------
+    slack : dict of str to ndarray, shape (n,)
+        From :func:`limit_slacks`.
+    free : float, optional
+        A waypoint whose every slack exceeds this is labelled ``"schedule"``
+        (its speed is held by the schedule, not by a limit there).
+    """
+    names = np.asarray(list(slack))
+    mat = np.stack(list(slack.values()))
+    lim = names[np.argmin(mat, axis=0)]
+    if free is not None:
+        lim = np.where(mat.min(axis=0) > free, "schedule", lim)
+    return lim
+
+
+def _limiting(ctx: _Ctx, sch: Schedule) -> tuple[NDArray[np.str_], FloatArray]:
     # rpm_min / rpm_max only limit when the schedule sits on them *and* wants to move
-    lim = np.asarray(names)[np.argmin(mat, axis=0)]
-    return lim, power
+    power = ctx.cons.power_W_at(max(sch.depth_m, 1e-300), sch.rpm)
+    return limiting_labels(limit_slacks(ctx.cons, sch.rpm, sch.depth_m, sch.a_lim_m, power)), power
 
 
 # ------------------------------------------------------------------- API
