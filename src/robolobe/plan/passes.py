@@ -32,6 +32,7 @@ from numpy.typing import NDArray
 
 from robolobe.errors import InfeasibleError
 from robolobe.plan.optimize import Constraints, PlanOutcome
+from robolobe.plan.paths._edit import cut_runs as sections
 
 __all__ = ["ProgramDepth", "program_depth", "schedule_passes", "section_passes", "sections"]
 
@@ -114,18 +115,6 @@ def program_depth(
         if np.ptp(zk) > LEVEL_TOL_M:
             fixed[sec == k] = True
     return ProgramDepth(depth_m=d, section=sec, deepest_m=float(d[bounded].max()), fixed=fixed)
-
-
-def sections(cut_rows: IntArray) -> IntArray:
-    """Section of each cutting move: runs of consecutive rows of the waypoint table.
-
-    Parameters
-    ----------
-    cut_rows : ndarray of int, shape (n_cut,)
-        Row of each cutting move in the waypoint table (increasing).
-    """
-    rows = np.asarray(cut_rows, dtype=np.int64)
-    return np.cumsum(np.r_[True, np.diff(rows) != 1]).astype(np.int64) - 1
 
 
 def schedule_passes(

@@ -123,20 +123,14 @@ def sections(edit: ProgramEdit) -> list[Section]:
         to), or with a depth that is not positive.
     """
     wp = edit.waypoints
-    cut = edit.cut
     out: list[Section] = []
-    n = len(wp)
     src = wp["source"].to_numpy()
     line = wp["line"].to_numpy()
     axis = wp[["i", "j", "k"]].to_numpy(dtype=np.float64)
-    i = 0
-    while i < n:
-        if not cut[i]:
-            i += 1
-            continue
-        j = i
-        while j < n and cut[j]:
-            j += 1
+    rows = np.flatnonzero(edit.cut)
+    cuts = np.flatnonzero(np.diff(cut_runs(rows))) + 1
+    for run in np.split(rows, cuts) if rows.size else []:
+        i, j = int(run[0]), int(run[-1]) + 1
         p = edit.passes[i:j]
         if np.any(p > 1):
             where = f"{src[i]}:{line[i]}"
@@ -168,8 +162,28 @@ def sections(edit: ProgramEdit) -> list[Section]:
                 )
             ax = (float(a[0, 0]), float(a[0, 1]), float(a[0, 2]))
             out.append(Section(i, j, int(p[0]), float(d[0]), ax))
-        i = j
     return out
+
+
+def cut_runs(cut_rows: NDArray[np.int64]) -> NDArray[np.int64]:
+    """Run (section) of each cutting move: runs of consecutive rows of the waypoint table.
+
+    The one definition of a section, for the planner's passes and the writers.
+
+    Parameters
+    ----------
+    cut_rows : ndarray of int, shape (n_cut,)
+        Row of each cutting move in the waypoint table (increasing).
+
+    Returns
+    -------
+    ndarray of int, shape (n_cut,)
+        0, 1, ... numbering the runs in program order.
+    """
+    rows = np.asarray(cut_rows, dtype=np.int64)
+    if rows.size == 0:
+        return np.zeros(0, dtype=np.int64)
+    return np.cumsum(np.r_[True, np.diff(rows) != 1]).astype(np.int64) - 1
 
 
 @dataclass(frozen=True)
