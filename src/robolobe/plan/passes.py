@@ -118,20 +118,32 @@ def program_depth(
 
 
 def schedule_passes(
-    run: Callable[[Constraints, int], PlanOutcome], cons: Constraints, deepest_m: float
+    run: Callable[[Constraints, int, bool], PlanOutcome],
+    cons: Constraints,
+    deepest_m: float,
+    *,
+    refine: bool = True,
 ) -> tuple[PlanOutcome, int, Constraints]:
     """The speed schedule and pass count with the shortest cutting time.
+
+    The pass counts are compared on the global search's schedules; only the
+    chosen one is refined (``refine``): the refinement moves speeds within
+    their stable pockets, worth a few per cent of cutting time, less than
+    one pass changes it.
 
     Parameters
     ----------
     run : callable
-        ``run(constraints, passes) -> PlanOutcome``: the optimizer on the
-        table of :meth:`LobeTable.per_depth` with :meth:`ProgramDepth.share`
-        of ``passes`` (the depth it plans is the deepest move's per pass).
+        ``run(constraints, passes, refine) -> PlanOutcome``: the optimizer
+        on the table of :meth:`LobeTable.per_depth` with
+        :meth:`ProgramDepth.share` of ``passes`` (the depth it plans is the
+        deepest move's per pass), with or without its refinement.
     cons : Constraints
         The job's limits (depth bounds per pass).
     deepest_m : float
         The deepest move's programmed depth [m].
+    refine : bool
+        Refine the chosen schedule.
 
     Returns
     -------
@@ -149,14 +161,14 @@ def schedule_passes(
     p_lo = max(1, math.ceil(deepest_m / cons.depth_cap_m - 1e-9))
     d_hi = deepest_m / p_lo
     free = dataclasses.replace(cons, depth_min_m=min(cons.depth_min_m, d_hi), depth_max_m=d_hi)
-    first = run(free, p_lo)
+    first = run(free, p_lo, False)
     p0 = max(p_lo, math.ceil(deepest_m / first.best.depth_m - 1e-9))
     best: tuple[float, int, PlanOutcome, Constraints] | None = None
     for p in range(max(p_lo, p0 - PASS_SPAN), p0 + PASS_SPAN + 1):
         d = deepest_m / p
         fixed = dataclasses.replace(cons, depth_min_m=d, depth_max_m=d)
         try:
-            out = run(fixed, p)
+            out = run(fixed, p, False)
         except InfeasibleError:
             continue
         t = p * out.best.cut_time_s
@@ -164,8 +176,9 @@ def schedule_passes(
             best = (t, p, out, fixed)
     if best is None:  # the optimum's own speeds at its depth rounded down to passes
         d = deepest_m / p0
-        return first, p0, dataclasses.replace(cons, depth_min_m=d, depth_max_m=d)
-    return best[2], best[1], best[3]
+        return run(free, p_lo, refine), p0, dataclasses.replace(cons, depth_min_m=d, depth_max_m=d)
+    _, p, out, fixed = best
+    return (run(fixed, p, True) if refine else out), p, fixed
 
 
 def section_passes(

@@ -1209,14 +1209,14 @@ def plan_path(
                 made[key] = table.per_depth(depth.share(p))
             return made[key]
 
-        def run(c: Constraints, p: int = 1) -> PlanOutcome:
+        def run(c: Constraints, p: int = 1, fine: bool = refine) -> PlanOutcome:
             return optimize_schedule(
                 table if depth is None else scaled(p),
                 geom,
                 c,
                 programmed_rpm=prog if np.any(np.isfinite(prog)) else None,
                 labels=labels,
-                refine=refine,
+                refine=fine,
             )
 
         if depth is None:
@@ -1224,7 +1224,7 @@ def plan_path(
         # headroom of the lobes' stated tolerance: the program's own check (its own lobe
         # sharing, whole-rpm speeds) then finds every move at the safety factor too
         room = dataclasses.replace(cons, safety_factor=cons.safety_factor * (1 + LOBE_TOL))
-        return schedule_passes(run, room, depth.deepest_m)[0]
+        return schedule_passes(run, room, depth.deepest_m, refine=refine)[0]
 
     try:
         outcome = schedule(grouped.table)
