@@ -420,7 +420,11 @@ class CorrectedTwin:
         alpha = np.zeros((nd, nm, 3))
         loo = np.where(count > 0, scale, np.nan)
         inv_var_mean = np.ones((nd, nm, 3))
-        held = r.copy()  # held-out residuals (filled per quantity below)
+        # held-out residuals: each posture's from the calibration fitted without it
+        # (the in-sample ones understate the error at other postures), less the
+        # process' leave-one-out correction where used (filled per quantity below)
+        r_ho = cal.held_out_residuals(ds, nm)
+        held = np.where(np.isfinite(r_ho), r_ho, r)
         for c in range(3):
             outs = [
                 (j, m) for j in range(nd) for m in range(nm) if count[j, m, c] >= self.min_points
@@ -484,7 +488,7 @@ class CorrectedTwin:
             for (j, m), g in loo_g.items():
                 if alpha[j, m, c] > 0:
                     sel = ok[:, j, m, c]
-                    held[sel, j, m, c] = r[sel, j, m, c] - alpha[j, m, c] * scale[j, m, c] * g
+                    held[sel, j, m, c] -= alpha[j, m, c] * scale[j, m, c] * g
         self.calibration_ = cal
         self.robot_ = cal.robot_
         self.length_scales_ = ells
