@@ -673,8 +673,19 @@ class TwinCalibration:
             """Finite values of the measured modes left unpaired (constant residuals)."""
             return n_vals - int(fin_vals[idx[0], idx[1], idx[2]].sum())
 
+        mcache: dict[bytes, tuple[tuple[NDArray[np.intp], ...], int]] = {}
+
+        def matched(theta: FloatArray) -> tuple[tuple[NDArray[np.intp], ...], int]:
+            """Ungated matching at ``theta`` (the residuals' and the Jacobian's: once)."""
+            key = np.asarray(theta, dtype=float).tobytes()
+            if key not in mcache:
+                if len(mcache) > 64:
+                    mcache.clear()
+                mcache[key] = self._match(ds, model(theta), tol=np.inf)
+            return mcache[key]
+
         def dyn_jac(theta: FloatArray) -> FloatArray:
-            idx, _ = self._match(ds, model(theta), tol=np.inf)
+            idx, _ = matched(theta)
             jac_ = jacobian(theta, idx)
             nd_ = jac_.shape[0] - p
             return np.vstack([jac_[:nd_], np.zeros((n_fill(idx), p)), jac_[nd_:]])
@@ -682,13 +693,13 @@ class TwinCalibration:
         def dyn_res(theta: FloatArray) -> FloatArray:
             # every measured mode matched afresh (continuous where modes cross); one left
             # unpaired adds constant residuals, so that their number stays fixed
-            idx, _ = self._match(ds, model(theta), tol=np.inf)
+            idx, _ = matched(theta)
             r_ = residuals(theta, idx)
             nd_ = r_.size - p
             return np.concatenate([r_[:nd_], np.full(n_fill(idx), none_res), r_[nd_:]])
 
         def rms_f(theta: FloatArray) -> float:
-            idx0, _ = self._match(ds, model(theta), tol=np.inf)
+            idx0, _ = matched(theta)
             mod0 = model(theta)
             f_res = np.log(y[idx0[0], idx0[1], idx0[2], 0] / mod0[idx0[0], idx0[1], idx0[3], 0])
             return float(np.sqrt(np.mean(f_res**2)))
