@@ -280,3 +280,30 @@ def test_a_robust_plan_gives_no_less_than_a_plain_plan_safe_on_the_bound(tmp_pat
         else:
             assert on_bound.min_margin < 1.0
             assert mrr_r < mrr_p
+
+
+def test_speed_window_is_that_of_the_modes_that_set_the_limit():
+    """Issue 27: a weak mode's wide frequency spread does not widen the speed window.
+
+    Two coupled modes seen along x only; peak compliance 1 / (2 k zeta) per mode
+    (same damping): the window is k_sigma times the frequency spread of the modes
+    with at least half the largest peak, the stated spread that of every mode over 5 %.
+    """
+    std = np.zeros((1, 3, 2, 3))
+    std[0, :, 0, 0] = 0.01  # the strong mode's frequency: well known
+    std[0, :, 1, 0] = 0.10  # the weak mode's: poorly
+    plan = dataclasses.replace(load_job(example("job_B_contour.toml")).plan, robust=None)
+    # the second mode 10x stiffer: a tenth of the peak (matters, does not set the limit)
+    weak = [[1e6, 1e7], [1e12, 1e12], [1e12, 1e12]]
+    bound, _ = plan_bound(plan, _modes(std, True, weak))
+    assert bound.window[0] == pytest.approx(2 * 0.01)
+    assert bound.std_max[0] == pytest.approx(0.10)  # stated: every mode that matters
+    # 1.5x stiffer: two thirds of the peak, it sets the limit too
+    close = [[1e6, 1.5e6], [1e12, 1e12], [1e12, 1e12]]
+    bound, _ = plan_bound(plan, _modes(std, True, close))
+    assert bound.window[0] == pytest.approx(2 * 0.10)
+    # a tiny mode (under 5 %): neither
+    tiny = [[1e6, 1e8], [1e12, 1e12], [1e12, 1e12]]
+    bound, _ = plan_bound(plan, _modes(std, True, tiny))
+    assert bound.window[0] == pytest.approx(2 * 0.01)
+    assert bound.std_max[0] == pytest.approx(0.01)
