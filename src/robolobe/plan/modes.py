@@ -153,9 +153,14 @@ class RobotModes:
     ) -> RobustBound | None:
         """The robust bound of these modes: stiffness and damping lowered, a speed window.
 
-        Each visible mode's stiffness and damping are lowered by ``k_sigma``
-        standard deviations of their log spread (capped at
-        :data:`MAX_LOG_STD` per sigma); frequencies keep their nominal values
+        Each visible mode's stiffness and damping are lowered together so that
+        their product (the mode's peak compliance ``1 / (2 k zeta)``, which sets
+        its stability limit) falls by ``k_sigma`` standard deviations of its log
+        spread ``sqrt(s_k^2 + s_zeta^2)`` (each spread capped at
+        :data:`MAX_LOG_STD` per sigma), shared in proportion to their
+        variances (``k_sigma`` spreads of each would lower the product by
+        ``k_sigma (s_k + s_zeta)``: up to sqrt(2) times the bound stated);
+        frequencies keep their nominal values
         and their uncertainty becomes a relative speed window
         ``+-k_sigma * std(log f)`` (the lobes of modes all shifted by a factor
         ``r`` are the lobes at speed ``Omega / r``): the planner takes the
@@ -217,14 +222,18 @@ class RobotModes:
             kv = np.where(visible, np.abs(self.k_N_per_m), np.inf)
             most = np.argmin(kv, axis=1)  # (n, m)
             sm = np.take_along_axis(s, most[:, None, :, None], axis=1)[:, 0]  # (n, m, 3)
-            f_scale = np.ones((n, m))
-            z_scale = np.exp(-sm[..., 1])
-            r_scale = np.exp(sm[..., 2])
         else:
             sm = s.reshape(n, nd * m, 3)
-            f_scale = np.ones((n, nd * m))
-            z_scale = np.exp(-sm[..., 1])
-            r_scale = np.exp(sm[..., 2])
+        f_scale = np.ones(sm.shape[:2])
+        # stiffness and damping lowered together by k_sigma spreads of their product
+        # k zeta (a mode's peak compliance 1 / (2 k zeta), which sets its stability
+        # limit), shared in proportion to their variances: k_sigma spreads of each
+        # would put the product k_sigma * (s_k + s_z) low, up to sqrt(2) x too far
+        both = np.hypot(sm[..., 1], sm[..., 2])
+        frac_k = np.divide(sm[..., 2] ** 2, both**2, out=np.zeros_like(both), where=both > 0)
+        low = np.stack([both * (1.0 - frac_k), both * frac_k], axis=-1)  # log zeta, log k
+        z_scale = np.exp(-low[..., 0])
+        r_scale = np.exp(low[..., 1])
         lowered = ModalModel(
             model.omega * f_scale,
             model.zeta * z_scale,
@@ -242,6 +251,7 @@ class RobotModes:
         window = np.minimum(np.max(np.where(lead, sm[..., 0], 0.0), axis=1), MAX_WINDOW)
         # the spread stated: what was applied to the modes that matter
         used = sm[matter] / k_sigma if np.any(matter) else np.zeros((1, 3))
+        applied = low[matter] if np.any(matter) else np.zeros((1, 2))
         return RobustBound(
             model=lowered,
             window=np.asarray(window, dtype=np.float64),
@@ -249,6 +259,7 @@ class RobotModes:
             std_max=np.asarray(used.max(axis=0), dtype=np.float64),
             how=how,
             std_median=np.asarray(np.median(used, axis=0), dtype=np.float64),
+            lowered_max=np.asarray(applied.max(axis=0), dtype=np.float64),
         )
 
 
@@ -270,6 +281,10 @@ class RobustBound:
         Where the spread came from.
     std_median : ndarray, shape (3,) or None
         Median of that spread over the same modes and postures.
+    lowered_max : ndarray, shape (2,) or None
+        Largest log factor by which damping and stiffness were lowered over
+        the same modes (their product by ``k_sigma`` spreads of it); None:
+        ``k_sigma`` spreads each.
     """
 
     model: ModalModel
@@ -278,6 +293,7 @@ class RobustBound:
     std_max: FloatArray
     how: str
     std_median: FloatArray | None = None
+    lowered_max: FloatArray | None = None
 
     @property
     def confidence(self) -> float:
@@ -288,6 +304,7 @@ class RobustBound:
         """JSON-ready statement of the bound."""
         _, sz, sk = (float(v) for v in self.std_max)
         ks = self.k_sigma
+        lz, lk = (ks * sz, ks * sk) if self.lowered_max is None else self.lowered_max
         return {
             "k_sigma": ks,
             "confidence_pct": round(100.0 * self.confidence, 2),
@@ -296,8 +313,8 @@ class RobustBound:
             "frequency_window_pct_median": round(
                 100.0 * float(np.median(self.window)) if self.window.size else 0.0, 3
             ),
-            "stiffness_lowered_to_pct": round(100.0 * math.exp(-ks * sk), 2),
-            "damping_lowered_to_pct": round(100.0 * math.exp(-ks * sz), 2),
+            "stiffness_lowered_to_pct": round(100.0 * math.exp(-float(lk)), 2),
+            "damping_lowered_to_pct": round(100.0 * math.exp(-float(lz)), 2),
             "spread_pct_median": None
             if self.std_median is None
             else {
@@ -311,11 +328,11 @@ class RobustBound:
             "statement": (
                 f"the frequencies of the modes that set the limit within "
                 f"+-{100 * float(np.max(self.window, initial=0.0)):.2g} %, "
-                f"stiffness above {100 * math.exp(-ks * sk):.3g} % and damping above "
-                f"{100 * math.exp(-ks * sz):.3g} % of the prediction (k_sigma = {ks:g}: "
-                f"{100 * self.confidence:.1f} % one-sided per quantity if the spread is "
-                "normal in log); planned at margin 1 on this bound and the safety factor on "
-                "the prediction"
+                f"stiffness above {100 * math.exp(-float(lk)):.3g} % and damping above "
+                f"{100 * math.exp(-float(lz)):.3g} % of the prediction (their product, a "
+                f"mode's peak compliance, lowered by k_sigma = {ks:g} spreads of it: "
+                f"{100 * self.confidence:.1f} % one-sided if the spread is normal in log); "
+                "planned at margin 1 on this bound and the safety factor on the prediction"
             ),
         }
 
