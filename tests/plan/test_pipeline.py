@@ -190,9 +190,11 @@ def test_robust_mode_plans_on_the_lower_bound(pocket_job):
     assert b is not None
     assert b.k_sigma == 2.0
     assert b.confidence_pct == pytest.approx(97.72, abs=0.01)
-    # spread 0.05 in log f, 2 sigma: a +-10 % speed window; k and zeta x exp(-0.1)
+    # spread 0.05 in log f, 2 sigma: a +-10 % speed window; k zeta (spread 0.05 each)
+    # lowered by 2 sqrt(0.05^2 + 0.05^2), half on each: k and zeta x exp(-sqrt(2) 0.05)
     assert b.frequency_window_pct_max == pytest.approx(10.0, abs=1e-6)
-    assert b.stiffness_lowered_to_pct == pytest.approx(100 * np.exp(-0.1), abs=0.01)
+    assert b.stiffness_lowered_to_pct == pytest.approx(100 * np.exp(-(2**0.5) * 0.05), abs=0.01)
+    assert b.damping_lowered_to_pct == pytest.approx(100 * np.exp(-(2**0.5) * 0.05), abs=0.01)
     assert b.spread_pct_max.f == pytest.approx(100 * np.expm1(0.05), abs=1e-3)
     assert any(n.startswith("robust plan:") for n in robust.summary.notes)
     assert robust.summary.min_margin_at.source.startswith("pocket.nc:")

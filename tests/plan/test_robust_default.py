@@ -60,6 +60,11 @@ def corrected_b(tmp_path_factory):
     return {"model": model, "path": path, "q": q, "base": base}
 
 
+# k_sigma 2, spreads 0.05 (zeta) and 0.02 (k): the product k zeta lowered by
+# 2 sqrt(0.05^2 + 0.02^2), the share 0.02^2 / (0.05^2 + 0.02^2) of it on k
+K_LOW = 2 * math.sqrt(0.05**2 + 0.02**2) * 0.02**2 / (0.05**2 + 0.02**2)
+
+
 def _modes(spread, calibrated, k):
     """One posture, 2 coupled modes, given per-direction stiffness (3, 2)."""
     f = np.broadcast_to(np.array([20.0, 40.0]), (1, 3, 2)).copy()
@@ -88,7 +93,7 @@ def test_plan_bound_is_robust_by_default_only_on_a_calibrated_spread():
     assert "calibrated" in bound.how
     assert bound.window[0] == pytest.approx(0.02)
     assert bound.describe()["stiffness_lowered_to_pct"] == pytest.approx(
-        100 * math.exp(-0.04), abs=0.01
+        100 * math.exp(-K_LOW), abs=0.01
     )
     # an uncalibrated source spread (a network's ensemble): plain unless asked
     assert plan_bound(auto, _modes(std, False, k)) == (None, False)
@@ -102,7 +107,7 @@ def test_plan_bound_is_robust_by_default_only_on_a_calibrated_spread():
     assert bound.window[0] == pytest.approx(0.06)
     assert "the job's spread for f" in bound.how
     assert bound.describe()["stiffness_lowered_to_pct"] == pytest.approx(
-        100 * math.exp(-0.04), abs=0.01
+        100 * math.exp(-K_LOW), abs=0.01
     )
 
 
@@ -280,3 +285,55 @@ def test_a_robust_plan_gives_no_less_than_a_plain_plan_safe_on_the_bound(tmp_pat
         else:
             assert on_bound.min_margin < 1.0
             assert mrr_r < mrr_p
+
+
+def test_speed_window_is_that_of_the_modes_that_set_the_limit():
+    """Issue 27: a weak mode's wide frequency spread does not widen the speed window.
+
+    Two coupled modes seen along x only; peak compliance 1 / (2 k zeta) per mode
+    (same damping): the window is k_sigma times the frequency spread of the modes
+    with at least half the largest peak, the stated spread that of every mode over 5 %.
+    """
+    std = np.zeros((1, 3, 2, 3))
+    std[0, :, 0, 0] = 0.01  # the strong mode's frequency: well known
+    std[0, :, 1, 0] = 0.10  # the weak mode's: poorly
+    plan = dataclasses.replace(load_job(example("job_B_contour.toml")).plan, robust=None)
+    # the second mode 10x stiffer: a tenth of the peak (matters, does not set the limit)
+    weak = [[1e6, 1e7], [1e12, 1e12], [1e12, 1e12]]
+    bound, _ = plan_bound(plan, _modes(std, True, weak))
+    assert bound.window[0] == pytest.approx(2 * 0.01)
+    assert bound.std_max[0] == pytest.approx(0.10)  # stated: every mode that matters
+    # 1.5x stiffer: two thirds of the peak, it sets the limit too
+    close = [[1e6, 1.5e6], [1e12, 1e12], [1e12, 1e12]]
+    bound, _ = plan_bound(plan, _modes(std, True, close))
+    assert bound.window[0] == pytest.approx(2 * 0.10)
+    # a tiny mode (under 5 %): neither
+    tiny = [[1e6, 1e8], [1e12, 1e12], [1e12, 1e12]]
+    bound, _ = plan_bound(plan, _modes(std, True, tiny))
+    assert bound.window[0] == pytest.approx(2 * 0.01)
+    assert bound.std_max[0] == pytest.approx(0.01)
+
+
+def test_stiffness_and_damping_are_lowered_by_k_sigma_spreads_of_their_product():
+    """Issue 27: the bound on k zeta (a mode's peak compliance) is k_sigma spreads of it.
+
+    The lowered model's residues (1 / k) and damping, read back mode by mode.
+    """
+    k = [[1e6, 1e12], [1e12, 1e12], [1e12, 1e12]]
+    plan = dataclasses.replace(load_job(example("job_B_contour.toml")).plan, robust=None)
+    for s_z, s_k in ((0.0, 0.1), (0.1, 0.0), (0.06, 0.08)):
+        std = np.zeros((1, 3, 2, 3))
+        std[..., 1], std[..., 2] = s_z, s_k
+        modes = _modes(std, True, k)
+        bound, _ = plan_bound(plan, modes)
+        z_ratio = bound.model.zeta[0, 0] / modes.model.zeta[0, 0]
+        k_ratio = np.trace(modes.model.residues[0, 0]) / np.trace(bound.model.residues[0, 0])
+        # the product lowered by exactly 2 sqrt(s_z^2 + s_k^2), shared by variance
+        assert math.log(z_ratio * k_ratio) == pytest.approx(-2 * math.hypot(s_z, s_k))
+        if s_z == 0.0 or s_k == 0.0:  # one spread: that quantity by 2 spreads, as before
+            assert math.log(k_ratio) == pytest.approx(-2 * s_k)
+        else:
+            assert math.log(k_ratio) / math.log(z_ratio) == pytest.approx(s_k**2 / s_z**2)
+        d = bound.describe()
+        assert d["stiffness_lowered_to_pct"] == pytest.approx(100 * k_ratio, abs=0.01)
+        assert d["damping_lowered_to_pct"] == pytest.approx(100 * z_ratio, abs=0.01)

@@ -208,3 +208,57 @@ def test_planning_spread_covers_held_out_stiffness_errors(gravity_case):
     assert cover(2.0 * sp[..., 0]) < cover(sp[..., 2]) - 0.1
     assert np.all(np.isfinite(model.spread_cover_))
     assert np.all(np.abs(model.spread_cover_ - 0.9545) < 0.05)
+
+
+@pytest.mark.slow
+def test_held_out_residuals_match_a_refit_without_the_posture(gravity_case):
+    """Issue 27: each posture's residual of the calibration fitted without it.
+
+    Reference, written here: the calibration's weighted log residuals and prior
+    rows minimised afresh (nonlinear least squares from the fit, the same
+    matching) on the other postures, the log residual at the left-out posture.
+    The first-order block deletion must reproduce it, and exceed the in-sample one.
+    """
+    from scipy.optimize import least_squares
+
+    from robolobe.twin.params import ParametrizedTwin
+
+    g = gravity_case
+    cal, ds = g["cal"], g["ds"]
+    nm = min(ds.n_modes, cal.n_modes_)
+    held = cal.held_out_residuals(ds, nm)
+    inner = CorrectedTwin(robot=g["base"], prefit=cal)._residuals(cal, ds)
+    assert held.shape == inner.shape
+    np.testing.assert_array_equal(np.isfinite(held), np.isfinite(inner))
+    ok = np.isfinite(held)
+    for c in (0, 2):  # f and k: the held-out residual is the larger
+        assert np.sqrt(np.mean(held[..., c][ok[..., c]] ** 2)) > np.sqrt(
+            np.mean(inner[..., c][ok[..., c]] ** 2)
+        )
+    y = np.asarray(ds.y)
+    w = np.asarray(cal.weights)
+    twin = ParametrizedTwin(cal.base_robot_, ds.q_rad, cal.groups_, directions=ds.directions)
+    th0 = cal.theta_
+    (i, j, m, t), _ = cal._match(ds, twin.values(th0))
+    fin = np.isfinite(y[i, j, m]) & (twin.values(th0)[i, j, t] < 1e15)
+    sd = cal._prior_vector(cal.groups_)
+    r_all = (np.log(y[i, j, m] / twin.values(th0)[i, j, t]) * w)[fin]
+    pw = cal.regularization * max(cal._noise_floor(), np.sqrt(np.mean(r_all**2)))
+    for k in (3, 7, 12):
+        rest = i != k
+
+        def res(th, rest=rest):
+            r = np.log(y[i, j, m] / twin.values(th)[i, j, t]) * w
+            return np.concatenate([r[fin & rest[:, None]], pw * th / sd])
+
+        th_k = least_squares(res, th0).x
+        here = i == k
+        ref = np.log(y[i, j, m] / twin.values(th_k)[i, j, t])[here]
+        got = held[k, j[here], t[here]]
+        was = inner[k, j[here], t[here]]
+        s = fin[here] & (t[here] < nm)[:, None]
+        for c in (0, 2):  # f and k (first order: postures the fit does not miss by far)
+            d_ho = np.sqrt(np.mean((got - ref)[..., c][s[..., c]] ** 2))
+            d_in = np.sqrt(np.mean((was - ref)[..., c][s[..., c]] ** 2))
+            assert d_in > 1e-4  # leaving the posture out moves its residuals
+            assert d_ho < 0.5 * d_in  # first order: most of the move

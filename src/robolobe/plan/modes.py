@@ -68,6 +68,10 @@ FloatArray = NDArray[np.float64]
 MAX_LOG_STD = 0.35
 #: Largest relative speed window (frequency uncertainty) of a robust plan.
 MAX_WINDOW = 0.25
+#: Least peak compliance, relative to the posture's largest, of a mode whose frequency
+#: spread sets a robust plan's speed window (issue 27: the largest spread of every mode
+#: over 5 % gave windows of up to +-17 % on out-of-form robot C, set by weak modes).
+WINDOW_SHARE = 0.5
 #: Modal stiffness [N/m] from which a mode counts as not visible in a direction.
 INVISIBLE_K = 1e11
 
@@ -149,16 +153,24 @@ class RobotModes:
     ) -> RobustBound | None:
         """The robust bound of these modes: stiffness and damping lowered, a speed window.
 
-        Each visible mode's stiffness and damping are lowered by ``k_sigma``
-        standard deviations of their log spread (capped at
-        :data:`MAX_LOG_STD` per sigma); frequencies keep their nominal values
+        Each visible mode's stiffness and damping are lowered together so that
+        their product (the mode's peak compliance ``1 / (2 k zeta)``, which sets
+        its stability limit) falls by ``k_sigma`` standard deviations of its log
+        spread ``sqrt(s_k^2 + s_zeta^2)`` (each spread capped at
+        :data:`MAX_LOG_STD` per sigma), shared in proportion to their
+        variances (``k_sigma`` spreads of each would lower the product by
+        ``k_sigma (s_k + s_zeta)``: up to sqrt(2) times the bound stated);
+        frequencies keep their nominal values
         and their uncertainty becomes a relative speed window
         ``+-k_sigma * std(log f)`` (the lobes of modes all shifted by a factor
         ``r`` are the lobes at speed ``Omega / r``): the planner takes the
         smallest limit inside that window, which keeps speeds away from steep
-        lobe walls. Modes that are not visible in a direction (stiffness at
-        least :data:`INVISIBLE_K`, or none) keep it: a spread of a mode that a
-        test cannot see is not a spread of its stiffness.
+        lobe walls. The window at a posture is that of the modes that set the
+        limit there (peak compliance at least :data:`WINDOW_SHARE` of the
+        largest), not the widest of every mode: a weak mode's frequency is
+        known worse and its lobes lie deeper. Modes that are not visible in a
+        direction (stiffness at least :data:`INVISIBLE_K`, or none) keep it: a
+        spread of a mode that a test cannot see is not a spread of its stiffness.
 
         Parameters
         ----------
@@ -210,28 +222,36 @@ class RobotModes:
             kv = np.where(visible, np.abs(self.k_N_per_m), np.inf)
             most = np.argmin(kv, axis=1)  # (n, m)
             sm = np.take_along_axis(s, most[:, None, :, None], axis=1)[:, 0]  # (n, m, 3)
-            f_scale = np.ones((n, m))
-            z_scale = np.exp(-sm[..., 1])
-            r_scale = np.exp(sm[..., 2])
         else:
             sm = s.reshape(n, nd * m, 3)
-            f_scale = np.ones((n, nd * m))
-            z_scale = np.exp(-sm[..., 1])
-            r_scale = np.exp(sm[..., 2])
+        f_scale = np.ones(sm.shape[:2])
+        # stiffness and damping lowered together by k_sigma spreads of their product
+        # k zeta (a mode's peak compliance 1 / (2 k zeta), which sets its stability
+        # limit), shared in proportion to their variances: k_sigma spreads of each
+        # would put the product k_sigma * (s_k + s_z) low, up to sqrt(2) x too far
+        both = np.hypot(sm[..., 1], sm[..., 2])
+        frac_k = np.divide(sm[..., 2] ** 2, both**2, out=np.zeros_like(both), where=both > 0)
+        low = np.stack([both * (1.0 - frac_k), both * frac_k], axis=-1)  # log zeta, log k
+        z_scale = np.exp(-low[..., 0])
+        r_scale = np.exp(low[..., 1])
         lowered = ModalModel(
             model.omega * f_scale,
             model.zeta * z_scale,
             model.residues * r_scale[..., None, None],
         )
-        # the speed window: the largest frequency spread of the modes that matter at
-        # each posture (peak compliance at least 5 % of the largest)
+        # the speed window, per posture: the frequency spread of the modes that set the
+        # stability limit (peak compliance at least WINDOW_SHARE of the largest), not
+        # the largest of every mode that matters: a weak mode's frequency is known
+        # worse (its small share of the compliance) and its lobes lie deeper
         peak = np.abs(np.trace(model.residues, axis1=-2, axis2=-1)) / (
             2.0 * model.zeta * model.omega**2
         )
         matter = peak >= 0.05 * peak.max(axis=1, keepdims=True)
-        window = np.minimum(np.max(np.where(matter, sm[..., 0], 0.0), axis=1), MAX_WINDOW)
+        lead = peak >= WINDOW_SHARE * peak.max(axis=1, keepdims=True)
+        window = np.minimum(np.max(np.where(lead, sm[..., 0], 0.0), axis=1), MAX_WINDOW)
         # the spread stated: what was applied to the modes that matter
         used = sm[matter] / k_sigma if np.any(matter) else np.zeros((1, 3))
+        applied = low[matter] if np.any(matter) else np.zeros((1, 2))
         return RobustBound(
             model=lowered,
             window=np.asarray(window, dtype=np.float64),
@@ -239,6 +259,7 @@ class RobotModes:
             std_max=np.asarray(used.max(axis=0), dtype=np.float64),
             how=how,
             std_median=np.asarray(np.median(used, axis=0), dtype=np.float64),
+            lowered_max=np.asarray(applied.max(axis=0), dtype=np.float64),
         )
 
 
@@ -260,6 +281,10 @@ class RobustBound:
         Where the spread came from.
     std_median : ndarray, shape (3,) or None
         Median of that spread over the same modes and postures.
+    lowered_max : ndarray, shape (2,) or None
+        Largest log factor by which damping and stiffness were lowered over
+        the same modes (their product by ``k_sigma`` spreads of it); None:
+        ``k_sigma`` spreads each.
     """
 
     model: ModalModel
@@ -268,6 +293,7 @@ class RobustBound:
     std_max: FloatArray
     how: str
     std_median: FloatArray | None = None
+    lowered_max: FloatArray | None = None
 
     @property
     def confidence(self) -> float:
@@ -276,8 +302,9 @@ class RobustBound:
 
     def describe(self) -> dict[str, object]:
         """JSON-ready statement of the bound."""
-        sf, sz, sk = (float(v) for v in self.std_max)
+        _, sz, sk = (float(v) for v in self.std_max)
         ks = self.k_sigma
+        lz, lk = (ks * sz, ks * sk) if self.lowered_max is None else self.lowered_max
         return {
             "k_sigma": ks,
             "confidence_pct": round(100.0 * self.confidence, 2),
@@ -286,8 +313,8 @@ class RobustBound:
             "frequency_window_pct_median": round(
                 100.0 * float(np.median(self.window)) if self.window.size else 0.0, 3
             ),
-            "stiffness_lowered_to_pct": round(100.0 * math.exp(-ks * sk), 2),
-            "damping_lowered_to_pct": round(100.0 * math.exp(-ks * sz), 2),
+            "stiffness_lowered_to_pct": round(100.0 * math.exp(-float(lk)), 2),
+            "damping_lowered_to_pct": round(100.0 * math.exp(-float(lz)), 2),
             "spread_pct_median": None
             if self.std_median is None
             else {
@@ -299,13 +326,13 @@ class RobustBound:
                 for q, v in zip(("f", "zeta", "k"), self.std_max, strict=True)
             },
             "statement": (
-                f"each mode's frequency within "
-                f"+-{100 * min(math.exp(ks * sf) - 1, MAX_WINDOW):.2g} %, "
-                f"stiffness above {100 * math.exp(-ks * sk):.3g} % and damping above "
-                f"{100 * math.exp(-ks * sz):.3g} % of the prediction (k_sigma = {ks:g}: "
-                f"{100 * self.confidence:.1f} % one-sided per quantity if the spread is "
-                "normal in log); planned at margin 1 on this bound and the safety factor on "
-                "the prediction"
+                f"the frequencies of the modes that set the limit within "
+                f"+-{100 * float(np.max(self.window, initial=0.0)):.2g} %, "
+                f"stiffness above {100 * math.exp(-float(lk)):.3g} % and damping above "
+                f"{100 * math.exp(-float(lz)):.3g} % of the prediction (their product, a "
+                f"mode's peak compliance, lowered by k_sigma = {ks:g} spreads of it: "
+                f"{100 * self.confidence:.1f} % one-sided if the spread is normal in log); "
+                "planned at margin 1 on this bound and the safety factor on the prediction"
             ),
         }
 

@@ -72,6 +72,7 @@ from robolobe.tl.dataset import (
 from robolobe.tl.estimator import ModalPrediction
 from robolobe.twin.params import (
     COM_UNIT_M,
+    K_MAX,
     PARAMETER_GROUPS,
     ParametrizedTwin,
     apply_parameters,
@@ -672,8 +673,19 @@ class TwinCalibration:
             """Finite values of the measured modes left unpaired (constant residuals)."""
             return n_vals - int(fin_vals[idx[0], idx[1], idx[2]].sum())
 
+        mcache: dict[bytes, tuple[tuple[NDArray[np.intp], ...], int]] = {}
+
+        def matched(theta: FloatArray) -> tuple[tuple[NDArray[np.intp], ...], int]:
+            """Ungated matching at ``theta`` (the residuals' and the Jacobian's: once)."""
+            key = np.asarray(theta, dtype=float).tobytes()
+            if key not in mcache:
+                if len(mcache) > 64:
+                    mcache.clear()
+                mcache[key] = self._match(ds, model(theta), tol=np.inf)
+            return mcache[key]
+
         def dyn_jac(theta: FloatArray) -> FloatArray:
-            idx, _ = self._match(ds, model(theta), tol=np.inf)
+            idx, _ = matched(theta)
             jac_ = jacobian(theta, idx)
             nd_ = jac_.shape[0] - p
             return np.vstack([jac_[:nd_], np.zeros((n_fill(idx), p)), jac_[nd_:]])
@@ -681,13 +693,13 @@ class TwinCalibration:
         def dyn_res(theta: FloatArray) -> FloatArray:
             # every measured mode matched afresh (continuous where modes cross); one left
             # unpaired adds constant residuals, so that their number stays fixed
-            idx, _ = self._match(ds, model(theta), tol=np.inf)
+            idx, _ = matched(theta)
             r_ = residuals(theta, idx)
             nd_ = r_.size - p
             return np.concatenate([r_[:nd_], np.full(n_fill(idx), none_res), r_[nd_:]])
 
         def rms_f(theta: FloatArray) -> float:
-            idx0, _ = self._match(ds, model(theta), tol=np.inf)
+            idx0, _ = matched(theta)
             mod0 = model(theta)
             f_res = np.log(y[idx0[0], idx0[1], idx0[2], 0] / mod0[idx0[0], idx0[1], idx0[3], 0])
             return float(np.sqrt(np.mean(f_res**2)))
@@ -903,6 +915,71 @@ class TwinCalibration:
             rms = np.array([self.residual_rms_[c] for c in ("f", "zeta", "k")])
             std = np.sqrt(np.clip(var, 0.0, None) + np.nan_to_num(rms) ** 2)
         return ModalPrediction(directions=dirs, center=center, std=std, kind="log")
+
+    @with_one_blas_thread
+    def held_out_residuals(self, ds: ModalDataset, n_modes: int) -> FloatArray:
+        """Log residuals at each tested posture of the calibration fitted without it.
+
+        The fit's in-sample residuals understate its error at other postures
+        (its parameters were fitted to them: on out-of-form robots the
+        stiffness residual at new postures is 1.5-2.4 times the in-sample
+        one). Leaving posture ``i``'s rows out of the final least-squares stage
+        (matching fixed, the same prior rows) moves the parameters by
+        ``D = (A - J_i^T J_i)^-1 J_i^T r_i`` to first order (``A = J^T J``
+        with the prior rows, ``J`` the weighted residuals' Jacobian, zero
+        gradient at the fit), and the residual there becomes ``r_i + J_i D``:
+        exact for a linear model, no refit.
+
+        Parameters
+        ----------
+        ds : ModalDataset
+            The tests the calibration was fitted to.
+        n_modes : int
+            Twin modes of the output (extra measured modes are left out).
+
+        Returns
+        -------
+        ndarray, shape (n, n_dir, n_modes, 3)
+            ``log(measured / twin)`` of f, zeta, k at twin mode order, each
+            posture's from the fit without it (NaN: no matched value).
+        """
+        self._check_fitted()
+        q = np.asarray(ds.q_rad, dtype=float)
+        y = np.asarray(ds.y)
+        twin = ParametrizedTwin(
+            self.base_robot_, q, self.groups_, directions=ds.directions, n_modes=6
+        )
+        theta = np.asarray(self.theta_, dtype=float)
+        vals = twin.values(theta)
+        (i, j, m, t), _ = self._match(ds, vals)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            raw = np.log(y[i, j, m] / vals[i, j, t])  # (pairs, 3)
+        w = np.asarray(self.weights, dtype=float)
+        ok = np.isfinite(raw) & (vals[i, j, t] < K_MAX)
+        jac = -twin.log_jacobian(theta)[i, j, t] * w[None, :, None]  # (pairs, 3, p)
+        r_w = np.where(ok, raw * w, 0.0)
+        jac = np.where(ok[..., None], jac, 0.0)
+        flat = jac.reshape(-1, jac.shape[-1])
+        prior_sd = self._prior_vector(self.groups_)
+        used = r_w[ok]
+        prior_w = float(self.regularization) * max(
+            self._noise_floor(), float(np.sqrt(np.mean(used**2))) if used.size else 0.0
+        )
+        a_full = flat.T @ flat + np.diag((prior_w / prior_sd) ** 2)
+        held = np.full((len(q), len(ds.directions), n_modes, 3), np.nan)
+        for k in np.unique(i):
+            sel = i == k
+            jk = jac[sel].reshape(-1, jac.shape[-1])  # (rows of posture k, p)
+            rk = r_w[sel].reshape(-1)
+            try:
+                d = np.linalg.solve(a_full - jk.T @ jk, jk.T @ rk)
+            except np.linalg.LinAlgError:
+                d = np.linalg.lstsq(a_full - jk.T @ jk, jk.T @ rk, rcond=None)[0]
+            ho = (rk + jk @ d).reshape(-1, 3) / w
+            keep = t[sel] < n_modes
+            block = np.where(ok[sel], ho, np.nan)[keep]
+            held[k, j[sel][keep], t[sel][keep]] = block
+        return held
 
     def predict_dataset(
         self, q_rad: ArrayLike, posture_ids: Sequence[str] | None = None

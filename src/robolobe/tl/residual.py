@@ -29,8 +29,12 @@ smooth, posture-dependent residual. :class:`CorrectedTwin` learns it:
 5. spread: the twin's parameter spread plus, per output, the leave-one-out
    RMS error of the corrected residual, scaled up where the process is less
    certain than at the training postures (away from the tests); the spread
-   robust plans use (:meth:`CorrectedTwin.planning_spread`) takes that
-   model-form term for f, zeta and k alike, sized by the mode's share of
+   robust plans use (:meth:`CorrectedTwin.planning_spread`) takes a
+   model-form term from held-out tests (each posture's residual of the twin
+   calibrated without it, :meth:`~robolobe.tl.graybox.TwinCalibration.held_out_residuals`,
+   less the process' leave-one-out correction: the in-sample residuals
+   understate the error at other postures 1.5-2.4 times in stiffness on
+   out-of-form robots) for f, zeta and k alike, sized by the mode's share of
    the direction's compliance (:func:`share_factor`), times a scale per quantity
    calibrated on held-out tests (:func:`calibrate_spread`: the share of
    held-out tests within two spreads is :data:`SPREAD_CONFIDENCE`), and
@@ -420,7 +424,11 @@ class CorrectedTwin:
         alpha = np.zeros((nd, nm, 3))
         loo = np.where(count > 0, scale, np.nan)
         inv_var_mean = np.ones((nd, nm, 3))
-        held = r.copy()  # held-out residuals (filled per quantity below)
+        # held-out residuals: each posture's from the calibration fitted without it
+        # (the in-sample ones understate the error at other postures), less the
+        # process' leave-one-out correction where used (filled per quantity below)
+        r_ho = cal.held_out_residuals(ds, nm)
+        held = np.where(np.isfinite(r_ho), r_ho, r)
         for c in range(3):
             outs = [
                 (j, m) for j in range(nd) for m in range(nm) if count[j, m, c] >= self.min_points
@@ -479,12 +487,12 @@ class CorrectedTwin:
             if outs and pooled[0] - pooled[1] <= self.pooled_gain * pooled[0]:
                 alpha[..., c] = 0.0  # not worth it for this quantity: the twin as is
                 loo[..., c] = np.where(count[..., c] > 0, scale[..., c], np.nan)
-            # held-out residual per test: the corrected residual left out (the process'
-            # leave-one-out mean), or the calibrated twin's residual where uncorrected
+            # held-out residual per test: the twin's residual without the posture, less
+            # the process' leave-one-out mean where the correction is used
             for (j, m), g in loo_g.items():
                 if alpha[j, m, c] > 0:
                     sel = ok[:, j, m, c]
-                    held[sel, j, m, c] = r[sel, j, m, c] - alpha[j, m, c] * scale[j, m, c] * g
+                    held[sel, j, m, c] -= alpha[j, m, c] * scale[j, m, c] * g
         self.calibration_ = cal
         self.robot_ = cal.robot_
         self.length_scales_ = ells
@@ -664,9 +672,9 @@ class CorrectedTwin:
 
         * the calibration's parameter covariance propagated to the posture, plus
         * a model-form term calibrated on held-out tests: the output's
-          held-out RMS error of log f, log zeta and log k (the corrected
-          residual left out by the process, or the calibrated twin's residual
-          where uncorrected: what the twin's form misses, which on a robot
+          held-out RMS error of log f, log zeta and log k (the residual of
+          the twin calibrated without the test's posture, less the process'
+          leave-one-out correction where used: what the twin's form misses, which on a robot
           outside that form is mostly real error, not identification scatter),
           sized by the mode's share of the direction's compliance at the
           posture (:func:`share_factor`: a dominant mode is known better),
