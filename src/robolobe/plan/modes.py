@@ -552,20 +552,70 @@ class CorrectedTwinSource:
         std = np.zeros((n, 3, m, 3))
         sp = ct.planning_spread(q, directions=DRIVING, n_modes=m)  # (n, 3, m, 3)
         std[:] = np.nan_to_num(sp, nan=0.0, posinf=0.0)
+        f_all = np.broadcast_to(f_new[:, None, :], (n, 3, m))
+        z_all = np.broadcast_to(z_new[:, None, :], (n, 3, m))
+        extra = getattr(ct, "extra_", None)
+        if extra is not None and extra.n_tracks_:
+            # measured modes the twin lacks (a servo, a bracket), interpolated over posture
+            # with their own spread (robolobe.tl.extra_modes): driving-point residues only
+            f_all, z_all, k_new, std, model = _with_extra_modes(
+                extra.predict(q, DRIVING), f_all, z_all, k_new, std, model
+            )
         return RobotModes(
-            parameters=ModalParameters(
-                np.broadcast_to(f_new[:, None, :], (n, 3, m)),
-                np.broadcast_to(z_new[:, None, :], (n, 3, m)),
-                k_new,
-                DRIVING,
-                log_std=std,
-            ),
+            parameters=ModalParameters(f_all, z_all, k_new, DRIVING, log_std=std),
             model=model,
             extrapolation=ct.extrapolation(q),
             source=self.name,
             shapes_coupled=True,
             spread_calibrated=True,
         )
+
+
+def _with_extra_modes(
+    extra: tuple[FloatArray, FloatArray],
+    f: FloatArray,
+    z: FloatArray,
+    k: FloatArray,
+    std: FloatArray,
+    model: ModalModel,
+) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray, ModalModel]:
+    """Modes and model with extra modes appended (:meth:`robolobe.tl.extra_modes.ExtraModes.predict`).
+
+    Parameters
+    ----------
+    extra : (values, log_std)
+        Both of shape (n, 3, n_extra, 3) on ``xx, yy, zz`` (infinite k: not seen there).
+    f, z, k : ndarray, shape (n, 3, m)
+    std : ndarray, shape (n, 3, m, 3)
+    model : ModalModel
+        Batch (n,), m modes, dim 3.
+
+    Returns
+    -------
+    f, z, k, std : ndarray, shapes (n, 3, m + n_extra) and (n, 3, m + n_extra, 3)
+    model : ModalModel
+        The extra modes with diagonal residues ``omega^2 / k`` per axis.
+    """
+    ev, es = extra
+    fe, ze, ke = ev[:, 0, :, 0], ev[:, 0, :, 1], ev[..., 2]  # (n, T), (n, T), (n, 3, T)
+    we = 2.0 * np.pi * fe
+    with np.errstate(divide="ignore"):
+        diag = np.where(np.isfinite(ke), we[:, None, :] ** 2 / ke, 0.0)  # (n, 3, T)
+    res = np.zeros((*fe.shape, 3, 3))
+    for a in range(3):
+        res[..., a, a] = diag[:, a]
+    out = ModalModel(
+        np.concatenate([np.broadcast_to(model.omega, f.shape[::2]), we], axis=-1),
+        np.concatenate([np.broadcast_to(model.zeta, f.shape[::2]), ze], axis=-1),
+        np.concatenate([np.broadcast_to(model.residues, (*f.shape[::2], 3, 3)), res], axis=1),
+    )
+    return (
+        np.concatenate([f, ev[..., 0]], axis=2),
+        np.concatenate([z, ev[..., 1]], axis=2),
+        np.concatenate([k, ke], axis=2),
+        np.concatenate([std, es], axis=2),
+        out,
+    )
 
 
 class ParametersSource:
