@@ -73,3 +73,57 @@ def test_corrected_twin_accepts_them(with_motor):
     pred = model.predict(q[:4])
     assert pred.values.shape[2] == 6
     assert np.all(np.isfinite(pred.center[..., 0]))
+
+
+def test_the_motor_mode_reaches_the_model_and_the_plan(with_motor):
+    """The mode the twin lacks is interpolated over posture and appears in the plan's FRF.
+
+    At postures the tests did not use (the seed design's other roles), the
+    motor mode's frequency (16.5 + 1.5 sin q1 Hz, written above) within 4 %
+    and within two of its spreads, its stiffness (4 MN/m) within 15 %, and
+    the plan source's receptance ``H_xx`` has the motor's term within 4 % of
+    its frequency.
+    """
+    from robolobe.plan.modes import CorrectedTwinSource
+
+    base, q, ds = with_motor
+    with pytest.warns(TrustWarning):
+        model = CorrectedTwin(
+            robot=base, calibration={"params": ("stiffness", "damping")}
+        ).fit_dataset(ds)
+    ex = model.extra_
+    assert ex.n_tracks_ == 1
+    _, q_all, roles = design_arrays(seed_design("B"))
+    q_new = q_all[np.asarray(roles) != "train"][:6]
+    vals, std = ex.predict(q_new, ("xx", "yy"))
+    f_true = 16.5 + 1.5 * np.sin(q_new[:, 0])
+    err = np.abs(np.log(vals[:, 0, 0, 0] / f_true))
+    assert err.max() < 0.04
+    assert np.all(err <= 2 * std[:, 0, 0, 0])
+    assert np.abs(vals[:, :, 0, 2] / 4.0e6 - 1).max() < 0.15
+    assert np.all(std[..., 0, :] > 0)
+    rm = CorrectedTwinSource(model).predict(q_new)
+    assert rm.f_hz.shape[2] == 7  # the twin's six and the motor
+    i_motor = int(np.argmin(np.abs(rm.f_hz[0, 0] - f_true[0])))
+    assert abs(rm.f_hz[0, 0, i_motor] / f_true[0] - 1) < 0.04
+    assert rm.k_N_per_m[0, 0, i_motor] == pytest.approx(4.0e6, rel=0.15)
+    # the motor's term in the plan's receptance: |H_xx| of the mode alone peaks at f_true
+    w = 2 * np.pi * np.linspace(10.0, 25.0, 1501)
+    term = rm.model.take(0)
+    h_all = np.abs(term.frf(w)[:, 0, 0])
+    h_wo = np.abs(
+        type(term)(
+            np.delete(term.omega, i_motor, -1),
+            np.delete(term.zeta, i_motor, -1),
+            np.delete(term.residues, i_motor, -3),
+        ).frf(w)[:, 0, 0]
+    )
+    f_peak = w[np.argmax(np.abs(h_all - h_wo))] / (2 * np.pi)
+    assert abs(f_peak / f_true[0] - 1) < 0.04
+    # saved and loaded, the extra mode is kept
+    import tempfile
+    from pathlib import Path
+
+    with tempfile.TemporaryDirectory() as tmp:
+        back = CorrectedTwin.load(model.save(Path(tmp) / "m.npz"))
+    np.testing.assert_allclose(back.extra_.predict(q_new)[0], ex.predict(q_new)[0])

@@ -167,7 +167,9 @@ class IdentifySettings:
         if self.refine_jacobian not in ("analytic", "fd"):
             raise bad("refine_jacobian", "'analytic' or 'fd'")
         if self.n_modes is not None and not (
-            isinstance(self.n_modes, int) and not isinstance(self.n_modes, bool) and self.n_modes >= 1
+            isinstance(self.n_modes, int)
+            and not isinstance(self.n_modes, bool)
+            and self.n_modes >= 1
         ):
             raise bad("n_modes", "an integer >= 1 or None")
         if not 0 <= self.visibility_min < 1:

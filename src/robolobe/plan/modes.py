@@ -411,9 +411,17 @@ class PredictorSource:
         std = np.nan_to_num(np.asarray(params.log_std), nan=0.0, posinf=0.0)
         params = dataclasses.replace(params, log_std=std)
         extr = np.asarray(self.predictor.extrapolation(q))  # type: ignore[attr-defined]
+        model = ModalModel.from_parameters(params)
+        extra = getattr(self.predictor, "extra_", None)
+        if extra is not None and extra.n_tracks_:
+            # measured modes beyond the network's (robolobe.tl.extra_modes)
+            f, z, k, std, model = _with_extra_modes(
+                extra.predict(q, DRIVING), params.f_hz, params.zeta, params.k_N_per_m, std, model
+            )
+            params = ModalParameters(f, z, k, DRIVING, log_std=std)
         return RobotModes(
             parameters=params,
-            model=ModalModel.from_parameters(params),
+            model=model,
             extrapolation=extr,
             source=self.name,
         )
@@ -604,11 +612,7 @@ def _with_extra_modes(
     res = np.zeros((*fe.shape, 3, 3))
     for a in range(3):
         res[..., a, a] = diag[:, a]
-    out = ModalModel(
-        np.concatenate([np.broadcast_to(model.omega, f.shape[::2]), we], axis=-1),
-        np.concatenate([np.broadcast_to(model.zeta, f.shape[::2]), ze], axis=-1),
-        np.concatenate([np.broadcast_to(model.residues, (*f.shape[::2], 3, 3)), res], axis=1),
-    )
+    out = model.concat(ModalModel(we, ze, res))
     return (
         np.concatenate([f, ev[..., 0]], axis=2),
         np.concatenate([z, ev[..., 1]], axis=2),

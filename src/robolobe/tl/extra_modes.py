@@ -17,12 +17,15 @@ beyond the true stability limit. :class:`ExtraModes` keeps them:
    per posture, the one nearest the track's median); a track seen at fewer
    than :data:`MIN_SUPPORT` of the postures (and fewer than 3) is left out
    (a spurious or local mode), and a direction of a track seen at fewer than
-   3 postures does not see it (infinite stiffness there);
+   3 postures does not see it (infinite stiffness there); a value farther
+   than 3.5 robust deviations (and a factor of 2) from its output's median
+   is left out (a base-model mode left unpaired at that posture);
 3. **interpolation**: each output (``log f`` and ``log zeta`` of a track,
    ``log k`` of a track at a direction) is its mean plus a Gaussian process
    on the joint angles (the kernel of :mod:`robolobe.tl.residual`, one
-   length scale per joint and a signal fraction, shared by every output,
-   by the pooled marginal likelihood) fitted to the postures that saw it;
+   length scale per joint and a signal fraction per output, by its marginal
+   likelihood: a bracket's frequency follows one joint, a servo's stiffness
+   others) fitted to the postures that saw it;
 4. **spread**: the process's predictive standard deviation of a new test
    (scatter included), which grows from the leave-one-out error at the
    tests to the output's whole scatter over the postures far from them,
@@ -50,13 +53,19 @@ from scipy.optimize import minimize
 from robolobe._directions import DRIVING
 from robolobe.errors import InputError
 
-__all__ = ["MIN_SUPPORT", "TRACK_GAP", "ExtraModes", "unpaired_of_calibration"]
+__all__ = [
+    "MIN_SUPPORT",
+    "TRACK_GAP",
+    "ExtraModes",
+    "split_extra_modes",
+    "unpaired_of_calibration",
+]
 
 FloatArray = NDArray[np.float64]
 #: Largest gap in ``log f`` between neighbouring modes of one track (8 %).
 TRACK_GAP = float(np.log(1.08))
 #: Least share of the postures a track must be seen at (and at least 3 postures).
-MIN_SUPPORT = 0.15
+MIN_SUPPORT = 0.25
 _SAME_F = 1e-6  # rows of one physical mode carry the same frequency (identify writes one f)
 _LOG_ELL_BOUNDS = (np.log(0.1), np.log(20.0))
 _MIN_SCALE = (0.01, 0.05, 0.05)  # least scatter of log f, log zeta, log k of an output
@@ -77,10 +86,10 @@ class ExtraModes:
         direction (NaN: not seen).
     mean_, scale_ : ndarray, shape (n_tracks, 2 + n_dir)
         Mean and scatter of each output (NaN: an output without a model).
-    length_scales_ : ndarray, shape (6,)
-        Kernel length scales [rad].
-    rho_ : float
-        Signal fraction of the scaled outputs.
+    length_scales_ : ndarray, shape (n_outputs, 6)
+        Kernel length scales [rad] of each output (:meth:`_outputs` order).
+    rho_ : ndarray, shape (n_outputs,)
+        Signal fraction of each scaled output.
     spread_scale_ : ndarray, shape (3,)
         Calibration factor of the spread of log f, log zeta, log k.
     left_out_ : tuple of (float, int)
@@ -94,8 +103,8 @@ class ExtraModes:
         self.values_ = np.zeros((0, 0, 2))
         self.mean_ = np.zeros((0, 2))
         self.scale_ = np.zeros((0, 2))
-        self.length_scales_ = np.ones(6)
-        self.rho_ = 0.5
+        self.length_scales_ = np.ones((0, 6))
+        self.rho_ = np.zeros(0)
         self.spread_scale_ = np.ones(3)
         self.left_out_: tuple[tuple[float, int], ...] = ()
 
@@ -186,6 +195,14 @@ class ExtraModes:
                 vals[i, t, 0], vals[i, t, 1] = lf, lz
                 for j, lk in ks.items():
                     vals[i, t, 2 + j] = lk
+        # a value far from its output's median (beyond 3.5 robust deviations and a factor
+        # of 2) is a mode of the base model left unpaired at that posture, not this one's
+        med = np.nanmedian(vals, axis=0) if n else np.zeros(vals.shape[1:])
+        mad = 1.4826 * np.nanmedian(np.abs(vals - med), axis=0) if n else med
+        floor = np.array([_MIN_SCALE[min(c, 2)] for c in range(vals.shape[2])])
+        gate = np.maximum(3.5 * np.fmax(mad, floor), np.log(2.0))
+        with np.errstate(invalid="ignore"):
+            vals = np.where(np.abs(vals - med) > gate, np.nan, vals)
         self.values_ = vals
         self.n_tracks_ = nt
         self._fit_process()
@@ -213,24 +230,23 @@ class ExtraModes:
             xs.append(self.train_q_rad_[ok])
             ts.append((v[ok] - mu) / sd)
         n_ell = 6
-        hyp0 = np.r_[np.full(n_ell, np.log(1.0)), 0.0]
-        if outs:
+        # hyperparameters per output (a bracket's frequency follows one joint, a servo's
+        # stiffness others): length scales start long (a joint that does not matter
+        # keeps a long one), bounded, by the marginal likelihood of the output alone
+        hyp0 = np.r_[np.full(n_ell, np.log(3.0)), 0.0]
+        bounds = [_LOG_ELL_BOUNDS] * n_ell + [(np.log(0.01 / 0.99), np.log(0.99 / 0.01))]
+        self.length_scales_ = np.full((len(outs), n_ell), 3.0)
+        self.rho_ = np.full(len(outs), 0.5)
+        for o, (x, tt) in enumerate(zip(xs, ts, strict=True)):
             res = minimize(
-                _pooled_nll,
-                hyp0,
-                args=(xs, ts, n_ell),
-                method="L-BFGS-B",
-                bounds=[_LOG_ELL_BOUNDS] * n_ell + [(np.log(0.01 / 0.99), np.log(0.99 / 0.01))],
+                _pooled_nll, hyp0, args=([x], [tt], n_ell), method="L-BFGS-B", bounds=bounds
             )
-            hyp = np.asarray(res.x)
-        else:
-            hyp = hyp0
-        self.length_scales_ = np.exp(hyp[:n_ell])
-        self.rho_ = float(1.0 / (1.0 + np.exp(-hyp[n_ell])))
+            self.length_scales_[o] = np.exp(res.x[:n_ell])
+            self.rho_[o] = float(1.0 / (1.0 + np.exp(-res.x[n_ell])))
         # leave-one-out errors in units of their own predictive spread, per quantity
         z: list[list[float]] = [[], [], []]
-        for (_, c), x, tt in zip(outs, xs, ts, strict=True):
-            a = np.linalg.inv(self._kmat(x))
+        for o, ((_, c), x, tt) in enumerate(zip(outs, xs, ts, strict=True)):
+            a = np.linalg.inv(self._kmat(x, o))
             d = np.diag(a)
             e = (a @ tt) / d  # leave-one-out error (closed form)
             z[min(c, 2)] += list(np.abs(e) * np.sqrt(d))
@@ -243,11 +259,12 @@ class ExtraModes:
             ]
         )
 
-    def _kmat(self, x: FloatArray) -> FloatArray:
+    def _kmat(self, x: FloatArray, o: int) -> FloatArray:
+        """Covariance of output ``o``'s scaled values at postures ``x``."""
         from robolobe.tl.residual import _kernel
 
-        rho = self.rho_
-        return rho * _kernel(x, x, self.length_scales_) + (1.0 - rho) * np.eye(len(x))
+        rho = float(self.rho_[o])
+        return rho * _kernel(x, x, self.length_scales_[o]) + (1.0 - rho) * np.eye(len(x))
 
     # ------------------------------------------------------------- predict
     def predict(
@@ -278,14 +295,13 @@ class ExtraModes:
         nc = 2 + len(self.directions_)
         mean = np.full((n, nt, nc), np.nan)
         std = np.full((n, nt, nc), np.nan)
-        rho = self.rho_
-        for t, c in self._outputs():
+        for o, (t, c) in enumerate(self._outputs()):
             v = self.values_[:, t, c]
             ok = np.isfinite(v)
             x = self.train_q_rad_[ok]
             tt = (v[ok] - self.mean_[t, c]) / self.scale_[t, c]
-            ks = rho * _kernel(q, x, self.length_scales_)
-            sol = np.linalg.solve(self._kmat(x), np.c_[tt, ks.T])
+            ks = float(self.rho_[o]) * _kernel(q, x, self.length_scales_[o])
+            sol = np.linalg.solve(self._kmat(x, o), np.c_[tt, ks.T])
             mean[:, t, c] = self.mean_[t, c] + self.scale_[t, c] * (ks @ sol[:, 0])
             var = np.clip(1.0 - np.einsum("ij,ji->i", ks, sol[:, 1:]), 0.0, None)
             # a new test's spread, and the uncertainty of the output's mean
@@ -348,7 +364,7 @@ class ExtraModes:
             f"{prefix}mean": self.mean_,
             f"{prefix}scale": self.scale_,
             f"{prefix}ell": self.length_scales_,
-            f"{prefix}rho": np.array(self.rho_),
+            f"{prefix}rho": self.rho_,
             f"{prefix}spread_scale": self.spread_scale_,
         }
 
@@ -368,10 +384,12 @@ class ExtraModes:
             self.mean_ = np.asarray(arrays[f"{prefix}mean"], dtype=float)
             self.scale_ = np.asarray(arrays[f"{prefix}scale"], dtype=float)
             self.length_scales_ = np.asarray(arrays[f"{prefix}ell"], dtype=float)
-            self.rho_ = float(arrays[f"{prefix}rho"])
+            self.rho_ = np.asarray(arrays[f"{prefix}rho"], dtype=float).reshape(-1)
             self.spread_scale_ = np.asarray(arrays[f"{prefix}spread_scale"], dtype=float)
         except (KeyError, TypeError, ValueError) as exc:
-            raise InputError(f"inconsistent model file: extra modes ({exc})", source=where) from None
+            raise InputError(
+                f"inconsistent model file: extra modes ({exc})", source=where
+            ) from None
         n = self.train_q_rad_.shape[0]
         nd = len(self.directions_)
         if (
@@ -382,7 +400,7 @@ class ExtraModes:
             or self.values_.shape[2] != 2 + nd
             or self.mean_.shape != self.values_.shape[1:]
             or self.scale_.shape != self.values_.shape[1:]
-            or self.length_scales_.shape != (6,)
+            or self.length_scales_.shape != (len(self.rho_), 6)
             or self.spread_scale_.shape != (3,)
         ):
             raise InputError(
@@ -393,7 +411,11 @@ class ExtraModes:
         check_range(self.mean_, "extra_mean", where, low=-50.0, high=50.0, nan_ok=True)
         check_range(self.scale_, "extra_scale", where, low=0.0, open_low=True, nan_ok=True)
         check_range(self.length_scales_, "extra_ell", where, low=0.0, open_low=True)
-        check_range(np.array([self.rho_]), "extra_rho", where, low=0.0, high=1.0, open_high=True)
+        check_range(self.rho_, "extra_rho", where, low=0.0, high=1.0, open_high=True)
+        if len(self.rho_) != len(self._outputs()):
+            raise InputError(
+                "inconsistent model file: extra modes: one kernel per output expected", where
+            )
         check_range(self.spread_scale_, "extra_spread_scale", where, low=0.0, open_low=True)
         check_range(self.train_q_rad_, "extra_q", where, low=-2 * np.pi, high=2 * np.pi)
         return self
@@ -420,3 +442,68 @@ def unpaired_of_calibration(cal: Any, ds: Any) -> ExtraModes:
     paired = np.zeros(y.shape[:3], bool)
     paired[i, j, m] = True
     return ExtraModes().fit(ds.q_rad, ds.directions, y, paired)
+
+
+def split_extra_modes(df: Any, robot: Any, directions: Sequence[str]) -> tuple[Any, ExtraModes]:
+    """A modal table without the modes a robot file's twin lacks, and those modes' model.
+
+    For a model that predicts a fixed number of modes per direction by rank
+    (the seed's network): a servo or bracket mode among the measured ones
+    would shift the rank of every mode above it. Per posture and direction
+    the measured modes are matched to the robot file's twin modes as the
+    twin calibration matches them (:meth:`robolobe.tl.graybox.TwinCalibration._match`,
+    frequency within 35 % and, with more measured modes than the twin has,
+    stiffness within a factor of 10); the unpaired ones that form tracks
+    over the postures (:class:`ExtraModes`) are taken out and the rest
+    numbered again by rising frequency at each posture (as ``identify``
+    numbers them).
+
+    Parameters
+    ----------
+    df : pandas.DataFrame
+        A ``modal.csv`` frame.
+    robot : Robot
+        The robot file (its nominal twin).
+    directions : sequence of str
+        Driving points kept.
+
+    Returns
+    -------
+    (pandas.DataFrame, ExtraModes)
+        The rows of the modes the twin has, renumbered, and the extra modes' model.
+    """
+    import pandas as pd
+
+    from robolobe.tl.dataset import dataset_from_frame
+    from robolobe.tl.graybox import TwinCalibration, twin_values
+
+    dirs = tuple(d for d in directions if d in set(df["dir"].astype(str).str.lower()))
+    mode_no = pd.to_numeric(df["mode"], errors="coerce")
+    ds = dataset_from_frame(df, directions=dirs, n_modes=int(mode_no.max()))
+    twin = twin_values(robot, ds.q_rad, directions=dirs, n_modes=6)
+    (i, j, m, _), _ = TwinCalibration(robot=robot)._match(ds, twin)
+    y = np.asarray(ds.y)
+    paired = np.zeros(y.shape[:3], bool)
+    paired[i, j, m] = True
+    extra = ExtraModes().fit(ds.q_rad, dirs, y, paired)
+    if not extra.n_tracks_:
+        return df, extra
+    # the (posture, frequency) of every mode of a track
+    pp, tt = np.nonzero(np.isfinite(extra.values_[..., 0]))
+    taken = {
+        (ds.posture_ids[p], float(np.exp(extra.values_[p, t, 0])))
+        for p, t in zip(pp, tt, strict=True)
+    }
+    pid = df["posture_id"].astype(str)
+    f = df["f_hz"].astype(float)
+    drop = np.array(
+        [
+            any(p == tp and abs(x / tf - 1) < 1e-6 for tp, tf in taken)
+            for p, x in zip(pid, f, strict=True)
+        ]
+    )
+    out = df.loc[~drop].copy()
+    # numbered again: rank of the frequency among the posture's remaining modes
+    ranks = out.groupby("posture_id")["f_hz"].rank(method="dense").astype(int)
+    out["mode"] = ranks
+    return out.reset_index(drop=True), extra
