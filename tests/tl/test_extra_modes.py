@@ -86,7 +86,7 @@ def test_the_motor_mode_reaches_the_model_and_the_plan(with_motor):
     """
     from robolobe.plan.modes import CorrectedTwinSource
 
-    base, q, ds = with_motor
+    base, _, ds = with_motor
     with pytest.warns(TrustWarning):
         model = CorrectedTwin(
             robot=base, calibration={"params": ("stiffness", "damping")}

@@ -203,7 +203,7 @@ def _choose_tracks(
     postures: Sequence[PostureModal],
     tracks: ModeTracks,
     d: int,
-    n_modes: int,
+    n_modes: int | None,
     min_presence: float,
 ) -> tuple[int, ...]:
     counts = np.zeros(tracks.n_tracks, dtype=int)

@@ -587,7 +587,7 @@ def _with_extra_modes(
     std: FloatArray,
     model: ModalModel,
 ) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray, ModalModel]:
-    """Modes and model with extra modes appended (:meth:`robolobe.tl.extra_modes.ExtraModes.predict`).
+    """Modes and model with extra modes appended (:mod:`robolobe.tl.extra_modes`).
 
     Parameters
     ----------

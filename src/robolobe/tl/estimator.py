@@ -314,6 +314,10 @@ class ModalPredictor:
         self.random_state = random_state
 
     # ------------------------------------------------------------ parameters
+    #: Measured modes beyond the network's (:class:`robolobe.tl.extra_modes.ExtraModes`),
+    #: set by :func:`robolobe.tl.transfer.transfer` and kept by :meth:`save`; None: none.
+    extra_: Any = None
+
     _PARAM_NAMES = (
         "directions", "n_modes", "hidden", "features", "target_transform", "epochs",
         "batch_size", "learning_rate", "augment_delta", "augment_copies", "missing",

@@ -197,12 +197,13 @@ class ExtraModes:
                     vals[i, t, 2 + j] = lk
         # a value far from its output's median (beyond 3.5 robust deviations and a factor
         # of 2) is a mode of the base model left unpaired at that posture, not this one's
-        med = np.nanmedian(vals, axis=0) if n else np.zeros(vals.shape[1:])
-        mad = 1.4826 * np.nanmedian(np.abs(vals - med), axis=0) if n else med
-        floor = np.array([_MIN_SCALE[min(c, 2)] for c in range(vals.shape[2])])
-        gate = np.maximum(3.5 * np.fmax(mad, floor), np.log(2.0))
-        with np.errstate(invalid="ignore"):
-            vals = np.where(np.abs(vals - med) > gate, np.nan, vals)
+        with warnings.catch_warnings(), np.errstate(invalid="ignore"):
+            warnings.simplefilter("ignore", RuntimeWarning)  # an output without values
+            center = np.nanmedian(vals, axis=0) if n else np.zeros(vals.shape[1:])
+            dev = 1.4826 * np.nanmedian(np.abs(vals - center), axis=0) if n else center
+            floor = np.array([_MIN_SCALE[min(c, 2)] for c in range(vals.shape[2])])
+            gate = np.maximum(3.5 * np.fmax(dev, floor), np.log(2.0))
+            vals = np.where(np.abs(vals - center) > gate, np.nan, vals)
         self.values_ = vals
         self.n_tracks_ = nt
         self._fit_process()
