@@ -113,9 +113,10 @@ class IdentifySettings:
         A mode counts at a driving point when the peak of its term
         ``|R_dd| / sigma`` is at least this fraction of the largest
         measured ``|H_dd|`` in the band, or at least ``local_visibility_min``
-        of the largest within 10 % of its own frequency (a bracket or tool
-        mode far above the arm's: small against the band's peak, the FRF's
-        main feature where it is) ...
+        of the largest within 10 % of its own frequency and a tenth of
+        ``visibility_min`` of the band's (a bracket or tool mode far above
+        the arm's: small against the band's peak, the FRF's main feature
+        where it is) ...
     local_visibility_min : float
         See ``visibility_min`` (1: the band's peak alone decides).
     k_rel_std_max : float
@@ -141,7 +142,7 @@ class IdentifySettings:
     refine_jacobian: str = "analytic"
     n_modes: int | None = None
     visibility_min: float = 0.03
-    local_visibility_min: float = 0.25
+    local_visibility_min: float = 0.5
     k_rel_std_max: float = 0.25
     window_decay_per_s: float = 0.0
     record_length_s: float | None = None
@@ -214,8 +215,9 @@ class PostureModal:
     visibility : ndarray, shape (3, n_modes)
         Peak of the mode's term over the largest measured ``|H_dd|`` in the
         band, or over the largest within 10 % of its frequency times
-        ``visibility_min / local_visibility_min`` when that is larger (one
-        threshold, ``visibility_min``, for both: :class:`IdentifySettings`).
+        ``visibility_min / local_visibility_min`` when that is larger and the
+        first is at least ``visibility_min / 10`` (one threshold,
+        ``visibility_min``, for both: :class:`IdentifySettings`).
     shapes : ndarray, shape (n_modes, 3)
         TCP shape estimate ``u`` (m/sqrt(kg)), signed when the full 3x3 FRF
         matrix was measured, else magnitudes ``w / sqrt(k)``.
@@ -880,7 +882,9 @@ def _finish(
         hloc = np.max(np.where(near[:, None, :], hdd[:, :, None], 0.0), axis=0)  # (3, n)
         with np.errstate(invalid="ignore", divide="ignore"):
             loc = peak / hloc * (s.visibility_min / s.local_visibility_min)
-        vis = np.fmax(vis, np.where(np.isfinite(loc) & (hloc > 0), loc, np.nan))
+        # ... but not a mode that barely moves this point (an antiresonance's floor)
+        loc = np.where(np.isfinite(loc) & (hloc > 0) & (vis >= 0.1 * s.visibility_min), loc, np.nan)
+        vis = np.fmax(vis, loc)
     shapes, signed = _shapes(lam_true, R, used)
     vis_ok = (np.where(np.isfinite(vis), vis, 0.0) >= s.visibility_min) & (
         np.nan_to_num(k_rel, nan=0.0) <= s.k_rel_std_max
