@@ -332,6 +332,9 @@ class CorrectedTwin:
     directions_ : tuple of str
     n_modes_ : int
     train_q_rad_ : ndarray, shape (n, 6)
+    extra_ : ExtraModes
+        Measured modes the twin lacks (:mod:`robolobe.tl.extra_modes`), which
+        :class:`robolobe.plan.modes.CorrectedTwinSource` adds to the twin's.
     """
 
     length_scales_: FloatArray
