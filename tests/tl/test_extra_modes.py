@@ -127,3 +127,40 @@ def test_the_motor_mode_reaches_the_model_and_the_plan(with_motor):
     with tempfile.TemporaryDirectory() as tmp:
         back = CorrectedTwin.load(model.save(Path(tmp) / "m.npz"))
     np.testing.assert_allclose(back.extra_.predict(q_new)[0], ex.predict(q_new)[0])
+
+
+def test_extra_modes_alone_round_trip_and_refuse_lying_arrays():
+    """A track written here (50 Hz + 2 Hz sin q2, k 3 MN/m in xx only) over 10 postures.
+
+    Fitted from unpaired rows, its arrays read back give the same prediction;
+    arrays that break the math (a signal fraction of 2, a shape that does not
+    match) are refused by name.
+    """
+    from robolobe.errors import InputError
+    from robolobe.tl.extra_modes import ExtraModes
+
+    rng = np.random.default_rng(2)
+    q = rng.uniform(-1.0, 1.0, (10, 6))
+    y = np.full((10, 2, 2, 3), np.nan)
+    y[:, :, 0] = [8.0, 0.02, 1e6]  # a mode the base model has (paired)
+    y[:, 0, 1, 0] = 50.0 + 2.0 * np.sin(q[:, 1])
+    y[:, 0, 1, 1] = 0.03
+    y[:, 0, 1, 2] = 3.0e6
+    paired = np.zeros((10, 2, 2), bool)
+    paired[:, :, 0] = True
+    ex = ExtraModes().fit(q, ("xx", "yy"), y, paired)
+    assert ex.n_tracks_ == 1
+    vals, std = ex.predict(q[:3], ("xx", "yy", "zz"))
+    np.testing.assert_allclose(vals[:, 0, 0, 0], y[:3, 0, 1, 0], rtol=0.01)
+    assert np.all(np.isinf(vals[:, 1:, 0, 2]))  # not seen in yy, zz: infinite stiffness
+    assert np.all(std[:, 1:, 0] == 0)
+    arrays = ex.arrays("extra_")
+    back = ExtraModes.from_arrays(arrays, "extra_", "m.npz")
+    np.testing.assert_allclose(back.predict(q[:3])[0], ex.predict(q[:3])[0])
+    assert ExtraModes.from_arrays({}, "extra_", "m.npz").n_tracks_ == 0
+    with pytest.raises(InputError, match=r"m\.npz.*extra_rho"):
+        ExtraModes.from_arrays(
+            {**arrays, "extra_rho": arrays["extra_rho"] * 0 + 2.0}, "extra_", "m.npz"
+        )
+    with pytest.raises(InputError, match=r"m\.npz.*shapes"):
+        ExtraModes.from_arrays({**arrays, "extra_mean": np.zeros((3, 3))}, "extra_", "m.npz")
