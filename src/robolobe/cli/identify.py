@@ -42,8 +42,13 @@ def register(app: typer.Typer) -> None:
             ),
         ] = None,
         modes: Annotated[
-            int, typer.Option("--modes", help="Modes per direction (seed: 5; campaigns).")
-        ] = 5,
+            int | None,
+            typer.Option(
+                "--modes",
+                help="Most modes per direction (campaigns; the seed: 5). Default: every mode "
+                "the stabilization diagram selects that the driving point sees.",
+            ),
+        ] = None,
         fmin: Annotated[
             float | None,
             typer.Option(
@@ -56,7 +61,8 @@ def register(app: typer.Typer) -> None:
             float | None,
             typer.Option(
                 "--fmax",
-                help="Upper edge of the analysis band [Hz] (campaign: 40; UFF file: the top line).",
+                help="Upper edge of the analysis band [Hz] (default: the top line every posture "
+                "measured; UFF file: the top line).",
             ),
         ] = None,
         window_end: Annotated[
@@ -137,7 +143,7 @@ def register(app: typer.Typer) -> None:
             check_output_dir(plots, "--plots")
         if fit_report is not None:
             check_output_file(fit_report, "--fit-report")
-        if not 1 <= modes <= 20:
+        if modes is not None and not 1 <= modes <= 20:
             raise InputError(f"expected 1 to 20 modes per direction, found {modes}", "--modes")
         if not 1 <= jobs <= 256:
             raise InputError(f"expected 1 to 256 worker processes, found {jobs}", "--jobs")
@@ -152,8 +158,7 @@ def register(app: typer.Typer) -> None:
             )
             return
         fmin = 4.0 if fmin is None else fmin
-        fmax = 40.0 if fmax is None else fmax
-        if not (0 < fmin < fmax):
+        if fmax is not None and not (0 < fmin < fmax):
             raise InputError(
                 f"expected 0 < fmin < fmax, found fmin={fmin:g}, fmax={fmax:g}", source="--fmin"
             )
@@ -165,7 +170,17 @@ def register(app: typer.Typer) -> None:
             raise InputError(f"expected a positive number, found {record_s:g}", "--record-s")
 
         camp = read_campaign(campaign)
+        from robolobe.modal.identify import campaign_band_top
         from robolobe.modal.posture import SIGN_CONVENTION
+
+        if fmax is None:  # the band the campaign measured
+            fmax = campaign_band_top([f.freq_hz for f in camp.frfs])
+            if not fmin < fmax:
+                raise InputError(
+                    f"expected the campaign's band to reach above fmin = {fmin:g} Hz, found its "
+                    f"top line at {fmax:g} Hz; give --fmin",
+                    source=f"{campaign}",
+                )
 
         test: dict[str, Any] = dict(camp.test)
         if record_s is not None:

@@ -79,6 +79,18 @@ def _load_dataset(
     return checked_dataset(df, str(path), directions, n_modes, _robot(robot_spec), min_postures)
 
 
+def _print_extra_modes(model: Any) -> None:
+    """One line per measured mode the base model lacks (robolobe.tl.extra_modes), if any."""
+    extra = getattr(model, "extra_", None)
+    if extra is None or not extra.n_tracks_:
+        return
+    console.print(
+        f"  {count(extra.n_tracks_, 'measured mode')} the twin lacks, kept as extra modes "
+        f"(interpolated over posture, with their spread): {'; '.join(extra.describe())}",
+        highlight=False,
+    )
+
+
 def _summary(model: Any, seconds: float, out: Path) -> None:
     cal = np.asarray(model.calibration_)
     console.print(
@@ -93,6 +105,7 @@ def _summary(model: Any, seconds: float, out: Path) -> None:
             console.print(
                 f"  {d}: spread factors f/zeta/k = {cal[j, 0]:.2f}/{cal[j, 1]:.2f}/{cal[j, 2]:.2f}"
             )
+    _print_extra_modes(model)
 
 
 def _calibrate(
@@ -157,6 +170,7 @@ def _calibrate(
     if isinstance(model, CorrectedTwin):
         console.print(f"  learned correction: {_correction_line(model.summary())}", highlight=False)
         console.print(f"  spread (robust plans): {_spread_line(model)}", highlight=False)
+        _print_extra_modes(model)
     if verbose:
         _print_calibration(params_table)
         if isinstance(model, CorrectedTwin):

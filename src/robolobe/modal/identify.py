@@ -7,8 +7,10 @@ Steps (:func:`identify_frfs`, :func:`identify_campaign`):
 2. Modes are tracked across postures (:func:`robolobe.modal.tracking.track_modes`).
 3. Mode numbers (``numbering``): by default the modes of a posture that are
    visible at some driving point are numbered by rising frequency; or, per
-   driving direction, the ``n_modes`` tracks visible there at the most
-   postures become modes 1..n_modes, numbered by rising median frequency.
+   driving direction, the tracks visible there at the most postures become
+   modes 1, 2, ..., numbered by rising median frequency. How many: every
+   mode the stabilization diagram selects that a driving point sees
+   (``n_modes=None``, the default), or at most ``n_modes``.
 4. Neighbour recovery (the seed's practice of comparing neighbouring
    postures): a chosen track missing at a posture is searched for again,
    starting from the median pole of the nearest postures that have it;
@@ -62,6 +64,7 @@ from robolobe.modal.tracking import (
 __all__ = [
     "EXTRA_COLUMNS",
     "CampaignModal",
+    "campaign_band_top",
     "identify_campaign",
     "identify_frfs",
     "settings_from_test",
@@ -143,6 +146,35 @@ class CampaignModal:
         )
 
 
+def campaign_band_top(freq_hz: Sequence[ArrayLike]) -> float:
+    """Top of the band every posture of a campaign measured [Hz]: the default ``fmax_hz``.
+
+    The lowest of the postures' top lines, so that the analysis band covers
+    what the campaign measured (bracket and tool modes far above the arm's
+    included) and no posture is analysed beyond its data.
+
+    Parameters
+    ----------
+    freq_hz : sequence of array_like
+        Frequency grid per posture [Hz].
+
+    Returns
+    -------
+    float
+        NaN when no grid has a finite line.
+    """
+    tops = [float(np.nanmax(f)) for f in (np.asarray(x, dtype=float) for x in freq_hz) if f.size]
+    tops = [t for t in tops if math.isfinite(t)]
+    return min(tops) if tops else float("nan")
+
+
+def _default_fmax(freqs: Sequence[ArrayLike], fmin_hz: float | None) -> float:
+    """The default ``fmax_hz``: the campaign's top line (the fixed default if that is no band)."""
+    top = campaign_band_top(freqs)
+    fmin = IdentifySettings.fmin_hz if fmin_hz is None else float(fmin_hz)
+    return top if math.isfinite(top) and top > fmin else IdentifySettings.fmax_hz
+
+
 def settings_from_test(test: Mapping[str, Any], **overrides: Any) -> IdentifySettings:
     """Identification settings with the window and record length of a campaign's ``[test]``.
 
@@ -171,7 +203,7 @@ def _choose_tracks(
     postures: Sequence[PostureModal],
     tracks: ModeTracks,
     d: int,
-    n_modes: int,
+    n_modes: int | None,
     min_presence: float,
 ) -> tuple[int, ...]:
     counts = np.zeros(tracks.n_tracks, dtype=int)
@@ -328,6 +360,8 @@ def identify_frfs(
     coherence : sequence of array_like or None, optional
         Coherence per posture (same shapes as ``H``).
     settings : IdentifySettings, optional
+        Default: :class:`IdentifySettings` with the band up to the campaign's
+        top line (:func:`campaign_band_top`) and every visible mode.
     tracking : TrackingSettings, optional
     min_presence : float
         A track becomes a mode of a direction only if it is visible there at
@@ -348,9 +382,9 @@ def identify_frfs(
         a mode hidden at one driving point does not shift the
         numbers of the others, since it is still seen at another; tracking
         and neighbour recovery find modes hidden at all of them); each
-        direction gets its first ``n_modes`` visible modes, so with more
-        modes in the band than ``n_modes`` a number can exceed ``n_modes``. ``"track"``:
-        mode ``m`` of a direction is the ``m``-th of the ``n_modes`` tracks
+        direction gets its visible modes (at most ``n_modes`` when set, the
+        first ones, so a number can exceed ``n_modes``). ``"track"``:
+        mode ``m`` of a direction is the ``m``-th of the (at most ``n_modes``) tracks
         visible there most often, by median frequency (consistent physical
         identity where postures are dense; numbers need not rise with
         frequency at every posture). With a single measured direction use
@@ -364,7 +398,6 @@ def identify_frfs(
     -------
     CampaignModal
     """
-    s = settings if settings is not None else IdentifySettings()
     ids = [str(p) for p in posture_ids]
     q = np.asarray(q_rad, dtype=float)
     n = len(ids)
@@ -377,6 +410,7 @@ def identify_frfs(
     if n == 0:
         raise InputError("expected at least one posture, found none", source="identify_frfs")
     freqs = [np.asarray(f, dtype=float) for f in freq_hz]
+    s = settings if settings is not None else IdentifySettings(fmax_hz=_default_fmax(freqs, None))
     Hs = [np.asarray(h, dtype=complex) for h in H]
     cohs: list[NDArray | None] = (
         [None] * n
@@ -563,7 +597,9 @@ def identify_campaign(
         As read by :func:`robolobe.campaign.read_campaign`, or its folder.
     settings : IdentifySettings, optional
         Default: :func:`settings_from_test` of ``campaign.test`` (window and
-        record length), updated with ``overrides``.
+        record length), updated with ``overrides``; the band reaches the
+        campaign's top line (:func:`campaign_band_top`) unless ``overrides``
+        give ``fmax_hz``.
     overrides : mapping, optional
         Fields of :class:`IdentifySettings` to set (ignored if ``settings``).
     **kwargs
@@ -577,11 +613,13 @@ def identify_campaign(
         campaign = read_campaign(campaign)
     if not isinstance(campaign, Campaign):
         raise InputTypeError("campaign", "a campaign folder's path or a Campaign", campaign)
-    s = (
-        settings
-        if settings is not None
-        else settings_from_test(campaign.test, **dict(overrides or {}))
-    )
+    if settings is not None:
+        s = settings
+    else:
+        over = dict(overrides or {})
+        if over.get("fmax_hz") is None:
+            over["fmax_hz"] = _default_fmax([f.freq_hz for f in campaign.frfs], over.get("fmin_hz"))
+        s = settings_from_test(campaign.test, **over)
     return identify_frfs(
         campaign.posture_ids,
         campaign.q_rad,

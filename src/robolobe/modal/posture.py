@@ -102,12 +102,23 @@ class IdentifySettings:
     refine_jacobian : {"analytic", "fd"}
         Jacobian of the refinement (:func:`robolobe.modal.refine.refine_poles`);
         ``"fd"`` (finite differences) is the slower reference.
-    n_modes : int
-        Modes per direction written to the modal dataset (seed: 5).
+    n_modes : int or None
+        Most modes per direction written to the modal dataset (the seed: 5).
+        None (the default): every mode the stabilization diagram selects as
+        physical (:func:`robolobe.modal.selection.select_poles`) that the
+        driving point sees (:meth:`PostureModal.modes_for_direction`:
+        visibility and residue precision), however many: a robot measured
+        in a lab often shows modes its twin lacks (a servo, a bracket).
     visibility_min : float
         A mode counts at a driving point when the peak of its term
         ``|R_dd| / sigma`` is at least this fraction of the largest
-        measured ``|H_dd|`` in the band ...
+        measured ``|H_dd|`` in the band, or at least ``local_visibility_min``
+        of the largest within 10 % of its own frequency and a tenth of
+        ``visibility_min`` of the band's (a bracket or tool mode far above
+        the arm's: small against the band's peak, the FRF's main feature
+        where it is) ...
+    local_visibility_min : float
+        See ``visibility_min`` (1: the band's peak alone decides).
     k_rel_std_max : float
         ... and the relative standard deviation of its driving-point residue
         (from the LSFD covariance) is at most this.
@@ -129,8 +140,9 @@ class IdentifySettings:
     selection: SelectionSettings = field(default_factory=SelectionSettings)
     refine: bool = True
     refine_jacobian: str = "analytic"
-    n_modes: int = 5
+    n_modes: int | None = None
     visibility_min: float = 0.03
+    local_visibility_min: float = 0.5
     k_rel_std_max: float = 0.25
     window_decay_per_s: float = 0.0
     record_length_s: float | None = None
@@ -155,10 +167,16 @@ class IdentifySettings:
             raise bad("max_order", "an integer >= 2 or None")
         if self.refine_jacobian not in ("analytic", "fd"):
             raise bad("refine_jacobian", "'analytic' or 'fd'")
-        if not (isinstance(self.n_modes, int) and self.n_modes >= 1):
-            raise bad("n_modes", "an integer >= 1")
+        if self.n_modes is not None and not (
+            isinstance(self.n_modes, int)
+            and not isinstance(self.n_modes, bool)
+            and self.n_modes >= 1
+        ):
+            raise bad("n_modes", "an integer >= 1 or None")
         if not 0 <= self.visibility_min < 1:
             raise bad("visibility_min", "a number in [0, 1)")
+        if not 0 < self.local_visibility_min <= 1:
+            raise bad("local_visibility_min", "a number in (0, 1]")
         if not (math.isfinite(self.window_decay_per_s) and self.window_decay_per_s >= 0):
             raise bad("window_decay_per_s", "a number >= 0")
         if self.record_length_s is not None and not (
@@ -195,7 +213,11 @@ class PostureModal:
         Residues (corrected for truncation when the record length is known);
         NaN for directions not used.
     visibility : ndarray, shape (3, n_modes)
-        Peak of the mode's term over the largest measured ``|H_dd|`` in the band.
+        Peak of the mode's term over the largest measured ``|H_dd|`` in the
+        band, or over the largest within 10 % of its frequency times
+        ``visibility_min / local_visibility_min`` when that is larger and the
+        first is at least ``visibility_min / 10`` (one threshold,
+        ``visibility_min``, for both: :class:`IdentifySettings`).
     shapes : ndarray, shape (n_modes, 3)
         TCP shape estimate ``u`` (m/sqrt(kg)), signed when the full 3x3 FRF
         matrix was measured, else magnitudes ``w / sqrt(k)``.
@@ -851,6 +873,18 @@ def _finish(
         [np.nanmax(np.abs(h[inb_lines, d, d])) if used[d, d] else np.nan for d in range(3)]
     )
     vis = peak / hmax[:, None]
+    if s.local_visibility_min < 1:
+        # a mode far above the arm's (a bracket, a tool) is small against the band's
+        # largest peak but the FRF's main feature near its own frequency
+        fr_meas = np.abs(lam) / (2 * np.pi)
+        near = inb_lines[:, None] & (np.abs(f[:, None] - fr_meas[None, :]) <= 0.1 * fr_meas)
+        hdd = np.abs(np.nan_to_num(np.stack([h[:, d, d] for d in range(3)], axis=1)))  # (F, 3)
+        hloc = np.max(np.where(near[:, None, :], hdd[:, :, None], 0.0), axis=0)  # (3, n)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            loc = peak / hloc * (s.visibility_min / s.local_visibility_min)
+        # ... but not a mode that barely moves this point (an antiresonance's floor)
+        loc = np.where(np.isfinite(loc) & (hloc > 0) & (vis >= 0.1 * s.visibility_min), loc, np.nan)
+        vis = np.fmax(vis, loc)
     shapes, signed = _shapes(lam_true, R, used)
     vis_ok = (np.where(np.isfinite(vis), vis, 0.0) >= s.visibility_min) & (
         np.nan_to_num(k_rel, nan=0.0) <= s.k_rel_std_max

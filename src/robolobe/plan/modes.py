@@ -438,9 +438,17 @@ class PredictorSource:
         std = np.nan_to_num(np.asarray(params.log_std), nan=0.0, posinf=0.0)
         params = dataclasses.replace(params, log_std=std)
         extr = np.asarray(self.predictor.extrapolation(q))  # type: ignore[attr-defined]
+        model = ModalModel.from_parameters(params)
+        extra = getattr(self.predictor, "extra_", None)
+        if extra is not None and extra.n_tracks_:
+            # measured modes beyond the network's (robolobe.tl.extra_modes)
+            f, z, k, std, model = _with_extra_modes(
+                extra.predict(q, DRIVING), params.f_hz, params.zeta, params.k_N_per_m, std, model
+            )
+            params = ModalParameters(f, z, k, DRIVING, log_std=std)
         return RobotModes(
             parameters=params,
-            model=ModalModel.from_parameters(params),
+            model=model,
             extrapolation=extr,
             source=self.name,
         )
@@ -579,20 +587,66 @@ class CorrectedTwinSource:
         std = np.zeros((n, 3, m, 3))
         sp = ct.planning_spread(q, directions=DRIVING, n_modes=m)  # (n, 3, m, 3)
         std[:] = np.nan_to_num(sp, nan=0.0, posinf=0.0)
+        f_all = np.broadcast_to(f_new[:, None, :], (n, 3, m))
+        z_all = np.broadcast_to(z_new[:, None, :], (n, 3, m))
+        extra = getattr(ct, "extra_", None)
+        if extra is not None and extra.n_tracks_:
+            # measured modes the twin lacks (a servo, a bracket), interpolated over posture
+            # with their own spread (robolobe.tl.extra_modes): driving-point residues only
+            f_all, z_all, k_new, std, model = _with_extra_modes(
+                extra.predict(q, DRIVING), f_all, z_all, k_new, std, model
+            )
         return RobotModes(
-            parameters=ModalParameters(
-                np.broadcast_to(f_new[:, None, :], (n, 3, m)),
-                np.broadcast_to(z_new[:, None, :], (n, 3, m)),
-                k_new,
-                DRIVING,
-                log_std=std,
-            ),
+            parameters=ModalParameters(f_all, z_all, k_new, DRIVING, log_std=std),
             model=model,
             extrapolation=ct.extrapolation(q),
             source=self.name,
             shapes_coupled=True,
             spread_calibrated=True,
         )
+
+
+def _with_extra_modes(
+    extra: tuple[FloatArray, FloatArray],
+    f: FloatArray,
+    z: FloatArray,
+    k: FloatArray,
+    std: FloatArray,
+    model: ModalModel,
+) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray, ModalModel]:
+    """Modes and model with extra modes appended (:mod:`robolobe.tl.extra_modes`).
+
+    Parameters
+    ----------
+    extra : (values, log_std)
+        Both of shape (n, 3, n_extra, 3) on ``xx, yy, zz`` (infinite k: not seen there).
+    f, z, k : ndarray, shape (n, 3, m)
+    std : ndarray, shape (n, 3, m, 3)
+    model : ModalModel
+        Batch (n,), m modes, dim 3.
+
+    Returns
+    -------
+    f, z, k, std : ndarray, shapes (n, 3, m + n_extra) and (n, 3, m + n_extra, 3)
+    model : ModalModel
+        The extra modes with diagonal residues ``omega^2 / k`` per axis.
+    """
+    ev, es = extra
+    fe, ze, ke = ev[:, 0, :, 0], ev[:, 0, :, 1], ev[..., 2]  # (n, T), (n, T), (n, 3, T)
+    we = 2.0 * np.pi * fe
+    with np.errstate(divide="ignore"):
+        diag = np.where(np.isfinite(ke), we[:, None, :] ** 2 / ke, 0.0)  # (n, 3, T)
+    res = np.zeros((*fe.shape, 3, 3))
+    for a in range(3):
+        res[..., a, a] = diag[:, a]
+    out = model.concat(ModalModel(we, ze, res))
+    return (
+        np.concatenate([f, ev[..., 0]], axis=2),
+        np.concatenate([z, ev[..., 1]], axis=2),
+        np.concatenate([k, ke], axis=2),
+        np.concatenate([std, es], axis=2),
+        out,
+    )
 
 
 class ParametersSource:

@@ -314,6 +314,10 @@ class ModalPredictor:
         self.random_state = random_state
 
     # ------------------------------------------------------------ parameters
+    #: Measured modes beyond the network's (:class:`robolobe.tl.extra_modes.ExtraModes`),
+    #: set by :func:`robolobe.tl.transfer.transfer` and kept by :meth:`save`; None: none.
+    extra_: Any = None
+
     _PARAM_NAMES = (
         "directions", "n_modes", "hidden", "features", "target_transform", "epochs",
         "batch_size", "learning_rate", "augment_delta", "augment_copies", "missing",
@@ -679,6 +683,9 @@ class ModalPredictor:
         arrays: dict[str, Any] = dict(self.net_.to_arrays())
         arrays["train_q_rad"] = self.train_q_rad_.astype(np.float64)
         arrays["meta"] = np.array(json.dumps(self._meta()))
+        extra = getattr(self, "extra_", None)
+        if extra is not None:  # measured modes beyond the network's (robolobe.tl.extra_modes)
+            arrays.update(extra.arrays("extra_"))
         with atomic_path(path) as tmp, tmp.open("wb") as fh:
             np.savez_compressed(fh, **arrays)
         return path
@@ -759,6 +766,10 @@ class ModalPredictor:
             raise InputError(
                 "calibration: expected one factor per direction and parameter", source=where
             )
+        if "extra_values" in arrays:  # measured modes beyond the network's
+            from robolobe.tl.extra_modes import ExtraModes
+
+            model.extra_ = ExtraModes.from_arrays(arrays, "extra_", where)
         return model
 
     def __repr__(self) -> str:

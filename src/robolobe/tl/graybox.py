@@ -308,8 +308,9 @@ def _warn_unmatched(
         f"within {100 * (np.exp(match_tol) - 1):.0f} % in frequency and a factor of "
         f"{np.exp(match_k_gate):.3g} in stiffness ({where}{more}): physics the robot file "
         "lacks (a motor or servo mode, a spindle bracket) or spurious modes; they are left out "
-        "of the calibration and the model does not predict them, so a plan on it does not see "
-        "them",
+        "of the calibration; a corrected twin (the default transfer) keeps those seen at enough "
+        "postures as extra modes interpolated over posture (robolobe.tl.extra_modes), the "
+        "calibrated robot file alone does not predict them",
         TrustWarning,
         stacklevel=3,
     )

@@ -336,6 +336,9 @@ class CorrectedTwin:
     directions_ : tuple of str
     n_modes_ : int
     train_q_rad_ : ndarray, shape (n, 6)
+    extra_ : ExtraModes
+        Measured modes the twin lacks (:mod:`robolobe.tl.extra_modes`), which
+        :class:`robolobe.plan.modes.CorrectedTwinSource` adds to the twin's.
     """
 
     length_scales_: FloatArray
@@ -410,6 +413,9 @@ class CorrectedTwin:
             kw.setdefault("random_state", self.random_state)
             cal = TwinCalibration(robot=self.robot, **kw).fit_dataset(ds)
         r = self._residuals(cal, ds)
+        from robolobe.tl.extra_modes import unpaired_of_calibration
+
+        self.extra_ = unpaired_of_calibration(cal, ds)  # measured modes the twin lacks
         x = np.asarray(ds.q_rad, dtype=float)
         nd, nm = r.shape[1], r.shape[2]
         n_ell = x.shape[1]
@@ -784,6 +790,7 @@ class CorrectedTwin:
             spread_cover_raw=self.spread_cover_raw_,
             share_h=self.share_h_,
             form_std=self.form_std_,
+            **self.extra_.arrays("extra_"),
         )
         path = Path(path)
         with atomic_path(path) as tmp, tmp.open("wb") as fh:
@@ -852,6 +859,9 @@ class CorrectedTwin:
                 arrays.get("share_h", np.ones((3, len(SHARE_EDGES) + 1))), dtype=float
             )
             self.form_std_ = np.asarray(arrays.get("form_std", self.loo_rmse_), dtype=float)
+            from robolobe.tl.extra_modes import ExtraModes
+
+            self.extra_ = ExtraModes.from_arrays(arrays, "extra_", where)
         except (KeyError, TypeError, ValueError, AttributeError) as exc:
             raise InputError(f"inconsistent model file ({exc})", source=where) from None
         check_meta_counts(self.directions_, self.n_modes_, where)

@@ -13,6 +13,12 @@ the best validated one, studies/tl_graybox.py and studies/plan_safety.py):
 - ``source`` given (a network, e.g. the shipped ``"A"``): ``"network"``, the
   seed paper's transfer with frozen layers
   (:func:`~robolobe.tl.estimator.transfer_network`).
+
+Measured modes the robot file's twin lacks (a servo, a spindle bracket) are
+data: each method keeps them as extra modes interpolated over posture with
+their own spread (:mod:`robolobe.tl.extra_modes`), which plans see; the
+network learns the others (with a robot given, so that its twin tells them
+apart).
 """
 
 from __future__ import annotations
@@ -227,6 +233,13 @@ def transfer(
                     source="source",
                 )
             src = loaded
+        extra = None
+        if rob is not None and {"dir", "mode", "posture_id", "f_hz"} <= set(df.columns):
+            # modes the robot file's twin lacks (a servo, a bracket) would shift the rank
+            # of the network's modes: modelled apart (robolobe.tl.extra_modes)
+            from robolobe.tl.extra_modes import split_extra_modes
+
+            df, extra = split_extra_modes(df, rob, src.directions)
         _check_network_modes(df, name, src.directions, int(src.n_modes))
         ds = checked_dataset(
             df, name, src.directions, int(src.n_modes), rob, MIN_POSTURES["network"]
@@ -240,7 +253,10 @@ def transfer(
             kw["robot"] = rob.name if rob is not None else Path(name).stem
         if epochs is not None:
             kw["epochs"] = epochs
-        return transfer_network(src, ds.q_rad, ds.y, **kw)
+        net = transfer_network(src, ds.q_rad, ds.y, **kw)
+        if extra is not None and extra.n_tracks_:
+            net.extra_ = extra
+        return net
     if rob is None:
         raise InputError(
             f"expected the robot file to calibrate (A, B, C or a .toml) for method {method!r}",
