@@ -19,7 +19,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from hypothesis import HealthCheck, settings
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
 
 from robolobe.cli.main import main
 
@@ -173,3 +174,51 @@ def test_sigterm_stops_the_workers_and_leaves_no_temporary(tmp_path: Path) -> No
     finally:
         if proc.poll() is None:
             proc.kill()
+
+
+#: How writers report a disk without room: with errno (Python's own files) or
+#: with the number only in the text (pyarrow's "Error writing bytes to file").
+def _refusal(kind: str, code: int) -> OSError:
+    if kind == "errno":
+        return OSError(code, os.strerror(code))
+    return OSError(f"Error writing bytes to file. Detail: [errno {code}] {os.strerror(code)}")
+
+
+@FUZZ
+@given(
+    kind=st.sampled_from(["errno", "text"]),
+    code=st.sampled_from([errno.ENOSPC, errno.EFBIG, errno.EDQUOT]),
+    folder=st.booleans(),
+)
+def test_a_full_disk_names_the_output(tmp_path: Path, kind: str, code: int, folder: bool) -> None:
+    """Whichever writer fails for want of room, the one line names the output; nothing stays."""
+    from robolobe._atomic import atomic_dir, atomic_path
+    from robolobe.errors import InputError
+
+    out = tmp_path / f"out{kind}{code}{folder}"
+
+    def write() -> None:
+        if folder:
+            with atomic_dir(out, "plan", option="--output") as tmp:
+                (tmp / "waypoints.csv").write_text("x")
+                raise _refusal(kind, code)
+        with atomic_path(out) as tmp:
+            tmp.write_text("x")
+            raise _refusal(kind, code)
+
+    with pytest.raises(InputError) as info:
+        write()
+    msg = str(info.value)
+    assert f"cannot write {out}" in msg
+    assert os.strerror(code) in msg
+    assert "\n" not in msg
+    assert not out.exists()
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_other_os_errors_pass_through(tmp_path: Path) -> None:
+    from robolobe._atomic import atomic_path
+
+    with pytest.raises(PermissionError), atomic_path(tmp_path / "x") as _:
+        raise PermissionError(errno.EACCES, "denied")
+    assert list(tmp_path.iterdir()) == []
