@@ -291,3 +291,21 @@ def test_check_constant_speed_and_feed_bounded(tmp_path: Path, value: float) -> 
             InputError, match=rf"^--{what}: expected a positive {what} of 0\.001 to 1e\+07"
         ):
             check_program(EX / "pocket.nc", EX / "job_A_pocket.toml", **{what: value})
+
+
+@settings(FUZZ, max_examples=4)
+@given(n=st.integers(257, 2**70), command=st.sampled_from(["batch", "identify", "diagnose"]))
+def test_worker_counts_bounded(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], n: int, command: str
+) -> None:
+    """``--workers``/``--jobs`` above 256 (``2**64`` typed for 2) is refused, nothing written."""
+    out = tmp_path / f"out{n}"
+    argv = {
+        "batch": ["batch", str(EX / "pocket.nc"), "--job", str(EX / "job_A_pocket.toml"),
+                  "-o", str(out), "--workers", str(n), "--table-only"],
+        "identify": ["identify", str(tmp_path / "camp"), "-o", str(out), "--jobs", str(n)],
+        "diagnose": ["diagnose", str(tmp_path / "camp"), "--json", str(out), "--jobs", str(n)],
+    }[command]  # fmt: skip
+    err = _refused(argv, "workers" if command == "batch" else "--jobs", capsys)
+    assert "expected" in err
+    assert not out.exists()
