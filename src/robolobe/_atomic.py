@@ -109,8 +109,8 @@ def _check_parent(path: Path, option: str) -> None:
 def not_a_file(path: str | os.PathLike[str]) -> str:
     """What an input path that should be a file is instead, for ``found ...`` in a message.
 
-    ``"a directory"``, ``"no such file"`` or ``"not a regular file"`` (a
-    device, a socket).
+    ``"a directory"``, ``"no such file"``, a named pipe, a device, or ``"not
+    a regular file"`` (a socket).
     """
     p = Path(path)
     if p.is_dir():
@@ -119,7 +119,21 @@ def not_a_file(path: str | os.PathLike[str]) -> str:
         return "no such file"
     if p.is_fifo():
         return "a named pipe (FIFO), not a regular file"
+    if p.is_char_device() or p.is_block_device():
+        return "a device, not a regular file"
     return "not a regular file"
+
+
+def not_a_folder(path: str | os.PathLike[str]) -> str:
+    """What an input path that should be a folder is instead, for ``found ...`` in a message."""
+    p = Path(path)
+    if not p.exists():
+        return "no such folder"
+    if p.is_file():
+        return "a file"
+    if p.is_fifo():
+        return "a named pipe (FIFO), not a folder"
+    return "not a folder"
 
 
 def check_input_file(path: str | os.PathLike[str], what: str, source: str | None = None) -> Path:
@@ -229,23 +243,28 @@ _FULL_ERRNOS = frozenset(
 
 @contextlib.contextmanager
 def _full_disk_named(target: Path, option: str | None) -> Iterator[None]:
-    """A write refused for want of room becomes one line naming the output.
+    """A write refused for want of room names the output.
 
     Some writers (pyarrow's) raise an ``OSError`` without the file's name or
-    ``errno``, with the number in the text; both forms are recognised.
+    ``errno``, with the number in the text; both forms are recognised. With
+    ``option`` the refusal becomes one line naming it and the output; without,
+    an ``OSError`` with its ``errno`` and the output's name (the caller, e.g.
+    the command's output set, names its option).
     """
     try:
         yield
     except OSError as exc:
         text = str(exc)
-        if exc.errno not in _FULL_ERRNOS and not any(f"errno {n}]" in text for n in _FULL_ERRNOS):
+        code = exc.errno if exc.errno in _FULL_ERRNOS else None
+        if code is None:
+            code = next((n for n in _FULL_ERRNOS if f"errno {n}]" in text), None)
+        if code is None:
             raise
-        why = (
-            os.strerror(exc.errno) if exc.errno is not None and exc.errno in _FULL_ERRNOS else text
-        )
+        if option is None:
+            raise OSError(code, os.strerror(code), os.fspath(target)) from None
         raise InputError(
-            f"cannot write {target}: {why} (the output was not written)",
-            source=option or os.fspath(target),
+            f"cannot write {target}: {os.strerror(code)} (the output was not written)",
+            source=option,
         ) from None
 
 

@@ -189,3 +189,18 @@ def test_atomic_writers_refuse_a_fifo(tmp_path: Path) -> None:
         atomic_write_text(node, "x")
     assert node.is_fifo()
     assert [p.name for p in tmp_path.iterdir()] == ["pipe"]  # no temporary file left
+
+
+@pytest.mark.parametrize("kind", ["fifo", "file", "missing"])
+def test_a_campaign_that_is_not_a_folder_says_what_it_is(tmp_path: Path, kind: str) -> None:
+    from robolobe.campaign import read_campaign
+    from robolobe.errors import InputError
+
+    p = tmp_path / "camp"
+    if kind == "fifo":
+        os.mkfifo(p)
+    elif kind == "file":
+        p.write_text("x")
+    want = {"fifo": "a named pipe", "file": "a file", "missing": "no such folder"}[kind]
+    with pytest.raises(InputError, match=f"expected a campaign folder, found {want}"):
+        read_campaign(p)

@@ -206,12 +206,17 @@ def test_a_full_disk_names_the_output(tmp_path: Path, kind: str, code: int, fold
             tmp.write_text("x")
             raise _refusal(kind, code)
 
-    with pytest.raises(InputError) as info:
+    with pytest.raises((InputError, OSError)) as info:
         write()
-    msg = str(info.value)
-    assert f"cannot write {out}" in msg
-    assert os.strerror(code) in msg
-    assert "\n" not in msg
+    exc = info.value
+    if folder:  # the folder's option is known: one line naming it and the output
+        assert isinstance(exc, InputError)
+        assert str(exc).startswith(f"--output: cannot write {out}: {os.strerror(code)}")
+        assert "\n" not in str(exc)
+    else:  # the caller names its option; the error carries errno and the file
+        assert not isinstance(exc, InputError)
+        assert exc.errno == code
+        assert exc.filename == str(out)
     assert not out.exists()
     assert list(tmp_path.iterdir()) == []
 
@@ -222,3 +227,26 @@ def test_other_os_errors_pass_through(tmp_path: Path) -> None:
     with pytest.raises(PermissionError), atomic_path(tmp_path / "x") as _:
         raise PermissionError(errno.EACCES, "denied")
     assert list(tmp_path.iterdir()) == []
+
+
+def test_a_real_file_size_limit_names_the_option(tmp_path: Path, modes_csv: Path) -> None:
+    """``RLIMIT_FSIZE`` (a full disk as the kernel says it): one line naming the option."""
+    import resource
+
+    out = tmp_path / "o"
+    out.mkdir()
+    argv = [sys.executable, "-m", "robolobe", "sld", "--modes", str(modes_csv), "--teeth", "2",
+            "--immersion", "0.5", "--rpm", "5000:9000:200", "--material", "Al7075-T6",
+            "-o", str(out / "l.csv")]  # fmt: skip
+
+    def limit() -> None:
+        resource.setrlimit(resource.RLIMIT_FSIZE, (1024, 1024))
+        signal.signal(signal.SIGXFSZ, signal.SIG_IGN)
+
+    env = dict(os.environ, PYTHONPATH=str(ROOT / "src"))
+    r = subprocess.run(argv, capture_output=True, text=True, timeout=120, preexec_fn=limit, env=env)
+    lines = [ln for ln in r.stderr.splitlines() if ln.strip()]
+    assert r.returncode == 2, r.stderr
+    assert len(lines) == 1, r.stderr
+    assert lines[0].startswith(f"error: --output: cannot write {out / 'l.csv'}: File too large")
+    assert list(out.iterdir()) == []
