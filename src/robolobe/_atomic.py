@@ -26,6 +26,7 @@ the user named (issue 24, docs/guide/outputs.md):
 from __future__ import annotations
 
 import contextlib
+import errno
 import hashlib
 import json
 import os
@@ -108,8 +109,8 @@ def _check_parent(path: Path, option: str) -> None:
 def not_a_file(path: str | os.PathLike[str]) -> str:
     """What an input path that should be a file is instead, for ``found ...`` in a message.
 
-    ``"a directory"``, ``"no such file"`` or ``"not a regular file"`` (a
-    device, a socket).
+    ``"a directory"``, ``"no such file"``, a named pipe, a device, or ``"not
+    a regular file"`` (a socket).
     """
     p = Path(path)
     if p.is_dir():
@@ -118,7 +119,21 @@ def not_a_file(path: str | os.PathLike[str]) -> str:
         return "no such file"
     if p.is_fifo():
         return "a named pipe (FIFO), not a regular file"
+    if p.is_char_device() or p.is_block_device():
+        return "a device, not a regular file"
     return "not a regular file"
+
+
+def not_a_folder(path: str | os.PathLike[str]) -> str:
+    """What an input path that should be a folder is instead, for ``found ...`` in a message."""
+    p = Path(path)
+    if not p.exists():
+        return "no such folder"
+    if p.is_file():
+        return "a file"
+    if p.is_fifo():
+        return "a named pipe (FIFO), not a folder"
+    return "not a folder"
 
 
 def check_input_file(path: str | os.PathLike[str], what: str, source: str | None = None) -> Path:
@@ -170,6 +185,7 @@ def check_output_file(path: str | os.PathLike[str], option: str = "-o") -> Path:
     p = Path(path)
     if p.is_dir():
         raise InputError(f"{p} is a directory; expected a file path", source=option)
+    _check_replaceable(p, option)
     if p.exists() and not os.access(p, os.W_OK):
         raise InputError(f"cannot replace {p}: permission denied", source=option)
     _check_parent(p, option)
@@ -218,22 +234,74 @@ def check_output_dir(
     return p
 
 
+#: errno values of a write that the disk refused for want of room (EFBIG: a file
+#: size limit, ENOSPC: a full disk, EDQUOT: a quota).
+_FULL_ERRNOS = frozenset(
+    getattr(errno, n) for n in ("EFBIG", "ENOSPC", "EDQUOT") if hasattr(errno, n)
+)
+
+
+@contextlib.contextmanager
+def _full_disk_named(target: Path, option: str | None) -> Iterator[None]:
+    """A write refused for want of room names the output.
+
+    Some writers (pyarrow's) raise an ``OSError`` without the file's name or
+    ``errno``, with the number in the text; both forms are recognised. With
+    ``option`` the refusal becomes one line naming it and the output; without,
+    an ``OSError`` with its ``errno`` and the output's name (the caller, e.g.
+    the command's output set, names its option).
+    """
+    try:
+        yield
+    except OSError as exc:
+        text = str(exc)
+        code = exc.errno if exc.errno in _FULL_ERRNOS else None
+        if code is None:
+            code = next((n for n in _FULL_ERRNOS if f"errno {n}]" in text), None)
+        if code is None:
+            raise
+        if option is None:
+            raise OSError(code, os.strerror(code), os.fspath(target)) from None
+        raise InputError(
+            f"cannot write {target}: {os.strerror(code)} (the output was not written)",
+            source=option,
+        ) from None
+
+
+def _check_replaceable(target: Path, source: str | None = None) -> None:
+    """Refuse to replace anything but a regular file (or a link to one) with an output.
+
+    An output is renamed onto its path: onto a device (``/dev/null``, run as
+    root) or a named pipe that would replace the node itself, not write to it.
+    """
+    if not target.is_symlink() and target.exists() and not target.is_file():
+        raise InputError(
+            f"expected an output file's path, found {not_a_file(target)} there "
+            "(an output replaces the file: give a file's path)",
+            source=source or os.fspath(target),
+        )
+
+
 @contextlib.contextmanager
 def atomic_path(target: str | os.PathLike[str]) -> Iterator[Path]:
     """Yield a temporary path; on success it is renamed onto ``target``.
 
     On an exception the temporary file is removed and ``target`` is untouched.
+    ``target`` may not be a device, a named pipe or a folder
+    (:func:`_check_replaceable`).
     """
     target = Path(target)
+    _check_replaceable(target)
     target.parent.mkdir(parents=True, exist_ok=True)
     fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".tmp", dir=target.parent)
     os.close(fd)
     tmp_path = Path(tmp)
     try:
-        yield tmp_path
-        # mkstemp creates 0600; a result file gets the mode any new file gets.
-        os.chmod(tmp_path, 0o666 & ~_umask())
-        os.replace(tmp_path, target)
+        with _full_disk_named(target, None):
+            yield tmp_path
+            # mkstemp creates 0600; a result file gets the mode any new file gets.
+            os.chmod(tmp_path, 0o666 & ~_umask())
+            os.replace(tmp_path, target)
     finally:
         if tmp_path.exists():
             tmp_path.unlink()
@@ -575,8 +643,9 @@ def atomic_dir(
     tmp = Path(tempfile.mkdtemp(prefix=_TMP_PREFIX, suffix=".tmp", dir=target))
     mask = _umask()
     try:
-        yield tmp
-        _commit(target, tmp, kind, option, mask)
+        with _full_disk_named(target, option):
+            yield tmp
+            _commit(target, tmp, kind, option, mask)
     finally:
         shutil.rmtree(tmp, ignore_errors=True)
         if created:
@@ -603,6 +672,9 @@ def _commit(target: Path, tmp: Path, kind: str, option: str | None, mask: int) -
             raise _refuse(target, f"{dst} is a file where a folder is to be written", option)
         if rel in new_files and dst.is_dir():
             raise _refuse(target, f"{dst} is a folder where a file is to be written", option)
+        if rel in new_files and not dst.is_symlink() and dst.exists() and not dst.is_file():
+            what = not_a_file(dst)
+            raise _refuse(target, f"{dst} is {what} where a file is to be written", option)
         check_inside(target, dst)
     clash = _foreign(target, files, manifest)
     if clash:

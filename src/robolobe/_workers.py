@@ -13,7 +13,11 @@ from typing import Any, TypeVar
 
 from robolobe._threads import one_blas_thread
 
-__all__ = ["map_chunks"]
+__all__ = ["MAX_WORKERS", "map_chunks"]
+
+#: Most worker processes a command starts (a larger number is a typing slip:
+#: ``--workers 2**64``); fewer are started where there is less work.
+MAX_WORKERS = 256
 
 T = TypeVar("T")
 

@@ -138,3 +138,69 @@ def test_input_that_is_not_a_regular_file(
     if not (kind == "missing" and target.startswith("camp/")):  # "missing frf.csv" names it too
         assert said in lines[0], err
     assert not list(tmp_path.glob("out*")), "something was written"
+
+
+#: Output options of a fast command, and how to build its argument list.
+_SLD_MODES = "dir,mode,f_hz,zeta,k_N_per_m\nxx,1,922,0.011,1.34e6\nyy,1,922,0.011,1.34e6\n"
+
+
+@FUZZ
+@given(
+    option=st.sampled_from(["-o", "--plot"]),
+    name=st.text(alphabet="abcxyz_.-", min_size=1, max_size=8).filter(lambda s: s not in ".."),
+)
+def test_an_output_onto_a_fifo_is_refused_and_the_node_kept(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], watchdog: None, option: str, name: str
+) -> None:
+    """An output path that is a FIFO (or, as root, a device: never tried here) is refused.
+
+    The output is renamed onto its path: that would replace the node itself
+    (as root, ``-o /dev/null`` replaced the device with a regular file).
+    """
+    modes = tmp_path / "m.csv"
+    modes.write_text(_SLD_MODES)
+    node = tmp_path / f"node{name}"
+    if node.exists():
+        node.unlink()
+    os.mkfifo(node)
+    out = {"-o": str(tmp_path / "l.csv"), "--plot": str(tmp_path / "l.png"), option: str(node)}
+    argv = ["sld", "--modes", str(modes), "--teeth", "2", "--immersion", "0.5",
+            "--rpm", "5000:9000:20", "--material", "Al7075-T6",
+            "-o", out["-o"], "--plot", out["--plot"]]  # fmt: skip
+    capsys.readouterr()
+    with pytest.raises(SystemExit) as info:
+        main(argv)
+    err = capsys.readouterr().err
+    assert info.value.code == 2, err
+    assert "named pipe" in err
+    assert len([ln for ln in err.splitlines() if ln.strip()]) == 1, err
+    assert node.is_fifo()
+    assert not (tmp_path / "l.csv").exists()
+    assert not (tmp_path / "l.png").exists()
+
+
+def test_atomic_writers_refuse_a_fifo(tmp_path: Path) -> None:
+    from robolobe._atomic import atomic_write_text
+    from robolobe.errors import InputError
+
+    node = tmp_path / "pipe"
+    os.mkfifo(node)
+    with pytest.raises(InputError, match="named pipe"):
+        atomic_write_text(node, "x")
+    assert node.is_fifo()
+    assert [p.name for p in tmp_path.iterdir()] == ["pipe"]  # no temporary file left
+
+
+@pytest.mark.parametrize("kind", ["fifo", "file", "missing"])
+def test_a_campaign_that_is_not_a_folder_says_what_it_is(tmp_path: Path, kind: str) -> None:
+    from robolobe.campaign import read_campaign
+    from robolobe.errors import InputError
+
+    p = tmp_path / "camp"
+    if kind == "fifo":
+        os.mkfifo(p)
+    elif kind == "file":
+        p.write_text("x")
+    want = {"fifo": "a named pipe", "file": "a file", "missing": "no such folder"}[kind]
+    with pytest.raises(InputError, match=f"expected a campaign folder, found {want}"):
+        read_campaign(p)

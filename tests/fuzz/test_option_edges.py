@@ -52,7 +52,12 @@ def _sld(tmp_path: Path, *extra: str) -> list[str]:
             "-o", str(tmp_path / "out" / "l.csv"), *extra]  # fmt: skip
 
 
-bad_safety = st.floats(max_value=0.999, allow_nan=False) | st.sampled_from([math.nan, math.inf])
+#: Below 1 (depths above the limit) or above 10 (a tenth of the limit: a slip, e.g. 2**64).
+bad_safety = (
+    st.floats(max_value=0.999, allow_nan=False)
+    | st.floats(min_value=10.001, allow_nan=False)
+    | st.sampled_from([math.nan, math.inf, 2.0**64])
+)
 
 
 @FUZZ
@@ -265,3 +270,42 @@ def test_numeric_option_edges(
             lines = [ln for ln in err.splitlines() if ln.strip() and not ln.startswith("warning")]
             assert len(lines) == 1, err
             assert lines[0].startswith("error: "), err
+
+
+@pytest.mark.slow
+@FUZZ
+@given(
+    value=st.floats(min_value=1.0001e7, allow_nan=False)
+    | st.floats(max_value=0.000999, allow_nan=False)
+    | st.sampled_from([math.nan, 2.0**64])
+)
+def test_check_constant_speed_and_feed_bounded(tmp_path: Path, value: float) -> None:
+    """``check --rpm/--feed`` (used where the program states none) is checked even when unused.
+
+    The bound is the toolpath readers' own: a program's S or F above 1e7 is refused.
+    """
+    from robolobe.plan.check import check_program
+
+    for what in ("rpm", "feed"):
+        with pytest.raises(
+            InputError, match=rf"^--{what}: expected a positive {what} of 0\.001 to 1e\+07"
+        ):
+            check_program(EX / "pocket.nc", EX / "job_A_pocket.toml", **{what: value})
+
+
+@settings(FUZZ, max_examples=4)
+@given(n=st.integers(257, 2**70), command=st.sampled_from(["batch", "identify", "diagnose"]))
+def test_worker_counts_bounded(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], n: int, command: str
+) -> None:
+    """``--workers``/``--jobs`` above 256 (``2**64`` typed for 2) is refused, nothing written."""
+    out = tmp_path / f"out{n}"
+    argv = {
+        "batch": ["batch", str(EX / "pocket.nc"), "--job", str(EX / "job_A_pocket.toml"),
+                  "-o", str(out), "--workers", str(n), "--table-only"],
+        "identify": ["identify", str(tmp_path / "camp"), "-o", str(out), "--jobs", str(n)],
+        "diagnose": ["diagnose", str(tmp_path / "camp"), "--json", str(out), "--jobs", str(n)],
+    }[command]  # fmt: skip
+    err = _refused(argv, "workers" if command == "batch" else "--jobs", capsys)
+    assert "expected" in err
+    assert not out.exists()

@@ -19,7 +19,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from hypothesis import HealthCheck, settings
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
 
 from robolobe.cli.main import main
 
@@ -173,3 +174,79 @@ def test_sigterm_stops_the_workers_and_leaves_no_temporary(tmp_path: Path) -> No
     finally:
         if proc.poll() is None:
             proc.kill()
+
+
+#: How writers report a disk without room: with errno (Python's own files) or
+#: with the number only in the text (pyarrow's "Error writing bytes to file").
+def _refusal(kind: str, code: int) -> OSError:
+    if kind == "errno":
+        return OSError(code, os.strerror(code))
+    return OSError(f"Error writing bytes to file. Detail: [errno {code}] {os.strerror(code)}")
+
+
+@FUZZ
+@given(
+    kind=st.sampled_from(["errno", "text"]),
+    code=st.sampled_from([errno.ENOSPC, errno.EFBIG, errno.EDQUOT]),
+    folder=st.booleans(),
+)
+def test_a_full_disk_names_the_output(tmp_path: Path, kind: str, code: int, folder: bool) -> None:
+    """Whichever writer fails for want of room, the one line names the output; nothing stays."""
+    from robolobe._atomic import atomic_dir, atomic_path
+    from robolobe.errors import InputError
+
+    out = tmp_path / f"out{kind}{code}{folder}"
+
+    def write() -> None:
+        if folder:
+            with atomic_dir(out, "plan", option="--output") as tmp:
+                (tmp / "waypoints.csv").write_text("x")
+                raise _refusal(kind, code)
+        with atomic_path(out) as tmp:
+            tmp.write_text("x")
+            raise _refusal(kind, code)
+
+    with pytest.raises((InputError, OSError)) as info:
+        write()
+    exc = info.value
+    if folder:  # the folder's option is known: one line naming it and the output
+        assert isinstance(exc, InputError)
+        assert str(exc).startswith(f"--output: cannot write {out}: {os.strerror(code)}")
+        assert "\n" not in str(exc)
+    else:  # the caller names its option; the error carries errno and the file
+        assert not isinstance(exc, InputError)
+        assert exc.errno == code
+        assert exc.filename == str(out)
+    assert not out.exists()
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_other_os_errors_pass_through(tmp_path: Path) -> None:
+    from robolobe._atomic import atomic_path
+
+    with pytest.raises(PermissionError), atomic_path(tmp_path / "x") as _:
+        raise PermissionError(errno.EACCES, "denied")
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_a_real_file_size_limit_names_the_option(tmp_path: Path, modes_csv: Path) -> None:
+    """``RLIMIT_FSIZE`` (a full disk as the kernel says it): one line naming the option."""
+    import resource
+
+    out = tmp_path / "o"
+    out.mkdir()
+    argv = [sys.executable, "-m", "robolobe", "sld", "--modes", str(modes_csv), "--teeth", "2",
+            "--immersion", "0.5", "--rpm", "5000:9000:200", "--material", "Al7075-T6",
+            "-o", str(out / "l.csv")]  # fmt: skip
+
+    def limit() -> None:
+        resource.setrlimit(resource.RLIMIT_FSIZE, (1024, 1024))
+        signal.signal(signal.SIGXFSZ, signal.SIG_IGN)
+
+    env = dict(os.environ, PYTHONPATH=str(ROOT / "src"))
+    r = subprocess.run(argv, capture_output=True, text=True, timeout=120, preexec_fn=limit, env=env)
+    lines = [ln for ln in r.stderr.splitlines() if ln.strip()]
+    assert r.returncode == 2, r.stderr
+    assert len(lines) == 1, r.stderr
+    assert lines[0].startswith(f"error: --output: cannot write {out / 'l.csv'}: File too large")
+    assert list(out.iterdir()) == []

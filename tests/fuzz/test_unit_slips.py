@@ -187,3 +187,34 @@ def test_sampled_frf_with_nan_refused(where: str, value: float, index: int) -> N
             (omega, frf), cutter=2, material=get_material("Al7075-T6"),
             conditions=CuttingConditions.from_immersion(0.5, "down"), rpm=np.linspace(5e3, 2e4, 50),
         )  # fmt: skip
+
+
+@settings(FUZZ, max_examples=6)
+@given(
+    diameter=st.floats(3.0, 100.0),
+    share=st.floats(0.5, 8.0),
+    key=st.sampled_from(["stickout_mm", "f_hz"]),
+)
+def test_job_tool_in_metres_or_khz_refused(diameter: float, share: float, key: str) -> None:
+    """A stick-out in metres (1000 times too short) or a tool mode's kHz written as Hz.
+
+    A cutter sticks out of its holder at least a quarter of its diameter (a
+    face mill's body), and a spindle, holder or tool mode lies above a milling
+    robot's own lowest modes (5 Hz): a 60 mm stick-out written 0.06, a mode
+    at 1.85 kHz written 1.85.
+    """
+    from robolobe.plan.job import job_from_dict, job_to_dict, load_job
+
+    d = job_to_dict(load_job(EX / "job_A_pocket.toml"))
+    d["tool"].update(diameter_mm=diameter, stickout_mm=share * diameter)
+    d["cut"]["radial_width_mm"] = 0.5 * diameter
+    d["tool"]["modes"] = [{"dir": "xy", "f_hz": 2000.0, "zeta": 0.03, "k_N_per_m": 5e8}]
+    job_from_dict(d, source="j.toml")
+    if key == "stickout_mm":
+        d["tool"]["stickout_mm"] = share * diameter * 1e-3
+    else:
+        d["tool"]["modes"][0]["f_hz"] = 2000.0 * 1e-3
+    with pytest.raises(
+        InputError, match=rf"^j\.toml: tool: (modes\[1\]\.)?{key}: expected .*at least"
+    ):
+        job_from_dict(d, source="j.toml")

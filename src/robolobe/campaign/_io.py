@@ -32,7 +32,13 @@ import pandas as pd
 import tomli_w
 from numpy.typing import ArrayLike, NDArray
 
-from robolobe._atomic import MAX_NAME_BYTES, atomic_dir, check_input_file, safe_name
+from robolobe._atomic import (
+    MAX_NAME_BYTES,
+    atomic_dir,
+    check_input_file,
+    not_a_folder,
+    safe_name,
+)
 from robolobe._directions import dir_index
 from robolobe._documents import parse_toml
 from robolobe._frf_checks import frf_value_problem, receptance_scale_problem
@@ -520,7 +526,9 @@ def read_campaign(path: str | os.PathLike[str], *, check_limits: bool = True) ->
     """
     folder = Path(path)
     if not folder.is_dir():
-        raise InputError("expected a campaign folder, found no such folder", source=os.fspath(path))
+        raise InputError(
+            f"expected a campaign folder, found {not_a_folder(folder)}", source=os.fspath(path)
+        )
     robot_raw, notes, test = _read_toml(folder)
     robot = _resolve_robot(robot_raw, folder)
     post_path = folder / "postures.csv"

@@ -7,6 +7,7 @@ from typing import Annotated
 
 import typer
 
+from robolobe._workers import MAX_WORKERS
 from robolobe.errors import InputError
 
 __all__ = ["parse_band", "parse_families", "register"]
@@ -137,8 +138,10 @@ def register(app: typer.Typer) -> None:
 
         if folds < 2:
             raise InputError(f"expected at least 2 folds, found {folds}", source="--folds")
-        if jobs < 1:
-            raise InputError(f"expected at least 1 worker, found {jobs}", source="--jobs")
+        if not 1 <= jobs <= MAX_WORKERS:
+            raise InputError(
+                f"expected 1 to {MAX_WORKERS} worker processes, found {jobs}", source="--jobs"
+            )
         settings = DiagnoseSettings(
             band_hz=None if band_hz is None else parse_band(band_hz),
             families=parse_families(candidates),

@@ -8,6 +8,7 @@ from typing import Annotated, Any
 import typer
 
 from robolobe._text import count
+from robolobe._workers import MAX_WORKERS
 from robolobe.errors import InputError
 
 __all__ = ["register"]
@@ -145,8 +146,10 @@ def register(app: typer.Typer) -> None:
             check_output_file(fit_report, "--fit-report")
         if modes is not None and not 1 <= modes <= 20:
             raise InputError(f"expected 1 to 20 modes per direction, found {modes}", "--modes")
-        if not 1 <= jobs <= 256:
-            raise InputError(f"expected 1 to 256 worker processes, found {jobs}", "--jobs")
+        if not 1 <= jobs <= MAX_WORKERS:
+            raise InputError(
+                f"expected 1 to {MAX_WORKERS} worker processes, found {jobs}", "--jobs"
+            )
         if campaign.is_file():
             if fit_report is not None:
                 raise InputError(

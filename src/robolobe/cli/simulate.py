@@ -176,6 +176,10 @@ def register(app: typer.Typer) -> None:
         rng = np.random.default_rng(seed)
         if postures is not None:
             ids, q = read_postures(postures, robot=robot_model)
+            if len(ids) > MAX_POSTURES:  # a campaign of hours per posture: a wrong file
+                raise InputError(
+                    f"expected 1 to {MAX_POSTURES} postures, found {len(ids)}", source=str(postures)
+                )
             source = str(postures)
         else:
             from robolobe.twin.designs import design_arrays, load_seed_design, random_design

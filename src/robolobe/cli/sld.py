@@ -120,7 +120,7 @@ def register(app: typer.Typer) -> None:
             get_material,
             stability_lobes,
         )
-        from robolobe.sld.io import read_modes_csv, write_lobes_csv
+        from robolobe.sld.io import SAFETY_RANGE, read_modes_csv, write_lobes_csv
         from robolobe.sld.sdm import MAX_SDM_INTERVALS
 
         check_output_file(output, "--output")
@@ -133,8 +133,11 @@ def register(app: typer.Typer) -> None:
             raise InputError(f"--milling: expected down or up, found {milling!r}")
         if not 1 <= teeth <= MAX_TEETH:
             raise InputError(f"--teeth: expected an integer 1 to {MAX_TEETH}, found {teeth}")
-        if safety is not None and not (math.isfinite(safety) and safety >= 1.0):
-            raise InputError(f"--safety: expected a factor >= 1, found {safety:g}")
+        if safety is not None and not SAFETY_RANGE[0] <= safety <= SAFETY_RANGE[1]:
+            raise InputError(
+                f"--safety: expected a factor of {SAFETY_RANGE[0]:g} to {SAFETY_RANGE[1]:g}, "
+                f"found {safety:g}"
+            )
         if method == "sdm" and not 2 <= intervals <= MAX_SDM_INTERVALS:
             raise InputError(
                 f"--intervals: expected an integer 2 to {MAX_SDM_INTERVALS}, found {intervals}"

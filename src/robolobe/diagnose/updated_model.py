@@ -21,7 +21,7 @@ import os
 from collections.abc import Sequence
 from pathlib import Path
 
-from robolobe._atomic import atomic_dir
+from robolobe._atomic import atomic_dir, not_a_folder
 from robolobe.errors import InputError
 from robolobe.robots import Robot, load_robot, robot_to_toml
 from robolobe.twin.effects import Effect
@@ -90,6 +90,8 @@ def load_updated_model(path: str | os.PathLike[str]) -> Twin:
     """
     folder = Path(path)
     if not folder.is_dir():
-        raise InputError("expected an updated-model folder, found no such folder", os.fspath(path))
+        raise InputError(
+            f"expected an updated-model folder, found {not_a_folder(folder)}", os.fspath(path)
+        )
     robot = load_robot(folder / "robot.toml")
     return Twin(robot, read_effects(folder / "effects.toml"))

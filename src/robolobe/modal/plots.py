@@ -18,7 +18,7 @@ from numpy.typing import NDArray
 
 from robolobe._atomic import SafeNames, unique_names
 from robolobe._directions import AXES
-from robolobe._text import plot_text
+from robolobe._text import count, plot_text
 from robolobe.modal.measurement import MeasurementModal
 from robolobe.modal.posture import PostureModal
 from robolobe.modal.stabilization import StabilizationDiagram
@@ -190,7 +190,7 @@ def plot_measurement(mm: MeasurementModal, path: str | os.PathLike[str]) -> Path
     s = mm.settings
     written = poles_to_modal(mm.poles - s.window_decay_per_s)[0]
     xlim = (s.fmin_hz * 0.5, min(s.fmax_hz * (1 + s.fit_margin), float(mm.freq_hz[-1])))
-    title = f"{mm.name}: stabilization diagram ({mm.n_modes} modes written)"
+    title = f"{mm.name}: stabilization diagram ({count(mm.n_modes, 'mode')} written)"
     curves = [(mm.freq_hz, np.abs(mm.H[:, j]), f"|H {lab}|") for j, lab in enumerate(mm.labels[:8])]
     return _diagram_figure(mm.diagram, written, [], xlim, title, curves, path)
 

@@ -27,6 +27,7 @@ from typing import Any
 import pandas as pd
 
 from robolobe._atomic import SafeNames, atomic_dir, check_inside, unique_names
+from robolobe._workers import MAX_WORKERS
 from robolobe.errors import (
     EXIT_INFEASIBLE,
     EXIT_INPUT,
@@ -246,8 +247,8 @@ def batch_plan(
     if scheduler is not None or client is not None:
         yield from _dask(items, folders, job, scheduler, client, out_dir, refine)
         return
-    if workers is not None and (int(workers) != workers or workers < 1):
-        raise InputError(f"workers: expected an integer >= 1, found {workers!r}")
+    if workers is not None and (int(workers) != workers or not 1 <= workers <= MAX_WORKERS):
+        raise InputError(f"workers: expected an integer 1 to {MAX_WORKERS}, found {workers!r}")
     # never more processes than paths: each extra one only costs its start-up
     n = min(workers or os.cpu_count() or 1, len(items))
     if n == 1:

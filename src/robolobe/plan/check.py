@@ -51,6 +51,7 @@ from robolobe.plan.engagement import stock_engagement
 from robolobe.plan.job import Job, load_job
 from robolobe.plan.limits import ProcessLimits, brief_source, process_limits
 from robolobe.plan.modes import ModeSource, mode_source
+from robolobe.plan.paths._text import MAX_ABS
 from robolobe.plan.pipeline import (
     _postures,
     _predict_modes,
@@ -124,6 +125,11 @@ class CheckResult:
         return self.n_beyond == 0
 
 
+#: Smallest ``--rpm`` [rpm] or ``--feed`` [mm/min] taken (1e-300 is a slip, not a speed);
+#: the largest is the toolpath readers' bound on any number.
+_CONSTANT_MIN = 1e-3
+
+
 def _filled(
     values: FloatArray,
     constant: float | None,
@@ -135,8 +141,12 @@ def _filled(
     """Programmed values, ``constant`` where none is programmed; refused where missing."""
     v = np.asarray(values, dtype=np.float64).copy()
     if constant is not None:
-        if not (math.isfinite(constant) and constant > 0):
-            raise InputError(f"expected a positive {what}, found {constant:g}", "--" + what)
+        if not (math.isfinite(constant) and _CONSTANT_MIN <= constant <= MAX_ABS):
+            raise InputError(
+                f"expected a positive {what} of {_CONSTANT_MIN:g} to {MAX_ABS:g}, "
+                f"found {constant:g}",
+                "--" + what,
+            )
         v = np.where(np.isfinite(v), v, constant)
     bad = need & ~(np.isfinite(v) & (v > 0))
     if np.any(bad):
@@ -229,9 +239,9 @@ def check_program(
         if np.any(out_rng):
             k = ei[int(np.argmax(out_rng))]
             notes.append(
-                f"{int(out_rng.sum())} cutting moves programmed outside the spindle's range "
-                f"{lo_s:g}-{hi_s:g} rpm (first {labels_all[k]}: S{s_all[k]:g}); checked at "
-                "the programmed speed"
+                f"{count(int(out_rng.sum()), 'cutting move')} programmed outside the "
+                f"spindle's range {lo_s:g}-{hi_s:g} rpm (first {labels_all[k]}: "
+                f"S{s_all[k]:g}); checked at the programmed speed"
             )
     grid = np.linspace(
         min(lo_s, float(s_eng.min()) if ei.size else lo_s),
@@ -321,7 +331,7 @@ def check_program(
             k = int(np.flatnonzero(on)[int(np.argmax(off))])
             notes.append(
                 f"the program's feed per tooth differs from the job's cut.feed_per_tooth_mm "
-                f"{fz_job:g} by more than 10 % on {int(off.sum())} cutting moves (first "
+                f"{fz_job:g} by more than 10 % on {count(int(off.sum()), 'cutting move')} (first "
                 f"{labels[k]}: {fz[k]:.3g} mm); the check uses the program's"
             )
     in_range, range_summary = _range_checks(table, on, on & ~plunge, labels, limits, notes)

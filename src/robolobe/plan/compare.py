@@ -203,7 +203,10 @@ def compare_robots(
     """
     if isinstance(robots, str | os.PathLike):
         robots = [r.strip() for r in os.fspath(robots).split(",")]  # "A,B,C" as on the CLI
-    robots = list(robots)
+    try:
+        robots = list(robots)
+    except TypeError:
+        raise InputTypeError("robots", "robot keys or robot files' paths", robots) from None
     if not robots:
         raise InputError("robots: expected at least one robot, found none")
     for key in robots:

@@ -122,7 +122,7 @@ import math
 import os
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Annotated, Any, Literal
+from typing import TYPE_CHECKING, Annotated, Any, Literal
 
 import numpy as np
 import tomli_w
@@ -130,15 +130,18 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_valida
 
 from robolobe._atomic import not_a_file
 from robolobe._documents import parse_toml
-from robolobe._frf_checks import tool_mode_k_floor
+from robolobe._frf_checks import EE_MASS_SHARE, tool_mode_k_floor
 from robolobe._toml_errors import PrintableText, check_key_typos, describe_error, key_path
 from robolobe.errors import InputError, InputTypeError
 from robolobe.robots.transforms import pose_from_xyz_zyx, xyz_zyx_from_pose
-from robolobe.sld.io import F_RANGE_HZ, K_RANGE_N_PER_M
+from robolobe.sld.io import F_RANGE_HZ, K_RANGE_N_PER_M, SAFETY_RANGE
 from robolobe.stock import Stock
 from robolobe.stock.engagement import MIN_CELLS_PER_DIAMETER
 from robolobe.twin.effects import Effect
 from robolobe.twin.effects_file import read_effects
+
+if TYPE_CHECKING:
+    from robolobe.robots.model import Robot
 
 __all__ = [
     "FORMAT",
@@ -225,6 +228,14 @@ class _PlacementSpec(_Spec):
     zyx_deg: Vec3 = Field(default_factory=lambda: [0.0, 0.0, 0.0])
 
 
+#: Shortest stick-out of a cutter from its holder, as a share of its diameter
+#: (a face mill's body; end mills stick out several diameters).
+STICKOUT_MIN_SHARE = 0.25
+#: Lowest frequency [Hz] of a job's tool mode (spindle, holder, tool): a milling
+#: robot's own lowest modes lie at 5-15 Hz and are the robot model's.
+TOOL_MODE_F_MIN_HZ = 5.0
+
+
 class _ModeSpec(_Spec):
     dir: Literal["x", "y", "xy"]
     f_hz: Annotated[
@@ -244,6 +255,24 @@ class _ToolSpec(_Spec):
     stickout_mm: Annotated[float, _upto(1000.0)] = 50.0
     corner_radius_mm: Annotated[float, Field(ge=0, le=250, allow_inf_nan=False, strict=True)] = 0.0
     modes: list[_ModeSpec] = Field(default_factory=list)
+
+    @model_validator(mode="after")
+    def _plausible(self) -> _ToolSpec:
+        least = STICKOUT_MIN_SHARE * self.diameter_mm
+        if self.stickout_mm < least:
+            raise ValueError(
+                f"stickout_mm: expected at least {least:g} mm ({STICKOUT_MIN_SHARE:g} of the "
+                f"{self.diameter_mm:g} mm diameter: the cutting length out of the holder), "
+                f"found {self.stickout_mm:g}: metres for millimetres?"
+            )
+        for i, m in enumerate(self.modes):
+            if m.f_hz < TOOL_MODE_F_MIN_HZ:
+                raise ValueError(
+                    f"modes[{i + 1}].f_hz: expected a spindle, holder or tool mode of at least "
+                    f"{TOOL_MODE_F_MIN_HZ:g} Hz (a robot's own lowest modes; they belong to the "
+                    f"robot's model), found {m.f_hz:g}: kHz for Hz?"
+                )
+        return self
 
 
 class _MaterialSpec(_Spec):
@@ -312,7 +341,9 @@ class _SpindleSpec(_Spec):
 
 
 class _PlanSpec(_Spec):
-    safety_factor: Annotated[float, Field(ge=1, allow_inf_nan=False, strict=True)] = 1.3
+    safety_factor: Annotated[
+        float, Field(ge=SAFETY_RANGE[0], le=SAFETY_RANGE[1], allow_inf_nan=False, strict=True)
+    ] = 1.3
     depth_min_mm: PosNum = 0.1
     depth_max_mm: PosNum = 10.0
     speed: Literal["scheduled", "constant"] = "scheduled"
@@ -783,6 +814,37 @@ def _check_tool_modes(t: _ToolSpec, where: str) -> None:
             raise InputError(f"tool.modes[{i + 1}].k_N_per_m: {problem}", source=where)
 
 
+def check_tool_modes_on(tool: ToolSpec, robot: Robot, source: str) -> None:
+    """Refuse a tool mode too soft for the tool on this robot's spindle (a stiffness in N/mm).
+
+    The job's own check knows the tool only; with the robot, a mode at least as
+    heavy as its spindle at the tip (:meth:`Robot.tcp_effective_mass_kg` in the
+    tool's x/y plane times :data:`robolobe._frf_checks.EE_MASS_SHARE`) must be
+    as stiff as that mass at the mode's frequency
+    (:func:`robolobe._frf_checks.tool_mode_k_floor`).
+
+    Raises
+    ------
+    InputError
+        Naming ``source``, the mode and the robot.
+    """
+    m = robot.tcp_effective_mass_kg()[:2]
+    if not tool.modes or not np.all(m > 0):
+        return
+    carrier = EE_MASS_SHARE * float(m.min())
+    for i, mode in enumerate(tool.modes):
+        problem = _soft_tool_mode(
+            mode.f_hz, mode.k_N_per_m, tool.diameter_m, tool.stickout_m, "tool.stickout_mm",
+            carrier_kg=carrier,
+        )  # fmt: skip
+        if problem is not None:
+            raise InputError(
+                f"tool.modes[{i + 1}] ({mode.direction}, {mode.f_hz:g} Hz).k_N_per_m on robot "
+                f"{robot.name!r}: {problem}",
+                source=source,
+            )
+
+
 def _soft_tool_mode(
     f_hz: float,
     k: float,
@@ -791,10 +853,12 @@ def _soft_tool_mode(
     stick_key: str,
     *,
     default: bool = False,
+    carrier_kg: float | None = None,
 ) -> str | None:
     """Why a tool mode is softer than a tool of its size can be (expected vs found), or None.
 
-    ``stick_key`` names the stick-out in the message (``default``: it was not given).
+    ``stick_key`` names the stick-out in the message (``default``: it was not
+    given); ``carrier_kg``: the spindle's mass at the tip (default: the lightest).
     """
     try:
         vals = [float(x) for x in (f_hz, k, diameter_m, stickout_m)]
@@ -802,7 +866,7 @@ def _soft_tool_mode(
         return None  # the fields' own checks say what is wrong
     if not all(math.isfinite(x) and x > 0 for x in vals):
         return None
-    floor, why = tool_mode_k_floor(vals[0], vals[2], vals[3])
+    floor, why = tool_mode_k_floor(vals[0], vals[2], vals[3], carrier_kg)
     if vals[1] >= floor:
         return None
     return (

@@ -46,7 +46,7 @@ from numpy.typing import NDArray
 from robolobe.errors import InfeasibleError, InputError, ReachabilityError, SingularityError
 from robolobe.plan._summary import PlanSummary
 from robolobe.plan.engagement import engagement_note, plan_engagement
-from robolobe.plan.job import Job, load_job
+from robolobe.plan.job import Job, check_tool_modes_on, load_job
 from robolobe.plan.limits import ProcessLimits, process_limits
 from robolobe.plan.lobes import DynamicsTolerance, GroupedLobes, steep_members, waypoint_lobes
 from robolobe.plan.modes import (
@@ -1129,6 +1129,7 @@ def plan_path(
     wp, path_name = _read(path, job.path_options)
     timings["read"] = time.perf_counter() - t
     robot = load_robot(job.robot if robot is None else robot)
+    check_tool_modes_on(job.tool, robot, job.source)
     note = ""
     if modes is not None:
         if source is not None:

@@ -35,7 +35,7 @@ from robolobe.errors import InputError
 from robolobe.sld.frf import ModalModel
 from robolobe.sld.lobes import LobeDiagram
 
-__all__ = ["MODES_COLUMNS", "read_modes_csv", "write_lobes_csv"]
+__all__ = ["MODES_COLUMNS", "SAFETY_RANGE", "read_modes_csv", "write_lobes_csv"]
 
 #: Required columns of a modes file.
 MODES_COLUMNS = ("dir", "mode", "f_hz", "zeta", "k_N_per_m")
@@ -47,6 +47,9 @@ F_RANGE_HZ = (1.0, 1.0e5)
 #: (:data:`robolobe._frf_checks.MODAL_K_MIN_N_PER_M`; a value in N/mm reads
 #: 1000 times too soft) to a mode barely seen at the tool point (~1e13).
 K_RANGE_N_PER_M = (MODAL_K_MIN_N_PER_M, 1.0e13)
+#: Safety factors on the limiting depth (depth <= a_lim / factor): from 1 (at the
+#: limit) to 10 (a tenth of it; more is no plan but a unit or typing slip).
+SAFETY_RANGE = (1.0, 10.0)
 
 
 def _num(text: str, where: str, column: str) -> float:

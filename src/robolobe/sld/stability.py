@@ -7,7 +7,7 @@ from typing import Literal
 import numpy as np
 from numpy.typing import ArrayLike
 
-from robolobe.errors import InputError
+from robolobe.errors import InputError, InputTypeError
 from robolobe.sld.conditions import CuttingConditions
 from robolobe.sld.converged import converged_lobes
 from robolobe.sld.cutter import Cutter
@@ -65,6 +65,12 @@ def stability_lobes(
     -------
     LobeDiagram
     """
+    if not isinstance(cutter, Cutter | int):
+        raise InputTypeError("cutter", "a Cutter or a number of teeth", cutter)
+    if not isinstance(material, Material):
+        raise InputTypeError("material", "a Material", material)
+    if not isinstance(conditions, CuttingConditions):
+        raise InputTypeError("conditions", "CuttingConditions", conditions)
     teeth = cutter if isinstance(cutter, int) else cutter.teeth
     if isinstance(teeth, bool) or teeth < 1:
         raise InputError(f"cutter: expected a Cutter or a number of teeth >= 1, found {cutter!r}")

@@ -18,12 +18,13 @@ exit are reported and ``n_arcs`` says how many arcs there were.
 from __future__ import annotations
 
 import math
+import numbers
 from dataclasses import dataclass, field
 
 import numpy as np
 from numpy.typing import NDArray
 
-from robolobe.errors import InputError
+from robolobe.errors import InputError, InputTypeError
 from robolobe.stock._kernels import kernels
 from robolobe.stock.shapes import Stock, signed_distance
 
@@ -216,8 +217,19 @@ def compute_engagement(
     InputError
         A tilted tool on a cutting move, or a resolution out of range.
     """
-    p = np.ascontiguousarray(xyz, dtype=np.float64)
+    if not isinstance(stock, Stock):
+        raise InputTypeError("stock", "a Stock", stock)
+    if isinstance(tool_diameter_m, bool) or not isinstance(tool_diameter_m, numbers.Real):
+        raise InputTypeError("tool_diameter_m", "a diameter in m (a number)", tool_diameter_m)
+    try:
+        p = np.ascontiguousarray(xyz, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise InputTypeError("xyz", "an (n, 3) array of positions [m]", xyz) from None
+    if p.ndim != 2 or p.shape[1] != 3:
+        raise InputError(f"xyz: expected shape (n, 3), found {p.shape}")
     cut = np.ascontiguousarray(cutting, dtype=np.bool_)
+    if cut.shape != (len(p),):
+        raise InputError(f"cutting: expected shape ({len(p)},), found {cut.shape}")
     n = len(p)
     radius = 0.5 * tool_diameter_m
     if axis is not None and n:

@@ -12,13 +12,14 @@ and says so in its :attr:`Stock.note`.
 from __future__ import annotations
 
 import math
+import numbers
 from dataclasses import dataclass, field
 from typing import Literal
 
 import numpy as np
 from numpy.typing import NDArray
 
-from robolobe.errors import InputError
+from robolobe.errors import InputError, InputTypeError
 
 __all__ = ["Stock", "check_stock_contains", "default_stock", "signed_distance"]
 
@@ -51,18 +52,25 @@ class Stock:
     _area: float = field(default=0.0, repr=False)
 
     def __post_init__(self) -> None:
-        o = np.array(self.outline, dtype=np.float64)
+        try:
+            o = np.array(self.outline, dtype=np.float64)
+        except (TypeError, ValueError):
+            raise InputTypeError("outline", "an (n, 2) array of x, y [m]", self.outline) from None
+        for key in ("z_bottom", "z_top"):
+            v = getattr(self, key)
+            if isinstance(v, bool) or not isinstance(v, numbers.Real):
+                raise InputTypeError(key, "a height in m (a number)", v)
         if o.ndim != 2 or o.shape[1] != 2 or len(o) < 3 or not np.all(np.isfinite(o)):
-            raise ValueError(f"outline: expected at least 3 finite (x, y) points, found {o.shape}")
+            raise InputError(f"outline: expected at least 3 finite (x, y) points, found {o.shape}")
         if len(o) > 3 and np.allclose(o[0], o[-1]):
             o = o[:-1]
         area = 0.5 * float(np.sum(o[:, 0] * np.roll(o[:, 1], -1) - np.roll(o[:, 0], -1) * o[:, 1]))
         if abs(area) <= 0.0:
-            raise ValueError("outline: expected a polygon with an area, found a degenerate one")
+            raise InputError("outline: expected a polygon with an area, found a degenerate one")
         if not (math.isfinite(self.z_bottom) and math.isfinite(self.z_top)):
-            raise ValueError("z_bottom/z_top: expected finite heights")
+            raise InputError("z_bottom/z_top: expected finite heights")
         if self.z_top <= self.z_bottom:
-            raise ValueError(
+            raise InputError(
                 f"z range: expected bottom < top, found {self.z_bottom * 1e3:g} >= "
                 f"{self.z_top * 1e3:g} mm"
             )

@@ -31,6 +31,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
+from robolobe._frf_checks import robot_mode_mass_problem
 from robolobe.errors import InputError, InputTypeError
 from robolobe.robots import Robot, load_robot
 from robolobe.tl.dataset import ModalDataset, check_dataset, dataset_from_frame
@@ -38,7 +39,14 @@ from robolobe.tl.estimator import ModalPredictor, transfer_network
 from robolobe.tl.graybox import DEFAULT_PARAMS, TwinCalibration
 from robolobe.tl.residual import CorrectedTwin
 
-__all__ = ["METHODS", "MIN_POSTURES", "checked_dataset", "default_method", "transfer"]
+__all__ = [
+    "METHODS",
+    "MIN_POSTURES",
+    "check_mode_masses",
+    "checked_dataset",
+    "default_method",
+    "transfer",
+]
 
 METHODS: tuple[str, ...] = ("corrected-twin", "twin-calibration", "network")
 """The predictors :func:`transfer` makes."""
@@ -119,8 +127,11 @@ def checked_dataset(
     ------
     InputError
         Too few postures, postures outside the limits, repeated postures, a
-        mode no posture has; a TrustWarning for missing values.
+        mode no posture has, a driving-point mode lighter than the robot's end
+        effector allows (:func:`check_mode_masses`); a TrustWarning for missing values.
     """
+    if robot is not None:
+        check_mode_masses(df, name, robot)
     ds = dataset_from_frame(df, directions=tuple(directions), n_modes=n_modes, source=name)
     check_dataset(
         ds,
@@ -130,6 +141,41 @@ def checked_dataset(
         source=name,
     )
     return ds
+
+
+_DIR_AXIS = {"x": 0, "y": 1, "z": 2}
+
+
+def check_mode_masses(df: pd.DataFrame, name: str, robot: Robot) -> None:
+    """Refuse a driving-point mode lighter than the robot's end effector allows (N/mm).
+
+    A mode's tip-normalised modal mass ``k / (2 pi f)^2`` is no smaller than the
+    end effector's effective mass at the TCP
+    (:meth:`~robolobe.robots.model.Robot.tcp_effective_mass_kg`); a stiffness
+    written in N/mm makes it 1000 times lighter
+    (:func:`robolobe._frf_checks.robot_mode_mass_problem`).
+
+    Raises
+    ------
+    InputError
+        Naming the file, the posture, direction and mode, expected vs found.
+    """
+    if not {"dir", "f_hz", "k_N_per_m"} <= set(df.columns):
+        return  # the dataset reader names the missing columns
+    m_ee = robot.tcp_effective_mass_kg()
+    dirs = df["dir"].astype(str).str.lower()
+    f = pd.to_numeric(df["f_hz"], errors="coerce").to_numpy(dtype=np.float64)
+    k = pd.to_numeric(df["k_N_per_m"], errors="coerce").to_numpy(dtype=np.float64)
+    for i, d in enumerate(dirs):
+        if len(d) != 2 or d[0] != d[1] or d[0] not in _DIR_AXIS:
+            continue
+        problem = robot_mode_mass_problem(f[i], k[i], float(m_ee[_DIR_AXIS[d[0]]]), d)
+        if problem is not None:
+            row = df.iloc[i]
+            where = ", ".join(
+                f"{c} {row[c]}" for c in ("posture_id", "dir", "mode") if c in df.columns
+            )
+            raise InputError(f"k_N_per_m ({where}) on robot {robot.name!r}: {problem}", source=name)
 
 
 def _check_network_modes(
