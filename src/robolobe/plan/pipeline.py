@@ -50,6 +50,7 @@ from robolobe.plan.job import Job, load_job
 from robolobe.plan.limits import ProcessLimits, process_limits
 from robolobe.plan.lobes import DynamicsTolerance, GroupedLobes, steep_members, waypoint_lobes
 from robolobe.plan.modes import (
+    MODE_STRIDE,
     CorrectedTwinSource,
     ModeSource,
     RobotModes,
@@ -57,6 +58,7 @@ from robolobe.plan.modes import (
     TwinSource,
     as_mode_source,
     bound_scenario,
+    interpolated_modes,
     mode_source,
     plan_bound,
 )
@@ -592,6 +594,9 @@ _STREAM_MIN = 4 * _CHUNK
 #: Waypoints per chunk of the streamed pass: each thread holds one chunk's temporaries
 #: (the twin's ~10 kB per posture), which add to the peak.
 _STREAM_CHUNK = _CHUNK // 2
+#: Exact modes at every so many postures of a streamed chunk, interpolated between
+#: where checked (:func:`~robolobe.plan.modes.interpolated_modes`); 1: all exact.
+_MODE_STRIDE = MODE_STRIDE
 
 
 @dataclass(frozen=True)
@@ -749,7 +754,7 @@ def _streamed_lobes(
 
     def work(c0: int) -> tuple[RobotModes, FloatArray]:
         rows = slice(c0, c0 + _STREAM_CHUNK)
-        md = source.predict(q[rows])
+        md = interpolated_modes(source, q[rows], tol, _MODE_STRIDE)
         rot = feed_frame(f_use[rows], (0.0, 0.0, -1.0), rotation="cw")
         model = tool_point_model(rot, md.model, tool)
         b = ~unb[rows]
