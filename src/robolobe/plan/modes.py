@@ -48,6 +48,8 @@ if TYPE_CHECKING:
     from robolobe.plan.lobes import DynamicsTolerance
 
 __all__ = [
+    "MODE_INTERP_FRACTION",
+    "MODE_STRIDE",
     "CorrectedTwinSource",
     "ModeSource",
     "ParametersSource",
@@ -57,6 +59,7 @@ __all__ = [
     "TwinSource",
     "as_mode_source",
     "bound_scenario",
+    "interpolated_modes",
     "mode_source",
     "model_file_source",
     "plan_bound",
