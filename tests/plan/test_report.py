@@ -261,36 +261,3 @@ def test_margin_runs_colour_every_move_as_the_norm_does():
         per_move[i0 : i0 + len(line) - 1] = c
         np.testing.assert_array_equal(line[:, 1], 2 * line[:, 0])
     np.testing.assert_array_equal(per_move, cls)
-
-
-@pytest.mark.parametrize("rows", [1, 7, 64])
-def test_write_csv_in_blocks_writes_the_bytes_of_one_write(tmp_path, monkeypatch, rows):
-    """A table written in blocks (on two threads) is byte for byte pyarrow's one write of
-    the whole table: the header once, NaN and None empty, strings quoted where needed,
-    a column that is empty in some block written as in the whole table."""
-    pa = pytest.importorskip("pyarrow")
-    pacsv = pytest.importorskip("pyarrow.csv")
-    n = 50
-    rng = np.random.default_rng(1)
-    df = pd.DataFrame(
-        {
-            "source": np.array(["a.nc", 'q"x,y.nc'] * (n // 2), dtype=object),
-            "line": np.arange(n),
-            "x_mm": rng.normal(size=n) * 1e3,
-            "gap": np.where(np.arange(n) < 20, np.nan, 1.0 / 3.0),
-            "limiting": np.array(["lobes", "", None, "depth_max", "rapid"] * (n // 5), object),
-        }
-    )
-    monkeypatch.setattr(report, "CSV_BLOCK_ROWS", rows)
-    report.write_csv(df, tmp_path / "blocks.csv")
-    pacsv.write_csv(
-        pa.Table.from_pandas(df, preserve_index=False),
-        tmp_path / "one.csv",
-        write_options=pacsv.WriteOptions(quoting_style="needed"),
-    )
-    got = (tmp_path / "blocks.csv").read_bytes()
-    assert got == (tmp_path / "one.csv").read_bytes()
-    assert got.count(b'"source"') == 1
-    assert got.count(b"\n") == n + 1
-    back = pd.read_csv(tmp_path / "blocks.csv")
-    np.testing.assert_array_equal(back["x_mm"].to_numpy(), df["x_mm"].to_numpy())
