@@ -118,41 +118,6 @@ def _children_cpu() -> float:
 
 
 @contextlib.contextmanager
-def _engagement_timed(cpu: bool = False) -> Iterator[dict[str, float]]:
-    """Seconds of the plan's engagement stage (``plan_engagement``, before issue 26
-    ``stock_engagement``) into the dict yielded (CPU seconds with ``cpu``)."""
-    name = "plan_engagement" if hasattr(_pipeline, "plan_engagement") else "stock_engagement"
-    inner = getattr(_pipeline, name)
-    got: dict[str, float] = {}
-    clock = time.process_time if cpu else time.perf_counter
-
-    def timed(*args: Any, **kwargs: Any) -> Any:
-        t = clock()
-        out = inner(*args, **kwargs)
-        if out is not None and (not isinstance(out, tuple) or out[0] is not None):
-            got["engagement"] = got.get("engagement", 0.0) + clock() - t
-        return out
-
-    setattr(_pipeline, name, timed)
-    try:
-        yield got
-    finally:
-        setattr(_pipeline, name, inner)
-
-
-def _with_engagement(timings: dict[str, float], got: dict[str, float]) -> dict[str, float]:
-    """The plan's stage timings with the engagement stage after ``read`` (when it ran)."""
-    if "engagement" in timings or "engagement" not in got:
-        return dict(timings)
-    out: dict[str, float] = {}
-    for k, v in timings.items():
-        out[k] = v
-        if k == "read":
-            out["engagement"] = got["engagement"]
-    return out
-
-
-@contextlib.contextmanager
 def _stage_cpu(on: bool) -> Iterator[None]:
     """With ``on``, the plan's stage timings are CPU seconds of the process (all threads).
 
@@ -182,13 +147,14 @@ def _with_stock(job: Job) -> Job:
 def _timed_plan(path: Path, job: Any, out: Path) -> tuple[Any, dict[str, float]]:
     t0 = time.perf_counter()
     c0 = time.process_time() + _children_cpu()
-    with PlotWorker() as worker, _engagement_timed() as eng:  # plots drawn on the other core
+    with PlotWorker() as worker:  # plots drawn on the other core
         res = plan_path(path, job)
         t1 = time.perf_counter()
         write_outputs(res, out, plots=True, html_report=False, worker=worker)
     t2 = time.perf_counter()
     cpu = time.process_time() + _children_cpu() - c0  # the plot worker's CPU included
-    st = {**_with_engagement(res.timings, eng), "outputs": t2 - t1, "total": t2 - t0, "cpu": cpu}
+    # the plan records its stages (the engagement stage after read)
+    st = {**res.timings, "outputs": t2 - t1, "total": t2 - t0, "cpu": cpu}
     return res, st
 
 
@@ -298,7 +264,7 @@ def part_long(
     rss0 = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
     t0 = time.perf_counter()
     c0 = time.process_time()
-    with _engagement_timed(cpu_stages) as eng, _stage_cpu(cpu_stages):
+    with _stage_cpu(cpu_stages):
         res = plan_path(path, job)
     t1 = time.perf_counter()
     c1 = time.process_time()
@@ -320,7 +286,7 @@ def part_long(
         f"{s.n_dynamics_groups} distinct dynamics, cores {os.cpu_count()}, {_load()}"
         + (", [stock] engagement" if stock else "")
     )
-    stages = _with_engagement(res.timings, eng)
+    stages = dict(res.timings)
     if cpu_stages:
         print(f"  (stages in CPU seconds, all threads; plan CPU {c1 - c0:.2f} s)")
         for k, v in stages.items():

@@ -372,3 +372,30 @@ def test_limit_slacks_name_the_least_slack_and_leave_out_a_fixed_depth():
     assert lab[2] == "rpm_max"
     mins = np.min(np.stack(list(fixed.values())), axis=0)
     assert all((lab[k] == "schedule") == (mins[k] > 0.01) for k in range(3))
+
+
+def test_lobe_table_query_pads_groups_by_their_own_number_of_speeds():
+    """Each waypoint's limit at its own speed (as the grid interpolation, via ``exact``),
+    with the rows asked of ``exact`` padded to at most twice each group's distinct
+    speeds: one busy group does not pad every other group to its count."""
+    rng = np.random.default_rng(4)
+    rpm = np.linspace(5000.0, 25000.0, 81)
+    n_groups = 300
+    a_grid = 1e-3 * (1.5 + np.sin(rpm[None, :] / 900.0 + np.arange(n_groups)[:, None]))
+    busy = np.zeros(20_000, np.int64)  # group 0: 20,000 moves at distinct speeds
+    quiet = np.repeat(np.arange(1, n_groups), 3)  # the others: 3 moves at 1-3 speeds
+    group = rng.permutation(np.r_[busy, quiet])
+    speeds = np.where(group == 0, rng.uniform(5000.0, 25000.0, group.size), 0.0)
+    speeds = np.where(group == 0, speeds, 6000.0 + 1000.0 * rng.integers(0, 3, group.size))
+    asked = []
+
+    def exact(rows, groups):
+        asked.append(rows.size)
+        return np.array([np.interp(r, rpm, a_grid[g]) for r, g in zip(rows, groups, strict=True)])
+
+    tab = LobeTable(rpm=rpm, a_lim=a_grid, group=group, exact=exact)
+    got = tab.query(speeds)
+    want = np.array([np.interp(s, rpm, a_grid[g]) for s, g in zip(speeds, group, strict=True)])
+    np.testing.assert_array_equal(got, want)
+    pairs = np.unique(np.c_[group, speeds], axis=0).shape[0]
+    assert sum(asked) <= 2 * pairs  # not n_groups x 20,000

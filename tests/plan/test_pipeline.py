@@ -358,6 +358,65 @@ def test_tool_point_models_in_chunks_equal_one_call(pocket, pocket_job, monkeypa
         np.testing.assert_array_equal(getattr(got, name), getattr(ref, name))
 
 
+def _zigzag(tmp_path, pocket_job, n_x=200):
+    """A 6-line zig-zag of ``6 n_x`` cutting moves with plunges (the streamed tests' path)."""
+    lines = ["G90 G21 G17", "S18000 M3", "G0 X0. Y0. Z5.", "G1 Z-1. F1000."]
+    for k in range(6):
+        xs = np.linspace(0.0, 300.0, n_x)[:: -1 if k % 2 else 1]
+        lines += [f"Y{8.0 * k:.3f}"] if k else []
+        lines += [f"X{x:.3f} F4000." for x in xs]
+        lines += ["G1 Z-1.5 F500.", "G1 Z-1. F500."]  # plunges: unbounded rows
+    path = tmp_path / "zz.nc"
+    path.write_text("\n".join([*lines, "G0 Z5.", "M30"]) + "\n", encoding="utf-8")
+    pl = pocket_job.placement.copy()
+    pl[:3, 3] = [1.55, -0.15, 0.30]
+    return path, pocket_job.replace(placement=pl, model="twin")
+
+
+@pytest.mark.slow
+def test_streamed_path_with_interpolated_modes_plans_as_in_memory(
+    tmp_path, pocket_job, monkeypatch
+):
+    """Streamed with the modes exact at every 8th posture and interpolated where checked
+    (:func:`robolobe.plan.modes.interpolated_modes`): far fewer postures predicted, the
+    table's modes within the stated tolerance of every posture's exact modes, and each
+    move's stated limit within 0.5 % of the plan with exact modes at the same speed."""
+    from robolobe.plan import pipeline
+    from robolobe.plan.lobes import DynamicsTolerance
+    from robolobe.plan.modes import MODE_INTERP_FRACTION
+
+    path, job = _zigzag(tmp_path, pocket_job, n_x=1500)
+    ref = plan_path(path, job)
+    seen = []
+    inner = TwinSource.predict
+
+    def counted(self, q_rad):
+        seen.append(len(q_rad))
+        return inner(self, q_rad)
+
+    monkeypatch.setattr(TwinSource, "predict", counted)
+    monkeypatch.setattr(pipeline, "_STREAM_MIN", 500)
+    monkeypatch.setattr(pipeline, "_STREAM_CHUNK", 2000)
+    monkeypatch.setattr(pipeline, "_MODE_STRIDE", 8)
+    got = plan_path(path, job)
+    n_cut = int(np.sum(ref.table["motion"] == "cut"))
+    assert sum(seen) < n_cut / 2  # (the leaders' models made again included)
+    tol, fr = DynamicsTolerance(), MODE_INTERP_FRACTION
+    cut = (ref.table["motion"] == "cut").to_numpy()
+    for c in ref.table.columns:
+        if re.fullmatch(r"(f|zeta)\d_[xyz](_hz)?", c):
+            a, b = got.table[c].to_numpy()[cut], ref.table[c].to_numpy()[cut]
+            allowed = fr * (tol.freq if c.startswith("f") else tol.damping)
+            assert np.max(np.abs(a / b - 1.0)) <= allowed, c
+    # each move's limit at the plan's own speeds from the exact plan's lobes
+    a_got = got.table["a_lim_mm"].to_numpy()[cut]
+    a_ref = ref.lobes.table.query(got.table["rpm"].to_numpy()[cut]) * 1e3
+    ok = np.isfinite(a_ref) & np.isfinite(a_got)
+    assert ok.sum() > 0.9 * n_cut
+    assert np.max(a_got[ok] / a_ref[ok]) <= 1.005
+    assert np.min(a_got[ok] / a_ref[ok]) >= 0.99
+
+
 @pytest.mark.slow
 @pytest.mark.parametrize("threads", [1, 2])
 def test_streamed_long_path_plans_as_in_memory(tmp_path, pocket_job, monkeypatch, threads):
@@ -368,18 +427,9 @@ def test_streamed_long_path_plans_as_in_memory(tmp_path, pocket_job, monkeypatch
     from robolobe.plan import lobes as lobes_mod
     from robolobe.plan import pipeline
 
-    lines = ["G90 G21 G17", "S18000 M3", "G0 X0. Y0. Z5.", "G1 Z-1. F1000."]
-    for k in range(6):
-        xs = np.linspace(0.0, 300.0, 200)[:: -1 if k % 2 else 1]
-        lines += [f"Y{8.0 * k:.3f}"] if k else []
-        lines += [f"X{x:.3f} F4000." for x in xs]
-        lines += ["G1 Z-1.5 F500.", "G1 Z-1. F500."]  # plunges: unbounded rows
-    path = tmp_path / "zz.nc"
-    path.write_text("\n".join([*lines, "G0 Z5.", "M30"]) + "\n", encoding="utf-8")
-    pl = pocket_job.placement.copy()
-    pl[:3, 3] = [1.55, -0.15, 0.30]
-    job = pocket_job.replace(placement=pl, model="twin")
+    path, job = _zigzag(tmp_path, pocket_job)
     monkeypatch.setattr(pipeline, "_THREADS", threads)
+    monkeypatch.setattr(pipeline, "_MODE_STRIDE", 1)  # every posture's exact modes
     monkeypatch.setattr(pipeline, "_CHUNK", 97)  # chunks that do not divide the path
     monkeypatch.setattr(pipeline, "_STREAM_CHUNK", 89)
     monkeypatch.setattr(lobes_mod, "_BLOCK", 101)  # the in-place compaction in blocks

@@ -31,7 +31,7 @@ import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Protocol
+from typing import TYPE_CHECKING, Protocol
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -44,7 +44,12 @@ from robolobe.robots.model import Robot
 from robolobe.sld.frf import ModalModel
 from robolobe.twin.effects import Effect
 
+if TYPE_CHECKING:
+    from robolobe.plan.lobes import DynamicsTolerance
+
 __all__ = [
+    "MODE_INTERP_FRACTION",
+    "MODE_STRIDE",
     "CorrectedTwinSource",
     "ModeSource",
     "ParametersSource",
@@ -54,6 +59,7 @@ __all__ = [
     "TwinSource",
     "as_mode_source",
     "bound_scenario",
+    "interpolated_modes",
     "mode_source",
     "model_file_source",
     "plan_bound",
@@ -841,3 +847,203 @@ def model_file_source(pred: object, file_name: str) -> ModeSource:
     if isinstance(pred, CorrectedTwin):
         return CorrectedTwinSource(pred, f"corrected twin {file_name}")
     return PredictorSource(pred, f"tl model {file_name}")
+
+
+#: Exact modes at every ``MODE_STRIDE``-th posture of a long path (and a check posture
+#: inside each interval): :func:`interpolated_modes`.
+MODE_STRIDE = 32
+#: Interpolated modes agree with the exact ones at each interval's check posture within
+#: this fraction of the lobe-grouping tolerance (:class:`~robolobe.plan.lobes.DynamicsTolerance`).
+MODE_INTERP_FRACTION = 0.02
+
+
+def _mode_arrays(md: RobotModes) -> dict[str, FloatArray]:
+    """The per-posture arrays of ``md`` that :func:`interpolated_modes` interpolates
+    (stiffness as compliance ``1/k``: ``inf`` is 0, and it is what the lobes see)."""
+    p, m = md.parameters, md.model
+    with np.errstate(divide="ignore"):
+        c = 1.0 / p.k_N_per_m
+    out = {
+        "f": np.asarray(p.f_hz),
+        "zeta": np.asarray(p.zeta),
+        "c": c,
+        "omega": np.asarray(m.omega),
+        "mzeta": np.asarray(m.zeta),
+        "res": np.asarray(m.residues),
+    }
+    if p.log_std is not None:
+        out["log_std"] = np.asarray(p.log_std)
+    if md.extrapolation is not None:
+        out["extrapolation"] = np.asarray(md.extrapolation)
+    return out
+
+
+def _interp_errors(
+    got: dict[str, FloatArray], want: dict[str, FloatArray], tol: DynamicsTolerance
+) -> FloatArray:
+    """Per posture, the largest error of ``got`` against ``want`` in units of the
+    allowed error (:data:`MODE_INTERP_FRACTION` of the grouping tolerance ``tol``);
+    ``inf`` where the finite/non-finite pattern differs or a value is non-finite."""
+    fr = MODE_INTERP_FRACTION
+    n = want["f"].shape[0]
+    err = np.zeros(n)
+
+    def worst(e: FloatArray) -> FloatArray:
+        return np.asarray(np.fmax.reduce(e.reshape(n, -1), axis=1, initial=0.0))
+
+    def relative(name: str, allowed: float) -> None:
+        a, b = got[name], want[name]
+        bad = np.isfinite(a) != np.isfinite(b)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            e = np.abs(a - b) / (np.abs(b) * allowed)
+        e = np.where(np.isfinite(b), e, 0.0)
+        err[:] = np.maximum(err, np.where(bad.reshape(n, -1).any(axis=1), np.inf, worst(e)))
+
+    relative("f", fr * tol.freq)
+    relative("zeta", fr * tol.damping)
+    relative("omega", fr * tol.freq)
+    relative("mzeta", fr * tol.damping)
+    # compliance per direction against the mode's largest (a tiny one is irrelevant)
+    c_got, c_want = got["c"], want["c"]
+    scale = np.fmax.reduce(np.abs(c_want), axis=1, keepdims=True) * fr * tol.residue
+    with np.errstate(invalid="ignore", divide="ignore"):
+        e = np.abs(c_got - c_want) / scale
+    bad = np.isfinite(c_got) != np.isfinite(c_want)
+    err = np.maximum(err, np.where(bad.reshape(n, -1).any(axis=1), np.inf, worst(e)))
+    # residues: entries against the mode's trace (its size), a quarter of the residue
+    # tolerance as the grouping features' direction entries
+    r_got, r_want = got["res"], want["res"]
+    tr = np.abs(np.trace(r_want, axis1=-2, axis2=-1))[..., None, None]
+    with np.errstate(invalid="ignore", divide="ignore"):
+        e = np.abs(r_got - r_want) / (tr * fr * tol.residue / 4.0)
+    bad = ~np.isfinite(r_got) | ~np.isfinite(r_want)
+    err = np.maximum(err, np.where(bad.reshape(n, -1).any(axis=1), np.inf, worst(e)))
+    for name in ("log_std", "extrapolation"):  # absolute: 1e-3 (log units, joint ranges)
+        if name in want:
+            e = np.abs(got[name] - want[name]) / 1e-3
+            e = np.where(np.isfinite(e), e, np.where(np.isnan(want[name]), 0.0, np.inf))
+            err = np.maximum(err, worst(e))
+    return err
+
+
+def _rebuild(md: RobotModes, arrs: dict[str, FloatArray], q: FloatArray) -> RobotModes:
+    """``md``'s fields with the arrays of :func:`_mode_arrays` ``arrs`` (postures ``q``)."""
+    p = md.parameters
+    with np.errstate(divide="ignore"):
+        k = 1.0 / arrs["c"]
+    params = dataclasses.replace(
+        p,
+        f_hz=arrs["f"],
+        zeta=arrs["zeta"],
+        k_N_per_m=k,
+        log_std=arrs.get("log_std"),
+        q_rad=None if p.q_rad is None else q,
+    )
+    model = ModalModel(arrs["omega"], arrs["mzeta"], arrs["res"])
+    return dataclasses.replace(
+        md, parameters=params, model=model, extrapolation=arrs.get("extrapolation")
+    )
+
+
+def interpolated_modes(
+    source: ModeSource,
+    q_rad: FloatArray,
+    tol: DynamicsTolerance | None = None,
+    stride: int = MODE_STRIDE,
+) -> RobotModes:
+    """The modes of consecutive postures of a path, exact at some and interpolated between.
+
+    The modes are predicted exactly at every ``stride``-th posture (knots)
+    and at one check posture inside each interval between knots (the one
+    nearest the interval's middle in joint-space path length). Where the
+    linear interpolation between the knots (in joint-space path length)
+    agrees with the exact modes at the check posture within
+    :data:`MODE_INTERP_FRACTION` of the lobe-grouping tolerance ``tol``
+    (:class:`~robolobe.plan.lobes.DynamicsTolerance`: frequency and damping
+    ratio relative, the compliance ``1/k`` per direction against the mode's
+    largest, each residue entry against the mode's trace, the spread and
+    the extrapolation to 1e-3), the interval's other postures are
+    interpolated piecewise linearly through the knots and the check
+    posture; elsewhere (a mode crossing, a fast change, a check posture off
+    the middle, a non-finite value) every posture of the interval is
+    predicted exactly. For modes that vary smoothly along the path the
+    error between the exact postures is then about a quarter of the error
+    checked (half the spacing).
+
+    Parameters
+    ----------
+    source : ModeSource
+    q_rad : ndarray, shape (n, 6)
+        Postures in path order [rad].
+    tol : DynamicsTolerance, optional
+        The grouping tolerance of the lobes these modes feed (default: its
+        defaults); an exact one (all zero) predicts every posture exactly.
+    stride : int
+        Postures per interval; 1 (or a path shorter than ``4 * stride``):
+        every posture exact.
+
+    Returns
+    -------
+    RobotModes
+        As ``source.predict(q_rad)``, within the tolerance above.
+    """
+    from robolobe.plan.lobes import DynamicsTolerance
+
+    tol = DynamicsTolerance() if tol is None else tol
+    q = np.asarray(q_rad, dtype=np.float64).reshape(-1, 6)
+    n = q.shape[0]
+    if stride < 2 or n < 4 * stride or tol.exact or min(tol.freq, tol.damping, tol.residue) <= 0:
+        return source.predict(q)
+    s = np.r_[0.0, np.cumsum(np.linalg.norm(np.diff(q, axis=0), axis=1))]
+    knots = np.r_[np.arange(0, n - 1, stride), n - 1]
+    a, b = knots[:-1], knots[1:]
+    inner = b - a >= 2
+    a, b = a[inner], b[inner]
+    half = 0.5 * (s[a] + s[b])
+    c = np.clip(np.searchsorted(s, half), a + 1, b - 1)
+    left = np.maximum(c - 1, a + 1)
+    c = np.where(np.abs(s[left] - half) < np.abs(s[c] - half), left, c)
+    span = s[b] - s[a]
+    with np.errstate(invalid="ignore", divide="ignore"):
+        w = np.where(span > 0, (s[c] - s[a]) / span, (c - a) / (b - a))
+    exact = np.union1d(knots, c)
+    md = source.predict(q[exact])
+    if md.parameters.posture_ids is not None:  # named postures: not interpolated
+        return source.predict(q)
+    arrs = _mode_arrays(md)
+    at = {name: v[np.searchsorted(exact, c)] for name, v in arrs.items()}
+    va = {name: v[np.searchsorted(exact, a)] for name, v in arrs.items()}
+    vb = {name: v[np.searchsorted(exact, b)] for name, v in arrs.items()}
+    guess = {}
+    for name in arrs:
+        ww = w.reshape(-1, *([1] * (arrs[name].ndim - 1)))
+        guess[name] = va[name] + ww * (vb[name] - va[name])
+    ok = (_interp_errors(guess, at, tol) <= 1.0) & (w >= 0.25) & (w <= 0.75)
+    redo = [np.arange(i + 1, j) for i, j in zip(a[~ok], b[~ok], strict=True)]
+    more = np.setdiff1d(np.concatenate(redo), exact) if redo else np.empty(0, np.int64)
+    if more.size:
+        # all postures of the intervals that failed: exact
+        md2 = source.predict(q[more])
+        arrs2 = _mode_arrays(md2)
+        allx = np.r_[exact, more]
+        order = np.argsort(allx, kind="stable")
+        exact = allx[order]
+        arrs = {k: np.concatenate([arrs[k], arrs2[k]])[order] for k in arrs}
+    if exact.size == n:
+        return _rebuild(md, arrs, q)
+    # every other posture: linear between its exact neighbours (in path length)
+    rest = np.setdiff1d(np.arange(n), exact)
+    j = np.searchsorted(exact, rest)
+    lo, hi = exact[j - 1], exact[j]
+    span = s[hi] - s[lo]
+    with np.errstate(invalid="ignore", divide="ignore"):
+        t = np.where(span > 0, (s[rest] - s[lo]) / span, 0.0)
+    out = {}
+    for name, v in arrs.items():
+        full = np.empty((n, *v.shape[1:]))
+        full[exact] = v
+        tt = t.reshape(-1, *([1] * (v.ndim - 1)))
+        v_lo, v_hi = v[j - 1], v[j]
+        full[rest] = v_lo + tt * (v_hi - v_lo)
+        out[name] = full
+    return _rebuild(md, out, q)

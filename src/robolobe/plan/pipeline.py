@@ -50,6 +50,7 @@ from robolobe.plan.job import Job, check_tool_modes_on, load_job
 from robolobe.plan.limits import ProcessLimits, process_limits
 from robolobe.plan.lobes import DynamicsTolerance, GroupedLobes, steep_members, waypoint_lobes
 from robolobe.plan.modes import (
+    MODE_STRIDE,
     CorrectedTwinSource,
     ModeSource,
     RobotModes,
@@ -57,6 +58,7 @@ from robolobe.plan.modes import (
     TwinSource,
     as_mode_source,
     bound_scenario,
+    interpolated_modes,
     mode_source,
     plan_bound,
 )
@@ -558,9 +560,8 @@ def _lobes_for_rotation(
         angles = (eng.phi_entry[ci], eng.phi_exit[ci])
         air = ~eng.engaged[ci]
     if ci.size >= _STREAM_MIN:
-        q_cut = q if ci.size == q.shape[0] else q[ci]  # (not a copy of every posture)
         streamed = _streamed_lobes(
-            job, source, q_cut, f_tcp, material, tool, rpm, ci, len(wp), angles, air
+            job, source, q, f_tcp, material, tool, rpm, ci, len(wp), angles, air
         )
         if streamed is not None:
             cols, plunge, grouped, t_lobes, feed_angle, split_s = streamed
@@ -599,6 +600,9 @@ _STREAM_MIN = 4 * _CHUNK
 #: Waypoints per chunk of the streamed pass: each thread holds one chunk's temporaries
 #: (the twin's ~10 kB per posture), which add to the peak.
 _STREAM_CHUNK = _CHUNK // 2
+#: Exact modes at every so many postures of a streamed chunk, interpolated between
+#: where checked (:func:`~robolobe.plan.modes.interpolated_modes`); 1: all exact.
+_MODE_STRIDE = MODE_STRIDE
 
 
 @dataclass(frozen=True)
@@ -640,8 +644,10 @@ class _StreamedModels:
     Parameters
     ----------
     source : ModeSource
-    q : ndarray, shape (n, 6)
-        Cutting postures [rad].
+    q : ndarray, shape (n_rows, 6)
+        Postures of every waypoint [rad].
+    rows : ndarray of int, shape (n,)
+        The cutting waypoints' rows of ``q`` (not a copy of their postures).
     f_use : ndarray, shape (n, 3)
         Feed directions in the TCP frame (plunges replaced, as in :func:`cut_lobes`).
     tool : ModalModel or None
@@ -650,16 +656,21 @@ class _StreamedModels:
     dim = 2
 
     def __init__(
-        self, source: ModeSource, q: FloatArray, f_use: FloatArray, tool: ModalModel | None
+        self,
+        source: ModeSource,
+        q: FloatArray,
+        rows: NDArray[np.int64],
+        f_use: FloatArray,
+        tool: ModalModel | None,
     ) -> None:
-        self.source, self.q, self.f_use, self.tool = source, q, f_use, tool
-        self.batch_shape = (int(q.shape[0]),)
+        self.source, self.q, self.rows, self.f_use, self.tool = source, q, rows, f_use, tool
+        self.batch_shape = (int(rows.shape[0]),)
         # the last models taken: the lobes take the leaders', the steep-wall split
         # takes them again with a few more (only those are made)
         self._last: tuple[NDArray[np.int64], ModalModel] | None = None
 
     def _make(self, idx: NDArray[np.int64]) -> ModalModel:
-        modes = _predict_modes(self.source, self.q[idx])
+        modes = _predict_modes(self.source, self.q[self.rows[idx]])
         rot = feed_frame(self.f_use[idx], (0.0, 0.0, -1.0), rotation="cw")
         return _tool_point_models(rot, modes.model, self.tool)
 
@@ -723,8 +734,9 @@ def _streamed_lobes(
     (:class:`_StreamedModels`). The same groups, lobes and columns as
     :func:`cut_lobes` after :func:`_predict_modes` (every step is per
     waypoint). ``cut_rows`` (n,): the waypoint table's row of each cutting
-    waypoint, of ``n_rows``. ``angles`` and ``air``: each cutting waypoint's
-    own engagement (:func:`cut_lobes`).
+    waypoint, of ``n_rows``; ``q`` (n_rows, 6): every waypoint's posture (the
+    cutting ones read through ``cut_rows``, not copied). ``angles`` and
+    ``air``: each cutting waypoint's own engagement (:func:`cut_lobes`).
 
     Returns
     -------
@@ -740,7 +752,7 @@ def _streamed_lobes(
     from robolobe.sld.directional import directional_factors
 
     t = time.perf_counter()
-    n = q.shape[0]
+    n = int(cut_rows.size)
     plunge = _feed_lateral(f_tcp) < PLUNGE_LATERAL
     f_use = np.where(plunge[:, None], [[1.0, 0.0, 0.0]], f_tcp)
     args = _lobe_args(job, material, rpm, engagement=angles)
@@ -756,7 +768,7 @@ def _streamed_lobes(
 
     def work(c0: int) -> tuple[RobotModes, FloatArray]:
         rows = slice(c0, c0 + _STREAM_CHUNK)
-        md = source.predict(q[rows])
+        md = interpolated_modes(source, q[cut_rows[rows]], tol, _MODE_STRIDE)
         rot = feed_frame(f_use[rows], (0.0, 0.0, -1.0), rotation="cw")
         model = tool_point_model(rot, md.model, tool)
         b = ~unb[rows]
@@ -814,7 +826,7 @@ def _streamed_lobes(
     timings = {"modes": time.perf_counter() - t, "frf": 0.0}
     t = time.perf_counter()
     # waypoint_lobes needs only dim, batch_shape and take of the models given features
-    models = cast("ModalModel", _StreamedModels(source, q, f_use, tool))
+    models = cast("ModalModel", _StreamedModels(source, q, cut_rows, f_use, tool))
     grouped = waypoint_lobes([models], unbounded=unb, features=held.pop(), **args)
     timings["lobes"] = time.perf_counter() - t
     feed_angle = np.degrees(np.arctan2(f_use[:, 1], f_use[:, 0]))

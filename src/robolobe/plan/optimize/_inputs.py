@@ -250,14 +250,21 @@ class LobeTable:
         g = gs[new].astype(np.int64)
         used, slot = np.unique(g, return_inverse=True)
         counts = np.bincount(slot)
-        m = int(counts.max())
         start = np.concatenate([[0], np.cumsum(counts)[:-1]])
         pos = np.arange(us.size) - start[slot]
-        rows = np.empty((used.size, m))
-        rows[:] = us[start][:, None]  # pad with the group's first speed
-        rows[slot, pos] = us
-        vals = self.rows(rows, used)
-        return vals[slot, pos][inv]
+        out = np.empty(us.size)
+        # groups of similar counts together (counts up to each power of 2): the padded
+        # rows hold at most twice the pairs, not every group at the busiest group's count
+        width = 1 << np.ceil(np.log2(counts)).astype(np.int64)
+        for m in np.unique(width):
+            sel = np.flatnonzero(width == m)
+            rows = np.empty((sel.size, int(m)))
+            rows[:] = us[start[sel]][:, None]  # pad with the group's first speed
+            here = np.isin(slot, sel)
+            local = np.searchsorted(sel, slot[here])
+            rows[local, pos[here]] = us[here]
+            out[here] = self.rows(rows, used[sel])[local, pos[here]]
+        return out[inv]
 
     def per_depth(self, share: ArrayLike, step: float = DEPTH_SHARE_STEP) -> LobeTable:
         """The table for a depth that differs per waypoint: ``share`` of one planned depth.
