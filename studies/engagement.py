@@ -58,7 +58,7 @@ import numpy as np
 
 from robolobe.plan.job import Job, load_job
 from robolobe.plan.paths import read_toolpath
-from robolobe.stock import compute_engagement, default_stock
+from robolobe.stock import LEVEL_TOL_M, compute_engagement, default_stock
 
 REPO = Path(__file__).resolve().parents[1]
 REALWORLD = REPO.parent / "shared" / "realworld" / "cam"
@@ -70,7 +70,7 @@ BUNDLED = {
 }
 REAL = ("freegroup_CamperGaskastenTuer.nc", "rustyford_Tenon_jig.ngc")
 
-LEVEL_TOL = 1e-5  # m, as robolobe.stock
+LEVEL_TOL = LEVEL_TOL_M  # m: one height, and material thinner than it (in z or x-y) is none
 TURN_COS = math.cos(math.radians(5.0))
 
 
@@ -194,12 +194,19 @@ class Reference:
 
 
 def reference_engagement(
-    xyz: np.ndarray, cut: np.ndarray, diameter: float, stock: Any, res: float, max_moves: int
+    xyz: np.ndarray,
+    cut: np.ndarray,
+    diameter: float,
+    stock: Any,
+    res: float,
+    max_moves: int,
+    first: int = 0,
 ) -> dict[str, np.ndarray]:
-    """The reference per move (NaN where not compared: plunges, moves past ``max_moves``)."""
+    """The reference per move (NaN where not compared: plunges, moves before ``first`` or
+    past ``max_moves``; the earlier moves still remove their material)."""
     n = len(xyz)
     r = 0.5 * diameter
-    lag, step, eps = 2.0 * res, 0.5 * r, 0.01 * res
+    lag, step, eps = 2.0 * res, 0.5 * r, max(0.01 * res, LEVEL_TOL)
     ref = Reference(stock, r, eps, res)
     cum = np.r_[0.0, np.cumsum(np.linalg.norm(np.diff(xyz, axis=0), axis=1))]
     entry = np.full(n, np.nan)
@@ -224,7 +231,8 @@ def reference_engagement(
         if lxy <= 1e-3 * res:
             last = np.zeros(2)
             continue
-        if done >= max_moves:
+        if done >= max_moves or i < first:
+            last = d[:2] / lxy
             continue
         done += 1
         f = d[:2] / lxy
@@ -249,6 +257,23 @@ def reference_engagement(
     while applied < n:
         applied += 1
     return {"entry": entry, "exit": exit_, "depth": depth, "arcs": arcs, "compared": compared}
+
+
+CLASSES = ("line", "arc", "ramp")
+
+
+def move_classes(xyz: np.ndarray, lines: np.ndarray) -> np.ndarray:
+    """Per move: ``"ramp"`` (the tip height changes by more than the level tolerance),
+    ``"arc"`` (one of the chords of a program line read as several moves) or ``"line"``."""
+    n = len(xyz)
+    out = np.full(n, "line", dtype="<U4")
+    same = np.zeros(n, bool)
+    same[1:] |= lines[1:] == lines[:-1]
+    same[:-1] |= lines[:-1] == lines[1:]
+    out[same] = "arc"
+    dz = np.r_[0.0, np.abs(np.diff(xyz[:, 2]))]
+    out[dz > LEVEL_TOL] = "ramp"
+    return out
 
 
 # ------------------------------------------------------------------ margins
@@ -347,6 +372,16 @@ def study(
         dd = np.abs(e.depth_m - ref["depth"])[both] * 1e3
         worst = np.maximum(de, dx)
         idx = np.flatnonzero(both)
+        kind = move_classes(xyz, lines)
+        classes = {}
+        for k in CLASSES:
+            sel = kind[idx] == k
+            classes[k] = {
+                "moves": int(sel.sum()),
+                "max_err_deg": float(worst[sel].max()) if sel.any() else 0.0,
+                "air_mismatch": int((air_mismatch & (kind == k)).sum()),
+            }
+        top = np.argsort(-worst)[:5]
         row: dict[str, Any] = {
             "program": name,
             "tool_mm": round(diameter * 1e3, 3),
@@ -361,6 +396,13 @@ def study(
             "over_2deg": int((worst > 2.0).sum()),
             "max_depth_err_mm": float(dd.max()) if dd.size else 0.0,
             "worst_line": f"{name}:{int(lines[idx[np.argmax(worst)]])}" if worst.size else "",
+            "classes": classes,
+            "worst_moves": [
+                f"{name}:{int(lines[idx[j]])} ({kind[idx[j]]}) {worst[j]:.2f} deg, depth "
+                f"{ref['depth'][idx[j]] * 1e3:.3f} mm"
+                for j in top
+                if worst[j] > 1.0
+            ],
             "cpu_s_engagement": round(t_prod, 3),
             "cpu_s_reference": round(t_ref, 1),
         }
@@ -412,6 +454,12 @@ def _line(r: dict[str, Any]) -> str:
             f"{m['own_min_line']}; {m['moves_below_safety_factor']} moves below the "
             f"safety factor {m['safety_factor']:g}"
         )
+    s += "\n    per class: " + "; ".join(
+        f"{k} {c['moves']} moves max {c['max_err_deg']:.2f} deg ({c['air_mismatch']} air in one)"
+        for k, c in r["classes"].items()
+    )
+    if r["worst_moves"]:
+        s += "\n    over 1 deg: " + "; ".join(r["worst_moves"])
     if r.get("air_mismatch_lines"):
         s += "\n    air in one only: " + ", ".join(r["air_mismatch_lines"])
     return s
@@ -422,18 +470,35 @@ def main() -> None:
     ap.add_argument("--max-moves", type=int, default=10**9, help="moves compared per program")
     ap.add_argument("--out", type=Path, help="write the rows as JSON")
     ap.add_argument(
-        "--cells", type=float, help="Z-map cells per tool diameter (default: robolobe's, 40)"
+        "--cells",
+        help="Z-map cells per tool diameter, one or a comma list for the convergence per move "
+        "class (default: robolobe's, 40)",
     )
     ap.add_argument("--only", help="only the programs whose name contains this")
     ap.add_argument(
         "--margins", action="store_true", help="bundled programs: margins at their own engagement"
     )
     args = ap.parse_args()
-    rows = study(args.max_moves, args.margins, args.cells, args.only)
-    worst = max((max(r["max_entry_err_deg"], r["max_exit_err_deg"]) for r in rows), default=0)
-    print(f"largest angle error over all programs: {worst:.3f} deg (goal: within 2 deg)")
+    cells = [float(c) for c in args.cells.split(",")] if args.cells else [None]
+    out: dict[str, Any] = {}
+    for c in cells:
+        rows = study(args.max_moves, args.margins, c, args.only)
+        worst = max((max(r["max_entry_err_deg"], r["max_exit_err_deg"]) for r in rows), default=0)
+        label = f"D/{c:g}" if c else "default"
+        print(f"{label}: largest angle error over all programs {worst:.3f} deg (goal: 2 deg)")
+        out[label] = rows
+    if len(cells) > 1:
+        print("convergence, max angle error [deg] per move class:")
+        for k, row in enumerate(out[next(iter(out))]):
+            for cls in CLASSES:
+                errs = [out[lab][k]["classes"][cls]["max_err_deg"] for lab in out]
+                print(
+                    f"  {row['program']:36s} {cls:5s} "
+                    + "  ".join(f"{lab} {e:6.3f}" for lab, e in zip(out, errs, strict=True))
+                )
     if args.out:
-        args.out.write_text(json.dumps(rows, indent=1), encoding="utf-8")
+        data = out["default"] if list(out) == ["default"] else out
+        args.out.write_text(json.dumps(data, indent=1), encoding="utf-8")
 
 
 if __name__ == "__main__":

@@ -174,3 +174,26 @@ def test_a_program_that_starts_with_a_cut_keeps_one_pass_there_and_is_written(tm
     assert res.summary.min_margin >= job.plan.safety_factor
     out = write_program(res, tmp_path / "out" / "prog")  # no passes to refuse
     assert out.is_file()
+
+
+@pytest.mark.parametrize(
+    ("dz_m", "steps_down"),
+    [(0.0, False), (1e-7, False), (5e-6, False), (9e-6, False), (2e-5, True), (1e-3, True)],
+)
+def test_which_sections_step_down_themselves(dz_m: float, steps_down: bool) -> None:
+    # one run of cutting moves whose tip heights differ by dz: float noise and a
+    # program's own rounding (4 decimals in inch: 2.5 um) are one height, the same
+    # height the stock's engagement calls one level; 20 um and more is a step down
+    depth = np.full(4, 3e-3)
+    z = np.array([-3e-3, -3e-3 + dz_m, -3e-3, -3e-3 + dz_m / 2])
+    pd_ = program_depth(depth, z, np.ones(4, bool), np.zeros(4, np.int64))
+    assert pd_ is not None
+    assert bool(pd_.fixed.all()) is steps_down
+    assert not (pd_.fixed.any() and not pd_.fixed.all())
+
+
+def test_one_level_tolerance_for_sections_and_the_stock() -> None:
+    from robolobe.plan import passes
+    from robolobe.stock import engagement
+
+    assert passes.LEVEL_TOL_M is engagement.LEVEL_TOL_M

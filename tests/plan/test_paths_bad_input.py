@@ -107,6 +107,9 @@ def test_cut_anywhere_never_tracebacks(tmp_path, ext):
         (".nc", "G0 X0\nG1 X10 F-5400\n", 2, "positive feed"),
         (".nc", "G0 X0\nG1 X10 F0\n", 2, "positive feed"),
         (".nc", "G0 X0\nS-18000 M3\n", 2, "S >= 0"),
+        (".nc", "G0 X0\nS0 M3\nG0 X5\nG1 X10 F100\n", 4, "found S0 (line 2)"),
+        (".nc", "S18000 M3\nG0 X0\nG1 X5 F100 S0\n", 3, "found S0 (line 3)"),
+        (".nc", "S0 M3\nG0 X0 Y0\nG2 X1 Y0 I0.5 J0 F100\n", 3, "S > 0 on a feed move"),
         (".nc", "G0 X0\nG1 X1E300\n", 2, "word E"),
         (".nc", "G0 X0\nG1 X99999999999 F100\n", 2, "magnitude"),
         (".nc", "G0 X0 Y0\nG2 X1 Y0 I0.5 J0 F100\nG2 X2 Y0 I0.3 F100\n", 3, "circle"),
@@ -154,3 +157,12 @@ def test_a_million_lines_within_limits(tmp_path):
     p = write(tmp_path, ".nc", "G21 G90\nG0 X0 Y0 Z0\nF1000\n" + block * 20 + "M30\n")
     df = read_toolpath(p)
     assert len(df) == 20001
+
+
+def test_spindle_speed_zero_is_refused_only_where_the_program_feeds(tmp_path):
+    # S0 with rapids only (or with the spindle off) is read: NaN, none programmed
+    wp = read_toolpath(write(tmp_path, ".nc", "G21 S0 M3\nG0 X0 Y0 Z5\nG0 X10\nM5\nG1 X20 F100\n"))
+    assert np.isnan(wp["rpm_programmed"]).all()
+    # a speed given again before the feed moves: they cut at it
+    wp = read_toolpath(write(tmp_path, ".nc", "G21 S0 M3\nG0 X0 Z5\nS12000\nG1 X20 F100\n"))
+    assert wp["rpm_programmed"].iloc[-1] == 12000.0

@@ -33,14 +33,13 @@ from numpy.typing import NDArray
 from robolobe.errors import InfeasibleError
 from robolobe.plan.optimize import Constraints, PlanOutcome
 from robolobe.plan.paths._edit import cut_runs as sections
+from robolobe.stock import LEVEL_TOL_M
 
 __all__ = ["ProgramDepth", "program_depth", "schedule_passes", "section_passes", "sections"]
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
 
-#: Tool-tip heights closer than this [m] are one level (one section).
-LEVEL_TOL_M = 1e-6
 #: Pass counts tried below and above the continuous optimum's.
 PASS_SPAN = 1
 
@@ -112,7 +111,7 @@ def program_depth(
     cuts = d > 0
     for k in np.unique(sec[cuts]):
         zk = z[(sec == k) & cuts]
-        if np.ptp(zk) > LEVEL_TOL_M:
+        if np.ptp(zk) > LEVEL_TOL_M:  # one height as the stock's engagement sees it
             fixed[sec == k] = True
     return ProgramDepth(depth_m=d, section=sec, deepest_m=float(d[bounded].max()), fixed=fixed)
 

@@ -12,10 +12,16 @@ depth of cut and whether the tool cuts at all.
 
 from __future__ import annotations
 
-from robolobe.stock.engagement import Engagement, compute_engagement, zmap_resolution
+from robolobe.stock.engagement import (
+    LEVEL_TOL_M,
+    Engagement,
+    compute_engagement,
+    zmap_resolution,
+)
 from robolobe.stock.shapes import Stock, check_stock_contains, default_stock, signed_distance
 
 __all__ = [
+    "LEVEL_TOL_M",
     "Engagement",
     "Stock",
     "check_stock_contains",

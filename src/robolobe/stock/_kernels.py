@@ -205,9 +205,13 @@ def _edge_value(w, x0, y0, res, radius, cx, cy, z, fx, fy, tol, ph):
     The larger of the interpolated sweep clearance and the interpolated
     distance to the stock outline (each a smooth field; their maximum is
     taken after the interpolation, so an edge near the stock's outline is not
-    blurred). Shifted by ``_EDGE_EPS * res``: an edge point on the boundary of
-    an earlier cut (a pass retracing a wall, the flanks of a slot's own track)
-    is not in material.
+    blurred). Shifted by the level tolerance ``tol`` (at least ``_EDGE_EPS * res``):
+    material thinner than it in x-y is none, as it is in z. An edge point on
+    the boundary of an earlier cut (a pass retracing a wall, the flanks of a
+    slot's own track, an arc retraced with other chords: up to the readers'
+    chord tolerance proud of the wall) is not in material; the angle of such a
+    graze would hang on a micrometre (1 um of clearance moves a tangent graze's
+    end by about 2 deg), the cut is none.
     """
     sp = math.sin(ph)
     cp = math.cos(ph)
@@ -235,7 +239,7 @@ def _edge_value(w, x0, y0, res, radius, cx, cy, z, fx, fy, tol, ph):
         + w01 * _stock_value(w, i, j + 1, res)
         + w11 * _stock_value(w, i + 1, j + 1, res)
     )
-    return max(sweep, stock) + _EDGE_EPS * res
+    return max(sweep, stock) + max(_EDGE_EPS * res, tol)
 
 
 def _crossing(w, x0, y0, res, radius, cx, cy, z, fx, fy, tol, a, va, b, vb):

@@ -30,6 +30,7 @@ from robolobe.stock.shapes import Stock, signed_distance
 
 __all__ = [
     "DEFAULT_CELLS_PER_DIAMETER",
+    "LEVEL_TOL_M",
     "MAX_CELLS",
     "MIN_CELLS_PER_DIAMETER",
     "Engagement",
@@ -46,7 +47,10 @@ DEFAULT_CELLS_PER_DIAMETER = 40
 MIN_CELLS_PER_DIAMETER = 10
 #: Largest Z-map (cells); 16 bytes a cell.
 MAX_CELLS = 16_000_000
-#: Heights closer than this [m] are the same level; engagement shallower than it is air.
+#: Heights closer than this [m] are one level: the Z-map's sweeps at one height, the
+#: plan's sections at one tip height (:mod:`robolobe.plan.passes`), and material
+#: shallower than it is air. 10 um: a program's own rounding of one height (4
+#: decimals in inch: 2.5 um) is one level.
 LEVEL_TOL_M = 1e-5
 #: Largest tilt of the tool axis from +z [deg] the Z-map accepts on a cutting move.
 MAX_TILT_DEG = 0.5

@@ -173,6 +173,7 @@ class _State:
     per_rev: bool = False
     feed: float = math.nan  # program units per min (or per rev)
     rpm: float = math.nan
+    rpm_zero_line: int = 0  # the line of an S0 in force (0: none)
     spindle_on: bool = False
     pos: list[float] = field(default_factory=lambda: [0.0, 0.0, 0.0])  # mm, path frame
     pos_known: bool = False
@@ -593,6 +594,7 @@ def _block(
                 source=f"{out.source}:{lineno}",
             )
         st.rpm = s if s > 0 else math.nan
+        st.rpm_zero_line = 0 if s > 0 else lineno
     for bad in ("L", "E"):
         if bad in vals:
             raise InputError(
@@ -755,6 +757,19 @@ def _feed_mm_per_min(st: _State) -> float:
     return f
 
 
+def _spindle_rpm(st: _State, out: WaypointBuilder, lineno: int, rapid: bool) -> float:
+    """The programmed spindle speed of a move [rpm] (NaN: none); a feed move at S0 is refused."""
+    if not st.spindle_on:
+        return math.nan
+    if st.rpm_zero_line and not rapid:
+        raise InputError(
+            f"expected a spindle speed S > 0 on a feed move, found S0 (line "
+            f"{st.rpm_zero_line}) with the spindle on: program the speed it cuts at",
+            source=f"{out.source}:{lineno}",
+        )
+    return st.rpm
+
+
 def _emit_line(
     st: _State,
     out: WaypointBuilder,
@@ -763,7 +778,7 @@ def _emit_line(
     lineno: int,
     rapid: bool,
 ) -> None:
-    rpm = st.rpm if st.spindle_on else math.nan
+    rpm = _spindle_rpm(st, out, lineno, rapid)
     out.add_unit(
         (target[0] * 1e-3, target[1] * 1e-3, target[2] * 1e-3),
         axis,
@@ -777,8 +792,10 @@ def _emit_line(
     st.axis = axis
 
 
-def _comp_meta(st: _State, lineno: int, rapid: bool, axis: tuple[float, float, float]) -> tuple:
-    rpm = st.rpm if st.spindle_on else math.nan
+def _comp_meta(
+    st: _State, out: WaypointBuilder, lineno: int, rapid: bool, axis: tuple[float, float, float]
+) -> tuple:
+    rpm = _spindle_rpm(st, out, lineno, rapid)
     return (lineno, rapid, math.nan if rapid else _feed_mm_per_min(st), rpm, axis)
 
 
@@ -796,7 +813,7 @@ def _comp_line(
     """A straight move with compensation on (or the exit move): buffered."""
     if st.vector_mode is not None:
         raise InputError("cutter radius compensation with tool axis words (5-axis)", where)
-    e = Element("line", tuple(st.pos), tuple(target), _comp_meta(st, lineno, rapid, axis))  # type: ignore[arg-type]
+    e = Element("line", tuple(st.pos), tuple(target), _comp_meta(st, out, lineno, rapid, axis))  # type: ignore[arg-type]
     st.pos = target
     st.pos_known = True
     st.axis = axis
@@ -846,7 +863,7 @@ def _comp_arc(
             centre = (start[0] + i, start[1] + j)
         full = math.hypot(target[0] - start[0], target[1] - start[1]) < 1e-9
     e = Element(
-        "arc", tuple(start), tuple(target), _comp_meta(st, lineno, False, axis),  # type: ignore[arg-type]
+        "arc", tuple(start), tuple(target), _comp_meta(st, out, lineno, False, axis),  # type: ignore[arg-type]
         centre=centre, cw=cw, full=full,
     )  # fmt: skip
     st.comp_moves.append(e)
@@ -941,7 +958,7 @@ def _emit_arc(
         clockwise=cw, tol=tol, full_circle=full, where=where,
     )  # fmt: skip
     feed = _feed_mm_per_min(st)
-    rpm = st.rpm if st.spindle_on else math.nan
+    rpm = _spindle_rpm(st, out, lineno, False)
     add = out.add_unit
     for p in pts:
         add((p[0] * 1e-3, p[1] * 1e-3, p[2] * 1e-3), axis, lineno, False, feed, rpm)
