@@ -6,6 +6,7 @@ import dataclasses
 import re
 
 import numpy as np
+import pandas as pd
 import pytest
 
 from robolobe.errors import InfeasibleError, InputError, ReachabilityError, SingularityError
@@ -472,3 +473,18 @@ def test_streamed_long_path_plans_as_in_memory(tmp_path, pocket_job, monkeypatch
     rob = plan_path(path, job.replace(plan=dataclasses.replace(job.plan, robust=True)))
     assert calls == [False]
     assert rob.summary.robust
+
+
+def test_columns_added_to_a_fragmented_result_table_do_not_warn():
+    import warnings
+
+    from robolobe.plan.pipeline import _columns_added
+
+    table = pd.DataFrame({f"c{k}": np.zeros(4) for k in range(120)}, copy=False)
+    with pytest.warns(pd.errors.PerformanceWarning):
+        table["outside"] = np.ones(4)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        with _columns_added():
+            table["inside"] = np.ones(4)
+    assert table["inside"].sum() == 4

@@ -34,7 +34,8 @@ import logging
 import math
 import os
 import time
-from collections.abc import Callable, Sequence
+import warnings
+from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, cast, overload
@@ -1265,11 +1266,13 @@ def plan_path(
         fz = np.where(np.isfinite(fz) & (fz > 0), fz, cons.feed_per_tooth_m)
         feed = table["feed_mm_per_min"].to_numpy().copy()
         feed[ci] = fz[ci] * job.tool.teeth * table["rpm"].to_numpy()[ci] * 1e3
-        table["feed_mm_per_min"] = feed
+        with _columns_added():
+            table["feed_mm_per_min"] = feed
     passes_rows = None
     if depth is not None:
         assert eng is not None
-        passes_rows = _apply_passes(table, grouped, outcome, depth, ci, plunge, eng, cons, seg)
+        with _columns_added():
+            passes_rows = _apply_passes(table, grouped, outcome, depth, ci, plunge, eng, cons, seg)
         most = max(passes_rows, key=lambda r: r["passes"])
         if most["passes"] > MANY_PASSES:
             note = (note + "; " if note else "") + (
@@ -1291,7 +1294,8 @@ def plan_path(
             )
     own_col = np.zeros(len(wp), bool)
     own_col[ci] = steep
-    table["lobes_own"] = own_col
+    with _columns_added():
+        table["lobes_own"] = own_col
     heavy = _heavy_damping_note(table, source)
     if heavy:
         note = (note + "; " if note else "") + heavy
@@ -1484,6 +1488,19 @@ def _result_table(
     cols["rpm_programmed"] = wp["rpm_programmed"].to_numpy()
     # the columns as they are (not consolidated into one block: a copy of the table)
     return pd.DataFrame(cols, copy=False)
+
+
+@contextlib.contextmanager
+def _columns_added() -> Iterator[None]:
+    """Columns set on a result table one by one, without pandas' fragmentation warning.
+
+    The table's columns are separate blocks on purpose (:func:`_result_table`:
+    no consolidating copy of a long path's table); pandas warns about that
+    past 100 blocks (robots with many modes), which says nothing to a user.
+    """
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", pd.errors.PerformanceWarning)
+        yield
 
 
 #: Passes of one section above which the plan's notes say the cut is far beyond the robot.
