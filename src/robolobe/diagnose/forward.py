@@ -544,6 +544,13 @@ def forward_select(
     base_cv: CrossValidation | None = None
     prev_cv: CrossValidation | None = None
     stop = f"the limit of {st.max_effects} named candidates"
+    # a step taken on trial (module notes): the held-out fit before it, the gain it
+    # needed, its label, and the state to go back to
+    pending: tuple[CrossValidation, float, str, tuple[Any, ...]] | None = None
+
+    def _snapshot() -> tuple[Any, ...]:
+        return (list(chosen), list(steps), list(remaining), joint, joint_cv, prev_cv)
+
     for r in range(st.max_effects):
         base = joint.candidate.effects(joint.params) if joint is not None else ()
         m_r = _on_top(model, tuple(base))
@@ -598,13 +605,31 @@ def forward_select(
         # a later step must remove most of what the previous steps left over the noise
         excess = max(prev_cv.per_residual - 1.0, 0.0)
         need = max(sel_st.min_gain, st.min_share * excess) if steps else sel_st.min_gain
-        if gain < need:
-            rejected.append(
-                f"{win.candidate.label}: held-out gain {gain:.3g} noise variances per point "
-                f"on top of the earlier steps < {need:.3g}"
-            )
-            stop = "the next candidate does not beat the noise on held-out postures"
-            break
+        if pending is not None:
+            # the step before was taken on trial: with this one, the two must remove
+            # the share the trial step alone did not
+            p_cv, p_need, p_label = pending[0], pending[1], pending[2]
+            both = float((p_cv.deviance.sum() - jcv.deviance.sum()) / n_eval)
+            if gain < sel_st.min_gain or both < p_need:
+                rejected.append(
+                    f"{p_label} and {win.candidate.label}: held-out gain {both:.3g} noise "
+                    f"variances per point together on top of the earlier steps < {p_need:.3g}"
+                )
+                stop = "the next candidates do not beat the noise on held-out postures"
+                break
+            pending = None
+        elif gain < need:
+            if steps and gain >= sel_st.min_gain and len(steps) + 2 <= st.max_effects:
+                # more than one effect may be left: a step that removes less than the
+                # share may be one of two; taken on trial, kept only with the next
+                pending = (prev_cv, need, win.candidate.label, _snapshot())
+            else:
+                rejected.append(
+                    f"{win.candidate.label}: held-out gain {gain:.3g} noise variances per point "
+                    f"on top of the earlier steps < {need:.3g}"
+                )
+                stop = "the next candidate does not beat the noise on held-out postures"
+                break
         chosen.append(win.candidate)
         joint, joint_cv, prev_cv = jf, jcv, jcv
         steps.append(
@@ -629,6 +654,15 @@ def forward_select(
         if np.sqrt(max(jcv.per_residual, 0.0)) <= st.at_noise:
             stop = "the held-out misfit is at the noise"
             break
+    if pending is not None:
+        # the trial step found no partner: back to the model before it
+        chosen, steps, remaining, joint, joint_cv, prev_cv = pending[3]
+        if not rejected or not rejected[-1].startswith(pending[2] + " and "):
+            rejected.append(
+                f"{pending[2]}: held-out gain on top of the earlier steps below "
+                f"{pending[1]:.3g} noise variances per point, and no further step with it"
+            )
+        stop = "the next candidate does not beat the noise on held-out postures"
     assert base_cv is not None
     none_fit = next(f for f in round1 if f.candidate.name == NONE)
     if joint is None or joint_cv is None:
