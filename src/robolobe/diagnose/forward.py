@@ -431,13 +431,13 @@ def _joint_round(
     for g in sorted(round1, key=lambda f: f.bic):
         if n_own >= st.joint_k:
             break
-        f = here.get(g.candidate.label)
-        if f is None or f.candidate.name == NONE or not g.identifiable:
+        fh = here.get(g.candidate.label)
+        if fh is None or fh.candidate.name == NONE or not g.identifiable:
             continue
-        if any(f is h for h in pool):
+        if any(fh is h for h in pool):
             continue
-        pool.append(f)
-        start_z[id(f)] = g.z
+        pool.append(fh)
+        start_z[id(fh)] = g.z
         n_own += 1
     start = int(joint.params.size)
     best: tuple[CandidateFit, CandidateFit] | None = None
