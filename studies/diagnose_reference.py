@@ -168,8 +168,11 @@ def true_robot(robot: Robot, physics: Sequence[Physics], file_error: float, seed
 def _augment(
     M: FloatArray, K: FloatArray, C: FloatArray, J: FloatArray, cols: list[tuple[Any, ...]]
 ) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
-    """Append DOFs: each ``(m_col (n,), m_self, k, zeta, j_col (3,))`` with coupling m_col."""
-    for m_col, m_self, k, zeta, j_col in cols:
+    """Append DOFs: each ``(m_col (n,), m_self, k, zeta, j_col (3,)[, m_damp])``, coupling m_col.
+
+    The dashpot is ``2 zeta sqrt(k m_damp)``, ``m_damp`` = ``m_self`` unless given.
+    """
+    for m_col, m_self, k, zeta, j_col, *m_damp in cols:
         n = M.shape[0]
         M2 = np.zeros((n + 1, n + 1))
         M2[:n, :n] = M
@@ -180,7 +183,7 @@ def _augment(
         K2[n, n] = k
         C2 = np.zeros_like(M2)
         C2[:n, :n] = C
-        C2[n, n] = 2.0 * zeta * np.sqrt(k * m_self)
+        C2[n, n] = 2.0 * zeta * np.sqrt(k * (m_damp[0] if m_damp else m_self))
         J2 = np.concatenate([J, np.asarray(j_col, dtype=float)[:, None]], axis=1)
         M, K, C, J = M2, K2, C2, J2
     return M, K, C, J
@@ -256,8 +259,16 @@ def reference_receptance(
                 # the servo spring turns the rotor (reflected inertia) and, through the gear
                 # spring, the arm: the arm turns by q_j + s, the rotor by s
                 m_self = M[j, j] + p.get("rotor_kgm2")
+                # the loop's dashpot acts on the motor: the rotor's own oscillator's zeta
                 cols.append(
-                    (M[:, j].copy(), m_self, p.get("k_Nm_per_rad"), p.get("zeta"), J_meas[:, j])
+                    (
+                        M[:, j].copy(),
+                        m_self,
+                        p.get("k_Nm_per_rad"),
+                        p.get("zeta"),
+                        J_meas[:, j],
+                        p.get("rotor_kgm2"),
+                    )
                 )
             elif p.kind == "absorber":
                 bi = list(sm.bodies.names).index("link3")

@@ -86,3 +86,31 @@ def test_an_other_family_alternative_as_good_makes_a_step_ambiguous() -> None:
     cal = cand("file_parameters")
     pool2 = [(fit(cand("joint_stiffness", "joint 3"), 0.0), fit(cand("joint_stiffness"), 100.0))]
     assert _alternatives(cal, 100.0, pool2, st) == ()  # type: ignore[arg-type]
+
+
+def test_two_effects_left_are_taken_together(toy: SimpleNamespace) -> None:
+    """A step that removes less than the share because another effect is left is kept with it.
+
+    With a share of 0.9, the 1 % stiffness error and the 0.1 ms delay each
+    remove only part of what the mass leaves; neither alone met the share,
+    and the search used to stop after the mass.
+    """
+    obs = toy.obs((("mass", 150.0), ("kx", 1.01), ("delay", 0.0001)), seed=0)
+    st = ForwardSettings(min_share=0.9)
+    fw = forward_select(toy.candidates(), toy.model, obs, obs, settings=st)
+    assert not fw.noise.unexplained
+    assert {s.candidate.name for s in fw.steps} == {"added_mass", "joint_stiffness", "sensor_delay"}
+    # the premise: the second step alone removed less than 0.9 of what the mass left
+    assert fw.steps[1].gain < 0.9 * (fw.steps[0].per_residual - 1.0)
+
+
+@pytest.mark.parametrize("seed", [0, 1])
+def test_a_trial_step_without_a_partner_is_taken_back(toy: SimpleNamespace, seed: int) -> None:
+    obs = toy.obs((("mass", 150.0), ("kx", 1.01)), seed=seed)
+    st = ForwardSettings(min_share=0.999)
+    fw = forward_select(toy.candidates(), toy.model, obs, obs, settings=st)
+    got = tuple(s.candidate.name for s in fw.steps)
+    # the stiffness step removes nearly all that is left, or it is taken back with a note
+    assert got in (("added_mass", "joint_stiffness"), ("added_mass",))
+    if got == ("added_mass",):
+        assert any("no further step" in r or " and " in r for r in fw.rejected)

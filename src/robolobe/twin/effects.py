@@ -827,13 +827,18 @@ class ServoMode(Effect):
     finite stiffness ``k_servo``, in series with the gear stiffness of the
     joint. One extra DOF ``servo<j>`` [rad] turns everything distal to joint
     ``j`` about that joint's axis (like the joint DOF itself) against the
-    spring ``k_servo`` with a dashpot for ``zeta`` of its own oscillator. The
-    servo DOF also turns the motor's rotor (its inertia reflected through the
-    gear, ``rotor_inertia_kgm2`` about the joint axis), which sits between the
-    servo spring and the gear spring: without it the two springs in series
-    would have no mass between them. A soft loop gives a low "holding" mode
-    of the whole arm (a few hertz) and lowers the joint's effective stiffness
-    to ``k k_s / (k + k_s)``.
+    spring ``k_servo``. The servo DOF also turns the motor's rotor (its
+    inertia reflected through the gear, ``rotor_inertia_kgm2`` about the
+    joint axis), which sits between the servo spring and the gear spring:
+    without it the two springs in series would have no mass between them. A
+    soft loop gives a low "holding" mode of the whole arm (a few hertz) and
+    lowers the joint's effective stiffness to ``k k_s / (k + k_s)``. The loop
+    damps the motor: a dashpot ``c = 2 zeta sqrt(k_servo J_rotor)`` on the
+    servo DOF, the same at every posture (a dashpot scaled with the arm's
+    inertia about the axis, as other extra DOFs have, changed the holding
+    mode's damping with the reach: a two-mass drive simulated on its own
+    could then not be fitted within the noise,
+    tests/diagnose/test_independent_generator.py).
 
     Parameters
     ----------
@@ -842,7 +847,8 @@ class ServoMode(Effect):
     stiffness_Nm_per_rad : float
         Servo holding stiffness [N m/rad], 1e2 .. 1e11.
     zeta : float
-        Damping ratio of the servo DOF's oscillator, 0.001 .. 0.9.
+        Damping ratio of the rotor on the servo spring (the velocity loop's
+        damping, ``c = 2 zeta sqrt(k_servo J_rotor)``), 0.001 .. 0.9.
     rotor_inertia_kgm2 : float
         Motor rotor inertia reflected to the joint [kg m^2], 1e-3 .. 1e5.
     """
@@ -886,7 +892,13 @@ class ServoMode(Effect):
         bodies = out.bodies.with_body(
             f"rotor{self.joint}", 0.0, pts[..., j, :], inertia, np.zeros_like(jw), jw
         )
-        return out.replace(bodies=bodies).with_dof_damping(n_old, self.zeta)
+        # the velocity loop damps the motor: a dashpot to ground on the servo DOF, the
+        # same at every posture (not scaled with the arm's inertia about the axis)
+        big_c = out.C.copy()
+        big_c[..., n_old, n_old] = (
+            2.0 * self.zeta * np.sqrt(self.stiffness_Nm_per_rad * self.rotor_inertia_kgm2)
+        )
+        return out.replace(bodies=bodies, C=big_c)
 
 
 @dataclass(frozen=True)
