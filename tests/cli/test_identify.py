@@ -60,8 +60,9 @@ def test_identify_writes_modal_csv_and_plots(
     df = read_modal_csv(out)
     assert list(df.columns[:12]) == list(MODAL_COLUMNS)
     assert set(df["posture_id"]) == {"P01", "P02", "P03", "P04"}
-    # at most 5 modes per posture and direction, numbered by rising frequency
-    assert df.groupby(["posture_id", "dir"]).size().max() <= 5
+    # every visible mode (no fixed count since issue 27), at most the six-joint twin's
+    # six per posture and direction, numbered by rising frequency
+    assert df.groupby(["posture_id", "dir"]).size().max() <= 6
     for _, g in df.groupby(["posture_id", "dir"]):
         assert (g["mode"].diff().dropna() > 0).all()
         assert (g["f_hz"].diff().dropna() > 0).all()
