@@ -175,7 +175,8 @@ def schedule_passes(
             best = (t, p, out, fixed)
     if best is None:  # the optimum's own speeds at its depth rounded down to passes
         d = deepest_m / p0
-        return run(free, p_lo, refine), p0, dataclasses.replace(cons, depth_min_m=d, depth_max_m=d)
+        out = run(free, p_lo, True) if refine else first  # (not the same search twice)
+        return out, p0, dataclasses.replace(cons, depth_min_m=d, depth_max_m=d)
     _, p, out, fixed = best
     return (run(fixed, p, True) if refine else out), p, fixed
 
