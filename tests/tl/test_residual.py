@@ -211,17 +211,6 @@ def test_planning_spread_covers_held_out_stiffness_errors(gravity_case):
 
 
 @pytest.mark.slow
-@pytest.mark.xfail(
-    strict=True,
-    reason=(
-        "known defect, not understood yet: this test passed where the held-out residuals "
-        "were added (7ba6609) and fails from the next commit on (20280a5, the calibration "
-        "Jacobian rewritten for speed, which the deletion uses): the first-order deletion "
-        "misses the refit at posture 3 (f: 1.8x the "
-        "in-sample residual's distance); coverage on the out-of-form study still holds "
-        "(f 92.5-95.6 %); recorded in the stop note"
-    ),
-)
 def test_held_out_residuals_match_a_refit_without_the_posture(gravity_case):
     """Issue 27: each posture's residual of the calibration fitted without it.
 
