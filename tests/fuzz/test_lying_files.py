@@ -267,6 +267,26 @@ def test_corrected_twin_values_that_break_the_math(
     _refused_naming(info.value, "m.npz")
 
 
+@pytest.mark.parametrize("kind", ["net", "ct"])
+def test_multi_turn_training_postures_accepted(
+    tmp_path: Path, model_files: dict[str, Path], kind: str
+) -> None:
+    """B's axis 4 turns +-400 deg (6.98 rad): a model trained there is a model, not a lie."""
+    a = _arrays(model_files[kind])
+    q = a["train_q_rad"].astype(float).copy()
+    q[0, 3] = np.radians(400.0)
+    a["train_q_rad"] = q
+    f = tmp_path / "m.npz"
+    np.savez(f, **a)
+    model = _load(f)
+    assert np.isclose(model.train_q_rad_[0, 3], np.radians(400.0))
+    q[0, 3] = np.radians(4000.0)  # beyond ten turns: no robot's axis
+    a["train_q_rad"] = q
+    np.savez(f, **a)
+    with pytest.raises(InputError, match="train_q_rad"):
+        _load(f)
+
+
 @FUZZ
 @given(seed=st.integers(0, 2**32 - 1), scale=st.floats(1e-6, 10.0))
 def test_covariance_not_positive_semidefinite(

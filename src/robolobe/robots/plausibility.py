@@ -58,6 +58,7 @@ __all__ = [
     "JOINT_LIMIT_MAX_DEG",
     "LENGTH_MAX_M",
     "LINK_MASS_MAX_KG",
+    "Q_MAX_RAD",
     "RADIAN_LIKE_DEG",
     "REACH_ERROR_M",
     "REACH_USUAL_M",
@@ -108,6 +109,9 @@ GYRATION_USUAL_M = 3.0
 RADIAN_LIKE_DEG = 12.6
 #: Largest joint limit [deg] (ten turns).
 JOINT_LIMIT_MAX_DEG = 3600.0
+#: The same in radians: the largest joint angle a posture (a model's training
+#: postures, a campaign's) may hold; B's axis 4 turns +-400 deg.
+Q_MAX_RAD = math.radians(JOINT_LIMIT_MAX_DEG)
 #: Largest axis coupling ratio (DH angle per axis angle; 0, +-1 or a wrist's gear ratio).
 COUPLING_MAX = 10.0
 #: Axis coupling ratio above which a file is unusual.

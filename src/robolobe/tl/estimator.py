@@ -32,6 +32,7 @@ from robolobe._atomic import atomic_path
 from robolobe._modal_parameters import ModalParameters
 from robolobe.errors import InputError
 from robolobe.robots.limits import as_postures
+from robolobe.robots.plausibility import Q_MAX_RAD
 from robolobe.tl.dataset import (
     DRIVING_DIRECTIONS,
     ModalDataset,
@@ -743,7 +744,7 @@ class ModalPredictor:
             if k[0] in "Wb":
                 check_range(v, k, where)
         check_range(model.calibration_, "calibration", where, low=0.0, open_low=True)
-        check_range(model.train_q_rad_, "train_q_rad", where, low=-2 * np.pi, high=2 * np.pi)
+        check_range(model.train_q_rad_, "train_q_rad", where, low=-Q_MAX_RAD, high=Q_MAX_RAD)
         try:
             check_meta_counts(tuple(model.directions), int(model.n_modes), where)
             nd, e = len(model.directions), int(model.n_members)

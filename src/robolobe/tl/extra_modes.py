@@ -52,6 +52,7 @@ from scipy.optimize import minimize
 
 from robolobe._directions import DRIVING
 from robolobe.errors import InputError
+from robolobe.robots.plausibility import Q_MAX_RAD
 
 __all__ = [
     "MIN_SUPPORT",
@@ -418,7 +419,7 @@ class ExtraModes:
                 "inconsistent model file: extra modes: one kernel per output expected", where
             )
         check_range(self.spread_scale_, "extra_spread_scale", where, low=0.0, open_low=True)
-        check_range(self.train_q_rad_, "extra_q", where, low=-2 * np.pi, high=2 * np.pi)
+        check_range(self.train_q_rad_, "extra_q", where, low=-Q_MAX_RAD, high=Q_MAX_RAD)
         return self
 
 

@@ -69,6 +69,7 @@ from robolobe._threads import one_blas_thread, with_one_blas_thread
 from robolobe.errors import InputError
 from robolobe.robots.limits import as_postures, within_joint_limits
 from robolobe.robots.model import Robot
+from robolobe.robots.plausibility import Q_MAX_RAD
 from robolobe.tl.dataset import ModalDataset, check_meta_counts
 from robolobe.tl.estimator import ModalPrediction
 from robolobe.tl.graybox import TwinCalibration, modal_frame_dataset
@@ -891,7 +892,7 @@ class CorrectedTwin:
         check_range(self.loo_rmse_twin_, "loo_rmse_twin", where, low=0.0, nan_ok=True)
         check_range(self.loo_var_mean_, "loo_var_mean", where, low=0.0, open_low=True, nan_ok=True)
         check_range(self.train_r_, "train_r", where, nan_ok=True)
-        check_range(self.train_q_rad_, "train_q_rad", where, low=-2 * np.pi, high=2 * np.pi)
+        check_range(self.train_q_rad_, "train_q_rad", where, low=-Q_MAX_RAD, high=Q_MAX_RAD)
         if self.spread_scale_.shape != (3,) or self.spread_cover_.shape != (3,):
             raise InputError(
                 "inconsistent model file: spread_scale and spread_cover: expected 3 values each",
