@@ -216,6 +216,26 @@ def brief_source(src: str) -> str:
 
 
 # ------------------------------------------------------------------ limits
+def _unreachable_vc(
+    end: str, vc: float, rpm: float, src: str, spindle_rpm: float, d: float, where: str
+) -> InputError:
+    """The refusal of a vc range end the spindle cannot reach with a tool of diameter ``d`` [m].
+
+    ``end`` is ``"min"`` (``vc`` above pi D ``spindle_rpm`` = rpm_max) or ``"max"``
+    (below pi D rpm_min); ``src`` names where ``vc`` [m/min] came from.
+    """
+    key = src if src.startswith("cut.") else f"vc_{end} ({brief_source(src)})"
+    bound = "at most" if end == "min" else "at least"
+    spindle = "spindle.rpm_max" if end == "min" else "spindle.rpm_min"
+    return InputError(
+        f"{key}: expected a cutting speed the spindle reaches with the {d * 1e3:g} mm tool "
+        f"({bound} pi D {spindle} = {vc_from_rpm(spindle_rpm, d):.4g} m/min), found "
+        f"vc_{end} {vc:g} m/min ({rpm:.0f} rpm)"
+        + ("" if src.startswith("cut.") else f"; set cut.vc_{end}_m_per_min to override"),
+        source=where,
+    )
+
+
 def process_limits(
     job: Job,
     wp: pd.DataFrame | None = None,
@@ -267,23 +287,9 @@ def process_limits(
     sp = job.spindle
     r_lo, r_hi = rpm_from_vc(vc_lo, d), rpm_from_vc(vc_hi, d)
     if r_lo >= sp.rpm_max:
-        key = lo_src if lo_src.startswith("cut.") else f"vc_min ({brief_source(lo_src)})"
-        raise InputError(
-            f"{key}: expected a cutting speed the spindle reaches with the {d_mm:g} mm tool "
-            f"(at most pi D spindle.rpm_max = {vc_from_rpm(sp.rpm_max, d):.4g} m/min), found "
-            f"vc_min {vc_lo:g} m/min ({r_lo:.0f} rpm)"
-            + ("" if lo_src.startswith("cut.") else "; set cut.vc_min_m_per_min to override"),
-            source=where,
-        )
+        raise _unreachable_vc("min", vc_lo, r_lo, lo_src, sp.rpm_max, d, where)
     if r_hi <= sp.rpm_min:
-        key = hi_src if hi_src.startswith("cut.") else f"vc_max ({brief_source(hi_src)})"
-        raise InputError(
-            f"{key}: expected a cutting speed the spindle reaches with the {d_mm:g} mm tool "
-            f"(at least pi D spindle.rpm_min = {vc_from_rpm(sp.rpm_min, d):.4g} m/min), found "
-            f"vc_max {vc_hi:g} m/min ({r_hi:.0f} rpm)"
-            + ("" if hi_src.startswith("cut.") else "; set cut.vc_max_m_per_min to override"),
-            source=where,
-        )
+        raise _unreachable_vc("max", vc_hi, r_hi, hi_src, sp.rpm_min, d, where)
     if r_lo > sp.rpm_min:
         rpm_min = r_lo
         rpm_min_why = (
