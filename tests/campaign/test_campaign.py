@@ -489,7 +489,10 @@ def test_test_header_is_one_typed_rule_for_the_window():
     ("table", "key", "expect"),
     [
         ({"window_end": 0.05}, "test]", "needs duration_s"),
-        ({"duration_s": 4.0, "window_end": 1.5}, "test.window_end", "(0, 1]"),
+        ({"duration_s": 4.0, "window_end": 1.5}, "test.window_end", "[0.001, 1]"),
+        # a window ending at 1e-300 leaves milliseconds of signal: the window, not the
+        # structure, would set the decay
+        ({"duration_s": 4.0, "window_end": 1e-300}, "test.window_end", "[0.001, 1]"),
         ({"duration_s": -1.0}, "test.duration_s", "record length"),
         ({"impacts": 2.5}, "test.impacts", "number of impacts"),
         ({"coherence_min": "high"}, "test.coherence_min", "coherence"),

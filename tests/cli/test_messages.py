@@ -69,7 +69,7 @@ def _main_err(argv: list[str], capsys: pytest.CaptureFixture[str]) -> str:
     ("args", "expected"),
     [
         (["simulate", "A", "-o", "{t}/s", "--design", "random", "--n", "2", "--window-end", "5"],
-         "error: --window-end: expected a number in (0, 1], found 5"),
+         "error: --window-end: expected a number in [0.001, 1], found 5"),
         (["simulate", "A", "-o", "{t}/s", "--design", "random", "--n", "2", "--impacts", "0"],
          "error: --impacts: expected an integer >= 1, found 0"),
         (["simulate", "A", "-o", "{t}/s", "--design", "random", "--n", "2", "--double-hits", "2"],

@@ -229,6 +229,10 @@ def test_excite_subset_leaves_other_columns_nan():
 def test_bad_inputs():
     with pytest.raises(InputError, match="window_end"):
         HammerTestSettings(window_end=0.0)
+    for w in (1e-300, 1e-9, 9.9e-4):  # the window would set the records' decay itself
+        with pytest.raises(InputError, match="window_end"):
+            HammerTestSettings(window_end=w)
+    HammerTestSettings(window_end=1e-3)
     with pytest.raises(InputError, match="impacts"):
         HammerTestSettings(impacts=0)
     with pytest.raises(InputError, match="shape"):

@@ -167,8 +167,14 @@ def register(app: typer.Typer) -> None:
             )
         if numbering not in ("rank", "track"):
             raise InputError(f"expected rank or track, found {numbering!r}", source="--numbering")
-        if window_end is not None and not 0 < window_end <= 1:
-            raise InputError(f"expected a value in (0, 1], found {window_end:g}", "--window-end")
+        from robolobe.campaign import WINDOW_END_MIN
+
+        if window_end is not None and not WINDOW_END_MIN <= window_end <= 1:
+            raise InputError(
+                f"expected a value in [{WINDOW_END_MIN:g}, 1] (a window that ends lower sets "
+                f"the records' decay itself), found {window_end:g}",
+                "--window-end",
+            )
         if record_s is not None and not record_s > 0:
             raise InputError(f"expected a positive number, found {record_s:g}", "--record-s")
 

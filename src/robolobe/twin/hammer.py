@@ -62,6 +62,7 @@ from typing import Literal
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from robolobe.campaign._model import WINDOW_END_MIN
 from robolobe.errors import InputError
 
 __all__ = [
@@ -198,8 +199,8 @@ class HammerTestSettings:
                 raise bad(name, "a range (low, high) with 0 <= low <= high")
         if not self.double_hit_limit > 0:
             raise bad("double_hit_limit", "a positive number")
-        if not 0.0 < self.window_end <= 1.0:
-            raise bad("window_end", "a number in (0, 1]")
+        if not WINDOW_END_MIN <= self.window_end <= 1.0:
+            raise bad("window_end", f"a number in [{WINDOW_END_MIN:g}, 1]")
         if not 0.0 < self.antialias_nyquist_gain <= 1.0:
             raise bad("antialias_nyquist_gain", "a number in (0, 1]")
         if self.force_window_s is not None and not self.force_window_s > 0:
