@@ -285,3 +285,51 @@ def test_job_tool_in_metres_or_khz_refused(diameter: float, share: float, key: s
         InputError, match=rf"^j\.toml: tool: (modes\[1\]\.)?{key}: expected .*at least"
     ):
         job_from_dict(d, source="j.toml")
+
+
+@FUZZ
+@given(
+    robot=st.sampled_from(["A", "B", "C"]),
+    keys=st.sampled_from([("q_min_deg",), ("q_max_deg",), ("q_min_deg", "q_max_deg")]),
+    joints=st.sets(st.integers(0, 5), min_size=1),
+)
+def test_robot_joint_limits_in_radians(tmp_path: Path, robot: str, keys, joints) -> None:
+    """Joint limits written in radians under ``_deg`` keys, for any joints and keys.
+
+    Refused when every value of a key is radians (no arm has all six limits of a
+    key within a few degrees of zero); a joint with both limits in radians is
+    refused or warned (it would move a few degrees), a symmetric joint with one
+    side in radians refused (-185 rad = 185 deg). One side of an asymmetric
+    range is not decidable (robot A's joint 2 moves from -140 to -5 deg): no claim.
+    """
+    import math
+    import tomllib
+
+    import tomli_w
+
+    from robolobe.robots import load_robot
+    from robolobe.robots.io import builtin_path
+    from robolobe.robots.plausibility import robot_warnings
+
+    d = tomllib.loads(builtin_path(robot).read_text())
+    decidable = len(joints) == 6 or any(
+        len(keys) == 2 or d["joints"][i]["q_min_deg"] == -d["joints"][i]["q_max_deg"]
+        for i in joints
+    )
+    for i in joints:
+        for key in keys:
+            d["joints"][i][key] = math.radians(d["joints"][i][key])
+    p = tmp_path / "r.toml"
+    p.write_text(tomli_w.dumps(d))
+    try:
+        r = load_robot(p)
+    except InputError as exc:
+        msg = str(exc)
+        assert msg.startswith(f"{p}: "), msg
+        assert any(k in msg for k in keys), msg
+        return
+    assert len(joints) < 6 or len(keys) < 2, "all limits in radians accepted"
+    assert len(joints) < 6, f"every {keys[0]} in radians accepted"
+    if decidable:
+        warned = robot_warnings(r)
+        assert any("radians" in w for w in warned), (joints, keys, warned)

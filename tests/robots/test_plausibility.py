@@ -124,6 +124,10 @@ REFUSED = [
     (_joint(5, q_min_deg=-math.pi, q_max_deg=math.pi),
      r"\[\[joints\]\]\[6\]\.q_min_deg: expected a joint limit in degrees, found -3\.142 "
      r"\(a multiple of pi/2 in radians: -180 deg\?\)"),
+    # one side of a symmetric range in radians: -185 deg written as -3.229
+    (_joint(0, q_min_deg=math.radians(-185.0)),
+     r"\[\[joints\]\]\[1\]\.q_min_deg: expected a joint limit in degrees, found -3\.229: "
+     r"q_max_deg = 185 in radians \(-185 deg\?\)"),
     (_joint(3, q_max_deg=2 * math.pi), r"\[\[joints\]\]\[4\]\.q_max_deg: .*found 6\.283"),
     (lambda d: d["tool"].update(zyx_deg=[0.0, math.pi / 2, 0.0]),
      r"tool\.zyx_deg: expected angles in degrees, found 1\.571 \(pi/2 or pi in radians"),

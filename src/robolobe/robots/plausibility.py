@@ -26,8 +26,8 @@ Ranges (SI, as in the file; angles in degrees):
   radius of gyration sqrt(I/m) at most :data:`GYRATION_MAX_M`;
 - joint limits: not all within +-:data:`RADIAN_LIKE_DEG` (radians under a
   ``_deg`` key), nor all of one key (``q_min_deg`` or ``q_max_deg``), nor one
-  equal to a multiple of pi/2 (radians); a joint whose range lies within
-  +-:data:`RADIAN_LIKE_DEG` is warned; none beyond
+  equal to a multiple of pi/2 or to the other limit of its joint in radians;
+  a joint whose range lies within +-:data:`RADIAN_LIKE_DEG` is warned; none beyond
   +-:data:`JOINT_LIMIT_MAX_DEG`; DH angles, base and tool ZYX angles and
   constraint bounds that equal +-pi/2 or +-pi are radians;
 - moving masses: at least :data:`TOTAL_MASS_MIN_KG` in total;
@@ -334,7 +334,10 @@ def _limits_in_radians(out: list[Finding], robot: Robot) -> None:
 
     Every limit within +-:data:`RADIAN_LIKE_DEG`, or every value of one key
     (``q_min_deg`` or ``q_max_deg``: no arm has all six within a few degrees
-    of zero), or one joint's limit equal to a multiple of pi/2 rad: refused.
+    of zero), or one joint's limit equal to a multiple of pi/2 rad, or to the
+    other limit of its joint in radians (a symmetric range half in radians):
+    refused. One limit of an asymmetric range in radians is not decidable
+    (robot A's joint 2 moves from -140 to -5 deg).
     One joint whose whole range lies within +-:data:`RADIAN_LIKE_DEG` (a
     near-locked axis, or radians): warned.
     """
@@ -376,6 +379,22 @@ def _limits_in_radians(out: list[Finding], robot: Robot) -> None:
                     )
                 )
                 return
+        # a symmetric range with one side in radians: |small| rad == |big| deg (0.5 %)
+        small, big_v = sorted(lim, key=abs)
+        name = "q_min_deg" if small == lim[0] else "q_max_deg"
+        if 0 < abs(small) <= RADIAN_LIKE_DEG and abs(
+            abs(math.degrees(small)) - abs(big_v)
+        ) <= 5e-3 * abs(big_v):
+            other = "q_max_deg" if name == "q_min_deg" else "q_min_deg"
+            out.append(
+                Finding(
+                    "error",
+                    f"{key}.{name}",
+                    f"expected a joint limit in degrees, found {_n(small)}: {other} = "
+                    f"{_n(big_v)} in radians ({_n(math.degrees(small))} deg?)",
+                )
+            )
+            return
         if max(abs(v) for v in lim) <= RADIAN_LIKE_DEG:
             out.append(
                 Finding(
