@@ -54,6 +54,8 @@ MODAL_FIELDS_ELSEWHERE: dict[str, str] = {
     "signed stiffness per FRF channel, not per TCP direction",
     "plan/job.py:ToolMode": "one spindle/tool mode of a job file (a scalar configuration "
     "entry, not a posture batch)",
+    "sld/io.py:ModeRow": "one row of an sld modes file with its line number, for messages "
+    "that name the line (a scalar file entry, not a posture batch)",
     "twin/calibration.py:ModeSummary": "statistics of a seed-table mode over postures "
     "(low, median, high of each parameter), not modal parameters",
     "twin/calibration.py:TableComparison": "a comparison record: the twin's modes matched "

@@ -28,6 +28,7 @@ __all__ = [
     "modal_mass_kg",
     "receptance_scale_problem",
     "robot_mode_mass_problem",
+    "soft_tool_mode_problem",
     "tool_mode_k_floor",
 ]
 
@@ -156,6 +157,57 @@ def tool_mode_k_floor(
     return heavy, (
         f"a mode that moves the spindle: a modal mass k/(2 pi f)^2 of at least {carrier:.3g} kg "
         f"(the spindle at the tip) on a mount of at least {TOOL_MOUNT_K_MIN_N_PER_M:.3g} N/m"
+    )
+
+
+def soft_tool_mode_problem(
+    f_hz: float,
+    k: float,
+    diameter_m: float,
+    stickout_m: float,
+    stick_key: str,
+    *,
+    default: bool = False,
+    carrier_kg: float | None = None,
+) -> str | None:
+    """Why a tool-point mode is softer than a tool of its size can be, or None.
+
+    The job file, the Python API (``ToolSpec``) and ``sld --tool-diameter``
+    say it in the same words (expected vs found, the bound of
+    :func:`tool_mode_k_floor`, the value read as N/mm).
+
+    Parameters
+    ----------
+    f_hz, k : float
+        The mode's natural frequency [Hz] and modal stiffness [N/m].
+    diameter_m, stickout_m : float
+        The cutter's nominal diameter and stick-out [m].
+    stick_key : str
+        The key or option that gives the stick-out, named as the other way out.
+    default : bool
+        The stick-out was not given (said in the message).
+    carrier_kg : float, optional
+        The spindle's effective mass at the tip [kg] (default: the lightest).
+
+    Returns
+    -------
+    str or None
+        Expected vs found, for a message.
+    """
+    try:
+        vals = [float(x) for x in (f_hz, k, diameter_m, stickout_m)]
+    except (TypeError, ValueError):
+        return None  # the fields' own checks say what is wrong
+    if not all(math.isfinite(x) and x > 0 for x in vals):
+        return None
+    floor, why = tool_mode_k_floor(vals[0], vals[2], vals[3], carrier_kg)
+    if vals[1] >= floor:
+        return None
+    return (
+        f"expected at least {floor:.3g} N/m for a mode at {vals[0]:g} Hz of a "
+        f"{vals[2] * 1e3:g} mm tool at a stick-out of {vals[3] * 1e3:g} mm"
+        f"{' (the default)' if default else ''} ({why}), found {vals[1]:g}: a stiffness in "
+        f"N/mm? In N/m it is {vals[1] * 1e3:.3g}; or give the tool's real {stick_key}"
     )
 
 

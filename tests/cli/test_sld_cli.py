@@ -162,3 +162,102 @@ def test_missing_kt_without_material(tmp_path: Path, modes: Path) -> None:
     )
     assert proc.returncode == 2
     assert "--kt" in proc.stderr
+
+
+# A stiff spindle mode (5e7 N/m at 1500 Hz, 0.563 kg) typed in N/mm: 5e4 "N/m",
+# 0.563 g, which a modes file alone cannot tell from a 3 mm end mill's bending mode.
+STIFF_N_PER_MM = "dir,mode,f_hz,zeta,k_N_per_m\nxx,1,1500,0.02,5e4\nyy,1,1600,0.02,6e4\n"
+
+
+def _cli(args: list[str], capsys: pytest.CaptureFixture[str]) -> tuple[int, str]:
+    """Run the CLI as a user does (errors as one line, exit codes); (code, output words)."""
+    from robolobe.cli.main import main
+
+    try:
+        main(args)
+        code = 0
+    except SystemExit as exc:
+        code = int(exc.code or 0)
+    out = capsys.readouterr()
+    return code, " ".join((out.out + out.err).split())
+
+
+def _run_stiff(tmp_path: Path, capsys, text: str, *extra: str) -> tuple[int, str, Path, Path]:
+    modes = tmp_path / "modes.csv"
+    modes.write_text(text)
+    out, png = tmp_path / "lobes.csv", tmp_path / "lobes.png"
+    args = _args(modes, out, "--plot", str(png), *extra)
+    args[args.index("--rpm") + 1] = "5000:20000:400"
+    code, msg = _cli(args, capsys)
+    return code, msg, out, png
+
+
+def test_stiff_modes_in_n_per_mm_refused_by_their_lobes(tmp_path: Path, capsys) -> None:
+    code, msg, out, png = _run_stiff(tmp_path, capsys, STIFF_N_PER_MM)
+    assert code == 2, msg
+    assert f"{tmp_path / 'modes.csv'}:2: k_N_per_m: expected lobes no shallower than 0.01 mm" in msg
+    assert "50000 N/m at 1500 Hz" in msg
+    assert "N/mm?" in msg
+    assert not out.exists()
+    assert not png.exists()
+    # the same modes in N/m: lobes 1000 times deeper, no word
+    code, msg, out, _ = _run_stiff(tmp_path, capsys, STIFF_N_PER_MM.replace("e4\n", "e7\n"))
+    assert code == 0, msg
+    assert "warning" not in msg
+    assert out.exists()
+
+
+def test_stiff_modes_in_n_per_mm_refused_on_the_tool(tmp_path: Path, capsys) -> None:
+    """On a 20 mm tool at 60 mm no mode is lighter than 1/8 of the 16 mm steel bar that
+    stands for it: 7850 kg/m^3 * pi * (8 mm)^2 * 60 mm / 8 = 11.8 g (by hand)."""
+    code, msg, out, _ = _run_stiff(
+        tmp_path, capsys, STIFF_N_PER_MM, "--tool-diameter", "20", "--stickout", "60"
+    )
+    assert code == 2, msg
+    assert f"{tmp_path / 'modes.csv'}:2: k_N_per_m (xx mode 1): expected at least" in msg
+    assert "11.8 g" in msg
+    assert "In N/m it is 5e+07" in msg
+    assert not out.exists()
+
+
+def test_soft_modes_that_fit_their_tool_are_only_warned(tmp_path: Path, capsys) -> None:
+    """The same numbers as a 3 mm end mill at 34 mm (1.74/L^2 kHz: 1.5 kHz; 2.6e4 N/m)."""
+    code, msg, out, png = _run_stiff(
+        tmp_path, capsys, STIFF_N_PER_MM, "--tool-diameter", "3", "--stickout", "34"
+    )
+    assert code == 0, msg
+    assert "lobes shallower than any practical cut" in msg
+    assert out.exists()
+    assert png.exists()
+
+
+def test_borderline_depth_warned_reference_depth_not(tmp_path: Path, modes: Path, capsys) -> None:
+    # REFERENCES.md section 3 (48 um minimum): no warning
+    code, msg = _cli(_args(modes, tmp_path / "a.csv"), capsys)
+    assert code == 0
+    assert "warning" not in msg
+    # the same mode 0.4 times as stiff: 19 um, between 10 and 30 um: warned, written
+    soft = tmp_path / "soft.csv"
+    soft.write_text(modes.read_text().replace(repr(K), repr(0.4 * K)))
+    code, msg = _cli(_args(soft, tmp_path / "b.csv"), capsys)
+    assert code == 0, msg
+    assert "shallower than any practical cut" in msg
+    assert (tmp_path / "b.csv").exists()
+
+
+@pytest.mark.parametrize(
+    ("extra", "message"),
+    [
+        (("--tool-diameter", "20"), "expected both (mm) or neither, found only --tool-diameter"),
+        (("--stickout", "60"), "found only --stickout"),
+        (("--tool-diameter", "20", "--stickout", "2"), "--stickout: expected 5 to 1000 mm"),
+        (("--tool-diameter", "0", "--stickout", "2"), "--tool-diameter: expected a diameter"),
+        (("--tool-diameter", "nan", "--stickout", "2"), "--tool-diameter: expected a diameter"),
+    ],
+)
+def test_tool_size_options_checked(tmp_path: Path, modes: Path, extra, message, capsys) -> None:
+    out = tmp_path / "lobes.csv"
+    code, msg = _cli(_args(modes, out, *extra), capsys)
+    assert code == 2, msg
+    assert message in msg
+    assert not out.exists()

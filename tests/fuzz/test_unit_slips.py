@@ -32,8 +32,8 @@ FUZZ = settings(
 #: Modal stiffnesses [N/m] of the modes that limit robot milling: the robot's
 #: (the twins' lowest over the shipped designs is 1.2e5 N/m) and a soft tool's,
 #: up to 1e7. A stiffer mode in N/mm reads like a soft real one (1e4 N/m and
-#: more): a modes file cannot tell (``sld`` then warns about its absurd
-#: depths); a job can, from its tool's size (below).
+#: more): a modes file's values cannot tell, its lobes (1000 times too shallow)
+#: or the tool's size can (``sld --tool-diameter``, a job; below).
 real_k = st.floats(1.2e5, 9.9e6)
 #: A unit slip: N/mm (x 1e-3) or kN/mm mixed up the other way is out of scope.
 slip = st.sampled_from([1e-3, 1e-4, 1e-5, 1e-6])
@@ -52,6 +52,73 @@ def test_modes_csv_stiffness_in_n_per_mm(tmp_path: Path, k: float, factor: float
     with pytest.raises(InputError, match="k_N_per_m") as info:
         read_modes_csv(f)
     assert "modes.csv" in str(info.value)
+
+
+def _sld(modes: Path, *extra: str) -> tuple[int, str]:
+    """``robolobe sld`` as a user runs it: (exit code, output words)."""
+    import contextlib
+    import io
+
+    from robolobe.cli.main import main
+
+    buf = io.StringIO()
+    code = 0
+    with contextlib.redirect_stdout(buf), contextlib.redirect_stderr(buf):
+        try:
+            main(["sld", "--modes", str(modes), "--teeth", "2", "--material", "Al7075-T6",
+                  "--immersion", "1", "--rpm", "2000:30000:300", "-o",
+                  str(modes.with_name("lobes.csv")), *extra])  # fmt: skip
+        except SystemExit as exc:
+            code = int(exc.code or 0)
+    return code, " ".join(buf.getvalue().split())
+
+
+@settings(FUZZ, max_examples=10)
+@given(
+    f=st.floats(300.0, 3000.0),
+    k=st.floats(1e7, 9.8e7),
+    zeta=st.floats(0.01, 0.05),
+    factor=st.sampled_from([1e-3, 1e-4]),
+)
+def test_sld_stiff_modes_in_n_per_mm(
+    tmp_path: Path, f: float, k: float, zeta: float, factor: float
+) -> None:
+    """Stiff spindle or tool modes (1e7-1e8 N/m) in N/mm given to ``sld``.
+
+    With the tool's size (the job's 20 mm tool at 60 mm: no mode lighter than
+    11.8 g, nor softer than 98,945 N/m), every slip is refused by line and
+    nothing is written. Without it the lobes are 1000 times too shallow: a
+    slot in Al7075 with 2 teeth on such a mode has its minimum at about
+    2 k zeta / (N Kt) ~ 0.1 mm and more in N/m, so the slip is refused (below
+    10 um) or warned (below 30 um), never silent; the real values read quietly.
+    """
+    modes = tmp_path / "modes.csv"
+    out = tmp_path / "lobes.csv"
+    row = f"xx,1,{f!r},{zeta!r},{{k!r}}\nyy,1,{f * 1.05!r},{zeta!r},{{k!r}}\n"
+    good = "dir,mode,f_hz,zeta,k_N_per_m\n" + row.format(k=k)
+    bad = "dir,mode,f_hz,zeta,k_N_per_m\n" + row.format(k=k * factor)
+    modes.write_text(good)
+    code, msg = _sld(modes, "--tool-diameter", "20", "--stickout", "60")
+    assert code == 0, msg
+    assert "warning" not in msg
+    code, msg = _sld(modes)
+    assert code == 0, msg
+    assert "warning" not in msg
+    out.unlink()
+    modes.write_text(bad)
+    code, msg = _sld(modes, "--tool-diameter", "20", "--stickout", "60")
+    assert code == 2, msg
+    assert f"{modes}:2: k_N_per_m" in msg  # the tool's floor, or the file's own (1e4 N/m)
+    assert "N/mm?" in msg
+    assert not out.exists()
+    code, msg = _sld(modes)
+    if code == 2:
+        assert f"{modes}:2: k_N_per_m" in msg
+        assert "N/mm?" in msg
+        assert not out.exists()
+    else:
+        assert code == 0, msg
+        assert "shallower than any practical cut" in msg
 
 
 @FUZZ
@@ -218,3 +285,51 @@ def test_job_tool_in_metres_or_khz_refused(diameter: float, share: float, key: s
         InputError, match=rf"^j\.toml: tool: (modes\[1\]\.)?{key}: expected .*at least"
     ):
         job_from_dict(d, source="j.toml")
+
+
+@FUZZ
+@given(
+    robot=st.sampled_from(["A", "B", "C"]),
+    keys=st.sampled_from([("q_min_deg",), ("q_max_deg",), ("q_min_deg", "q_max_deg")]),
+    joints=st.sets(st.integers(0, 5), min_size=1),
+)
+def test_robot_joint_limits_in_radians(tmp_path: Path, robot: str, keys, joints) -> None:
+    """Joint limits written in radians under ``_deg`` keys, for any joints and keys.
+
+    Refused when every value of a key is radians (no arm has all six limits of a
+    key within a few degrees of zero); a joint with both limits in radians is
+    refused or warned (it would move a few degrees), a symmetric joint with one
+    side in radians refused (-185 rad = 185 deg). One side of an asymmetric
+    range is not decidable (robot A's joint 2 moves from -140 to -5 deg): no claim.
+    """
+    import math
+    import tomllib
+
+    import tomli_w
+
+    from robolobe.robots import load_robot
+    from robolobe.robots.io import builtin_path
+    from robolobe.robots.plausibility import robot_warnings
+
+    d = tomllib.loads(builtin_path(robot).read_text())
+    decidable = len(joints) == 6 or any(
+        len(keys) == 2 or d["joints"][i]["q_min_deg"] == -d["joints"][i]["q_max_deg"]
+        for i in joints
+    )
+    for i in joints:
+        for key in keys:
+            d["joints"][i][key] = math.radians(d["joints"][i][key])
+    p = tmp_path / "r.toml"
+    p.write_text(tomli_w.dumps(d))
+    try:
+        r = load_robot(p)
+    except InputError as exc:
+        msg = str(exc)
+        assert msg.startswith(f"{p}: "), msg
+        assert any(k in msg for k in keys), msg
+        return
+    assert len(joints) < 6 or len(keys) < 2, "all limits in radians accepted"
+    assert len(joints) < 6, f"every {keys[0]} in radians accepted"
+    if decidable:
+        warned = robot_warnings(r)
+        assert any("radians" in w for w in warned), (joints, keys, warned)

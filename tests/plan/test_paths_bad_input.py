@@ -166,3 +166,105 @@ def test_spindle_speed_zero_is_refused_only_where_the_program_feeds(tmp_path):
     # a speed given again before the feed moves: they cut at it
     wp = read_toolpath(write(tmp_path, ".nc", "G21 S0 M3\nG0 X0 Z5\nS12000\nG1 X20 F100\n"))
     assert wp["rpm_programmed"].iloc[-1] == 12000.0
+
+
+@pytest.mark.parametrize(
+    ("text", "line", "found"),
+    [
+        ("UNITS/MM\nSPINDL/RPM,0,CLW\nRAPID\nGOTO/0,0,5\nFEDRAT/100\nGOTO/0,0,-1\n", 6,
+         "found SPINDL/RPM,0,CLW (line 2)"),
+        ("UNITS/MM\nSPINDL/0\nGOTO/0,0,5\n", 3, "found SPINDL/0 (line 2)"),
+        # a speed, then 0: the feed move after the 0 is refused, the one before is read
+        ("UNITS/MM\nFEDRAT/100\nSPINDL/12000,CLW\nGOTO/0,0,5\nSPINDL/0,CLW\nGOTO/1,0,5\n", 6,
+         "found SPINDL/0,CLW (line 5)"),
+        # OFF then ON again: still at 0 rpm
+        ("UNITS/MM\nSPINDL/RPM,0\nSPINDL/OFF\nSPINDL/ON\nGOTO/0,0,5\n", 5, "(line 2)"),
+        # an arc too
+        ("UNITS/MM\nSPINDL/0\nRAPID\nGOTO/5,0,0\nFEDRAT/100\nCIRCLE/0,0,0,0,0,1,5\n"
+         "GOTO/-5,0,0\n", 7, "(line 2)"),
+    ],
+)  # fmt: skip
+def test_apt_feed_move_at_zero_spindle_speed_is_refused(tmp_path, text, line, found):
+    with pytest.raises(InputError) as ei:
+        read_toolpath(write(tmp_path, ".cls", text))
+    msg = str(ei.value)
+    assert msg.startswith(f"prog.cls:{line}: expected a spindle speed > 0 rpm on a feed move"), msg
+    assert found in msg
+
+
+def test_apt_zero_spindle_speed_over_rapids_or_with_the_spindle_off_is_read(tmp_path):
+    wp = read_toolpath(
+        write(tmp_path, ".cls", "UNITS/MM\nSPINDL/0\nRAPID\nGOTO/0,0,5\nSPINDL/OFF\n"
+              "FEDRAT/100\nGOTO/10,0,5\nFINI\n")
+    )  # fmt: skip
+    assert np.isnan(wp["rpm_programmed"]).all()
+    assert len(wp) == 2
+    # a speed given again before the feed moves: they cut at it
+    wp = read_toolpath(
+        write(tmp_path, ".cls", "UNITS/MM\nSPINDL/0\nRAPID\nGOTO/0,0,5\nSPINDL/9000,CLW\n"
+              "FEDRAT/100\nGOTO/10,0,5\nFINI\n")
+    )  # fmt: skip
+    assert wp["rpm_programmed"].tolist()[-1] == 9000.0
+
+
+KRL_ZERO = (
+    "DEF t()\n$VEL.CP = 0.01\n$ANOUT[2] = 0.5\nPTP {X 0, Y 0, Z 5, A 0, B 0, C 180}\n"
+    "LIN {Z -1}\nLIN {X 10}\n$ANOUT[2] = 0\nLIN {Z 20}\nLIN {Z 30}\nPTP {Z 50}\nEND\n"
+)
+RAPID_POSE = "[[{x},0,{z}],[0,0,1,0],[0,0,0,0],[9E9,9E9,9E9,9E9,9E9,9E9]]"
+
+
+def _rapid_zero(off: str) -> str:
+    return (
+        "MODULE M\nPROC main()\nSetAO aoS, 0.5;\n"
+        f"MoveJ {RAPID_POSE.format(x=0, z=5)},v100,z1,tool0;\n"
+        f"MoveL {RAPID_POSE.format(x=10, z=-1)},v10,fine,tool0;\n"
+        f"{off}\n"
+        f"MoveL {RAPID_POSE.format(x=10, z=20)},v10,fine,tool0;\n"
+        f"MoveL {RAPID_POSE.format(x=10, z=30)},v10,fine,{'tg1, ' if 'Trigg' in off else ''}"
+        "tool0;\n"
+        f"MoveJ {RAPID_POSE.format(x=10, z=50)},v100,z1,tool0;\nENDPROC\nENDMODULE\n"
+    )
+
+
+@pytest.mark.parametrize(
+    ("ext", "text", "opts", "zero"),
+    [
+        (".src", KRL_ZERO, {"spindle_output": "2", "spindle_rpm_per_unit": 24000.0},
+         "$ANOUT[2] = 0, line 7"),
+        (".mod", _rapid_zero("SetAO aoS, 0;"),
+         {"spindle_output": "aoS", "spindle_rpm_per_unit": 24000.0}, "SetAO aoS, 0, line 6"),
+    ],
+)  # fmt: skip
+def test_robot_program_zero_spindle_output_reads_as_off_and_warns_its_feed_moves(
+    tmp_path, ext, text, opts, zero
+):
+    """On a robot the analog output is the spindle's switch: 0 is off (M5), not "S0 on"."""
+    wp = read_toolpath(write(tmp_path, ext, text), **opts)
+    rpm = wp["rpm_programmed"].to_numpy()
+    zero_line = int(zero.rsplit(" ", 1)[1])
+    before = wp["line"].to_numpy() < zero_line
+    assert rpm[before] == pytest.approx([12000.0] * int(before.sum()))
+    assert np.isnan(rpm[~before]).all()
+    assert wp["motion"][~before].tolist() == ["cut", "cut", "rapid"]
+    warned = [w for w in wp.attrs["warnings"] if "spindle output at 0" in w]
+    assert len(warned) == 1, wp.attrs["warnings"]
+    assert zero in warned[0]
+    assert warned[0].endswith("(2 times)")  # the two feed moves, not the PTP/MoveJ
+    # without a zero, no such warning
+    ok = read_toolpath(write(tmp_path, ext, GOOD[ext]), **opts)
+    assert not any("spindle output at 0" in w for w in ok.attrs["warnings"])
+
+
+def test_rapid_triggio_to_zero_warns_the_move_that_uses_it(tmp_path):
+    text = _rapid_zero("TriggIO tg1, 0\\Start\\AOp:=aoS, 0;")
+    wp = read_toolpath(
+        write(tmp_path, ".mod", text), spindle_output="aoS", spindle_rpm_per_unit=24000.0
+    )
+    rpm = wp["rpm_programmed"].to_numpy()
+    assert rpm[2] == 12000.0  # MoveL to z=20 still at speed: the trigger acts on the move using it
+    assert np.isnan(rpm[3])
+    warned = [w for w in wp.attrs["warnings"] if "spindle output at 0" in w]
+    assert len(warned) == 1, warned
+    assert "TriggIO tg1 to aoS = 0, line 6" in warned[0]
+    assert warned[0].startswith("prog.mod:8:")

@@ -63,6 +63,16 @@ def _limits_rad(d: dict) -> None:
         j["q_max_deg"] = math.radians(j["q_max_deg"])
 
 
+def _one_key_rad(key: str):
+    """Only ``key`` (q_min_deg or q_max_deg) of every joint written in radians."""
+
+    def f(d: dict) -> None:
+        for j in d["joints"]:
+            j[key] = math.radians(j[key])
+
+    return f
+
+
 def _alpha_rad(d: dict) -> None:
     for j in d["joints"]:
         j["alpha_deg"] = math.radians(j["alpha_deg"])
@@ -106,6 +116,23 @@ REFUSED = [
      r"end_effector\.inertia_kgm2: expected a radius of gyration .* at most 10 m"),
     (_limits_rad, r"\[\[joints\]\]\.q_min_deg/q_max_deg: expected joint limits in degrees, "
                   r"found all within \+-12\.6 .*radians"),
+    # robot A's q_max_deg in radians (3.229 ... 6.109) beside q_min_deg in degrees
+    (_one_key_rad("q_max_deg"),
+     r"\[\[joints\]\]\.q_max_deg: expected joint limits in degrees, found every q_max_deg "
+     r"within \+-12\.6 \(largest 6\.109\) while q_min_deg reaches 350: radians\?"),
+    # one joint in radians: +-pi, +-2 pi
+    (_joint(5, q_min_deg=-math.pi, q_max_deg=math.pi),
+     r"\[\[joints\]\]\[6\]\.q_min_deg: expected a joint limit in degrees, found -3\.142 "
+     r"\(a multiple of pi/2 in radians: -180 deg\?\)"),
+    # one side of a symmetric range in radians: -185 deg written as -3.229
+    (_joint(0, q_min_deg=math.radians(-185.0)),
+     r"\[\[joints\]\]\[1\]\.q_min_deg: expected a joint limit in degrees, found -3\.229: "
+     r"q_max_deg = 185 in radians \(-185 deg\?\)"),
+    (_joint(3, q_max_deg=2 * math.pi), r"\[\[joints\]\]\[4\]\.q_max_deg: .*found 6\.283"),
+    (lambda d: d["tool"].update(zyx_deg=[0.0, math.pi / 2, 0.0]),
+     r"tool\.zyx_deg: expected angles in degrees, found 1\.571 \(pi/2 or pi in radians"),
+    (lambda d: d["kinematics"].update(base={"zyx_deg": [math.pi, 0.0, 0.0]}),
+     r"kinematics\.base\.zyx_deg: expected angles in degrees, found 3\.142"),
     (_joint(5, q_min_deg=-1e5, q_max_deg=1e5),
      r"\[\[joints\]\]\[6\]: expected joint limits within \+-3600 deg"),
     (_alpha_rad, r"\[\[joints\]\]\.alpha_deg: expected angles in degrees, found -1\.571"),
@@ -140,6 +167,27 @@ def test_implausible_values_are_refused(tmp_path: Path, mutate, pattern: str) ->
     assert "array(" not in msg
 
 
+@pytest.mark.parametrize(
+    ("name", "mutate", "pattern"),
+    [
+        # robot C: every q_max_deg > 0, so q_min_deg in radians still reads as min < max
+        ("C", _one_key_rad("q_min_deg"),
+         r"\[\[joints\]\]\.q_min_deg: expected joint limits in degrees, found every q_min_deg "
+         r"within \+-12\.6 \(largest 6\.981\) while q_max_deg reaches 400"),
+        ("B", lambda d: d["kinematics"]["constraints"][0].update(min_deg=-math.pi / 2, max_deg=1.2),
+         r"kinematics\.constraints\[1\]\.min_deg/max_deg: expected angles in degrees, found "
+         r"-1\.571"),
+    ],
+)  # fmt: skip
+def test_degree_keys_in_radians_on_other_robots_are_refused(tmp_path, name, mutate, pattern):
+    d = _base(name)
+    mutate(d)
+    path = _write(tmp_path, d)
+    with pytest.raises(InputError, match=pattern) as info:
+        load_robot(path)
+    assert str(info.value).startswith(f"{path}: ")
+
+
 WARNED = [
     (_joint(5, stiffness_Nm_per_rad=5e3),
      r"\[\[joints\]\]\[6\]\.stiffness_Nm_per_rad: 5000 N m/rad is outside the usual joint "
@@ -149,6 +197,10 @@ WARNED = [
     (_ee(mass_kg=3000.0, inertia_kgm2=[100.0, 100.0, 50.0, 0.0, 0.0, 0.0]),
      r"end_effector\.mass_kg: 3000 kg is unusually heavy"),
     (_joint(1, a_m=4.0), r"arm reach 6\.397 m .* outside the usual 0\.3 to 6 m"),
+    # one joint that moves 6 degrees: possible (a near-locked axis), or radians
+    (_joint(4, q_min_deg=-3.0, q_max_deg=3.0),
+     r"\[\[joints\]\]\[5\]: joint range -3 to 3 deg: the axis hardly moves; if these are "
+     r"radians, write degrees"),
 ]  # fmt: skip
 
 

@@ -18,11 +18,11 @@ _DEFAULT_N = {"zoa": 1000, "sdm": 200}
 #: Cap on the speed grid: 100k speeds resolve any lobe of a milling
 #: spindle; more only costs memory and time.
 MAX_RPM_POINTS = 100_000
-#: A limiting depth [m] below which the lobes are more likely a unit slip than a
-#: structure (10 um: no milling cut is that shallow).
-MIN_PLAUSIBLE_A_LIM_M = 1e-5
 #: Cap on the teeth of a milling cutter (large face mills have a few dozen).
 MAX_TEETH = 200
+#: Largest tool diameter and stick-out [mm] (the job file's bounds).
+MAX_TOOL_DIAMETER_MM = 500.0
+MAX_STICKOUT_MM = 1000.0
 
 
 def parse_rpm(text: str, method: str) -> np.ndarray:
@@ -40,6 +40,31 @@ def parse_rpm(text: str, method: str) -> np.ndarray:
     if not 2 <= n <= MAX_RPM_POINTS:
         raise InputError(f"--rpm: expected 2 <= N <= {MAX_RPM_POINTS} speeds, found {n}")
     return np.linspace(lo, hi, n)
+
+
+def _tool_size(diameter_mm: float | None, stickout_mm: float | None) -> tuple[float, float] | None:
+    """``--tool-diameter`` and ``--stickout`` [mm] -> (diameter, stick-out) [m], or None."""
+    if diameter_mm is None and stickout_mm is None:
+        return None
+    if diameter_mm is None or stickout_mm is None:
+        given = "--tool-diameter" if diameter_mm is not None else "--stickout"
+        raise InputError(
+            f"--tool-diameter and --stickout: expected both (mm) or neither, found only {given}"
+        )
+    if not (math.isfinite(diameter_mm) and 0 < diameter_mm <= MAX_TOOL_DIAMETER_MM):
+        raise InputError(
+            f"--tool-diameter: expected a diameter in (0, {MAX_TOOL_DIAMETER_MM:g}] mm, found "
+            f"{diameter_mm:g}"
+        )
+    from robolobe.plan.job import STICKOUT_MIN_SHARE
+
+    least = STICKOUT_MIN_SHARE * diameter_mm
+    if not (math.isfinite(stickout_mm) and least <= stickout_mm <= MAX_STICKOUT_MM):
+        raise InputError(
+            f"--stickout: expected {least:g} to {MAX_STICKOUT_MM:g} mm (at least a quarter of "
+            f"the {diameter_mm:g} mm diameter), found {stickout_mm:g}"
+        )
+    return diameter_mm * 1e-3, stickout_mm * 1e-3
 
 
 def register(app: typer.Typer) -> None:
@@ -111,6 +136,18 @@ def register(app: typer.Typer) -> None:
             float | None,
             typer.Option("--safety", help="Draw a_lim/SAFETY as a safety line in the plot."),
         ] = None,
+        tool_diameter: Annotated[
+            float | None,
+            typer.Option(
+                "--tool-diameter",
+                help="Cutter diameter in mm (with --stickout): each mode is checked against "
+                "what a tool of that size can be (a stiffness in N/mm is refused).",
+            ),
+        ] = None,
+        stickout: Annotated[
+            float | None,
+            typer.Option("--stickout", help="Tool stick-out from the holder in mm."),
+        ] = None,
     ) -> None:
         """Stability lobes (limiting axial depth vs spindle speed) of one tool point."""
         from robolobe._atomic import check_output_file
@@ -120,7 +157,13 @@ def register(app: typer.Typer) -> None:
             get_material,
             stability_lobes,
         )
-        from robolobe.sld.io import SAFETY_RANGE, read_modes_csv, write_lobes_csv
+        from robolobe.sld.io import (
+            SAFETY_RANGE,
+            check_lobe_depth,
+            check_modes_on_tool,
+            read_modes_table,
+            write_lobes_csv,
+        )
         from robolobe.sld.sdm import MAX_SDM_INTERVALS
 
         check_output_file(output, "--output")
@@ -159,8 +202,11 @@ def register(app: typer.Typer) -> None:
                 if exc.source is None and exc.detail.startswith(name):
                     raise InputError(exc.detail.removeprefix(name), option) from None
             raise
+        tool = _tool_size(tool_diameter, stickout)
         grid = parse_rpm(rpm, method)
-        model = read_modes_csv(modes)
+        model, rows = read_modes_table(modes)
+        if tool is not None:
+            check_modes_on_tool(rows, *tool, str(modes))
         conditions = CuttingConditions.from_immersion(immersion, milling)
         with status(f"computing {method.upper()} lobes on {grid.size} speeds"):
             lobes = stability_lobes(
@@ -173,6 +219,10 @@ def register(app: typer.Typer) -> None:
                 max_lobe=max_lobe,
                 intervals=intervals,
             )
+        a_min, n_min = lobes.minimum()
+        shallow = check_lobe_depth(
+            float(a_min), float(n_min), rows, str(modes), tool_checked=tool is not None
+        )
         with Outputs() as out:
             out.write(output, "--output", write_lobes_csv, output, lobes)
             if plot is not None:
@@ -187,7 +237,6 @@ def register(app: typer.Typer) -> None:
                     safety_factor=safety,
                     title=f"{method.upper()}: N={teeth}, a/D={immersion:g}, {milling} milling",
                 )
-        a_min, n_min = lobes.minimum()
         console.print(
             f"{method.upper()} lobes: {grid.size} speeds {grid[0]:g}-{grid[-1]:g} rpm, "
             f"Kt={mat.kt:.4g} N/m^2, Kr={mat.kr:.4g}, a/D={immersion:g} ({milling} milling)",
@@ -200,17 +249,8 @@ def register(app: typer.Typer) -> None:
                 highlight=False,
                 soft_wrap=True,
             )
-            if float(a_min) < MIN_PLAUSIBLE_A_LIM_M:
-                err_console.print(
-                    labelled(
-                        "warning:",
-                        "yellow",
-                        f"the smallest limiting depth, {float(a_min) * 1e3:.3g} mm, is below any "
-                        "practical cut: check the units (k_N_per_m in N/m, not N/mm; --kt in "
-                        "N/m^2, not N/mm^2)",
-                    ),
-                    soft_wrap=True,
-                )
+            if shallow is not None:
+                err_console.print(labelled("warning:", "yellow", shallow), soft_wrap=True)
         else:
             console.print("no lobe crosses this speed range: a_lim = inf everywhere")
         if not lobes.valid:

@@ -130,7 +130,7 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_valida
 
 from robolobe._atomic import not_a_file
 from robolobe._documents import parse_toml
-from robolobe._frf_checks import EE_MASS_SHARE, tool_mode_k_floor
+from robolobe._frf_checks import EE_MASS_SHARE, soft_tool_mode_problem
 from robolobe._toml_errors import PrintableText, check_key_typos, describe_error, key_path
 from robolobe.errors import InputError, InputTypeError
 from robolobe.robots.transforms import pose_from_xyz_zyx, xyz_zyx_from_pose
@@ -518,7 +518,7 @@ class ToolSpec:
     def __post_init__(self) -> None:
         # the job file's check names the file and key first; this one guards the Python API
         for i, m in enumerate(self.modes):
-            problem = _soft_tool_mode(
+            problem = soft_tool_mode_problem(
                 m.f_hz, m.k_N_per_m, self.diameter_m, self.stickout_m, "stickout_m"
             )
             if problem is not None:
@@ -806,7 +806,7 @@ def _check_tool_modes(t: _ToolSpec, where: str) -> None:
     """
     default = "stickout_mm" not in t.model_fields_set
     for i, m in enumerate(t.modes):
-        problem = _soft_tool_mode(
+        problem = soft_tool_mode_problem(
             m.f_hz, m.k_N_per_m, t.diameter_mm * 1e-3, t.stickout_mm * 1e-3,
             "tool.stickout_mm", default=default,
         )  # fmt: skip
@@ -833,7 +833,7 @@ def check_tool_modes_on(tool: ToolSpec, robot: Robot, source: str) -> None:
         return
     carrier = EE_MASS_SHARE * float(m.min())
     for i, mode in enumerate(tool.modes):
-        problem = _soft_tool_mode(
+        problem = soft_tool_mode_problem(
             mode.f_hz, mode.k_N_per_m, tool.diameter_m, tool.stickout_m, "tool.stickout_mm",
             carrier_kg=carrier,
         )  # fmt: skip
@@ -843,38 +843,6 @@ def check_tool_modes_on(tool: ToolSpec, robot: Robot, source: str) -> None:
                 f"{robot.name!r}: {problem}",
                 source=source,
             )
-
-
-def _soft_tool_mode(
-    f_hz: float,
-    k: float,
-    diameter_m: float,
-    stickout_m: float,
-    stick_key: str,
-    *,
-    default: bool = False,
-    carrier_kg: float | None = None,
-) -> str | None:
-    """Why a tool mode is softer than a tool of its size can be (expected vs found), or None.
-
-    ``stick_key`` names the stick-out in the message (``default``: it was not
-    given); ``carrier_kg``: the spindle's mass at the tip (default: the lightest).
-    """
-    try:
-        vals = [float(x) for x in (f_hz, k, diameter_m, stickout_m)]
-    except (TypeError, ValueError):
-        return None  # the fields' own checks say what is wrong
-    if not all(math.isfinite(x) and x > 0 for x in vals):
-        return None
-    floor, why = tool_mode_k_floor(vals[0], vals[2], vals[3], carrier_kg)
-    if vals[1] >= floor:
-        return None
-    return (
-        f"expected at least {floor:.3g} N/m for a mode at {vals[0]:g} Hz of a "
-        f"{vals[2] * 1e3:g} mm tool at a stick-out of {vals[3] * 1e3:g} mm"
-        f"{' (the default)' if default else ''} ({why}), found {vals[1]:g}: a stiffness in "
-        f"N/mm? In N/m it is {vals[1] * 1e3:.3g}; or give the tool's real {stick_key}"
-    )
 
 
 # ---------------------------------------------------------------- build

@@ -25,8 +25,11 @@ Ranges (SI, as in the file; angles in degrees):
   (end effector); principal inertias at most :data:`INERTIA_MAX_KGM2` and a
   radius of gyration sqrt(I/m) at most :data:`GYRATION_MAX_M`;
 - joint limits: not all within +-:data:`RADIAN_LIKE_DEG` (radians under a
-  ``_deg`` key), none beyond +-:data:`JOINT_LIMIT_MAX_DEG`; DH angles that
-  equal +-pi/2 or +-pi are radians;
+  ``_deg`` key), nor all of one key (``q_min_deg`` or ``q_max_deg``), nor one
+  equal to a multiple of pi/2 or to the other limit of its joint in radians;
+  a joint whose range lies within +-:data:`RADIAN_LIKE_DEG` is warned; none beyond
+  +-:data:`JOINT_LIMIT_MAX_DEG`; DH angles, base and tool ZYX angles and
+  constraint bounds that equal +-pi/2 or +-pi are radians;
 - moving masses: at least :data:`TOTAL_MASS_MIN_KG` in total;
 - axis coupling: entries within +-:data:`COUPLING_MAX`, condition number at
   most :data:`COUPLING_COND_MAX`.
@@ -44,6 +47,7 @@ import numpy as np
 from robolobe._toml_errors import number as _n
 from robolobe.errors import InputError
 from robolobe.robots.model import RigidBody, Robot
+from robolobe.robots.transforms import xyz_zyx_from_pose
 
 __all__ = [
     "COUPLING_COND_MAX",
@@ -318,13 +322,92 @@ def _coupling(out: list[Finding], c: np.ndarray) -> None:
         )
 
 
-def _radian_like(values_deg: Iterable[float]) -> float | None:
-    """The first value that equals +-pi/2 or +-pi (degrees read as radians), or None."""
+def _radian_like(values_deg: Iterable[float], turns: int = 2) -> float | None:
+    """The first value that equals a nonzero multiple of pi/2 up to ``turns`` quarter
+    turns (+-pi/2, +-pi; with ``turns=4`` also +-3 pi/2, +-2 pi) under a degree key:
+    radians, or None."""
     for v in values_deg:
         k = round(v / (math.pi / 2))
-        if k != 0 and abs(k) <= 2 and abs(v - k * math.pi / 2) < 2e-3:
+        if k != 0 and abs(k) <= turns and abs(v - k * math.pi / 2) < 2e-3:
             return v
     return None
+
+
+def _limits_in_radians(out: list[Finding], robot: Robot) -> None:
+    """Joint limits written in radians under the ``_deg`` keys, all or in part.
+
+    Every limit within +-:data:`RADIAN_LIKE_DEG`, or every value of one key
+    (``q_min_deg`` or ``q_max_deg``: no arm has all six within a few degrees
+    of zero), or one joint's limit equal to a multiple of pi/2 rad, or to the
+    other limit of its joint in radians (a symmetric range half in radians):
+    refused. One limit of an asymmetric range in radians is not decidable
+    (robot A's joint 2 moves from -140 to -5 deg).
+    One joint whose whole range lies within +-:data:`RADIAN_LIKE_DEG` (a
+    near-locked axis, or radians): warned.
+    """
+    cols = {"q_min_deg": np.degrees(robot.q_min), "q_max_deg": np.degrees(robot.q_max)}
+    big = {k: float(np.max(np.abs(v))) for k, v in cols.items()}
+    if max(big.values()) <= RADIAN_LIKE_DEG:
+        out.append(
+            Finding(
+                "error",
+                "[[joints]].q_min_deg/q_max_deg",
+                f"expected joint limits in degrees, found all within +-{_n(RADIAN_LIKE_DEG)} "
+                f"(largest {_n(max(big.values()))}): radians? (1 rad = 57.3 deg)",
+            )
+        )
+        return
+    for name, other in (("q_min_deg", "q_max_deg"), ("q_max_deg", "q_min_deg")):
+        if big[name] <= RADIAN_LIKE_DEG:
+            out.append(
+                Finding(
+                    "error",
+                    f"[[joints]].{name}",
+                    f"expected joint limits in degrees, found every {name} within "
+                    f"+-{_n(RADIAN_LIKE_DEG)} (largest {_n(big[name])}) while {other} reaches "
+                    f"{_n(big[other])}: radians? (1 rad = 57.3 deg)",
+                )
+            )
+            return
+    for i in range(len(robot.joints)):
+        lim = (float(cols["q_min_deg"][i]), float(cols["q_max_deg"][i]))
+        key = f"[[joints]][{i + 1}]"
+        for name, v in zip(cols, lim, strict=True):
+            if _radian_like([v], turns=4) is not None:
+                out.append(
+                    Finding(
+                        "error",
+                        f"{key}.{name}",
+                        f"expected a joint limit in degrees, found {_n(v)} (a multiple of pi/2 "
+                        f"in radians: {_n(math.degrees(v))} deg?)",
+                    )
+                )
+                return
+        # a symmetric range with one side in radians: |small| rad == |big| deg (0.5 %)
+        small, big_v = sorted(lim, key=abs)
+        name = "q_min_deg" if small == lim[0] else "q_max_deg"
+        if 0 < abs(small) <= RADIAN_LIKE_DEG and abs(
+            abs(math.degrees(small)) - abs(big_v)
+        ) <= 5e-3 * abs(big_v):
+            other = "q_max_deg" if name == "q_min_deg" else "q_min_deg"
+            out.append(
+                Finding(
+                    "error",
+                    f"{key}.{name}",
+                    f"expected a joint limit in degrees, found {_n(small)}: {other} = "
+                    f"{_n(big_v)} in radians ({_n(math.degrees(small))} deg?)",
+                )
+            )
+            return
+        if max(abs(v) for v in lim) <= RADIAN_LIKE_DEG:
+            out.append(
+                Finding(
+                    "warning",
+                    key,
+                    f"joint range {_n(lim[0])} to {_n(lim[1])} deg: the axis hardly moves; "
+                    "if these are radians, write degrees (1 rad = 57.3 deg)",
+                )
+            )
 
 
 def robot_findings(robot: Robot) -> list[Finding]:
@@ -366,23 +449,22 @@ def robot_findings(robot: Robot) -> list[Finding]:
                     f"found q_min_deg = {_n(lim[0])}, q_max_deg = {_n(lim[1])}",
                 )
             )
-    lims = np.degrees(np.concatenate([robot.q_min, robot.q_max]))
-    if float(np.max(np.abs(lims))) <= RADIAN_LIKE_DEG:
-        out.append(
-            Finding(
-                "error",
-                "[[joints]].q_min_deg/q_max_deg",
-                f"expected joint limits in degrees, found all within +-{_n(RADIAN_LIKE_DEG)} "
-                f"(largest {_n(float(np.max(np.abs(lims))))}): radians? (1 rad = 57.3 deg)",
-            )
-        )
-    for name, vals in (("alpha_deg", robot.alpha), ("theta_offset_deg", robot.theta_offset)):
-        v = _radian_like(np.degrees(vals))
+    _limits_in_radians(out, robot)
+    angles = [("[[joints]].alpha_deg", np.degrees(robot.alpha)),
+              ("[[joints]].theta_offset_deg", np.degrees(robot.theta_offset)),
+              ("kinematics.base.zyx_deg", np.degrees(xyz_zyx_from_pose(robot.base)[1])),
+              ("tool.zyx_deg", np.degrees(xyz_zyx_from_pose(robot.tool)[1]))]  # fmt: skip
+    angles += [
+        (f"kinematics.constraints[{i + 1}].min_deg/max_deg", np.degrees([c.lo_rad, c.hi_rad]))
+        for i, c in enumerate(robot.constraints)
+    ]
+    for key, vals in angles:
+        v = _radian_like(vals)
         if v is not None:
             out.append(
                 Finding(
                     "error",
-                    f"[[joints]].{name}",
+                    key,
                     f"expected angles in degrees, found {_n(v)} (pi/2 or pi in radians: "
                     f"{_n(math.degrees(v))} deg?)",
                 )

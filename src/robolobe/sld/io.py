@@ -25,17 +25,29 @@ import csv
 import io
 import math
 import os
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
 from robolobe._atomic import atomic_write_text, check_input_file
-from robolobe._frf_checks import MODAL_K_MIN_N_PER_M
+from robolobe._frf_checks import MODAL_K_MIN_N_PER_M, soft_tool_mode_problem
 from robolobe.errors import InputError
 from robolobe.sld.frf import ModalModel
 from robolobe.sld.lobes import LobeDiagram
 
-__all__ = ["MODES_COLUMNS", "SAFETY_RANGE", "read_modes_csv", "write_lobes_csv"]
+__all__ = [
+    "MIN_PLAUSIBLE_A_LIM_M",
+    "MODES_COLUMNS",
+    "SAFETY_RANGE",
+    "SHALLOW_A_LIM_M",
+    "ModeRow",
+    "check_lobe_depth",
+    "check_modes_on_tool",
+    "read_modes_csv",
+    "read_modes_table",
+    "write_lobes_csv",
+]
 
 #: Required columns of a modes file.
 MODES_COLUMNS = ("dir", "mode", "f_hz", "zeta", "k_N_per_m")
@@ -47,6 +59,13 @@ F_RANGE_HZ = (1.0, 1.0e5)
 #: (:data:`robolobe._frf_checks.MODAL_K_MIN_N_PER_M`; a value in N/mm reads
 #: 1000 times too soft) to a mode barely seen at the tool point (~1e13).
 K_RANGE_N_PER_M = (MODAL_K_MIN_N_PER_M, 1.0e13)
+#: A limiting depth [m] below which lobes are refused as a unit slip (10 um: no
+#: milling cut is that shallow; a stiffness in N/mm makes every depth 1000
+#: times shallower), unless the modes were checked against their tool.
+MIN_PLAUSIBLE_A_LIM_M = 1e-5
+#: A limiting depth [m] below which lobes are warned (the textbook slot of
+#: REFERENCES.md section 3, a 1.34e6 N/m mode at 1.1 % damping, reaches 48 um).
+SHALLOW_A_LIM_M = 3e-5
 #: Safety factors on the limiting depth (depth <= a_lim / factor): from 1 (at the
 #: limit) to 10 (a tenth of it; more is no plan but a unit or typing slip).
 SAFETY_RANGE = (1.0, 10.0)
@@ -62,8 +81,33 @@ def _num(text: str, where: str, column: str) -> float:
     return value
 
 
+@dataclass(frozen=True)
+class ModeRow:
+    """One row of a modes file, with its line (for messages).
+
+    Attributes
+    ----------
+    line : int
+        Line number in the file (from 1).
+    direction : {"xx", "yy", "xy"}
+        ``yx`` rows are stored as ``xy``.
+    mode : int
+    f_hz, zeta, k_N_per_m : float
+        As in the file [Hz, fraction, N/m].
+    """
+
+    line: int
+    direction: str
+    mode: int
+    f_hz: float
+    zeta: float
+    k_N_per_m: float
+
+
 def read_modes_csv(path: str | os.PathLike[str]) -> ModalModel:
     """Read a tool-point modes file into a 2-D (feed x, normal y) model.
+
+    See :func:`read_modes_table` (the same, with the rows and their lines).
 
     Parameters
     ----------
@@ -81,6 +125,29 @@ def read_modes_csv(path: str | os.PathLike[str]) -> ModalModel:
         Naming ``file:line`` and the column for a missing file or column, a
         bad value, a duplicate ``(dir, mode)``, a cross term given both as
         ``xy`` and ``yx``, or a file without any ``xx``/``yy`` mode.
+    """
+    return read_modes_table(path)[0]
+
+
+def read_modes_table(path: str | os.PathLike[str]) -> tuple[ModalModel, list[ModeRow]]:
+    """Read a tool-point modes file: the 2-D model and its rows with their lines.
+
+    Parameters
+    ----------
+    path : path-like
+        The CSV file (format in the module docstring).
+
+    Returns
+    -------
+    model : ModalModel
+        One mode per row, ``dim == 2``.
+    rows : list of ModeRow
+        The rows in file order, for checks that name a line.
+
+    Raises
+    ------
+    InputError
+        As :func:`read_modes_csv`.
     """
     p = Path(path)
     name = str(path)
@@ -114,6 +181,7 @@ def read_modes_csv(path: str | os.PathLike[str]) -> ModalModel:
     k: list[float] = []
     dirs: list[str] = []
     seen: dict[tuple[str, int], int] = {}
+    rows: list[ModeRow] = []
     for lineno, line in numbered[1:]:
         where = f"{name}:{lineno}"
         row = [c.strip() for c in next(csv.reader(io.StringIO(line)))]
@@ -168,13 +236,111 @@ def read_modes_csv(path: str | os.PathLike[str]) -> ModalModel:
             what = "cross term (give it once, as xy)" if key[0] == "xy" else f"dir {d}"
             raise InputError(f"duplicate {what}, mode {mode}: also on line {other}", source=where)
         seen[key] = lineno
+        rows.append(ModeRow(lineno, key[0], mode, f, z, kk))
         f_hz.append(f)
         zeta.append(z)
         k.append(kk)
         dirs.append("xy" if d == "yx" else d)
     if not any(d in ("xx", "yy") for d in dirs):
         raise InputError("expected at least one xx or yy mode, found none", source=name)
-    return ModalModel.from_directional(np.array(f_hz), np.array(zeta), np.array(k), dirs, dim=2)
+    model = ModalModel.from_directional(np.array(f_hz), np.array(zeta), np.array(k), dirs, dim=2)
+    return model, rows
+
+
+def check_modes_on_tool(
+    rows: list[ModeRow], diameter_m: float, stickout_m: float, source: str
+) -> None:
+    """Refuse a driving-point mode softer than a tool of this size can be (N/mm for N/m).
+
+    Each ``xx``/``yy`` mode's stiffness against
+    :func:`robolobe._frf_checks.tool_mode_k_floor` (a mode that moves the
+    spindle, or one that bends the tool on its spindle), as the job file's
+    tool modes; cross terms are not modal masses and are left out.
+
+    Parameters
+    ----------
+    rows : list of ModeRow
+        From :func:`read_modes_table`.
+    diameter_m, stickout_m : float
+        The cutter's diameter and stick-out [m].
+    source : str
+        The modes file's name, for ``file:line``.
+
+    Raises
+    ------
+    InputError
+        ``file:line: k_N_per_m: expected ..., found ...``.
+    """
+    for r in rows:
+        if r.direction == "xy":
+            continue
+        problem = soft_tool_mode_problem(r.f_hz, r.k_N_per_m, diameter_m, stickout_m, "--stickout")
+        if problem is not None:
+            raise InputError(
+                f"k_N_per_m ({r.direction} mode {r.mode}): {problem}", source=f"{source}:{r.line}"
+            )
+
+
+def check_lobe_depth(
+    a_min_m: float, rpm_at_min: float, rows: list[ModeRow], source: str, *, tool_checked: bool
+) -> str | None:
+    """Refuse lobes too shallow for any cut unless the modes were checked on a tool.
+
+    A modes file alone cannot tell a stiff mode in N/mm from a soft one in
+    N/m (a 5e7 N/m spindle mode read as 5e4 N/m looks like a 3 mm end mill's
+    bending mode), but its lobes can: every limiting depth scales with the
+    stiffness, and a slip makes it 1000 times shallower. Without a tool to
+    check the modes against (:func:`check_modes_on_tool`), a minimum below
+    :data:`MIN_PLAUSIBLE_A_LIM_M` is refused, one below
+    :data:`SHALLOW_A_LIM_M` warned; with the modes checked on their tool,
+    both are warned.
+
+    Parameters
+    ----------
+    a_min_m, rpm_at_min : float
+        The envelope's minimum [m] and its speed [rpm].
+    rows : list of ModeRow
+        The modes (the softest driving-point one is named).
+    source : str
+        The modes file's name.
+    tool_checked : bool
+        The modes passed :func:`check_modes_on_tool`.
+
+    Returns
+    -------
+    str or None
+        A warning, or None.
+
+    Raises
+    ------
+    InputError
+        ``file:line`` of the mode with the least dynamic stiffness ``2 zeta k``.
+    """
+    if not math.isfinite(a_min_m) or a_min_m >= SHALLOW_A_LIM_M:
+        return None
+    soft = min((r for r in rows if r.direction != "xy"), key=lambda r: r.zeta * r.k_N_per_m)
+    mass_g = 1e3 * soft.k_N_per_m / (2.0 * math.pi * soft.f_hz) ** 2
+    found = (
+        f"a minimum a_lim of {a_min_m * 1e3:.3g} mm at {rpm_at_min:.6g} rpm; the softest mode "
+        f"({soft.direction} mode {soft.mode}, line {soft.line}: {soft.k_N_per_m:g} N/m at "
+        f"{soft.f_hz:g} Hz, a modal mass of {mass_g:.3g} g)"
+    )
+    if a_min_m < MIN_PLAUSIBLE_A_LIM_M and not tool_checked:
+        raise InputError(
+            f"k_N_per_m: expected lobes no shallower than {MIN_PLAUSIBLE_A_LIM_M * 1e3:g} mm "
+            f"(no milling cut is), found {found}: stiffnesses in N/mm? (x1000 for N/m); if "
+            "they are right, give --tool-diameter and --stickout to check them against the tool",
+            source=f"{source}:{soft.line}",
+        )
+    why = (
+        "modes checked against the tool"
+        if tool_checked
+        else "--tool-diameter and --stickout check the modes against the tool"
+    )
+    return (
+        f"{source}: lobes shallower than any practical cut: {found}; check that k_N_per_m is "
+        f"in N/m, not N/mm (1000 times shallower lobes) and --kt in N/m^2 ({why})"
+    )
 
 
 def write_lobes_csv(path: str | os.PathLike[str], diagram: LobeDiagram) -> None:

@@ -92,6 +92,33 @@ class WaypointBuilder:
     _ref: array = field(default_factory=lambda: array("d"))
     warnings: list[str] = field(default_factory=list)
     _seen: dict[str, int] = field(default_factory=dict)
+    _zero_speed_moves: set[tuple[int, int]] = field(default_factory=set)
+
+    def feed_at_zero_speed(self, line: int, zero: tuple[int, str]) -> None:
+        """Warn of a feed move while a robot program's spindle output is at 0.
+
+        On a robot the analog output is the spindle's only switch: 0 is the
+        spindle off (a retract after it is common), read as no programmed
+        speed, but a cut there would be a program error. One warning per
+        zero-setting statement, counted over the feed moves (source lines)
+        it covers.
+
+        Parameters
+        ----------
+        line : int
+            Source line of the feed move.
+        zero : tuple of (int, str)
+            Line and text of the statement that set the output to 0.
+        """
+        if (zero[0], line) in self._zero_speed_moves:
+            return
+        self._zero_speed_moves.add((zero[0], line))
+        self.warn(
+            f"feed move with the spindle output at 0 ({zero[1]}, line {zero[0]}): read as the "
+            "spindle off, no programmed speed; if it cuts, program the speed it cuts at",
+            line,
+            key=f"spindle-zero:{zero[0]}",
+        )
 
     def warn(self, message: str, line: int | None = None, *, key: str | None = None) -> None:
         """Record a reader warning (logged now, repeated in the plan summary).

@@ -29,8 +29,10 @@ RETRCT, THICK, LINTOL, NOPS, CATIA0, PITCH, PROFIL.
 Refused with :class:`~robolobe.errors.InputError` naming ``file:line`` and
 the construct: ``NURBS``/``KNOT``/``CNTRL`` spline motion, ``CUTCOM`` on
 contact data, cycles, ``CALSUB``, ``INDIRV``/``TLON``/``GOFWD`` surface
-motion, non-positive feeds, negative spindle speeds, non-finite numbers,
-unknown words.
+motion, non-positive feeds, negative spindle speeds, a feed move while a
+``SPINDL`` at 0 rpm is in force (``SPINDL/0`` starts the spindle at no
+speed; rapids and ``SPINDL/OFF`` moves read as no programmed speed),
+non-finite numbers, unknown words.
 """
 
 from __future__ import annotations
@@ -210,6 +212,7 @@ def parse_apt(
     feed_per_rev = False
     rpm = math.nan
     spindle_on = False
+    rpm_zero = (0, "")  # (line, statement) of a SPINDL at 0 rpm in force (0: none)
     rapid_next = False
     pos: np.ndarray | None = None
     prev_dir: np.ndarray | None = None
@@ -286,7 +289,8 @@ def parse_apt(
                     where,
                 )
             rpm = nums[0] if nums[0] > 0 else math.nan
-            spindle_on = nums[0] > 0
+            spindle_on = True  # SPINDL with a speed starts the spindle, at 0 rpm too
+            rpm_zero = (0, "") if nums[0] > 0 else (lineno, f"SPINDL/{','.join(args)}")
         elif word == "TLAXIS":
             tv = np.array(_numbers(args, where, "TLAXIS")[:3])
             if tv.size != 3 or np.linalg.norm(tv) < 1e-9:
@@ -385,6 +389,12 @@ def parse_apt(
                     new_axis = a / np.linalg.norm(a)
             is_rapid = rapid_next or word == "FROM"
             rapid_next = False
+            if spindle_on and rpm_zero[0] and not is_rapid:
+                raise InputError(
+                    f"expected a spindle speed > 0 rpm on a feed move, found {rpm_zero[1]} "
+                    f"(line {rpm_zero[0]}) with the spindle on: program the speed it cuts at",
+                    source=where,
+                )
             f = math.nan if is_rapid else feed_now()
             s = rpm if spindle_on else math.nan
             if circle is not None and pos is not None and not is_rapid:

@@ -41,6 +41,11 @@ control flow (``IF``, ``FOR``, ``WHILE``, ``LOOP``, ``REPEAT``, ``SWITCH``,
 ``GOTO``), relative moves in the tool frame, expressions in targets, a
 motion to a position variable set at run time (``P1 = $POS_ACT``),
 non-positive or non-numeric velocities, non-finite numbers.
+
+A zero on the spindle output (``spindle_output``) is the spindle off, as
+``M5`` in G-code: the motions after it have no programmed speed, and each
+``LIN``/``CIRC`` among them is warned (a retract is common there, a cut
+would be a program error).
 """
 
 from __future__ import annotations
@@ -148,6 +153,7 @@ class _Reader:
         self.source = source
         self.spindle = spindle  # ($ANOUT index, rpm per unit) of the spindle speed output
         self.rpm = math.nan
+        self.rpm_zero: tuple[int, str] | None = None  # the statement that set the output to 0
         self.tool_direction = tool_direction
         self.coordinates = coordinates
         self.tol = arc_tol_mm
@@ -268,6 +274,8 @@ class _Reader:
             if self.base is not None:
                 base = self.base
         v = self.vel_m_per_s if vel is None else vel
+        if self.rpm_zero is not None and not rapid:
+            self.out.feed_at_zero_speed(lineno, self.rpm_zero)
         xyz = pose[:3] if at is None else at
         self.pending.append(
             (float(xyz[0]), float(xyz[1]), float(xyz[2]), float(pose[3]), float(pose[4]),
@@ -364,6 +372,8 @@ class _Reader:
                 )
         v = finite(m.group(4).strip(), where, f"$ANOUT[{n}]")
         self.rpm = v * per_unit if v > 0 else math.nan
+        line = int(where.rsplit(":", 1)[1])
+        self.rpm_zero = None if v > 0 else (line, f"$ANOUT[{n}] = {v:g}")
         return True
 
     def system_var(self, s: str, where: str) -> None:

@@ -36,6 +36,11 @@ would depend on run-time conditions), ``RelTool``, ``CRobT`` and other
 functions in targets (also a move to a robtarget variable assigned one:
 ``p := CRobT(); MoveL p, ...``; ``p := Offs(q, ...)`` is followed),
 non-positive speeds, non-finite numbers.
+
+A zero on the spindle output (``spindle_output``, by ``SetAO`` or
+``TriggIO``) is the spindle off, as ``M5`` in G-code: the moves after it
+have no programmed speed, and each ``MoveL``/``MoveC`` among them is warned
+(a retract is common there, a cut would be a program error).
 """
 
 from __future__ import annotations
@@ -259,7 +264,9 @@ class _Reader:
         # (analog output signal, rpm per unit) that sets the spindle speed
         self.spindle = (spindle[0].upper(), spindle[1]) if spindle is not None else None
         self.rpm = math.nan
-        self.triggs: dict[str, float] = {}  # triggdata -> spindle speed it switches to
+        self.rpm_zero: tuple[int, str] | None = None  # the statement that set the output to 0
+        # triggdata -> spindle speed it switches to, and the statement that set it
+        self.triggs: dict[str, tuple[float, tuple[int, str] | None]] = {}
         self.tol = tol
         self.tool_direction = tool_direction
         self.coordinates = coordinates
@@ -455,6 +462,7 @@ class _Reader:
             if len(args) == 2 and args[0].upper() == sig:
                 v = finite(args[1], where, f"SetAO {args[0]}")
                 self.rpm = v * per_unit if v > 0 else math.nan
+                self.rpm_zero = None if v > 0 else (_line(where), f"SetAO {args[0]}, {v:g}")
             return
         joined = " ".join(args)
         m = re.search(r"\\AOP\s*:=\s*([A-Za-z_]\w*)", joined, re.IGNORECASE)
@@ -474,14 +482,15 @@ class _Reader:
                 where,
             )
         v = finite(args[-1], where, f"TriggIO {m.group(1)}")
-        self.triggs[args[0].upper()] = v * per_unit if v > 0 else math.nan
+        zero = None if v > 0 else (_line(where), f"TriggIO {args[0]} to {m.group(1)} = {v:g}")
+        self.triggs[args[0].upper()] = (v * per_unit if v > 0 else math.nan, zero)
 
     def move(self, kind: str, rest: str, lineno: int, where: str) -> None:
         args = [a for a in _split_args(rest) if a]
         for a in args:
             t = re.split(r"\\", a.strip())[0].strip().upper()
             if t in self.triggs:
-                self.rpm = self.triggs[t]
+                self.rpm, self.rpm_zero = self.triggs[t]
         # leading optional switches like \Conc
         while args and args[0].startswith("\\"):
             args.pop(0)
@@ -497,6 +506,8 @@ class _Reader:
         v = self.speed(args[n_pts:], where)
         frame = self.wobj(args[n_pts:], where)
         feed = math.nan if rapid else v * 60.0
+        if self.rpm_zero is not None and not rapid:
+            self.out.feed_at_zero_speed(lineno, self.rpm_zero)
         r_w, o_w = frame[:3, :3], frame[:3, 3]
         end_pos = r_w @ pts[-1][0] + o_w
         rot = r_w @ quaternion_to_rotation(pts[-1][1])
@@ -521,6 +532,11 @@ class _Reader:
             )  # fmt: skip
         self.pos = end_pos
         self.rot = rot
+
+
+def _line(where: str) -> int:
+    """The line number of a ``file:line`` location."""
+    return int(where.rsplit(":", 1)[1])
 
 
 def _speed(text: str, where: str) -> float:
