@@ -40,8 +40,11 @@ Run: ``nice python studies/out_of_form.py [--robots B,C] [--draws 2] [--first-dr
 ``--robots C --draws 8 --jobs all`` (in parts by ``--first-draw``); draws 0-1
 were used while developing the spread calibration and the robust rule, draws
 2-7 were held back from its first version (their figures were seen before the
-spread was sized by compliance share), draws 8-9 from the last
-(``meta.held_back``).
+spread was sized by compliance share), draws 8-9 from the next; draws 0-9 were
+all seen while the spread was taken from standardized residuals (in-sample x
+held-out, :func:`robolobe.tl.residual.standardized_residuals`), draws 10-13 were
+held back from that version and run once (``--robots B,C --first-draw 10
+--draws 4 --jobs all``; ``meta.held_back``).
 """
 
 from __future__ import annotations

@@ -239,3 +239,34 @@ def test_spread_propagation_matches_finite_differences(setup):
     var = np.einsum("a...,ab,b...->...", jac, fit.covariance_, jac)
     rms = np.array([fit.residual_rms_[c] for c in ("f", "zeta", "k")])
     np.testing.assert_allclose(pred.std, np.sqrt(var + rms**2), rtol=0.02)
+
+
+def test_parameter_covariance_is_positive_semi_definite_when_ill_conditioned():
+    """Issue 27: a default transfer wrote a covariance its own load check refused.
+
+    Reference, written here: ``s2 inv(J^T J)`` for a well-conditioned Jacobian;
+    for nearly collinear, badly scaled columns (where numpy's pinv of ``J^T J``
+    gave eigenvalues down to -1e-7 times the largest) the result must pass the
+    saved model's check (eigenvalues >= -1e-9 times the largest).
+    """
+    from robolobe.tl.graybox import parameter_covariance
+
+    rng = np.random.default_rng(0)
+    jac = rng.normal(size=(40, 6))
+    np.testing.assert_allclose(
+        parameter_covariance(jac, 0.3), 0.3 * np.linalg.inv(jac.T @ jac), rtol=1e-9
+    )
+    worst_pinv, worst = 0.0, 0.0
+    for _ in range(50):
+        j = rng.normal(size=(60, 30))
+        j[:, 1] = j[:, 0] * (1 + 1e-9 * rng.normal()) + 1e-9 * rng.normal(size=60)
+        j[:, 5] = j[:, 3] + 1e-7 * j[:, 4]
+        j *= np.logspace(0, 6, 30)
+        p = np.linalg.pinv(j.T @ j)
+        p = 0.5 * (p + p.T)
+        worst_pinv = min(worst_pinv, np.linalg.eigvalsh(p).min() / np.abs(p).max())
+        c = parameter_covariance(j, 1.0)
+        np.testing.assert_array_equal(c, c.T)
+        worst = min(worst, np.linalg.eigvalsh(c).min() / np.abs(c).max())
+    assert worst_pinv < -1e-9  # the case the check refused
+    assert worst >= -1e-12

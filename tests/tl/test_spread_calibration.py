@@ -117,3 +117,40 @@ def test_compliance_share_and_the_error_per_share_class():
     np.testing.assert_allclose(h[:, 0], 0.3 / rms, rtol=1e-12)
     np.testing.assert_allclose(h[:, 3], 0.1 / rms, rtol=1e-12)
     np.testing.assert_array_equal(h[:, 1:3], 1.0)  # no tests in those classes
+
+
+def test_standardized_residuals_are_the_leverage_corrected_ones_of_a_linear_fit():
+    """Issue 27: the model-form spread from in-sample and held-out residuals together.
+
+    Reference, written here: an ordinary least-squares fit, its hat matrix, and
+    each test's residual from an explicit refit without it. The standardized
+    residual ``r_i / sqrt(1 - h_ii)`` has the noise's variance; the held-out one
+    the noise's plus that of the parameters fitted without the test.
+    """
+    from robolobe.tl.residual import standardized_residuals
+
+    rng = np.random.default_rng(5)
+    n, p, sigma = 16, 7, 0.1
+    t_all, held_all = [], []
+    for _ in range(150):
+        x = rng.normal(size=(n, p))
+        y = x @ rng.normal(size=p) + sigma * rng.normal(size=n)
+        beta = np.linalg.lstsq(x, y, rcond=None)[0]
+        inner = y - x @ beta
+        held = np.empty(n)
+        for i in range(n):
+            keep = np.arange(n) != i
+            b_i = np.linalg.lstsq(x[keep], y[keep], rcond=None)[0]
+            held[i] = y[i] - x[i] @ b_i
+        hat = np.einsum("ij,jk,ik->i", x, np.linalg.inv(x.T @ x), x)
+        t = standardized_residuals(inner, held)
+        np.testing.assert_allclose(t, inner / np.sqrt(1.0 - hat), rtol=1e-9, atol=1e-12)
+        t_all.append(t)
+        held_all.append(held)
+    t_rms = float(np.sqrt(np.mean(np.square(t_all))))
+    held_rms = float(np.sqrt(np.mean(np.square(held_all))))
+    assert t_rms == pytest.approx(sigma, rel=0.05)
+    # leverage p / n = 0.44 on average: held-out residuals ~ sigma / sqrt(1 - 0.44)
+    assert held_rms > 1.25 * sigma
+    nan = standardized_residuals(np.array([np.nan, 0.1]), np.array([0.2, np.nan]))
+    assert np.all(np.isnan(nan))

@@ -349,7 +349,9 @@ def bound_scenario(model: ModalModel, safety_factor: float) -> ModalModel:
     A robust plan keeps the job's safety factor on the nominal modes and a
     margin of at least 1 on the bound (the bound is itself the margin for
     the quantified error: ``k_sigma`` spreads), so that its limit at each
-    waypoint is ``min(a_nominal / SF, a_bound)``: a robust plan never gives
+    waypoint is ``min(a_nominal / SF, a_bound)`` (both taken at the smallest
+    over the bound's speed window, :func:`robolobe.plan.lobes.waypoint_lobes`:
+    the nominal term is windowed too): a robust plan never gives
     less than a plain plan that is stable on the bound, and never more than
     the plain plan. Receptance is linear in the residues and the stability
     limit inverse in them, so dividing the bound's residues by ``SF`` puts

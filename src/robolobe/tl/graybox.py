@@ -86,6 +86,7 @@ __all__ = [
     "PRIOR_STD",
     "TwinCalibration",
     "modal_frame_dataset",
+    "parameter_covariance",
     "twin_values",
 ]
 
@@ -108,6 +109,34 @@ PRIOR_STD: dict[str, float] = {
     "link_mass": 0.1,
     "link_com": 0.05 / COM_UNIT_M,
 }
+
+
+def parameter_covariance(jac: FloatArray, s2: float) -> FloatArray:
+    """``s2 (J^T J)^+``: the fitted parameters' covariance, positive semi-definite.
+
+    The pseudo-inverse through the eigenvalues of ``J^T J`` (those under
+    numpy pinv's cutoff, ``max(shape) eps`` of the largest, dropped), symmetric
+    and positive semi-definite by construction: pinv's SVD of an
+    ill-conditioned ``J^T J`` gave an eigenvalue of -9e-10 times the largest on
+    out-of-form robot C (draw 12), which the saved model's check refuses (a
+    default transfer wrote a file it could not read, issue 27).
+
+    Parameters
+    ----------
+    jac : ndarray, shape (n_res, p)
+        Jacobian of the weighted residuals at the fit.
+    s2 : float
+        Residual variance per degree of freedom.
+
+    Returns
+    -------
+    ndarray, shape (p, p)
+    """
+    j = np.asarray(jac, dtype=float)
+    w, v = np.linalg.eigh(j.T @ j)
+    keep = w > float(np.max(w, initial=0.0)) * max(j.shape) * np.finfo(float).eps
+    cov = float(s2) * (v[:, keep] / w[keep]) @ v[:, keep].T
+    return np.asarray(0.5 * (cov + cov.T))
 
 
 def _check_covariance(theta: FloatArray, cov: FloatArray, where: str) -> None:
@@ -816,10 +845,7 @@ class TwinCalibration:
         r_data = data_res(theta, idx)
         dof = max(r_data.size - p, 1)
         s2 = float(r_data @ r_data) / dof
-        cov = s2 * np.linalg.pinv(jac.T @ jac)
-        # pinv of an ill-conditioned J^T J is symmetric only to rounding, which the
-        # saved model's check refuses (a default transfer wrote a file it could not read)
-        cov = 0.5 * (cov + cov.T)
+        cov = parameter_covariance(jac, s2)
         i, j, m, t = idx
         raw = np.log(y[i, j, m] / model(theta)[i, j, t])
         rms = {

@@ -34,7 +34,10 @@ smooth, posture-dependent residual. :class:`CorrectedTwin` learns it:
    calibrated without it, :meth:`~robolobe.tl.graybox.TwinCalibration.held_out_residuals`,
    less the process' leave-one-out correction: the in-sample residuals
    understate the error at other postures 1.5-2.4 times in stiffness on
-   out-of-form robots) for f, zeta and k alike, sized by the mode's share of
+   out-of-form robots), combined with the in-sample residual into the
+   standardized residual (:func:`standardized_residuals`: the held-out one
+   alone would count the parameters' variance twice), for f, zeta and k alike,
+   sized by the mode's share of
    the direction's compliance (:func:`share_factor`), times a scale per quantity
    calibrated on held-out tests (:func:`calibrate_spread`: the share of
    held-out tests within two spreads is :data:`SPREAD_CONFIDENCE`), and
@@ -84,6 +87,7 @@ __all__ = [
     "compliance_share",
     "is_corrected_twin_file",
     "share_factor",
+    "standardized_residuals",
 ]
 
 FloatArray = NDArray[np.float64]
@@ -100,6 +104,37 @@ _RHO_BOUNDS = (0.01, 0.99)
 SPREAD_SIGMA = 2.0
 SPREAD_CONFIDENCE = math.erf(SPREAD_SIGMA / math.sqrt(2.0))
 _SCALE_BOUNDS = (0.25, 10.0)  # least and largest calibration scale of a quantity's spread
+
+
+def standardized_residuals(inner: ArrayLike, held: ArrayLike) -> FloatArray:
+    """Model-form error per test: in-sample and held-out residuals combined.
+
+    ``sign(held) sqrt(|inner * held|)``. For a fit linear in its parameters
+    the in-sample residual is ``inner = (1 - h_ii) held`` (``h_ii`` the test's
+    leverage), so this is the standardized residual ``inner / sqrt(1 - h_ii)``,
+    whose variance is the model-form (noise) variance alone; the held-out
+    residual's, ``sigma^2 / (1 - h_ii)``, adds the variance of the parameters
+    fitted without the test at its posture (large at a design's postures,
+    each of which carries information no other test has), and
+    :meth:`CorrectedTwin.planning_spread` adds the parameters' variance at each
+    posture again: a spread from held-out residuals counts it twice. On
+    out-of-form robots B and C the held-out log k residuals of modes with over
+    half a direction's compliance were 2-3x the true error of the prediction
+    at new postures (issue 27).
+
+    Parameters
+    ----------
+    inner, held : array_like, same shape
+        In-sample and held-out log residuals (NaN: no test).
+
+    Returns
+    -------
+    ndarray
+        NaN where either is NaN.
+    """
+    a = np.asarray(inner, dtype=float)
+    b = np.asarray(held, dtype=float)
+    return np.asarray(np.sign(b) * np.sqrt(np.abs(a * b)))
 
 
 def calibrate_spread(
@@ -332,8 +367,9 @@ class CorrectedTwin:
     form_std_ : ndarray, shape (n_dir, n_modes, 3)
         Model-form spread per output at share factor 1.
     spread_cover_, spread_cover_raw_ : ndarray, shape (3,)
-        Cross-validated share of held-out tests within ``SPREAD_SIGMA``
-        planning spreads, calibrated and at scale 1 (NaN: too few tests).
+        Cross-validated share of the tests' standardized residuals
+        (:func:`standardized_residuals`) within ``SPREAD_SIGMA`` model-form
+        spreads, calibrated and at scale 1 (NaN: too few tests).
     directions_ : tuple of str
     n_modes_ : int
     train_q_rad_ : ndarray, shape (n, 6)
@@ -436,6 +472,7 @@ class CorrectedTwin:
         # process' leave-one-out correction where used (filled per quantity below)
         r_ho = cal.held_out_residuals(ds, nm)
         held = np.where(np.isfinite(r_ho), r_ho, r)
+        inner = r.copy()  # the in-sample residuals, less the same correction
         for c in range(3):
             outs = [
                 (j, m) for j in range(nd) for m in range(nm) if count[j, m, c] >= self.min_points
@@ -500,6 +537,7 @@ class CorrectedTwin:
                 if alpha[j, m, c] > 0:
                     sel = ok[:, j, m, c]
                     held[sel, j, m, c] -= alpha[j, m, c] * scale[j, m, c] * g
+                    inner[sel, j, m, c] -= alpha[j, m, c] * scale[j, m, c] * g
         self.calibration_ = cal
         self.robot_ = cal.robot_
         self.length_scales_ = ells
@@ -513,15 +551,17 @@ class CorrectedTwin:
         self.directions_ = tuple(ds.directions)
         self.n_modes_ = nm
         self.train_q_rad_ = x
-        center, var_p = self._parameter_variance(x, ds.directions, nm)
+        center, _ = self._parameter_variance(x, ds.directions, nm)
         share = compliance_share(np.exp(center))
-        self.share_h_ = share_factor(held, share)
+        form_r = standardized_residuals(inner, held)
+        self.share_h_ = share_factor(form_r, share)
         h = np.moveaxis(self.share_h_[:, share_classes(share)], 0, -1)  # (n, nd, nm, 3)
+        # the model-form term alone: the parameters' variance is added at each posture
         self.spread_scale_, self.spread_cover_, self.spread_cover_raw_ = calibrate_spread(
-            held, var_p, h
+            form_r, np.zeros_like(form_r), h
         )
         with np.errstate(invalid="ignore", divide="ignore"):
-            u = held / h
+            u = form_r / h
             n_u = np.isfinite(u).sum(axis=0)
             form = np.sqrt(np.nansum(u**2, axis=0) / n_u)
         # the output's model-form spread at a share of factor 1 (its RMS where no tests)
@@ -679,16 +719,21 @@ class CorrectedTwin:
 
         * the calibration's parameter covariance propagated to the posture, plus
         * a model-form term calibrated on held-out tests: the output's
-          held-out RMS error of log f, log zeta and log k (the residual of
-          the twin calibrated without the test's posture, less the process'
-          leave-one-out correction where used: what the twin's form misses, which on a robot
-          outside that form is mostly real error, not identification scatter),
+          RMS standardized residual of log f, log zeta and log k
+          (:func:`standardized_residuals` of the in-sample residual and the
+          residual of the twin calibrated without the test's posture, each
+          less the process' leave-one-out correction where used: what the
+          twin's form misses, which on a robot outside that form is mostly
+          real error, not identification scatter; the held-out residual
+          alone also holds the variance of the parameters fitted without the
+          test, which the first term gives),
           sized by the mode's share of the direction's compliance at the
           posture (:func:`share_factor`: a dominant mode is known better),
           widened away from the tests as the process is less certain there
           (:meth:`correction`), times the quantity's calibration scale
-          :attr:`spread_scale_` (:func:`calibrate_spread`: held-out tests
-          within ``SPREAD_SIGMA`` spreads at :data:`SPREAD_CONFIDENCE`).
+          :attr:`spread_scale_` (:func:`calibrate_spread`: standardized
+          residuals within ``SPREAD_SIGMA`` model-form spreads at
+          :data:`SPREAD_CONFIDENCE`).
           Without tests of an output (a direction not tested) the
           calibration's in-sample residual RMS of the quantity, scaled alike.
 
