@@ -24,7 +24,6 @@ per kernel for a process where numba has started.
 from __future__ import annotations
 
 import os
-import sys
 from collections.abc import Callable
 from typing import Any
 
@@ -55,7 +54,7 @@ def available() -> bool:
 
 def started() -> bool:
     """Whether a compiled kernel module was loaded in this process (numba's start-up paid)."""
-    return _STATE.get("started", False) and "numba" in sys.modules
+    return _STATE.get("started", False)
 
 
 def use_compiled(work: float, *, cold: float, warm: float) -> bool:
@@ -70,7 +69,8 @@ def use_compiled(work: float, *, cold: float, warm: float) -> bool:
         The measured crossovers: the size from which the compiled kernel,
         numba's start-up in this process included, beats the numpy path
         (``cold``), and from which it does so where numba has started
-        already (:func:`started`: only the kernel's cache load left, ``warm``).
+        already (:func:`started`: only the kernel's cache load left, ``warm``;
+        the smaller of the two applies there).
 
     Returns
     -------
@@ -78,7 +78,7 @@ def use_compiled(work: float, *, cold: float, warm: float) -> bool:
         True where ``work`` reaches the threshold that applies and numba is
         :func:`available`; False without importing numba below it.
     """
-    if work < (warm if started() else cold):
+    if work < (min(warm, cold) if started() else cold):
         return False
     return available()
 

@@ -730,7 +730,9 @@ def ik_batch(
         _raise_failures(robot, P, fails, n_fail)
         return out
     prev = ref.copy()
-    compiled = n >= JIT_MIN_POSES
+    from robolobe import _jit
+
+    compiled = _jit.use_compiled(n, cold=JIT_MIN_POSES, warm=JIT_MIN_POSES_STARTED)
     for c0 in range(0, n, _IK_CHUNK):  # chunks bound the memory (~1 kB per pose)
         c1 = min(n, c0 + _IK_CHUNK)
         pc = P[c0:c1]
@@ -779,6 +781,8 @@ _N_REPORT = 5
 #: they save (~14 us per pose over the numpy closed form and the
 #: speculate-and-check continuity).
 JIT_MIN_POSES = 15_000
+#: The same where numba has started already (:func:`robolobe._jit.started`).
+JIT_MIN_POSES_STARTED = 5_000
 
 
 def _pick(

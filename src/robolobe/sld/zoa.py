@@ -54,6 +54,8 @@ _TWO_PI = 2.0 * np.pi
 #: process (~0.5 s import and code loading) costs more than the kernel saves
 #: over the numpy path (~0.2 ms per waypoint of 460 frequencies).
 JIT_MIN_SAMPLES = 1_000_000
+#: The same where numba has started already (:func:`robolobe._jit.started`).
+JIT_MIN_SAMPLES_STARTED = 200_000
 
 #: Radial immersion below which the ZOA is flagged as unreliable.
 LOW_IMMERSION = 0.2
@@ -69,6 +71,13 @@ def low_immersion_message(immersion: float) -> str:
         "overestimate the stable depth by 20-70 %); use method='sdm' "
         "(semi-discretization) to check"
     )
+
+
+def _use_kernels(samples: int) -> bool:
+    """Whether ``samples`` waypoints x frequencies take the compiled kernels by default."""
+    from robolobe import _jit
+
+    return _jit.use_compiled(samples, cold=JIT_MIN_SAMPLES, warm=JIT_MIN_SAMPLES_STARTED)
 
 
 def _kernels() -> ModuleType | None:
@@ -283,7 +292,7 @@ def zoa_lobes(
     nb = math.prod(batch)
     nf = w.shape[-1]
     if jit is None:  # numba's start-up (~0.5 s per process) pays only on large batches
-        jit = nb * nf >= JIT_MIN_SAMPLES
+        jit = _use_kernels(nb * nf)
     kern = _kernels() if jit else None
     if synth is not None and nb == 0:
         g, synth = np.zeros((0, nf, 2, 2), np.complex128), None
@@ -433,7 +442,7 @@ def lobes_from_depth(
         raise InputError(f"depth/eps: expected shape {(nb, 2, nf)}, found {d.shape}, {e.shape}")
     k = 30 if max_lobe is None else int(max_lobe)
     if jit is None:
-        jit = nb * nf >= JIT_MIN_SAMPLES
+        jit = _use_kernels(nb * nf)
     kern = _kernels() if jit else None
     if kern is not None:
         a_lim, complete = kern.envelope(w, d, e, teeth=int(teeth), rpm=r, max_lobe=k)

@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import logging
 import math
-import sys
 from types import ModuleType
 
 import numpy as np
@@ -178,10 +177,10 @@ COMPILED_DP: bool | None = None
 
 def _dp_kernels() -> ModuleType | None:
     """The compiled dynamic program (:mod:`._dp_kernels`) where :data:`COMPILED_DP` allows."""
-    if COMPILED_DP is False or (COMPILED_DP is None and "numba" not in sys.modules):
-        return None
     from robolobe import _jit
 
+    if COMPILED_DP is False or (COMPILED_DP is None and not _jit.started()):
+        return None
     if not _jit.available():
         return None
     from robolobe.plan.optimize import _dp_kernels as kern
