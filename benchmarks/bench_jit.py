@@ -109,16 +109,19 @@ def _ik(size: int, compiled: bool) -> tuple[float, float]:
 
 
 def _zoa(size: int, compiled: bool) -> tuple[float, float]:
-    from robolobe.sld import ModalModel
-    from robolobe.sld.conditions import CuttingConditions, directional_factors
-    from robolobe.sld.material import get_material
-    from robolobe.sld.toolpoint import feed_frame, tool_point_model
-    from robolobe.sld.zoa import zoa_lobes
+    from robolobe.sld import (
+        CuttingConditions,
+        ModalModel,
+        directional_factors,
+        feed_frame,
+        get_material,
+        tool_point_model,
+        zoa_lobes,
+    )
 
     mat = get_material("Al7075-T6")
-    probe = ModalModel.from_directional([700.0], [0.03], [3e7], ["xx"])
-    nf = probe.frequency_grid(shared=True).shape[-1]
-    n = max(1, size // max(nf, 1))
+    nf = 460  # about the frequencies per waypoint of these models
+    n = max(1, size // nf)
     rng = np.random.default_rng(0)
     w = 2 * math.pi * rng.uniform(5.0, 40.0, (n, 6))
     z = rng.uniform(0.01, 0.05, (n, 6))

@@ -350,10 +350,14 @@ class _Cells:
 
 
 #: Distinct rows from which :func:`group_dynamics` clusters with the compiled kernel
-#: by default (below, the tree loop is quick and numba's start-up would cost more).
-JIT_MIN_ROWS = 2_000
-#: The same where numba has started already (:func:`robolobe._jit.started`).
-JIT_MIN_ROWS_STARTED = 500
+#: by default (below, the numpy loop is quick and numba's start-up would cost more).
+#: Measured (benchmarks/bench_jit.py --kernel group, CPU seconds of a fresh process,
+#: 2 cores at load 9): 4,000 rows numpy 0.40 vs compiled 0.67, 8,000 0.87 vs 0.75;
+#: equal at ~6,000.
+JIT_MIN_ROWS = 6_000
+#: The same where numba has started already (:func:`robolobe._jit.started`): 1,000
+#: rows numpy 0.25 vs compiled 0.21 (500: 0.22 vs 0.21).
+JIT_MIN_ROWS_STARTED = 1_000
 
 
 def _leaders(fu: FloatArray, compiled: bool | None) -> tuple[IntArray, IntArray]:

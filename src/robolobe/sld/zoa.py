@@ -51,11 +51,14 @@ _TWO_PI = 2.0 * np.pi
 
 #: Frequency samples (waypoints x frequencies) from which :func:`zoa_lobes`
 #: uses the compiled kernel by default: below, numba's start-up in a fresh
-#: process (~0.5 s import and code loading) costs more than the kernel saves
-#: over the numpy path (~0.2 ms per waypoint of 460 frequencies).
-JIT_MIN_SAMPLES = 1_000_000
-#: The same where numba has started already (:func:`robolobe._jit.started`).
-JIT_MIN_SAMPLES_STARTED = 200_000
+#: process costs more than the kernel saves over the numpy path. Measured
+#: (benchmarks/bench_jit.py --kernel zoa, CPU seconds of a fresh process, 2 cores at
+#: load 13): 1e6 samples numpy 0.42 vs compiled 0.68, 3e6 1.79 vs 0.93; equal at ~1.5e6.
+JIT_MIN_SAMPLES = 1_500_000
+#: The same where numba has started already (:func:`robolobe._jit.started`): 3e5
+#: samples numpy 0.105 vs compiled 0.098 (the kernels' cache load included), 1e6 0.42
+#: vs 0.16.
+JIT_MIN_SAMPLES_STARTED = 300_000
 
 #: Radial immersion below which the ZOA is flagged as unreliable.
 LOW_IMMERSION = 0.2
