@@ -37,19 +37,43 @@ def test_below_the_threshold_numba_is_not_asked_for(monkeypatch):
         raise AssertionError("available() imports numba: it must not be called below the size")
 
     monkeypatch.setattr(_jit, "_STATE", {})
+    monkeypatch.setattr(_jit, "_SPENT", [0.0])
     monkeypatch.setattr(_jit, "available", refuse)
-    assert not _jit.use_compiled(999, cold=1000, warm=10)
+    assert not _jit.use_compiled(400, cold=1000, warm=10)
     # where numba has started, the smaller threshold applies
     monkeypatch.setattr(_jit, "_STATE", {"started": True})
     assert not _jit.use_compiled(9, cold=1000, warm=10)
     monkeypatch.setattr(_jit, "available", lambda: True)
     assert _jit.use_compiled(10, cold=1000, warm=10)
-    assert _jit.use_compiled(1000, cold=1000, warm=2000)  # never above the cold one
+    assert not _jit.use_compiled(999, cold=1000, warm=2000)  # never above the cold one
+    assert _jit.use_compiled(1000, cold=1000, warm=2000)
     monkeypatch.setattr(_jit, "_STATE", {})
-    assert not _jit.use_compiled(999, cold=1000, warm=10)
     assert _jit.use_compiled(1000, cold=1000, warm=10)
     monkeypatch.setattr(_jit, "available", lambda: False)  # ROBOLOBE_NO_JIT or no numba
     assert not _jit.use_compiled(1e12, cold=1000, warm=10)
+
+
+def test_small_calls_start_numba_once_they_add_up_to_its_start_up(monkeypatch):
+    """Each numpy call counts ``work / cold`` of numba's start-up; the call that would
+    bring the sum to one start-up runs compiled (a process never pays more than
+    about twice the better choice)."""
+    asked = []
+
+    def available() -> bool:
+        asked.append(1)
+        return True
+
+    monkeypatch.setattr(_jit, "_STATE", {})
+    monkeypatch.setattr(_jit, "_SPENT", [0.0])
+    monkeypatch.setattr(_jit, "available", available)
+    # 0.25 + 0.25 + 0.25 of the start-up on the numpy path (two kernels' own units)
+    assert not _jit.use_compiled(250, cold=1000, warm=10)
+    assert not _jit.use_compiled(25, cold=100, warm=1)
+    assert not _jit.use_compiled(250, cold=1000, warm=10)
+    assert asked == []
+    assert _jit._SPENT[0] == 0.75
+    assert _jit.use_compiled(250, cold=1000, warm=10)  # 1.0: as much as the start-up
+    assert asked == [1]
 
 
 def test_engagement_work_counts_swept_cells_and_samples():
@@ -92,6 +116,7 @@ def test_compiled_engagement_equals_the_python_kernels():
     pytest.importorskip("numba")
     code = (
         "import json, sys, numpy as np\n"
+        "from robolobe import _jit\n"
         "from robolobe.cli.plan import example_files\n"
         "from robolobe.plan.paths import read_toolpath\n"
         "from robolobe.stock import _kernels, compute_engagement, default_stock\n"
@@ -103,6 +128,7 @@ def test_compiled_engagement_equals_the_python_kernels():
         "res = []\n"
         "for xyz, cut in paths:\n"
         "    assert _kernels.work(xyz, cut, 0.01, 0.0005) < _kernels.JIT_MIN_WORK\n"
+        "    _jit._SPENT[0] = 0.0  # each alone: below the size, not counted together\n"
         "    st = default_stock(xyz, cut, 0.01)\n"
         "    res.append([compute_engagement(xyz, cut, 0.02, st)])\n"
         "python_only = 'numba' not in sys.modules\n"

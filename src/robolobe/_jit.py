@@ -30,6 +30,8 @@ from typing import Any
 __all__ = ["available", "cache_enabled", "njit", "started", "use_compiled"]
 
 _STATE: dict[str, bool] = {}
+#: The numpy paths' work so far in this process, as a fraction of numba's start-up.
+_SPENT = [0.0]
 
 
 def available() -> bool:
@@ -76,10 +78,21 @@ def use_compiled(work: float, *, cold: float, warm: float) -> bool:
     -------
     bool
         True where ``work`` reaches the threshold that applies and numba is
-        :func:`available`; False without importing numba below it.
+        :func:`available`; False without importing numba below it, unless the
+        numpy paths taken so far in this process (each ``work / cold`` of the
+        start-up) add up to the start-up: then True from this call on.
     """
-    if work < (min(warm, cold) if started() else cold):
-        return False
+    if started():
+        return work >= min(warm, cold) and available()
+    if work < cold:
+        # the numpy path, its cost counted against numba's start-up (``work / cold``
+        # of it): once the numpy paths of this process have cost about as much as the
+        # start-up would (many small calls: a test run, a batch), numba starts, so a
+        # process never pays more than about twice the better of the two
+        spent = _SPENT[0] + max(work, 0.0) / cold
+        if spent < 1.0:
+            _SPENT[0] = spent
+            return False
     return available()
 
 
