@@ -170,8 +170,8 @@ def _block_min(
 
 
 #: Whether the search runs its dynamic program compiled: None where another kernel has
-#: started numba in this process (:func:`robolobe._jit.started`: its start-up paid, the
-#: DP's cache load ~10 ms; the 10k zig-zag's optimize stage 0.33-0.37 s CPU compiled vs
+#: started numba in this process (:func:`robolobe._jit.started`: its start-up paid; the
+#: 10k zig-zag's optimize stage, cache load included, 0.33-0.37 s CPU compiled vs
 #: 0.48-0.52 s on numpy), True wherever numba is available, False never. The same
 #: values either way.
 COMPILED_DP: bool | None = None
