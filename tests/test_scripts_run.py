@@ -28,6 +28,7 @@ BENCHMARKS = {
     "bench_diagnose.py": "bench_diagnose.py --postures 6",
     "bench_engagement.py": "bench_engagement.py --moves 2000 --pocket",
     "bench_ik.py": "bench_ik.py --n 2000 --loop 50",
+    "bench_jit.py": "bench_jit.py --kernel group --sizes 200",
     "bench_load.py": "bench_load.py --busy 1 --reps 1",
     "bench_modal.py": "bench_modal.py --n 6 --repeat 2",
     "bench_paths.py": "bench_paths.py --lines 2000 --others 500",

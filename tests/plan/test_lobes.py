@@ -318,14 +318,13 @@ def test_compiled_grouping_equals_the_tree_loop():
 def test_kept_query_answers_equal_fresh_ones(monkeypatch):
     """Exact queries are answered once; after the split the kept groups' answers are reused."""
     from robolobe import _jit
-    from robolobe.plan import lobes as lobes_mod
     from robolobe.sld import zoa
 
     if not _jit.available():
         pytest.skip("numba not installed")
     from robolobe.sld import _kernels
 
-    monkeypatch.setattr(lobes_mod, "JIT_MIN_SAMPLES", 0)  # the kernel paths on a small batch
+    # the kernel paths on a small batch (zoa's threshold governs the queries too)
     monkeypatch.setattr(zoa, "JIT_MIN_SAMPLES", 0)
     n = 120
     m = models(n, spread=0.05, seed=4)

@@ -42,7 +42,7 @@ from robolobe.sld.converged import converged_lobes
 from robolobe.sld.directional import directional_factors
 from robolobe.sld.frf import ModalModel
 from robolobe.sld.lobes import LobeDiagram, lobe_envelope
-from robolobe.sld.zoa import JIT_MIN_SAMPLES
+from robolobe.sld.zoa import _use_kernels
 
 __all__ = [
     "DynamicsTolerance",
@@ -350,8 +350,14 @@ class _Cells:
 
 
 #: Distinct rows from which :func:`group_dynamics` clusters with the compiled kernel
-#: by default (below, the tree loop is quick and numba's start-up would cost more).
-JIT_MIN_ROWS = 2_000
+#: by default (below, the numpy loop is quick and numba's start-up would cost more).
+#: Measured (benchmarks/bench_jit.py --kernel group, CPU seconds of a fresh process,
+#: 2 cores at load 9): 4,000 rows numpy 0.40 vs compiled 0.67, 8,000 0.87 vs 0.75;
+#: equal at ~6,000.
+JIT_MIN_ROWS = 6_000
+#: The same where numba has started already (:func:`robolobe._jit.started`): 1,000
+#: rows numpy 0.25 vs compiled 0.21 (500: 0.22 vs 0.21).
+JIT_MIN_ROWS_STARTED = 1_000
 
 
 def _leaders(fu: FloatArray, compiled: bool | None) -> tuple[IntArray, IntArray]:
@@ -365,7 +371,7 @@ def _leaders(fu: FloatArray, compiled: bool | None) -> tuple[IntArray, IntArray]
     from robolobe import _jit
 
     if compiled is None:
-        compiled = fu.shape[0] >= JIT_MIN_ROWS
+        compiled = _jit.use_compiled(fu.shape[0], cold=JIT_MIN_ROWS, warm=JIT_MIN_ROWS_STARTED)
     # non-finite features (degenerate modes) keep the tree loop's handling of NaN
     if not bool(np.all(np.isfinite(fu))):
         return _leaders_tree(fu)
@@ -842,7 +848,7 @@ def _extend_diagrams(
         # the kernel or the numpy path as for the whole batch (they agree to rounding only)
         assert prev.omega is not None
         assert prev.complete_above_rpm is not None
-        jit = leader.size * prev.omega.shape[-1] >= JIT_MIN_SAMPLES
+        jit = _use_kernels(leader.size * prev.omega.shape[-1])
         extra = _leader_lobes(m.take(new), zoa_args, max_lobe=30, jit=jit, idx=new)
         assert extra.omega is not None
         assert extra.complete_above_rpm is not None
@@ -901,11 +907,7 @@ def _query_kernels(samples: int) -> ModuleType | None:
 
     (The same threshold, so that numba's start-up is paid only where it pays.)
     """
-    from robolobe import _jit
-
-    if samples < JIT_MIN_SAMPLES:
-        return None
-    if not _jit.available():
+    if not _use_kernels(samples):
         return None
     from robolobe.sld import _kernels
 

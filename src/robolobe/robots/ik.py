@@ -730,7 +730,9 @@ def ik_batch(
         _raise_failures(robot, P, fails, n_fail)
         return out
     prev = ref.copy()
-    compiled = n >= JIT_MIN_POSES
+    from robolobe import _jit
+
+    compiled = _jit.use_compiled(n, cold=JIT_MIN_POSES, warm=JIT_MIN_POSES_STARTED)
     for c0 in range(0, n, _IK_CHUNK):  # chunks bound the memory (~1 kB per pose)
         c1 = min(n, c0 + _IK_CHUNK)
         pc = P[c0:c1]
@@ -775,10 +777,15 @@ def _raise_failures(robot: Robot, P: FloatArray, fails: list[tuple[int, str]], n
 _IK_CHUNK = 8192
 _N_REPORT = 5
 #: Path length from which :func:`ik_batch` takes the compiled closed form and
-#: continuity: below, loading them in a fresh process (~0.3-0.5 s) costs more than
-#: they save (~14 us per pose over the numpy closed form and the
-#: speculate-and-check continuity).
-JIT_MIN_POSES = 15_000
+#: continuity: below, numba's start-up in a fresh process costs more than they save
+#: over the numpy closed form and the speculate-and-check continuity. Measured
+#: (benchmarks/bench_jit.py --kernel ik, robot A, CPU seconds of a fresh process,
+#: 2 cores at load 7): 40,000 poses numpy 0.52 vs compiled 0.73 (start-up ~0.53 s),
+#: saving ~5 us per pose: equal at ~80,000.
+JIT_MIN_POSES = 80_000
+#: The same where numba has started already (:func:`robolobe._jit.started`): 2,000
+#: poses numpy 0.057 vs compiled 0.034 (the kernels' cache load included).
+JIT_MIN_POSES_STARTED = 2_000
 
 
 def _pick(

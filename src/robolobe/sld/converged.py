@@ -514,7 +514,7 @@ def converged_lobes(
     )
     flat = ModalModel(om, ze, res)
     # the threshold of zoa_lobes (read at call time: one switch for both)
-    use_jit = (nb * grid.shape[1] >= _zoa.JIT_MIN_SAMPLES) if jit is None else bool(jit)
+    use_jit = _zoa._use_kernels(nb * grid.shape[1]) if jit is None else bool(jit)
     kern = _kernels() if use_jit else None
 
     def lobes(w2: FloatArray, k: int | None) -> LobeDiagram:

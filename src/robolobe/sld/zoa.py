@@ -51,9 +51,14 @@ _TWO_PI = 2.0 * np.pi
 
 #: Frequency samples (waypoints x frequencies) from which :func:`zoa_lobes`
 #: uses the compiled kernel by default: below, numba's start-up in a fresh
-#: process (~0.5 s import and code loading) costs more than the kernel saves
-#: over the numpy path (~0.2 ms per waypoint of 460 frequencies).
-JIT_MIN_SAMPLES = 1_000_000
+#: process costs more than the kernel saves over the numpy path. Measured
+#: (benchmarks/bench_jit.py --kernel zoa, CPU seconds of a fresh process, 2 cores at
+#: load 13): 1e6 samples numpy 0.42 vs compiled 0.68, 3e6 1.79 vs 0.93; equal at ~1.5e6.
+JIT_MIN_SAMPLES = 1_500_000
+#: The same where numba has started already (:func:`robolobe._jit.started`): 3e5
+#: samples numpy 0.105 vs compiled 0.098 (the kernels' cache load included), 1e6 0.42
+#: vs 0.16.
+JIT_MIN_SAMPLES_STARTED = 300_000
 
 #: Radial immersion below which the ZOA is flagged as unreliable.
 LOW_IMMERSION = 0.2
@@ -69,6 +74,13 @@ def low_immersion_message(immersion: float) -> str:
         "overestimate the stable depth by 20-70 %); use method='sdm' "
         "(semi-discretization) to check"
     )
+
+
+def _use_kernels(samples: int) -> bool:
+    """Whether ``samples`` waypoints x frequencies take the compiled kernels by default."""
+    from robolobe import _jit
+
+    return _jit.use_compiled(samples, cold=JIT_MIN_SAMPLES, warm=JIT_MIN_SAMPLES_STARTED)
 
 
 def _kernels() -> ModuleType | None:
@@ -283,7 +295,7 @@ def zoa_lobes(
     nb = math.prod(batch)
     nf = w.shape[-1]
     if jit is None:  # numba's start-up (~0.5 s per process) pays only on large batches
-        jit = nb * nf >= JIT_MIN_SAMPLES
+        jit = _use_kernels(nb * nf)
     kern = _kernels() if jit else None
     if synth is not None and nb == 0:
         g, synth = np.zeros((0, nf, 2, 2), np.complex128), None
@@ -433,7 +445,7 @@ def lobes_from_depth(
         raise InputError(f"depth/eps: expected shape {(nb, 2, nf)}, found {d.shape}, {e.shape}")
     k = 30 if max_lobe is None else int(max_lobe)
     if jit is None:
-        jit = nb * nf >= JIT_MIN_SAMPLES
+        jit = _use_kernels(nb * nf)
     kern = _kernels() if jit else None
     if kern is not None:
         a_lim, complete = kern.envelope(w, d, e, teeth=int(teeth), rpm=r, max_lobe=k)

@@ -469,8 +469,14 @@ def _run(
 _COMPILED: dict[str, Any] = {}
 
 
-def kernels() -> Any:
-    """``run`` and ``sweep`` compiled with numba where available, else the Python functions."""
+def kernels(work: float = math.inf) -> Any:
+    """``run`` and ``sweep``: compiled where numba is available and ``work`` (:func:`work`)
+    pays for its start-up (:data:`JIT_MIN_WORK`), else the Python functions (numba not
+    imported); compiled whatever the size once compiled in this process."""
+    if "run" not in _COMPILED and not _jit.use_compiled(
+        work, cold=JIT_MIN_WORK, warm=JIT_MIN_WORK_STARTED
+    ):
+        return _run, _sweep
     if "run" not in _COMPILED:
         if _jit.available():
             deco = _jit.njit()
@@ -488,3 +494,45 @@ def kernels() -> Any:
         _COMPILED["run"] = globals()["_run"]
         _COMPILED["sweep"] = globals()["_sweep"]
     return _COMPILED["run"], _COMPILED["sweep"]
+
+
+#: :func:`work` from which :func:`kernels` compiles in a fresh process. Measured
+#: (benchmarks/bench_jit.py --kernel stock, CPU, 2-core machine at load 5): the Python
+#: kernel costs 1.9 us per swept cell and 0.53 ms per engagement sample (fit over 11
+#: zig-zags and the bundled pocket, residuals < 0.07 s), numba's start-up and the
+#: cached kernels' first call 0.55-0.6 s; equal at ~290,000 units. The bundled pocket
+#: is 190,000 (Python 0.43 s, compiled 0.55 s), the 10k zig-zag 2.9 million.
+JIT_MIN_WORK = 290_000.0
+#: The same where numba has started (:func:`robolobe._jit.started`): the kernels'
+#: cache load (~30 ms) against the same Python cost.
+JIT_MIN_WORK_STARTED = 20_000.0
+#: Cost of one engagement sample (``nphi`` edge points, the crossings) in swept cells.
+_SAMPLE_CELLS = 280.0
+
+
+def work(xyz: Any, cutting: Any, radius: float, res: float) -> float:
+    """The Python kernels' cost of a path, in swept cells (the unit of :data:`JIT_MIN_WORK`).
+
+    Parameters
+    ----------
+    xyz : ndarray, shape (n, 3)
+        Tool-tip positions [m].
+    cutting : ndarray of bool, shape (n,)
+        Feed moves.
+    radius, res : float
+        Tool radius and Z-map cell [m].
+
+    Returns
+    -------
+    float
+        Cells the cutting moves sweep (band ``2 (radius + 1.5 res)`` along
+        their x-y length) plus :data:`_SAMPLE_CELLS` per engagement sample
+        (one per ``radius / 2`` of a move, and one more).
+    """
+    if len(xyz) < 2:
+        return 0.0
+    d = np.diff(xyz[:, :2], axis=0)
+    lxy = np.hypot(d[:, 0], d[:, 1])[cutting[1:]]
+    band = 2.0 * (radius + 1.5 * res)
+    samples = np.ceil(lxy / (0.5 * radius)).sum() + lxy.size
+    return float(lxy.sum() * band / (res * res) + _SAMPLE_CELLS * samples)

@@ -25,7 +25,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from robolobe.errors import InputError, InputTypeError
-from robolobe.stock._kernels import kernels
+from robolobe.stock._kernels import kernels, work
 from robolobe.stock.shapes import Stock, signed_distance
 
 __all__ = [
@@ -274,7 +274,7 @@ def compute_engagement(
     n_arcs = np.zeros(n, dtype=np.int64)
     depth = np.zeros(n)
     plunge = np.zeros(n, dtype=np.bool_)
-    run, _ = kernels()
+    run, _ = kernels(work(p, cut, radius, res))
     run(
         w, gx0, gy0, res, radius, band, p, cut, cum, 2.0 * res, 0.5 * radius,
         math.cos(math.radians(5.0)), stock.z_bottom, LEVEL_TOL_M, N_PHI,
