@@ -44,6 +44,7 @@ import numpy as np
 import pandas as pd
 from numpy.typing import NDArray
 
+from robolobe._memory import release_free_memory
 from robolobe.errors import InfeasibleError, InputError, ReachabilityError, SingularityError
 from robolobe.plan._summary import PlanSummary
 from robolobe.plan.engagement import engagement_note, plan_engagement
@@ -1184,6 +1185,7 @@ def plan_path(
         job, wp, robot, source, rotation, cut, material, tool, rpm, eng
     )
     timings.update(t_stage)
+    release_free_memory(len(wp))  # the lobe stage's temporaries: not under the next peaks
     t = time.perf_counter()
     ci = np.flatnonzero(cut)
     pos = wp[["x_m", "y_m", "z_m"]].to_numpy(dtype=np.float64)
@@ -1257,6 +1259,7 @@ def plan_path(
         outcome = schedule(grouped.table)
     timings["optimize"] = time.perf_counter() - t
     t = time.perf_counter()
+    release_free_memory(len(wp))
     table = _result_table(
         wp, q, wm, modes, grouped, outcome, ci, plunge, feed_angle, job, cons, seg
     )
@@ -1478,7 +1481,7 @@ def _result_table(
     mg[ci] = np.where(np.isfinite(best.margin), best.margin, np.nan)
     cols["margin"] = mg
     lim = np.full(n, "", dtype=object)
-    lim[ci] = np.where(plunge, "plunge", outcome.limiting)
+    lim[ci] = _shared_labels(np.where(plunge, "plunge", outcome.limiting))
     lim[is_rapid] = "rapid"
     cols["limiting"] = lim
     pw = np.full(n, np.nan)
@@ -1488,6 +1491,32 @@ def _result_table(
     cols["rpm_programmed"] = wp["rpm_programmed"].to_numpy()
     # the columns as they are (not consolidated into one block: a copy of the table)
     return pd.DataFrame(cols, copy=False)
+
+
+def _shared_labels(labels: NDArray[np.str_]) -> NDArray[np.object_]:
+    """Labels as an object array whose equal entries are one ``str`` object each.
+
+    ``labels.astype(object)`` makes a string object per entry (a million
+    small objects on a long path, ~60 bytes each, scattered over the heap);
+    the few distinct labels are made once here and shared.
+
+    Parameters
+    ----------
+    labels : ndarray of str, shape (n,)
+
+    Returns
+    -------
+    ndarray of object, shape (n,)
+        The same values.
+    """
+    out = np.empty(labels.shape, dtype=object)
+    rest = np.ones(labels.shape, dtype=bool)
+    while rest.any():  # once per distinct label
+        v = labels[int(np.argmax(rest))]
+        same = labels == v
+        out[same] = str(v)
+        rest &= ~same
+    return out
 
 
 @contextlib.contextmanager
@@ -1569,7 +1598,7 @@ def _apply_passes(
         pw = table["power_kW"].to_numpy()[ci] * 1e3
         slack = limit_slacks(cons, best.rpm, cut_d, a_lim, pw, fixed_depth=True)
         slack["stability"] = np.where(bounded, slack["stability"], np.inf)
-        lab[fix] = limiting_labels(slack, free=BINDING_SLACK)[fix]
+        lab[fix] = _shared_labels(limiting_labels(slack, free=BINDING_SLACK)[fix])
         lim[ci] = lab
     lim[ci[~eng.engaged[ci] & ~plunge]] = "air"
     table["limiting"] = lim

@@ -48,6 +48,7 @@ import pandas as pd
 from numpy.typing import NDArray
 
 from robolobe._atomic import atomic_path, not_a_file
+from robolobe._memory import release_free_memory
 from robolobe.errors import InputError
 from robolobe.plan.job import Job
 from robolobe.plan.limits import process_limits
@@ -469,6 +470,7 @@ def program_text(
         edit = program_edit(res)
     opts = reader_options(read_fmt, res.job.path_options) if read_fmt != "table" else {}
     files = _write(fmt, read_fmt, src, edit, name, opts)
+    release_free_memory(len(res.table))  # the writer's lines: not under the check's peak
     # a translation states its units and frame itself: read back without the source's options
     _check(files, fmt, name, edit, opts if fmt == read_fmt else {}, src.name)
     return files
