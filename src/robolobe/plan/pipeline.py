@@ -1274,6 +1274,7 @@ def plan_path(
     passes_rows = None
     if depth is not None:
         assert eng is not None
+        release_free_memory(len(wp))
         with _columns_added():
             passes_rows = _apply_passes(table, grouped, outcome, depth, ci, plunge, eng, cons, seg)
         most = max(passes_rows, key=lambda r: r["passes"])
@@ -1299,6 +1300,7 @@ def plan_path(
     own_col[ci] = steep
     with _columns_added():
         table["lobes_own"] = own_col
+    release_free_memory(len(wp))
     heavy = _heavy_damping_note(table, source)
     if heavy:
         note = (note + "; " if note else "") + heavy
@@ -1532,6 +1534,8 @@ def _columns_added() -> Iterator[None]:
         yield
 
 
+#: Cutting waypoints labelled at a time where a plan in passes names its binding limits.
+_LABEL_BLOCK = 65_536
 #: Passes of one section above which the plan's notes say the cut is far beyond the robot.
 MANY_PASSES = 10
 #: Relative slack under which a limit binds at a move of a plan in passes (above it for
@@ -1596,13 +1600,16 @@ def _apply_passes(
         # the pass depth is fixed (not a limit that binds): name what binds besides it,
         # each move at its own depth and margin
         pw = table["power_kW"].to_numpy()[ci] * 1e3
-        slack = limit_slacks(cons, best.rpm, cut_d, a_lim, pw, fixed_depth=True)
-        slack["stability"] = np.where(bounded, slack["stability"], np.inf)
-        lab[fix] = _shared_labels(limiting_labels(slack, free=BINDING_SLACK)[fix])
+        at = np.flatnonzero(fix)
+        for s in range(0, at.size, _LABEL_BLOCK):  # blocks: a slack per limit is (n,) each
+            r = at[s : s + _LABEL_BLOCK]
+            slack = limit_slacks(cons, best.rpm[r], cut_d[r], a_lim[r], pw[r], fixed_depth=True)
+            slack["stability"] = np.where(bounded[r], slack["stability"], np.inf)
+            lab[r] = _shared_labels(limiting_labels(slack, free=BINDING_SLACK))
         lim[ci] = lab
     lim[ci[~eng.engaged[ci] & ~plunge]] = "air"
     table["limiting"] = lim
-    src = table["source"].to_numpy()
+    src = table["source"].array  # a few entries are read: not an object array of them all
     line = table["line"].to_numpy()
     rows = []
     t_pass = seg[ci] / np.maximum(table["feed_mm_per_min"].to_numpy()[ci] / 6e4, 1e-300)
@@ -1641,12 +1648,23 @@ def waypoints_hash(table: pd.DataFrame) -> str:
     import hashlib
 
     h = hashlib.sha256()
-    h.update("\n".join(map(str, table["source"].tolist())).encode())
+    _hash_joined(h, table["source"])
     h.update(np.asarray(table["line"], dtype=np.int64).tobytes())
     xyz = np.round(table[["x_mm", "y_mm", "z_mm"]].to_numpy(dtype=np.float64), 6) + 0.0
     h.update(xyz.tobytes())
-    h.update("\n".join(map(str, table["motion"].tolist())).encode())
+    _hash_joined(h, table["motion"])
     return h.hexdigest()
+
+
+def _hash_joined(h: Any, col: pd.Series, block: int = 65_536) -> None:
+    """``h.update("\\n".join(map(str, col.tolist())).encode())``, a block of rows at a time.
+
+    The same bytes (the hash is unchanged), without a million string objects
+    and their joined text at once.
+    """
+    for s in range(0, len(col), block):
+        part = "\n".join(map(str, col.iloc[s : s + block].tolist()))
+        h.update((part if s == 0 else "\n" + part).encode())
 
 
 def job_fingerprint(job: Job) -> dict[str, Any]:

@@ -621,6 +621,7 @@ def converged_lobes(
         if np.all(new <= bound * (1.0 + 1e-9)):
             break
         bound = np.maximum(bound, new)
+        del diag  # the next refinement's arrays are not made beside these
     else:
         _unconverged(om, ze, int(np.argmax(new / bound)), "the relevance bound did not settle")
     nf = diag.depth.shape[-1] if diag.depth is not None else 0
