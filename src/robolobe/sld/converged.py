@@ -613,7 +613,9 @@ def converged_lobes(
         )  # fmt: skip
 
     bound = np.full(nb, np.nan)
+    diag: LobeDiagram | None = None
     for _ in range(4):
+        diag = None  # the previous refinement's arrays go before the next one's are made
         diag, bound = refined(bound)
         new = bound_of(diag)
         # the envelope came out higher than the bound assumed: pieces left alone
@@ -621,9 +623,9 @@ def converged_lobes(
         if np.all(new <= bound * (1.0 + 1e-9)):
             break
         bound = np.maximum(bound, new)
-        del diag  # the next refinement's arrays are not made beside these
     else:
         _unconverged(om, ze, int(np.argmax(new / bound)), "the relevance bound did not settle")
+    assert diag is not None
     nf = diag.depth.shape[-1] if diag.depth is not None else 0
     return dataclasses.replace(
         diag,
