@@ -99,21 +99,11 @@ def outputs_peak(tmp: Path, n: int) -> dict[str, Any]:
     return got
 
 
-def _clear_refs_works() -> bool:
-    try:
-        with open("/proc/self/clear_refs", "w") as f:
-            f.write("5")
-    except OSError:
-        return False
-    return True
-
-
 @pytest.mark.slow
-@pytest.mark.skipif(
-    not sys.platform.startswith("linux") or not _clear_refs_works(),
-    reason="peak resident mark reset: Linux /proc/self/clear_refs",
-)
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="/proc/self/clear_refs: Linux")
 def test_long_path_outputs_peak_per_waypoint(tmp_path: Path) -> None:
+    if not os.access("/proc/self/clear_refs", os.W_OK):
+        pytest.skip("the peak resident mark cannot be reset here (/proc/self/clear_refs)")
     got = outputs_peak(tmp_path, 200_000)
     rows = int(got["rows"])
     assert rows > 199_000
