@@ -609,8 +609,24 @@ def _limit_notes(
     from robolobe.plan.limits import binding_notes, process_limits
 
     lim = limits if limits is not None else process_limits(job, robot=robot)
-    col = {c: table[c].to_numpy()[cut_index] for c in ("limiting", "source", "line")}
-    return [*lim.notes, *binding_notes(col["limiting"], col["source"], col["line"], lim, job)]
+    limiting = table["limiting"].to_numpy()[cut_index]
+    line = table["line"].to_numpy()[cut_index]
+    # the file of the few waypoints named, not an object array of every waypoint's
+    source = _Taken(table["source"].array, cut_index)
+    return [*lim.notes, *binding_notes(limiting, source, line, lim, job)]
+
+
+class _Taken:
+    """``values[index]``, an entry at a time (``taken[k]`` is ``values[index[k]]``)."""
+
+    def __init__(self, values: Any, index: NDArray[np.int64]) -> None:
+        self.values, self.index = values, index
+
+    def __len__(self) -> int:
+        return int(self.index.size)
+
+    def __getitem__(self, k: int) -> Any:
+        return self.values[int(self.index[k])]
 
 
 def _notes(

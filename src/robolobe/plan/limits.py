@@ -33,6 +33,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pandas as pd
@@ -553,7 +554,7 @@ def binding_limit(label: str, limits: ProcessLimits, job: Job) -> str:
 
 def binding_notes(
     limiting: ArrayLike,
-    source: ArrayLike,
+    source: Any,
     line: ArrayLike,
     limits: ProcessLimits,
     job: Job,
@@ -565,7 +566,8 @@ def binding_notes(
     limiting : array_like of str, shape (n_cut,)
         The optimizer's label of each cutting waypoint.
     source, line : array_like, shape (n_cut,)
-        Their file and line (for ``file:line``).
+        Their file and line (for ``file:line``); ``source`` may be any
+        sequence indexed by position (only the named waypoints' are read).
     limits : ProcessLimits
     job : Job
 
@@ -579,7 +581,9 @@ def binding_notes(
     n = codes.size
     counts = np.bincount(codes, minlength=len(names))
     _, first = np.unique(codes, return_index=True)  # factorize numbers in order of appearance
-    src, ln = np.asarray(source), np.asarray(line)
+    # entries are read one at a time: a sequence that makes them when read stays one
+    src: Any = source if hasattr(source, "__getitem__") else np.asarray(source)
+    ln = np.asarray(line)
     out: list[str] = []
     for j in sorted(range(len(names)), key=lambda j: (-counts[j], first[j])):
         name = str(names[j])

@@ -44,6 +44,7 @@ import numpy as np
 import pandas as pd
 from numpy.typing import NDArray
 
+from robolobe._memory import release_free_memory
 from robolobe.errors import InfeasibleError, InputError, ReachabilityError, SingularityError
 from robolobe.plan._summary import PlanSummary
 from robolobe.plan.engagement import engagement_note, plan_engagement
@@ -1184,6 +1185,7 @@ def plan_path(
         job, wp, robot, source, rotation, cut, material, tool, rpm, eng
     )
     timings.update(t_stage)
+    release_free_memory(len(wp))  # the lobe stage's temporaries: not under the next peaks
     t = time.perf_counter()
     ci = np.flatnonzero(cut)
     pos = wp[["x_m", "y_m", "z_m"]].to_numpy(dtype=np.float64)
@@ -1257,6 +1259,7 @@ def plan_path(
         outcome = schedule(grouped.table)
     timings["optimize"] = time.perf_counter() - t
     t = time.perf_counter()
+    release_free_memory(len(wp))
     table = _result_table(
         wp, q, wm, modes, grouped, outcome, ci, plunge, feed_angle, job, cons, seg
     )
@@ -1271,6 +1274,7 @@ def plan_path(
     passes_rows = None
     if depth is not None:
         assert eng is not None
+        release_free_memory(len(wp))
         with _columns_added():
             passes_rows = _apply_passes(table, grouped, outcome, depth, ci, plunge, eng, cons, seg)
         most = max(passes_rows, key=lambda r: r["passes"])
@@ -1296,6 +1300,7 @@ def plan_path(
     own_col[ci] = steep
     with _columns_added():
         table["lobes_own"] = own_col
+    release_free_memory(len(wp))
     heavy = _heavy_damping_note(table, source)
     if heavy:
         note = (note + "; " if note else "") + heavy
@@ -1478,7 +1483,7 @@ def _result_table(
     mg[ci] = np.where(np.isfinite(best.margin), best.margin, np.nan)
     cols["margin"] = mg
     lim = np.full(n, "", dtype=object)
-    lim[ci] = np.where(plunge, "plunge", outcome.limiting)
+    lim[ci] = _shared_labels(np.where(plunge, "plunge", outcome.limiting))
     lim[is_rapid] = "rapid"
     cols["limiting"] = lim
     pw = np.full(n, np.nan)
@@ -1488,6 +1493,32 @@ def _result_table(
     cols["rpm_programmed"] = wp["rpm_programmed"].to_numpy()
     # the columns as they are (not consolidated into one block: a copy of the table)
     return pd.DataFrame(cols, copy=False)
+
+
+def _shared_labels(labels: NDArray[np.str_]) -> NDArray[np.object_]:
+    """Labels as an object array whose equal entries are one ``str`` object each.
+
+    ``labels.astype(object)`` makes a string object per entry (a million
+    small objects on a long path, ~60 bytes each, scattered over the heap);
+    the few distinct labels are made once here and shared.
+
+    Parameters
+    ----------
+    labels : ndarray of str, shape (n,)
+
+    Returns
+    -------
+    ndarray of object, shape (n,)
+        The same values.
+    """
+    out = np.empty(labels.shape, dtype=object)
+    rest = np.ones(labels.shape, dtype=bool)
+    while rest.any():  # once per distinct label
+        v = labels[int(np.argmax(rest))]
+        same = labels == v
+        out[same] = str(v)
+        rest &= ~same
+    return out
 
 
 @contextlib.contextmanager
@@ -1503,6 +1534,8 @@ def _columns_added() -> Iterator[None]:
         yield
 
 
+#: Cutting waypoints labelled at a time where a plan in passes names its binding limits.
+_LABEL_BLOCK = 65_536
 #: Passes of one section above which the plan's notes say the cut is far beyond the robot.
 MANY_PASSES = 10
 #: Relative slack under which a limit binds at a move of a plan in passes (above it for
@@ -1567,13 +1600,16 @@ def _apply_passes(
         # the pass depth is fixed (not a limit that binds): name what binds besides it,
         # each move at its own depth and margin
         pw = table["power_kW"].to_numpy()[ci] * 1e3
-        slack = limit_slacks(cons, best.rpm, cut_d, a_lim, pw, fixed_depth=True)
-        slack["stability"] = np.where(bounded, slack["stability"], np.inf)
-        lab[fix] = limiting_labels(slack, free=BINDING_SLACK)[fix]
+        at = np.flatnonzero(fix)
+        for s in range(0, at.size, _LABEL_BLOCK):  # blocks: a slack per limit is (n,) each
+            r = at[s : s + _LABEL_BLOCK]
+            slack = limit_slacks(cons, best.rpm[r], cut_d[r], a_lim[r], pw[r], fixed_depth=True)
+            slack["stability"] = np.where(bounded[r], slack["stability"], np.inf)
+            lab[r] = _shared_labels(limiting_labels(slack, free=BINDING_SLACK))
         lim[ci] = lab
     lim[ci[~eng.engaged[ci] & ~plunge]] = "air"
     table["limiting"] = lim
-    src = table["source"].to_numpy()
+    src = table["source"].array  # a few entries are read: not an object array of them all
     line = table["line"].to_numpy()
     rows = []
     t_pass = seg[ci] / np.maximum(table["feed_mm_per_min"].to_numpy()[ci] / 6e4, 1e-300)
@@ -1612,12 +1648,23 @@ def waypoints_hash(table: pd.DataFrame) -> str:
     import hashlib
 
     h = hashlib.sha256()
-    h.update("\n".join(map(str, table["source"].tolist())).encode())
+    _hash_joined(h, table["source"])
     h.update(np.asarray(table["line"], dtype=np.int64).tobytes())
     xyz = np.round(table[["x_mm", "y_mm", "z_mm"]].to_numpy(dtype=np.float64), 6) + 0.0
     h.update(xyz.tobytes())
-    h.update("\n".join(map(str, table["motion"].tolist())).encode())
+    _hash_joined(h, table["motion"])
     return h.hexdigest()
+
+
+def _hash_joined(h: Any, col: pd.Series, block: int = 65_536) -> None:
+    """``h.update("\\n".join(map(str, col.tolist())).encode())``, a block of rows at a time.
+
+    The same bytes (the hash is unchanged), without a million string objects
+    and their joined text at once.
+    """
+    for s in range(0, len(col), block):
+        part = "\n".join(map(str, col.iloc[s : s + block].tolist()))
+        h.update((part if s == 0 else "\n" + part).encode())
 
 
 def job_fingerprint(job: Job) -> dict[str, Any]:

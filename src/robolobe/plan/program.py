@@ -48,6 +48,7 @@ import pandas as pd
 from numpy.typing import NDArray
 
 from robolobe._atomic import atomic_path, not_a_file
+from robolobe._memory import release_free_memory
 from robolobe.errors import InputError
 from robolobe.plan.job import Job
 from robolobe.plan.limits import process_limits
@@ -469,6 +470,7 @@ def program_text(
         edit = program_edit(res)
     opts = reader_options(read_fmt, res.job.path_options) if read_fmt != "table" else {}
     files = _write(fmt, read_fmt, src, edit, name, opts)
+    release_free_memory(len(res.table))  # the writer's lines: not under the check's peak
     # a translation states its units and frame itself: read back without the source's options
     _check(files, fmt, name, edit, opts if fmt == read_fmt else {}, src.name)
     return files
@@ -613,7 +615,7 @@ def _check(
         )
     # what the check needs of it, then the table goes (a million rows: the peak of the check)
     g_line = got["line"].to_numpy(copy=True)  # copies: views would keep the table alive
-    g_motion = got["motion"].to_numpy(copy=True)
+    g_motion = _labels(got["motion"])
     g_rpm = got["rpm_programmed"].to_numpy(copy=True)
     g_feed = got["feed_mm_per_min"].to_numpy(copy=True)
     p = got[["x_m", "y_m", "z_m"]].to_numpy(dtype=np.float64) * 1e3
@@ -629,7 +631,7 @@ def _check(
         )
     q = exp[["x_mm", "y_mm", "z_mm"]].to_numpy(dtype=np.float64)
     err = np.max(np.abs(p - q), axis=1)
-    mot = g_motion != exp["motion"].to_numpy()
+    mot = g_motion != _labels(exp["motion"])
     cut = (exp["motion"] == "cut").to_numpy()
     s_err = cut & ~np.isclose(g_rpm, exp["rpm"].to_numpy(), rtol=1e-9)
     f_err = cut & ~np.isclose(g_feed, exp["feed_mm_per_min"].to_numpy(), rtol=1e-7)
@@ -644,6 +646,16 @@ def _check(
             f"F{exp['feed_mm_per_min'].iloc[r]:g}{fix}",
             source=where,
         )
+
+
+def _labels(col: pd.Series) -> NDArray[np.object_]:
+    """A label column's values as an object array, each distinct label one ``str`` object.
+
+    (``to_numpy()`` of a string column makes an object per row: a million on a
+    long program, at the check's peak.)
+    """
+    codes, names = pd.factorize(col, use_na_sentinel=False)
+    return np.asarray(names, dtype=object)[codes]
 
 
 def _analog_options(edit: ProgramEdit, fmt: str) -> dict[str, Any]:

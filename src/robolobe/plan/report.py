@@ -32,6 +32,7 @@ import pandas as pd
 from numpy.typing import NDArray
 
 from robolobe._atomic import atomic_dir
+from robolobe._memory import release_free_memory
 from robolobe._text import html_text, visible
 from robolobe.plan import _plots
 from robolobe.plan._plots import PlotWorker
@@ -640,7 +641,9 @@ def write_outputs(
         from robolobe.errors import InputError
 
         raise InputError(f"waypoints_every: expected an integer >= 1, found {waypoints_every!r}")
+    release_free_memory(len(res.table))  # the plan's temporaries: not under the writers' peaks
     program_files = _program_files(res, program, program_format)
+    release_free_memory(len(res.table))
     records = {name: _DATA[name](res) for name in PLOTS} if plots or html_report else {}
     if worker is not None and records:
         worker.send(records)  # drawn there while the tables are written here

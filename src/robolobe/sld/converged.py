@@ -613,7 +613,9 @@ def converged_lobes(
         )  # fmt: skip
 
     bound = np.full(nb, np.nan)
+    diag: LobeDiagram | None = None
     for _ in range(4):
+        diag = None  # the previous refinement's arrays go before the next one's are made
         diag, bound = refined(bound)
         new = bound_of(diag)
         # the envelope came out higher than the bound assumed: pieces left alone
@@ -623,6 +625,7 @@ def converged_lobes(
         bound = np.maximum(bound, new)
     else:
         _unconverged(om, ze, int(np.argmax(new / bound)), "the relevance bound did not settle")
+    assert diag is not None
     nf = diag.depth.shape[-1] if diag.depth is not None else 0
     return dataclasses.replace(
         diag,

@@ -280,7 +280,11 @@ class WaypointBuilder:
                 "motion": np.where(rows[:, 8] > 0, "rapid", "cut"),
                 "source": self.source,
                 "line": line,
-            }
+            },
+            # the columns as they are: views of the rows read (80 bytes a waypoint, held by
+            # the table) and of ``ref`` and ``f``, not consolidated into a block (a copy of
+            # 14 columns: on a million-line program the reader's peak)
+            copy=False,
         )
         df.attrs["warnings"] = self.notes()
         return df
@@ -320,8 +324,15 @@ def feed_directions(pos: FloatArray, axis: FloatArray | None = None) -> FloatArr
     ln = np.linalg.norm(d, axis=1)
     ok = ln > 1e-12
     out[1:][ok] = d[ok] / ln[ok, None]
-    df = pd.DataFrame(out)
-    return df.bfill().ffill().to_numpy()
+    has = np.r_[False, ok]
+    if not has.any():
+        return out
+    # each row without a direction takes the next row's that has one, else the last one's
+    # (a back- then forward-fill, by row index: no copies of the table for it)
+    rows = np.arange(n)
+    nxt = np.minimum.accumulate(np.where(has, rows, n)[::-1])[::-1]
+    prv = np.maximum.accumulate(np.where(has, rows, -1))
+    return out[np.where(nxt < n, nxt, prv)]
 
 
 def validate_waypoints(df: pd.DataFrame, source: str) -> pd.DataFrame:

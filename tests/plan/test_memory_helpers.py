@@ -1,0 +1,98 @@
+"""The memory savings of long paths change no result: each against a plain reference."""
+
+from __future__ import annotations
+
+import hashlib
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from robolobe._memory import RELEASE_MIN_ROWS, release_free_memory
+from robolobe.plan.paths._table import feed_directions
+from robolobe.plan.pipeline import _hash_joined, _shared_labels, waypoints_hash
+from robolobe.plan.program import _labels
+
+
+def _directions_reference(pos: np.ndarray) -> np.ndarray:
+    """Unit move directions, rows without one back- then forward-filled (pandas)."""
+    n = len(pos)
+    out = np.full((n, 3), np.nan)
+    for i in range(1, n):
+        d = pos[i] - pos[i - 1]
+        ln = float(np.sqrt(d @ d))
+        if ln > 1e-12:
+            out[i] = d / ln
+    return pd.DataFrame(out).bfill().ffill().to_numpy()
+
+
+def test_feed_directions_match_a_filled_reference() -> None:
+    rng = np.random.default_rng(7)
+    for _ in range(300):
+        n = int(rng.integers(0, 14))
+        # coarse integer positions: many zero-length moves, at the start, the end, in runs
+        pos = rng.integers(0, 2, (n, 3)).astype(float) * rng.choice([0.0, 1.0], (n, 1))
+        got = feed_directions(pos)
+        ref = _directions_reference(pos) if n >= 2 else np.full((n, 3), np.nan)
+        assert got.shape == (n, 3)
+        np.testing.assert_array_equal(got, ref)
+
+
+def test_a_path_that_never_moves_has_no_direction() -> None:
+    assert np.all(np.isnan(feed_directions(np.zeros((5, 3)))))
+
+
+@pytest.mark.parametrize("block", [1, 3, 7, 1000])
+def test_hash_in_blocks_is_the_hash_of_the_joined_column(block: int) -> None:
+    col = pd.Series(["a.nc", "b.nc", "a.nc", "long name.nc", "c", "", "d"] * 3, dtype="str")
+    one = hashlib.sha256("\n".join(col.tolist()).encode()).hexdigest()
+    h = hashlib.sha256()
+    _hash_joined(h, col, block=block)
+    assert h.hexdigest() == one
+
+
+def test_waypoints_hash_as_written_in_one_piece() -> None:
+    n = 70_000  # more than one block
+    rng = np.random.default_rng(3)
+    t = pd.DataFrame(
+        {
+            "source": pd.Series(np.where(rng.random(n) < 0.5, "p.nc", "q.nc"), dtype="str"),
+            "line": np.arange(n) + 10,
+            "x_mm": rng.normal(size=n),
+            "y_mm": rng.normal(size=n),
+            "z_mm": rng.normal(size=n),
+            "motion": pd.Series(np.where(rng.random(n) < 0.1, "rapid", "cut"), dtype="str"),
+        }
+    )
+    h = hashlib.sha256()
+    h.update("\n".join(map(str, t["source"].tolist())).encode())
+    h.update(np.asarray(t["line"], dtype=np.int64).tobytes())
+    h.update((np.round(t[["x_mm", "y_mm", "z_mm"]].to_numpy(), 6) + 0.0).tobytes())
+    h.update("\n".join(map(str, t["motion"].tolist())).encode())
+    assert waypoints_hash(t) == h.hexdigest()
+
+
+def test_shared_labels_same_values_one_object_per_label() -> None:
+    rng = np.random.default_rng(5)
+    names = np.array(["stability", "power", "rpm_max", "schedule", "plunge"])
+    lab = names[rng.integers(0, names.size, 5000)]
+    got = _shared_labels(lab)
+    assert got.dtype == object
+    assert got.tolist() == lab.astype(object).tolist()
+    assert all(type(v) is str for v in got)
+    assert len({id(v) for v in got}) == len(set(lab.tolist()))
+    assert _shared_labels(np.array([], dtype="<U3")).shape == (0,)
+
+
+def test_check_labels_same_values() -> None:
+    col = pd.Series(["cut", "rapid", "cut", None, "cut"], dtype="str")
+    got = _labels(col)
+    ref = col.to_numpy()
+    assert got.dtype == object
+    assert [str(v) for v in got] == [str(v) for v in ref]
+    assert np.array_equal(got != ref, col.to_numpy() != ref)
+
+
+def test_release_free_memory_small_jobs_untouched() -> None:
+    assert release_free_memory(RELEASE_MIN_ROWS - 1) is False
+    assert isinstance(release_free_memory(), bool)
