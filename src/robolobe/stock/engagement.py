@@ -45,7 +45,7 @@ BoolArray = NDArray[np.bool_]
 DEFAULT_CELLS_PER_DIAMETER = 40
 #: Coarsest Z-map cell accepted: the tool diameter over this.
 MIN_CELLS_PER_DIAMETER = 10
-#: Largest Z-map (cells); 16 bytes a cell.
+#: Largest Z-map (cells); 32 bytes a cell (five float32, three int32 sweep indices).
 MAX_CELLS = 16_000_000
 #: Heights closer than this [m] are one level: the Z-map's sweeps at one height, the
 #: plan's sections at one tip height (:mod:`robolobe.plan.passes`), and material
@@ -258,7 +258,10 @@ def compute_engagement(
     xc = gx0 + (np.arange(nx, dtype=np.float64) + 0.5) * res
     yc = gy0 + (np.arange(ny, dtype=np.float64) + 0.5) * res
     # one cell: top h, clearance s, its level zs, signed distance to the outline sd
-    w = np.empty((ny, nx, 4), dtype=np.float32)
+    # (and the widest clearance of any sweep, w[..., 4]); ids: the sweeps that set zs,
+    # w[..., 4] and h (move index, 0: none), for the exact test where the cells disagree
+    w = np.empty((ny, nx, 5), dtype=np.float32)
+    ids = np.zeros((ny, nx, 3), dtype=np.int32)
     for j in range(ny):  # row by row: memory of a row per edge, not of the grid
         w[j, :, 3] = np.clip(
             signed_distance(stock.outline, xc, np.full(nx, yc[j])), -4 * res, 4 * res
@@ -266,6 +269,7 @@ def compute_engagement(
     w[..., 0] = stock.z_top  # the outline is sd's: h, s, zs say what the sweeps cleared
     w[..., 1] = -np.inf
     w[..., 2] = np.inf
+    w[..., 4] = -np.inf
 
     step = np.linalg.norm(np.diff(p, axis=0), axis=1) if n > 1 else np.zeros(0)
     cum = np.concatenate([[0.0], np.cumsum(step)])
@@ -276,8 +280,8 @@ def compute_engagement(
     plunge = np.zeros(n, dtype=np.bool_)
     run, _ = kernels()
     run(
-        w, gx0, gy0, res, radius, band, p, cut, cum, 2.0 * res, 0.5 * radius,
-        math.cos(math.radians(5.0)), stock.z_bottom, LEVEL_TOL_M, N_PHI,
+        w, ids, gx0, gy0, res, radius, band, p, cut, cum, 2.0 * res, 0.5 * radius,
+        math.cos(math.radians(5.0)), stock.z_bottom, stock.z_top, LEVEL_TOL_M, N_PHI,
         phi_entry, phi_exit, n_arcs, depth, plunge,
     )  # fmt: skip
     notes = [stock.note] if stock.note else []
