@@ -38,6 +38,8 @@ _BISECT = 5
 #: The tool's own trail: the last cutting moves that removed their material, always
 #: candidates of the exact test (:func:`_candidates`).
 _RECENT = 4
+#: Four cells whose tops differ by at most this [m] are level (their top is exact enough).
+_LEVEL_CELLS = 1e-6
 #: Material thinner than this many cells at the edge is none (float rounding on a wall).
 _EDGE_EPS = 0.01
 
@@ -158,7 +160,7 @@ def _sweep(w, ids, m, x0, y0, res, radius, band, p0, p1, skip_start, tol):
                         zc = min(az + t1 * dz, az + t2 * dz)
                     if zc < w[j, i, 0]:
                         w[j, i, 0] = zc
-                        ids[j, i, 2] = m
+                        ids[j, i, 1] = m
                 elif l2 == 0.0:
                     zc = min(az, az + dz)  # a plunge: every height is as close
                 else:
@@ -171,9 +173,6 @@ def _sweep(w, ids, m, x0, y0, res, radius, band, p0, p1, skip_start, tol):
                 elif zc <= z_old + tol and sv > w[j, i, 1]:
                     w[j, i, 1] = sv
                     ids[j, i, 0] = m
-                if sv > w[j, i, 4]:
-                    w[j, i, 4] = sv
-                    ids[j, i, 1] = m
             i += 1
 
 
@@ -236,7 +235,7 @@ def _candidates(ids, i, j, cand):
     """The distinct sweeps (move indices) that may decide a point in the cell square
     ``(i..i+1, j..j+1)``: the last :data:`_RECENT` cutting moves that removed their
     material (``cand[1 : cand[0] + 1]``, set by :func:`_run`: the tool's own trail) and
-    each of the four cells' lowest-level, widest-clearance and lowest-top sweeps.
+    each of the four cells' lowest-level and lowest-top sweeps.
     Written to ``cand[1 : n + 1]``; returns ``n``."""
     nc = cand[0]
     for dj in range(2):
@@ -245,7 +244,7 @@ def _candidates(ids, i, j, cand):
             jj = j + dj
             if ii < 0 or jj < 0 or ii >= ids.shape[1] or jj >= ids.shape[0]:
                 continue
-            for q in range(3):
+            for q in range(2):
                 k = ids[jj, ii, q]
                 if k <= 0:
                     continue
@@ -260,14 +259,6 @@ def _candidates(ids, i, j, cand):
     return nc
 
 
-def _one_sweep(ids, i, j):
-    """Whether the four cells ``(i..i+1, j..j+1)`` have their clearance from one sweep."""
-    if i < 0 or j < 0 or i + 1 >= ids.shape[1] or j + 1 >= ids.shape[0]:
-        return False
-    k = ids[j, i, 0]
-    return ids[j, i + 1, 0] == k and ids[j + 1, i, 0] == k and ids[j + 1, i + 1, 0] == k
-
-
 def _exact_clear(ids, xyz, i, j, px, py, z, rr, tol, cand):
     """Exact clearance (:func:`_move_clear`) of a point by the sweeps its cells remember:
     the largest; ``-inf`` when none was stored there."""
@@ -278,19 +269,10 @@ def _exact_clear(ids, xyz, i, j, px, py, z, rr, tol, cand):
     return best
 
 
-def _exact_top(w, ids, xyz, x0, y0, res, rr, ztop, px, py, cand):
-    """Material top [m] at the point ``(px, py)``, within the four cells' tops.
-
-    Where the four cells around the point are level (within a micrometre), their
-    lowest top; otherwise the lowest tip height of the remembered sweeps that
-    cover the point (the exact floor of a ramp, the step of a wall), the stock top
-    where none does, or the highest of the four cells where no sweep is
-    remembered there (a conservative sliver).
-    """
-    gx = (px - x0) / res - 0.5
-    gy = (py - y0) / res - 0.5
-    i = math.floor(gx)
-    j = math.floor(gy)
+def _top_bounds(w, x0, y0, res, px, py):
+    """Lowest and highest top [m] of the four cells around the point ``(px, py)``."""
+    i = math.floor((px - x0) / res - 0.5)
+    j = math.floor((py - y0) / res - 0.5)
     lo = _INF
     hi = -_INF
     for dj in range(2):
@@ -298,9 +280,22 @@ def _exact_top(w, ids, xyz, x0, y0, res, rr, ztop, px, py, cand):
             h = _top(w, i + di, j + dj)
             lo = min(lo, h)
             hi = max(hi, h)
-    if hi - lo <= 1e-6:
+    return lo, hi
+
+
+def _exact_top(w, ids, xyz, x0, y0, res, rr, ztop, px, py, cand):
+    """Material top [m] at the point ``(px, py)``, within the four cells' tops.
+
+    Where the four cells around the point are level (within a micrometre), their
+    lowest top; otherwise the lowest tip height of the remembered sweeps
+    (:func:`_candidates`) that cover the point (the exact floor of a ramp, the
+    step of a wall), or the highest of the four cells where none does.
+    """
+    lo, hi = _top_bounds(w, x0, y0, res, px, py)
+    if hi - lo <= _LEVEL_CELLS:
         return lo
-    nc = _candidates(ids, i, j, cand)
+    nc = _candidates(ids, math.floor((px - x0) / res - 0.5), math.floor((py - y0) / res - 0.5),
+                     cand)  # fmt: skip
     top = min(hi, ztop)
     for c in range(1, nc + 1):
         if _move_dist(xyz, cand[c], px, py) <= rr:
@@ -394,10 +389,24 @@ def _edge_value(w, ids, xyz, x0, y0, res, radius, cx, cy, z, fx, fy, tol, ph, ca
     shift = max(_EDGE_EPS * res, tol)
     lo = min(min(v00, v10), min(v01, v11))
     hi = max(max(v00, v10), max(v01, v11))
-    if lo < 0.0 <= hi and not (
-        c00 and c10 and c01 and c11 and _one_sweep(ids, i, j)
-    ):
-        exact = _exact_clear(ids, xyz, i, j, px, py, z, radius + shift, tol, cand)
+    if lo < 0.0 <= hi:
+        exact = -_INF
+        if c00 and c10 and c01 and c11:
+            if i >= 0 and j >= 0 and i + 1 < ids.shape[1] and j + 1 < ids.shape[0]:
+                # one level: the clearance is one sweep's distance field where the four
+                # cells have it from one sweep; from several, the exact largest of theirs
+                # (the interpolation would cut the corner where two sweeps' edges meet)
+                k00 = ids[j, i, 0]
+                k10 = ids[j, i + 1, 0]
+                k01 = ids[j + 1, i, 0]
+                k11 = ids[j + 1, i + 1, 0]
+                if not (k00 == k10 and k00 == k01 and k00 == k11):
+                    rr = radius + shift
+                    for k in (k00, k10, k01, k11):
+                        if k > 0:
+                            exact = max(exact, _move_clear(xyz, k, px, py, z, rr, tol))
+        else:
+            exact = _exact_clear(ids, xyz, i, j, px, py, z, radius + shift, tol, cand)
         if exact > -_INF:
             return max(exact, stock + shift)
     sweep = w00 * v00 + w10 * v10 + w01 * v01 + w11 * v11
@@ -428,7 +437,7 @@ def _sample_crossing(w, ids, xyz, x0, y0, res, radius, cx, cy, z, fx, fy, tol, d
 
 
 def _engage(w, ids, xyz, x0, y0, res, radius, cx, cy, z, fx, fy, bottom, ztop, tol, nphi, vals,
-            out, cand):  # fmt: skip
+            pend, out, cand):  # fmt: skip
     """Engagement of the cutting edge at one tool position.
 
     The front half of the edge is sampled at ``nphi`` angles; each change
@@ -442,28 +451,52 @@ def _engage(w, ids, xyz, x0, y0, res, radius, cx, cy, z, fx, fy, bottom, ztop, t
     """
     dphi = math.pi / (nphi - 1)
     rr = radius + max(_EDGE_EPS * res, tol)
+    rin = radius - res
+    base = max(z, bottom)
     depth = 0.0
-    sliver = 0.0
+    full = ztop - base  # the deepest there is: no need to look further
     for k in range(nphi):
         ph = k * dphi
         v = _edge_value(w, ids, xyz, x0, y0, res, radius, cx, cy, z, fx, fy, tol, ph, cand)
         vals[k] = v
-        if v < 0.0:
+        pend[k] = False
+        if v < 0.0 and depth < full:
             # the material top one cell inside the engaged edge point (at the edge itself
-            # the top jumps where the edge runs along the wall of an earlier, deeper cut);
-            # where nothing is there (a sliver), the top at the edge point
+            # the top jumps where the edge runs along the wall of an earlier, deeper cut):
+            # level cells now, the others (exact, slower) after, where they may be deeper
             ux = math.sin(ph) * fx - math.cos(ph) * fy
             uy = math.sin(ph) * fy + math.cos(ph) * fx
-            rin = radius - res
-            top = _exact_top(w, ids, xyz, x0, y0, res, rr, ztop, cx + rin * ux, cy + rin * uy, cand)
-            if top > z + tol:
-                depth = max(depth, top - max(z, bottom))
+            lo, hi = _top_bounds(w, x0, y0, res, cx + rin * ux, cy + rin * uy)
+            if hi - lo <= _LEVEL_CELLS:
+                if lo > z + tol:
+                    depth = max(depth, lo - base)
             else:
+                pend[k] = True
+    for k in range(nphi):
+        if pend[k] and depth < full:
+            ph = k * dphi
+            ux = math.sin(ph) * fx - math.cos(ph) * fy
+            uy = math.sin(ph) * fy + math.cos(ph) * fx
+            lo, hi = _top_bounds(w, x0, y0, res, cx + rin * ux, cy + rin * uy)
+            if hi - base > depth:
+                top = _exact_top(
+                    w, ids, xyz, x0, y0, res, rr, ztop, cx + rin * ux, cy + rin * uy, cand
+                )
+                if top > z + tol:
+                    depth = max(depth, top - base)
+    sliver = 0.0
+    if depth == 0.0:
+        # where nothing is one cell inside (a sliver), the top at the engaged edge points
+        for k in range(nphi):
+            if vals[k] < 0.0:
+                ph = k * dphi
+                ux = math.sin(ph) * fx - math.cos(ph) * fy
+                uy = math.sin(ph) * fy + math.cos(ph) * fx
                 top = _exact_top(
                     w, ids, xyz, x0, y0, res, rr, ztop, cx + radius * ux, cy + radius * uy, cand
                 )
                 if top > z + tol:
-                    sliver = max(sliver, top - max(z, bottom))
+                    sliver = max(sliver, top - base)
     narcs = 0
     entry = math.nan
     exit_ = math.nan
@@ -546,8 +579,9 @@ def _run(
     """
     n = xyz.shape[0]
     vals = np.empty(nphi)
+    pend = np.zeros(nphi, dtype=np.bool_)
     out = np.empty(4)
-    cand = np.zeros(1 + _RECENT + 12, dtype=np.int64)
+    cand = np.zeros(1 + _RECENT + 8, dtype=np.int64)
     p0 = np.empty(3)
     p1 = np.empty(3)
     applied = 0  # moves [0, applied) have removed their material
@@ -563,15 +597,13 @@ def _run(
         while applied < i and cum[applied] <= cum[i] - lag:
             prev_cut_end = _remove(w, ids, x0, y0, res, radius, band, xyz, cutting, tol, applied,
                                    prev_cut_end, p0, p1)  # fmt: skip
+            if applied > 0 and cutting[applied]:
+                # the tool's trail (cand[1 : cand[0] + 1], newest first)
+                for c in range(min(cand[0], _RECENT - 1), 0, -1):
+                    cand[c + 1] = cand[c]
+                cand[1] = applied
+                cand[0] = min(cand[0] + 1, _RECENT)
             applied += 1
-        nrec = 0
-        k = applied - 1
-        while k >= 1 and nrec < _RECENT and k > applied - 4 * _RECENT:
-            if cutting[k]:
-                nrec += 1
-                cand[nrec] = k
-            k -= 1
-        cand[0] = nrec
         ax, ay, az = xyz[i - 1, 0], xyz[i - 1, 1], xyz[i - 1, 2]
         dx, dy, dz = xyz[i, 0] - ax, xyz[i, 1] - ay, xyz[i, 2] - az
         lxy = math.sqrt(dx * dx + dy * dy)
@@ -623,6 +655,7 @@ def _run(
                 tol,
                 nphi,
                 vals,
+                pend,
                 out,
                 cand,
             )
@@ -659,8 +692,8 @@ def kernels() -> Any:
             g["_move_clear"] = deco(_move_clear)
             g["_candidates"] = deco(_candidates)
             g["_exact_clear"] = deco(_exact_clear)
-            g["_one_sweep"] = deco(_one_sweep)
             g["_exact_top"] = deco(_exact_top)
+            g["_top_bounds"] = deco(_top_bounds)
             g["_stock_value"] = deco(_stock_value)
             g["_top"] = deco(_top)
             g["_edge_value"] = deco(_edge_value)

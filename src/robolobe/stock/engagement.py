@@ -45,7 +45,7 @@ BoolArray = NDArray[np.bool_]
 DEFAULT_CELLS_PER_DIAMETER = 40
 #: Coarsest Z-map cell accepted: the tool diameter over this.
 MIN_CELLS_PER_DIAMETER = 10
-#: Largest Z-map (cells); 32 bytes a cell (five float32, three int32 sweep indices).
+#: Largest Z-map (cells); 24 bytes a cell (four float32, two int32 sweep indices).
 MAX_CELLS = 16_000_000
 #: Heights closer than this [m] are one level: the Z-map's sweeps at one height, the
 #: plan's sections at one tip height (:mod:`robolobe.plan.passes`), and material
@@ -258,10 +258,10 @@ def compute_engagement(
     xc = gx0 + (np.arange(nx, dtype=np.float64) + 0.5) * res
     yc = gy0 + (np.arange(ny, dtype=np.float64) + 0.5) * res
     # one cell: top h, clearance s, its level zs, signed distance to the outline sd
-    # (and the widest clearance of any sweep, w[..., 4]); ids: the sweeps that set zs,
-    # w[..., 4] and h (move index, 0: none), for the exact test where the cells disagree
-    w = np.empty((ny, nx, 5), dtype=np.float32)
-    ids = np.zeros((ny, nx, 3), dtype=np.int32)
+    # ids: the sweeps that set s and zs, and h (move index, 0: none), for the exact test
+    # where the cells disagree
+    w = np.empty((ny, nx, 4), dtype=np.float32)
+    ids = np.zeros((ny, nx, 2), dtype=np.int32)
     for j in range(ny):  # row by row: memory of a row per edge, not of the grid
         w[j, :, 3] = np.clip(
             signed_distance(stock.outline, xc, np.full(nx, yc[j])), -4 * res, 4 * res
@@ -269,7 +269,6 @@ def compute_engagement(
     w[..., 0] = stock.z_top  # the outline is sd's: h, s, zs say what the sweeps cleared
     w[..., 1] = -np.inf
     w[..., 2] = np.inf
-    w[..., 4] = -np.inf
 
     step = np.linalg.norm(np.diff(p, axis=0), axis=1) if n > 1 else np.zeros(0)
     cum = np.concatenate([[0.0], np.cumsum(step)])
