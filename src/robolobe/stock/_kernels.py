@@ -38,6 +38,11 @@ _BISECT = 5
 #: The tool's own trail: the last cutting moves that removed their material, always
 #: candidates of the exact test (:func:`_candidates`).
 _RECENT = 4
+#: Bound on the material value's change per radian of edge angle, in tool radii (a
+#: distance field is 1; the bilinear interpolation of one, up to sqrt 2).
+_LIPSCHITZ = 1.5
+#: Sub-samples of a sample step searched for a narrow arc (4 deg / 4 = 1 deg).
+_SUB = 4
 #: Four cells whose tops differ by at most this [m] are level (their top is exact enough).
 _LEVEL_CELLS = 1e-6
 #: Material thinner than this many cells at the edge is none (float rounding on a wall).
@@ -523,6 +528,51 @@ def _engage(w, ids, xyz, x0, y0, res, radius, cx, cy, z, fx, fy, bottom, ztop, t
                 k -= 1
             exit_ = _sample_crossing(w, ids, xyz, x0, y0, res, radius, cx, cy, z, fx, fy, tol, dphi,
                                      vals, k, cand)  # fmt: skip
+    # arcs narrower than a sample step, between two samples in air: the value is about
+    # Lipschitz in the edge angle (at most R per rad: a distance field along an edge
+    # point moving at R), so two samples whose values sum to more than the step's travel
+    # have none between them; the others are sampled every quarter step (1 deg), and an
+    # arc found there is refined as the others are (a narrower arc, under 1 deg, is not seen)
+    lim = _LIPSCHITZ * radius * dphi
+    for k in range(1, nphi):
+        va = vals[k - 1]
+        vb = vals[k]
+        if va < 0.0 or vb < 0.0 or va + vb >= lim:
+            continue
+        pa = (k - 1) * dphi
+        pv = va
+        for q in range(1, _SUB + 1):
+            ph = (k - 1 + q / _SUB) * dphi
+            v = vb
+            if q < _SUB:
+                v = _edge_value(w, ids, xyz, x0, y0, res, radius, cx, cy, z, fx, fy, tol, ph,
+                                cand)  # fmt: skip
+            if (v < 0.0) != (pv < 0.0):
+                cr = _crossing(w, ids, xyz, x0, y0, res, radius, cx, cy, z, fx, fy, tol, pa, pv,
+                               ph, v, cand)  # fmt: skip
+                if v < 0.0:
+                    narcs += 1
+                    if not cr >= entry:  # also where entry is NaN
+                        entry = cr
+                elif not cr <= exit_:
+                    exit_ = cr
+            if v < 0.0:
+                ux = math.sin(ph) * fx - math.cos(ph) * fy
+                uy = math.sin(ph) * fy + math.cos(ph) * fx
+                top = _exact_top(
+                    w, ids, xyz, x0, y0, res, rr, ztop, cx + rin * ux, cy + rin * uy, cand
+                )
+                if top > z + tol:
+                    depth = max(depth, top - base)
+                else:
+                    top = _exact_top(
+                        w, ids, xyz, x0, y0, res, rr, ztop, cx + radius * ux, cy + radius * uy,
+                        cand,
+                    )  # fmt: skip
+                    if top > z + tol:
+                        sliver = max(sliver, top - base)
+            pa = ph
+            pv = v
     out[0] = entry
     out[1] = exit_
     out[2] = narcs

@@ -55,8 +55,9 @@ LEVEL_TOL_M = 1e-5
 #: Largest tilt of the tool axis from +z [deg] the Z-map accepts on a cutting move.
 MAX_TILT_DEG = 0.5
 #: Angular samples of the front half of the cutting edge (4 deg apart; each sign change
-#: is then refined by bisection to 1/8 deg and interpolated). An engaged arc narrower
-#: than a sample step (a_e / D below 0.1 %) between two samples is not seen.
+#: is then refined by bisection to 1/8 deg and interpolated). Between two samples in air
+#: whose values leave room for an arc, the edge is sampled every 1 deg: an arc narrower
+#: than 1 deg (at the ends of the half, a_e / D below 0.01 %) may be missed.
 N_PHI = 46
 
 
