@@ -13,10 +13,27 @@ The in-process workpiece is a Z-map on a square grid (cell centres
 ``sd``
     signed distance to the stock outline [m] (negative inside, clipped).
 
+``ids``
+    per cell, the sweeps (move indices, 0: none) that set ``zs`` and ``s``, and
+    ``h``.
+
 Engagement tests points on the cutting edge with the bilinear interpolation
 of a value that is negative where material is: the clearance is a distance
 field, so the edge of the material is found to a small fraction of a cell
-(error ~ res^2 / 8 R) instead of half a cell as with a height alone.
+(error ~ res^2 / 8 R) instead of half a cell as with a height alone. That
+holds where the four cells around the point have their clearance from one
+sweep at the tip's level. Where they disagree in sign and do not (two
+sweeps' edges meeting; a wall at the tip's level over cells cut deeper
+before; a floor whose height crosses the level tolerance between cell
+centres, as a helix's or a ramp's bottom does), the point is decided exactly
+instead: cleared when one of the sweeps those cells remember, or one of the
+tool's last four, passes within ``R + tol`` of it with its lowest tip height
+there within ``tol`` of the tip (the definition of
+:mod:`robolobe.stock.engagement`, no grid in it). The angle is then exact to
+the bisection (1/8 deg, interpolated) unless the sweep that clears the point
+is remembered by none of the four cells (shadowed there by deeper or wider
+sweeps, it reaches past them by less than a cell). The material top for the
+axial depth is decided the same way.
 
 The functions are plain Python compiled with numba where available
 (:func:`robolobe._jit.available`); without it they run as Python (slow:
