@@ -40,6 +40,15 @@ is the margin by its own model (the last session measured, with every move
 planned at ``cut.radial_width_mm``: pocket 0.50, contour 0.65, face 0.70
 at their own engagement).
 
+Held out (``--no-held-out`` leaves them out): ``Dryless_TopFridge.nc`` and
+``safarazfadli-glitch_1001.nc`` from the same folder were never used while the
+production's exact test where the Z-map's cells disagree was built; they were
+run once it was final. A program with tool changes is taken by its flat end
+mill's sections (``safarazfadli``: tool 1, 6.35 mm; its lines are the
+original file's); one the project's readers refuse is reported with the reason.
+A move called air by one side and cutting by the other errs by the width of
+its arc (``air_mismatch_max_arc_deg``).
+
 Goal (issue 26): every angle within 2 deg of the reference at the stated cell.
 """
 
@@ -342,22 +351,21 @@ def _tool_diameter(text: str, tool: int, inch: bool) -> float:
     return float(m.group(1)) * (25.4e-3 if inch else 1e-3)
 
 
-def tool_sections(text: str, tool: int) -> str:
+def tool_sections(text: str, tool: int) -> tuple[str, np.ndarray]:
     """The program's lines before its first tool change and every section of ``tool``
-    (from its tool change to the next one)."""
+    (from its tool change to the next one), and the original line number of each."""
     lines = text.splitlines()
     changes = [(k, int(m.group(1))) for k, ln in enumerate(lines) if (m := _TOOL_CHANGE.search(ln))]
-    if not changes:
-        return text
-    keep = lines[: changes[0][0]]
+    keep = list(range(changes[0][0] if changes else len(lines)))
     for (k, t), nxt in zip(changes, [c[0] for c in changes[1:]] + [len(lines)], strict=True):
         if t == tool:
-            keep += lines[k:nxt]
-    return "\n".join(keep) + "\n"
+            keep += range(k, nxt)
+    return "\n".join(lines[k] for k in keep) + "\n", np.array(keep) + 1
 
 
 def programs(tmp: Path, held_out: bool = True) -> list[tuple[str, Path, float, Job | None, bool]]:
-    """(name, file, tool diameter [m], the bundled job or None, held out)."""
+    """(name, file, tool diameter [m], the bundled job or None, held out); a tool's
+    sections are written to ``tmp`` (with their original line numbers beside them)."""
     ex = resources.files("robolobe.data.examples")
     out: list[tuple[str, Path, float, Job | None, bool]] = []
     for prog, jobname in BUNDLED.items():
@@ -382,7 +390,9 @@ def programs(tmp: Path, held_out: bool = True) -> list[tuple[str, Path, float, J
         text = p.read_text(errors="replace")
         inch = re.search(r"\bG20\b", text[:3000]) is not None
         q = tmp / f"{p.stem}_T{tool}{p.suffix}"
-        q.write_text(tool_sections(text, tool), encoding="utf-8")
+        section, origin = tool_sections(text, tool)
+        q.write_text(section, encoding="utf-8")
+        np.save(q.with_suffix(".lines.npy"), origin)  # its lines in the original file
         out.append((f"{name} [T{tool}]", q, _tool_diameter(text, tool, inch), None, True))
     return out
 
@@ -424,6 +434,9 @@ def _program_rows(
     xyz = wp[["x_m", "y_m", "z_m"]].to_numpy()
     cut = (wp["motion"] == "cut").to_numpy()
     lines = wp["line"].to_numpy()
+    origin = path.with_suffix(".lines.npy")
+    if origin.is_file():  # a tool's sections: the original file's lines
+        lines = np.load(origin)[lines - 1]
     stock = default_stock(xyz, cut, 0.5 * diameter)
     t = time.process_time()
     res_m = diameter / cells if cells else None
