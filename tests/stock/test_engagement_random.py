@@ -209,30 +209,29 @@ def _differ(a: tuple[float, float], b: tuple[float, float]) -> float:
     return math.degrees(max(abs(a[0] - b[0]), abs(a[1] - b[1])))
 
 
-#: A case is well-conditioned when its exact angles move by at most 1 deg as the
-#: thin-material tolerance moves by this [m] (the Z-map's own clearance error at
-#: D/40 is about res^2 / 8R = 1.6 um for this 10 mm cutter: a graze or a floor within
-#: 2 um of the tolerance is not decided to 2 deg by it) and its outermost engaged
-#: arcs are wider than a cell (a cusp of material narrower than a cell between two
-#: earlier cuts is below the Z-map's resolution; as the outermost arc it moves the
-#: envelope's entry or exit by up to 180 deg). Such cases are counted, not compared.
+#: A case is ill-conditioned when its exact angles move by more than 1 deg as the
+#: thin-material tolerance moves by this [m] (a graze, or a floor within 2 um of the
+#: tolerance) or an outermost engaged arc is narrower than a cell (a cusp between two
+#: earlier cuts). The Z-map's interpolated distance field alone does not decide such
+#: cases (its own error at D/40 is about res^2 / 8R = 1.6 um for this 10 mm cutter);
+#: the production's exact test where the cells disagree does: they are compared too,
+#: and counted so that the sample keeps some.
 CONDITION_M = 2e-6
-#: Largest error [deg] where the probe may cross a sloped floor (a ramp's or a
-#: helix's): where such a floor rises through the level tolerance the Z-map knows
-#: its height at cell centres, a crossing to about a cell, res / R = 2.9 deg at D/40.
-#: Elsewhere the goal, 2 deg.
-SLOPED_DEG = 3.0
+#: Largest error [deg] on any case: the exact test's bisection to 1/8 deg, with margin
+#: (the issue's goal is 2 deg; before the exact test a floor crossing the tolerance
+#: between cell centres erred by up to 2.9 deg, a cusp narrower than a cell by 112).
+TOL_DEG = 0.5
 
 
-@pytest.mark.parametrize("block", range(4))
-def test_random_moves_within_2_deg_of_the_exact_reference(block: int) -> None:
+def _compare(seeds: range, cells: float) -> tuple[list[float], list[str], int]:
+    """Errors [deg] of the cutting cases, the cases over :data:`TOL_DEG`, the ill-conditioned."""
     stock = Stock.box(*BOX)
     errs: list[float] = []
     bad: list[str] = []
     ill = 0
-    for seed in range(block * 40, block * 40 + 40):
+    for seed in seeds:
         xyz, cut, probe = _case(seed)
-        e = compute_engagement(xyz, cut, D, stock)
+        e = compute_engagement(xyz, cut, D, stock, resolution_m=D / cells)
         exact = _exact(xyz, cut, LEVEL_TOL_M)
         spread = max(
             _differ(exact, _exact(xyz, cut, LEVEL_TOL_M - CONDITION_M)),
@@ -240,13 +239,28 @@ def test_random_moves_within_2_deg_of_the_exact_reference(block: int) -> None:
         )
         if spread > 1.0 or _exact(xyz, cut, LEVEL_TOL_M, widths=True)[0] < D / 40 / R:
             ill += 1
-            continue
         ours = (float(e.phi_entry[-1]), float(e.phi_exit[-1]))
         err = _differ(ours, exact)
-        if err > (SLOPED_DEG if probe.endswith("ramp") else 2.0):
+        if err > TOL_DEG:
             bad.append(f"seed {seed} ({probe}): ours {np.degrees(ours)}, exact {np.degrees(exact)}")
         if not math.isnan(exact[0]):
             errs.append(err)
+    return errs, bad, ill
+
+
+@pytest.mark.parametrize("block", range(4))
+def test_random_moves_within_half_a_degree_of_the_exact_reference(block: int) -> None:
+    errs, bad, ill = _compare(range(block * 40, block * 40 + 40), 40)
     assert not bad, "\n".join(bad)
-    assert ill <= 4, ill  # at most a tenth of the cases ill-conditioned
+    assert ill <= 4, ill  # the sample is mostly ordinary cuts
     assert len(errs) >= 20, len(errs)  # most probes cut
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("cells", [20, 50])
+def test_random_moves_converge_with_the_cell(cells: int) -> None:
+    """A coarser and a finer cell than the default decide the same cases as finely (up to
+    D/53 the probe is still one sample at its end: at most twice the production's lag)."""
+    errs, bad, _ = _compare(range(40), cells)
+    assert not bad, "\n".join(bad)
+    assert len(errs) >= 20, len(errs)

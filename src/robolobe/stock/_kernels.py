@@ -13,10 +13,27 @@ The in-process workpiece is a Z-map on a square grid (cell centres
 ``sd``
     signed distance to the stock outline [m] (negative inside, clipped).
 
+``ids``
+    per cell, the sweeps (move indices, 0: none) that set ``zs`` and ``s``, and
+    ``h``.
+
 Engagement tests points on the cutting edge with the bilinear interpolation
 of a value that is negative where material is: the clearance is a distance
 field, so the edge of the material is found to a small fraction of a cell
-(error ~ res^2 / 8 R) instead of half a cell as with a height alone.
+(error ~ res^2 / 8 R) instead of half a cell as with a height alone. That
+holds where the four cells around the point have their clearance from one
+sweep at the tip's level. Where they disagree in sign and do not (two
+sweeps' edges meeting; a wall at the tip's level over cells cut deeper
+before; a floor whose height crosses the level tolerance between cell
+centres, as a helix's or a ramp's bottom does), the point is decided exactly
+instead: cleared when one of the sweeps those cells remember, or one of the
+tool's last four, passes within ``R + tol`` of it with its lowest tip height
+there within ``tol`` of the tip (the definition of
+:mod:`robolobe.stock.engagement`, no grid in it). The angle is then exact to
+the bisection (1/8 deg, interpolated) unless the sweep that clears the point
+is remembered by none of the four cells (shadowed there by deeper or wider
+sweeps, it reaches past them by less than a cell). The material top for the
+axial depth is decided the same way.
 
 The functions are plain Python compiled with numba where available
 (:func:`robolobe._jit.available`); without it they run as Python (slow:
@@ -35,11 +52,21 @@ from robolobe import _jit
 _INF = math.inf
 #: Bisection steps refining a sign change between two angle samples (4 deg / 2^5).
 _BISECT = 5
+#: The tool's own trail: the last cutting moves that removed their material, always
+#: candidates of the exact test (:func:`_candidates`).
+_RECENT = 4
+#: Bound on the material value's change per radian of edge angle, in tool radii (a
+#: distance field is 1; the bilinear interpolation of one, up to sqrt 2).
+_LIPSCHITZ = 1.5
+#: Sub-samples of a sample step searched for a narrow arc (4 deg / 4 = 1 deg).
+_SUB = 4
+#: Four cells whose tops differ by at most this [m] are level (their top is exact enough).
+_LEVEL_CELLS = 1e-6
 #: Material thinner than this many cells at the edge is none (float rounding on a wall).
 _EDGE_EPS = 0.01
 
 
-def _sweep(w, x0, y0, res, radius, band, p0, p1, skip_start, tol):
+def _sweep(w, ids, m, x0, y0, res, radius, band, p0, p1, skip_start, tol):
     """Remove the material a flat end mill sweeps from ``p0`` to ``p1`` (x, y, z [m]).
 
     Every cell centre within ``radius + band`` of the tool axis's x-y track
@@ -155,6 +182,7 @@ def _sweep(w, x0, y0, res, radius, band, p0, p1, skip_start, tol):
                         zc = min(az + t1 * dz, az + t2 * dz)
                     if zc < w[j, i, 0]:
                         w[j, i, 0] = zc
+                        ids[j, i, 1] = m
                 elif l2 == 0.0:
                     zc = min(az, az + dz)  # a plunge: every height is as close
                 else:
@@ -163,26 +191,163 @@ def _sweep(w, x0, y0, res, radius, band, p0, p1, skip_start, tol):
                 if zc < z_old - tol:
                     w[j, i, 1] = sv
                     w[j, i, 2] = zc
+                    ids[j, i, 0] = m
                 elif zc <= z_old + tol and sv > w[j, i, 1]:
                     w[j, i, 1] = sv
+                    ids[j, i, 0] = m
             i += 1
 
 
 def _sweep_value(w, i, j, z, res, tol):
-    """Clearance of one cell at tip height ``z`` from the sweeps: negative where not cleared."""
+    """Clearance of one cell at tip height ``z`` from the sweeps: negative where not cleared.
+
+    Returns ``(value, clean)``: ``clean`` when the value is the clearance of the
+    sweeps at the tip's own level (within ``tol``), the distance field that locates
+    a single-level wall to a small fraction of a cell; not clean where the cell
+    was cleared deeper than the tip (the wall at the tip's level may belong to
+    other sweeps) or the value is only a sign (``0.5 res`` cleared, ``-res``
+    material: a floor whose height crosses the tolerance between cell centres).
+    """
     ny = w.shape[0]
     nx = w.shape[1]
     if i < 0 or j < 0 or i >= nx or j >= ny:
-        return res
-    valid = w[j, i, 2] <= z + tol
+        return res, True
+    zs = w[j, i, 2]
+    valid = zs <= z + tol
+    level = zs >= z - tol
     sv = w[j, i, 1]
     if w[j, i, 0] <= z + tol:  # cleared down to the tip (or above the stock top)
         if valid and sv > 0.0:
-            return sv
-        return 0.5 * res
+            return sv, level
+        return 0.5 * res, False
     if valid and sv < 0.0:
-        return sv
-    return -res
+        return sv, level
+    return -res, False
+
+
+def _move_dist(xyz, k, px, py):
+    """Distance [m] of the point ``(px, py)`` from the x-y track of move ``k``."""
+    ax = xyz[k - 1, 0]
+    ay = xyz[k - 1, 1]
+    dx = xyz[k, 0] - ax
+    dy = xyz[k, 1] - ay
+    qx = px - ax
+    qy = py - ay
+    l2 = dx * dx + dy * dy
+    t = 0.0
+    if l2 > 0.0:
+        t = min(1.0, max(0.0, (qx * dx + qy * dy) / l2))
+    ex = qx - t * dx
+    ey = qy - t * dy
+    return math.sqrt(ex * ex + ey * ey)
+
+
+def _move_clear(xyz, k, px, py, z, rr, tol):
+    """Exact clearance of the point ``(px, py)`` at tip height ``z`` by the sweep of move ``k``.
+
+    ``min(rr - d, z + tol - level)``: ``d`` the distance from the move's x-y track
+    (:func:`_move_dist`), ``level`` its lowest tip height over the part within
+    ``rr`` of the point (:func:`_move_level`). Non-negative exactly where the move
+    cleared the point to within ``tol`` of the tip.
+    """
+    return min(rr - _move_dist(xyz, k, px, py), z + tol - _move_level(xyz, k, px, py, rr))
+
+
+def _candidates(ids, i, j, cand):
+    """The distinct sweeps (move indices) that may decide a point in the cell square
+    ``(i..i+1, j..j+1)``: the last :data:`_RECENT` cutting moves that removed their
+    material (``cand[1 : cand[0] + 1]``, set by :func:`_run`: the tool's own trail) and
+    each of the four cells' lowest-level and lowest-top sweeps.
+    Written to ``cand[1 : n + 1]``; returns ``n``."""
+    nc = cand[0]
+    for dj in range(2):
+        for di in range(2):
+            ii = i + di
+            jj = j + dj
+            if ii < 0 or jj < 0 or ii >= ids.shape[1] or jj >= ids.shape[0]:
+                continue
+            for q in range(2):
+                k = ids[jj, ii, q]
+                if k <= 0:
+                    continue
+                new = True
+                for c in range(1, nc + 1):
+                    if cand[c] == k:
+                        new = False
+                        break
+                if new:
+                    nc += 1
+                    cand[nc] = k
+    return nc
+
+
+def _exact_clear(ids, xyz, i, j, px, py, z, rr, tol, cand):
+    """Exact clearance (:func:`_move_clear`) of a point by the sweeps its cells remember:
+    the largest; ``-inf`` when none was stored there."""
+    nc = _candidates(ids, i, j, cand)
+    best = -_INF
+    for c in range(1, nc + 1):
+        best = max(best, _move_clear(xyz, cand[c], px, py, z, rr, tol))
+    return best
+
+
+def _top_bounds(w, x0, y0, res, px, py):
+    """Lowest and highest top [m] of the four cells around the point ``(px, py)``."""
+    i = math.floor((px - x0) / res - 0.5)
+    j = math.floor((py - y0) / res - 0.5)
+    lo = _INF
+    hi = -_INF
+    for dj in range(2):
+        for di in range(2):
+            h = _top(w, i + di, j + dj)
+            lo = min(lo, h)
+            hi = max(hi, h)
+    return lo, hi
+
+
+def _exact_top(w, ids, xyz, x0, y0, res, rr, ztop, px, py, cand):
+    """Material top [m] at the point ``(px, py)``, within the four cells' tops.
+
+    Where the four cells around the point are level (within a micrometre), their
+    lowest top; otherwise the lowest tip height of the remembered sweeps
+    (:func:`_candidates`) that cover the point (the exact floor of a ramp, the
+    step of a wall), or the highest of the four cells where none does.
+    """
+    lo, hi = _top_bounds(w, x0, y0, res, px, py)
+    if hi - lo <= _LEVEL_CELLS:
+        return lo
+    nc = _candidates(ids, math.floor((px - x0) / res - 0.5), math.floor((py - y0) / res - 0.5),
+                     cand)  # fmt: skip
+    top = min(hi, ztop)
+    for c in range(1, nc + 1):
+        if _move_dist(xyz, cand[c], px, py) <= rr:
+            top = min(top, _move_level(xyz, cand[c], px, py, rr))
+    return max(top, lo)
+
+
+def _move_level(xyz, k, px, py, rr):
+    """Lowest tip height [m] of move ``k`` over its part within ``rr`` of ``(px, py)``
+    (at the nearest point of the track where no part is)."""
+    ax = xyz[k - 1, 0]
+    ay = xyz[k - 1, 1]
+    az = xyz[k - 1, 2]
+    dx = xyz[k, 0] - ax
+    dy = xyz[k, 1] - ay
+    dz = xyz[k, 2] - az
+    qx = px - ax
+    qy = py - ay
+    l2 = dx * dx + dy * dy
+    if l2 == 0.0:
+        return min(az, az + dz)
+    b = qx * dx + qy * dy
+    disc = b * b - l2 * (qx * qx + qy * qy - rr * rr)
+    if disc < 0.0:
+        t = min(1.0, max(0.0, b / l2))
+        return az + t * dz
+    sq = math.sqrt(disc)
+    t1 = min(1.0, max(0.0, (b - sq) / l2))
+    t2 = min(1.0, max(0.0, (b + sq) / l2))
+    return min(az + t1 * dz, az + t2 * dz)
 
 
 def _top(w, i, j):
@@ -199,19 +364,25 @@ def _stock_value(w, i, j, res):
     return w[j, i, 3]
 
 
-def _edge_value(w, x0, y0, res, radius, cx, cy, z, fx, fy, tol, ph):
-    """Interpolated material value at edge angle ``ph`` [rad] (negative: material).
+def _edge_value(w, ids, xyz, x0, y0, res, radius, cx, cy, z, fx, fy, tol, ph, cand):
+    """Material value at edge angle ``ph`` [rad] (negative: material).
 
-    The larger of the interpolated sweep clearance and the interpolated
-    distance to the stock outline (each a smooth field; their maximum is
-    taken after the interpolation, so an edge near the stock's outline is not
-    blurred). Shifted by the level tolerance ``tol`` (at least ``_EDGE_EPS * res``):
-    material thinner than it in x-y is none, as it is in z. An edge point on
-    the boundary of an earlier cut (a pass retracing a wall, the flanks of a
-    slot's own track, an arc retraced with other chords: up to the readers'
-    chord tolerance proud of the wall) is not in material; the angle of such a
-    graze would hang on a micrometre (1 um of clearance moves a tangent graze's
-    end by about 2 deg), the cut is none.
+    The larger of the sweep clearance and the interpolated distance to the stock
+    outline (each a smooth field; their maximum is taken after the
+    interpolation, so an edge near the stock's outline is not blurred). The
+    sweep clearance is the bilinear interpolation of the four cells' clearances
+    (:func:`_sweep_value`) where they are all clean or all of one sign; where the
+    cells disagree and one is not clean (a floor crossing the tolerance between
+    cell centres: a helix's or a ramp's bottom; a wall at the tip's level over
+    cells cut deeper before) it is the exact clearance by the sweeps the four
+    cells remember (:func:`_exact_clear`), so the answer does not hang on where
+    the cell centres fall. Shifted by the level tolerance ``tol`` (at least
+    ``_EDGE_EPS * res``): material thinner than it in x-y is none, as it is in z.
+    An edge point on the boundary of an earlier cut (a pass retracing a wall, the
+    flanks of a slot's own track, an arc retraced with other chords: up to the
+    readers' chord tolerance proud of the wall) is not in material; the angle of
+    such a graze would hang on a micrometre (1 um of clearance moves a tangent
+    graze's end by about 2 deg), the cut is none.
     """
     sp = math.sin(ph)
     cp = math.cos(ph)
@@ -223,30 +394,52 @@ def _edge_value(w, x0, y0, res, radius, cx, cy, z, fx, fy, tol, ph):
     j = math.floor(gy)
     ux = gx - i
     uy = gy - j
+    v00, c00 = _sweep_value(w, i, j, z, res, tol)
+    v10, c10 = _sweep_value(w, i + 1, j, z, res, tol)
+    v01, c01 = _sweep_value(w, i, j + 1, z, res, tol)
+    v11, c11 = _sweep_value(w, i + 1, j + 1, z, res, tol)
     w00 = (1.0 - ux) * (1.0 - uy)
     w10 = ux * (1.0 - uy)
     w01 = (1.0 - ux) * uy
     w11 = ux * uy
-    sweep = (
-        w00 * _sweep_value(w, i, j, z, res, tol)
-        + w10 * _sweep_value(w, i + 1, j, z, res, tol)
-        + w01 * _sweep_value(w, i, j + 1, z, res, tol)
-        + w11 * _sweep_value(w, i + 1, j + 1, z, res, tol)
-    )
     stock = (
         w00 * _stock_value(w, i, j, res)
         + w10 * _stock_value(w, i + 1, j, res)
         + w01 * _stock_value(w, i, j + 1, res)
         + w11 * _stock_value(w, i + 1, j + 1, res)
     )
-    return max(sweep, stock) + max(_EDGE_EPS * res, tol)
+    shift = max(_EDGE_EPS * res, tol)
+    lo = min(min(v00, v10), min(v01, v11))
+    hi = max(max(v00, v10), max(v01, v11))
+    if lo < 0.0 <= hi:
+        exact = -_INF
+        if c00 and c10 and c01 and c11:
+            if i >= 0 and j >= 0 and i + 1 < ids.shape[1] and j + 1 < ids.shape[0]:
+                # one level: the clearance is one sweep's distance field where the four
+                # cells have it from one sweep; from several, the exact largest of theirs
+                # (the interpolation would cut the corner where two sweeps' edges meet)
+                k00 = ids[j, i, 0]
+                k10 = ids[j, i + 1, 0]
+                k01 = ids[j + 1, i, 0]
+                k11 = ids[j + 1, i + 1, 0]
+                if not (k00 == k10 and k00 == k01 and k00 == k11):
+                    rr = radius + shift
+                    for k in (k00, k10, k01, k11):
+                        if k > 0:
+                            exact = max(exact, _move_clear(xyz, k, px, py, z, rr, tol))
+        else:
+            exact = _exact_clear(ids, xyz, i, j, px, py, z, radius + shift, tol, cand)
+        if exact > -_INF:
+            return max(exact, stock + shift)
+    sweep = w00 * v00 + w10 * v10 + w01 * v01 + w11 * v11
+    return max(sweep, stock) + shift
 
 
-def _crossing(w, x0, y0, res, radius, cx, cy, z, fx, fy, tol, a, va, b, vb):
+def _crossing(w, ids, xyz, x0, y0, res, radius, cx, cy, z, fx, fy, tol, a, va, b, vb, cand):
     """Angle [rad] between ``a`` and ``b`` where the value changes sign (bisection, then linear)."""
     for _ in range(_BISECT):
         m = 0.5 * (a + b)
-        vm = _edge_value(w, x0, y0, res, radius, cx, cy, z, fx, fy, tol, m)
+        vm = _edge_value(w, ids, xyz, x0, y0, res, radius, cx, cy, z, fx, fy, tol, m, cand)
         if (vm < 0.0) == (va < 0.0):
             a = m
             va = vm
@@ -256,15 +449,17 @@ def _crossing(w, x0, y0, res, radius, cx, cy, z, fx, fy, tol, a, va, b, vb):
     return a + (b - a) * va / (va - vb)
 
 
-def _sample_crossing(w, x0, y0, res, radius, cx, cy, z, fx, fy, tol, dphi, vals, k):
+def _sample_crossing(w, ids, xyz, x0, y0, res, radius, cx, cy, z, fx, fy, tol, dphi, vals, k,
+                     cand):  # fmt: skip
     """:func:`_crossing` between the edge samples ``k - 1`` and ``k`` (values ``vals``)."""
     return _crossing(
-        w, x0, y0, res, radius, cx, cy, z, fx, fy, tol, (k - 1) * dphi, vals[k - 1], k * dphi,
-        vals[k],
+        w, ids, xyz, x0, y0, res, radius, cx, cy, z, fx, fy, tol, (k - 1) * dphi, vals[k - 1],
+        k * dphi, vals[k], cand,
     )  # fmt: skip
 
 
-def _engage(w, x0, y0, res, radius, cx, cy, z, fx, fy, bottom, tol, nphi, vals, out):
+def _engage(w, ids, xyz, x0, y0, res, radius, cx, cy, z, fx, fy, bottom, ztop, tol, nphi, vals,
+            pend, out, cand):  # fmt: skip
     """Engagement of the cutting edge at one tool position.
 
     The front half of the edge is sampled at ``nphi`` angles; each change
@@ -277,33 +472,53 @@ def _engage(w, x0, y0, res, radius, cx, cy, z, fx, fy, bottom, tol, nphi, vals, 
     highest cell around the edge point). No engagement: ``n_arcs = 0`` and NaN angles.
     """
     dphi = math.pi / (nphi - 1)
+    rr = radius + max(_EDGE_EPS * res, tol)
+    rin = radius - res
+    base = max(z, bottom)
     depth = 0.0
-    sliver = 0.0
+    full = ztop - base  # the deepest there is: no need to look further
     for k in range(nphi):
         ph = k * dphi
-        v = _edge_value(w, x0, y0, res, radius, cx, cy, z, fx, fy, tol, ph)
+        v = _edge_value(w, ids, xyz, x0, y0, res, radius, cx, cy, z, fx, fy, tol, ph, cand)
         vals[k] = v
-        if v < 0.0:
+        pend[k] = False
+        if v < 0.0 and depth < full:
             # the material top one cell inside the engaged edge point (at the edge itself
-            # the top jumps where the edge runs along the wall of an earlier, deeper cut);
-            # where nothing is there (a sliver), the highest cell around the edge point
+            # the top jumps where the edge runs along the wall of an earlier, deeper cut):
+            # level cells now, the others (exact, slower) after, where they may be deeper
             ux = math.sin(ph) * fx - math.cos(ph) * fy
             uy = math.sin(ph) * fy + math.cos(ph) * fx
-            rin = radius - res
-            top = _top(
-                w, round((cx + rin * ux - x0) / res - 0.5), round((cy + rin * uy - y0) / res - 0.5)
-            )
-            if top > z + tol:
-                depth = max(depth, top - max(z, bottom))
+            lo, hi = _top_bounds(w, x0, y0, res, cx + rin * ux, cy + rin * uy)
+            if hi - lo <= _LEVEL_CELLS:
+                if lo > z + tol:
+                    depth = max(depth, lo - base)
             else:
-                gi = math.floor((cx + radius * ux - x0) / res - 0.5)
-                gj = math.floor((cy + radius * uy - y0) / res - 0.5)
-                top = max(
-                    max(_top(w, gi, gj), _top(w, gi + 1, gj)),
-                    max(_top(w, gi, gj + 1), _top(w, gi + 1, gj + 1)),
+                pend[k] = True
+    for k in range(nphi):
+        if pend[k] and depth < full:
+            ph = k * dphi
+            ux = math.sin(ph) * fx - math.cos(ph) * fy
+            uy = math.sin(ph) * fy + math.cos(ph) * fx
+            lo, hi = _top_bounds(w, x0, y0, res, cx + rin * ux, cy + rin * uy)
+            if hi - base > depth:
+                top = _exact_top(
+                    w, ids, xyz, x0, y0, res, rr, ztop, cx + rin * ux, cy + rin * uy, cand
                 )
                 if top > z + tol:
-                    sliver = max(sliver, top - max(z, bottom))
+                    depth = max(depth, top - base)
+    sliver = 0.0
+    if depth == 0.0:
+        # where nothing is one cell inside (a sliver), the top at the engaged edge points
+        for k in range(nphi):
+            if vals[k] < 0.0:
+                ph = k * dphi
+                ux = math.sin(ph) * fx - math.cos(ph) * fy
+                uy = math.sin(ph) * fy + math.cos(ph) * fx
+                top = _exact_top(
+                    w, ids, xyz, x0, y0, res, rr, ztop, cx + radius * ux, cy + radius * uy, cand
+                )
+                if top > z + tol:
+                    sliver = max(sliver, top - base)
     narcs = 0
     entry = math.nan
     exit_ = math.nan
@@ -317,8 +532,9 @@ def _engage(w, x0, y0, res, radius, cx, cy, z, fx, fy, bottom, tol, nphi, vals, 
                     entry = 0.0
                 else:
                     entry = _sample_crossing(
-                        w, x0, y0, res, radius, cx, cy, z, fx, fy, tol, dphi, vals, k
-                    )
+                        w, ids, xyz, x0, y0, res, radius, cx, cy, z, fx, fy, tol, dphi, vals, k,
+                        cand,
+                    )  # fmt: skip
         prev = v
     if narcs > 0:
         if prev < 0.0:
@@ -327,14 +543,60 @@ def _engage(w, x0, y0, res, radius, cx, cy, z, fx, fy, bottom, tol, nphi, vals, 
             k = nphi - 1
             while vals[k - 1] >= 0.0:
                 k -= 1
-            exit_ = _sample_crossing(w, x0, y0, res, radius, cx, cy, z, fx, fy, tol, dphi, vals, k)
+            exit_ = _sample_crossing(w, ids, xyz, x0, y0, res, radius, cx, cy, z, fx, fy, tol, dphi,
+                                     vals, k, cand)  # fmt: skip
+    # arcs narrower than a sample step, between two samples in air: the value is about
+    # Lipschitz in the edge angle (at most R per rad: a distance field along an edge
+    # point moving at R), so two samples whose values sum to more than the step's travel
+    # have none between them; the others are sampled every quarter step (1 deg), and an
+    # arc found there is refined as the others are (a narrower arc, under 1 deg, is not seen)
+    lim = _LIPSCHITZ * radius * dphi
+    for k in range(1, nphi):
+        va = vals[k - 1]
+        vb = vals[k]
+        if va < 0.0 or vb < 0.0 or va + vb >= lim:
+            continue
+        pa = (k - 1) * dphi
+        pv = va
+        for q in range(1, _SUB + 1):
+            ph = (k - 1 + q / _SUB) * dphi
+            v = vb
+            if q < _SUB:
+                v = _edge_value(w, ids, xyz, x0, y0, res, radius, cx, cy, z, fx, fy, tol, ph,
+                                cand)  # fmt: skip
+            if (v < 0.0) != (pv < 0.0):
+                cr = _crossing(w, ids, xyz, x0, y0, res, radius, cx, cy, z, fx, fy, tol, pa, pv,
+                               ph, v, cand)  # fmt: skip
+                if v < 0.0:
+                    narcs += 1
+                    if not cr >= entry:  # also where entry is NaN
+                        entry = cr
+                elif not cr <= exit_:
+                    exit_ = cr
+            if v < 0.0:
+                ux = math.sin(ph) * fx - math.cos(ph) * fy
+                uy = math.sin(ph) * fy + math.cos(ph) * fx
+                top = _exact_top(
+                    w, ids, xyz, x0, y0, res, rr, ztop, cx + rin * ux, cy + rin * uy, cand
+                )
+                if top > z + tol:
+                    depth = max(depth, top - base)
+                else:
+                    top = _exact_top(
+                        w, ids, xyz, x0, y0, res, rr, ztop, cx + radius * ux, cy + radius * uy,
+                        cand,
+                    )  # fmt: skip
+                    if top > z + tol:
+                        sliver = max(sliver, top - base)
+            pa = ph
+            pv = v
     out[0] = entry
     out[1] = exit_
     out[2] = narcs
     out[3] = depth if depth > 0.0 else sliver
 
 
-def _remove(w, x0, y0, res, radius, band, xyz, cutting, tol, m, prev_cut_end, p0, p1):
+def _remove(w, ids, x0, y0, res, radius, band, xyz, cutting, tol, m, prev_cut_end, p0, p1):
     """Move ``m``'s material removal (a cutting move: its sweep); returns the last
     cutting move that has removed its material (``p0``, ``p1``: scratch (3,))."""
     if m == 0 or not cutting[m]:
@@ -343,12 +605,13 @@ def _remove(w, x0, y0, res, radius, band, xyz, cutting, tol, m, prev_cut_end, p0
         p0[c] = xyz[m - 1, c]
         p1[c] = xyz[m, c]
     flat = abs(p1[2] - p0[2]) <= tol
-    _sweep(w, x0, y0, res, radius, band, p0, p1, flat and prev_cut_end == m - 1, tol)
+    _sweep(w, ids, m, x0, y0, res, radius, band, p0, p1, flat and prev_cut_end == m - 1, tol)
     return m
 
 
 def _run(
     w,
+    ids,
     x0,
     y0,
     res,
@@ -361,6 +624,7 @@ def _run(
     step,
     turn_cos,
     bottom,
+    ztop,
     tol,
     nphi,
     phi_entry,
@@ -382,7 +646,9 @@ def _run(
     """
     n = xyz.shape[0]
     vals = np.empty(nphi)
+    pend = np.zeros(nphi, dtype=np.bool_)
     out = np.empty(4)
+    cand = np.zeros(1 + _RECENT + 8, dtype=np.int64)
     p0 = np.empty(3)
     p1 = np.empty(3)
     applied = 0  # moves [0, applied) have removed their material
@@ -396,8 +662,14 @@ def _run(
             continue
         # bring the workpiece up to date (lagged for tiny moves)
         while applied < i and cum[applied] <= cum[i] - lag:
-            prev_cut_end = _remove(w, x0, y0, res, radius, band, xyz, cutting, tol, applied,
+            prev_cut_end = _remove(w, ids, x0, y0, res, radius, band, xyz, cutting, tol, applied,
                                    prev_cut_end, p0, p1)  # fmt: skip
+            if applied > 0 and cutting[applied]:
+                # the tool's trail (cand[1 : cand[0] + 1], newest first)
+                for c in range(min(cand[0], _RECENT - 1), 0, -1):
+                    cand[c + 1] = cand[c]
+                cand[1] = applied
+                cand[0] = min(cand[0] + 1, _RECENT)
             applied += 1
         ax, ay, az = xyz[i - 1, 0], xyz[i - 1, 1], xyz[i - 1, 2]
         dx, dy, dz = xyz[i, 0] - ax, xyz[i, 1] - ay, xyz[i, 2] - az
@@ -434,6 +706,8 @@ def _run(
             t = lag / lxy if k == 0 else k / nseg
             _engage(
                 w,
+                ids,
+                xyz,
                 x0,
                 y0,
                 res,
@@ -444,10 +718,13 @@ def _run(
                 fx,
                 fy,
                 bottom,
+                ztop,
                 tol,
                 nphi,
                 vals,
+                pend,
                 out,
+                cand,
             )
             if out[2] > 0:
                 ent = min(ent, out[0])
@@ -461,7 +738,7 @@ def _run(
             depth[i] = dep
     # the remaining moves remove their material too (the final workpiece)
     while applied < n:
-        prev_cut_end = _remove(w, x0, y0, res, radius, band, xyz, cutting, tol, applied,
+        prev_cut_end = _remove(w, ids, x0, y0, res, radius, band, xyz, cutting, tol, applied,
                                prev_cut_end, p0, p1)  # fmt: skip
         applied += 1
 
@@ -483,6 +760,13 @@ def kernels(work: float = math.inf) -> Any:
             g = globals()
             g["_sweep"] = deco(_sweep)
             g["_sweep_value"] = deco(_sweep_value)
+            g["_move_dist"] = deco(_move_dist)
+            g["_move_level"] = deco(_move_level)
+            g["_move_clear"] = deco(_move_clear)
+            g["_candidates"] = deco(_candidates)
+            g["_exact_clear"] = deco(_exact_clear)
+            g["_exact_top"] = deco(_exact_top)
+            g["_top_bounds"] = deco(_top_bounds)
             g["_stock_value"] = deco(_stock_value)
             g["_top"] = deco(_top)
             g["_edge_value"] = deco(_edge_value)

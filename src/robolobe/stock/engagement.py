@@ -45,7 +45,7 @@ BoolArray = NDArray[np.bool_]
 DEFAULT_CELLS_PER_DIAMETER = 40
 #: Coarsest Z-map cell accepted: the tool diameter over this.
 MIN_CELLS_PER_DIAMETER = 10
-#: Largest Z-map (cells); 16 bytes a cell.
+#: Largest Z-map (cells); 24 bytes a cell (four float32, two int32 sweep indices).
 MAX_CELLS = 16_000_000
 #: Heights closer than this [m] are one level: the Z-map's sweeps at one height, the
 #: plan's sections at one tip height (:mod:`robolobe.plan.passes`), and material
@@ -55,8 +55,9 @@ LEVEL_TOL_M = 1e-5
 #: Largest tilt of the tool axis from +z [deg] the Z-map accepts on a cutting move.
 MAX_TILT_DEG = 0.5
 #: Angular samples of the front half of the cutting edge (4 deg apart; each sign change
-#: is then refined by bisection to 1/8 deg and interpolated). An engaged arc narrower
-#: than a sample step (a_e / D below 0.1 %) between two samples is not seen.
+#: is then refined by bisection to 1/8 deg and interpolated). Between two samples in air
+#: whose values leave room for an arc, the edge is sampled every 1 deg: an arc narrower
+#: than 1 deg (at the ends of the half, a_e / D below 0.01 %) may be missed.
 N_PHI = 46
 
 
@@ -258,7 +259,10 @@ def compute_engagement(
     xc = gx0 + (np.arange(nx, dtype=np.float64) + 0.5) * res
     yc = gy0 + (np.arange(ny, dtype=np.float64) + 0.5) * res
     # one cell: top h, clearance s, its level zs, signed distance to the outline sd
+    # ids: the sweeps that set s and zs, and h (move index, 0: none), for the exact test
+    # where the cells disagree
     w = np.empty((ny, nx, 4), dtype=np.float32)
+    ids = np.zeros((ny, nx, 2), dtype=np.int32)
     for j in range(ny):  # row by row: memory of a row per edge, not of the grid
         w[j, :, 3] = np.clip(
             signed_distance(stock.outline, xc, np.full(nx, yc[j])), -4 * res, 4 * res
@@ -276,8 +280,8 @@ def compute_engagement(
     plunge = np.zeros(n, dtype=np.bool_)
     run, _ = kernels(work(p, cut, radius, res))
     run(
-        w, gx0, gy0, res, radius, band, p, cut, cum, 2.0 * res, 0.5 * radius,
-        math.cos(math.radians(5.0)), stock.z_bottom, LEVEL_TOL_M, N_PHI,
+        w, ids, gx0, gy0, res, radius, band, p, cut, cum, 2.0 * res, 0.5 * radius,
+        math.cos(math.radians(5.0)), stock.z_bottom, stock.z_top, LEVEL_TOL_M, N_PHI,
         phi_entry, phi_exit, n_arcs, depth, plunge,
     )  # fmt: skip
     notes = [stock.note] if stock.note else []
