@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 from types import SimpleNamespace
 
 import numpy as np
@@ -114,3 +115,26 @@ def test_a_trial_step_without_a_partner_is_taken_back(toy: SimpleNamespace, seed
     assert got in (("added_mass", "joint_stiffness"), ("added_mass",))
     if got == ("added_mass",):
         assert any("no further step" in r or " and " in r for r in fw.rejected)
+
+
+def test_the_file_calibration_takes_no_place_among_the_effects(toy: SimpleNamespace) -> None:
+    """With ``max_effects=2``, two effects and a file correction are all named.
+
+    The toy's x-stiffness candidate stands in for the file calibration (its
+    name); before, the calibration took one of the ``max_effects`` places and
+    the third effect was left out (a TCP offset with two hammer directions off,
+    in a file 10 % off, needs three effects and the calibration).
+    """
+    from robolobe.diagnose.calibration import CALIBRATION
+
+    cands = [
+        dataclasses.replace(c, name=CALIBRATION) if c.name == "joint_stiffness" else c
+        for c in toy.candidates()
+    ]
+    obs = toy.obs((("mass", 150.0), ("kx", 1.05), ("delay", 0.0005)), seed=0)
+    fw = forward_select(cands, toy.model, obs, obs, settings=ForwardSettings(max_effects=2))
+    assert not fw.noise.unexplained
+    assert {s.candidate.name for s in fw.steps} == {"added_mass", CALIBRATION, "sensor_delay"}
+    one = forward_select(cands, toy.model, obs, obs, settings=ForwardSettings(max_effects=1))
+    # one effect place: the calibration joins, a second effect does not
+    assert sum(s.candidate.name != CALIBRATION for s in one.steps) == 1
