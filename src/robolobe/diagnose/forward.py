@@ -77,6 +77,22 @@ the noise; the margin keeps a library candidate that only mimics physics
 outside the library from being presented as found)
 the diagnosis says so, where (postures and bands), and presents the
 candidates only as the closest ones.
+
+The averages alone are no test of a claim: most of the band lies far from
+any mode, where a calibrated file predicts within the stated model-form
+tolerance (1 %) and the misfit is nearly zero, and a model that misses the
+lowest modes badly still averages under the limit. (On the independent
+generator's robot B, damping that grows with the gravity load was named
+"file off" at 1.5x the noise on average while the held-out prediction
+missed 5-10 Hz by 11-15 noise deviations RMS in every direction: 2.5x the
+*true* noise, a false claim.) So the recordings are also *unexplained* when
+one direction in one 5 Hz band misses by more than ``max_band_misfit_x_noise``
+(5) noise deviations RMS over all postures. Noise alone does not do that:
+a band's mean over ~12 postures x 20 lines scatters by ~10 %, and the noise
+estimate is locally off by at most ~3x (the curvature guard of
+:mod:`robolobe.diagnose.noise`; the exact file on the null cases of the
+independent study reads 3.5x at worst, at the top of the band on cross
+directions).
 """
 
 from __future__ import annotations
@@ -142,6 +158,9 @@ class ForwardSettings:
         the previous round (and the file calibration; round 2 fits all).
     max_misfit_x_noise : float
         Above this held-out misfit (either measure) the recordings are unexplained.
+    max_band_misfit_x_noise : float
+        Above this held-out RMS misfit of one direction in one 5 Hz band (over
+        all postures, in noise deviations) the recordings are unexplained.
     joint_max_nfev : int
         Evaluations of the joint refit of each step.
     joint_k : int
@@ -160,6 +179,7 @@ class ForwardSettings:
     at_noise: float = 0.0
     screen_k: int = 12
     max_misfit_x_noise: float = 1.5
+    max_band_misfit_x_noise: float = 5.0
     joint_max_nfev: int = 30
     joint_k: int = 2
 
@@ -282,6 +302,11 @@ class NoiseTest:
     worst_bands : tuple of BandScore
         Direction/bands with the largest held-out misfit.
     limit : float
+    band_misfit_x_noise : float
+        RMS held-out residual of the worst direction/band, in noise deviations
+        (square root of its mean score).
+    band_limit : float
+        Above this worst-band misfit the recordings are unexplained (module notes).
     """
 
     misfit_x_noise: float
@@ -291,10 +316,17 @@ class NoiseTest:
     worst_postures: tuple[tuple[str, float], ...]
     worst_bands: tuple[BandScore, ...]
     limit: float = 1.5
+    band_misfit_x_noise: float = 0.0
+    band_limit: float = float("inf")
 
 
 def noise_test(
-    cv: CrossValidation, obs: Observations, *, limit: float = 1.5, n_worst: int = 3
+    cv: CrossValidation,
+    obs: Observations,
+    *,
+    limit: float = 1.5,
+    band_limit: float = 5.0,
+    n_worst: int = 3,
 ) -> NoiseTest:
     """Compare held-out predictions with the noise (module notes).
 
@@ -306,6 +338,9 @@ def noise_test(
         The records on the evaluation grid.
     limit : float
         Largest misfit (x noise) still counted as explained.
+    band_limit : float
+        Largest RMS misfit of one direction in one band (x noise) still
+        counted as explained.
     n_worst : int
         Postures and bands listed.
     """
@@ -317,15 +352,19 @@ def noise_test(
     rec = np.sqrt(cv.deviance / np.maximum(cv.count, 1))
     order = np.argsort(-rec)[:n_worst]
     mm = mismatch_map(cv.H, obs)
-    bands = tuple(b for b in sorted(mm.bands, key=lambda b: -b.score)[:n_worst] if b.score > 1.0)
+    ranked = sorted(mm.bands, key=lambda b: -b.score)
+    bands = tuple(b for b in ranked[:n_worst] if b.score > 1.0)
+    bx = float(np.sqrt(max(ranked[0].score, 0.0))) if ranked else 0.0
     return NoiseTest(
         misfit_x_noise=mx,
         nrmse_x_noise=nx,
         nrmse_noise=nn,
-        unexplained=bool(mx > limit or nx > limit),
+        unexplained=bool(mx > limit or nx > limit or bx > band_limit),
         worst_postures=tuple((obs.record_ids[i], float(rec[i])) for i in order),
         worst_bands=bands,
         limit=limit,
+        band_misfit_x_noise=bx,
+        band_limit=band_limit,
     )
 
 
@@ -761,7 +800,12 @@ def forward_select(
         )
         for s in steps
     ]
-    nt = noise_test(model_cv, obs_eval, limit=st.max_misfit_x_noise)
+    nt = noise_test(
+        model_cv,
+        obs_eval,
+        limit=st.max_misfit_x_noise,
+        band_limit=st.max_band_misfit_x_noise,
+    )
     return ForwardResult(
         steps=tuple(steps),
         rounds=tuple(rounds),
