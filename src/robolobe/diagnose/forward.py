@@ -87,12 +87,14 @@ generator's robot B, damping that grows with the gravity load was named
 missed 5-10 Hz by 11-15 noise deviations RMS in every direction: 2.5x the
 *true* noise, a false claim.) So the recordings are also *unexplained* when
 one direction in one 5 Hz band misses by more than ``max_band_misfit_x_noise``
-(5) noise deviations RMS over all postures. Noise alone does not do that:
-a band's mean over ~12 postures x 20 lines scatters by ~10 %, and the noise
-estimate is locally off by at most ~3x (the curvature guard of
-:mod:`robolobe.diagnose.noise`; the exact file on the null cases of the
-independent study reads 3.5x at worst, at the top of the band on cross
-directions).
+(6) noise deviations RMS over all postures. Noise alone does not do that:
+a band's mean over ~12 postures x 20 lines scatters by ~10 %; what a correct
+model reads there is set by the noise estimate's local error: on the
+independent study's null and correct claims (robots B and D, 12 postures)
+the worst band read 3.2-3.5x (cross directions at anti-resonances and near
+the top of the band, where the roughness estimate reads 0.4-0.6x the true
+noise), and the limit is about twice the worst of these (the false claim
+above read 15x).
 """
 
 from __future__ import annotations
@@ -179,7 +181,7 @@ class ForwardSettings:
     at_noise: float = 0.0
     screen_k: int = 12
     max_misfit_x_noise: float = 1.5
-    max_band_misfit_x_noise: float = 5.0
+    max_band_misfit_x_noise: float = 6.0
     joint_max_nfev: int = 30
     joint_k: int = 2
 
@@ -325,7 +327,7 @@ def noise_test(
     obs: Observations,
     *,
     limit: float = 1.5,
-    band_limit: float = 5.0,
+    band_limit: float = 6.0,
     n_worst: int = 3,
 ) -> NoiseTest:
     """Compare held-out predictions with the noise (module notes).
