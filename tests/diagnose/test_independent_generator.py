@@ -168,6 +168,24 @@ def test_fresh_set_is_drawn_once_and_covers_the_classes() -> None:
     assert not held & {c.label for c in cases if c.label != "null"}
 
 
+def test_a_later_fresh_set_is_another_draw_of_the_same_ranges() -> None:
+    """``fresh2028``: the same classes, other draws, seeds apart from every other set."""
+    from diagnose_independent import fresh_rows
+
+    cases = independent_cases(["fresh2028"])
+    assert len(cases) == 12
+    assert {c.subset for c in cases} == {"fresh2028"}
+    assert [x.kind for _, _, ex in fresh_rows(2028) for x in ex] == [
+        x.kind for _, _, ex in fresh_rows(2027) for x in ex
+    ]
+    assert [c.label for c in cases if c.label != "null"] != [
+        c.label for c in independent_cases(["fresh"]) if c.label != "null"
+    ]
+    others = independent_cases(["dev", "held", "fresh"])
+    assert not {c.seed for c in cases} & {c.seed for c in others}
+    assert sum(c.label == "null" for c in cases) == 1
+
+
 def test_study_tables_from_the_committed_results(capsys: pytest.CaptureFixture[str]) -> None:
     """The held-back figures in docs/figures/mismatch_diagnosis.md come from this CSV."""
     from pathlib import Path
