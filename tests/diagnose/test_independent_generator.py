@@ -204,6 +204,23 @@ def test_study_tables_from_the_committed_results(capsys: pytest.CaptureFixture[s
     assert "tcp_offset" in capsys.readouterr().out
 
 
+def test_fresh2028_figures_from_the_committed_results() -> None:
+    """The fresh-2028 figures in docs/figures/mismatch_diagnosis.md come from this CSV."""
+    from pathlib import Path
+
+    import diagnose_independent_study as study
+
+    csv = Path(__file__).resolve().parents[2] / "studies" / "diagnose_independent_fresh2028.csv"
+    df = study._complete(study._read(csv))
+    assert len(df) == 12
+    assert set(df["subset"]) == {"fresh2028"}
+    assert [str(c) for c in df["case"]] == [c.label for c in independent_cases(["fresh2028"])]
+    tab = study.summary(df).set_index("class")
+    assert tab.loc["all", "false claims"] == 0
+    assert tab.loc["all", "exact"] == 9
+    assert tab.loc["all", "named"] == 8
+
+
 @pytest.mark.slow
 def test_study_runs_one_small_case(tmp_path: object) -> None:
     import diagnose_independent_study as study

@@ -91,10 +91,10 @@ one direction in one 5 Hz band misses by more than ``max_band_misfit_x_noise``
 a band's mean over ~12 postures x 20 lines scatters by ~10 %; what a correct
 model reads there is set by the noise estimate's local error: on the
 independent study's null and correct claims (robots B and D, 12 postures)
-the worst band read 3.2-3.5x (cross directions at anti-resonances and near
-the top of the band, where the roughness estimate reads 0.4-0.6x the true
-noise), and the limit is about twice the worst of these (the false claim
-above read 15x).
+the worst band read 3.2-3.5x, on a later fresh set up to 4.2x (cross
+directions at anti-resonances and near the top of the band, where the
+roughness estimate reads 0.4-0.6x the true noise); the limit is 1.4-1.9x
+these (the false claim above read 15x).
 """
 
 from __future__ import annotations
