@@ -539,7 +539,12 @@ Row = tuple[str, str, tuple[Extra, ...]]
 def independent_cases(
     subsets: Sequence[str] = ("dev", "held"), *, n_postures: int = 30, file_error: float = 0.1
 ) -> list[ICase]:
-    """The study's cases (module notes); ``held`` and ``fresh`` are run only for the figures."""
+    """The study's cases (module notes); ``held`` and ``fresh`` are run only for the figures.
+
+    ``fresh`` is :func:`fresh_rows` of seed 2027; ``fresh<seed>`` (``fresh2028``)
+    another draw of the same ranges, each drawn once and run once on the final
+    code of a session.
+    """
     deg = np.pi / 180
     dev: list[Row] = [
         ("D", "TCP 5 cm out and 3 cm aside", (X("tcp_offset", offset_m=(0.03, 0.0, 0.05)),)),
@@ -613,7 +618,14 @@ def independent_cases(
     ]
     out: list[ICase] = []
     first_seed = {"dev": 0, "held": 500, "fresh": 900}
-    for name, rows in (("dev", dev), ("held", held), ("fresh", fresh_rows())):
+    sets: list[tuple[str, list[Row]]] = [("dev", dev), ("held", held), ("fresh", fresh_rows())]
+    # later fresh sets: "fresh2028" is fresh_rows(2028), each drawn once, run once
+    for name in subsets:
+        if name.startswith("fresh") and name[5:].isdigit() and int(name[5:]) != 2027:
+            draw = int(name[5:])
+            first_seed[name] = 900 + 100 * (draw - 2027)
+            sets.append((name, fresh_rows(draw)))
+    for name, rows in sets:
         if name not in subsets:
             continue
         for i, (rb, label, ex) in enumerate(rows):

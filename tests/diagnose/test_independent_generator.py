@@ -168,6 +168,24 @@ def test_fresh_set_is_drawn_once_and_covers_the_classes() -> None:
     assert not held & {c.label for c in cases if c.label != "null"}
 
 
+def test_a_later_fresh_set_is_another_draw_of_the_same_ranges() -> None:
+    """``fresh2028``: the same classes, other draws, seeds apart from every other set."""
+    from diagnose_independent import fresh_rows
+
+    cases = independent_cases(["fresh2028"])
+    assert len(cases) == 12
+    assert {c.subset for c in cases} == {"fresh2028"}
+    assert [x.kind for _, _, ex in fresh_rows(2028) for x in ex] == [
+        x.kind for _, _, ex in fresh_rows(2027) for x in ex
+    ]
+    assert [c.label for c in cases if c.label != "null"] != [
+        c.label for c in independent_cases(["fresh"]) if c.label != "null"
+    ]
+    others = independent_cases(["dev", "held", "fresh"])
+    assert not {c.seed for c in cases} & {c.seed for c in others}
+    assert sum(c.label == "null" for c in cases) == 1
+
+
 def test_study_tables_from_the_committed_results(capsys: pytest.CaptureFixture[str]) -> None:
     """The held-back figures in docs/figures/mismatch_diagnosis.md come from this CSV."""
     from pathlib import Path
@@ -184,6 +202,23 @@ def test_study_tables_from_the_committed_results(capsys: pytest.CaptureFixture[s
     assert tab.loc["all", "named"] == 5
     assert study.main(["--from-csv", str(csv)]) == 0
     assert "tcp_offset" in capsys.readouterr().out
+
+
+def test_fresh2028_figures_from_the_committed_results() -> None:
+    """The fresh-2028 figures in docs/figures/mismatch_diagnosis.md come from this CSV."""
+    from pathlib import Path
+
+    import diagnose_independent_study as study
+
+    csv = Path(__file__).resolve().parents[2] / "studies" / "diagnose_independent_fresh2028.csv"
+    df = study._complete(study._read(csv))
+    assert len(df) == 12
+    assert set(df["subset"]) == {"fresh2028"}
+    assert [str(c) for c in df["case"]] == [c.label for c in independent_cases(["fresh2028"])]
+    tab = study.summary(df).set_index("class")
+    assert tab.loc["all", "false claims"] == 0
+    assert tab.loc["all", "exact"] == 9
+    assert tab.loc["all", "named"] == 8
 
 
 @pytest.mark.slow

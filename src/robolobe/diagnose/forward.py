@@ -45,7 +45,11 @@ round 1 with its axis-1 factors on their bounds, mimicking the drive; the
 drive on top removed 2.04 of the 4.16 noise variances left, under the
 half, and the search stopped, `unexplained`.) The search stops when a round
 names nothing, when the held-out misfit is at the noise, or after
-``max_effects`` steps.
+``max_effects`` effects (the file calibration is a correction of the file,
+not an effect, and takes no place: on the independent generator's robot D a
+TCP offset with two hammer directions off, in a file 10 % off, needs three
+effects and the calibration, and a limit of three steps left it
+``unexplained`` at 5x the noise).
 
 A step is *ambiguous* when a candidate of another family explains the
 data about as well: in round 1 the selection's runner-up (held-out gain
@@ -73,6 +77,24 @@ the noise; the margin keeps a library candidate that only mimics physics
 outside the library from being presented as found)
 the diagnosis says so, where (postures and bands), and presents the
 candidates only as the closest ones.
+
+The averages alone are no test of a claim: most of the band lies far from
+any mode, where a calibrated file predicts within the stated model-form
+tolerance (1 %) and the misfit is nearly zero, and a model that misses the
+lowest modes badly still averages under the limit. (On the independent
+generator's robot B, damping that grows with the gravity load was named
+"file off" at 1.5x the noise on average while the held-out prediction
+missed 5-10 Hz by 11-15 noise deviations RMS in every direction: 2.5x the
+*true* noise, a false claim.) So the recordings are also *unexplained* when
+one direction in one 5 Hz band misses by more than ``max_band_misfit_x_noise``
+(6) noise deviations RMS over all postures. Noise alone does not do that:
+a band's mean over ~12 postures x 20 lines scatters by ~10 %; what a correct
+model reads there is set by the noise estimate's local error: on the
+independent study's null and correct claims (robots B and D, 12 postures)
+the worst band read 3.2-3.5x, on a later fresh set up to 4.2x (cross
+directions at anti-resonances and near the top of the band, where the
+roughness estimate reads 0.4-0.6x the true noise); the limit is 1.4-1.9x
+these (the false claim above read 15x).
 """
 
 from __future__ import annotations
@@ -123,7 +145,7 @@ class ForwardSettings:
     Parameters
     ----------
     max_effects : int
-        Most named candidates.
+        Most named candidates besides the file calibration.
     min_share : float
         Least held-out deviance drop of a later step, as a share of the
         previous step's held-out excess over the noise (per residual, over 1).
@@ -138,6 +160,9 @@ class ForwardSettings:
         the previous round (and the file calibration; round 2 fits all).
     max_misfit_x_noise : float
         Above this held-out misfit (either measure) the recordings are unexplained.
+    max_band_misfit_x_noise : float
+        Above this held-out RMS misfit of one direction in one 5 Hz band (over
+        all postures, in noise deviations) the recordings are unexplained.
     joint_max_nfev : int
         Evaluations of the joint refit of each step.
     joint_k : int
@@ -156,6 +181,7 @@ class ForwardSettings:
     at_noise: float = 0.0
     screen_k: int = 12
     max_misfit_x_noise: float = 1.5
+    max_band_misfit_x_noise: float = 6.0
     joint_max_nfev: int = 30
     joint_k: int = 2
 
@@ -278,6 +304,11 @@ class NoiseTest:
     worst_bands : tuple of BandScore
         Direction/bands with the largest held-out misfit.
     limit : float
+    band_misfit_x_noise : float
+        RMS held-out residual of the worst direction/band, in noise deviations
+        (square root of its mean score).
+    band_limit : float
+        Above this worst-band misfit the recordings are unexplained (module notes).
     """
 
     misfit_x_noise: float
@@ -287,10 +318,17 @@ class NoiseTest:
     worst_postures: tuple[tuple[str, float], ...]
     worst_bands: tuple[BandScore, ...]
     limit: float = 1.5
+    band_misfit_x_noise: float = 0.0
+    band_limit: float = float("inf")
 
 
 def noise_test(
-    cv: CrossValidation, obs: Observations, *, limit: float = 1.5, n_worst: int = 3
+    cv: CrossValidation,
+    obs: Observations,
+    *,
+    limit: float = 1.5,
+    band_limit: float = 6.0,
+    n_worst: int = 3,
 ) -> NoiseTest:
     """Compare held-out predictions with the noise (module notes).
 
@@ -302,6 +340,9 @@ def noise_test(
         The records on the evaluation grid.
     limit : float
         Largest misfit (x noise) still counted as explained.
+    band_limit : float
+        Largest RMS misfit of one direction in one band (x noise) still
+        counted as explained.
     n_worst : int
         Postures and bands listed.
     """
@@ -313,15 +354,19 @@ def noise_test(
     rec = np.sqrt(cv.deviance / np.maximum(cv.count, 1))
     order = np.argsort(-rec)[:n_worst]
     mm = mismatch_map(cv.H, obs)
-    bands = tuple(b for b in sorted(mm.bands, key=lambda b: -b.score)[:n_worst] if b.score > 1.0)
+    ranked = sorted(mm.bands, key=lambda b: -b.score)
+    bands = tuple(b for b in ranked[:n_worst] if b.score > 1.0)
+    bx = float(np.sqrt(max(ranked[0].score, 0.0))) if ranked else 0.0
     return NoiseTest(
         misfit_x_noise=mx,
         nrmse_x_noise=nx,
         nrmse_noise=nn,
-        unexplained=bool(mx > limit or nx > limit),
+        unexplained=bool(mx > limit or nx > limit or bx > band_limit),
         worst_postures=tuple((obs.record_ids[i], float(rec[i])) for i in order),
         worst_bands=bands,
         limit=limit,
+        band_misfit_x_noise=bx,
+        band_limit=band_limit,
     )
 
 
@@ -580,7 +625,7 @@ def forward_select(
     joint_cv: CrossValidation | None = None
     base_cv: CrossValidation | None = None
     prev_cv: CrossValidation | None = None
-    stop = f"the limit of {st.max_effects} named candidates"
+    stop = f"the limit of {st.max_effects} named effects"
     # a step taken on trial (module notes): the held-out fit before it, the gain it
     # needed, its label, and the state to go back to
     pending: tuple[CrossValidation, float, str, tuple[Any, ...]] | None = None
@@ -588,11 +633,22 @@ def forward_select(
     def _snapshot() -> tuple[Any, ...]:
         return (list(chosen), list(steps), list(remaining), joint, joint_cv, prev_cv)
 
-    for r in range(st.max_effects):
+    def _n_effects(cs: Sequence[Candidate]) -> int:
+        return sum(c.name != CALIBRATION for c in cs)
+
+    # the calibration takes no place among the effects: one round more at most
+    for r in range(st.max_effects + 1):
+        full = _n_effects(chosen) >= st.max_effects
+        if full and any(c.name == CALIBRATION for c in chosen):
+            break
         base = joint.candidate.effects(joint.params) if joint is not None else ()
         m_r = _on_top(model, tuple(base))
         # round 2 fits everything on top of the first step (module notes)
         todo = remaining if r <= 1 else _screen(remaining, prev_fits, st.screen_k)
+        if full:  # only the calibration may still join
+            todo = [c for c in todo if c.name in (NONE, CALIBRATION)]
+            if len(todo) < 2:
+                break
         total = len(todo)
 
         def tick(i: int, r: int = r, todo: Sequence[Candidate] = todo) -> None:
@@ -656,7 +712,10 @@ def forward_select(
                 break
             pending = None
         elif gain < need:
-            if steps and gain >= sel_st.min_gain and len(steps) + 2 <= st.max_effects:
+            # room for a partner: an effect slot after this step, or the calibration
+            room = st.max_effects - _n_effects([*chosen, win.candidate])
+            cal_left = all(c.name != CALIBRATION for c in (*chosen, win.candidate))
+            if steps and gain >= sel_st.min_gain and (room >= 1 or cal_left):
                 # more than one effect may be left: a step that removes less than the
                 # share may be one of two; taken on trial, kept only with the next
                 pending = (prev_cv, need, win.candidate.label, _snapshot())
@@ -743,7 +802,12 @@ def forward_select(
         )
         for s in steps
     ]
-    nt = noise_test(model_cv, obs_eval, limit=st.max_misfit_x_noise)
+    nt = noise_test(
+        model_cv,
+        obs_eval,
+        limit=st.max_misfit_x_noise,
+        band_limit=st.max_band_misfit_x_noise,
+    )
     return ForwardResult(
         steps=tuple(steps),
         rounds=tuple(rounds),

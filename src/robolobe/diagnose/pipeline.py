@@ -118,7 +118,8 @@ class Diagnosis:
         ``"none"`` (the file fits within the noise), the family names of the
         named candidates joined by ``+`` (``"file_parameters+tool_mode"``),
         ``"unexplained"`` (the best model found still misses the held-out
-        postures by more than 1.5 x the noise; the candidates are then only
+        postures by more than 1.5 x the noise on average, or one direction
+        in one 5 Hz band by more than 6 x; the candidates are then only
         the closest ones, see ``forward.steps``), or ``"ambiguous"`` (the
         model fits, but a step has an other-family alternative about as good:
         ``forward.steps[i].alternatives``; only unambiguous steps are in

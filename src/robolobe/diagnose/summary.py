@@ -221,7 +221,8 @@ def summarize(
     if nt.unexplained:
         parts.append(
             f"UNEXPLAINED: the best model found still misses the held-out postures by "
-            f"{nt.misfit_x_noise:.1f} x the noise (NRMSE {nt.nrmse_x_noise:.1f} x the noise's) "
+            f"{nt.misfit_x_noise:.1f} x the noise (NRMSE {nt.nrmse_x_noise:.1f} x the noise's; "
+            f"the worst band {nt.band_misfit_x_noise:.1f} x) "
             f"{_where(nt)}; nothing in the library explains the recordings."
         )
         if fw.steps:
