@@ -991,7 +991,6 @@ class TwinCalibration:
         jac = -twin.log_jacobian(theta)[i, j, t] * w[None, :, None]  # (pairs, 3, p)
         r_w = np.where(ok, raw * w, 0.0)
         jac = np.where(ok[..., None], jac, 0.0)
-        flat = jac.reshape(-1, jac.shape[-1])
         prior_sd = self._prior_vector(self.groups_)
         used = r_w[ok]
         prior_w = float(self.regularization) * max(
@@ -999,7 +998,7 @@ class TwinCalibration:
         )
         prior_a = (prior_w / prior_sd) ** 2
         lo, hi = self._theta_bounds(self.groups_)
-        n_par = flat.shape[1]
+        n_par = jac.shape[-1]
         held = np.full((len(q), len(ds.directions), n_modes, 3), np.nan)
         for k in np.unique(i):
             rest = i != k
