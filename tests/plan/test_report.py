@@ -76,7 +76,7 @@ def test_failure_leaves_nothing_half_written(tmp_path, result, monkeypatch):
     def boom(*a, **k):
         raise RuntimeError("disk full")
 
-    monkeypatch.setattr(report, "render_html", boom)
+    monkeypatch.setattr(report, "_report_parts", boom)  # the report, after the tables
     with pytest.raises(RuntimeError):
         report.write_outputs(result, out)
     assert [p.name for p in out.iterdir()] == ["summary.json"]

@@ -391,6 +391,28 @@ def render_html(
         The program files written beside the report: a section lists where
         the program's S, F or passes change and links the file.
     """
+    return _with_images(_report_parts(res, base, program), images)
+
+
+def _with_images(parts: tuple[str, str], images: dict[str, bytes]) -> str:
+    """The report page: its text before and after the plots, with the PNGs between."""
+    imgs = "\n".join(
+        f'<figure><img alt="{html_text(k)}" '
+        f'src="data:image/png;base64,{base64.b64encode(v).decode()}">'
+        f"<figcaption>{html_text(CAPTIONS.get(k, k))}</figcaption></figure>"
+        for k, v in images.items()
+    )
+    return parts[0] + imgs + parts[1]
+
+
+def _report_parts(
+    res: PlanResult, base: str | os.PathLike[str] | None, program: dict[str, str] | None
+) -> tuple[str, str]:
+    """The report page before and after its plots (:func:`render_html`).
+
+    Apart so that :func:`write_outputs` composes them while the plot workers
+    draw (the tables are about 20 ms of a report).
+    """
     s = res.summary
     b = Path(base) if base is not None else None
     where = s.min_margin_at
@@ -454,15 +476,9 @@ def render_html(
             "power_kW": lambda v: f"{v:.2f}",
         },
     )
-    imgs = "\n".join(
-        f'<figure><img alt="{html_text(k)}" '
-        f'src="data:image/png;base64,{base64.b64encode(v).decode()}">'
-        f"<figcaption>{html_text(CAPTIONS.get(k, k))}</figcaption></figure>"
-        for k, v in images.items()
-    )
     notes = "".join(f"<li>{html_text(n)}</li>" for n in s.notes)
     timing = ", ".join(f"{k} {v:.3g} s" for k, v in s.timings_s.items())
-    return f"""<!DOCTYPE html>
+    before = f"""<!DOCTYPE html>
 <html lang="en"><head><meta charset="utf-8">
 <title>robolobe plan: {html_text(_shown_path(s.path, b))}</title>
 <style>
@@ -477,7 +493,8 @@ figcaption {{ font-size: 14px; color: #444; max-width: 800px; }}
 <table>{table}</table>
 <h2>Notes</h2><ul>{notes or "<li>none</li>"}</ul>
 <h2>Plots</h2>
-{imgs}
+"""
+    after = f"""
 <h2>Tightest waypoints</h2>
 <p>The cutting waypoints with the smallest margin, one row per position.</p>
 {tight_html}
@@ -486,6 +503,7 @@ figcaption {{ font-size: 14px; color: #444; max-width: 800px; }}
 timings: {html_text(timing)}</small></p>
 </body></html>
 """
+    return before, after
 
 
 def _program_sections_html(res: PlanResult, n: int = 20) -> str:
@@ -641,17 +659,19 @@ def write_outputs(
         from robolobe.errors import InputError
 
         raise InputError(f"waypoints_every: expected an integer >= 1, found {waypoints_every!r}")
+    records = {name: _DATA[name](res) for name in PLOTS} if plots or html_report else {}
+    if worker is not None and records:
+        # drawn there while the program, the tables and the report's text are made here
+        worker.send(records)
     release_free_memory(len(res.table))  # the plan's temporaries: not under the writers' peaks
     program_files = _program_files(res, program, program_format)
     release_free_memory(len(res.table))
-    records = {name: _DATA[name](res) for name in PLOTS} if plots or html_report else {}
-    if worker is not None and records:
-        worker.send(records)  # drawn there while the tables are written here
     with atomic_dir(out, "plan", option=option) as tmp:
         _write_waypoints(res.table, tmp, waypoints, int(waypoints_every))
         (tmp / "summary.json").write_text(
             json.dumps(res.summary.to_dict(), indent=2) + "\n", encoding="utf-8"
         )
+        page = _report_parts(res, out, program_files) if html_report else None
         got = worker.receive() if worker is not None and records else None
         if got is None or set(got) != set(records):
             got = {name: _plots.png(_plots.draw(rec)) for name, rec in records.items()}
@@ -662,10 +682,8 @@ def write_outputs(
                 (tmp / "plots" / f"{name}.png").write_bytes(data)
         for name, text in program_files.items():
             (tmp / name).write_text(text, encoding="utf-8")
-        if html_report:
-            (tmp / "report.html").write_text(
-                render_html(res, images, out, program=program_files), encoding="utf-8"
-            )
+        if page is not None:
+            (tmp / "report.html").write_text(_with_images(page, images), encoding="utf-8")
     return out
 
 
