@@ -295,3 +295,17 @@ def test_an_unprivileged_plot_worker_stays_at_plus_5_and_delivers(result, here, 
         got = worker.receive()
     assert got is not None
     assert got[report.PLOTS[0]] == here[report.PLOTS[0]]
+
+
+@pytest.mark.skipif(not os.path.isdir("/proc/self/task"), reason="threads counted in /proc")
+def test_a_plot_worker_starts_no_blas_threads(monkeypatch, normal_priority):
+    """A worker draws on one thread: numpy's BLAS starts no thread pool there (about
+    0.1 s of CPU per worker), whatever the caller's environment asks for."""
+    monkeypatch.setenv("OPENBLAS_NUM_THREADS", "4")
+    monkeypatch.setenv("OMP_NUM_THREADS", "4")
+    with PlotWorker(1) as worker:
+        assert worker.ready(READY_S) == 1  # numpy and matplotlib imported
+        pid = worker._procs[0].pid
+        assert len(os.listdir(f"/proc/{pid}/task")) == 1
+        worker.send({})
+        assert worker.receive() == {}
