@@ -32,14 +32,17 @@ frf/*.uff), modal datasets (modal.csv), job files (TOML) and toolpaths
 user guide of the documentation site (docs/guide/ in the robolobe source).
 """
 
-app = typer.Typer(
-    name="robolobe",
-    help=HELP,
-    no_args_is_help=True,
-    pretty_exceptions_enable=False,
-    add_completion=False,
-    rich_markup_mode=None,
-)
+#: The settings of the ``robolobe`` command (and of :func:`_app_for`'s one-command apps).
+_SETTINGS: dict[str, Any] = {
+    "name": "robolobe",
+    "help": HELP,
+    "no_args_is_help": True,
+    "pretty_exceptions_enable": False,
+    "add_completion": False,
+    "rich_markup_mode": None,
+}
+
+app = typer.Typer(**_SETTINGS)
 
 
 def _print_version(value: bool) -> None:
@@ -124,6 +127,23 @@ def _on_sigterm(signum: int, frame: object) -> None:
     raise _Terminated()
 
 
+def _app_for(args: list[str]) -> typer.Typer:
+    """The app that runs ``args``: where they start with a command's name, one with only
+    that command (and the root options), else :data:`app`.
+
+    Typer builds the parameters of every registered command before it runs one
+    (about 25 ms for the 15 commands, of a 1.5 s plan); the one-command app
+    runs the same function with the same options, help and messages.
+    """
+    chosen = [c for c in app.registered_commands if args and c.name == args[0]]
+    if not chosen:
+        return app
+    one = typer.Typer(**_SETTINGS)
+    one.registered_callback = app.registered_callback
+    one.registered_commands = chosen
+    return one
+
+
 def main(argv: list[str] | None = None) -> None:
     """Run the CLI; turn robolobe errors into one line and an exit code.
 
@@ -153,7 +173,8 @@ def _run(argv: list[str] | None) -> int:
     if threading.current_thread() is threading.main_thread():
         signal.signal(signal.SIGTERM, _on_sigterm)
     try:
-        code = app(args=argv, prog_name="robolobe", standalone_mode=False)
+        args = sys.argv[1:] if argv is None else argv
+        code = _app_for(args)(args=args, prog_name="robolobe", standalone_mode=False)
     except _USAGE_ERROR as exc:
         if type(exc).__name__ == "NoArgsIsHelpError":
             exc.show()  # the help text, as with any command given no arguments
