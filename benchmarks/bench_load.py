@@ -16,6 +16,13 @@ variants, one after another in each round so that they see the same load
   workers off, as on a one-core machine);
 - ``no plots``: ``--no-plots --no-html``.
 
+The runs use current bytecode, as an installed robolobe has (pip compiles
+it): they cache it in a temporary folder (``PYTHONPYCACHEPREFIX``), filled by
+a warm-up run of each variant, whatever ``PYTHONDONTWRITEBYTECODE`` says. A
+checkout whose ``__pycache__`` is stale would otherwise compile the changed
+modules in every run (0.1 s and more; Python does not rewrite the cache where
+``PYTHONDONTWRITEBYTECODE`` is set).
+
 It does so first as the machine is ("quiet"), then beside ``--busy`` CPU-bound
 child processes it starts itself for that phase and kills at its end (also
 on an error or Ctrl-C). It prints each run's wall and CPU time (the plan's
@@ -91,10 +98,19 @@ def busy_processes(n: int) -> Iterator[list[subprocess.Popen[bytes]]]:
             p.wait()
 
 
-def run_plan(out: Path, extra: tuple[str, ...], workers_off: bool) -> tuple[float, float]:
-    """One ``robolobe plan`` of the bundled pocket: (wall seconds, CPU seconds)."""
+def run_plan(
+    out: Path, extra: tuple[str, ...], workers_off: bool, pycache: Path
+) -> tuple[float, float]:
+    """One ``robolobe plan`` of the bundled pocket: (wall seconds, CPU seconds).
+
+    ``pycache``: the folder of the runs' bytecode (``PYTHONPYCACHEPREFIX``).
+    """
     root = str(Path(robolobe.__file__).resolve().parents[1])
-    env = {**os.environ, "PYTHONPATH": os.pathsep.join([root, os.environ.get("PYTHONPATH", "")])}
+    env = {
+        **{k: v for k, v in os.environ.items() if k != "PYTHONDONTWRITEBYTECODE"},
+        "PYTHONPATH": os.pathsep.join([root, os.environ.get("PYTHONPATH", "")]),
+        "PYTHONPYCACHEPREFIX": str(pycache),
+    }
     args = ["off" if workers_off else "on", "plan", "-o", str(out), *extra]
     c0 = _children_cpu()
     t0 = time.perf_counter()
@@ -121,7 +137,7 @@ def phase(label: str, reps: int, tmp: Path) -> dict[str, list[float]]:
     for r in range(reps):
         # a different variant first in each round: no variant always follows the same one
         for name, extra, off in VARIANTS[r % len(VARIANTS) :] + VARIANTS[: r % len(VARIANTS)]:
-            wall, cpu = run_plan(tmp / name.replace(" ", "_"), extra, off)
+            wall, cpu = run_plan(tmp / name.replace(" ", "_"), extra, off, tmp / "pycache")
             walls[name].append(wall)
             cpus[name].append(cpu)
     print(f"{label}: {reps} rounds; {start} at the start, {_load()} at the end, {_cores()} cores")
@@ -157,7 +173,8 @@ def main() -> None:
     )
     with tempfile.TemporaryDirectory() as d:
         tmp = Path(d)
-        run_plan(tmp / "warm-up", ("--no-plots", "--no-html"), False)  # disk caches, bytecode
+        for _, extra, off in VARIANTS:  # disk caches; the bytecode of every module they import
+            run_plan(tmp / "warm-up", extra, off, tmp / "pycache")
         quiet_load = os.getloadavg()[0]
         quiet = phase("quiet (as the machine is)", args.reps, tmp)
         loaded = None
