@@ -173,8 +173,9 @@ def _run(argv: list[str] | None) -> int:
     if threading.current_thread() is threading.main_thread():
         signal.signal(signal.SIGTERM, _on_sigterm)
     try:
-        args = sys.argv[1:] if argv is None else argv
-        code = _app_for(args)(args=args, prog_name="robolobe", standalone_mode=False)
+        # argv None reaches click as None (it reads sys.argv, expanding patterns on Windows)
+        one = _app_for(sys.argv[1:] if argv is None else argv)
+        code = one(args=argv, prog_name="robolobe", standalone_mode=False)
     except _USAGE_ERROR as exc:
         if type(exc).__name__ == "NoArgsIsHelpError":
             exc.show()  # the help text, as with any command given no arguments
