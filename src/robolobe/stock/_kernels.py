@@ -27,13 +27,16 @@ sweeps' edges meeting; a wall at the tip's level over cells cut deeper
 before; a floor whose height crosses the level tolerance between cell
 centres, as a helix's or a ramp's bottom does), the point is decided exactly
 instead: cleared when one of the sweeps those cells remember, or one of the
-tool's last four, passes within ``R + tol`` of it with its lowest tip height
+tool's last four, or a short move next to a remembered one along the path
+(:func:`chain_neighbours`: in a ramp's or a lead-out's chain of tiny moves the
+move that clears a point is often shadowed at every cell centre by a deeper
+neighbour), passes within ``R + tol`` of it with its lowest tip height
 there within ``tol`` of the tip (the definition of
 :mod:`robolobe.stock.engagement`, no grid in it). The angle is then exact to
 the bisection (1/8 deg, interpolated) unless the sweep that clears the point
-is remembered by none of the four cells (shadowed there by deeper or wider
-sweeps, it reaches past them by less than a cell). The material top for the
-axial depth is decided the same way.
+is none of those (shadowed by deeper or wider sweeps of other passes, it
+reaches past them by less than a cell). The material top for the axial depth
+is decided the same way.
 
 The functions are plain Python compiled with numba where available
 (:func:`robolobe._jit.available`); without it they run as Python (slow:
@@ -64,8 +67,8 @@ _SUB = 4
 _LEVEL_CELLS = 1e-6
 #: Material thinner than this many cells at the edge is none (float rounding on a wall).
 _EDGE_EPS = 0.01
-#: Chain neighbours of a move (:func:`chain_neighbours`): the short moves (x-y length at
-#: most this many cells) whose ends lie within this many cells of path from the move's.
+#: Chain neighbours of a move (:func:`chain_neighbours`): the short ramp moves (x-y length
+#: at most this many cells) whose ends lie within this many cells of path from the move's.
 CHAIN_CELLS = 2.0
 #: At most this many chain neighbours on each side of a move.
 CHAIN_MAX = 8
@@ -754,15 +757,19 @@ def _run(
         applied += 1
 
 
-def chain_neighbours(xyz: Any, cutting: Any, res: float) -> Any:
+def chain_neighbours(xyz: Any, cutting: Any, res: float, tol: float) -> Any:
     """Per move, how many moves before and after it are its chain neighbours.
 
     A neighbour of move ``k`` is a cutting move ``m`` (at most :data:`CHAIN_MAX`
-    away, the moves between them cutting too) whose x-y length is at most
-    :data:`CHAIN_CELLS` cells and which is separated from move ``k`` by at most
-    :data:`CHAIN_CELLS` cells of x-y path. The exact test takes them as candidates
-    with the sweeps a cell remembers (:func:`_candidates`); long moves have none,
-    so a path of long moves costs nothing more.
+    away, the moves between them neighbours too) that changes height by more
+    than ``tol`` (a ramp's, a helix's, a lead-out's step), whose x-y length is
+    at most :data:`CHAIN_CELLS` cells and which is separated from move ``k`` by
+    at most :data:`CHAIN_CELLS` cells of x-y path. The exact test takes them as
+    candidates with the sweeps a cell remembers (:func:`_candidates`). At one
+    height the cells keep the sweep of the largest clearance, which decides the
+    point; so level moves and long moves have none, and a path of them costs
+    nothing more (the 1e6-move zig-zag of ``benchmarks/bench_engagement.py``,
+    every move 12 um, is level).
 
     Parameters
     ----------
@@ -772,6 +779,8 @@ def chain_neighbours(xyz: Any, cutting: Any, res: float) -> Any:
         Feed moves.
     res : float
         Z-map cell [m].
+    tol : float
+        Level tolerance [m].
 
     Returns
     -------
@@ -786,7 +795,7 @@ def chain_neighbours(xyz: Any, cutting: Any, res: float) -> Any:
     cumxy = np.cumsum(lxy)  # x-y path to the end of each move
     seg = np.cumsum(~np.asarray(cutting, dtype=bool))  # one value along a run of cutting moves
     lim = CHAIN_CELLS * res
-    short = lxy <= lim
+    short = (lxy <= lim) & (np.abs(np.r_[0.0, np.diff(xyz[:, 2])]) > tol)
     k = np.arange(n)
     cut = np.asarray(cutting, dtype=bool)
     back = np.ones(n, dtype=bool)
