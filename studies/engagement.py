@@ -43,7 +43,10 @@ at their own engagement).
 Held out (``--no-held-out`` leaves them out): ``Dryless_TopFridge.nc`` and
 ``safarazfadli-glitch_1001.nc`` from the same folder were never used while the
 production's exact test where the Z-map's cells disagree was built; they were
-run once it was final. A program with tool changes is taken by its flat end
+run once it was final (``Dryless`` once its reader was: its arcs have absolute I/J
+centres and the program does not say G90.1, a setting of its machine; it is read
+with the job key ``[path] arc_centres = "absolute"``, :data:`READER`).
+A program with tool changes is taken by its flat end
 mill's sections (``safarazfadli``: tool 1, 6.35 mm; its lines are the
 original file's); one the project's readers refuse is reported with the reason.
 A move called air by one side and cutting by the other errs by the width of
@@ -88,6 +91,8 @@ HELD_OUT: tuple[tuple[str, int | None], ...] = (
     ("Dryless_TopFridge.nc", None),
     ("safarazfadli-glitch_1001.nc", 1),
 )
+#: Reader options (a job's ``[path]`` keys) of the programs that need them.
+READER: dict[str, dict[str, str]] = {"Dryless_TopFridge.nc": {"arc_centres": "absolute"}}
 _TOOL_CHANGE = re.compile(r"\bT(\d+)\s*M0?6\b")
 
 LEVEL_TOL = LEVEL_TOL_M  # m: one height, and material thinner than it (in z or x-y) is none
@@ -426,7 +431,7 @@ def _program_rows(
     rows: list[dict[str, Any]] = []
     immersion = job.radial_immersion if job is not None else None
     try:
-        wp = read_toolpath(path)
+        wp = read_toolpath(path, **READER.get(path.name, {}))
     except InputError as exc:
         row_u = {"program": name, "held_out": held, "unreadable": str(exc)}
         print(f"{name}{' (held out)' if held else ''}: not read by robolobe's readers: {exc}")

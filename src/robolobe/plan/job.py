@@ -103,6 +103,8 @@ Example (all keys; defaults shown where a key is optional)::
     arc_tol_mm = 0.01            # chord tolerance of linearised arcs
     cutter_radius_mm = 10.0      # G-code G41/G42: the D register's radius (tool radius for a
                                  # part-contour program); without it G41/G42 are refused
+    arc_centres = "incremental"  # "incremental" | "absolute": G-code I/J/K until the program
+                                 # says G90.1/G91.1 (the controller's setting)
 
     [program]                    # the program robolobe writes (optional; robolobe.plan.program)
     min_segment_mm = 10.0        # a new spindle speed holds for at least this cutting length
@@ -413,6 +415,7 @@ class _PathSpec(_Spec):
     cutter_radius_mm: (
         Annotated[float, Field(ge=0, le=1000, allow_inf_nan=False, strict=True)] | None
     ) = None
+    arc_centres: Literal["incremental", "absolute"] | None = None
 
 
 class _ProgramSpec(_Spec):

@@ -27,13 +27,16 @@ sweeps' edges meeting; a wall at the tip's level over cells cut deeper
 before; a floor whose height crosses the level tolerance between cell
 centres, as a helix's or a ramp's bottom does), the point is decided exactly
 instead: cleared when one of the sweeps those cells remember, or one of the
-tool's last four, passes within ``R + tol`` of it with its lowest tip height
+tool's last four, or a short move next to a remembered one along the path
+(:func:`chain_neighbours`: in a ramp's or a lead-out's chain of tiny moves the
+move that clears a point is often shadowed at every cell centre by a deeper
+neighbour), passes within ``R + tol`` of it with its lowest tip height
 there within ``tol`` of the tip (the definition of
 :mod:`robolobe.stock.engagement`, no grid in it). The angle is then exact to
 the bisection (1/8 deg, interpolated) unless the sweep that clears the point
-is remembered by none of the four cells (shadowed there by deeper or wider
-sweeps, it reaches past them by less than a cell). The material top for the
-axial depth is decided the same way.
+is none of those (shadowed by deeper or wider sweeps of other passes, it
+reaches past them by less than a cell). The material top for the axial depth
+is decided the same way.
 
 The functions are plain Python compiled with numba where available
 (:func:`robolobe._jit.available`); without it they run as Python (slow:
@@ -64,6 +67,11 @@ _SUB = 4
 _LEVEL_CELLS = 1e-6
 #: Material thinner than this many cells at the edge is none (float rounding on a wall).
 _EDGE_EPS = 0.01
+#: Chain neighbours of a move (:func:`chain_neighbours`): the short ramp moves (x-y length
+#: at most this many cells) whose ends lie within this many cells of path from the move's.
+CHAIN_CELLS = 2.0
+#: At most this many chain neighbours on each side of a move.
+CHAIN_MAX = 8
 
 
 def _sweep(w, ids, m, x0, y0, res, radius, band, p0, p1, skip_start, tol):
@@ -253,13 +261,19 @@ def _move_clear(xyz, k, px, py, z, rr, tol):
     return min(rr - _move_dist(xyz, k, px, py), z + tol - _move_level(xyz, k, px, py, rr))
 
 
-def _candidates(ids, i, j, cand):
+def _candidates(ids, i, j, cand, chain):
     """The distinct sweeps (move indices) that may decide a point in the cell square
     ``(i..i+1, j..j+1)``: the last :data:`_RECENT` cutting moves that removed their
-    material (``cand[1 : cand[0] + 1]``, set by :func:`_run`: the tool's own trail) and
-    each of the four cells' lowest-level and lowest-top sweeps.
+    material (``cand[1 : cand[0] + 1]``, set by :func:`_run`: the tool's own trail),
+    each of the four cells' lowest-level and lowest-top sweeps, and their chain
+    neighbours (``chain[k]``: the short moves before and after move ``k`` within
+    :data:`CHAIN_CELLS` cells of path, :func:`chain_neighbours`) that have removed their
+    material: in a chain of tiny moves at changing heights (a ramp, a helix) the
+    sweep that clears a point is often one the cells do not remember, shadowed at
+    every cell centre by a deeper or wider neighbour.
     Written to ``cand[1 : n + 1]``; returns ``n``."""
     nc = cand[0]
+    newest = cand[1] if nc > 0 else 0
     for dj in range(2):
         for di in range(2):
             ii = i + di
@@ -267,24 +281,25 @@ def _candidates(ids, i, j, cand):
             if ii < 0 or jj < 0 or ii >= ids.shape[1] or jj >= ids.shape[0]:
                 continue
             for q in range(2):
-                k = ids[jj, ii, q]
-                if k <= 0:
+                k0 = ids[jj, ii, q]
+                if k0 <= 0:
                     continue
-                new = True
-                for c in range(1, nc + 1):
-                    if cand[c] == k:
-                        new = False
-                        break
-                if new:
-                    nc += 1
-                    cand[nc] = k
+                for k in range(k0 - chain[k0, 0], max(k0, min(k0 + chain[k0, 1], newest)) + 1):
+                    new = True
+                    for c in range(1, nc + 1):
+                        if cand[c] == k:
+                            new = False
+                            break
+                    if new and nc + 1 < cand.shape[0]:
+                        nc += 1
+                        cand[nc] = k
     return nc
 
 
-def _exact_clear(ids, xyz, i, j, px, py, z, rr, tol, cand):
+def _exact_clear(ids, xyz, i, j, px, py, z, rr, tol, cand, chain):
     """Exact clearance (:func:`_move_clear`) of a point by the sweeps its cells remember:
     the largest; ``-inf`` when none was stored there."""
-    nc = _candidates(ids, i, j, cand)
+    nc = _candidates(ids, i, j, cand, chain)
     best = -_INF
     for c in range(1, nc + 1):
         best = max(best, _move_clear(xyz, cand[c], px, py, z, rr, tol))
@@ -305,7 +320,7 @@ def _top_bounds(w, x0, y0, res, px, py):
     return lo, hi
 
 
-def _exact_top(w, ids, xyz, x0, y0, res, rr, ztop, px, py, cand):
+def _exact_top(w, ids, xyz, x0, y0, res, rr, ztop, px, py, cand, chain):
     """Material top [m] at the point ``(px, py)``, within the four cells' tops.
 
     Where the four cells around the point are level (within a micrometre), their
@@ -317,7 +332,7 @@ def _exact_top(w, ids, xyz, x0, y0, res, rr, ztop, px, py, cand):
     if hi - lo <= _LEVEL_CELLS:
         return lo
     nc = _candidates(ids, math.floor((px - x0) / res - 0.5), math.floor((py - y0) / res - 0.5),
-                     cand)  # fmt: skip
+                     cand, chain)  # fmt: skip
     top = min(hi, ztop)
     for c in range(1, nc + 1):
         if _move_dist(xyz, cand[c], px, py) <= rr:
@@ -364,7 +379,24 @@ def _stock_value(w, i, j, res):
     return w[j, i, 3]
 
 
-def _edge_value(w, ids, xyz, x0, y0, res, radius, cx, cy, z, fx, fy, tol, ph, cand):
+def _edge_point(cx, cy, rad, ph, fx, fy):
+    """The point [m] at edge angle ``ph`` [rad] (feed frame, clockwise from the left of
+    the feed ``(fx, fy)``) and distance ``rad`` [m] from the tool axis at ``(cx, cy)``."""
+    sp = math.sin(ph)
+    cp = math.cos(ph)
+    return cx + rad * (sp * fx - cp * fy), cy + rad * (sp * fy + cp * fx)
+
+
+def _height(w, ids, xyz, x0, y0, res, rr, ztop, px, py, z, tol, base, cand, chain):
+    """Material height [m] above ``base`` at ``(px, py)`` (:func:`_exact_top`) where the
+    material there stands above the tip ``z`` by more than ``tol``; ``-inf`` elsewhere."""
+    top = _exact_top(w, ids, xyz, x0, y0, res, rr, ztop, px, py, cand, chain)
+    if top > z + tol:
+        return top - base
+    return -_INF
+
+
+def _edge_value(w, ids, xyz, x0, y0, res, radius, cx, cy, z, fx, fy, tol, ph, cand, chain):
     """Material value at edge angle ``ph`` [rad] (negative: material).
 
     The larger of the sweep clearance and the interpolated distance to the stock
@@ -384,10 +416,7 @@ def _edge_value(w, ids, xyz, x0, y0, res, radius, cx, cy, z, fx, fy, tol, ph, ca
     such a graze would hang on a micrometre (1 um of clearance moves a tangent
     graze's end by about 2 deg), the cut is none.
     """
-    sp = math.sin(ph)
-    cp = math.cos(ph)
-    px = cx + radius * (sp * fx - cp * fy)
-    py = cy + radius * (sp * fy + cp * fx)
+    px, py = _edge_point(cx, cy, radius, ph, fx, fy)
     gx = (px - x0) / res - 0.5
     gy = (py - y0) / res - 0.5
     i = math.floor(gx)
@@ -428,18 +457,18 @@ def _edge_value(w, ids, xyz, x0, y0, res, radius, cx, cy, z, fx, fy, tol, ph, ca
                         if k > 0:
                             exact = max(exact, _move_clear(xyz, k, px, py, z, rr, tol))
         else:
-            exact = _exact_clear(ids, xyz, i, j, px, py, z, radius + shift, tol, cand)
+            exact = _exact_clear(ids, xyz, i, j, px, py, z, radius + shift, tol, cand, chain)
         if exact > -_INF:
             return max(exact, stock + shift)
     sweep = w00 * v00 + w10 * v10 + w01 * v01 + w11 * v11
     return max(sweep, stock) + shift
 
 
-def _crossing(w, ids, xyz, x0, y0, res, radius, cx, cy, z, fx, fy, tol, a, va, b, vb, cand):
+def _crossing(w, ids, xyz, x0, y0, res, radius, cx, cy, z, fx, fy, tol, a, va, b, vb, cand, chain):
     """Angle [rad] between ``a`` and ``b`` where the value changes sign (bisection, then linear)."""
     for _ in range(_BISECT):
         m = 0.5 * (a + b)
-        vm = _edge_value(w, ids, xyz, x0, y0, res, radius, cx, cy, z, fx, fy, tol, m, cand)
+        vm = _edge_value(w, ids, xyz, x0, y0, res, radius, cx, cy, z, fx, fy, tol, m, cand, chain)
         if (vm < 0.0) == (va < 0.0):
             a = m
             va = vm
@@ -450,16 +479,16 @@ def _crossing(w, ids, xyz, x0, y0, res, radius, cx, cy, z, fx, fy, tol, a, va, b
 
 
 def _sample_crossing(w, ids, xyz, x0, y0, res, radius, cx, cy, z, fx, fy, tol, dphi, vals, k,
-                     cand):  # fmt: skip
+                     cand, chain):  # fmt: skip
     """:func:`_crossing` between the edge samples ``k - 1`` and ``k`` (values ``vals``)."""
     return _crossing(
         w, ids, xyz, x0, y0, res, radius, cx, cy, z, fx, fy, tol, (k - 1) * dphi, vals[k - 1],
-        k * dphi, vals[k], cand,
+        k * dphi, vals[k], cand, chain,
     )  # fmt: skip
 
 
 def _engage(w, ids, xyz, x0, y0, res, radius, cx, cy, z, fx, fy, bottom, ztop, tol, nphi, vals,
-            pend, out, cand):  # fmt: skip
+            pend, out, cand, chain):  # fmt: skip
     """Engagement of the cutting edge at one tool position.
 
     The front half of the edge is sampled at ``nphi`` angles; each change
@@ -479,16 +508,15 @@ def _engage(w, ids, xyz, x0, y0, res, radius, cx, cy, z, fx, fy, bottom, ztop, t
     full = ztop - base  # the deepest there is: no need to look further
     for k in range(nphi):
         ph = k * dphi
-        v = _edge_value(w, ids, xyz, x0, y0, res, radius, cx, cy, z, fx, fy, tol, ph, cand)
+        v = _edge_value(w, ids, xyz, x0, y0, res, radius, cx, cy, z, fx, fy, tol, ph, cand, chain)
         vals[k] = v
         pend[k] = False
         if v < 0.0 and depth < full:
             # the material top one cell inside the engaged edge point (at the edge itself
             # the top jumps where the edge runs along the wall of an earlier, deeper cut):
             # level cells now, the others (exact, slower) after, where they may be deeper
-            ux = math.sin(ph) * fx - math.cos(ph) * fy
-            uy = math.sin(ph) * fy + math.cos(ph) * fx
-            lo, hi = _top_bounds(w, x0, y0, res, cx + rin * ux, cy + rin * uy)
+            px, py = _edge_point(cx, cy, rin, ph, fx, fy)
+            lo, hi = _top_bounds(w, x0, y0, res, px, py)
             if hi - lo <= _LEVEL_CELLS:
                 if lo > z + tol:
                     depth = max(depth, lo - base)
@@ -496,29 +524,19 @@ def _engage(w, ids, xyz, x0, y0, res, radius, cx, cy, z, fx, fy, bottom, ztop, t
                 pend[k] = True
     for k in range(nphi):
         if pend[k] and depth < full:
-            ph = k * dphi
-            ux = math.sin(ph) * fx - math.cos(ph) * fy
-            uy = math.sin(ph) * fy + math.cos(ph) * fx
-            lo, hi = _top_bounds(w, x0, y0, res, cx + rin * ux, cy + rin * uy)
+            px, py = _edge_point(cx, cy, rin, k * dphi, fx, fy)
+            lo, hi = _top_bounds(w, x0, y0, res, px, py)
             if hi - base > depth:
-                top = _exact_top(
-                    w, ids, xyz, x0, y0, res, rr, ztop, cx + rin * ux, cy + rin * uy, cand
-                )
-                if top > z + tol:
-                    depth = max(depth, top - base)
+                depth = max(depth, _height(w, ids, xyz, x0, y0, res, rr, ztop, px, py, z, tol,
+                                           base, cand, chain))  # fmt: skip
     sliver = 0.0
     if depth == 0.0:
         # where nothing is one cell inside (a sliver), the top at the engaged edge points
         for k in range(nphi):
             if vals[k] < 0.0:
-                ph = k * dphi
-                ux = math.sin(ph) * fx - math.cos(ph) * fy
-                uy = math.sin(ph) * fy + math.cos(ph) * fx
-                top = _exact_top(
-                    w, ids, xyz, x0, y0, res, rr, ztop, cx + radius * ux, cy + radius * uy, cand
-                )
-                if top > z + tol:
-                    sliver = max(sliver, top - base)
+                px, py = _edge_point(cx, cy, radius, k * dphi, fx, fy)
+                sliver = max(sliver, _height(w, ids, xyz, x0, y0, res, rr, ztop, px, py, z, tol,
+                                             base, cand, chain))  # fmt: skip
     narcs = 0
     entry = math.nan
     exit_ = math.nan
@@ -533,7 +551,7 @@ def _engage(w, ids, xyz, x0, y0, res, radius, cx, cy, z, fx, fy, bottom, ztop, t
                 else:
                     entry = _sample_crossing(
                         w, ids, xyz, x0, y0, res, radius, cx, cy, z, fx, fy, tol, dphi, vals, k,
-                        cand,
+                        cand, chain,
                     )  # fmt: skip
         prev = v
     if narcs > 0:
@@ -544,7 +562,7 @@ def _engage(w, ids, xyz, x0, y0, res, radius, cx, cy, z, fx, fy, bottom, ztop, t
             while vals[k - 1] >= 0.0:
                 k -= 1
             exit_ = _sample_crossing(w, ids, xyz, x0, y0, res, radius, cx, cy, z, fx, fy, tol, dphi,
-                                     vals, k, cand)  # fmt: skip
+                                     vals, k, cand, chain)  # fmt: skip
     # arcs narrower than a sample step, between two samples in air: the value is about
     # Lipschitz in the edge angle (at most R per rad: a distance field along an edge
     # point moving at R), so two samples whose values sum to more than the step's travel
@@ -563,10 +581,10 @@ def _engage(w, ids, xyz, x0, y0, res, radius, cx, cy, z, fx, fy, bottom, ztop, t
             v = vb
             if q < _SUB:
                 v = _edge_value(w, ids, xyz, x0, y0, res, radius, cx, cy, z, fx, fy, tol, ph,
-                                cand)  # fmt: skip
+                                cand, chain)  # fmt: skip
             if (v < 0.0) != (pv < 0.0):
                 cr = _crossing(w, ids, xyz, x0, y0, res, radius, cx, cy, z, fx, fy, tol, pa, pv,
-                               ph, v, cand)  # fmt: skip
+                               ph, v, cand, chain)  # fmt: skip
                 if v < 0.0:
                     narcs += 1
                     if not cr >= entry:  # also where entry is NaN
@@ -574,20 +592,14 @@ def _engage(w, ids, xyz, x0, y0, res, radius, cx, cy, z, fx, fy, bottom, ztop, t
                 elif not cr <= exit_:
                     exit_ = cr
             if v < 0.0:
-                ux = math.sin(ph) * fx - math.cos(ph) * fy
-                uy = math.sin(ph) * fy + math.cos(ph) * fx
-                top = _exact_top(
-                    w, ids, xyz, x0, y0, res, rr, ztop, cx + rin * ux, cy + rin * uy, cand
-                )
-                if top > z + tol:
-                    depth = max(depth, top - base)
+                px, py = _edge_point(cx, cy, rin, ph, fx, fy)
+                h = _height(w, ids, xyz, x0, y0, res, rr, ztop, px, py, z, tol, base, cand, chain)
+                if h > -_INF:
+                    depth = max(depth, h)
                 else:
-                    top = _exact_top(
-                        w, ids, xyz, x0, y0, res, rr, ztop, cx + radius * ux, cy + radius * uy,
-                        cand,
-                    )  # fmt: skip
-                    if top > z + tol:
-                        sliver = max(sliver, top - base)
+                    px, py = _edge_point(cx, cy, radius, ph, fx, fy)
+                    sliver = max(sliver, _height(w, ids, xyz, x0, y0, res, rr, ztop, px, py, z,
+                                                 tol, base, cand, chain))  # fmt: skip
             pa = ph
             pv = v
     out[0] = entry
@@ -632,6 +644,7 @@ def _run(
     n_arcs,
     depth,
     plunge,
+    chain,
 ):
     """Walk the path: engagement of every cutting move, then its material removal.
 
@@ -648,7 +661,7 @@ def _run(
     vals = np.empty(nphi)
     pend = np.zeros(nphi, dtype=np.bool_)
     out = np.empty(4)
-    cand = np.zeros(1 + _RECENT + 8, dtype=np.int64)
+    cand = np.zeros(1 + _RECENT + 8 * (1 + 2 * CHAIN_MAX), dtype=np.int64)
     p0 = np.empty(3)
     p1 = np.empty(3)
     applied = 0  # moves [0, applied) have removed their material
@@ -725,6 +738,7 @@ def _run(
                 pend,
                 out,
                 cand,
+                chain,
             )
             if out[2] > 0:
                 ent = min(ent, out[0])
@@ -741,6 +755,63 @@ def _run(
         prev_cut_end = _remove(w, ids, x0, y0, res, radius, band, xyz, cutting, tol, applied,
                                prev_cut_end, p0, p1)  # fmt: skip
         applied += 1
+
+
+def chain_neighbours(xyz: Any, cutting: Any, res: float, tol: float) -> Any:
+    """Per move, how many moves before and after it are its chain neighbours.
+
+    A neighbour of move ``k`` is a cutting move ``m`` (at most :data:`CHAIN_MAX`
+    away, the moves between them neighbours too) that changes height by more
+    than ``tol`` (a ramp's, a helix's, a lead-out's step), whose x-y length is
+    at most :data:`CHAIN_CELLS` cells and which is separated from move ``k`` by
+    at most :data:`CHAIN_CELLS` cells of x-y path. The exact test takes them as
+    candidates with the sweeps a cell remembers (:func:`_candidates`). At one
+    height the cells keep the sweep of the largest clearance, which decides the
+    point; so level moves and long moves have none, and a path of them costs
+    nothing more (the 1e6-move zig-zag of ``benchmarks/bench_engagement.py``,
+    every move 12 um, is level).
+
+    Parameters
+    ----------
+    xyz : ndarray, shape (n, 3)
+        Tool-tip positions [m].
+    cutting : ndarray of bool, shape (n,)
+        Feed moves.
+    res : float
+        Z-map cell [m].
+    tol : float
+        Level tolerance [m].
+
+    Returns
+    -------
+    ndarray of int8, shape (n, 2)
+        Neighbours before (column 0) and after (column 1) each move.
+    """
+    n = len(xyz)
+    out = np.zeros((n, 2), dtype=np.int8)
+    if n < 3:
+        return out
+    lxy = np.r_[0.0, np.hypot(*np.diff(xyz[:, :2], axis=0).T)]
+    cumxy = np.cumsum(lxy)  # x-y path to the end of each move
+    seg = np.cumsum(~np.asarray(cutting, dtype=bool))  # one value along a run of cutting moves
+    lim = CHAIN_CELLS * res
+    short = (lxy <= lim) & (np.abs(np.r_[0.0, np.diff(xyz[:, 2])]) > tol)
+    k = np.arange(n)
+    cut = np.asarray(cutting, dtype=bool)
+    back = np.ones(n, dtype=bool)
+    fwd = np.ones(n, dtype=bool)
+    for d in range(1, CHAIN_MAX + 1):
+        m = k - d
+        ok = m >= 1
+        mc = np.maximum(m, 0)
+        back &= ok & cut[mc] & (seg[mc] == seg) & short[mc] & (cumxy[k - 1] - cumxy[mc] <= lim)
+        out[back, 0] = d
+        m = k + d
+        mc = np.minimum(m, n - 1)
+        fwd &= (m < n) & (seg[mc] == seg) & short[mc] & (cumxy[mc - 1] - cumxy[k] <= lim)
+        out[fwd, 1] = d
+    out[~cut] = 0
+    return out
 
 
 _COMPILED: dict[str, Any] = {}
@@ -769,6 +840,8 @@ def kernels(work: float = math.inf) -> Any:
             g["_top_bounds"] = deco(_top_bounds)
             g["_stock_value"] = deco(_stock_value)
             g["_top"] = deco(_top)
+            g["_edge_point"] = deco(_edge_point)
+            g["_height"] = deco(_height)
             g["_edge_value"] = deco(_edge_value)
             g["_crossing"] = deco(_crossing)
             g["_sample_crossing"] = deco(_sample_crossing)

@@ -141,6 +141,7 @@ READER_OPTIONS: dict[str, tuple[str, ...] | None] = {
     "circle_axis": ("auto", "cw", "ccw"),
     "arc_tol_mm": None,
     "cutter_radius_mm": None,
+    "arc_centres": ("incremental", "absolute"),
 }
 
 

@@ -5,12 +5,17 @@ Supported (Fanuc/Haas/Siemens-ISO/LinuxCNC milling programs as CAM posts write t
 - comments ``( ... )`` and ``;`` to the end of the line, ``%`` lines, a UTF-8
   byte-order mark, program names ``O1234``, ``:1234`` and alphanumeric
   ones on a line of their own (``OFLOOR_FACING``, ``O7997A``), line numbers
-  ``N10``, block delete ``/`` (skipped unless ``block_delete=False``),
-  several words per block with or without spaces (``G0G90X0.Y-12.5``),
-  numbers like ``X0.``, ``X.5``, ``X+10``; lower case.
+  ``N10``, a block that starts with ``:`` and no number (ISO 6983's main
+  block or alignment mark, ``: G90 G40`` or ``:T1 M6``; a restart point
+  for the controller, no effect on the path: the rest of the block is read;
+  ``:`` with a number is a program or main-block number, as ``O``/``N``),
+  block delete ``/`` (skipped unless ``block_delete=False``), several words
+  per block with or without spaces (``G0G90X0.Y-12.5``), numbers like
+  ``X0.``, ``X.5``, ``X+10``; lower case.
 - motion G0 (rapid), G1, G2/G3 (arcs by I/J/K centre offsets, incremental
-  unless G90.1, or by R, R < 0 for more than half a turn; full circles;
-  helical), linearised within ``arc_tol_mm``; planes G17/G18/G19;
+  unless G90.1 or the reader option ``arc_centres = "absolute"``, or by R,
+  R < 0 for more than half a turn; full circles; helical), linearised
+  within ``arc_tol_mm``; planes G17/G18/G19;
   G90/G91; G20/G21 (G70/G71 too; without either: reader option ``units``);
   G94 feed per minute, G95 per revolution; F (> 0), S (>= 0), M3/M4/M5,
   M30/M2 (end; a file without one, or a closing ``%``, is warned as
@@ -160,6 +165,8 @@ _G_UNSUPPORTED |= {float(g): f"canned cycle G{g}" for g in range(73, 90) if g !=
 _G_UNSUPPORTED[76.0] = "canned cycle G76"
 
 _ROTARY_CHOICES = ("auto", "head", "table")
+#: Values of the reader option ``arc_centres`` (job ``[path] arc_centres``).
+ARC_CENTRE_CHOICES = ("incremental", "absolute")
 
 
 @dataclass
@@ -168,6 +175,7 @@ class _State:
     plane: int = 17
     absolute: bool = True
     arc_abs: bool = False
+    arc_abs_stated: bool = False  # the program said G90.1 or G91.1
     scale: float = 1.0  # mm per program unit
     units_set: bool = False
     per_rev: bool = False
@@ -241,6 +249,7 @@ def parse_gcode(
     no_decimal_scale: float = 1.0,
     rotary_axes: str = "auto",
     cutter_radius_mm: float | None = None,
+    arc_centres: str = "incremental",
 ) -> pd.DataFrame:
     """Read G-code text into the waypoint table.
 
@@ -268,6 +277,12 @@ def parse_gcode(
         ``[path] cutter_radius_mm``): the tool radius where the program is
         the part contour, the wear value where it is the tool centre. Without
         it, G41/G42 are refused.
+    arc_centres : {"incremental", "absolute"}
+        How I/J/K arc centres are read until the program says G90.1
+        (absolute) or G91.1 (incremental): the controller's setting (job key
+        ``[path] arc_centres``; Mach3's "IJ mode"). With the default, an arc
+        whose centre is inconsistent as an offset from the start but
+        consistent as an absolute point is refused naming this key.
 
     Returns
     -------
@@ -282,7 +297,8 @@ def parse_gcode(
     """
     check_choice("units", units, UNIT_CHOICES)
     check_choice("rotary_axes", rotary_axes, _ROTARY_CHOICES)
-    st = _State(scale=25.4 if units == "inch" else 1.0)
+    check_choice("arc_centres", arc_centres, ARC_CENTRE_CHOICES)
+    st = _State(scale=25.4 if units == "inch" else 1.0, arc_abs=arc_centres == "absolute")
     if cutter_radius_mm is not None and not (0.0 <= float(cutter_radius_mm) <= 1000.0):
         raise InputError(
             f"cutter_radius_mm: expected a radius 0 to 1000 mm, found {cutter_radius_mm!r}"
@@ -314,6 +330,11 @@ def parse_gcode(
                     continue
                 line = line[m.end() :]
         upper = line.upper()
+        if upper[0] == ":" and not upper[1:].lstrip()[:1].isdigit():
+            # ISO 6983 main block (alignment mark) without a number: read the block
+            upper = upper[1:].lstrip()
+            if not upper:
+                continue
         if upper[0] in "O:":
             m = _PROGRAM_NAME.match(upper)
             if m is None or (m.end() < len(upper) and upper[m.end() :].lstrip()[:1] not in "GMN"):
@@ -488,8 +509,10 @@ def _block(
             st.absolute = False
         elif g == 90.1:
             st.arc_abs = True
+            st.arc_abs_stated = True
         elif g == 91.1:
             st.arc_abs = False
+            st.arc_abs_stated = True
         elif g in (20.0, 70.0):
             st.scale = 25.4
             st.units_set = True
@@ -950,6 +973,7 @@ def _emit_arc(
                     centre[n] = off[n] + st.offset[n]
         else:
             centre = [start[0] + off[0], start[1] + off[1], start[2] + off[2]]
+            _check_incremental_centre(st, start, target, off, (ia, ib), tol, where)
         full = True
     centre[ic] = start[ic]
     pts = arc_point_list(
@@ -965,6 +989,45 @@ def _emit_arc(
     st.pos = target
     st.pos_known = True
     st.axis = axis
+
+
+def _check_incremental_centre(
+    st: _State,
+    start: list[float],
+    target: list[float],
+    off: list[float],
+    plane: tuple[int, int],
+    tol: float,
+    where: str,
+) -> None:
+    """Refuse an arc whose I/J/K, read as the default incremental offsets, put the start
+    and the end at different radii while as absolute centres (G90.1) they agree: the
+    controller reads them absolute, and nothing in the program says so."""
+    if st.arc_abs_stated:
+        return
+    ia, ib = plane
+
+    def radii(c: tuple[float, float]) -> tuple[float, float]:
+        r0 = math.hypot(start[ia] - c[0], start[ib] - c[1])
+        return r0, math.hypot(target[ia] - c[0], target[ib] - c[1])
+
+    def off_by(r: tuple[float, float]) -> float:
+        # arc_point_list's own tolerance on the two radii
+        return abs(r[1] - r[0]) - max(0.01, 1e-3 * r[0], 2 * tol)
+
+    inc = radii((start[ia] + off[ia], start[ib] + off[ib]))
+    if off_by(inc) <= 0.0:
+        return
+    ab = radii((off[ia] + st.offset[ia], off[ib] + st.offset[ib]))
+    if off_by(ab) <= 0.0 and ab[0] > 0.0:
+        raise InputError(
+            f"arc centre: expected I/J/K as offsets from the arc's start (G91.1, the default), "
+            f"found radii {inc[0]:.4g} and {inc[1]:.4g} mm to its start and end; read as an "
+            f"absolute centre (G90.1) both are {ab[0]:.4g} mm. The program does not say "
+            "G90.1: if the machine reads arc centres absolute, set [path] arc_centres = "
+            '"absolute" in the job (or add G90.1 to the program)',
+            source=where,
+        )
 
 
 def read_gcode(path: str | Path, **options: float | bool | str) -> pd.DataFrame:
