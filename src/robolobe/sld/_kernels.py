@@ -814,7 +814,8 @@ def _refine_batch(
 
     A NaN ``bound[b]`` is formed first (:func:`_bound_row`, written back).
     ``status``: 0 done, 1 out of room (``out`` too short), 2 at ``max_depth``
-    halvings or the resolution of doubles.
+    halvings or the resolution of doubles. A finished row ``b`` is padded up to
+    the room: copies of its last frequency, depth ``inf`` and phase NaN.
     """
     cap = out.shape[1]
     teeth = round(60.0 / c)
@@ -916,6 +917,14 @@ def _refine_batch(
             out[b, n] = wl
             _put(dep[b], eps[b], n, parity, la1, le1, la2, le2)
             n += 1
+            # the padding, written here while the row is in cache: copies of the last
+            # frequency, off every branch (no lobe piece)
+            for j in range(n, cap):
+                out[b, j] = wl
+                dep[b, 0, j] = np.inf
+                dep[b, 1, j] = np.inf
+                eps[b, 0, j] = np.nan
+                eps[b, 1, j] = np.nan
         n_out[b] = n
         status[b] = st
 
@@ -946,7 +955,8 @@ def refine(
 ) -> tuple[FloatArray, FloatArray, FloatArray, NDArray[np.int64], NDArray[np.int64], FloatArray]:
     """Refined samples per entry (see :func:`robolobe.sld.converged.converged_lobes`).
 
-    Returns ``out`` (nb, cap) (row ``b`` valid up to ``n_out[b]``), the
+    Returns ``out`` (nb, cap) (row ``b`` valid up to ``n_out[b]``, then padded:
+    copies of its last frequency, depth ``inf``, phase NaN, off every branch), the
     branch-tracked depth and phase there (nb, 2, cap), ``n_out``, ``status``
     (0 done, 1 needs more than ``cap`` samples, 2 unconverged) and the bounds
     used (NaN entries of ``bound``: formed from the initial samples and the
