@@ -238,9 +238,8 @@ def _search(ctx: _Ctx, max_blocks: int, n_depth: int) -> tuple[Schedule | None, 
     lo_all, hi_all = _rate_windows_all(rpm, dist, cons)  # (kb - 1, J) each
     windows = list(zip(lo_all, hi_all, strict=True))
     kern = _dp_kernels()
-    if kern is not None:
-        if not kern.monotone(lo_all, hi_all):
-            kern = None
+    if kern is not None and not kern.monotone(lo_all, hi_all):
+        kern = None
     if kern is not None:
         v, _ = kern.dp(blk.a_blk, blk.length, inv_n, sf_d[:, 0], base_ok, lo_all, hi_all)
     else:
