@@ -318,6 +318,31 @@ def test_compiled_search_equals_the_numpy_search(monkeypatch, kw):
     np.testing.assert_array_equal(a.best.rpm, b.best.rpm)
 
 
+def test_rate_windows_are_the_speeds_the_rate_limit_allows():
+    """Each window (all distances at once) holds exactly the grid speeds from which the
+    speed may be reached over that distance (the rate check of :func:`_rate_ok`, brute
+    force), and the one-distance form gives the same rows."""
+    from robolobe.plan.optimize._common import _rate_ok, _rate_windows, _rate_windows_all
+
+    rng = np.random.default_rng(4)
+    dist = rng.uniform(0.0005, 0.02, 25)
+    for kw in ({"max_rate_rpm_per_m": 20000.0}, {"max_rate_rpm_per_s": 800.0}, {}):
+        c = cons(**kw)
+        lo, hi = _rate_windows_all(RPM, dist, c)
+        assert lo.shape == hi.shape == (dist.size, RPM.size)
+        for k, d in enumerate(dist):
+            for j in range(0, RPM.size, 7):
+                ok = [
+                    i
+                    for i in range(RPM.size)
+                    if _rate_ok(np.array([RPM[i], RPM[j]]), np.array([d]), c, rtol=0.0)
+                ]
+                assert (lo[k, j], hi[k, j]) == (min(ok), max(ok))
+            one = _rate_windows(RPM, float(d), c)
+            np.testing.assert_array_equal(one[0], lo[k])
+            np.testing.assert_array_equal(one[1], hi[k])
+
+
 def test_compiled_dp_windows_equal_the_sparse_table():
     """The monotone-queue window minimum of the kernel is the sparse table's, block by block."""
     from robolobe import _jit

@@ -191,6 +191,44 @@ def test_compiled_and_numpy_paths_agree() -> None:
     np.testing.assert_allclose(one.a_lim[0], b.a_lim[2], rtol=1e-13)
 
 
+def test_compiled_result_does_not_depend_on_the_room_guess_or_chunks(monkeypatch) -> None:
+    """The compiled path writes each entry into a room guessed from the initial samples,
+    grows it after the first chunk and widens at the end where entries need more: every
+    way, the same samples, depth and phase (then padding off every branch) and limits."""
+    from robolobe import _jit
+    from robolobe.sld import converged as cv
+
+    if not _jit.available():
+        pytest.skip("numba not installed")
+    rng = np.random.default_rng(11)
+    n = 9
+    f = np.concatenate([rng.uniform(5, 50, (n, 3)), rng.uniform(500, 2500, (n, 2))], axis=1)
+    z = rng.uniform(0.01, 0.1, f.shape)
+    k = 10 ** rng.uniform(5.5, 7.5, f.shape)
+    th = rng.uniform(0, np.pi, f.shape)
+    u = np.stack([np.cos(th), np.sin(th)], axis=-1)
+    res = ((2 * np.pi * f) ** 2 / k)[..., None, None] * u[..., :, None] * u[..., None, :]
+    model = ModalModel(2 * np.pi * f, z, res)
+    al = alphas(0.0, math.pi / 2, 0.3)
+    rpm = np.linspace(2000.0, 24000.0, 200)
+    ref = converged_lobes(model, al, teeth=3, kt=7e8, rpm=rpm, jit=True)
+    # rooms too small everywhere (the first chunk grows the rest, later chunks overflow
+    # again and the end widens), chunks of 2 and 4 entries
+    for chunk, extra in ((2, 1), (4, 1), (2, 40)):
+        monkeypatch.setattr(cv, "_REFINE_CHUNK", chunk)
+        monkeypatch.setattr(cv, "_room", lambda count, e=extra: int(count.max()) + e)
+        got = converged_lobes(model, al, teeth=3, kt=7e8, rpm=rpm, jit=True)
+        np.testing.assert_array_equal(got.a_lim, ref.a_lim)
+        np.testing.assert_array_equal(got.complete_above_rpm, ref.complete_above_rpm)
+        w = min(got.omega.shape[-1], ref.omega.shape[-1])
+        for name in ("omega", "depth", "eps"):
+            np.testing.assert_array_equal(getattr(got, name)[..., :w], getattr(ref, name)[..., :w])
+        for d in (got, ref):  # beyond: the padding (copies of the last sample, off-branch)
+            assert np.all(d.omega[:, w:] == d.omega[:, w - 1 : w])
+            assert np.all(np.isinf(d.depth[..., w:]))
+            assert np.all(np.isnan(d.eps[..., w:]))
+
+
 def test_stability_lobes_is_the_converged_computation() -> None:
     f, z, res = _robot_and_tool()
     model = ModalModel(2 * np.pi * f, z, res)

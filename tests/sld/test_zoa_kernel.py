@@ -257,3 +257,32 @@ def test_frf_synthesis_in_chunks_equals_the_whole_array(monkeypatch, jit, shuffl
     assert got.max_lobe == ref.max_lobe
     for name in ("a_lim", "depth", "eps", "complete_above_rpm"):
         np.testing.assert_array_equal(getattr(got, name), getattr(ref, name))
+
+
+def test_eigenvalues_of_many_samples_equal_those_of_one_sample_each():
+    """The refinement's vectorised eigenvalues (the initial samples and their middles) are
+    those of the per-sample form bit for bit, so the refined samples do not depend on
+    which form evaluated them; random models with light, heavy and overdamped modes."""
+    from robolobe import _jit
+
+    if not _jit.available():
+        pytest.skip("numba not installed")
+    from robolobe.sld import _kernels as kern
+
+    rng = np.random.default_rng(17)
+    for m in (1, 4, 10):
+        om = 2 * np.pi * rng.uniform(3.0, 3000.0, m)
+        ze = rng.choice([0.005, 0.05, 0.3, 1.5], m)
+        th = rng.uniform(0, np.pi, m)
+        u = np.stack([np.cos(th), np.sin(th)], axis=-1)
+        res = (om**2 / 10 ** rng.uniform(5, 8, m))[:, None, None] * u[:, :, None] * u[:, None, :]
+        res[:, 0, 1] *= rng.uniform(0.5, 1.5, m)  # cross terms that are not symmetric
+        al = rng.normal(size=(2, 2))
+        w = np.sort(rng.uniform(0.2, 2.0, 301) * om.mean())
+        w[5] = om[0]  # on a resonance
+        m1 = np.empty(w.size, np.complex128)
+        m2 = np.empty(w.size, np.complex128)
+        kern._eig_many(w, om, ze, res, al, m1, m2)
+        for i in range(w.size):
+            p1, p2 = kern._eig_pt(w[i], om, ze, res, al)
+            assert (m1[i], m2[i]) == (p1, p2)

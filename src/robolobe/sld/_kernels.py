@@ -635,6 +635,53 @@ def _eig_pt(
 
 
 @njit()
+def _eig_many(
+    w: FloatArray,
+    om: FloatArray,
+    ze: FloatArray,
+    res: FloatArray,
+    al: FloatArray,
+    m1: ComplexArray,
+    m2: ComplexArray,
+) -> None:
+    """:func:`_eig_pt` at every sample of ``w`` (into ``m1``, ``m2``): the same operations
+    in the same order per sample (the same values), the modes outer and the samples
+    inner, so that the sums over the modes run vectorised over the samples."""
+    n = w.shape[0]
+    g = np.zeros((8, n))  # real and imaginary parts of g00, g01, g10, g11
+    for r in range(om.shape[0]):
+        wr = om[r]
+        zw = ze[r] * wr
+        r00, r01, r10, r11 = res[r, 0, 0], res[r, 0, 1], res[r, 1, 0], res[r, 1, 1]
+        for i in range(n):
+            re = wr * wr - w[i] * w[i]
+            im = 2.0 * zw * w[i]
+            q = 1.0 / (re * re + im * im)
+            x = re * q
+            y = -im * q
+            g[0, i] += x * r00
+            g[1, i] += y * r00
+            g[2, i] += x * r01
+            g[3, i] += y * r01
+            g[4, i] += x * r10
+            g[5, i] += y * r10
+            g[6, i] += x * r11
+            g[7, i] += y * r11
+    a00, a01, a10, a11 = al[0, 0], al[0, 1], al[1, 0], al[1, 1]
+    for i in range(n):
+        g00 = complex(g[0, i], g[1, i])
+        g01 = complex(g[2, i], g[3, i])
+        g10 = complex(g[4, i], g[5, i])
+        g11 = complex(g[6, i], g[7, i])
+        tr = a00 * g00 + a01 * g10 + a10 * g01 + a11 * g11
+        det = (a00 * a11 - a01 * a10) * (g00 * g11 - g01 * g10)
+        h = 0.5 * tr
+        root = _csqrt(h * h - det)
+        m1[i] = h + root
+        m2[i] = h - root
+
+
+@njit()
 def _reach(
     c: float, wl: float, wr: float, e_lo: float, e_hi: float, smin: float, smax: float, kmax: int
 ) -> tuple[float, float]:
@@ -814,7 +861,8 @@ def _refine_batch(
 
     A NaN ``bound[b]`` is formed first (:func:`_bound_row`, written back).
     ``status``: 0 done, 1 out of room (``out`` too short), 2 at ``max_depth``
-    halvings or the resolution of doubles.
+    halvings or the resolution of doubles. A finished row ``b`` is padded up to
+    the room: copies of its last frequency, depth ``inf`` and phase NaN.
     """
     cap = out.shape[1]
     teeth = round(60.0 / c)
@@ -825,8 +873,13 @@ def _refine_batch(
         wi = w0[s0 : s0 + nc]
         mi1 = np.empty(nc, np.complex128)
         mi2 = np.empty(nc, np.complex128)
-        for i in range(nc):
-            mi1[i], mi2[i] = _eig_pt(wi[i], o, z, rs, a)
+        _eig_many(wi, o, z, rs, a, mi1, mi2)
+        wmid = np.empty(max(nc - 1, 0))
+        for i in range(nc - 1):
+            wmid[i] = 0.5 * (wi[i] + wi[i + 1])
+        mm1 = np.empty(wmid.shape[0], np.complex128)
+        mm2 = np.empty(wmid.shape[0], np.complex128)
+        _eig_many(wmid, o, z, rs, a, mm1, mm2)
         if np.isnan(bound[b]):
             bound[b] = _bound_row(
                 wi, mi1, mi2, nkt, teeth, s, uniform, kmax + 1, relevant, depth_span
@@ -860,6 +913,7 @@ def _refine_batch(
             sa[0, 0], sa[0, 1] = _de(mi1[i], nkt)
             sa[0, 2], sa[0, 3] = _de(mi2[i], nkt)
             lev[0] = 0
+            fresh = True
             while top >= 0:
                 wr = sw[top]
                 # the right end's branches in the left end's order
@@ -872,7 +926,11 @@ def _refine_batch(
                     wl, wr, la1, le1, ra1, re1, bd, c, smin, smax, kmax
                 ) or _piece_candidate(wl, wr, la2, le2, ra2, re2, bd, c, smin, smax, kmax):
                     wm = 0.5 * (wl + wr)
-                    m1, m2 = _eig_pt(wm, o, z, rs, a)
+                    if fresh:  # the initial interval (wi[i - 1], wi[i]) itself
+                        m1, m2 = mm1[i - 1], mm2[i - 1]
+                        fresh = False
+                    else:
+                        m1, m2 = _eig_pt(wm, o, z, rs, a)
                     ma1, me1 = _de(m1, nkt)
                     ma2, me2 = _de(m2, nkt)
                     if _crossed(m1, m2, l1, l2):
@@ -916,6 +974,14 @@ def _refine_batch(
             out[b, n] = wl
             _put(dep[b], eps[b], n, parity, la1, le1, la2, le2)
             n += 1
+            # the padding, written here while the row is in cache: copies of the last
+            # frequency, off every branch (no lobe piece)
+            for j in range(n, cap):
+                out[b, j] = wl
+                dep[b, 0, j] = np.inf
+                dep[b, 1, j] = np.inf
+                eps[b, 0, j] = np.nan
+                eps[b, 1, j] = np.nan
         n_out[b] = n
         status[b] = st
 
@@ -946,7 +1012,8 @@ def refine(
 ) -> tuple[FloatArray, FloatArray, FloatArray, NDArray[np.int64], NDArray[np.int64], FloatArray]:
     """Refined samples per entry (see :func:`robolobe.sld.converged.converged_lobes`).
 
-    Returns ``out`` (nb, cap) (row ``b`` valid up to ``n_out[b]``), the
+    Returns ``out`` (nb, cap) (row ``b`` valid up to ``n_out[b]``, then padded:
+    copies of its last frequency, depth ``inf``, phase NaN, off every branch), the
     branch-tracked depth and phase there (nb, 2, cap), ``n_out``, ``status``
     (0 done, 1 needs more than ``cap`` samples, 2 unconverged) and the bounds
     used (NaN entries of ``bound``: formed from the initial samples and the

@@ -433,6 +433,31 @@ def _padded(w: FloatArray, rows: IntArray, nb: int, width: int = 0) -> FloatArra
     return np.where(col < counts[:, None], out, last[:, None])
 
 
+def _pad(w2: FloatArray, dep: FloatArray, eps: FloatArray, rows: IntArray | slice, k: int) -> None:
+    """Pad ``rows`` from column ``k`` on: copies of column ``k - 1``'s frequency, depth
+    ``inf`` and phase NaN (off every branch: no lobe piece)."""
+    if k >= w2.shape[1]:
+        return
+    w2[rows, k:] = w2[rows, k - 1 : k]
+    dep[rows, :, k:] = np.inf
+    eps[rows, :, k:] = np.nan
+
+
+def _widened(
+    w2: FloatArray, dep: FloatArray, eps: FloatArray, n: int, rows: int | None = None
+) -> tuple[FloatArray, FloatArray, FloatArray]:
+    """The padded result arrays (nb, k), (nb, 2, k) made ``n`` wide, the new columns
+    padded; only the first ``rows`` rows copied and padded (the others not written yet)."""
+    nb, k = w2.shape
+    m = nb if rows is None else rows
+    out = (np.empty((nb, n)), np.empty((nb, 2, n)), np.empty((nb, 2, n)))
+    out[0][:m, :k] = w2[:m]
+    out[1][:m, :, :k] = dep[:m]
+    out[2][:m, :, :k] = eps[:m]
+    _pad(*out, slice(0, m), k)
+    return out
+
+
 def converged_lobes(
     model: ModalModel,
     alpha: ArrayLike,
@@ -529,7 +554,9 @@ def converged_lobes(
     def bound_of(d: LobeDiagram) -> FloatArray:
         env = np.where(np.isfinite(d.a_lim), d.a_lim, -np.inf).max(axis=-1)
         assert d.depth is not None
-        dmin = np.where(np.isfinite(d.depth), d.depth, np.inf).min(axis=(-1, -2))
+        # depths are positive or inf; NaN left out (one pass, no temporaries of its size)
+        dmin = np.fmin.reduce(d.depth.reshape(*d.depth.shape[:-2], -1), axis=-1)
+        dmin = np.where(np.isnan(dmin), np.inf, dmin)
         cap = DEPTH_SPAN * dmin
         full = np.all(np.isfinite(d.a_lim), axis=-1)
         return np.asarray(np.where(full, np.minimum(RELEVANT * env, cap), cap))
@@ -555,18 +582,19 @@ def converged_lobes(
         bound = bound.copy()
         n_all = np.zeros(nb, np.int64)
         # written straight into the result, one room for every entry (a guess from the
-        # initial samples); the few entries that need more are refined again wider
-        cap = _room(count)
-        w2 = np.empty((nb, cap))
-        dep = np.empty((nb, 2, cap))
-        eps = np.empty((nb, 2, cap))
+        # initial samples, corrected after the first chunk); the few entries that need
+        # more are refined again wider. The kernel pads each row up to its room.
+        width = _room(count)
+        w2 = np.empty((nb, width))
+        dep = np.empty((nb, 2, width))
+        eps = np.empty((nb, 2, width))
         wide: list[tuple[IntArray, FloatArray, FloatArray, FloatArray]] = []
         for c0 in range(0, nb, _REFINE_CHUNK):
             c1 = min(nb, c0 + _REFINE_CHUNK)
             todo = np.arange(c0, c1)
-            room = cap
+            room = width
             while todo.size:
-                into = (w2[c0:c1], dep[c0:c1], eps[c0:c1]) if room == cap else None
+                into = (w2[c0:c1], dep[c0:c1], eps[c0:c1]) if room == width else None
                 o_w, o_d, o_e, n_out, status, bound[todo] = kern.refine(
                     om[todo], ze[todo], res[todo], al[todo], w0, start[todo], count[todo],
                     bound[todo], chord_tol=CHORD_TOL, speed_tol=SPEED_TOL,
@@ -578,7 +606,7 @@ def converged_lobes(
                     _unconverged(om, ze, bad, f"{MAX_PASSES} halvings")
                 ok = status == 0
                 n_all[todo[ok]] = n_out[ok]
-                if room != cap:
+                if room != width:
                     k = int(n_out[ok].max(initial=1))
                     wide.append((todo[ok], o_w[ok, :k], o_d[ok, :, :k], o_e[ok, :, :k]))
                 del o_w, o_d, o_e
@@ -586,27 +614,38 @@ def converged_lobes(
                 if todo.size and room >= MAX_SAMPLES:
                     _unconverged(om, ze, int(todo[0]), f"more than {MAX_SAMPLES} samples")
                 room = min(4 * room, MAX_SAMPLES)
+            if c0 == 0 and c1 < nb and wide:
+                # the first chunk outgrew the guess: the rest of the batch (the same path,
+                # most likely) gets its widest row and a sixteenth more, so that the whole
+                # result is not copied into wider arrays at the end (10k-waypoint plan:
+                # guess 584, first chunk 623, the others at most 621)
+                n_first = int(n_all[:c1].max())
+                grown = min(n_first + n_first // 16, MAX_SAMPLES)
+                w2, dep, eps = _widened(w2, dep, eps, grown, rows=c1)
+                width = grown
         n = int(n_all.max())
-        if n > cap:  # some entries needed more room: widen (rare)
-            w2 = np.concatenate([w2, np.empty((nb, n - cap))], axis=1)
-            dep = np.concatenate([dep, np.empty((nb, 2, n - cap))], axis=2)
-            eps = np.concatenate([eps, np.empty((nb, 2, n - cap))], axis=2)
+        if n > width:  # some entries needed more room still: widen (rare)
+            w2, dep, eps = _widened(w2, dep, eps, n)
         for rows, wb, db, eb in wide:
             k = wb.shape[1]
             w2[rows, :k], dep[rows, :, :k], eps[rows, :, :k] = wb, db, eb
+            _pad(w2, dep, eps, rows, k)
         del wide
-        fill = np.arange(w2.shape[1])[None, :] >= n_all[:, None]
-        # the padding: copies of each row's last frequency (off every branch, below)
-        np.copyto(w2, w2[np.arange(nb), n_all - 1][:, None], where=fill)
-        return finish(w2, dep, eps, fill, True), bound
+        return finish(w2, dep, eps, None, True), bound
 
     def finish(
-        w2: FloatArray, depth: FloatArray, eps: FloatArray, fill: NDArray[np.bool_], jit: bool
+        w2: FloatArray,
+        depth: FloatArray,
+        eps: FloatArray,
+        fill: NDArray[np.bool_] | None,
+        jit: bool,
     ) -> LobeDiagram:
         # the padding (copies of a row's last sample) is off every branch: no lobe piece
-        f2 = np.broadcast_to(fill[:, None, :], depth.shape)
-        np.copyto(depth, np.inf, where=f2)
-        np.copyto(eps, np.nan, where=f2)
+        # (``fill`` None: padded so already)
+        if fill is not None:
+            f2 = np.broadcast_to(fill[:, None, :], depth.shape)
+            np.copyto(depth, np.inf, where=f2)
+            np.copyto(eps, np.nan, where=f2)
         return lobes_from_depth(
             w2, depth, eps, teeth=int(teeth), rpm=r, max_lobe=max_lobe, immersion=immersion,
             max_lobe_cap=max_lobe_cap, jit=jit,

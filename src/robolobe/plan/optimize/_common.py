@@ -47,24 +47,32 @@ def _window_min(v: FloatArray, lo: IntArray, hi: IntArray) -> FloatArray:
 
 def _rate_windows(rpm: FloatArray, dist_m: float, cons: Constraints) -> tuple[IntArray, IntArray]:
     """Grid index range of speeds that may precede each speed over ``dist_m`` of cutting."""
+    lo, hi = _rate_windows_all(rpm, np.array([dist_m], dtype=np.float64), cons)
+    return lo[0], hi[0]
+
+
+def _rate_windows_all(
+    rpm: FloatArray, dist_m: FloatArray, cons: Constraints
+) -> tuple[IntArray, IntArray]:
+    """:func:`_rate_windows` for each distance of ``dist_m`` (n,) at once: (n, J) each."""
     nj = rpm.size
+    d_m = np.asarray(dist_m, dtype=np.float64).reshape(-1, 1)
+    idx = np.broadcast_to(np.arange(nj, dtype=np.int64), (d_m.shape[0], nj))
     if cons.constant_speed:
-        idx = np.arange(nj)
-        return idx, idx
+        return idx.copy(), idx.copy()
     if cons.max_rate_rpm_per_m is not None:
-        d = cons.max_rate_rpm_per_m * dist_m
+        d = cons.max_rate_rpm_per_m * d_m
         lo_v, hi_v = rpm - d, rpm + d
     elif cons.max_rate_rpm_per_s is not None:
-        r2 = cons.max_rate_rpm_per_s * dist_m * 60.0 / cons.feed_per_rev_m  # rpm^2
+        r2 = cons.max_rate_rpm_per_s * d_m * 60.0 / cons.feed_per_rev_m  # rpm^2
         lo_v = rpm - r2 / rpm
         hi_v = 0.5 * (rpm + np.sqrt(rpm * rpm + 4.0 * r2))
     else:
-        return np.zeros(nj, np.int64), np.full(nj, nj - 1, np.int64)
+        return np.zeros(idx.shape, np.int64), np.full(idx.shape, nj - 1, np.int64)
     tol = 1e-9 * rpm.max()
-    lo = np.searchsorted(rpm, lo_v - tol, side="left").astype(np.int64)
-    hi = (np.searchsorted(rpm, hi_v + tol, side="right") - 1).astype(np.int64)
-    idx = np.arange(nj)
-    return np.minimum(lo, idx), np.maximum(hi, idx)
+    lo = np.searchsorted(rpm, (lo_v - tol).ravel(), side="left").reshape(lo_v.shape)
+    hi = np.searchsorted(rpm, (hi_v + tol).ravel(), side="right").reshape(hi_v.shape) - 1
+    return np.minimum(lo.astype(np.int64), idx), np.maximum(hi.astype(np.int64), idx)
 
 
 def _rate_fix(u: FloatArray, dist: FloatArray, cons: Constraints) -> FloatArray:

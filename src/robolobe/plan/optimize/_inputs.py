@@ -5,7 +5,7 @@ from __future__ import annotations
 import logging
 import math
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -152,6 +152,11 @@ class LobeTable:
     a_lim: FloatArray
     group: IntArray
     exact: Callable[[FloatArray, IntArray], FloatArray] | None = None
+    #: Per-block minima of the grid kept between the optimizer's runs on this table
+    #: (:func:`robolobe.plan.optimize._search._blocks`), keyed by the blocks' first rows.
+    _block_mins: dict[bytes, FloatArray] = field(
+        default_factory=dict, init=False, repr=False, compare=False
+    )
 
     def __post_init__(self) -> None:
         r = np.asarray(self.rpm, dtype=np.float64)

@@ -15,7 +15,7 @@ from robolobe.plan.optimize._common import (
     _Ctx,
     _knot_speeds,
     _rate_fix,
-    _rate_windows,
+    _rate_windows_all,
     _verify,
     _window_min,
 )
@@ -87,7 +87,7 @@ def _constant(ctx: _Ctx) -> Schedule | None:
         # (within 1.5x of the grid minimum at the neighbouring grid speeds); the
         # final verification checks every waypoint anyway
         j0 = np.clip(np.searchsorted(rpm, trial) - 1, 0, rpm.size - 2)
-        near = np.minimum(lobes.a_lim[used][:, j0], lobes.a_lim[used][:, j0 + 1])
+        near = np.minimum(lobes.a_lim[used[:, None], j0], lobes.a_lim[used[:, None], j0 + 1])
         cand = used[np.any(near <= 1.5 * near.min(axis=0, keepdims=True), axis=1)]
         return lobes.query_groups(trial, cand).min(axis=0)
 
@@ -139,7 +139,15 @@ def _blocks(ctx: _Ctx, n_blocks: int) -> _Blocks:
     # knot at the middle of the block's span of cutting length
     knots = 0.5 * (np.r_[0.0, s][start] + s[end])
     length = np.add.reduceat(ctx.geom.seg_m, start)
-    a_blk = _block_min(ctx.lobes.a_lim, ctx.lobes.group, start)
+    # the same blocks of the same table in the next run (pass counts, the refinement):
+    # their grid minima are kept (few blocks only: each is (blocks, n_rpm))
+    memo = ctx.lobes._block_mins
+    key = start.tobytes()
+    a_blk = memo.get(key)
+    if a_blk is None:
+        a_blk = _block_min(ctx.lobes.a_lim, ctx.lobes.group, start)
+        if start.size <= _MEMO_BLOCKS:
+            memo[key] = a_blk
     # strictly increasing knots (blocks of zero length share a position)
     knots = np.maximum.accumulate(knots)
     bump = np.arange(knots.size) * 1e-12 * max(total, 1.0)
@@ -149,6 +157,10 @@ def _blocks(ctx: _Ctx, n_blocks: int) -> _Blocks:
     blk_of = np.repeat(np.arange(start.size), 2)
     edge_s, first = np.unique(pos, return_index=True)
     return _Blocks(start, knots + bump, length, a_blk, edge_s, blk_of[first].astype(np.int64))
+
+
+#: Most blocks whose grid minima a table keeps between runs (:func:`_blocks`).
+_MEMO_BLOCKS = 4096
 
 
 def _block_min(
@@ -223,13 +235,11 @@ def _search(ctx: _Ctx, max_blocks: int, n_depth: int) -> tuple[Schedule | None, 
         feas = (blk.a_blk[b][None, :] >= sf_d[d_sel]) & base_ok[d_sel]
         return np.where(feas, blk.length[b] * inv_n[None, :], np.inf)
 
-    windows = [_rate_windows(rpm, float(d), cons) for d in dist]
+    lo_all, hi_all = _rate_windows_all(rpm, dist, cons)  # (kb - 1, J) each
+    windows = list(zip(lo_all, hi_all, strict=True))
     kern = _dp_kernels()
-    if kern is not None:
-        lo_all = np.array([w[0] for w in windows], np.int64).reshape(-1, rpm.size)
-        hi_all = np.array([w[1] for w in windows], np.int64).reshape(-1, rpm.size)
-        if not kern.monotone(lo_all, hi_all):
-            kern = None
+    if kern is not None and not kern.monotone(lo_all, hi_all):
+        kern = None
     if kern is not None:
         v, _ = kern.dp(blk.a_blk, blk.length, inv_n, sf_d[:, 0], base_ok, lo_all, hi_all)
     else:
