@@ -287,7 +287,8 @@ def expected_table(edit: ProgramEdit, *, full: bool = True) -> pd.DataFrame:
                 "x_mm": pos[:, 0],
                 "y_mm": pos[:, 1],
                 "z_mm": pos[:, 2],
-                "motion": wp["motion"].to_numpy(),
+                # the waypoint table's own labels (to_numpy(): a str object per row)
+                "motion": wp["motion"].array,
                 "rpm": rpm,
                 "feed_mm_per_min": feed,
             },

@@ -360,16 +360,19 @@ def feed_directions(pos: FloatArray, axis: FloatArray | None = None) -> FloatArr
     d = np.diff(pos, axis=0)
     ln = np.linalg.norm(d, axis=1)
     ok = ln > 1e-12
-    out[1:][ok] = d[ok] / ln[ok, None]
+    np.divide(d, ln[:, None], out=out[1:], where=ok[:, None])  # in place: no (n, 3) copies
+    del d, ln
     has = np.r_[False, ok]
-    if not has.any():
+    del ok
+    hr = np.flatnonzero(has)
+    if not hr.size:
         return out
     # each row without a direction takes the next row's that has one, else the last one's
-    # (a back- then forward-fill, by row index: no copies of the table for it)
-    rows = np.arange(n)
-    nxt = np.minimum.accumulate(np.where(has, rows, n)[::-1])[::-1]
-    prv = np.maximum.accumulate(np.where(has, rows, -1))
-    return out[np.where(nxt < n, nxt, prv)]
+    # (only those rows are looked at: a long path has a few)
+    miss = np.flatnonzero(~has)
+    j = np.searchsorted(hr, miss)
+    out[miss] = out[np.where(j < hr.size, hr[np.minimum(j, hr.size - 1)], hr[-1])]
+    return out
 
 
 def validate_waypoints(df: pd.DataFrame, source: str) -> pd.DataFrame:
