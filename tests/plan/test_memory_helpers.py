@@ -3,15 +3,19 @@
 from __future__ import annotations
 
 import hashlib
+import weakref
 
 import numpy as np
 import pandas as pd
 import pytest
 
 from robolobe._memory import RELEASE_MIN_ROWS, release_free_memory
-from robolobe.plan.paths._table import feed_directions
-from robolobe.plan.pipeline import _hash_joined, _shared_labels, waypoints_hash
+from robolobe.plan.job import load_job
+from robolobe.plan.paths._table import feed_directions, label_column
+from robolobe.plan.pipeline import _hash_joined, _shared_labels, plan_path, waypoints_hash
 from robolobe.plan.program import _labels
+
+from .conftest import example
 
 
 def _directions_reference(pos: np.ndarray) -> np.ndarray:
@@ -96,3 +100,45 @@ def test_check_labels_same_values() -> None:
 def test_release_free_memory_small_jobs_untouched() -> None:
     assert release_free_memory(RELEASE_MIN_ROWS - 1) is False
     assert isinstance(release_free_memory(), bool)
+
+
+@pytest.mark.parametrize("names", [("cut", "rapid"), ("a.nc",), ("", "x", "long label")])
+def test_label_column_as_pandas_makes_it(names: tuple[str, ...]) -> None:
+    rng = np.random.default_rng(11)
+    codes = rng.integers(0, len(names), 500).astype(np.int8)
+    got = pd.DataFrame({"c": label_column(codes, names)}, copy=False)["c"]
+    ref = pd.DataFrame({"c": np.asarray(names)[codes]})["c"]  # written independently
+    assert got.dtype == ref.dtype
+    assert got.tolist() == ref.tolist()
+    assert label_column(np.zeros(0, np.int8), names).shape == (0,)
+
+
+class _Handed(Exception):
+    """Raised by the spy below once it knows whether the caller kept the features."""
+
+
+def test_streamed_lobes_hand_the_features_over(monkeypatch: pytest.MonkeyPatch) -> None:
+    """The caller keeps no reference to the grouping features it gives waypoint_lobes,
+    which drops them after grouping (not held through the leaders' lobes: at a million
+    waypoints 600 MB, the lobe stage's peak, when a ``**`` call kept them)."""
+    from robolobe.plan import pipeline
+
+    path = example("pocket.nc")
+    job = load_job(example("job_A_pocket.toml")).replace(model="twin")
+    monkeypatch.setattr(pipeline, "_STREAM_MIN", 40)
+    monkeypatch.setattr(pipeline, "_STREAM_CHUNK", 30)
+    kept: list[bool] = []
+
+    def spy(models, **kw):  # type: ignore[no-untyped-def]
+        feats = kw.pop("features")
+        assert isinstance(feats, np.ndarray)
+        assert feats.shape[0] > 40
+        ref = weakref.ref(feats)
+        del feats
+        kept.append(ref() is not None)
+        raise _Handed
+
+    monkeypatch.setattr(pipeline, "waypoint_lobes", spy)
+    with pytest.raises(_Handed):
+        plan_path(path, job)
+    assert kept == [False]

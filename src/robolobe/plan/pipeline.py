@@ -498,15 +498,18 @@ class _Labels(Sequence[str]):
 
     Parameters
     ----------
-    source : ndarray of str, shape (n,)
-    line : ndarray of int, shape (n,)
+    source : array of str, shape (n_rows,)
+        The waypoint table's ``source`` column (its own array: no object per row).
+    line : ndarray of int, shape (n_rows,)
+    rows : ndarray of int, shape (n,)
+        The table's row of each labelled waypoint.
     """
 
-    def __init__(self, source: NDArray[Any], line: NDArray[Any]) -> None:
-        self.source, self.line = source, line
+    def __init__(self, source: Any, line: NDArray[Any], rows: NDArray[np.int64]) -> None:
+        self.source, self.line, self.rows = source, line, rows
 
     def __len__(self) -> int:
-        return int(self.line.shape[0])
+        return int(self.rows.shape[0])
 
     @overload
     def __getitem__(self, i: int) -> str: ...
@@ -515,7 +518,8 @@ class _Labels(Sequence[str]):
     def __getitem__(self, i: int | slice) -> str | list[str]:
         if isinstance(i, slice):
             return [self[j] for j in range(*i.indices(len(self)))]
-        return f"{self.source[i]}:{int(self.line[i])}"
+        r = int(self.rows[i])
+        return f"{self.source[r]}:{int(self.line[r])}"
 
 
 def _lobes_for_rotation(
@@ -829,7 +833,22 @@ def _streamed_lobes(
     t = time.perf_counter()
     # waypoint_lobes needs only dim, batch_shape and take of the models given features
     models = cast("ModalModel", _StreamedModels(source, q, cut_rows, f_use, tool))
-    grouped = waypoint_lobes([models], unbounded=unb, features=held.pop(), **args)
+    # explicit keywords, not ``**args``: a call through ``**`` keeps its keyword dict (and
+    # the features in it) alive until it returns, and waypoint_lobes frees them after
+    # grouping, before the leaders' lobes (600 bytes a waypoint: the lobe stage's peak)
+    grouped = waypoint_lobes(
+        [models],
+        unbounded=unb,
+        features=held.pop(),
+        teeth=args["teeth"],
+        kt=args["kt"],
+        kr=args["kr"],
+        phi_entry=args["phi_entry"],
+        phi_exit=args["phi_exit"],
+        rpm=args["rpm"],
+        immersion=args["immersion"],
+        tol=args["tol"],
+    )
     timings["lobes"] = time.perf_counter() - t
     feed_angle = np.degrees(np.arctan2(f_use[:, 1], f_use[:, 0]))
 
@@ -1195,7 +1214,7 @@ def plan_path(
     prog = wp["rpm_programmed"].to_numpy(dtype=np.float64)[ci]
     if job.cut.programmed_rpm is not None:
         prog = np.where(np.isfinite(prog), prog, job.cut.programmed_rpm)
-    labels = _Labels(wp["source"].to_numpy()[ci], wp["line"].to_numpy()[ci])
+    labels = _Labels(_string_column(wp["source"]), wp["line"].to_numpy(), ci)
     depth: ProgramDepth | None = None
     if eng is not None:
         bounded = ~plunge & eng.engaged[ci]
@@ -1213,6 +1232,7 @@ def plan_path(
         if depth is not None:
             width = float(np.nanmax(np.where(bounded, eng.radial_width_m[ci], np.nan)))
             cons = dataclasses.replace(cons, width_m=width)  # the widest engagement: power, torque
+    del pos  # (n, 3): not under the peaks of the table and the passes
 
     def schedule(table: Any) -> PlanOutcome:
         made: dict[int, Any] = {}  # the depth-share tables (one unless a section is fixed)
@@ -1257,6 +1277,7 @@ def plan_path(
         grouped = split(steep, grouped)
         timings["lobes"] += time.perf_counter() - t_split
         outcome = schedule(grouped.table)
+    del split  # its models' inputs (feed directions, angles: ~40 bytes a waypoint)
     timings["optimize"] = time.perf_counter() - t
     t = time.perf_counter()
     release_free_memory(len(wp))
@@ -1572,7 +1593,8 @@ def _apply_passes(
         depth, a_lim, bounded, cons.safety_factor * (1 + LOBE_TOL), cons.depth_cap_m
     )
     p = passes_s[depth.section]
-    step = depth.section_depth_m()[depth.section] / p
+    sec_depth = depth.section_depth_m()
+    step = sec_depth[depth.section] / p
     cut_d = depth.depth_m / p
     n = len(table)
 
@@ -1581,19 +1603,26 @@ def _apply_passes(
         out[ci] = v
         return out
 
+    # the columns one at a time, each temporary gone before the next (a long path's
+    # peak: the table is whole here)
     table["section"] = col(depth.section, -1, np.int64)
     table["passes"] = col(p, 1, np.int64)
     table["depth_mm"] = col(step * 1e3)
+    del step, p
     table["cut_depth_mm"] = col(np.where(depth.depth_m > 0, cut_d * 1e3, 0.0))
     table["program_depth_mm"] = col(depth.depth_m * 1e3)
     table["a_lim_mm"] = col(np.where(bounded & np.isfinite(a_lim), a_lim * 1e3, np.nan))
     with np.errstate(divide="ignore", invalid="ignore"):
         mg = np.where(bounded & (cut_d > 0), a_lim / cut_d, np.nan)
     table["margin"] = col(mg)
-    table["ae_over_D"] = col(np.where(eng.engaged[ci], eng.immersion[ci], 0.0))
+    engaged = eng.engaged[ci]
+    table["ae_over_D"] = col(np.where(engaged, eng.immersion[ci], 0.0))
     table["phi_entry_deg"] = col(np.degrees(eng.phi_entry[ci]))
     table["phi_exit_deg"] = col(np.degrees(eng.phi_exit[ci]))
-    lim = table["limiting"].to_numpy().copy()
+    # each distinct label one str object (to_numpy() makes one per row: 60 bytes each)
+    codes, names = pd.factorize(table["limiting"], use_na_sentinel=False)
+    lim = np.asarray(names, dtype=object)[codes]
+    del codes
     lab = lim[ci]
     fix = lab == "depth_max"
     if np.any(fix):
@@ -1607,14 +1636,18 @@ def _apply_passes(
             slack["stability"] = np.where(bounded[r], slack["stability"], np.inf)
             lab[r] = _shared_labels(limiting_labels(slack, free=BINDING_SLACK))
         lim[ci] = lab
-    lim[ci[~eng.engaged[ci] & ~plunge]] = "air"
+        del pw
+    del lab, fix, cut_d, a_lim
+    lim[ci[~engaged & ~plunge]] = "air"
     table["limiting"] = lim
+    del lim
     src = table["source"].array  # a few entries are read: not an object array of them all
     line = table["line"].to_numpy()
-    rows = []
     t_pass = seg[ci] / np.maximum(table["feed_mm_per_min"].to_numpy()[ci] / 6e4, 1e-300)
-    width = np.where(eng.engaged[ci], eng.radial_width_m[ci], 0.0)
+    width = np.where(engaged, eng.radial_width_m[ci], 0.0)
     vol = np.where(bounded, depth.depth_m * width * seg[ci], 0.0)
+    del width, engaged
+    rows = []
     for k in range(depth.n_sections):
         idx = np.flatnonzero(depth.section == k)
         i0, i1 = int(ci[idx[0]]), int(ci[idx[-1]])
@@ -1630,7 +1663,7 @@ def _apply_passes(
                 "moves": int(idx.size),
                 "program_depth_mm": round(float(depth.depth_m[idx].max()) * 1e3, 4),
                 "passes": int(passes_s[k]),
-                "depth_per_pass_mm": round(float(step[idx[0]]) * 1e3, 4),
+                "depth_per_pass_mm": round(float(sec_depth[k] / passes_s[k]) * 1e3, 4),
                 "set_by": f"{src[ci[sb]]}:{int(line[ci[sb]])}" if sb >= 0 else "",
                 "min_margin": round(float(np.nanmin(mg[idx][b])), 4) if b.any() else None,
                 "rpm_min": round(float(best.rpm[idx].min()), 1),

@@ -195,7 +195,7 @@ def _blocks(wp: pd.DataFrame, cut: NDArray[np.bool_]) -> tuple[IntArray, IntArra
     """
     n = len(wp)
     line = wp["line"].to_numpy()
-    src = wp["source"].to_numpy()
+    src = pd.factorize(wp["source"], use_na_sentinel=False)[0]  # not a str per row
     new = np.zeros(n, bool)
     new[0] = cut[0]
     if n > 1:

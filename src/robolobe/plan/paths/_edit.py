@@ -124,9 +124,11 @@ def sections(edit: ProgramEdit) -> list[Section]:
     """
     wp = edit.waypoints
     out: list[Section] = []
-    src = wp["source"].to_numpy()
+    # the columns as they are: a few entries are read (to_numpy() of the labels makes a
+    # str per row, of the axes an (n, 3) copy: a long program's writer and check peaks)
+    src = wp["source"].array
     line = wp["line"].to_numpy()
-    axis = wp[["i", "j", "k"]].to_numpy(dtype=np.float64)
+    axes = wp[["i", "j", "k"]]
     rows = np.flatnonzero(edit.cut)
     cuts = np.flatnonzero(np.diff(cut_runs(rows))) + 1
     for run in np.split(rows, cuts) if rows.size else []:
@@ -147,7 +149,7 @@ def sections(edit: ProgramEdit) -> list[Section]:
                     f"{line[i]} to {line[j - 1]}, found {sorted(set(np.round(d, 6).tolist()))} mm",
                     source=where,
                 )
-            a = axis[i:j]
+            a = axes.iloc[i:j].to_numpy(dtype=np.float64)
             if np.max(np.abs(a - a[0])) > _AXIS_TOL:
                 raise InputError(
                     "passes: the tool axis changes within the run of cutting moves from line "
@@ -287,7 +289,8 @@ def expected_table(edit: ProgramEdit, *, full: bool = True) -> pd.DataFrame:
                 "x_mm": pos[:, 0],
                 "y_mm": pos[:, 1],
                 "z_mm": pos[:, 2],
-                "motion": wp["motion"].to_numpy(),
+                # the waypoint table's own labels (to_numpy(): a str object per row)
+                "motion": wp["motion"].array,
                 "rpm": rpm,
                 "feed_mm_per_min": feed,
             },

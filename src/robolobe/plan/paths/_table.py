@@ -26,6 +26,7 @@ import logging
 import math
 from array import array
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 import pandas as pd
@@ -243,11 +244,17 @@ class WaypointBuilder:
         """
         if not self._rows:
             raise InputError("expected at least one move, found none", source=self.source)
-        # a view of the buffer (no copy): the columns below are copies of their own
-        rows = np.frombuffer(self._rows, dtype=np.float64).reshape(-1, _WIDTH)
+        buf, self._rows = self._rows, array("d")  # handed over: the builder is empty now
+        flat = np.frombuffer(buf, dtype=np.float64).reshape(-1, _WIDTH)
+        line = flat[:, 9].astype(np.int64)
+        rapid = flat[:, 8] > 0
+        # the table's eight number columns, views of one block of their own: the buffer
+        # (its rapid and line numbers, its growth room: ~21 bytes a waypoint more) goes
+        # before the columns below are made (a long program's reader peak)
+        rows = flat[:, :8].copy()
+        del flat, buf
         pos = rows[:, 0:3]
         axis = rows[:, 3:6]
-        line = rows[:, 9].astype(np.int64)
         bad = ~np.all(np.abs(pos) <= _MAX_POS_M, axis=1)
         if np.any(bad):
             r = int(np.argmax(bad))
@@ -256,10 +263,13 @@ class WaypointBuilder:
                 f"{(pos[r] * 1e3).tolist()} mm",
                 source=f"{self.source}:{line[r]}",
             )
-        ref = np.full((len(rows), 3), np.nan)
         if self._ref:
+            ref = np.full((len(rows), 3), np.nan)
             rr = np.frombuffer(self._ref, dtype=np.float64).reshape(-1, 4)
             ref[rr[:, 0].astype(np.int64)] = rr[:, 1:]
+            ox, oy, oz = ref[:, 0], ref[:, 1], ref[:, 2]
+        else:  # free everywhere: one NaN array in the three columns (pandas copies on write)
+            ox = oy = oz = np.full(len(rows), np.nan)
         f = feed_directions(pos, axis)
         df = pd.DataFrame(
             {
@@ -269,15 +279,15 @@ class WaypointBuilder:
                 "i": axis[:, 0],
                 "j": axis[:, 1],
                 "k": axis[:, 2],
-                "ox": ref[:, 0],
-                "oy": ref[:, 1],
-                "oz": ref[:, 2],
+                "ox": ox,
+                "oy": oy,
+                "oz": oz,
                 "fx": f[:, 0],
                 "fy": f[:, 1],
                 "fz": f[:, 2],
                 "feed_mm_per_min": rows[:, 6],
                 "rpm_programmed": rows[:, 7],
-                "motion": np.where(rows[:, 8] > 0, "rapid", "cut"),
+                "motion": label_column(rapid.view(np.int8), ("cut", "rapid")),
                 "source": self.source,
                 "line": line,
             },
@@ -288,6 +298,33 @@ class WaypointBuilder:
         )
         df.attrs["warnings"] = self.notes()
         return df
+
+
+def label_column(codes: NDArray[np.int8], names: tuple[str, ...]) -> Any:
+    """A string column of a few distinct labels, ``names[codes]``, without a str per row.
+
+    Where pandas stores strings in Arrow (its default with pyarrow) the column
+    is made there by one take (11 bytes a row for "cut"/"rapid"); otherwise an
+    object array whose equal entries share one ``str``. Either way the same
+    values and dtype as ``np.asarray(names)[codes]`` given to pandas.
+
+    Parameters
+    ----------
+    codes : ndarray of int8, shape (n,)
+        Index into ``names`` of each row.
+    names : tuple of str
+
+    Returns
+    -------
+    pandas ExtensionArray or ndarray of object, shape (n,)
+    """
+    dtype = pd.Series(list(names)).dtype  # what pandas makes of these strings
+    if isinstance(dtype, pd.StringDtype) and dtype.storage == "pyarrow":
+        import pyarrow as pa
+
+        taken = pa.array(list(names), type=pa.large_string()).take(pa.array(codes))
+        return pd.array(taken, dtype=dtype)
+    return np.asarray(list(names), dtype=object)[codes]
 
 
 def segment_lengths(pos: FloatArray) -> FloatArray:
@@ -323,16 +360,19 @@ def feed_directions(pos: FloatArray, axis: FloatArray | None = None) -> FloatArr
     d = np.diff(pos, axis=0)
     ln = np.linalg.norm(d, axis=1)
     ok = ln > 1e-12
-    out[1:][ok] = d[ok] / ln[ok, None]
+    np.divide(d, ln[:, None], out=out[1:], where=ok[:, None])  # in place: no (n, 3) copies
+    del d, ln
     has = np.r_[False, ok]
-    if not has.any():
+    del ok
+    hr = np.flatnonzero(has)
+    if not hr.size:
         return out
     # each row without a direction takes the next row's that has one, else the last one's
-    # (a back- then forward-fill, by row index: no copies of the table for it)
-    rows = np.arange(n)
-    nxt = np.minimum.accumulate(np.where(has, rows, n)[::-1])[::-1]
-    prv = np.maximum.accumulate(np.where(has, rows, -1))
-    return out[np.where(nxt < n, nxt, prv)]
+    # (only those rows are looked at: a long path has a few)
+    miss = np.flatnonzero(~has)
+    j = np.searchsorted(hr, miss)
+    out[miss] = out[np.where(j < hr.size, hr[np.minimum(j, hr.size - 1)], hr[-1])]
+    return out
 
 
 def validate_waypoints(df: pd.DataFrame, source: str) -> pd.DataFrame:

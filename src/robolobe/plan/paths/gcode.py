@@ -1243,7 +1243,12 @@ def write_gcode(text: str, source: str, edit: ProgramEdit, *, block_delete: bool
                 notes[ln].append(f"MARGIN {vals[ln][2]:.2f}")
             out_lines[ln] = _comment_at_end(new_raw, "ROBOLOBE " + " ".join(notes[ln]))
     # passes: copies of each section's lines, shifted along Z, with rapid links
-    pos_mm = edit.waypoints[["x_m", "y_m", "z_m"]].to_numpy(dtype=np.float64) * 1e3
+    # (n, 3) positions only where there are passes to write (a long program's peak)
+    pos_mm = (
+        edit.waypoints[["x_m", "y_m", "z_m"]].to_numpy(dtype=np.float64) * 1e3
+        if secs
+        else np.empty((0, 3))
+    )
     for sec in secs:
         first, last = int(wp_lines[sec.start]), int(wp_lines[sec.stop - 1])
         where = f"{source}:{first}"
