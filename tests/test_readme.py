@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import os
 import re
+import shlex
 import subprocess
 import sys
 from pathlib import Path
@@ -54,3 +55,45 @@ def test_readme_session_runs_as_written(tmp_path: Path, line: int, script: str) 
         f"{proc.stdout[-3000:]}\n{proc.stderr[-3000:]}"
     )
     assert not re.search(r"Traceback \(most recent call last\)", proc.stderr)
+
+
+def _after(lines: list[str], marker: str, where: str) -> str:
+    """The first command line after the line starting with ``marker`` (fences skipped)."""
+    i = next((i for i, ln in enumerate(lines) if ln.startswith(marker)), None)
+    assert i is not None, f"{where}: no line starting with {marker!r}"
+    return next(ln for ln in lines[i + 1 :] if ln.strip() and not ln.startswith("```"))
+
+
+def test_ci_runs_the_readme_test_command() -> None:
+    """``.ci/run`` runs exactly the README's test command (the docs' home page shows it
+    too), and that command runs every test: the parallel run all but the ``serial``
+    ones, then those alone."""
+    root = README.parent
+    shown = _after(
+        README.read_text(encoding="utf-8").splitlines(),
+        "**Install and run the tests**",
+        "README.md",
+    )
+    install = 'pip install -e ".[test]" && '
+    assert install in shown, f"README.md: expected {install!r} before the test command"
+    command = shown.split(install, 1)[1]
+    ci = _after(
+        (root / ".ci" / "run").read_text(encoding="utf-8").splitlines(),
+        "# The README's test command",
+        ".ci/run",
+    )
+    assert ci == command
+    docs = _after(
+        (root / "docs" / "index.md").read_text(encoding="utf-8").splitlines(),
+        "**Run the tests**",
+        "docs/index.md",
+    )
+    assert docs.split(install, 1)[-1] == command
+    runs = [shlex.split(part) for part in command.split(" && ")]
+    assert len(runs) == 2, command
+    parallel, alone = runs
+    assert parallel[:3] == ["python", "-m", "pytest"] == alone[:3], command
+    assert "-n" in parallel, command
+    assert "-n" not in alone, command
+    assert parallel[parallel.index("-m", 3) + 1] == "(slow or not slow) and not serial", command
+    assert alone[alone.index("-m", 3) + 1] == "serial", command

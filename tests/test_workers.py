@@ -28,6 +28,10 @@ from robolobe.plan.pipeline import plan_path
 
 from .plan.conftest import example
 
+#: Alone, after the parallel run: the plot workers' readiness has wall-clock limits and a
+#: worker importing at nice 19 beside two busy test processes may never get the CPU.
+pytestmark = pytest.mark.serial
+
 
 def _affine(x: int, a: int = 1, b: int = 0) -> int:
     return a * x + b

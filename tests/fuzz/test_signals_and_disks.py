@@ -139,6 +139,7 @@ def _descendants(pid: int) -> list[int]:
 
 
 @pytest.mark.slow
+@pytest.mark.serial  # wall-clock limits: the pool up within 60 s, its workers gone 3 s after
 @pytest.mark.skipif(sys.platform == "win32", reason="POSIX signals")
 def test_sigterm_stops_the_workers_and_leaves_no_temporary(tmp_path: Path) -> None:
     from robolobe.cli.main import main as _

@@ -103,6 +103,7 @@ def outputs_peak(tmp: Path, n: int) -> dict[str, Any]:
 
 
 @pytest.mark.slow
+@pytest.mark.serial  # a peak-memory measurement: alone, not beside another test's process
 @pytest.mark.skipif(not sys.platform.startswith("linux"), reason="/proc/self/clear_refs: Linux")
 def test_long_path_outputs_peak_per_waypoint(tmp_path: Path) -> None:
     if not os.access("/proc/self/clear_refs", os.W_OK):
