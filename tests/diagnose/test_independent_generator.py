@@ -168,20 +168,24 @@ def test_fresh_set_is_drawn_once_and_covers_the_classes() -> None:
     assert not held & {c.label for c in cases if c.label != "null"}
 
 
-def test_a_later_fresh_set_is_another_draw_of_the_same_ranges() -> None:
-    """``fresh2028``: the same classes, other draws, seeds apart from every other set."""
+@pytest.mark.parametrize("draw", [2028, 2029])
+def test_a_later_fresh_set_is_another_draw_of_the_same_ranges(draw: int) -> None:
+    """``fresh2028``, ``fresh2029``: the same classes, other draws, seeds apart from every set."""
     from diagnose_independent import fresh_rows
 
-    cases = independent_cases(["fresh2028"])
+    name = f"fresh{draw}"
+    cases = independent_cases([name])
     assert len(cases) == 12
-    assert {c.subset for c in cases} == {"fresh2028"}
-    assert [x.kind for _, _, ex in fresh_rows(2028) for x in ex] == [
+    assert {c.subset for c in cases} == {name}
+    assert [x.kind for _, _, ex in fresh_rows(draw) for x in ex] == [
         x.kind for _, _, ex in fresh_rows(2027) for x in ex
     ]
-    assert [c.label for c in cases if c.label != "null"] != [
-        c.label for c in independent_cases(["fresh"]) if c.label != "null"
-    ]
-    others = independent_cases(["dev", "held", "fresh"])
+    earlier = ["fresh"] + [f"fresh{d}" for d in range(2028, draw)]
+    for e in earlier:
+        assert [c.label for c in cases if c.label != "null"] != [
+            c.label for c in independent_cases([e]) if c.label != "null"
+        ]
+    others = independent_cases(["dev", "held", *earlier])
     assert not {c.seed for c in cases} & {c.seed for c in others}
     assert sum(c.label == "null" for c in cases) == 1
 
