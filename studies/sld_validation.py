@@ -8,7 +8,8 @@ independent textbook ZOA (``tests/sld/zoa_reference.py``) on the cases of
 ``tests/sld/test_converged.py`` (robot modes with a tool mode, overdamped
 robot modes) and the bundled plans' stated limits at every cutting waypoint
 (``tests/plan/test_converged_plans.py``). About 75 s of CPU. Usage:
-``python studies/sld_validation.py`` (from the repository root).
+``python studies/sld_validation.py [--plans pocket,contour,face]`` (from the
+repository root; ``--plans`` names the bundled plans checked, all by default).
 
 Reference system (Insperger, Mann, Stepan & Bayly 2003; REFERENCES.md): N = 2,
 Kt = 6e8 N/m^2, Kn = 2e8 N/m^2, f_n = 922 Hz, zeta = 0.011,
@@ -17,6 +18,7 @@ k = m (2 pi f_n)^2 with m = 0.03993 kg.
 
 from __future__ import annotations
 
+import argparse
 import math
 import sys
 from pathlib import Path
@@ -60,7 +62,14 @@ def sdm_min(model: ModalModel, cond: CuttingConditions, rpm: np.ndarray, m: int 
     )
 
 
-def main() -> None:
+def main(argv: list[str] | None = None) -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument(
+        "--plans",
+        default="pocket,contour,face",
+        help="Comma-separated bundled plans whose stated a_lim_mm are checked.",
+    )
+    plans = [p for p in ap.parse_args(argv).plans.split(",") if p]
     print(f"{'quantity':48s} {'computed':>12s} {'reference':>12s}  note")
     slot = directional_factors(0.0, math.pi, KR)
     err = np.abs(slot - [[-KR * math.pi, -math.pi], [math.pi, -KR * math.pi]]).max()
@@ -149,10 +158,10 @@ def main() -> None:
             "0" if name == "2-DOF" else "> 0",
             "identical only for isotropic 2-DOF",
         )
-    converged()
+    converged(plans)
 
 
-def converged() -> None:
+def converged(plans: list[str]) -> None:
     """Converged lobes / reference ZOA at every speed, the cases of tests/sld/test_converged.py."""
     sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
     from tests.sld.test_converged import _ratio, _robot_and_tool
@@ -187,7 +196,11 @@ def converged() -> None:
     # the bundled plans' stated a_lim_mm at every cutting waypoint (tests/plan/test_converged_plans)
     from tests.plan.test_converged_plans import PLANS, _ratios
 
-    for name, (path, job) in PLANS.items():
+    unknown = sorted(set(plans) - set(PLANS))
+    if unknown:
+        sys.exit(f"--plans: expected names from {', '.join(PLANS)}, found {', '.join(unknown)}")
+    for name in plans:
+        path, job = PLANS[name]
         r3, _ = _ratios(name, every=1)
         what = f"{name} on {job[4]}, {r3.size} waypoints (stated a_lim_mm)"
         print(f"{what:48s} {r3.min():12.6f} {r3.max():12.6f}  {path}, {job}, at the planned rpm")

@@ -40,7 +40,8 @@ STUDIES = {
     "engagement": "--max-moves 40",
     "planner_receptance": "--robots A --postures 5",
     "plan_safety": "--draws 1 --robots user --jobs al --out {tmp}/plan_safety.json",
-    "sld_validation": "",
+    # the face plan only: tests/plan/test_converged_plans.py checks all three (minutes)
+    "sld_validation": "--plans face",
     "tl_schedule_cv": "--epochs 20 --repeats 1 --out {tmp}/cv.png",
 }
 
