@@ -379,23 +379,6 @@ def _stock_value(w, i, j, res):
     return w[j, i, 3]
 
 
-def _edge_point(cx, cy, rad, ph, fx, fy):
-    """The point [m] at edge angle ``ph`` [rad] (feed frame, clockwise from the left of
-    the feed ``(fx, fy)``) and distance ``rad`` [m] from the tool axis at ``(cx, cy)``."""
-    sp = math.sin(ph)
-    cp = math.cos(ph)
-    return cx + rad * (sp * fx - cp * fy), cy + rad * (sp * fy + cp * fx)
-
-
-def _height(w, ids, xyz, x0, y0, res, rr, ztop, px, py, z, tol, base, cand, chain):
-    """Material height [m] above ``base`` at ``(px, py)`` (:func:`_exact_top`) where the
-    material there stands above the tip ``z`` by more than ``tol``; ``-inf`` elsewhere."""
-    top = _exact_top(w, ids, xyz, x0, y0, res, rr, ztop, px, py, cand, chain)
-    if top > z + tol:
-        return top - base
-    return -_INF
-
-
 def _edge_value(w, ids, xyz, x0, y0, res, radius, cx, cy, z, fx, fy, tol, ph, cand, chain):
     """Material value at edge angle ``ph`` [rad] (negative: material).
 
@@ -416,7 +399,10 @@ def _edge_value(w, ids, xyz, x0, y0, res, radius, cx, cy, z, fx, fy, tol, ph, ca
     such a graze would hang on a micrometre (1 um of clearance moves a tangent
     graze's end by about 2 deg), the cut is none.
     """
-    px, py = _edge_point(cx, cy, radius, ph, fx, fy)
+    sp = math.sin(ph)
+    cp = math.cos(ph)
+    px = cx + radius * (sp * fx - cp * fy)
+    py = cy + radius * (sp * fy + cp * fx)
     gx = (px - x0) / res - 0.5
     gy = (py - y0) / res - 0.5
     i = math.floor(gx)
@@ -515,8 +501,9 @@ def _engage(w, ids, xyz, x0, y0, res, radius, cx, cy, z, fx, fy, bottom, ztop, t
             # the material top one cell inside the engaged edge point (at the edge itself
             # the top jumps where the edge runs along the wall of an earlier, deeper cut):
             # level cells now, the others (exact, slower) after, where they may be deeper
-            px, py = _edge_point(cx, cy, rin, ph, fx, fy)
-            lo, hi = _top_bounds(w, x0, y0, res, px, py)
+            ux = math.sin(ph) * fx - math.cos(ph) * fy
+            uy = math.sin(ph) * fy + math.cos(ph) * fx
+            lo, hi = _top_bounds(w, x0, y0, res, cx + rin * ux, cy + rin * uy)
             if hi - lo <= _LEVEL_CELLS:
                 if lo > z + tol:
                     depth = max(depth, lo - base)
@@ -524,19 +511,30 @@ def _engage(w, ids, xyz, x0, y0, res, radius, cx, cy, z, fx, fy, bottom, ztop, t
                 pend[k] = True
     for k in range(nphi):
         if pend[k] and depth < full:
-            px, py = _edge_point(cx, cy, rin, k * dphi, fx, fy)
-            lo, hi = _top_bounds(w, x0, y0, res, px, py)
+            ph = k * dphi
+            ux = math.sin(ph) * fx - math.cos(ph) * fy
+            uy = math.sin(ph) * fy + math.cos(ph) * fx
+            lo, hi = _top_bounds(w, x0, y0, res, cx + rin * ux, cy + rin * uy)
             if hi - base > depth:
-                depth = max(depth, _height(w, ids, xyz, x0, y0, res, rr, ztop, px, py, z, tol,
-                                           base, cand, chain))  # fmt: skip
+                top = _exact_top(
+                    w, ids, xyz, x0, y0, res, rr, ztop, cx + rin * ux, cy + rin * uy, cand, chain
+                )
+                if top > z + tol:
+                    depth = max(depth, top - base)
     sliver = 0.0
     if depth == 0.0:
         # where nothing is one cell inside (a sliver), the top at the engaged edge points
         for k in range(nphi):
             if vals[k] < 0.0:
-                px, py = _edge_point(cx, cy, radius, k * dphi, fx, fy)
-                sliver = max(sliver, _height(w, ids, xyz, x0, y0, res, rr, ztop, px, py, z, tol,
-                                             base, cand, chain))  # fmt: skip
+                ph = k * dphi
+                ux = math.sin(ph) * fx - math.cos(ph) * fy
+                uy = math.sin(ph) * fy + math.cos(ph) * fx
+                top = _exact_top(
+                    w, ids, xyz, x0, y0, res, rr, ztop, cx + radius * ux, cy + radius * uy, cand,
+                    chain,
+                )  # fmt: skip
+                if top > z + tol:
+                    sliver = max(sliver, top - base)
     narcs = 0
     entry = math.nan
     exit_ = math.nan
@@ -592,14 +590,20 @@ def _engage(w, ids, xyz, x0, y0, res, radius, cx, cy, z, fx, fy, bottom, ztop, t
                 elif not cr <= exit_:
                     exit_ = cr
             if v < 0.0:
-                px, py = _edge_point(cx, cy, rin, ph, fx, fy)
-                h = _height(w, ids, xyz, x0, y0, res, rr, ztop, px, py, z, tol, base, cand, chain)
-                if h > -_INF:
-                    depth = max(depth, h)
+                ux = math.sin(ph) * fx - math.cos(ph) * fy
+                uy = math.sin(ph) * fy + math.cos(ph) * fx
+                top = _exact_top(
+                    w, ids, xyz, x0, y0, res, rr, ztop, cx + rin * ux, cy + rin * uy, cand, chain
+                )
+                if top > z + tol:
+                    depth = max(depth, top - base)
                 else:
-                    px, py = _edge_point(cx, cy, radius, ph, fx, fy)
-                    sliver = max(sliver, _height(w, ids, xyz, x0, y0, res, rr, ztop, px, py, z,
-                                                 tol, base, cand, chain))  # fmt: skip
+                    top = _exact_top(
+                        w, ids, xyz, x0, y0, res, rr, ztop, cx + radius * ux, cy + radius * uy,
+                        cand, chain,
+                    )  # fmt: skip
+                    if top > z + tol:
+                        sliver = max(sliver, top - base)
             pa = ph
             pv = v
     out[0] = entry
@@ -840,8 +844,6 @@ def kernels(work: float = math.inf) -> Any:
             g["_top_bounds"] = deco(_top_bounds)
             g["_stock_value"] = deco(_stock_value)
             g["_top"] = deco(_top)
-            g["_edge_point"] = deco(_edge_point)
-            g["_height"] = deco(_height)
             g["_edge_value"] = deco(_edge_value)
             g["_crossing"] = deco(_crossing)
             g["_sample_crossing"] = deco(_sample_crossing)
