@@ -253,8 +253,9 @@ class RobotModes:
         ``k_sigma = 2``): the bound is the worst over the disk of radius
         ``k_sigma`` in standardized (frequency, compliance) errors, as the
         smallest limit of :data:`REGION_CORNERS` scenarios (a narrower window
-        with part of the lowering each, :func:`region_corners`) and of the
-        nominal modes in the whole window; its limit holds with
+        with part of the lowering each, :func:`region_corners`); the plan
+        takes the smaller of that and the nominal modes' limit over the
+        job's safety factor (a plain plan's); its limit holds with
         :func:`region_confidence` (95.45 % at ``k_sigma = 2``) where the limit
         is linear in the two errors. The window at a posture is that of the modes that set the
         limit there (peak compliance at least :data:`WINDOW_SHARE` of the
@@ -373,7 +374,7 @@ class RobustBound:
         ``k_sigma`` spreads of their product), batch (n,).
     window : ndarray, shape (n,)
         Relative half-width of the whole speed window (frequency uncertainty,
-        ``k_sigma`` spreads): the nominal modes' window.
+        ``k_sigma`` spreads): the first corner's.
     k_sigma : float
     std_max : ndarray, shape (3,)
         Largest spread used (std of log f, log zeta, log k) over the modes
@@ -467,9 +468,10 @@ def bound_scenario(model: ModalModel, safety_factor: float) -> ModalModel:
     A robust plan keeps the job's safety factor on the nominal modes and a
     margin of at least 1 on the bound (the bound is itself the margin for
     the quantified error: ``k_sigma`` spreads), so that its limit at each
-    waypoint is ``min(a_nominal / SF, a_bound)`` (both taken at the smallest
-    over the bound's speed window, :func:`robolobe.plan.lobes.waypoint_lobes`:
-    the nominal term is windowed too): a robust plan never gives
+    waypoint is ``min(a_nominal / SF, a_bound)`` (each corner of the bound's
+    joint region taken at its smallest over its own speed window,
+    :func:`robolobe.plan.lobes.waypoint_lobes`; the nominal term as a plain
+    plan takes it, without a window): a robust plan never gives
     less than a plain plan that is stable on the bound, and never more than
     the plain plan. Receptance is linear in the residues and the stability
     limit inverse in them, so dividing the bound's residues by ``SF`` puts
