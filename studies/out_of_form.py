@@ -44,7 +44,14 @@ spread was sized by compliance share), draws 8-9 from the next; draws 0-9 were
 all seen while the spread was taken from standardized residuals (in-sample x
 held-out, :func:`robolobe.tl.residual.standardized_residuals`), draws 10-13 were
 held back from that version and run once (``--robots B,C --first-draw 10
---draws 4 --jobs all``; ``meta.held_back``).
+--draws 4 --jobs all``). Draws 0-13 were all seen while the robust bound became
+the worst over one joint (frequency, peak compliance) region
+(:func:`robolobe.plan.modes.region_corners`, the nominal term without a
+window); draws 14-17 were held back from that version and run once
+(``--robots B --first-draw 14 --draws 4 --jobs all``, the same for C;
+``meta.held_back``). The share of true (f, compliance) errors inside that
+region is reported against its normal probability
+(:func:`robolobe.plan.modes.region_probability`).
 """
 
 from __future__ import annotations
