@@ -270,3 +270,39 @@ def test_parameter_covariance_is_positive_semi_definite_when_ill_conditioned():
         worst = min(worst, np.linalg.eigvalsh(c).min() / np.abs(c).max())
     assert worst_pinv < -1e-9  # the case the check refused
     assert worst >= -1e-12
+
+
+def test_starts_stop_where_the_best_minimum_is_found_again(monkeypatch):
+    """Issue 27 speed: a stage whose frequencies never fit to the noise (``accept_rms_f``
+    0 here, out-of-form robots in the study) stops at the first start that ends at the
+    best cost again; all starts run give the same factors."""
+    import robolobe.tl.graybox as gb
+
+    ids, q, roles = design_arrays(seed_design("B"))
+    base = load_robot("B")
+    truth = apply_parameters(base, GROUPS, np.log(FACTORS))
+    ds = twin_modal_dataset(Twin(truth), ids, q, rng=np.random.default_rng(3))
+    ds = ds.subset(np.asarray(roles) == "train")
+    calls = []
+    real = gb.least_squares
+
+    def counted(*a, **k):
+        calls.append(k.get("loss", "linear"))
+        return real(*a, **k)
+
+    monkeypatch.setattr(gb, "least_squares", counted)
+
+    def fit():
+        calls.clear()
+        m = TwinCalibration(robot=base, params=GROUPS, accept_rms_f=0.0, n_starts=4)
+        return m.fit_dataset(ds), calls.count("soft_l1")
+
+    stopped, n_stopped = fit()
+    assert gb._same_minimum(1.0, 1.0 + 0.5 * gb.SAME_MINIMUM_RTOL)
+    assert not gb._same_minimum(1.0, 1.0 + 2 * gb.SAME_MINIMUM_RTOL)
+    assert not gb._same_minimum(0.5, 1.0)  # a lower cost is a new minimum
+    monkeypatch.setattr(gb, "SAME_MINIMUM_RTOL", -1.0)  # never the same: every start
+    every, n_every = fit()
+    assert n_every == 4
+    assert 2 <= n_stopped < n_every  # stopped where a start found the best again
+    np.testing.assert_allclose(stopped.theta_, every.theta_, atol=1e-6)

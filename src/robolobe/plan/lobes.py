@@ -494,7 +494,7 @@ def waypoint_lobes(
     unbounded: NDArray[np.bool_] | None = None,
     tol: DynamicsTolerance | None = None,
     max_lobe_cap: int = 400,
-    window: FloatArray | None = None,
+    window: FloatArray | Sequence[FloatArray | None] | None = None,
     own: NDArray[np.bool_] | None = None,
     reuse: GroupedLobes | None = None,
     features: FloatArray | None = None,
@@ -531,6 +531,8 @@ def waypoint_lobes(
         ``n (1 + t w)``, ``|t| <= 1`` (sampled at most one grid step apart,
         kept inside the grid) in the exact queries, over the grid points inside
         the window on the grid. A group takes the widest window of its members.
+        A list (one per model, None for none): each scenario in its own window
+        (a robust bound's joint region, :func:`robolobe.plan.modes.region_corners`).
     own : ndarray of bool, shape (n,), optional
         Waypoints that get lobes of their own whatever the tolerance (e.g. those
         :func:`steep_members` finds next to a steep lobe wall).
@@ -623,11 +625,19 @@ def waypoint_lobes(
         parts = [
             [_leader_lobes(m.take(leader), zoa_args, max_lobe=None, idx=leader) for m in models]
         ]
+    # per scenario windows (n_scen, n_groups + 1): one row when all scenarios share one
+    w_scen = _scenario_windows(window, len(models), n, group_of=(idx_b, g_b), n_groups=n_groups)
+    per_scen = w_scen.shape[0] > 1
     a_grid = np.full((n_groups + 1, rpm.size), np.inf)
+    a_scen = np.full((len(models) if per_scen else 0, n_groups + 1, rpm.size), np.inf)
     start = 0
     for part in parts:
         stop = start + part[0].a_lim.shape[0]
-        a_grid[start:stop] = np.min(np.stack([d.a_lim for d in part]), axis=0)
+        if per_scen:
+            for j, d in enumerate(part):
+                a_scen[j, start:stop] = d.a_lim
+        else:
+            a_grid[start:stop] = np.min(np.stack([d.a_lim for d in part]), axis=0)
         start = stop
     group = np.full(n, n_groups, np.int64)  # last row: unbounded
     group[idx_b] = g_b
@@ -709,18 +719,42 @@ def waypoint_lobes(
             out[sel] = query(rows[sel], groups[sel])
         return out
 
-    w_group = np.zeros(n_groups + 1)
-    if window is not None and n_groups:
-        w = np.clip(np.nan_to_num(np.asarray(window, dtype=np.float64)), 0.0, 0.5)
-        if w.shape != (n,):
-            raise InputError(f"window: expected shape ({n},), found {w.shape}")
-        np.maximum.at(w_group, group, w)
-        w_group[n_groups] = 0.0
+    w_group = w_scen.max(axis=0)
     w_max = float(w_group.max())
-    if w_max > 0:
-        step = float(rpm[-1] - rpm[0]) / max(rpm.size - 1, 1)
-        n_t = int(min(41, max(3, 2 * math.ceil(w_max * rpm[-1] / max(step, 1e-9)) + 1)))
-        t_samples = np.linspace(-1.0, 1.0, n_t)
+    if per_scen:
+
+        def scen_query(rows: FloatArray, g: IntArray, j: int) -> FloatArray:
+            diagrams = parts[0] if len(parts) == 1 else whole()
+            return lobes_at(
+                np.ascontiguousarray(rows, dtype=np.float64),
+                np.ascontiguousarray(g, dtype=np.int64),
+                [diagrams[j]],
+            )
+
+        def exact(rows: FloatArray, groups: IntArray) -> FloatArray:
+            out = np.full(rows.shape, np.inf)
+            sel = groups < n_groups  # the last row is the unbounded one
+            if not np.any(sel):
+                return out
+            r, g = rows[sel], groups[sel]
+            best = np.full(r.shape, np.inf)
+            for j in range(len(models)):
+                wj = w_scen[j][g]
+                t_j = _window_samples(float(wj.max()), rpm)
+                shifted = np.clip(
+                    r[:, None, :] * (1.0 + t_j[:, None] * wj[:, None, None]), rpm[0], rpm[-1]
+                )
+                vals = scen_query(shifted.reshape(r.shape[0], -1), g, j)
+                np.minimum(best, vals.reshape(shifted.shape).min(axis=1), out=best)
+            out[sel] = best
+            return out
+
+        for j in range(len(models)):
+            a_scen[j, :n_groups] = _window_grid(a_scen[j, :n_groups], w_scen[j][:n_groups], rpm)
+        a_grid = a_scen.min(axis=0)
+        del a_scen
+    elif w_max > 0:
+        t_samples = _window_samples(w_max, rpm)
 
         def exact(rows: FloatArray, groups: IntArray) -> FloatArray:
             # all shifts in one envelope query (one pass over the lobe pieces)
@@ -729,18 +763,7 @@ def waypoint_lobes(
             vals = exact0(shifted.reshape(rows.shape[0], -1), groups)
             return np.asarray(vals.reshape(shifted.shape).min(axis=1))
 
-        # the grid: a running minimum of the grid itself over each group's window
-        # (exact at the grid speeds, sampled at the grid's own spacing in between)
-        lo_idx = np.searchsorted(rpm, rpm[None, :] * (1.0 - w_group[:n_groups, None]), "left")
-        hi_idx = np.searchsorted(rpm, rpm[None, :] * (1.0 + w_group[:n_groups, None]), "right")
-        base = a_grid[:n_groups].copy()
-        win = base.copy()
-        cols = np.arange(rpm.size)
-        for off in range(1, int(np.max(np.maximum(cols - lo_idx, hi_idx - 1 - cols))) + 1):
-            left = np.where(cols - off >= lo_idx, np.roll(base, off, axis=1), np.inf)
-            right = np.where(cols + off <= hi_idx - 1, np.roll(base, -off, axis=1), np.inf)
-            win = np.minimum(win, np.minimum(left, right))
-        a_grid[:n_groups] = win
+        a_grid[:n_groups] = _window_grid(a_grid[:n_groups], w_group[:n_groups], rpm)
     else:
         exact = exact0
 
@@ -757,6 +780,65 @@ def waypoint_lobes(
         query=query if n_groups else None,
         query_compiled=kern is not None,
     )
+
+
+def _scenario_windows(
+    window: FloatArray | Sequence[FloatArray | None] | None,
+    n_models: int,
+    n: int,
+    *,
+    group_of: tuple[IntArray, IntArray],
+    n_groups: int,
+) -> FloatArray:
+    """Each group's speed window per scenario, shape (n_scen, n_groups + 1).
+
+    One row (every scenario in the same window) unless ``window`` is a list of
+    per-scenario windows that differ; a group takes the widest of its members;
+    the last (unbounded) row has none.
+    """
+    if window is None or isinstance(window, np.ndarray):
+        rows: list[FloatArray | None] = [window]
+    else:
+        rows = list(window)
+        if len(rows) != n_models:
+            raise InputError(
+                f"window: expected one window per model ({n_models}), found {len(rows)}"
+            )
+    idx_b, g_b = group_of
+    out = np.zeros((len(rows), n_groups + 1))
+    for j, w_in in enumerate(rows):
+        if w_in is None or not n_groups:
+            continue
+        w = np.clip(np.nan_to_num(np.asarray(w_in, dtype=np.float64)), 0.0, 0.5)
+        if w.shape != (n,):
+            raise InputError(f"window: expected shape ({n},), found {w.shape}")
+        np.maximum.at(out[j], g_b, w[idx_b])
+    if out.shape[0] > 1 and np.all(out == out[:1]):
+        out = out[:1]
+    return out
+
+
+def _window_samples(w_max: float, rpm: FloatArray) -> FloatArray:
+    """Relative shifts ``t`` in [-1, 1] at which a window of half-width ``w_max`` is
+    sampled in the exact queries: at most one grid step apart (3 to 41)."""
+    step = float(rpm[-1] - rpm[0]) / max(rpm.size - 1, 1)
+    n_t = int(min(41, max(3, 2 * math.ceil(w_max * rpm[-1] / max(step, 1e-9)) + 1)))
+    return np.linspace(-1.0, 1.0, n_t)
+
+
+def _window_grid(base: FloatArray, w: FloatArray, rpm: FloatArray) -> FloatArray:
+    """The grid's running minimum over each row's speed window ``rpm (1 +- w)``
+    (exact at the grid speeds, sampled at the grid's own spacing in between)."""
+    lo_idx = np.searchsorted(rpm, rpm[None, :] * (1.0 - w[:, None]), "left")
+    hi_idx = np.searchsorted(rpm, rpm[None, :] * (1.0 + w[:, None]), "right")
+    win = base.copy()
+    cols = np.arange(rpm.size)
+    reach = np.maximum(cols - lo_idx, hi_idx - 1 - cols)
+    for off in range(1, int(np.max(reach, initial=0)) + 1):
+        left = np.where(cols - off >= lo_idx, np.roll(base, off, axis=1), np.inf)
+        right = np.where(cols + off <= hi_idx - 1, np.roll(base, -off, axis=1), np.inf)
+        win = np.minimum(win, np.minimum(left, right))
+    return win
 
 
 def _cut_alpha(

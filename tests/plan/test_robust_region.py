@@ -1,0 +1,130 @@
+"""The robust bound's joint (frequency, peak compliance) error region (issue 27).
+
+A robust plan took the 2-sigma speed window and the 2-sigma compliance
+lowering at once: the corner (2, 2) of a box, 2.8 sigma from the prediction.
+It now takes the worst over the disk of radius ``k_sigma`` in standardized
+errors, as a few corners each planned in its own speed window.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from robolobe._modal_parameters import ModalParameters
+from robolobe.errors import InputError
+from robolobe.plan.lobes import waypoint_lobes
+from robolobe.plan.modes import (
+    REGION_CORNERS,
+    RobotModes,
+    region_confidence,
+    region_corners,
+    region_cover,
+    region_probability,
+)
+from robolobe.sld.conditions import engagement_angles
+from robolobe.sld.frf import ModalModel
+
+
+def test_corners_hold_the_disk_for_every_linear_limit():
+    """The worst of ``a t + b u`` over the corners is at least its worst over the disk
+    (``hypot(a, b)``), and the one-quantity worst cases are the corners' extremes."""
+    c = region_corners()
+    assert c.shape == (REGION_CORNERS, 2)
+    assert c[0, 0] == pytest.approx(1.0)  # the whole window with the least lowering
+    assert c[-1, 1] == pytest.approx(1.0)  # the whole lowering in the narrowest window
+    assert np.all(np.diff(c[:, 0]) < 0)
+    assert np.all(np.diff(c[:, 1]) > 0)
+    ang = np.linspace(0.0, 0.5 * math.pi, 721)
+    a, b = np.cos(ang), np.sin(ang)
+    support = np.max(a[:, None] * c[None, :, 0] + b[:, None] * c[None, :, 1], axis=1)
+    assert np.all(support >= 1.0 - 1e-12)
+    # and not far outside it: the old box corner (1, 1) gave sqrt(2) along the diagonal
+    assert support.max() <= 1.0 / math.cos(0.25 * math.pi / REGION_CORNERS) + 1e-12
+    for n in (1, 2, 5):
+        assert np.max(np.hypot(*region_corners(n).T)) == pytest.approx(
+            1.0 / math.cos(0.25 * math.pi / n)
+        )
+
+
+def test_region_probabilities_against_sampled_normal_errors():
+    """Stated probabilities checked on sampled standard normal errors (independent of
+    the formulas): the region's mass, and the limit's for limits linear in |t| and u."""
+    rng = np.random.default_rng(5)
+    t, u = rng.standard_normal((2, 400_000))
+    k = 2.0
+    inside = region_cover(k, t, u)
+    assert np.mean(inside) == pytest.approx(region_probability(k), abs=0.002)
+    assert region_probability(k) == pytest.approx(0.909, abs=0.001)
+    assert region_confidence(k) == pytest.approx(0.9545, abs=1e-4)
+    c = k * region_corners()
+    for a in (0.0, 0.3, 1.0, 3.0):
+        # log limit falls by a |t| + u; the bound takes the worst over the corners
+        worst = np.max(a * c[:, 0] + c[:, 1])
+        held = np.mean(a * np.abs(t) + u <= worst)
+        assert held >= region_confidence(k) - 0.002
+    # a limit with no frequency term: the one-sided k-sigma bound
+    assert np.mean(u <= np.max(c[:, 1])) == pytest.approx(0.5 * (1 + math.erf(k / 2**0.5)), 2e-3)
+
+
+def _one_mode_modes(s_f, s_z, s_k):
+    f = np.array([[[30.0], [30.0], [np.nan]]])
+    z = np.full_like(f, 0.04)
+    k = np.array([[[2e6], [3e6], [np.nan]]])
+    std = np.zeros((1, 3, 1, 3))
+    std[..., 0], std[..., 1], std[..., 2] = s_f, s_z, s_k
+    p = ModalParameters(f, z, k, ("xx", "yy", "zz"), log_std=std)
+    return RobotModes(p, ModalModel.from_parameters(p), None, "test", spread_calibrated=True)
+
+
+def test_bound_corners_lower_and_window_by_their_share_of_k_sigma():
+    modes = _one_mode_modes(0.03, 0.06, 0.08)
+    b = modes.robust(2.0)
+    assert b is not None
+    assert len(b.corners()) == REGION_CORNERS
+    assert b.confidence == pytest.approx(region_confidence(2.0))
+    c = region_corners()
+    s_c = math.hypot(0.06, 0.08)
+    for (m, w), (c_t, c_u) in zip(b.corners(), c, strict=True):
+        assert w[0] == pytest.approx(2.0 * c_t * 0.03)
+        # peak compliance 1 / (k zeta) of mode 1 along x raised by exp(2 c_u s_c)
+        peak = m.residues[0, 0, 0, 0] / m.zeta[0, 0]
+        peak0 = modes.model.residues[0, 0, 0, 0] / modes.model.zeta[0, 0]
+        assert peak / peak0 == pytest.approx(math.exp(2.0 * c_u * s_c))
+    assert b.window[0] == pytest.approx(2.0 * 0.03)  # the nominal's window: all of it
+    assert "not both at once" in b.describe()["statement"]
+
+
+def _lobes(models, window):
+    st, ex = engagement_angles(0.5, "down")
+    kw = dict(teeth=3, kt=767e6, kr=0.3, phi_entry=st, phi_exit=ex, immersion=0.5)
+    rpm = np.linspace(3000.0, 9000.0, 400)
+    return waypoint_lobes(models, rpm=rpm, window=window, **kw), rpm
+
+
+def test_each_scenario_in_its_own_window_is_the_min_of_each_alone():
+    """Per-scenario windows: the grid and the exact limit are the smallest of each
+    scenario planned alone in its own window (the single-scenario path)."""
+    modes = _one_mode_modes(0.03, 0.06, 0.08)
+    feed = ModalModel(modes.model.omega, modes.model.zeta, modes.model.residues[..., :2, :2])
+    soft = ModalModel(feed.omega, feed.zeta * 0.8, feed.residues * 1.3)
+    w_a, w_b = np.array([0.06]), np.array([0.01])
+    both, _rpm = _lobes([feed, soft], [w_a, w_b])
+    alone_a, _ = _lobes([feed], w_a)
+    alone_b, _ = _lobes([soft], w_b)
+    ref = np.minimum(alone_a.table.a_lim[0], alone_b.table.a_lim[0])
+    np.testing.assert_allclose(both.table.a_lim[0], ref, rtol=1e-12)
+    rows = np.linspace(3100.0, 8900.0, 57)[None]
+    g = np.zeros(1, np.int64)
+    ex_ref = np.minimum(alone_a.table.exact(rows, g), alone_b.table.exact(rows, g))
+    np.testing.assert_allclose(both.table.exact(rows, g), ex_ref, rtol=1e-12)
+    # the same window for both: the shared path, the same answer as a one-row window
+    same, _ = _lobes([feed, soft], [w_a, w_a])
+    shared, _ = _lobes([feed, soft], w_a)
+    np.testing.assert_allclose(same.table.a_lim, shared.table.a_lim, rtol=0)
+    # the joint region is never below the old box (both worst cases at once)
+    assert np.all(both.table.a_lim[0] >= _lobes([soft], w_a)[0].table.a_lim[0] - 1e-15)
+    with pytest.raises(InputError, match="one window per model"):
+        _lobes([feed, soft], [w_a])
