@@ -233,3 +233,21 @@ def test_study_runs_one_small_case(tmp_path: object) -> None:
         study.main(["--subset", "dev", "--postures", "3", "--only", "8", "--out", str(tmp_path)])
         == 0
     )
+
+
+def test_fresh2029_figures_from_the_committed_results() -> None:
+    """The fresh-2029 figures (drawn once, run once on the final code) come from this CSV."""
+    from pathlib import Path
+
+    import diagnose_independent_study as study
+
+    csv = Path(__file__).resolve().parents[2] / "studies" / "diagnose_independent_fresh2029.csv"
+    df = study._complete(study._read(csv))
+    assert len(df) == 12
+    assert set(df["subset"]) == {"fresh2029"}
+    assert [str(c) for c in df["case"]] == [c.label for c in independent_cases(["fresh2029"])]
+    tab = study.summary(df).set_index("class")
+    assert tab.loc["all", "false claims"] == 0
+    assert tab.loc["all", "exact"] == 9
+    assert tab.loc["all", "named"] == 9
+    assert tab.loc["all", "unexplained"] == 4
