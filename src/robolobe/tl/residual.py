@@ -100,7 +100,8 @@ _RHO_BOUNDS = (0.01, 0.99)
 
 #: Width [std] at which the planning spread is calibrated, and the share of held-out
 #: tests it must cover there (two-sided normal: 95.45 %; a robust plan's default
-#: ``k_sigma = 2`` bound is this one-sided, 97.7 % per quantity).
+#: ``k_sigma = 2`` joint (frequency, compliance) region states the same 95.45 % for
+#: a limit linear in the errors: ``plan.modes.region_confidence``).
 SPREAD_SIGMA = 2.0
 SPREAD_CONFIDENCE = math.erf(SPREAD_SIGMA / math.sqrt(2.0))
 _SCALE_BOUNDS = (0.25, 10.0)  # least and largest calibration scale of a quantity's spread
