@@ -165,20 +165,25 @@ def test_heavily_damped_and_overdamped_modes(zeta: float) -> None:
     assert np.all(np.abs(_ratio(got.a_lim, ref) - 1.0) <= LOBE_TOL)
 
 
-def test_compiled_and_numpy_paths_agree() -> None:
-    from robolobe import _jit
-
-    if not _jit.available():
-        pytest.skip("numba not installed")
-    rng = np.random.default_rng(5)
-    n = 6
+def _random_batch(seed: int, n: int) -> ModalModel:
+    """``n`` random entries of 3 robot modes (5-50 Hz) and 2 tool modes (500-2,500 Hz),
+    each mode along its own direction in the x-y plane."""
+    rng = np.random.default_rng(seed)
     f = np.concatenate([rng.uniform(5, 50, (n, 3)), rng.uniform(500, 2500, (n, 2))], axis=1)
     z = rng.uniform(0.01, 0.1, f.shape)
     k = 10 ** rng.uniform(5.5, 7.5, f.shape)
     th = rng.uniform(0, np.pi, f.shape)
     u = np.stack([np.cos(th), np.sin(th)], axis=-1)
     res = ((2 * np.pi * f) ** 2 / k)[..., None, None] * u[..., :, None] * u[..., None, :]
-    model = ModalModel(2 * np.pi * f, z, res)
+    return ModalModel(2 * np.pi * f, z, res)
+
+
+def test_compiled_and_numpy_paths_agree() -> None:
+    from robolobe import _jit
+
+    if not _jit.available():
+        pytest.skip("numba not installed")
+    model = _random_batch(seed=5, n=6)
     al = alphas(0.0, math.pi / 2, 0.3)
     rpm = np.linspace(2000.0, 24000.0, 200)
     a = converged_lobes(model, al, teeth=3, kt=7e8, rpm=rpm, jit=False)
@@ -200,15 +205,7 @@ def test_compiled_result_does_not_depend_on_the_room_guess_or_chunks(monkeypatch
 
     if not _jit.available():
         pytest.skip("numba not installed")
-    rng = np.random.default_rng(11)
-    n = 9
-    f = np.concatenate([rng.uniform(5, 50, (n, 3)), rng.uniform(500, 2500, (n, 2))], axis=1)
-    z = rng.uniform(0.01, 0.1, f.shape)
-    k = 10 ** rng.uniform(5.5, 7.5, f.shape)
-    th = rng.uniform(0, np.pi, f.shape)
-    u = np.stack([np.cos(th), np.sin(th)], axis=-1)
-    res = ((2 * np.pi * f) ** 2 / k)[..., None, None] * u[..., :, None] * u[..., None, :]
-    model = ModalModel(2 * np.pi * f, z, res)
+    model = _random_batch(seed=11, n=9)
     al = alphas(0.0, math.pi / 2, 0.3)
     rpm = np.linspace(2000.0, 24000.0, 200)
     ref = converged_lobes(model, al, teeth=3, kt=7e8, rpm=rpm, jit=True)
