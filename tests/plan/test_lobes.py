@@ -281,7 +281,9 @@ def test_numpy_grouping_equals_the_tree_loop():
         n, nf = int(rng.integers(1, 300)), int(rng.integers(0, 6))
         # features on a 0.25 lattice: distances of exactly the radius (0.75) occur
         f = np.round(rng.uniform(0.0, rng.uniform(0.5, 6.0), (n, nf)) * 4.0) / 4.0
-        ref = lobes_mod._leaders_tree(f) if nf else (np.zeros(n, np.int64), np.zeros(1, np.int64))
+        # without features every row is within the radius: one group, led by the last row
+        # (the centred leader of the first)
+        ref = lobes_mod._leaders_tree(f) if nf else (np.zeros(n, np.int64), np.array([n - 1]))
         got = lobes_mod._leaders_numpy(f)
         np.testing.assert_array_equal(got[0], ref[0])
         np.testing.assert_array_equal(got[1], ref[1])
@@ -391,3 +393,39 @@ def test_group_features_in_place_equal_plain_copies(monkeypatch):
     assert 1 < lead.size < n
     np.testing.assert_array_equal(group, want_group)
     np.testing.assert_array_equal(lead, want_lead)
+
+
+@pytest.mark.parametrize("how", ["numpy", "tree", "compiled"])
+def test_leaders_stand_in_the_middle_of_their_groups(how):
+    """Along a path the leader of a group is the last row within the radius of the first
+    row not yet grouped: it takes the rows up to the radius on both sides of it (a group
+    of five rows 0.3 apart at radius 0.75, not three), and every member lies within the
+    radius of its leader (random walks of features)."""
+    from robolobe import _jit
+    from robolobe.plan import lobes as lobes_mod
+
+    if how == "compiled" and not _jit.available():
+        pytest.skip("numba not installed")
+
+    def cluster(f):
+        if how == "numpy":
+            return lobes_mod._leaders_numpy(f)
+        if how == "tree":
+            return lobes_mod._leaders_tree(f)
+        from robolobe.plan import _group_kernels
+
+        return _group_kernels.leaders(f, lobes_mod._RADIUS)
+
+    line = 0.3 * np.arange(20.0)[:, None]  # rows 0.3 apart: 0.6 <= 0.75 < 0.9
+    label, lead = cluster(line)
+    np.testing.assert_array_equal(lead, [2, 7, 12, 17])
+    np.testing.assert_array_equal(label, np.arange(20) // 5)
+    rng = np.random.default_rng(5)
+    for _ in range(20):
+        n, nf = int(rng.integers(2, 400)), int(rng.integers(1, 8))
+        f = np.cumsum(rng.normal(scale=rng.uniform(0.05, 0.8), size=(n, nf)), axis=0)
+        label, lead = cluster(f)
+        assert np.all(label >= 0)
+        np.testing.assert_array_equal(label[lead], np.arange(lead.size))
+        dist = np.abs(f - f[lead[label]]).max(axis=1)
+        assert np.all(dist <= lobes_mod._RADIUS)

@@ -1,7 +1,8 @@
 """Compiled (numba) leader clustering of waypoint dynamics (lobes.group_dynamics).
 
-The leaders are taken in path order, each taking every row not yet grouped
-within ``radius`` in the max norm, as the cKDTree loop of
+The leaders are taken in path order (each the centred leader of the first row
+not yet grouped, :func:`robolobe.plan.lobes._centred`), each taking every row
+not yet grouped within ``radius`` in the max norm, as the cKDTree loop of
 :func:`robolobe.plan.lobes._leaders_tree` does (the same comparisons,
 ``max |f_j - f_lead| <= radius`` in floating point, so the same groups); the
 candidates of a leader come from a window of the rows sorted by one feature
@@ -34,9 +35,21 @@ def _leaders(
     m, nf = f.shape
     leaders = np.empty(m, np.int64)
     n_lead = 0
-    for lead in range(m):
-        if label[lead] >= 0:
+    for first in range(m):
+        if label[first] >= 0:
             continue
+        # the centred leader (lobes._centred): the last of the rows following ``first``
+        # not yet grouped and within the radius of it
+        lead = first
+        while lead + 1 < m and label[lead + 1] < 0:
+            near = True
+            for c in range(nf):
+                if abs(f[lead + 1, c] - f[first, c]) > radius:
+                    near = False
+                    break
+            if not near:
+                break
+            lead += 1
         x = f[lead, col]
         # a window twice as wide as the radius (a superset whatever the rounding of
         # x +- radius); the exact test below decides
