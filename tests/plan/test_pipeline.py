@@ -271,12 +271,15 @@ def test_degenerate_paths(tmp_path, pocket_job):
     assert res.lobes.n_groups == 0
 
 
-@pytest.mark.parametrize("threads", [1, 2])
+@pytest.mark.parametrize(
+    ("threads", "split"), [(1, False), (2, False), (1, True), (2, True), (2, "distinct")]
+)
 @pytest.mark.parametrize("source_kind", ["twin", "builtin"])
 def test_modes_of_distinct_postures_in_chunks_equal_one_call(
-    pocket, monkeypatch, source_kind, threads
+    pocket, monkeypatch, source_kind, threads, split
 ):
-    """Each distinct posture predicted once, in chunks (on one or two threads),
+    """Each distinct posture predicted once, in chunks (on one or two threads; from
+    _SPLIT_MIN postures on a small first chunk and the rest shared between the threads),
     expanded: the modes of one call."""
     from robolobe.plan import pipeline
     from robolobe.plan.modes import mode_source
@@ -284,9 +287,13 @@ def test_modes_of_distinct_postures_in_chunks_equal_one_call(
     robot = load_robot("A")
     source, _ = mode_source(source_kind, robot, "A")
     q = pocket.q[pocket.cut_index][:60]
-    q = np.concatenate([q, q[::-3], q[:5]])  # repeats, out of order
+    if split != "distinct":
+        q = np.concatenate([q, q[::-3], q[:5]])  # repeats, out of order
     monkeypatch.setattr(pipeline, "_CHUNK", 16)
     monkeypatch.setattr(pipeline, "_THREADS", threads)
+    if split:
+        monkeypatch.setattr(pipeline, "_SPLIT_MIN", 20)
+        monkeypatch.setattr(pipeline, "_HEAD", 5)
     calls = []
     inner = source.predict
 
@@ -298,6 +305,9 @@ def test_modes_of_distinct_postures_in_chunks_equal_one_call(
     got = pipeline._predict_modes(source, q)
     assert sum(calls) == 60
     assert max(calls) <= 16
+    if split and threads == 2:
+        assert calls[0] == 5
+        assert len(calls) > 2
     ref = inner(q)
     for name in ("f_hz", "zeta", "k_N_per_m", "log_std", "extrapolation"):
         a, b = getattr(got, name), getattr(ref, name)
@@ -491,3 +501,27 @@ def test_columns_added_to_a_fragmented_result_table_do_not_warn():
         with _columns_added():
             table["inside"] = np.ones(4)
     assert table["inside"].sum() == 4
+
+
+def test_optimizer_timings_cover_every_run(pocket_job, monkeypatch):
+    """The plan's optimizer timings are summed over all its runs (the pass counts that
+    schedule_passes tries, the final one), with their number; the optimize stage
+    leaves out the lobes of a steep-wall split (counted under lobes)."""
+    from robolobe.plan import pipeline
+
+    inner = pipeline.optimize_schedule
+    seen = []
+
+    def counted(*a, **k):
+        out = inner(*a, **k)
+        seen.append(dict(out.timings))
+        return out
+
+    monkeypatch.setattr(pipeline, "optimize_schedule", counted)
+    res = plan_path(example("pocket.nc"), pocket_job)
+    got = res.outcome.timings
+    assert len(seen) >= 2  # the bundled pocket is planned in passes: several runs
+    assert got["runs"] == len(seen)
+    for key in ("constant", "total"):
+        assert got[key] == pytest.approx(sum(t.get(key, 0.0) for t in seen), rel=1e-12)
+    assert res.timings["optimize"] >= got["total"]  # the stage holds every run

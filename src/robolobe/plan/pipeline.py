@@ -13,9 +13,11 @@ Stages (each timed, :attr:`PlanResult.timings`):
 4. ``frf``: tool-point models in the feed frame (robot + spindle/tool modes,
    rotated; :func:`robolobe.sld.toolpoint.tool_point_model`).
 5. ``lobes``: ZOA lobes batched over the distinct dynamics
-   (:func:`robolobe.plan.lobes.waypoint_lobes`).
+   (:func:`robolobe.plan.lobes.waypoint_lobes`), with the lobes of the
+   waypoints next to a steep wall that get their own after the first schedule.
 6. ``optimize``: global search, casadi refinement, exact verification
-   (:func:`robolobe.plan.optimize.optimize_schedule`).
+   (:func:`robolobe.plan.optimize.optimize_schedule`), every run of it (pass
+   counts, the schedule again after a steep-wall split), without those lobes.
 7. ``table``: the per-waypoint result table and the summary.
 
 TCP frame convention (robot files): the TCP z axis points out of the tool
@@ -134,7 +136,10 @@ class PlanResult:
     table : pandas.DataFrame
         The per-waypoint result (see :func:`plan_path`).
     outcome : PlanOutcome
-        Schedules (plan and baselines) for the cutting waypoints.
+        Schedules (plan and baselines) for the cutting waypoints; its
+        ``timings`` are the optimizer's seconds per step summed over all its
+        runs for this plan (the pass counts tried, the schedule made again
+        after a steep-wall split), ``runs`` their number.
     lobes : GroupedLobes
         Lobes of the distinct dynamics.
     cut_index : ndarray of int, shape (n_cut,)
@@ -356,6 +361,11 @@ _CHUNK = 16_384
 #: Threads predicting modes chunk by chunk on a long path (each holds one chunk's
 #: temporaries); the chunks' results do not depend on it.
 _THREADS = min(2, os.cpu_count() or 1)
+#: Distinct postures from which the modes are predicted on the threads even within one
+#: :data:`_CHUNK` (below, one call: the threads' start costs more than they give).
+_SPLIT_MIN = 2_048
+#: Postures of the first call alone (the source's lazy set-up) when the rest is split.
+_HEAD = 64
 
 
 def _wrist_measure(robot: Robot, q: FloatArray) -> FloatArray:
@@ -395,7 +405,7 @@ def _predict_modes(source: ModeSource, q: FloatArray) -> RobotModes:
     key = np.ascontiguousarray(q + 0.0).view(np.dtype((np.void, 6 * 8))).ravel()
     _, first, inv = np.unique(key, return_index=True, return_inverse=True)
     inv = np.asarray(inv).ravel()
-    if first.size == n and n <= _CHUNK:
+    if first.size == n and (n < _SPLIT_MIN or _THREADS < 2):
         return source.predict(q)
     order = np.sort(first)  # distinct postures in path order
     rank = np.empty(n, np.int64)
@@ -403,11 +413,19 @@ def _predict_modes(source: ModeSource, q: FloatArray) -> RobotModes:
     expand = rank[first[inv]]  # row of each posture among the distinct ones
     del key, first, inv, rank
     uq = q[order]
-    filled = _ModesFill(uq.shape[0])
-    # the first chunk alone (a source's lazy set-up happens once), the rest on the
-    # cores: numpy releases the GIL in the per-posture linear algebra
-    filled.put(0, source.predict(uq[:_CHUNK]))
-    rest = list(range(_CHUNK, uq.shape[0], _CHUNK))
+    n_u = uq.shape[0]
+    filled = _ModesFill(n_u)
+    # a first chunk alone (a source's lazy set-up happens once), the rest on the
+    # cores: numpy releases the GIL in the per-posture linear algebra. From
+    # _SPLIT_MIN postures on, the first is small and the rest is shared between the
+    # threads (10k-waypoint plan: the stage's wall time about halved on 2 cores)
+    step = _CHUNK
+    head = _CHUNK
+    if n_u >= _SPLIT_MIN and _THREADS > 1:
+        head = min(_HEAD, n_u)
+        step = min(_CHUNK, -(-(n_u - head) // _THREADS))
+    filled.put(0, source.predict(uq[:head]))
+    rest = list(range(head, n_u, step))
     workers = min(_THREADS, len(rest))
     if workers > 1:
         from concurrent.futures import ThreadPoolExecutor
@@ -415,12 +433,12 @@ def _predict_modes(source: ModeSource, q: FloatArray) -> RobotModes:
         from robolobe._threads import one_blas_thread
 
         with one_blas_thread(), ThreadPoolExecutor(workers) as ex:
-            parts = ex.map(lambda c0: source.predict(uq[c0 : c0 + _CHUNK]), rest)
+            parts = ex.map(lambda c0: source.predict(uq[c0 : c0 + step]), rest)
             for c0, part in zip(rest, parts, strict=True):
                 filled.put(c0, part)
     else:
         for c0 in rest:
-            filled.put(c0, source.predict(uq[c0 : c0 + _CHUNK]))
+            filled.put(c0, source.predict(uq[c0 : c0 + step]))
     return filled.result(None if order.size == n else expand)
 
 
@@ -1254,7 +1272,7 @@ def plan_path(
             return made[key]
 
         def run(c: Constraints, p: int = 1, fine: bool = refine) -> PlanOutcome:
-            return optimize_schedule(
+            out = optimize_schedule(
                 table if depth is None else scaled(p),
                 geom,
                 c,
@@ -1262,6 +1280,10 @@ def plan_path(
                 labels=labels,
                 refine=fine,
             )
+            for k, v in out.timings.items():
+                opt_s[k] = opt_s.get(k, 0.0) + v
+            opt_s["runs"] = opt_s.get("runs", 0) + 1
+            return out
 
         if depth is None:
             return run(cons)
@@ -1270,6 +1292,10 @@ def plan_path(
         room = dataclasses.replace(cons, safety_factor=cons.safety_factor * (1 + LOBE_TOL))
         return schedule_passes(run, room, depth.deepest_m, refine=refine)[0]
 
+    # the optimizer's seconds per step summed over all its runs (the pass counts tried,
+    # the schedule made again after the split) and the number of runs
+    opt_s: dict[str, float] = {}
+    t_split = 0.0
     try:
         outcome = schedule(grouped.table)
     except InfeasibleError as exc:
@@ -1283,10 +1309,12 @@ def plan_path(
     if n_split:
         t_split = time.perf_counter()
         grouped = split(steep, grouped)
-        timings["lobes"] += time.perf_counter() - t_split
+        t_split = time.perf_counter() - t_split
+        timings["lobes"] += t_split
         outcome = schedule(grouped.table)
     del split  # its models' inputs (feed directions, angles: ~40 bytes a waypoint)
-    timings["optimize"] = time.perf_counter() - t
+    outcome = dataclasses.replace(outcome, timings=opt_s)
+    timings["optimize"] = time.perf_counter() - t - t_split  # the split's lobes: in "lobes"
     t = time.perf_counter()
     release_free_memory(len(wp))
     table = _result_table(
