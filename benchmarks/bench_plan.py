@@ -17,7 +17,11 @@ the seconds per stage (read, IK, modes, FRFs, lobes, optimization, table,
 outputs) per source, each as a share of the total and beside the same plan
 on the numpy reference paths (compiled kernels off, same process; whether
 the plan came out the same), then the sources side by side as ratios to the
-first, with the load average. A source ending in ``+stock`` plans with the
+first, with the load average (``--cpu-stages``: in CPU seconds of the
+process, all threads, as for part 3). It also prints the lobe stage's own
+split (grouping, ZOA) and the optimizer's seconds per step summed over all
+its runs for the plan (the pass counts tried, the schedule made again after
+a steep-wall split) with their number. A source ending in ``+stock`` plans with the
 job's ``[stock]`` at its default (the stock the program implies, cell
 diameter / 40): the engagement of every move on the Z-map is then its own
 stage (``engagement``, between ``read`` and ``ik``). Targets: < 10 s (issues
@@ -125,7 +129,8 @@ def _stage_cpu(on: bool) -> Iterator[None]:
     """With ``on``, the plan's stage timings are CPU seconds of the process (all threads).
 
     The pipeline times its stages with ``time.perf_counter``; its module's
-    ``time`` is replaced by one whose ``perf_counter`` is ``process_time``
+    ``time`` (and the lobe stage's and the optimizer's, for their steps) is
+    replaced by one whose ``perf_counter`` is ``process_time``
     (on a shared machine the CPU seconds compare where wall seconds do not).
     """
     if not on:
@@ -133,13 +138,19 @@ def _stage_cpu(on: bool) -> Iterator[None]:
         return
     import types
 
+    from robolobe.plan import lobes as _lobes
+    from robolobe.plan.optimize import _api as _opt
+
     clock = types.SimpleNamespace(perf_counter=time.process_time, process_time=time.process_time)
-    old = _pipeline.time
-    _pipeline.time = clock  # type: ignore[assignment]
+    mods = (_pipeline, _lobes, _opt)  # the stages, the lobe stage's and optimizer's steps
+    old = [m.time for m in mods]
+    for m in mods:
+        m.time = clock  # type: ignore[assignment]
     try:
         yield
     finally:
-        _pipeline.time = old
+        for m, t in zip(mods, old, strict=True):
+            m.time = t
 
 
 def _with_stock(job: Job) -> Job:
@@ -147,16 +158,21 @@ def _with_stock(job: Job) -> Job:
     return job.replace(stock=StockSpec())
 
 
-def _timed_plan(path: Path, job: Any, out: Path) -> tuple[Any, dict[str, float]]:
-    t0 = time.perf_counter()
+def _timed_plan(
+    path: Path, job: Any, out: Path, cpu_stages: bool = False
+) -> tuple[Any, dict[str, float]]:
+    clock = time.process_time if cpu_stages else time.perf_counter
+    t0 = clock()
     c0 = time.process_time() + _children_cpu()
-    with PlotWorker() as worker:  # plots drawn on the other core
+    with PlotWorker() as worker, _stage_cpu(cpu_stages):  # plots drawn on the other core
         res = plan_path(path, job)
-        t1 = time.perf_counter()
+        t1 = clock()
         write_outputs(res, out, plots=True, html_report=False, worker=worker)
-    t2 = time.perf_counter()
+    t2 = clock()
     cpu = time.process_time() + _children_cpu() - c0  # the plot worker's CPU included
-    # the plan records its stages (the engagement stage after read)
+    # the plan records its stages (the engagement stage after read); with cpu_stages
+    # every stage, outputs and total in CPU seconds of this process (all threads; the
+    # plot workers' only in "cpu")
     st = {**res.timings, "outputs": t2 - t1, "total": t2 - t0, "cpu": cpu}
     return res, st
 
@@ -182,7 +198,9 @@ def _corrected_model(tmp: Path) -> str:
     return str(out)
 
 
-def part_path(n: int, tmp: Path, sources: list[str], reference: bool) -> None:
+def part_path(
+    n: int, tmp: Path, sources: list[str], reference: bool, cpu_stages: bool = False
+) -> None:
     path = tmp / "zigzag.nc"
     path.write_text(zigzag_gcode(n, 400.0, 300.0, 10.0), encoding="utf-8")
     base_job = load_job(EXAMPLES / "job_A_pocket.toml")
@@ -203,7 +221,7 @@ def part_path(n: int, tmp: Path, sources: list[str], reference: bool) -> None:
         # (the bundled pocket alone no longer starts numba: it is below every kernel's
         # size; numba's start-up per process is benchmarks/bench_jit.py's)
         plan_path(path, job)
-        res, st = _timed_plan(path, job, tmp / "out")
+        res, st = _timed_plan(path, job, tmp / "out", cpu_stages)
         s = res.summary
         print(
             f"path [{spec}: {s.mode_source}, robust {s.robust}]: {s.n_waypoints} "
@@ -215,13 +233,14 @@ def part_path(n: int, tmp: Path, sources: list[str], reference: bool) -> None:
         if reference:
             # the same plan on the numpy reference paths (no compiled kernels), same process
             with _numpy_paths():
-                res_ref, ref = _timed_plan(path, job, tmp / "out_ref")
+                res_ref, ref = _timed_plan(path, job, tmp / "out_ref", cpu_stages)
             same = res_ref.outcome.best.depth_m == res.outcome.best.depth_m and np.array_equal(
                 res_ref.outcome.best.rpm, res.outcome.best.rpm
             )
             print(f"  reference: numpy paths (kernels off), {_load()}; same plan: {same}")
         for k, v in st.items():
-            line = f"  {k:<10s} {v:7.3f} s  ({v / st['total']:5.1%} of total)"
+            unit = "s CPU" if cpu_stages and k != "cpu" else "s"
+            line = f"  {k:<10s} {v:7.3f} {unit}  ({v / st['total']:5.1%} of total)"
             if ref is not None and k in ref:
                 line += f"  numpy reference {ref[k]:7.3f} s (x{ref[k] / max(v, 1e-9):.2f})"
             print(line)
@@ -374,7 +393,10 @@ def main() -> None:
     ap.add_argument(
         "--cpu-stages",
         action="store_true",
-        help="Long part: the stages in CPU seconds (all threads) instead of wall seconds.",
+        help=(
+            "Parts path and long: the stages in CPU seconds (all threads) instead of "
+            "wall seconds (on a shared machine these compare between runs)."
+        ),
     )
     ap.add_argument(
         "--stock",
@@ -385,7 +407,13 @@ def main() -> None:
     with tempfile.TemporaryDirectory() as d:
         tmp = Path(d)
         if args.part in ("path", "all"):
-            part_path(args.waypoints_path, tmp, args.sources.split(","), not args.no_reference)
+            part_path(
+                args.waypoints_path,
+                tmp,
+                args.sources.split(","),
+                not args.no_reference,
+                args.cpu_stages,
+            )
         if args.part in ("batch", "all"):
             part_batch(args.paths, args.waypoints, tmp)
         if args.part == "long":  # alone: the peak RSS is the process's
