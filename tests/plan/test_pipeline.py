@@ -525,3 +525,28 @@ def test_optimizer_timings_cover_every_run(pocket_job, monkeypatch):
     for key in ("constant", "total"):
         assert got[key] == pytest.approx(sum(t.get(key, 0.0) for t in seen), rel=1e-12)
     assert res.timings["optimize"] >= got["total"]  # the stage holds every run
+
+
+def test_modes_refused_in_parts_are_refused_as_in_one_call(pocket, monkeypatch):
+    """A path whose modes are predicted in parts on the threads and refused by one of
+    them gets the refusal of one call over all its postures (given modal parameters
+    that miss most of the path's postures: all of them counted, not one part's)."""
+    from robolobe._modal_parameters import ModalParameters
+    from robolobe.plan import pipeline
+    from robolobe.plan.modes import ParametersSource
+
+    robot = load_robot("A")
+    q = pocket.q[pocket.cut_index][:60]
+    given = TwinSource(robot).predict(q[:10]).parameters
+    source = ParametersSource(
+        ModalParameters(given.f_hz, given.zeta, given.k_N_per_m, given.directions, q_rad=q[:10])
+    )
+    monkeypatch.setattr(pipeline, "_THREADS", 2)
+    monkeypatch.setattr(pipeline, "_SPLIT_MIN", 20)
+    monkeypatch.setattr(pipeline, "_HEAD", 5)
+    with pytest.raises(InputError) as one:
+        source.predict(q)
+    assert "50 postures missing" in str(one.value)
+    with pytest.raises(InputError) as parts:
+        pipeline._predict_modes(source, q)
+    assert str(parts.value) == str(one.value)

@@ -418,12 +418,29 @@ def _predict_modes(source: ModeSource, q: FloatArray) -> RobotModes:
     # a first chunk alone (a source's lazy set-up happens once), the rest on the
     # cores: numpy releases the GIL in the per-posture linear algebra. From
     # _SPLIT_MIN postures on, the first is small and the rest is shared between the
-    # threads (10k-waypoint plan: the stage's wall time about halved on 2 cores)
+    # threads, so that a path of one chunk uses both cores too
     step = _CHUNK
     head = _CHUNK
     if n_u >= _SPLIT_MIN and _THREADS > 1:
         head = min(_HEAD, n_u)
         step = min(_CHUNK, -(-(n_u - head) // _THREADS))
+    try:
+        _fill_modes(source, uq, filled, head, step)
+    except InputError:
+        if n_u <= _CHUNK:
+            # refused by a part: the refusal of one call over every posture (a message
+            # that counts the postures counts them all, not those of one part)
+            source.predict(uq)
+        raise
+    return filled.result(None if order.size == n else expand)
+
+
+def _fill_modes(
+    source: ModeSource, uq: FloatArray, filled: _ModesFill, head: int, step: int
+) -> None:
+    """Modes of ``uq`` into ``filled``: rows ``:head`` first, then parts of ``step`` rows
+    on up to :data:`_THREADS` threads."""
+    n_u = uq.shape[0]
     filled.put(0, source.predict(uq[:head]))
     rest = list(range(head, n_u, step))
     workers = min(_THREADS, len(rest))
@@ -439,7 +456,6 @@ def _predict_modes(source: ModeSource, q: FloatArray) -> RobotModes:
     else:
         for c0 in rest:
             filled.put(c0, source.predict(uq[c0 : c0 + step]))
-    return filled.result(None if order.size == n else expand)
 
 
 class _ModesFill:
