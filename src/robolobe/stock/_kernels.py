@@ -819,6 +819,23 @@ def chain_neighbours(xyz: Any, cutting: Any, res: float, tol: float) -> Any:
 
 
 _COMPILED: dict[str, Any] = {}
+#: The scalar :func:`_sweep` (what numba compiles) once the Python path has replaced it.
+_SCALAR: dict[str, Any] = {}
+
+
+def _python_kernels() -> Any:
+    """``run`` and ``sweep`` in Python: the sweep's cells as numpy arrays
+    (:func:`robolobe.stock._sweep_rows.sweep`, equal bit for bit to :func:`_sweep`)."""
+    if "sweep" not in _SCALAR:
+        from robolobe.stock._sweep_rows import sweep as rows
+
+        scalar = _SCALAR["sweep"] = _sweep
+
+        def sweep(w, ids, m, x0, y0, res, radius, band, p0, p1, skip_start, tol):
+            rows(w, ids, m, x0, y0, res, radius, band, p0, p1, skip_start, tol, scalar)
+
+        globals()["_sweep"] = sweep  # what _remove calls
+    return _run, globals()["_sweep"]
 
 
 def kernels(work: float = math.inf) -> Any:
@@ -828,12 +845,12 @@ def kernels(work: float = math.inf) -> Any:
     if "run" not in _COMPILED and not _jit.use_compiled(
         work, cold=JIT_MIN_WORK, warm=JIT_MIN_WORK_STARTED
     ):
-        return _run, _sweep
+        return _python_kernels()
     if "run" not in _COMPILED:
         if _jit.available():
             deco = _jit.njit()
             g = globals()
-            g["_sweep"] = deco(_sweep)
+            g["_sweep"] = deco(_SCALAR.get("sweep", _sweep))
             g["_sweep_value"] = deco(_sweep_value)
             g["_move_dist"] = deco(_move_dist)
             g["_move_level"] = deco(_move_level)
