@@ -877,7 +877,10 @@ def kernels(work: float = math.inf) -> Any:
 #: kernel costs 1.9 us per swept cell and 0.53 ms per engagement sample (fit over 11
 #: zig-zags and the bundled pocket, residuals < 0.07 s), numba's start-up and the
 #: cached kernels' first call 0.55-0.6 s; equal at ~290,000 units. The bundled pocket
-#: is 190,000 (Python 0.43 s, compiled 0.55 s), the 10k zig-zag 2.9 million.
+#: is 190,000 (Python 0.43 s, compiled 0.55 s), the 10k zig-zag 2.9 million. Measured
+#: with the scalar sweep in Python; the numpy sweep (:func:`_python_kernels`) has since
+#: taken its cells' part of the Python cost down by about 3.5x (the pocket's engagement
+#: kernel by ~40 %), so the crossover now lies higher and this threshold compiles early.
 JIT_MIN_WORK = 290_000.0
 #: The same where numba has started (:func:`robolobe._jit.started`): the kernels'
 #: cache load (~30 ms) against the same Python cost.
