@@ -819,6 +819,23 @@ def chain_neighbours(xyz: Any, cutting: Any, res: float, tol: float) -> Any:
 
 
 _COMPILED: dict[str, Any] = {}
+#: The scalar :func:`_sweep` (what numba compiles) once the Python path has replaced it.
+_SCALAR: dict[str, Any] = {}
+
+
+def _python_kernels() -> Any:
+    """``run`` and ``sweep`` in Python: the sweep's cells as numpy arrays
+    (:func:`robolobe.stock._sweep_rows.sweep`, equal bit for bit to :func:`_sweep`)."""
+    if "sweep" not in _SCALAR:
+        from robolobe.stock._sweep_rows import sweep as rows
+
+        scalar = _SCALAR["sweep"] = _sweep
+
+        def sweep(w, ids, m, x0, y0, res, radius, band, p0, p1, skip_start, tol):
+            rows(w, ids, m, x0, y0, res, radius, band, p0, p1, skip_start, tol, scalar)
+
+        globals()["_sweep"] = sweep  # what _remove calls
+    return _run, globals()["_sweep"]
 
 
 def kernels(work: float = math.inf) -> Any:
@@ -828,12 +845,12 @@ def kernels(work: float = math.inf) -> Any:
     if "run" not in _COMPILED and not _jit.use_compiled(
         work, cold=JIT_MIN_WORK, warm=JIT_MIN_WORK_STARTED
     ):
-        return _run, _sweep
+        return _python_kernels()
     if "run" not in _COMPILED:
         if _jit.available():
             deco = _jit.njit()
             g = globals()
-            g["_sweep"] = deco(_sweep)
+            g["_sweep"] = deco(_SCALAR.get("sweep", _sweep))
             g["_sweep_value"] = deco(_sweep_value)
             g["_move_dist"] = deco(_move_dist)
             g["_move_level"] = deco(_move_level)
@@ -860,7 +877,10 @@ def kernels(work: float = math.inf) -> Any:
 #: kernel costs 1.9 us per swept cell and 0.53 ms per engagement sample (fit over 11
 #: zig-zags and the bundled pocket, residuals < 0.07 s), numba's start-up and the
 #: cached kernels' first call 0.55-0.6 s; equal at ~290,000 units. The bundled pocket
-#: is 190,000 (Python 0.43 s, compiled 0.55 s), the 10k zig-zag 2.9 million.
+#: is 190,000 (Python 0.43 s, compiled 0.55 s), the 10k zig-zag 2.9 million. Measured
+#: with the scalar sweep in Python; the numpy sweep (:func:`_python_kernels`) has since
+#: taken its cells' part of the Python cost down by about 3.5x (the pocket's engagement
+#: kernel by ~40 %), so the crossover now lies higher and this threshold compiles early.
 JIT_MIN_WORK = 290_000.0
 #: The same where numba has started (:func:`robolobe._jit.started`): the kernels'
 #: cache load (~30 ms) against the same Python cost.
