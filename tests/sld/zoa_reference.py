@@ -59,6 +59,32 @@ def receptance(f_hz, zeta, residues, w):
     return np.einsum("nm,mij->nij", 1.0 / den, np.asarray(residues, float))
 
 
+def eig2(g):
+    """Both eigenvalues of each 2x2 matrix of ``g`` (n, 2, 2), in closed form: (n, 2).
+
+    ``mu = tr/2 +- sqrt(((a - d)/2)^2 + b c)``; the one of larger modulus is
+    taken with the sign that adds, the other as ``det / mu`` (the stable
+    quadratic formula, no cancellation), as accurate as LAPACK's ``geev`` and
+    without its per-matrix call (tests/sld/test_zoa_reference.py compares them).
+    """
+    a, b, c, d = g[:, 0, 0], g[:, 0, 1], g[:, 1, 0], g[:, 1, 1]
+    half = 0.5 * (a + d)
+    s = np.sqrt((0.5 * (a - d)) ** 2 + b * c)
+    s = np.where((half.conjugate() * s).real >= 0.0, s, -s)
+    big = half + s
+    det = a * d - b * c
+    safe = np.where(big == 0.0, 1.0, big)
+    small = np.where(big == 0.0, 0.0, det / safe)
+    return np.stack([big, small], axis=1)
+
+
+def order(mu, key="real"):
+    """``mu`` (n, 2) ordered by ``key``: the larger real part (``"real"``) or modulus first."""
+    k = mu.real if key == "real" else np.abs(mu)
+    swap = k[:, 1] > k[:, 0]
+    return np.where(swap[:, None], mu[:, ::-1], mu)
+
+
 def eigs(f_hz, zeta, residues, alpha, w, key="real"):
     """Both eigenvalues of ``alpha G(w)``, shape (n, 2), ordered by ``key``.
 
@@ -68,10 +94,7 @@ def eigs(f_hz, zeta, residues, alpha, w, key="real"):
     tie is found with the other key.
     """
     g0 = np.einsum("ij,njk->nik", alpha, receptance(f_hz, zeta, residues, w))
-    mu = np.linalg.eigvals(g0)
-    k = mu.real if key == "real" else np.abs(mu)
-    swap = k[:, 1] > k[:, 0]
-    return np.where(swap[:, None], mu[:, ::-1], mu)
+    return order(eig2(g0), key)
 
 
 def reference_envelope(f_hz, zeta, residues, alpha, *, teeth, kt, rpm, bisections=60):
@@ -108,8 +131,10 @@ def reference_envelope(f_hz, zeta, residues, alpha, *, teeth, kt, rpm, bisection
     w = w[(w >= lo) & (w <= hi)]
     c = teeth * kt / (4.0 * math.pi)
     out = np.full(rpm.size, np.inf)
+    # the grid's eigenvalues once; each key orders them its own way
+    mu_w = eig2(np.einsum("ij,njk->nik", alpha, receptance(f, z, residues, w)))
     for key in ("real", "abs"):
-        mu = eigs(f, z, residues, alpha, w, key)
+        mu = order(mu_w, key)
         for s_i, n in enumerate(rpm):
             tau = 60.0 / (teeth * n)
 
