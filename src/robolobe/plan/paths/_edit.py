@@ -432,6 +432,15 @@ class LineValues:
     def __len__(self) -> int:
         return int(self._has.sum())
 
+    def lists(self) -> tuple[list[bool], list[float], list[float], list[float]]:
+        """The values as Python lists indexed by line: (has, rpm, feed, margin).
+
+        For writers that look up every line of a long program: a list index
+        costs a fraction of ``in`` and ``[]`` on this mapping. Lines at or
+        past ``len(has)`` have no cutting move.
+        """
+        return self._has.tolist(), self._rpm.tolist(), self._feed.tolist(), self._margin.tolist()
+
     def items(self) -> Iterator[tuple[int, tuple[float, float, float]]]:
         return ((ln, self[ln]) for ln in self)
 

@@ -1118,15 +1118,12 @@ def write_gcode(text: str, source: str, edit: ProgramEdit, *, block_delete: bool
     wp_lines = edit.waypoints["line"].to_numpy()
     # modal state per line: mm per unit, per-rev feed, spindle word, absolute, motion
     n = len(src)
-    scale = [1.0] * (n + 2)
-    per_rev = [False] * (n + 2)
-    spindle = ["M3"] * (n + 2)
-    absolute = [True] * (n + 2)
-    arc_abs = [False] * (n + 2)
-    motion = [""] * (n + 2)
     spans: dict[int, list[tuple[str, int, int]]] = {}  # words of lines with G/M/S/F letters
     live = bytearray(n + 2)
     sc, pr, sp, ab, aa, mo = 1.0, False, "M3", True, False, ""
+    # one shared tuple per run of lines in one modal state (a list of them, not six per line)
+    state = (sc, pr, sp, ab, aa, mo)
+    states = [state] * (n + 2)
     for ln, raw in enumerate(src, start=1):
         s = raw.strip()
         deleted = block_delete and "/" in s and re.match(r"^(N\s*\d+\s*)?/", s, re.I) is not None
@@ -1163,16 +1160,31 @@ def write_gcode(text: str, source: str, edit: ProgramEdit, *, block_delete: bool
                     m = round(float(raw[a:b].replace(" ", "")), 1)
                     if m in (3.0, 4.0):
                         sp = f"M{int(m)}"
-        scale[ln], per_rev[ln], spindle[ln], absolute[ln], arc_abs[ln], motion[ln] = (
-            sc, pr, sp, ab, aa, mo,
-        )  # fmt: skip
+            if ws:
+                state = (sc, pr, sp, ab, aa, mo)
+        states[ln] = state
+    scale = [t[0] for t in states]
+    per_rev = [t[1] for t in states]
+    spindle = [t[2] for t in states]
+    absolute = [t[3] for t in states]
+    arc_abs = [t[4] for t in states]
+    motion = [t[5] for t in states]
+    del states
+    # per line lists (a list index per line, not a mapping lookup: a long program's time)
+    has, rpm_at, feed_at, margin_at = vals.lists()
+    n_has = len(has)
+    f_texts: dict[float, str] = {}  # fmt_num of each feed value met (a program has few)
 
     def f_text(ln: int) -> str:
-        rpm, f_mm, _ = vals[ln]
-        f = f_mm / scale[ln]
+        if not (0 <= ln < n_has and has[ln]):
+            raise KeyError(ln)
+        f = feed_at[ln] / scale[ln]
         if per_rev[ln]:
-            f /= rpm
-        return fmt_num(f, 6)
+            f /= rpm_at[ln]
+        t = f_texts.get(f)
+        if t is None:
+            t = f_texts[f] = fmt_num(f, 6)
+        return t
 
     def word_value(ln: int, letter: str) -> str | None:
         for let, a, b in spans.get(ln, []):
@@ -1196,20 +1208,21 @@ def write_gcode(text: str, source: str, edit: ProgramEdit, *, block_delete: bool
             if w in taken:
                 continue
             taken.add(w)
-            new_word[(w, letter)] = f"{int(vals[c][0])}" if letter == "S" else f_text(c)
+            new_word[(w, letter)] = f"{int(rpm_at[c])}" if letter == "S" else f_text(c)
     out_lines: dict[int, str] = {}
     before: dict[int, list[str]] = {}
     notes: dict[int, list[str]] = {}
     cur_s: str | None = None
     cur_f: str | None = None
-    cut_set = vals
+    s_texts: dict[float, str] = {}
     for ln in range(1, n + 1):
-        raw = src[ln - 1]
         if not live[ln]:
             continue
+        raw = src[ln - 1]
         edits: list[tuple[int, int, str]] = []
-        for letter in ("S", "F"):
-            for let, a, b in spans.get(ln, ()):
+        ws_ln = spans.get(ln, ())
+        for letter in ("S", "F") if ws_ln else ():
+            for let, a, b in ws_ln:
                 if let != letter:
                     continue
                 old = raw[a:b].replace(" ", "")
@@ -1221,17 +1234,20 @@ def write_gcode(text: str, source: str, edit: ProgramEdit, *, block_delete: bool
                 if _num_differs(old, new):
                     edits.append((a, b, new))
                     notes.setdefault(ln, []).append(f"{letter}{old}>{new}")
-        if ln in cut_set:
-            rpm, _, margin = vals[ln]
-            s_new = f"{int(rpm)}"
-            if cur_s is None or _num_differs(cur_s, s_new):
+        cuts = ln < n_has and has[ln]
+        if cuts:
+            rpm, margin = rpm_at[ln], margin_at[ln]
+            s_new = s_texts.get(rpm)
+            if s_new is None:
+                s_new = s_texts[rpm] = f"{int(rpm)}"
+            if cur_s is None or _new_differs(cur_s, s_new):
                 m_txt = f" MARGIN {margin:.2f}" if math.isfinite(margin) else ""
                 before.setdefault(ln, []).append(
                     f"{spindle[ln]} S{s_new} (ROBOLOBE SPINDLE SPEED{m_txt})"
                 )
                 cur_s = s_new
             f_new = f_text(ln)
-            if cur_f is None or _num_differs(cur_f, f_new):
+            if cur_f is None or _new_differs(cur_f, f_new):
                 edits.append((len(raw[: _code_spans(raw)[1]].rstrip()), -1, f" F{f_new}"))
                 notes.setdefault(ln, []).append(f"F{cur_f or '-'}>{f_new}")
                 cur_f = f_new
@@ -1239,8 +1255,8 @@ def write_gcode(text: str, source: str, edit: ProgramEdit, *, block_delete: bool
             new_raw = raw
             for a, b, t in sorted(edits, key=lambda e: -e[0]):
                 new_raw = new_raw[:a] + t + new_raw[a:] if b < 0 else new_raw[:a] + t + new_raw[b:]
-            if ln in cut_set and math.isfinite(vals[ln][2]):
-                notes[ln].append(f"MARGIN {vals[ln][2]:.2f}")
+            if cuts and math.isfinite(margin_at[ln]):
+                notes[ln].append(f"MARGIN {margin_at[ln]:.2f}")
             out_lines[ln] = _comment_at_end(new_raw, "ROBOLOBE " + " ".join(notes[ln]))
     # passes: copies of each section's lines, shifted along Z, with rapid links
     # (n, 3) positions only where there are passes to write (a long program's peak)
@@ -1301,11 +1317,21 @@ def write_gcode(text: str, source: str, edit: ProgramEdit, *, block_delete: bool
         raw = _state_first(raw, motion[first], f_text(first))
         out_lines[first] = raw
         before.setdefault(first, [])[0:0] = block
-    result: list[str] = []
-    for ln in range(1, n + 1):
-        result.extend(before.get(ln, []))
-        result.append(out_lines.get(ln, src[ln - 1]))
-    return "\n".join(result) + "\n"
+    # the source's lines, edited, with the inserted blocks before theirs
+    for ln, t in out_lines.items():
+        if 1 <= ln <= n:
+            src[ln - 1] = t
+    inserts = sorted(k for k in before if 1 <= k <= n)
+    if inserts:
+        result: list[str] = []
+        at = 0
+        for ln in inserts:
+            result.extend(src[at : ln - 1])
+            result.extend(before[ln])
+            at = ln - 1
+        result.extend(src[at:])
+        src = result
+    return "\n".join(src) + "\n"
 
 
 _MOTION_TEXT = {"0", "00", "1", "01", "2", "02", "3", "03", "0.", "1.", "2.", "3."}
@@ -1313,6 +1339,16 @@ _MOTION_TEXT = {"0", "00", "1", "01", "2", "02", "3", "03", "0.", "1.", "2.", "3
 
 def _num_differs(a: str, b: str) -> bool:
     return float(a) != float(b)
+
+
+def _new_differs(cur: str, new: str) -> bool:
+    """:func:`_num_differs` where ``new`` is the writer's own number text (fast when equal).
+
+    Equal texts differ only as NaN (``fmt_num`` writes NaN as ``"nan"``).
+    """
+    if cur == new:
+        return new == "nan"
+    return float(cur) != float(new)
 
 
 def _prefix(raw: str, word: str) -> str:
