@@ -1116,12 +1116,11 @@ def write_gcode(text: str, source: str, edit: ProgramEdit, *, block_delete: bool
     vals = line_values(edit)
     secs = sections(edit)
     wp_lines = edit.waypoints["line"].to_numpy()
-    # modal state per line: mm per unit, per-rev feed, spindle word, absolute, motion
     n = len(src)
     spans: dict[int, list[tuple[str, int, int]]] = {}  # words of lines with G/M/S/F letters
     live = bytearray(n + 2)
     sc, pr, sp, ab, aa, mo = 1.0, False, "M3", True, False, ""
-    # one shared tuple per run of lines in one modal state (a list of them, not six per line)
+    # the modal state of each line: one shared tuple per run of lines in one state
     state = (sc, pr, sp, ab, aa, mo)
     states = [state] * (n + 2)
     for ln, raw in enumerate(src, start=1):
@@ -1163,13 +1162,8 @@ def write_gcode(text: str, source: str, edit: ProgramEdit, *, block_delete: bool
             if ws:
                 state = (sc, pr, sp, ab, aa, mo)
         states[ln] = state
-    scale = [t[0] for t in states]
-    per_rev = [t[1] for t in states]
-    spindle = [t[2] for t in states]
-    absolute = [t[3] for t in states]
-    arc_abs = [t[4] for t in states]
-    motion = [t[5] for t in states]
-    del states
+    # states[ln]: (mm per unit, per-rev feed, spindle word, absolute, arc centres absolute,
+    # motion) of line ln, indexed by _SCALE etc. (shared tuples: 8 bytes a line, not six lists)
     # per line lists (a list index per line, not a mapping lookup: a long program's time)
     has, rpm_at, feed_at, margin_at = vals.lists()
     n_has = len(has)
@@ -1178,8 +1172,8 @@ def write_gcode(text: str, source: str, edit: ProgramEdit, *, block_delete: bool
     def f_text(ln: int) -> str:
         if not (0 <= ln < n_has and has[ln]):
             raise KeyError(ln)
-        f = feed_at[ln] / scale[ln]
-        if per_rev[ln]:
+        f = feed_at[ln] / states[ln][_SCALE]
+        if states[ln][_PER_REV]:
             f /= rpm_at[ln]
         t = f_texts.get(f)
         if t is None:
@@ -1243,7 +1237,7 @@ def write_gcode(text: str, source: str, edit: ProgramEdit, *, block_delete: bool
             if cur_s is None or _new_differs(cur_s, s_new):
                 m_txt = f" MARGIN {margin:.2f}" if math.isfinite(margin) else ""
                 before.setdefault(ln, []).append(
-                    f"{spindle[ln]} S{s_new} (ROBOLOBE SPINDLE SPEED{m_txt})"
+                    f"{states[ln][_SPINDLE]} S{s_new} (ROBOLOBE SPINDLE SPEED{m_txt})"
                 )
                 cur_s = s_new
             f_new = f_text(ln)
@@ -1275,19 +1269,20 @@ def write_gcode(text: str, source: str, edit: ProgramEdit, *, block_delete: bool
                 source=where,
             )
         for ln in range(first, last + 1):
-            if not absolute[ln] or (ln > 1 and not absolute[ln - 1]):
+            if not states[ln][_ABSOLUTE] or (ln > 1 and not states[ln - 1][_ABSOLUTE]):
                 raise InputError(
                     "passes need absolute coordinates (G90); the section is incremental (G91)",
                     source=f"{source}:{ln}",
                 )
-            if arc_abs[ln]:
+            if states[ln][_ARC_ABS]:
                 raise InputError(
                     "passes with absolute arc centres (G90.1) are not written", f"{source}:{ln}"
                 )
         block: list[str] = []
-        sc0 = scale[first]
+        sc0 = states[first][_SCALE]
         restate_s = (
-            f"{spindle[first]} S{int(vals[first][0])} (ROBOLOBE SPINDLE SPEED AT THE PASS START)"
+            f"{states[first][_SPINDLE]} S{int(vals[first][0])} "
+            "(ROBOLOBE SPINDLE SPEED AT THE PASS START)"
         )
         for ps in pass_layout(edit, sec, pos_mm):
             for p, _ in ps.links:
@@ -1307,14 +1302,14 @@ def write_gcode(text: str, source: str, edit: ProgramEdit, *, block_delete: bool
             for ln in range(first, last + 1):
                 raw = out_lines.get(ln, src[ln - 1])
                 block.extend(before.get(ln, []))
-                z_end = pos_mm[sec.start, 2] / scale[ln] + off / scale[ln]
+                z_end = pos_mm[sec.start, 2] / states[ln][_SCALE] + off / states[ln][_SCALE]
                 block.append(
-                    _pass_copy(raw, off / scale[ln], z_end if ln == first else None,
-                               motion[ln], f_text(first))
+                    _pass_copy(raw, off / states[ln][_SCALE], z_end if ln == first else None,
+                               states[ln][_MOTION], f_text(first))
                 )  # fmt: skip
         # the program's own pass: its first block states motion and feed (links changed them)
         raw = out_lines.get(first, src[first - 1])
-        raw = _state_first(raw, motion[first], f_text(first))
+        raw = _state_first(raw, states[first][_MOTION], f_text(first))
         out_lines[first] = raw
         before.setdefault(first, [])[0:0] = block
     # the source's lines, edited, with the inserted blocks before theirs
@@ -1333,6 +1328,9 @@ def write_gcode(text: str, source: str, edit: ProgramEdit, *, block_delete: bool
         src = result
     return "\n".join(src) + "\n"
 
+
+#: Fields of the writer's modal state tuples (:func:`write_gcode`).
+_SCALE, _PER_REV, _SPINDLE, _ABSOLUTE, _ARC_ABS, _MOTION = range(6)
 
 _MOTION_TEXT = {"0", "00", "1", "01", "2", "02", "3", "03", "0.", "1.", "2.", "3."}
 
