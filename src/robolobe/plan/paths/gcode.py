@@ -71,6 +71,7 @@ import math
 import re
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import NamedTuple
 
 import numpy as np
 import pandas as pd
@@ -1087,6 +1088,17 @@ def _comment_at_end(raw: str, note: str) -> str:
     return f"{head} ({note})" + (f" {tail}" if tail else "")
 
 
+class _Modal(NamedTuple):
+    """The modal state :func:`write_gcode` follows, as in effect after a line."""
+
+    scale: float  # mm per program unit
+    per_rev: bool  # G95: F in units per revolution
+    spindle: str  # "M3" or "M4"
+    absolute: bool  # G90
+    arc_abs: bool  # G90.1: arc centres absolute
+    motion: str  # "G0" .. "G3", "" before any
+
+
 def write_gcode(text: str, source: str, edit: ProgramEdit, *, block_delete: bool = True) -> str:
     """Write a G-code program with the speeds, feeds and passes of ``edit``.
 
@@ -1121,7 +1133,7 @@ def write_gcode(text: str, source: str, edit: ProgramEdit, *, block_delete: bool
     live = bytearray(n + 2)
     sc, pr, sp, ab, aa, mo = 1.0, False, "M3", True, False, ""
     # the modal state of each line: one shared tuple per run of lines in one state
-    state = (sc, pr, sp, ab, aa, mo)
+    state = _Modal(sc, pr, sp, ab, aa, mo)
     states = [state] * (n + 2)
     for ln, raw in enumerate(src, start=1):
         s = raw.strip()
@@ -1160,10 +1172,9 @@ def write_gcode(text: str, source: str, edit: ProgramEdit, *, block_delete: bool
                     if m in (3.0, 4.0):
                         sp = f"M{int(m)}"
             if ws:
-                state = (sc, pr, sp, ab, aa, mo)
+                state = _Modal(sc, pr, sp, ab, aa, mo)
         states[ln] = state
-    # states[ln]: (mm per unit, per-rev feed, spindle word, absolute, arc centres absolute,
-    # motion) of line ln, indexed by _SCALE etc. (shared tuples: 8 bytes a line, not six lists)
+    # states[ln]: the _Modal of line ln (shared tuples: 8 bytes a line, not six lists)
     # per line lists (a list index per line, not a mapping lookup: a long program's time)
     has, rpm_at, feed_at, margin_at = vals.lists()
     n_has = len(has)
@@ -1172,8 +1183,8 @@ def write_gcode(text: str, source: str, edit: ProgramEdit, *, block_delete: bool
     def f_text(ln: int) -> str:
         if not (0 <= ln < n_has and has[ln]):
             raise KeyError(ln)
-        f = feed_at[ln] / states[ln][_SCALE]
-        if states[ln][_PER_REV]:
+        f = feed_at[ln] / states[ln].scale
+        if states[ln].per_rev:
             f /= rpm_at[ln]
         t = f_texts.get(f)
         if t is None:
@@ -1237,7 +1248,7 @@ def write_gcode(text: str, source: str, edit: ProgramEdit, *, block_delete: bool
             if cur_s is None or _new_differs(cur_s, s_new):
                 m_txt = f" MARGIN {margin:.2f}" if math.isfinite(margin) else ""
                 before.setdefault(ln, []).append(
-                    f"{states[ln][_SPINDLE]} S{s_new} (ROBOLOBE SPINDLE SPEED{m_txt})"
+                    f"{states[ln].spindle} S{s_new} (ROBOLOBE SPINDLE SPEED{m_txt})"
                 )
                 cur_s = s_new
             f_new = f_text(ln)
@@ -1269,19 +1280,19 @@ def write_gcode(text: str, source: str, edit: ProgramEdit, *, block_delete: bool
                 source=where,
             )
         for ln in range(first, last + 1):
-            if not states[ln][_ABSOLUTE] or (ln > 1 and not states[ln - 1][_ABSOLUTE]):
+            if not states[ln].absolute or (ln > 1 and not states[ln - 1].absolute):
                 raise InputError(
                     "passes need absolute coordinates (G90); the section is incremental (G91)",
                     source=f"{source}:{ln}",
                 )
-            if states[ln][_ARC_ABS]:
+            if states[ln].arc_abs:
                 raise InputError(
                     "passes with absolute arc centres (G90.1) are not written", f"{source}:{ln}"
                 )
         block: list[str] = []
-        sc0 = states[first][_SCALE]
+        sc0 = states[first].scale
         restate_s = (
-            f"{states[first][_SPINDLE]} S{int(vals[first][0])} "
+            f"{states[first].spindle} S{int(vals[first][0])} "
             "(ROBOLOBE SPINDLE SPEED AT THE PASS START)"
         )
         for ps in pass_layout(edit, sec, pos_mm):
@@ -1302,14 +1313,14 @@ def write_gcode(text: str, source: str, edit: ProgramEdit, *, block_delete: bool
             for ln in range(first, last + 1):
                 raw = out_lines.get(ln, src[ln - 1])
                 block.extend(before.get(ln, []))
-                z_end = pos_mm[sec.start, 2] / states[ln][_SCALE] + off / states[ln][_SCALE]
+                z_end = pos_mm[sec.start, 2] / states[ln].scale + off / states[ln].scale
                 block.append(
-                    _pass_copy(raw, off / states[ln][_SCALE], z_end if ln == first else None,
-                               states[ln][_MOTION], f_text(first))
+                    _pass_copy(raw, off / states[ln].scale, z_end if ln == first else None,
+                               states[ln].motion, f_text(first))
                 )  # fmt: skip
         # the program's own pass: its first block states motion and feed (links changed them)
         raw = out_lines.get(first, src[first - 1])
-        raw = _state_first(raw, states[first][_MOTION], f_text(first))
+        raw = _state_first(raw, states[first].motion, f_text(first))
         out_lines[first] = raw
         before.setdefault(first, [])[0:0] = block
     # the source's lines, edited, with the inserted blocks before theirs
@@ -1328,9 +1339,6 @@ def write_gcode(text: str, source: str, edit: ProgramEdit, *, block_delete: bool
         src = result
     return "\n".join(src) + "\n"
 
-
-#: Fields of the writer's modal state tuples (:func:`write_gcode`).
-_SCALE, _PER_REV, _SPINDLE, _ABSOLUTE, _ARC_ABS, _MOTION = range(6)
 
 _MOTION_TEXT = {"0", "00", "1", "01", "2", "02", "3", "03", "0.", "1.", "2.", "3."}
 
