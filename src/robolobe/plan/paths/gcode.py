@@ -1176,16 +1176,16 @@ def write_gcode(text: str, source: str, edit: ProgramEdit, *, block_delete: bool
         states[ln] = state
     # states[ln]: the _Modal of line ln (shared tuples: 8 bytes a line, not six lists)
     # per line lists (a list index per line, not a mapping lookup: a long program's time)
-    has, rpm_at, feed_at, margin_at = vals.lists()
+    has, rpm_code, rpm_values, feed_code, feed_values = vals.lists()
     n_has = len(has)
     f_texts: dict[float, str] = {}  # fmt_num of each feed value met (a program has few)
 
     def f_text(ln: int) -> str:
         if not (0 <= ln < n_has and has[ln]):
             raise KeyError(ln)
-        f = feed_at[ln] / states[ln].scale
+        f = feed_values[feed_code[ln]] / states[ln].scale
         if states[ln].per_rev:
-            f /= rpm_at[ln]
+            f /= rpm_values[rpm_code[ln]]
         t = f_texts.get(f)
         if t is None:
             t = f_texts[f] = fmt_num(f, 6)
@@ -1213,7 +1213,9 @@ def write_gcode(text: str, source: str, edit: ProgramEdit, *, block_delete: bool
             if w in taken:
                 continue
             taken.add(w)
-            new_word[(w, letter)] = f"{int(rpm_at[c])}" if letter == "S" else f_text(c)
+            new_word[(w, letter)] = (
+                f"{int(rpm_values[rpm_code[c]])}" if letter == "S" else f_text(c)
+            )
     out_lines: dict[int, str] = {}
     before: dict[int, list[str]] = {}
     notes: dict[int, list[str]] = {}
@@ -1241,11 +1243,12 @@ def write_gcode(text: str, source: str, edit: ProgramEdit, *, block_delete: bool
                     notes.setdefault(ln, []).append(f"{letter}{old}>{new}")
         cuts = ln < n_has and has[ln]
         if cuts:
-            rpm, margin = rpm_at[ln], margin_at[ln]
+            rpm = rpm_values[rpm_code[ln]]
             s_new = s_texts.get(rpm)
             if s_new is None:
                 s_new = s_texts[rpm] = f"{int(rpm)}"
             if cur_s is None or _new_differs(cur_s, s_new):
+                margin = vals[ln][2]
                 m_txt = f" MARGIN {margin:.2f}" if math.isfinite(margin) else ""
                 before.setdefault(ln, []).append(
                     f"{states[ln].spindle} S{s_new} (ROBOLOBE SPINDLE SPEED{m_txt})"
@@ -1260,8 +1263,8 @@ def write_gcode(text: str, source: str, edit: ProgramEdit, *, block_delete: bool
             new_raw = raw
             for a, b, t in sorted(edits, key=lambda e: -e[0]):
                 new_raw = new_raw[:a] + t + new_raw[a:] if b < 0 else new_raw[:a] + t + new_raw[b:]
-            if cuts and math.isfinite(margin_at[ln]):
-                notes[ln].append(f"MARGIN {margin_at[ln]:.2f}")
+            if cuts and math.isfinite(vals[ln][2]):
+                notes[ln].append(f"MARGIN {vals[ln][2]:.2f}")
             out_lines[ln] = _comment_at_end(new_raw, "ROBOLOBE " + " ".join(notes[ln]))
     # passes: copies of each section's lines, shifted along Z, with rapid links
     # (n, 3) positions only where there are passes to write (a long program's peak)
