@@ -14,8 +14,12 @@ compared), 469 after; 540 once the engagement and passes came (issue 26),
 452 with the second round (no string object per row in the program's
 sections, blocks and expected table, no (n, 3) position and axis copies in
 the G-code writer and ``sections``, the reread table without its reader's
-dead buffer columns). The bound, 10 % above, fails the writers before the
-second round (540) or a further copy of six per-waypoint float columns
+dead buffer columns); 392 with the G-code writer's per-line state lean
+(one list of shared modal tuples, not six lists; each line's S and F as
+4-byte codes into the few distinct values; main at that time: 470,
+measured side by side). The bound, 10 % above 392, fails the writer
+before that (458 with its per-line values as Python float lists, 470 with
+six state lists) or a further copy of five per-waypoint float columns
 held while writing.
 """
 
@@ -34,7 +38,7 @@ import pytest
 ROOT = Path(__file__).resolve().parents[2]
 
 #: Bound on the outputs' peak above the plan's live memory, per waypoint [bytes].
-OUTPUTS_PER_WAYPOINT = 500.0
+OUTPUTS_PER_WAYPOINT = 430.0
 
 _SCRIPT = textwrap.dedent(
     """

@@ -651,3 +651,59 @@ def test_analog_full_scale_below_the_planned_speed_is_refused() -> None:
     )
     with pytest.raises(InputError, match="analog_rpm_full_scale"):
         write_rapid(RAPID_MOD, "m.mod", edit)
+
+
+def _last_word(text: str, letter: str, change) -> str:
+    """``text`` with the number of its last ``letter`` word outside comments changed."""
+    hits = []
+    for m in re.finditer(rf"(?<![A-Z(]){letter}(-?\d+\.?\d*)", text):
+        line_head = text[text.rfind("\n", 0, m.start()) + 1 : m.start()]
+        if "(" not in line_head:
+            hits.append(m)
+    m = hits[-1]
+    return text[: m.start(1)] + change(m.group(1)) + text[m.end(1) :]
+
+
+def _drop_last_rapid(text: str) -> str:
+    """``text`` without its last ``G0`` block (the retract): one move fewer."""
+    rows = text.split("\n")
+    last = max(k for k, s in enumerate(rows) if re.search(r"\bG0 ", s))
+    return "\n".join(rows[:last] + rows[last + 1 :])
+
+
+def _first_cut_as_rapid(text: str) -> str:
+    return text.replace("G1 ", "G0 ", 1) if "G1 " in text else text.replace("G01", "G00", 1)
+
+
+_TAMPER = {
+    # a move's end 2e-6 mm off (the check's tolerance: 1e-6 mm)
+    "position": lambda t: _last_word(t, "X", lambda v: f"{float(v) + 2e-6:.7f}"),
+    "feed": lambda t: _last_word(t, "F", lambda v: f"{float(v) * 1.01:.3f}"),
+    "speed": lambda t: _last_word(t, "S", lambda v: f"{int(float(v)) + 1}"),
+    "motion": _first_cut_as_rapid,
+    "dropped move": _drop_last_rapid,
+}
+
+
+@pytest.mark.parametrize("how", sorted(_TAMPER))
+def test_read_back_refuses_a_program_that_does_not_reread_to_the_plan(pocket, how, monkeypatch):
+    """The read-back check fails on a written program whose moves, S, F or count differ.
+
+    The writer's text is changed after writing (one number, one motion word,
+    one move dropped); the check must refuse it, naming the written file.
+    """
+    import robolobe.plan.paths.gcode as gcode
+
+    files = program_text(pocket)  # untampered: reads back
+    assert "program.nc" in files
+    real = gcode.write_gcode
+
+    def tampered(*args, **kwargs):
+        text = real(*args, **kwargs)
+        out = _TAMPER[how](text)
+        assert out != text  # the tamper changed the program
+        return out
+
+    monkeypatch.setattr(gcode, "write_gcode", tampered)
+    with pytest.raises(InputError, match="cannot write this program faithfully"):
+        program_text(pocket)

@@ -298,7 +298,22 @@ def program_edit(
     s_block = np.empty(nb)
     held = math.nan
     since = 0.0
-    for b in range(nb):
+    # runs of blocks whose wanted speed rounds to one value: while the held speed is
+    # that value nothing is decided there (a million blocks, few decisions)
+    whole = np.round(want)  # round half to even, as round() below
+    skip = bool(np.all(np.isfinite(want)))  # round(NaN) raises below, as it did
+    if skip and nb:
+        ends = np.flatnonzero(np.diff(whole)) + 1
+        run_end = np.repeat(np.append(ends, nb), np.diff(np.concatenate([[0], ends, [nb]])))
+    b = 0
+    while b < nb:
+        e = int(run_end[b]) if skip else b
+        if e - b > 16 and whole[b] == held:  # (short runs: the loop below is quicker)
+            # s_block and the distance since the last change as the loop below makes them
+            s_block[b:e] = held
+            since = float(np.add.accumulate(np.concatenate([[since], length[b:e]]))[-1])
+            b = e
+            continue
         w = float(want[b])
         r_b = rows[b_start[b] : b_start[b + 1]]
         if math.isnan(held):
@@ -316,6 +331,7 @@ def program_edit(
                 held, since = _whole_rpm(res, r_b, w, sf), 0.0
         s_block[b] = held
         since += float(length[b])
+        b += 1
     rpm = np.full(n, np.nan)
     rpm[rows] = s_block[bid[rows]]
     mg = np.full(n, np.nan)

@@ -71,6 +71,7 @@ import math
 import re
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import NamedTuple
 
 import numpy as np
 import pandas as pd
@@ -1087,6 +1088,17 @@ def _comment_at_end(raw: str, note: str) -> str:
     return f"{head} ({note})" + (f" {tail}" if tail else "")
 
 
+class _Modal(NamedTuple):
+    """The modal state :func:`write_gcode` follows, as in effect after a line."""
+
+    scale: float  # mm per program unit
+    per_rev: bool  # G95: F in units per revolution
+    spindle: str  # "M3" or "M4"
+    absolute: bool  # G90
+    arc_abs: bool  # G90.1: arc centres absolute
+    motion: str  # "G0" .. "G3", "" before any
+
+
 def write_gcode(text: str, source: str, edit: ProgramEdit, *, block_delete: bool = True) -> str:
     """Write a G-code program with the speeds, feeds and passes of ``edit``.
 
@@ -1116,17 +1128,13 @@ def write_gcode(text: str, source: str, edit: ProgramEdit, *, block_delete: bool
     vals = line_values(edit)
     secs = sections(edit)
     wp_lines = edit.waypoints["line"].to_numpy()
-    # modal state per line: mm per unit, per-rev feed, spindle word, absolute, motion
     n = len(src)
-    scale = [1.0] * (n + 2)
-    per_rev = [False] * (n + 2)
-    spindle = ["M3"] * (n + 2)
-    absolute = [True] * (n + 2)
-    arc_abs = [False] * (n + 2)
-    motion = [""] * (n + 2)
     spans: dict[int, list[tuple[str, int, int]]] = {}  # words of lines with G/M/S/F letters
     live = bytearray(n + 2)
     sc, pr, sp, ab, aa, mo = 1.0, False, "M3", True, False, ""
+    # the modal state of each line: one shared tuple per run of lines in one state
+    state = _Modal(sc, pr, sp, ab, aa, mo)
+    states = [state] * (n + 2)
     for ln, raw in enumerate(src, start=1):
         s = raw.strip()
         deleted = block_delete and "/" in s and re.match(r"^(N\s*\d+\s*)?/", s, re.I) is not None
@@ -1163,16 +1171,25 @@ def write_gcode(text: str, source: str, edit: ProgramEdit, *, block_delete: bool
                     m = round(float(raw[a:b].replace(" ", "")), 1)
                     if m in (3.0, 4.0):
                         sp = f"M{int(m)}"
-        scale[ln], per_rev[ln], spindle[ln], absolute[ln], arc_abs[ln], motion[ln] = (
-            sc, pr, sp, ab, aa, mo,
-        )  # fmt: skip
+            if ws:
+                state = _Modal(sc, pr, sp, ab, aa, mo)
+        states[ln] = state
+    # states[ln]: the _Modal of line ln (shared tuples: 8 bytes a line, not six lists)
+    # per line lists (a list index per line, not a mapping lookup: a long program's time)
+    has, rpm_code, rpm_values, feed_code, feed_values = vals.lists()
+    n_has = len(has)
+    f_texts: dict[float, str] = {}  # fmt_num of each feed value met (a program has few)
 
     def f_text(ln: int) -> str:
-        rpm, f_mm, _ = vals[ln]
-        f = f_mm / scale[ln]
-        if per_rev[ln]:
-            f /= rpm
-        return fmt_num(f, 6)
+        if not (0 <= ln < n_has and has[ln]):
+            raise KeyError(ln)
+        f = feed_values[feed_code[ln]] / states[ln].scale
+        if states[ln].per_rev:
+            f /= rpm_values[rpm_code[ln]]
+        t = f_texts.get(f)
+        if t is None:
+            t = f_texts[f] = fmt_num(f, 6)
+        return t
 
     def word_value(ln: int, letter: str) -> str | None:
         for let, a, b in spans.get(ln, []):
@@ -1196,20 +1213,23 @@ def write_gcode(text: str, source: str, edit: ProgramEdit, *, block_delete: bool
             if w in taken:
                 continue
             taken.add(w)
-            new_word[(w, letter)] = f"{int(vals[c][0])}" if letter == "S" else f_text(c)
+            new_word[(w, letter)] = (
+                f"{int(rpm_values[rpm_code[c]])}" if letter == "S" else f_text(c)
+            )
     out_lines: dict[int, str] = {}
     before: dict[int, list[str]] = {}
     notes: dict[int, list[str]] = {}
     cur_s: str | None = None
     cur_f: str | None = None
-    cut_set = vals
+    s_texts: dict[float, str] = {}
     for ln in range(1, n + 1):
-        raw = src[ln - 1]
         if not live[ln]:
             continue
+        raw = src[ln - 1]
         edits: list[tuple[int, int, str]] = []
-        for letter in ("S", "F"):
-            for let, a, b in spans.get(ln, ()):
+        ws_ln = spans.get(ln, ())
+        for letter in ("S", "F") if ws_ln else ():
+            for let, a, b in ws_ln:
                 if let != letter:
                     continue
                 old = raw[a:b].replace(" ", "")
@@ -1221,17 +1241,21 @@ def write_gcode(text: str, source: str, edit: ProgramEdit, *, block_delete: bool
                 if _num_differs(old, new):
                     edits.append((a, b, new))
                     notes.setdefault(ln, []).append(f"{letter}{old}>{new}")
-        if ln in cut_set:
-            rpm, _, margin = vals[ln]
-            s_new = f"{int(rpm)}"
-            if cur_s is None or _num_differs(cur_s, s_new):
+        cuts = ln < n_has and has[ln]
+        if cuts:
+            rpm = rpm_values[rpm_code[ln]]
+            s_new = s_texts.get(rpm)
+            if s_new is None:
+                s_new = s_texts[rpm] = f"{int(rpm)}"
+            if cur_s is None or _new_differs(cur_s, s_new):
+                margin = vals[ln][2]
                 m_txt = f" MARGIN {margin:.2f}" if math.isfinite(margin) else ""
                 before.setdefault(ln, []).append(
-                    f"{spindle[ln]} S{s_new} (ROBOLOBE SPINDLE SPEED{m_txt})"
+                    f"{states[ln].spindle} S{s_new} (ROBOLOBE SPINDLE SPEED{m_txt})"
                 )
                 cur_s = s_new
             f_new = f_text(ln)
-            if cur_f is None or _num_differs(cur_f, f_new):
+            if cur_f is None or _new_differs(cur_f, f_new):
                 edits.append((len(raw[: _code_spans(raw)[1]].rstrip()), -1, f" F{f_new}"))
                 notes.setdefault(ln, []).append(f"F{cur_f or '-'}>{f_new}")
                 cur_f = f_new
@@ -1239,7 +1263,7 @@ def write_gcode(text: str, source: str, edit: ProgramEdit, *, block_delete: bool
             new_raw = raw
             for a, b, t in sorted(edits, key=lambda e: -e[0]):
                 new_raw = new_raw[:a] + t + new_raw[a:] if b < 0 else new_raw[:a] + t + new_raw[b:]
-            if ln in cut_set and math.isfinite(vals[ln][2]):
+            if cuts and math.isfinite(vals[ln][2]):
                 notes[ln].append(f"MARGIN {vals[ln][2]:.2f}")
             out_lines[ln] = _comment_at_end(new_raw, "ROBOLOBE " + " ".join(notes[ln]))
     # passes: copies of each section's lines, shifted along Z, with rapid links
@@ -1259,19 +1283,20 @@ def write_gcode(text: str, source: str, edit: ProgramEdit, *, block_delete: bool
                 source=where,
             )
         for ln in range(first, last + 1):
-            if not absolute[ln] or (ln > 1 and not absolute[ln - 1]):
+            if not states[ln].absolute or (ln > 1 and not states[ln - 1].absolute):
                 raise InputError(
                     "passes need absolute coordinates (G90); the section is incremental (G91)",
                     source=f"{source}:{ln}",
                 )
-            if arc_abs[ln]:
+            if states[ln].arc_abs:
                 raise InputError(
                     "passes with absolute arc centres (G90.1) are not written", f"{source}:{ln}"
                 )
         block: list[str] = []
-        sc0 = scale[first]
+        sc0 = states[first].scale
         restate_s = (
-            f"{spindle[first]} S{int(vals[first][0])} (ROBOLOBE SPINDLE SPEED AT THE PASS START)"
+            f"{states[first].spindle} S{int(vals[first][0])} "
+            "(ROBOLOBE SPINDLE SPEED AT THE PASS START)"
         )
         for ps in pass_layout(edit, sec, pos_mm):
             for p, _ in ps.links:
@@ -1291,21 +1316,31 @@ def write_gcode(text: str, source: str, edit: ProgramEdit, *, block_delete: bool
             for ln in range(first, last + 1):
                 raw = out_lines.get(ln, src[ln - 1])
                 block.extend(before.get(ln, []))
-                z_end = pos_mm[sec.start, 2] / scale[ln] + off / scale[ln]
+                z_end = pos_mm[sec.start, 2] / states[ln].scale + off / states[ln].scale
                 block.append(
-                    _pass_copy(raw, off / scale[ln], z_end if ln == first else None,
-                               motion[ln], f_text(first))
+                    _pass_copy(raw, off / states[ln].scale, z_end if ln == first else None,
+                               states[ln].motion, f_text(first))
                 )  # fmt: skip
         # the program's own pass: its first block states motion and feed (links changed them)
         raw = out_lines.get(first, src[first - 1])
-        raw = _state_first(raw, motion[first], f_text(first))
+        raw = _state_first(raw, states[first].motion, f_text(first))
         out_lines[first] = raw
         before.setdefault(first, [])[0:0] = block
-    result: list[str] = []
-    for ln in range(1, n + 1):
-        result.extend(before.get(ln, []))
-        result.append(out_lines.get(ln, src[ln - 1]))
-    return "\n".join(result) + "\n"
+    # the source's lines, edited, with the inserted blocks before theirs
+    for ln, t in out_lines.items():
+        if 1 <= ln <= n:
+            src[ln - 1] = t
+    inserts = sorted(k for k in before if 1 <= k <= n)
+    if inserts:
+        result: list[str] = []
+        at = 0
+        for ln in inserts:
+            result.extend(src[at : ln - 1])
+            result.extend(before[ln])
+            at = ln - 1
+        result.extend(src[at:])
+        src = result
+    return "\n".join(src) + "\n"
 
 
 _MOTION_TEXT = {"0", "00", "1", "01", "2", "02", "3", "03", "0.", "1.", "2.", "3."}
@@ -1313,6 +1348,16 @@ _MOTION_TEXT = {"0", "00", "1", "01", "2", "02", "3", "03", "0.", "1.", "2.", "3
 
 def _num_differs(a: str, b: str) -> bool:
     return float(a) != float(b)
+
+
+def _new_differs(cur: str, new: str) -> bool:
+    """:func:`_num_differs` where ``new`` is the writer's own number text (fast when equal).
+
+    Equal texts differ only as NaN (``fmt_num`` writes NaN as ``"nan"``).
+    """
+    if cur == new:
+        return new == "nan"
+    return float(cur) != float(new)
 
 
 def _prefix(raw: str, word: str) -> str:
