@@ -391,6 +391,7 @@ class RobotModes:
             std_median=np.asarray(np.median(used, axis=0), dtype=np.float64),
             lowered_max=np.asarray(applied.max(axis=0), dtype=np.float64),
             scenarios=tuple(scenarios),
+            mode_shifts=bool(np.any(shift > 0)),
         )
 
 
@@ -421,7 +422,11 @@ class RobustBound:
     scenarios : tuple of (ModalModel, ndarray)
         The joint region's corners (:func:`region_corners`): TCP-frame model
         lowered part of the way and its speed window (n,); empty: ``model``
-        in ``window`` (one corner, the box).
+        in ``window`` (one corner, the box). With :attr:`mode_shifts` two per
+        corner: every mode that does not lead moved down, then up, by its own
+        frequency spread (:meth:`RobotModes.robust`).
+    mode_shifts : bool
+        Whether the scenarios carry mode shifts.
     """
 
     model: ModalModel
@@ -432,6 +437,7 @@ class RobustBound:
     std_median: FloatArray | None = None
     lowered_max: FloatArray | None = None
     scenarios: tuple[tuple[ModalModel, FloatArray], ...] = ()
+    mode_shifts: bool = False
 
     @property
     def confidence(self) -> float:
@@ -481,8 +487,14 @@ class RobustBound:
                 f"mode's peak compliance, lowered by k_sigma = {ks:g} spreads of it"
                 + (
                     f"), not both at once: the worst over the disk of radius {ks:g} in "
-                    f"standardized (frequency, compliance) errors ({len(self.scenarios)} "
-                    f"corners; {100 * self.confidence:.1f} % if the spread is normal in log "
+                    f"standardized (frequency, compliance) errors ({REGION_CORNERS} "
+                    + (
+                        "corners, each with every mode that does not lead at the low and at "
+                        "the high end of its own frequency spread"
+                        if self.mode_shifts
+                        else "corners"
+                    )
+                    + f"; {100 * self.confidence:.1f} % if the spread is normal in log "
                     "and the limit linear in the errors); "
                     if self.scenarios
                     else f": {100 * self.confidence:.1f} % one-sided if the spread is normal "
