@@ -370,8 +370,9 @@ class RobotModes:
             z_c = model.zeta * np.exp(-c_u * low[..., 0])
             r_c = model.residues * np.exp(c_u * low[..., 1])[..., None, None]
             w_c = np.asarray(np.minimum(c_t * window, MAX_WINDOW), dtype=np.float64)
+            lowered = ModalModel(model.omega, z_c, r_c)  # the last: lowered the most
             if not np.any(shift > 0):
-                scenarios.append((ModalModel(model.omega, z_c, r_c), w_c))
+                scenarios.append((lowered, w_c))
                 continue
             for sign in (-1.0, 1.0):
                 g = np.exp(sign * np.minimum(c_t * shift, MAX_WINDOW))
@@ -383,7 +384,7 @@ class RobotModes:
         used = sm[matter] / k_sigma if np.any(matter) else np.zeros((1, 3))
         applied = low[matter] if np.any(matter) else np.zeros((1, 2))
         return RobustBound(
-            model=scenarios[-1][0],
+            model=lowered,
             window=np.asarray(window, dtype=np.float64),
             k_sigma=float(k_sigma),
             std_max=np.asarray(used.max(axis=0), dtype=np.float64),
