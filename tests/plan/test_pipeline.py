@@ -186,8 +186,9 @@ def test_robust_mode_plans_on_the_lower_bound(pocket_job):
     # in passes of the program's 5 mm: the robust plan is the slower one (more passes or
     # a lower speed)
     assert robust.summary.cycle_time_s > nominal.summary.cycle_time_s
-    # nominal + the joint region's corners (stiffness and damping lowered part of the way)
-    assert len(robust.lobes.diagrams) == 1 + REGION_CORNERS
+    # nominal + the joint region's corners (stiffness and damping lowered part of the way),
+    # each twice: the modes that do not lead moved down, then up, by their own spread
+    assert len(robust.lobes.diagrams) == 1 + 2 * REGION_CORNERS
     b = robust.summary.robust_bound
     assert b is not None
     assert b.k_sigma == 2.0
@@ -217,7 +218,9 @@ def test_robust_mode_plans_on_the_lower_bound(pocket_job):
 
     nom = env(robust.lobes.diagrams[0], np.array([rpm[k]]))
     corners = []
-    for d, (c_t, _) in zip(robust.lobes.diagrams[1:], region_corners(), strict=True):
+    for d, (c_t, _) in zip(
+        robust.lobes.diagrams[1:], np.repeat(region_corners(), 2, axis=0), strict=True
+    ):
         w = 0.1 * c_t
         shifts = np.clip(rpm[k] * (1 + np.linspace(-w, w, 201)), tab.rpm[0], tab.rpm[-1])
         corners.append(env(d, shifts).min())

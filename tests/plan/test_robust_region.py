@@ -128,3 +128,74 @@ def test_each_scenario_in_its_own_window_is_the_min_of_each_alone():
     assert np.all(both.table.a_lim[0] >= _lobes([soft], w_a)[0].table.a_lim[0] - 1e-15)
     with pytest.raises(InputError, match="one window per model"):
         _lobes([feed, soft], [w_a])
+
+
+def _two_mode_modes(s_f_weak, s_c=0.05, f_weak=45.0, k_weak=6e6):
+    """A leading mode (30 Hz) and a weak one (45 Hz, a third of its peak compliance)."""
+    f = np.array([[[30.0, f_weak], [np.nan, np.nan], [np.nan, np.nan]]])
+    z = np.full_like(f, 0.04)
+    k = np.array([[[2e6, k_weak], [np.nan, np.nan], [np.nan, np.nan]]])
+    std = np.zeros((1, 3, 2, 3))
+    std[0, 0, 0] = (0.01, s_c, s_c)
+    std[0, 0, 1] = (s_f_weak, s_c, s_c)
+    p = ModalParameters(f, z, k, ("xx", "yy", "zz"), log_std=std)
+    return RobotModes(p, ModalModel.from_parameters(p), None, "test", spread_calibrated=True)
+
+
+def test_mode_shifts_move_each_weak_mode_by_its_own_spread():
+    """Each corner twice: the modes that lead stay (the window covers them), every other
+    mode down and up by ``c_t k_sigma`` of its own frequency spread at its own stiffness."""
+    modes = _two_mode_modes(0.06)
+    plain = modes.robust(2.0, mode_shifts=False)
+    b = modes.robust(2.0, mode_shifts=True)
+    assert plain is not None
+    assert b is not None
+    assert len(plain.corners()) == REGION_CORNERS
+    assert len(b.corners()) == 2 * REGION_CORNERS
+    w0 = modes.model.omega[0]
+    lead = int(np.argmin(np.abs(w0 - 2 * np.pi * 30.0)))
+    weak = 1 - lead
+    for i, (c_t, _c_u) in enumerate(region_corners()):
+        ref_m, ref_w = plain.corners()[i]
+        for j, sign in enumerate((-1.0, 1.0)):
+            m, w = b.corners()[2 * i + j]
+            np.testing.assert_allclose(w, ref_w)
+            assert m.omega[0, lead] == pytest.approx(w0[lead])
+            g = math.exp(sign * 2.0 * c_t * 0.06)
+            assert m.omega[0, weak] / w0[weak] == pytest.approx(g)
+            # the same modal stiffness (residue / omega^2) and damping as the corner's
+            k_ref = ref_m.omega[0, weak] ** 2 / ref_m.residues[0, weak, 0, 0]
+            assert m.omega[0, weak] ** 2 / m.residues[0, weak, 0, 0] == pytest.approx(k_ref)
+            assert m.zeta[0, weak] == pytest.approx(ref_m.zeta[0, weak])
+
+
+def test_mode_shifts_cover_a_weak_mode_that_sets_the_limit():
+    """A weak mode next to the leading one (33 vs 30 Hz, 0.44 of its peak compliance)
+    whose truth lies 1.8 of its own frequency spreads low (inside its spread, outside the
+    leading mode's window; the lobe flank above both modes then moves): the bound with
+    mode shifts stays at or below the truth's limit at every speed, the joint region
+    alone does not (its compliance lowering kept small, 1 % spreads, so that it does not
+    hide the miss; limits computed independently for each model)."""
+    modes = _two_mode_modes(0.06, s_c=0.01, f_weak=33.0, k_weak=4.5e6)
+    m0 = modes.model
+    weak = int(np.argmin(np.abs(m0.omega[0] - 2 * np.pi * 33.0)))
+    g = np.ones_like(m0.omega)
+    g[0, weak] = math.exp(-1.8 * 0.06)
+    truth = ModalModel(m0.omega * g, m0.zeta, m0.residues * (g**2)[..., None, None])
+
+    def feed(m):
+        return ModalModel(m.omega, m.zeta, m.residues[..., :2, :2])
+
+    st, ex = engagement_angles(0.5, "down")
+    kw = dict(teeth=3, kt=767e6, kr=0.3, phi_entry=st, phi_exit=ex, immersion=0.5)
+    rpm = np.linspace(200.0, 12000.0, 1500)
+    a_true = waypoint_lobes([feed(truth)], rpm=rpm, **kw).table.a_lim[0]
+    out = {}
+    for shifts in (False, True):
+        b = modes.robust(2.0, mode_shifts=shifts)
+        assert b is not None
+        cs = b.corners()
+        lob = waypoint_lobes([feed(m) for m, _ in cs], rpm=rpm, window=[w for _, w in cs], **kw)
+        out[shifts] = lob.table.a_lim[0]
+    assert np.all(out[True] <= a_true * (1 + 1e-9))
+    assert np.max(out[False] / a_true) > 1.2

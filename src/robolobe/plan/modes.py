@@ -90,6 +90,10 @@ INVISIBLE_K = 1e11
 #: and the 2-sigma compliance lowering taken together, the corner (2, 2) of a box, put
 #: the bound at radius 2.8 sigma: C steel at 0.70 of the oracle's MRR, each alone 0.80).
 REGION_CORNERS = 3
+#: Whether a robust bound moves each mode that does not lead (peak compliance below
+#: WINDOW_SHARE of the largest) by its own frequency spread, down and up, at each corner
+#: (issue 27: C14, low-speed titanium; see RobotModes.robust).
+MODE_SHIFTS = True
 
 
 def region_corners(n: int = REGION_CORNERS) -> FloatArray:
@@ -234,6 +238,7 @@ class RobotModes:
         k_sigma: float,
         assumed: Sequence[float] = (),
         override: Sequence[bool] = (False, False, False),
+        mode_shifts: bool | None = None,
     ) -> RobustBound | None:
         """The robust bound of these modes: stiffness and damping lowered, a speed window.
 
@@ -274,6 +279,16 @@ class RobotModes:
         override : (bool, bool, bool)
             Per quantity: take ``assumed`` instead of the source's spread (the
             job set that ``spread_*_pct`` key).
+        mode_shifts : bool, optional
+            Default :data:`MODE_SHIFTS`. Each corner in two scenarios, every
+            mode that does not lead moved by ``t`` of its own frequency spread
+            (for coupled modes the largest of the directions that see it: one
+            mode, one frequency), all down
+            in one and all up in the other; the window still covers the modes
+            that lead. The region then holds each mode's frequency error at its
+            own spread, not only a shift common to all modes (a weak mode's
+            lobe flank can set the limit at a speed, e.g. above every robot
+            mode at low speed, issue 27 C14). False: the joint region alone.
 
         Returns
         -------
@@ -336,23 +351,40 @@ class RobotModes:
         # the joint region: the worst over the disk of radius k_sigma in standardized
         # (frequency, compliance) errors, one scenario per corner of a staircase that
         # holds it (region_corners); the frequency-only corner is the nominal's window
+        # a mode's frequency is one number whichever direction sees it: its spread is the
+        # largest of the directions that see it (issue 27, C14: a servo mode veering with
+        # an arm mode, 2.9 spreads off in the direction that sees the model's mode most,
+        # 0.5 in the other). The window covers the modes that lead; each other mode is
+        # moved by its own spread, all of them down in one scenario and up in the other,
+        # per corner (a weak mode's lobes move alone: no speed window is that wide)
+        shift = np.zeros_like(window[:, None] * sm[..., 0])
+        if MODE_SHIFTS if mode_shifts is None else bool(mode_shifts):
+            f_spread = (
+                np.max(s[..., 0], axis=1)  # s is 0 where a direction cannot see the mode
+                if self.shapes_coupled
+                else sm[..., 0]
+            )
+            shift = np.where(lead, 0.0, f_spread)
         scenarios = []
         for c_t, c_u in region_corners():
-            scenarios.append(
-                (
-                    ModalModel(
-                        model.omega,
-                        model.zeta * np.exp(-c_u * low[..., 0]),
-                        model.residues * np.exp(c_u * low[..., 1])[..., None, None],
-                    ),
-                    np.asarray(np.minimum(c_t * window, MAX_WINDOW), dtype=np.float64),
+            z_c = model.zeta * np.exp(-c_u * low[..., 0])
+            r_c = model.residues * np.exp(c_u * low[..., 1])[..., None, None]
+            w_c = np.asarray(np.minimum(c_t * window, MAX_WINDOW), dtype=np.float64)
+            lowered = ModalModel(model.omega, z_c, r_c)  # the last: lowered the most
+            if not np.any(shift > 0):
+                scenarios.append((lowered, w_c))
+                continue
+            for sign in (-1.0, 1.0):
+                g = np.exp(sign * np.minimum(c_t * shift, MAX_WINDOW))
+                # at the mode's own stiffness: residues scale with omega^2
+                scenarios.append(
+                    (ModalModel(model.omega * g, z_c, r_c * (g**2)[..., None, None]), w_c)
                 )
-            )
         # the spread stated: what was applied to the modes that matter
         used = sm[matter] / k_sigma if np.any(matter) else np.zeros((1, 3))
         applied = low[matter] if np.any(matter) else np.zeros((1, 2))
         return RobustBound(
-            model=scenarios[-1][0],
+            model=lowered,
             window=np.asarray(window, dtype=np.float64),
             k_sigma=float(k_sigma),
             std_max=np.asarray(used.max(axis=0), dtype=np.float64),
@@ -360,6 +392,7 @@ class RobotModes:
             std_median=np.asarray(np.median(used, axis=0), dtype=np.float64),
             lowered_max=np.asarray(applied.max(axis=0), dtype=np.float64),
             scenarios=tuple(scenarios),
+            mode_shifts=bool(np.any(shift > 0)),
         )
 
 
@@ -390,7 +423,11 @@ class RobustBound:
     scenarios : tuple of (ModalModel, ndarray)
         The joint region's corners (:func:`region_corners`): TCP-frame model
         lowered part of the way and its speed window (n,); empty: ``model``
-        in ``window`` (one corner, the box).
+        in ``window`` (one corner, the box). With :attr:`mode_shifts` two per
+        corner: every mode that does not lead moved down, then up, by its own
+        frequency spread (:meth:`RobotModes.robust`).
+    mode_shifts : bool
+        Whether the scenarios carry mode shifts.
     """
 
     model: ModalModel
@@ -401,6 +438,7 @@ class RobustBound:
     std_median: FloatArray | None = None
     lowered_max: FloatArray | None = None
     scenarios: tuple[tuple[ModalModel, FloatArray], ...] = ()
+    mode_shifts: bool = False
 
     @property
     def confidence(self) -> float:
@@ -450,8 +488,14 @@ class RobustBound:
                 f"mode's peak compliance, lowered by k_sigma = {ks:g} spreads of it"
                 + (
                     f"), not both at once: the worst over the disk of radius {ks:g} in "
-                    f"standardized (frequency, compliance) errors ({len(self.scenarios)} "
-                    f"corners; {100 * self.confidence:.1f} % if the spread is normal in log "
+                    f"standardized (frequency, compliance) errors ({REGION_CORNERS} "
+                    + (
+                        "corners, each with every mode that does not lead at the low and at "
+                        "the high end of its own frequency spread"
+                        if self.mode_shifts
+                        else "corners"
+                    )
+                    + f"; {100 * self.confidence:.1f} % if the spread is normal in log "
                     "and the limit linear in the errors); "
                     if self.scenarios
                     else f": {100 * self.confidence:.1f} % one-sided if the spread is normal "
