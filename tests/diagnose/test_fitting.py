@@ -9,6 +9,7 @@ import pytest
 
 from robolobe.diagnose.candidate import Candidate, ParamSpec, Requirement
 from robolobe.diagnose.fitting import fit_candidate
+from robolobe.diagnose.residuals import deviance, residual_vector
 
 
 @pytest.mark.slow
@@ -30,6 +31,23 @@ def test_wrong_candidate_leaves_misfit(toy: SimpleNamespace) -> None:
     wrong = fit_candidate(toy.candidates()[2], toy.model, obs)
     assert wrong.deviance > 5 * right.deviance
     assert wrong.bic > right.bic
+
+
+def test_a_fit_next_to_the_null_value_does_not_stop_on_it(toy: SimpleNamespace) -> None:
+    # the 150 kg mass shifts the peaks; a delay absorbs part of that phase error, so the
+    # delay-only fit has its optimum off the null (0 s). From the +-4 ms grid starts the
+    # trust region's first step lands on the null to rounding (1e-18 s): a step relative
+    # to |z| was 1e-22 s there, a Jacobian of rounding noise, and the fit stopped at the
+    # null with `gtol`. Reference: the deviance on a dense scan of the delay.
+    obs = toy.obs((("mass", 150.0), ("delay", 0.0001)), seed=0)
+    cand = toy.candidates()[3]
+    fit = fit_candidate(cand, toy.model, obs)
+    taus = np.linspace(0.0, 0.001, 201)
+    scan = [deviance(residual_vector(toy.model((("delay", t),), obs), obs)) for t in taus]
+    best = int(np.argmin(scan))
+    assert 0 < best < taus.size - 1  # the scan brackets an optimum off the null
+    assert abs(fit.params[0] - taus[best]) < 2 * (taus[1] - taus[0])
+    assert fit.deviance <= min(scan) * (1 + 1e-6)
 
 
 def test_none_candidate_is_evaluated_once(toy: SimpleNamespace) -> None:

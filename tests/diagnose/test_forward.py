@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 from robolobe._threads import one_blas_thread
+from robolobe.diagnose.candidate import Candidate, ParamSpec
 from robolobe.diagnose.forward import ForwardSettings, forward_select
 
 
@@ -35,18 +36,31 @@ def test_no_second_effect_is_made_up(toy: SimpleNamespace, seed: int) -> None:
 
 
 def test_later_rounds_are_not_screened_by_the_nominal_ranking(toy: SimpleNamespace) -> None:
-    # a 0.1 ms delay ranks below `none` on the nominal model (the 150 kg mass dominates
-    # it), like a gravity stiffening next to a large tool mode on robot C; round 2 must
-    # still try it on top of the mass (a screen by the round-1 ranking never did). (It
-    # was 0.2 ms before the noise estimate's curvature guard: the sharper noise estimate
-    # at the toy's peaks lets the larger delay gain on the nominal model already.)
-    obs = toy.obs((("mass", 150.0), ("delay", 0.0001)), seed=0)
-    fw = forward_select(toy.candidates(), toy.model, obs, obs, settings=ForwardSettings(screen_k=1))
+    # a stiffening of x ranks below `none` on the nominal model: the 150 kg mass makes
+    # the measured structure look softer, so a factor that can only stiffen stays at its
+    # null (1.0) and pays its parameter, like a gravity stiffening next to a large tool
+    # mode on robot C; round 2 must still try it on top of the mass (a screen by the
+    # round-1 ranking never did). (This was a 0.1 ms delay ranking below `none`: that
+    # was a delay fit stopped at its null by a vanishing finite-difference step; a delay
+    # does absorb part of the mass's phase error.)
+    cands = [
+        Candidate(
+            name="joint_stiffness",
+            variant="x",
+            params=(ParamSpec("factor", 1.0, 3.0, (1.2, 1.6), scale="log", null=1.0),),
+            build=c.build,
+        )
+        if c.name == "joint_stiffness"
+        else c
+        for c in toy.candidates()
+    ]
+    obs = toy.obs((("mass", 150.0), ("kx", 1.02)), seed=0)
+    fw = forward_select(cands, toy.model, obs, obs, settings=ForwardSettings(screen_k=1))
     r1 = sorted(fw.fits, key=lambda f: f.bic)
     names = [f.candidate.name for f in r1]
-    assert names.index("sensor_delay") > names.index("none")  # the premise
+    assert names.index("joint_stiffness") > names.index("none")  # the premise
     assert not fw.noise.unexplained
-    assert tuple(s.candidate.name for s in fw.steps) == ("added_mass", "sensor_delay")
+    assert tuple(s.candidate.name for s in fw.steps) == ("added_mass", "joint_stiffness")
 
 
 @pytest.mark.slow

@@ -132,6 +132,7 @@ class _Objective:
         self.obs = obs
         self.nfev = 0
         self.n_resid = 2 * int(obs.mask.sum())
+        self._last: tuple[NDArray[np.float64], NDArray[np.float64]] | None = None
 
     def __call__(self, z: NDArray[np.float64]) -> NDArray[np.float64]:
         self.nfev += 1
@@ -139,28 +140,54 @@ class _Objective:
             H = predict(self.model, self.candidate, self.candidate.to_physical(z), self.obs)
         except (RobolobeError, ValueError, np.linalg.LinAlgError) as exc:
             log.debug("%s at z=%s: %s", self.candidate.label, z, exc)
-            return np.full(self.n_resid, 1e3)
-        return residual_vector(H, self.obs)
+            r = np.full(self.n_resid, 1e3)
+        else:
+            r = residual_vector(H, self.obs)
+        self._last = (np.array(z, dtype=float), r)
+        return r
+
+    def at(self, z: NDArray[np.float64]) -> NDArray[np.float64]:
+        """The residual at ``z``, reusing the last evaluation when it was at ``z``."""
+        if self._last is not None and np.array_equal(self._last[0], z):
+            return self._last[1]
+        return self(z)
+
+
+def _span(lo: NDArray[np.float64], hi: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Width of each internal coordinate's bounds (1 where unbounded)."""
+    return np.where(np.isfinite(hi - lo), hi - lo, 1.0)
 
 
 def _jacobian(
     obj: _Objective,
     z: NDArray[np.float64],
     r0: NDArray[np.float64],
-    lo: NDArray[np.float64],
     hi: NDArray[np.float64],
+    h: NDArray[np.float64],
 ) -> NDArray[np.float64]:
-    """Forward-difference Jacobian of the raw residual, stepping away from bounds."""
-    span = np.where(np.isfinite(hi - lo), hi - lo, 1.0)
+    """Forward-difference Jacobian of the raw residual with steps ``h`` (> 0), shape (m, p).
+
+    A step that would cross the upper bound is taken downwards instead.
+    """
     J = np.empty((r0.size, z.size))
     for i in range(z.size):
-        h = 1e-3 * min(1.0, float(span[i]))
-        if z[i] + h > hi[i]:
-            h = -h
         zz = z.copy()
-        zz[i] += h
-        J[:, i] = (obj(zz) - r0) / h
+        zz[i] = z[i] + h[i] if z[i] + h[i] <= hi[i] else z[i] - h[i]
+        J[:, i] = (obj(zz) - r0) / (zz[i] - z[i])
     return J
+
+
+def _fit_steps(z: NDArray[np.float64], span: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Finite-difference steps of the local fit: ``1e-4 |z|``, at least ``1e-6`` of the span.
+
+    A step relative to ``|z|`` alone (scipy's ``diff_step``) vanishes at
+    ``z = 0``, which is a candidate's null value in internal coordinates (a
+    delay of 0, a log factor of 1) and where the trust region's first step
+    from a one-parameter grid start lands, to rounding: a step of 1e-22 gives
+    a Jacobian of rounding noise, and the fit "converges" on the null
+    (``gtol``) with a better optimum next to it.
+    """
+    return np.maximum(1e-4 * np.abs(z), 1e-6 * span)
 
 
 def _uncertainty(
@@ -272,13 +299,19 @@ def fit_candidate(
         devs = np.array([deviance(obj(z)) for z in zs])
         order = np.argsort(devs)
         starts = []
-        span = np.where(np.isfinite(hi - lo), hi - lo, 1.0)
+        span = _span(lo, hi)
         for i in order:
             # keep starts that are apart by more than 5 % of the range in some coordinate
             if all(np.max(np.abs(zs[i] - s) / span) > 0.05 for s in starts):
                 starts.append(zs[i])
             if len(starts) >= n_starts:
                 break
+    span = _span(lo, hi)
+
+    def jac(z: NDArray[np.float64]) -> NDArray[np.float64]:
+        # scipy evaluates the residual at z just before asking for the Jacobian there
+        return _jacobian(obj, z, obj.at(z), hi, _fit_steps(z, span))
+
     best = None
     for s in starts:
         # keep starts strictly inside the bounds
@@ -291,7 +324,7 @@ def fit_candidate(
             loss="soft_l1",
             f_scale=F_SCALE,
             x_scale="jac",
-            diff_step=np.full(x0.size, 1e-4),
+            jac=jac,
             max_nfev=max_nfev,
         )
         if best is None or res.cost < best.cost:
@@ -299,7 +332,7 @@ def fit_candidate(
     assert best is not None
     z = np.asarray(best.x, dtype=float)
     r0 = np.asarray(best.fun, dtype=float)
-    J = _jacobian(obj, z, r0, lo, hi)
+    J = _jacobian(obj, z, r0, hi, 1e-3 * np.minimum(1.0, span))
     dev = deviance(r0)
     std, corr, cond, notes, ok = _uncertainty(candidate, z, J, dev, n, obs.inflation)
     span = hi - lo
