@@ -82,8 +82,9 @@ def _sweep(w, ids, m, x0, y0, res, radius, band, p0, p1, skip_start, tol):
     at the same level keeps the larger clearance, a higher one is ignored);
     those within ``radius`` get their top lowered to the lowest tip height
     over the part of the move that covers them. ``skip_start``: the move
-    continues a flat move that ended at ``p0`` at the same height, whose end
-    disc already set the cells behind ``p0`` and those deep inside it.
+    continues the previous cutting move from ``p0`` and does not descend (it
+    rises by at most the level tolerance), so that move's end disc already set
+    the cells behind ``p0`` and those deep inside it as low as this one would.
     """
     ny = w.shape[0]
     nx = w.shape[1]
