@@ -82,8 +82,9 @@ def _sweep(w, ids, m, x0, y0, res, radius, band, p0, p1, skip_start, tol):
     at the same level keeps the larger clearance, a higher one is ignored);
     those within ``radius`` get their top lowered to the lowest tip height
     over the part of the move that covers them. ``skip_start``: the move
-    continues a flat move that ended at ``p0`` at the same height, whose end
-    disc already set the cells behind ``p0`` and those deep inside it.
+    continues the previous cutting move from ``p0`` and does not descend (it
+    rises by at most the level tolerance), so that move's end disc already set
+    the cells behind ``p0`` and those deep inside it as low as this one would.
     """
     ny = w.shape[0]
     nx = w.shape[1]
@@ -620,7 +621,12 @@ def _remove(w, ids, x0, y0, res, radius, band, xyz, cutting, tol, m, prev_cut_en
     for c in range(3):
         p0[c] = xyz[m - 1, c]
         p1[c] = xyz[m, c]
-    flat = abs(p1[2] - p0[2]) <= tol
+    # the previous move's end disc has set the cells around p0 to p0's height or lower: a
+    # move that does not descend adds nothing there. One that descends, even by less than
+    # the level tolerance, must lower them: a helix's chords each drop a few micrometres,
+    # and skipped, the floor of its start disc would stay as high as the drops add up to
+    rise = p1[2] - p0[2]
+    flat = 0.0 <= rise <= tol
     _sweep(w, ids, m, x0, y0, res, radius, band, p0, p1, flat and prev_cut_end == m - 1, tol)
     return m
 
