@@ -30,6 +30,8 @@ import pytest
 from robolobe.plan.paths import read_toolpath
 from robolobe.stock import LEVEL_TOL_M, Stock, compute_engagement
 
+from ._arc import engaged_arc
+
 PROGRAM = (
     Path(__file__).resolve().parents[2].parent
     / "shared"
@@ -78,25 +80,7 @@ def _angles(
         inside = np.all((q > box[0][:2] + tol) & (q < box[1][:2] - tol), axis=1)
         return inside & (box[1][2] > z + tol) & ~cleared
 
-    ph = np.linspace(0.0, math.pi, 1801)
-    m = material(ph)
-    if not m.any():
-        return math.nan, math.nan
-
-    def refine(lo: float, hi: float, lo_mat: bool) -> float:
-        for _ in range(24):
-            mid = 0.5 * (lo + hi)
-            if bool(material(np.array([mid]))[0]) == lo_mat:
-                lo = mid
-            else:
-                hi = mid
-        return 0.5 * (lo + hi)
-
-    k0 = int(np.argmax(m))
-    k1 = len(m) - 1 - int(np.argmax(m[::-1]))
-    entry = 0.0 if k0 == 0 else refine(ph[k0 - 1], ph[k0], False)
-    exit_ = math.pi if k1 == len(m) - 1 else refine(ph[k1], ph[k1 + 1], True)
-    return entry, exit_
+    return engaged_arc(material, 24)
 
 
 @pytest.mark.skipif(not PROGRAM.is_file(), reason="../shared/realworld/cam not present")

@@ -27,6 +27,8 @@ import pytest
 
 from robolobe.stock import LEVEL_TOL_M, Stock, compute_engagement
 
+from ._arc import engaged_arc
+
 D = 1.6e-3
 R = 0.5 * D
 TOL = LEVEL_TOL_M
@@ -83,25 +85,7 @@ def _reference(
         inside = np.all((q > box[0][:2] + TOL) & (q < box[1][:2] - TOL), axis=1)
         return inside & (box[1][2] > z + TOL) & ~cleared
 
-    ph = np.linspace(0.0, math.pi, 1801)
-    m = material(ph)
-    if not m.any():
-        return math.nan, math.nan
-
-    def refine(lo: float, hi: float, lo_mat: bool) -> float:
-        for _ in range(20):
-            mid = 0.5 * (lo + hi)
-            if bool(material(np.array([mid]))[0]) == lo_mat:
-                lo = mid
-            else:
-                hi = mid
-        return 0.5 * (lo + hi)
-
-    k0 = int(np.argmax(m))
-    k1 = len(m) - 1 - int(np.argmax(m[::-1]))
-    entry = 0.0 if k0 == 0 else refine(ph[k0 - 1], ph[k0], False)
-    exit_ = math.pi if k1 == len(m) - 1 else refine(ph[k1], ph[k1 + 1], True)
-    return entry, exit_
+    return engaged_arc(material, 20)
 
 
 @pytest.mark.parametrize("drop_um", [8.25, 4.0])

@@ -24,6 +24,8 @@ import pytest
 
 from robolobe.stock import LEVEL_TOL_M, Stock, compute_engagement
 
+from ._arc import engaged_arc
+
 R = 0.005  # tool radius [m]
 D = 2 * R
 BOX = ((-0.03, -0.03, -0.012), (0.03, 0.03, 0.0))
@@ -79,25 +81,7 @@ class Exact:
             q = c + R * (np.sin(ph)[:, None] * f + np.cos(ph)[:, None] * left)
             return self.material(q, z)
 
-        ph = np.linspace(0.0, math.pi, 1801)
-        m = mat(ph)
-        if not m.any():
-            return math.nan, math.nan
-
-        def refine(a: float, b: float, a_mat: bool) -> float:
-            for _ in range(20):
-                mid = 0.5 * (a + b)
-                if bool(mat(np.array([mid]))[0]) == a_mat:
-                    a = mid
-                else:
-                    b = mid
-            return 0.5 * (a + b)
-
-        k0 = int(np.argmax(m))
-        k1 = len(m) - 1 - int(np.argmax(m[::-1]))
-        entry = 0.0 if k0 == 0 else refine(ph[k0 - 1], ph[k0], False)
-        exit_ = math.pi if k1 == len(m) - 1 else refine(ph[k1], ph[k1 + 1], True)
-        return entry, exit_
+        return engaged_arc(mat, 20)
 
 
 def _chords(
