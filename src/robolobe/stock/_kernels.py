@@ -882,12 +882,14 @@ def kernels(work: float = math.inf) -> Any:
 #: (benchmarks/bench_jit.py --kernel stock, CPU, 2-core machine at load 5): the Python
 #: kernel costs 1.9 us per swept cell and 0.53 ms per engagement sample (fit over 11
 #: zig-zags and the bundled pocket, residuals < 0.07 s), numba's start-up and the
-#: cached kernels' first call 0.55-0.6 s; equal at ~290,000 units. The bundled pocket
-#: is 190,000 (Python 0.43 s, compiled 0.55 s), the 10k zig-zag 2.9 million. Measured
-#: with the scalar sweep in Python; the numpy sweep (:func:`_python_kernels`) has since
-#: taken its cells' part of the Python cost down by about 3.5x (the pocket's engagement
-#: kernel by ~40 %), so the crossover now lies higher and this threshold compiles early.
-JIT_MIN_WORK = 290_000.0
+#: cached kernels' first call 0.55-0.6 s; equal at ~290,000 units. The numpy sweep
+#: (:func:`_python_kernels`) has since taken the cells' part of the Python cost down by
+#: about 3.5x; measured again with it (``--kernel stock --reps 3 --sizes
+#: 100,300,400,550,700,850,1000,3000``, load 1-4): Python 0.54 s at 379,000 units against
+#: 0.72 s compiled cold, 0.65 s at 461,000 against 0.56 s; equal at ~420,000 units on
+#: the zig-zags (the cell and sample weights of :func:`work` were not fitted again). The
+#: bundled pocket is 190,000 (Python), the 10k zig-zag 2.9 million (compiled).
+JIT_MIN_WORK = 420_000.0
 #: The same where numba has started (:func:`robolobe._jit.started`): the kernels'
 #: cache load (~30 ms) against the same Python cost.
 JIT_MIN_WORK_STARTED = 20_000.0
