@@ -19,7 +19,11 @@ the models and over the window, on the grid and in the exact queries.
 Grouping features include, per mode, the angle of its residue relative to
 the feed direction (to ~0.3 deg) and the size with which the cut sees it,
 ``tr(alpha A_r)``: a mode within a degree of the feed or normal direction can
-change the limit by several % per degree.
+change the limit by several % per degree. Where each waypoint cuts at its own
+engagement, its directional factors are compared too, to :data:`CUT_TOL`
+(a sixth of the lobes' 0.5 % tolerance): the limit goes as one over their
+eigenvalues, so the residue tolerance (2.1 % in a plan) let a move entering
+at 89.56 deg share lobes made at 90.06 deg, 0.9 % above its own limit.
 """
 
 from __future__ import annotations
