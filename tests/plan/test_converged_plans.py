@@ -98,3 +98,46 @@ def test_contour_on_b_states_converged_limits() -> None:
 def test_every_waypoint_of_the_bundled_plans(name: str) -> None:
     r, where = _ratios(name, every=1)
     _check(r, where)
+
+
+@pytest.mark.slow
+def test_lobe_sharing_on_the_benchmark_zigzag_keeps_its_promise(tmp_path) -> None:
+    """The 10k zig-zag of ``benchmarks/bench_plan.py --part path`` (on the default stock,
+    each move at its own engagement): every cutting waypoint's stated limit against its
+    own converged lobes at its own angles (``cut_lobes(dynamics_tol=0)``: no sharing) at
+    its planned speed, within [0.99, 1.005]. Before the cut's factors had a tolerance of
+    their own (:data:`robolobe.plan.lobes.CUT_TOL`), the moves entering at 89.56 deg
+    where the path meets the stock's edge shared lobes made at 90.06 deg: 1.0094."""
+    passes, per = 31, 323  # 400 x 300 mm, 10 mm step-over, evenly spaced points
+    lines = ["%", "O3001", "G90 G21 G17", "S18000 M3", "G0 X0. Y0. Z5.", "G1 Z-1. F1000."]
+    for k in range(passes):
+        xs = np.linspace(0.0, 400.0, per)[:: -1 if k % 2 else 1]
+        lines += [f"Y{10.0 * k:.3f}"] if k else []
+        lines += [f"X{x:.3f} F4000." if i == 0 else f"X{x:.3f}" for i, x in enumerate(xs)]
+    path = tmp_path / "zigzag.nc"
+    path.write_text("\n".join([*lines, "G0 Z5.", "M30", "%"]) + "\n", encoding="utf-8")
+    j = load_job(example("job_A_pocket.toml"))
+    pl = j.placement.copy()
+    pl[:3, 3] = [1.55, -0.15, 0.30]
+    j = j.replace(placement=pl)
+    res = plan_path(path, j)
+    sub = res.table[(res.table["motion"] == "cut").to_numpy()]
+    assert len(sub) > 9_000
+    q = np.radians(sub[[f"q{k}_deg" for k in range(1, 7)]].to_numpy(np.float64))
+    fa = np.radians(sub["feed_angle_deg"].to_numpy(np.float64))
+    f_tcp = np.stack([np.cos(fa), np.sin(fa), np.zeros_like(fa)], axis=1)
+    f_tcp[(sub["limiting"] == "plunge").to_numpy()] = [0.0, 0.0, 1.0]
+    eng = tuple(np.radians(sub[c].to_numpy(np.float64)) for c in ("phi_entry_deg", "phi_exit_deg"))
+    rpm_grid = np.linspace(j.spindle.rpm_min, j.spindle.rpm_max, j.plan.n_rpm)
+    _, plunge, own, *_ = cut_lobes(
+        j, TwinSource(res.robot).predict(q), f_tcp, material_from_job(j), _tool_model(j),
+        rpm_grid, dynamics_tol=0.0, robust=False, engagement=eng, air=~np.isfinite(eng[0]),
+    )  # fmt: skip
+    stated = sub["a_lim_mm"].to_numpy(np.float64) * 1e-3
+    ref = own.table.query(sub["rpm"].to_numpy(np.float64))
+    ok = np.isfinite(stated) & ~plunge
+    assert ok.sum() > 9_000
+    assert np.all(np.isfinite(ref[ok]))
+    r = stated[ok] / ref[ok]
+    where = sub["line"].to_numpy()[ok]
+    _check(r, [f"zigzag.nc:{w}" for w in where])

@@ -429,3 +429,72 @@ def test_leaders_stand_in_the_middle_of_their_groups(how):
         np.testing.assert_array_equal(label[lead], np.arange(lead.size))
         dist = np.abs(f - f[lead[label]]).max(axis=1)
         assert np.all(dist <= lobes_mod._RADIUS)
+
+
+def _promise_case(entry_deg: np.ndarray, turn_deg: np.ndarray):
+    """Shared (a plan's default tolerance) and own lobes of waypoints at their own entry
+    angles (exit 180 deg) with the pocket job's tool modes (isotropic: the limit they set
+    goes as one over the eigenvalues of the directional factors) and a robot mode at
+    ``30 + turn_deg`` from the feed; the ratios shared / own at every third grid speed,
+    where the member is not next to a steep wall (:func:`steep_members`: those the planner
+    gives lobes of their own), and the number of steep members."""
+    from robolobe.plan.lobes import steep_members
+
+    n = entry_deg.size
+    th = np.radians(30.0 + turn_deg)
+    u = np.stack([np.cos(th), np.sin(th)], axis=1)
+    w = 2 * np.pi * np.array([14.0, 850.0, 1850.0])
+    res = np.zeros((n, 3, 2, 2))
+    res[:, 0] = w[0] ** 2 / 1.5e6 * np.einsum("ni,nj->nij", u, u)
+    res[:, 1] = w[1] ** 2 / 6.0e7 * np.eye(2)
+    res[:, 2] = w[2] ** 2 / 2.2e7 * np.eye(2)
+    m = ModalModel(np.tile(w, (n, 1)), np.tile([0.03, 0.05, 0.035], (n, 1)), res)
+    pe, px = np.radians(entry_deg), np.full(n, np.pi)
+    rpm = np.linspace(6000.0, 24000.0, 300)
+    kw = dict(teeth=3, kt=MAT.kt, rpm=rpm, immersion=0.5)
+    tol = DynamicsTolerance(0.003, 0.03, 0.021, 0.01, 150.0)  # a plan's default
+    shared = waypoint_lobes([m], tol=tol, kr=MAT.kr, phi_entry=pe, phi_exit=px, **kw)
+    own = converged_lobes(m, directional_factors(pe, px, MAT.kr), **kw)
+    ratios, n_steep = [], 0
+    for r in rpm[::3]:
+        at = np.full(n, r)
+        steep = steep_members(shared, at)
+        n_steep += int(steep.sum())
+        ratios.append((shared.table.query(at) / own.query(at[:, None])[:, 0])[~steep])
+    return shared, np.concatenate(ratios), n_steep / (n * rpm[::3].size)
+
+
+def test_sharing_across_an_engagement_change_keeps_the_promise():
+    """Waypoints at their own engagement: lone moves whose entry angle differs by 0.5 deg
+    from their neighbours' (89.56 against 90.06 deg: where the benchmark's zig-zag meets
+    the stock's edge, issue 25) share lobes only with factors whose limit is within the
+    lobe-sharing promise (0.5 %) of their own (:data:`robolobe.plan.lobes.CUT_TOL`).
+    The reference: each waypoint's own converged lobes (``converged_lobes`` per waypoint,
+    no grouping). With the residue tolerance on the factors (2.1 %) a lone 89.56 deg move
+    took a 90.06 deg leader's limit: +1.4 % here, +0.94 % on the 10k zig-zag."""
+    from robolobe.sld.converged import LOBE_TOL
+
+    entry = np.full(41, 90.0573)
+    entry[[0, 20, 26, 33]] = [89.5617, 88.16, 85.845, 89.5617]
+    shared, ratio, steep = _promise_case(entry, np.zeros(41))
+    assert shared.n_groups <= 5  # the moves at 90.06 deg still share
+    assert ratio.max() <= 1.0 + LOBE_TOL, ratio.max()
+    assert ratio.min() >= 0.99, ratio.min()
+    assert steep < 0.8  # (3 teeth on the tool modes' pockets: many steep flanks)
+
+
+@pytest.mark.xfail(
+    strict=True,
+    reason="open (issue 25): a mode's size is shared to the residue tolerance (2.1 % in a "
+    "plan), and the limit a dominant mode sets goes as one over it; a 0.5 % size "
+    "tolerance makes every waypoint of the 10k zig-zag its own group",
+)
+def test_sharing_along_a_turning_dominant_mode_keeps_the_promise():
+    """The other half of the promise, not kept yet: a dominant robot mode turning by
+    0.02 deg per waypoint at 30 deg from the feed (its size as the cut sees it changes by
+    ~0.1 % per waypoint) at one engagement: members up to +1.5 % over their own limit."""
+    from robolobe.sld.converged import LOBE_TOL
+
+    shared, ratio, _ = _promise_case(np.full(41, 90.0573), 0.02 * np.arange(41))
+    assert shared.n_groups < 20
+    assert ratio.max() <= 1.0 + LOBE_TOL, ratio.max()

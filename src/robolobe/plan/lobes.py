@@ -19,7 +19,11 @@ the models and over the window, on the grid and in the exact queries.
 Grouping features include, per mode, the angle of its residue relative to
 the feed direction (to ~0.3 deg) and the size with which the cut sees it,
 ``tr(alpha A_r)``: a mode within a degree of the feed or normal direction can
-change the limit by several % per degree.
+change the limit by several % per degree. Where each waypoint cuts at its own
+engagement, its directional factors are compared too, to :data:`CUT_TOL`
+(a sixth of the lobes' 0.5 % tolerance): the limit goes as one over their
+eigenvalues, so the residue tolerance (2.1 % in a plan) let a move entering
+at 89.56 deg share lobes made at 90.06 deg, 0.9 % above its own limit.
 """
 
 from __future__ import annotations
@@ -38,7 +42,7 @@ from numpy.typing import NDArray
 
 from robolobe.errors import InputError
 from robolobe.plan.optimize import LobeTable
-from robolobe.sld.converged import converged_lobes
+from robolobe.sld.converged import LOBE_TOL, converged_lobes
 from robolobe.sld.directional import directional_factors
 from robolobe.sld.frf import ModalModel
 from robolobe.sld.lobes import LobeDiagram, lobe_envelope
@@ -57,6 +61,18 @@ FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
 
 _RADIUS = 0.75  # leader radius in tolerance units (plus the 0.25 cells: at most 1)
+#: Tolerance of the cut's directional factors ``alpha`` where each waypoint cuts at its own
+#: engagement (:func:`_engagement_features`: the log of the spectral radius and the
+#: entries over it). The limit goes exactly as ``1 / c`` where ``alpha`` is scaled by
+#: ``c`` (the ZOA's eigenvalues are those of ``alpha Phi``), so a size tolerance is a
+#: limit tolerance; a change of shape moves the eigenvalues of ``alpha`` by up to about
+#: twice the entries' change (2 x 2, Bauer-Fike with well-conditioned eigenvectors):
+#: members within this of their leader cut with factors whose eigenvalues agree to
+#: ~3 x 0.08 % = 0.25 %, half of the lobe-sharing promise (:data:`LOBE_TOL`), the other
+#: half left to the modes' own tolerances. (The residue tolerance, 2.1 % in a plan, let
+#: an entry angle of 89.56 deg share the lobes of 90.06 deg: 0.4 % in the factors' norm,
+#: 0.9 % in their eigenvalues and in the limit, issue 25.)
+CUT_TOL = LOBE_TOL / 6.0
 #: Bytes of exact-query answers kept per :class:`GroupedLobes` (later answers are not kept).
 _MEMO_BYTES = 64 << 20
 
@@ -82,6 +98,10 @@ class DynamicsTolerance:
     f_low_hz : float
         Where ``freq_low`` applies (e.g. half the lowest tooth-passing
         frequency); 0: nowhere.
+    cut : float, optional
+        The cut's directional factors, where each waypoint has its own
+        engagement (:func:`_engagement_features`); None: :data:`CUT_TOL`, or
+        ``residue`` where that is smaller (0 with an exact tolerance).
     """
 
     freq: float = 0.003
@@ -89,6 +109,12 @@ class DynamicsTolerance:
     residue: float = 0.02
     freq_low: float = 0.01
     f_low_hz: float = 0.0
+    cut: float | None = None
+
+    @property
+    def cut_tol(self) -> float:
+        """The tolerance of the cut's directional factors in use (see ``cut``)."""
+        return min(self.residue, CUT_TOL) if self.cut is None else self.cut
 
     @property
     def exact(self) -> bool:
@@ -98,6 +124,7 @@ class DynamicsTolerance:
             and self.damping == 0
             and self.residue == 0
             and (self.freq_low == 0 or self.f_low_hz == 0)
+            and self.cut_tol == 0
         )
 
 
@@ -167,15 +194,25 @@ def _features(
 def _engagement_features(alpha: FloatArray, tol: DynamicsTolerance) -> FloatArray:
     """Features (n, 5) of per-waypoint directional factors: their size and shape.
 
-    The log of the matrix norm to the residue tolerance (the limit goes as one
-    over it) and the entries over the norm to a quarter of it (the shape, as
-    the residue directions): waypoints of one group then cut with factors
-    within the tolerance of the leader's, on top of each mode's oriented size.
+    The log of the spectral radius ``rho`` (the larger eigenvalue's modulus:
+    the limit goes as one over the factors' scale) and the entries over
+    ``rho`` (the shape, in units of the eigenvalues it moves), both to the
+    cut's tolerance (:data:`CUT_TOL`): waypoints of one group then cut with
+    factors whose eigenvalues agree with the leader's to ~3 ``cut_tol``, on
+    top of each mode's oriented size. (Over the matrix norm instead, which
+    is about twice ``rho`` at half immersion, a shape change moved the
+    eigenvalues twice as much as the features said.)
     """
-    norm = np.maximum(np.sqrt(np.einsum("nij,nij->n", alpha, alpha)), 1e-300)
+    a, b, c, d = (alpha[:, i, j] for i in (0, 1) for j in (0, 1))
+    half_tr = 0.5 * (a + d)
+    disc = np.sqrt((half_tr * half_tr - (a * d - b * c)).astype(np.complex128))
+    rho = np.maximum(np.abs(half_tr + disc), np.abs(half_tr - disc))
+    norm = np.sqrt(np.einsum("nij,nij->n", alpha, alpha))
+    rho = np.maximum(rho, np.maximum(1e-6 * norm, 1e-300))  # a nilpotent cut: by its norm
+    t = max(tol.cut_tol, 1e-15)
     out = np.empty((alpha.shape[0], 5))
-    out[:, 0] = np.log(norm) / max(tol.residue, 1e-15)
-    out[:, 1:] = alpha.reshape(-1, 4) / norm[:, None] / max(tol.residue / 4.0, 1e-15)
+    out[:, 0] = np.log(rho) / t
+    out[:, 1:] = alpha.reshape(-1, 4) / rho[:, None] / t
     return out
 
 
