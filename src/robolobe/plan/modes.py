@@ -94,6 +94,11 @@ REGION_CORNERS = 3
 #: WINDOW_SHARE of the largest) by its own frequency spread, down and up, at each corner
 #: (issue 27: C14, low-speed titanium; see RobotModes.robust).
 MODE_SHIFTS = True
+#: Which frequency spread a coupled mode is shifted by (:data:`MODE_SHIFTS`):
+#: ``"cut"`` the spreads of the cut's plane (TCP x and y) weighted by the share of the
+#: mode's residue each carries (in quadrature), ``"largest"`` the largest over the
+#: directions that see the mode (issue 27; see RobotModes.robust).
+MODE_SHIFT_SPREAD = "largest"
 
 
 def region_corners(n: int = REGION_CORNERS) -> FloatArray:
@@ -359,11 +364,17 @@ class RobotModes:
         # per corner (a weak mode's lobes move alone: no speed window is that wide)
         shift = np.zeros_like(window[:, None] * sm[..., 0])
         if MODE_SHIFTS if mode_shifts is None else bool(mode_shifts):
-            f_spread = (
-                np.max(s[..., 0], axis=1)  # s is 0 where a direction cannot see the mode
-                if self.shapes_coupled
-                else sm[..., 0]
-            )
+            f_spread = sm[..., 0]
+            if self.shapes_coupled and MODE_SHIFT_SPREAD == "largest":
+                f_spread = np.max(s[..., 0], axis=1)  # 0 where a direction cannot see it
+            elif self.shapes_coupled:
+                # the cut (the tool's x/y plane) sees a mode through its residues there:
+                # its frequency error as the cut sees it is that of those directions,
+                # weighted by the share of the residue each carries
+                r = np.abs(np.stack([model.residues[..., a, a] for a in range(2)], axis=1))
+                tot = r.sum(axis=1, keepdims=True)
+                w = np.divide(r, tot, out=np.zeros_like(r), where=tot > 0)
+                f_spread = np.sqrt(np.sum(w * s[:, :2, :, 0] ** 2, axis=1))
             shift = np.where(lead, 0.0, f_spread)
         scenarios = []
         for c_t, c_u in region_corners():
