@@ -200,8 +200,8 @@ def analyse(key: str, draw: int, job_name: str, cache: Path | None, tmp: Path) -
                                 d,
                                 job,
                                 src,
-                                lambda m, j=j: only(
-                                    with_f_spread(m, nolead[: m.f_hz.shape[0]]).robust(2.0), j
+                                lambda m, j=j, nolead=nolead: only(
+                                    with_f_spread(m, nolead).robust(2.0), j
                                 ),
                             )[bind]
                         )
@@ -273,7 +273,7 @@ def shift_coverage(key: str, draw: int, cache: Path, tmp: Path, n: int = 60) -> 
     from robolobe.tl.design import design_postures
     from robolobe.twin.designs import TESTED_RANGES_DEG
 
-    spec, base = robot_file(key, tmp)
+    _spec, base = robot_file(key, tmp)
     truth = draw_truth(base, key, draw)
     q = design_postures(
         base, n, rng=np.random.default_rng(99), ranges_deg=TESTED_RANGES_DEG.get(key)

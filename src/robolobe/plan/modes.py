@@ -35,6 +35,7 @@ from typing import TYPE_CHECKING, Protocol
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
+from scipy.special import ndtri
 
 from robolobe._directions import DRIVING
 from robolobe._modal_parameters import ModalParameters
@@ -158,6 +159,19 @@ def region_cover(k_sigma: float, t: FloatArray, u: FloatArray) -> NDArray[np.boo
     t = np.abs(np.asarray(t, dtype=np.float64))
     u = np.asarray(u, dtype=np.float64)
     return np.asarray(t**2 + np.maximum(u, 0.0) ** 2 <= k_sigma**2)
+
+
+def joint_sigma(k_sigma: float, m: ArrayLike) -> FloatArray:
+    """Half-width (in sigmas) of ``m`` independent normal intervals that hold together
+    with the probability one interval of ``k_sigma`` holds alone (:func:`region_confidence`).
+
+    Each interval then holds with ``c^(1/m)`` (Sidak), ``c = 2 Phi(k_sigma) - 1``:
+    ``Phi^-1((1 + c^(1/m)) / 2)``; ``k_sigma`` for ``m = 1`` (2.0 -> 2.50 for 4, 2.68
+    for 6).
+    """
+    c = region_confidence(k_sigma)
+    per = c ** (1.0 / np.maximum(np.asarray(m, dtype=np.float64), 1.0))
+    return np.asarray(ndtri(0.5 * (1.0 + per)), dtype=np.float64)
 
 
 def region_probability(k_sigma: float) -> float:
@@ -375,6 +389,11 @@ class RobotModes:
                 tot = r.sum(axis=1, keepdims=True)
                 w = np.divide(r, tot, out=np.zeros_like(r), where=tot > 0)
                 f_spread = np.sqrt(np.sum(w * s[:, :2, :, 0] ** 2, axis=1))
+                # all shifted modes at once: each mode's interval widened so that the
+                # m shifted modes that matter lie in theirs together with the region's
+                # confidence (Sidak: each c^(1/m)), not each alone
+                m_sh = np.maximum(np.sum(matter & ~lead, axis=1, keepdims=True), 1)
+                f_spread = f_spread * (joint_sigma(k_sigma, m_sh) / k_sigma)
             shift = np.where(lead, 0.0, f_spread)
         scenarios = []
         for c_t, c_u in region_corners():
@@ -388,9 +407,8 @@ class RobotModes:
             for sign in (-1.0, 1.0):
                 g = np.exp(sign * np.minimum(c_t * shift, MAX_WINDOW))
                 # at the mode's own stiffness: residues scale with omega^2
-                scenarios.append(
-                    (ModalModel(model.omega * g, z_c, r_c * (g**2)[..., None, None]), w_c)
-                )
+                r_s = r_c * (g**2)[..., None, None]
+                scenarios.append((ModalModel(model.omega * g, z_c, r_s), w_c))
         # the spread stated: what was applied to the modes that matter
         used = sm[matter] / k_sigma if np.any(matter) else np.zeros((1, 3))
         applied = low[matter] if np.any(matter) else np.zeros((1, 2))
