@@ -62,6 +62,14 @@ the joint region alone (rows ``source = "region only"``) for comparison.
 Draws 0-17 were all seen while that was built (developed on C14, C0 and B5);
 draws 18-21 were held back from it and run once (``--robots B --first-draw 18
 --draws 4 --jobs all``, the same for C; ``meta.held_back_18_21``).
+Where the robust plans lose productivity was then measured
+(``studies/out_of_form_mrr.py``: the scenario that binds at the binding
+waypoints, each shifted mode's spread against its true error) and a narrower
+shift spread tried (``plan.modes.MODE_SHIFT_SPREAD = "cut"``, rows ``source =
+"cut shifts"``, not the default) on draws 0-21 (all seen; ``--cache DIR
+--sources "cut shifts"`` re-plans on the kept transfers and oracles); draws
+22-25 were drawn new and run once on that code (``--robots C,B --first-draw 22
+--draws 4 --jobs all``; ``meta.mrr``).
 """
 
 from __future__ import annotations
@@ -558,6 +566,7 @@ def summarize(rows: list[dict[str, Any]]) -> dict[str, Any]:
         ("default (robust) plans", "default", True),
         ("plain plans", "default", False),
         ("robust on the joint region only (no mode shifts)", "region only", True),
+        ("robust, modes shifted by the cut's spread (not the default)", "cut shifts", True),
     ):
         plans = [r for r in rows if r.get("source") == source and r.get("robust") == robust]
         if not plans:

@@ -123,7 +123,7 @@ def analyse(key: str, draw: int, job_name: str, cache: Path | None, tmp: Path) -
         f"{key}{draw} {job_name}: robust plan MRR {res.summary.mrr_cm3_per_min:.3f} cm3/min, "
         f"true min margin {vt.min_margin:.3f}, beyond {vt.n_beyond}"
     ]
-    table, _, _ = read_plan(d, None)
+    table, _, _ = read_plan(d, job)
     cut = table[table["motion"] == "cut"]
     depth = cut["depth_mm"].to_numpy(dtype=np.float64)
     a_plan = cut["a_lim_mm"].to_numpy(dtype=np.float64)
