@@ -281,10 +281,6 @@ def main() -> None:
             print(line, flush=True)
 
 
-if __name__ == "__main__":
-    main()
-
-
 #: Frequency spreads a shifted (coupled) mode can be given, per posture and mode, from
 #: its per-direction spreads ``s`` (n, 3, m) and TCP driving-point residues ``r`` (n, 3, m).
 def _rules(s: FloatArray, r: FloatArray) -> dict[str, FloatArray]:
@@ -345,3 +341,7 @@ def shift_coverage(key: str, draw: int, cache: Path, tmp: Path, n: int = 60) -> 
         out[name] = float(np.mean(z <= 2.0))
         out[name + "_med_spread"] = float(np.median(sp[sel]))
     return out
+
+
+if __name__ == "__main__":
+    main()
