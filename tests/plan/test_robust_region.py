@@ -255,3 +255,6 @@ def test_cut_shift_spread_is_the_residue_weighted_spread_of_the_cut_plane(monkey
             g = up.omega[0, weak] / m0.omega[0, weak]
             assert g == pytest.approx(math.exp(min(2.0 * c_t * per_sigma, pm.MAX_WINDOW)))
     assert ref < 0.07
+    monkeypatch.setattr(pm, "MODE_SHIFT_SPREAD", "widest")
+    with pytest.raises(ValueError, match="MODE_SHIFT_SPREAD"):
+        modes.robust(2.0, mode_shifts=True)

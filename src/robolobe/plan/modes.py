@@ -379,6 +379,10 @@ class RobotModes:
         shift = np.zeros_like(window[:, None] * sm[..., 0])
         if MODE_SHIFTS if mode_shifts is None else bool(mode_shifts):
             f_spread = sm[..., 0]
+            if MODE_SHIFT_SPREAD not in ("largest", "cut"):
+                raise ValueError(
+                    f"MODE_SHIFT_SPREAD: expected 'largest' or 'cut', found {MODE_SHIFT_SPREAD!r}"
+                )
             if self.shapes_coupled and MODE_SHIFT_SPREAD == "largest":
                 f_spread = np.max(s[..., 0], axis=1)  # 0 where a direction cannot see it
             elif self.shapes_coupled:
