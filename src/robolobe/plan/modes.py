@@ -28,6 +28,7 @@ from __future__ import annotations
 import dataclasses
 import logging
 import math
+import statistics
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -35,7 +36,6 @@ from typing import TYPE_CHECKING, Protocol
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy.special import ndtri
 
 from robolobe._directions import DRIVING
 from robolobe._modal_parameters import ModalParameters
@@ -170,8 +170,11 @@ def joint_sigma(k_sigma: float, m: ArrayLike) -> FloatArray:
     for 6).
     """
     c = region_confidence(k_sigma)
-    per = c ** (1.0 / np.maximum(np.asarray(m, dtype=np.float64), 1.0))
-    return np.asarray(ndtri(0.5 * (1.0 + per)), dtype=np.float64)
+    m_arr = np.maximum(np.asarray(m, dtype=np.float64), 1.0)
+    inv = statistics.NormalDist().inv_cdf  # the standard library's: no scipy on the plan path
+    vals, idx = np.unique(m_arr, return_inverse=True)
+    out = np.array([inv(0.5 * (1.0 + c ** (1.0 / v))) for v in vals], dtype=np.float64)
+    return np.asarray(out[idx].reshape(m_arr.shape), dtype=np.float64)
 
 
 def region_probability(k_sigma: float) -> float:
