@@ -62,6 +62,14 @@ the joint region alone (rows ``source = "region only"``) for comparison.
 Draws 0-17 were all seen while that was built (developed on C14, C0 and B5);
 draws 18-21 were held back from it and run once (``--robots B --first-draw 18
 --draws 4 --jobs all``, the same for C; ``meta.held_back_18_21``).
+Where the robust plans lose productivity was then measured
+(``studies/out_of_form_mrr.py``: the scenario that binds at the binding
+waypoints, each shifted mode's spread against its true error) and a narrower
+shift spread tried (``plan.modes.MODE_SHIFT_SPREAD = "cut"``, rows ``source =
+"cut shifts"``, not the default) on draws 0-21 (all seen; ``--cache DIR
+--sources "cut shifts"`` re-plans on the kept transfers and oracles); draws
+22-25 were drawn new and run once on that code (``--robots C,B --first-draw 22
+--draws 4 --jobs all``; ``meta.mrr``).
 """
 
 from __future__ import annotations
@@ -69,6 +77,7 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import json
+import shutil
 import sys
 import tempfile
 import time
@@ -102,6 +111,18 @@ from robolobe.twin.system import nominal_system
 
 FloatArray = np.ndarray
 G = np.array([0.0, 0.0, -9.81])
+#: Plans made per (robot, job): (source, robust, settings of robolobe.plan.modes for it);
+#: "oracle" plans on the truth, the others on the default transfer.
+VARIANTS: list[tuple[str, bool, dict[str, Any]]] = [
+    ("oracle", False, {}),
+    ("default", False, {}),
+    ("default", True, {}),
+    # the robust bound before mode shifts (the joint region alone), for comparison
+    ("region only", True, {"MODE_SHIFTS": False}),
+    # each shifted mode by the spread of the cut's plane (TCP x, y) weighted by its residue
+    # there (plan.modes.MODE_SHIFT_SPREAD = "cut"), for comparison
+    ("cut shifts", True, {"MODE_SHIFT_SPREAD": "cut"}),
+]
 
 
 @dataclasses.dataclass(frozen=True)
@@ -330,8 +351,19 @@ def hammer_tests(truth: Truth, base: Robot, key: str, draw: int) -> Any:
     return identify_campaign(camp).table
 
 
-def run_one(key: str, draw: int, jobs: str) -> list[dict[str, Any]]:
-    """Hammer tests, default transfer and plans on one concealed robot."""
+def run_one(
+    key: str,
+    draw: int,
+    jobs: str,
+    cache: Path | None = None,
+    sources: tuple[str, ...] = (),
+) -> list[dict[str, Any]]:
+    """Hammer tests, default transfer and plans on one concealed robot.
+
+    ``cache``: a folder that keeps each draw's identified table and transferred
+    model (``{key}{draw}/``), so that plans can be made again on the same
+    transfer (development only: the study's figures run without it).
+    """
     from plan_safety import default_transfer
 
     rows: list[dict[str, Any]] = []
@@ -340,6 +372,9 @@ def run_one(key: str, draw: int, jobs: str) -> list[dict[str, Any]]:
         spec, base = robot_file(key, tmp)
         truth = draw_truth(base, key, draw)
         t0 = time.perf_counter()
+        kept = None if cache is None else cache / f"{key}{draw}"
+        if kept is not None and (kept / "R_pred.npz").is_file():
+            return _plans(key, draw, jobs, spec, base, truth, kept, tmp, rows, None, kept, sources)
         modal = hammer_tests(truth, base, key, draw)
         head = {"robot": key, "draw": draw, "truth": truth.describe()}
         per_dir = modal.groupby(["posture_id", "dir"]).size()
@@ -358,87 +393,120 @@ def run_one(key: str, draw: int, jobs: str) -> list[dict[str, Any]]:
             print(f"  transfer failed: {exc}", flush=True)
             return rows
         t_tr = time.process_time() - t1  # CPU time (the transfer runs on one thread)
-        cover = spread_coverage(model_file, truth, base, key)
-        rows.append({**head, "transfer": True, "transfer_cpu_s": t_tr, "job": None, **cover})
-        print(
-            f"  default transfer {t_tr:.1f} s CPU; spread coverage of the truth (|z| <= 2, "
-            f"nominal 95.4 %, {cover['cover_n']} modes): f {100 * cover['cover_f']:.0f} %, "
-            f"zeta {100 * cover['cover_zeta']:.0f} %, k {100 * cover['cover_k']:.0f} %, "
-            f"(f, compliance) in the bound's region {100 * cover['cover_region']:.0f} % "
-            f"(nominal {100 * region_probability(2.0):.1f} %) "
-            f"(the transfer's cross-validated: f {100 * cover['cv_cover_f']:.0f} %, "
-            f"zeta {100 * cover['cv_cover_zeta']:.0f} %, k {100 * cover['cv_cover_k']:.0f} %)",
-            flush=True,
+        if kept is not None:
+            kept.mkdir(parents=True, exist_ok=True)
+            shutil.copy(model_file, kept / "R_pred.npz")
+            (kept / "transfer.json").write_text(json.dumps({"transfer_cpu_s": t_tr}))
+        return _plans(
+            key, draw, jobs, spec, base, truth, model_file.parent, tmp, rows, t_tr, kept, sources
         )
-        oracle_src = TruthSource(truth)
-        for path, job_name, mat in JOBS:
-            if jobs not in ("all", mat) and job_name not in jobs.split(","):
+
+
+def _plans(
+    key: str,
+    draw: int,
+    jobs: str,
+    spec: str,
+    base: Robot,
+    truth: Truth,
+    folder: Path,
+    tmp: Path,
+    rows: list[dict[str, Any]],
+    t_tr: float | None = None,
+    kept: Path | None = None,
+    sources: tuple[str, ...] = (),
+) -> list[dict[str, Any]]:
+    """Coverage and the plans of :func:`run_one` on the transfer in ``folder``."""
+    model_file = folder / "R_pred.npz"
+    sources = sources or ("oracle", "plain", "robust", *(v[0] for v in VARIANTS[3:]))
+    head = {"robot": key, "draw": draw, "truth": truth.describe()}
+    if t_tr is None:
+        t_tr = float(json.loads((folder / "transfer.json").read_text())["transfer_cpu_s"])
+    cover = spread_coverage(model_file, truth, base, key)
+    rows.append({**head, "transfer": True, "transfer_cpu_s": t_tr, "job": None, **cover})
+    print(
+        f"  default transfer {t_tr:.1f} s CPU; spread coverage of the truth (|z| <= 2, "
+        f"nominal 95.4 %, {cover['cover_n']} modes): f {100 * cover['cover_f']:.0f} %, "
+        f"zeta {100 * cover['cover_zeta']:.0f} %, k {100 * cover['cover_k']:.0f} %, "
+        f"(f, compliance) in the bound's region {100 * cover['cover_region']:.0f} % "
+        f"(nominal {100 * region_probability(2.0):.1f} %) "
+        f"(the transfer's cross-validated: f {100 * cover['cv_cover_f']:.0f} %, "
+        f"zeta {100 * cover['cv_cover_zeta']:.0f} %, k {100 * cover['cv_cover_k']:.0f} %)",
+        flush=True,
+    )
+    oracle_src = TruthSource(truth)
+    for path, job_name, mat in JOBS:
+        if jobs not in ("all", mat) and job_name not in jobs.split(","):
+            continue
+        j = load_job(EX / job_name).replace(robot=spec, model="twin")
+        oracle = None
+        for name, robust, shifts in VARIANTS:
+            done = None if kept is None else kept / f"oracle_{job_name}.json"
+            if name == "oracle" and done is not None and done.is_file():
+                oracle = json.loads(done.read_text())
+                rows.append(oracle)
                 continue
-            j = load_job(EX / job_name).replace(robot=spec, model="twin")
-            oracle = None
-            for name, robust, shifts in (
-                ("oracle", False, True),
-                ("default", False, True),
-                ("default", True, True),
-                # the robust bound before mode shifts (the joint region alone), for comparison
-                ("region only", True, False),
-            ):
-                if name == "oracle":
-                    jj = j.replace(plan=dataclasses.replace(j.plan, robust=False))
-                    src: Any = oracle_src
-                else:
-                    jj = j.replace(model=str(model_file))
-                    jj = jj.replace(
-                        plan=dataclasses.replace(jj.plan, robust=None if robust else False)
-                    )
-                    src = None
-                row: dict[str, Any] = {
-                    **head,
-                    "transfer": True,
-                    "job": job_name,
-                    "source": name,
-                    "robust": robust,
+            if (name if name != "default" else ("robust" if robust else "plain")) not in sources:
+                continue
+            if name == "oracle":
+                jj = j.replace(plan=dataclasses.replace(j.plan, robust=False))
+                src: Any = oracle_src
+            else:
+                jj = j.replace(model=str(model_file))
+                jj = jj.replace(plan=dataclasses.replace(jj.plan, robust=None if robust else False))
+                src = None
+            row: dict[str, Any] = {
+                **head,
+                "transfer": True,
+                "job": job_name,
+                "source": name,
+                "robust": robust,
+            }
+            try:
+                saved = {k: getattr(robolobe.plan.modes, k) for k in shifts}
+                for k, val in shifts.items():
+                    setattr(robolobe.plan.modes, k, val)
+                res = plan_path(EX / path, jj, robot=base, source=src)
+            except (ReachabilityError, SingularityError) as exc:
+                print(f"  {job_name}: unreachable ({exc}); skipped", flush=True)
+                break
+            except InfeasibleError as exc:
+                rows.append({**row, "feasible": False, "reason": str(exc)[:200]})
+                print(f"  {job_name} {name} robust={robust}: infeasible", flush=True)
+                continue
+            finally:
+                for k, val in saved.items():
+                    setattr(robolobe.plan.modes, k, val)
+            d = tmp / "plan"
+            write_outputs(res, d, plots=False, html_report=False)
+            v = verify_plan(d, source=oracle_src, job=jj, dynamics_tol=0.0)
+            s = res.summary
+            if s.robust_bound is not None:
+                rb = s.robust_bound
+                row["bound"] = {
+                    "stiffness_lowered_to_pct": rb.stiffness_lowered_to_pct,
+                    "damping_lowered_to_pct": rb.damping_lowered_to_pct,
+                    "frequency_window_pct_max": rb.frequency_window_pct_max,
                 }
-                try:
-                    robolobe.plan.modes.MODE_SHIFTS = shifts
-                    res = plan_path(EX / path, jj, robot=base, source=src)
-                except (ReachabilityError, SingularityError) as exc:
-                    print(f"  {job_name}: unreachable ({exc}); skipped", flush=True)
-                    break
-                except InfeasibleError as exc:
-                    rows.append({**row, "feasible": False, "reason": str(exc)[:200]})
-                    print(f"  {job_name} {name} robust={robust}: infeasible", flush=True)
-                    continue
-                finally:
-                    robolobe.plan.modes.MODE_SHIFTS = True
-                d = tmp / "plan"
-                write_outputs(res, d, plots=False, html_report=False)
-                v = verify_plan(d, source=oracle_src, job=jj, dynamics_tol=0.0)
-                s = res.summary
-                if s.robust_bound is not None:
-                    rb = s.robust_bound
-                    row["bound"] = {
-                        "stiffness_lowered_to_pct": rb.stiffness_lowered_to_pct,
-                        "damping_lowered_to_pct": rb.damping_lowered_to_pct,
-                        "frequency_window_pct_max": rb.frequency_window_pct_max,
-                    }
-                row |= {
-                    "feasible": bool(res.outcome.best.feasible),
-                    "mrr": s.mrr_cm3_per_min,
-                    "n_beyond": int(v.summary["n_beyond_limit"]),
-                    "min_true_margin": v.min_margin,
-                }
-                if name == "oracle":
-                    oracle = row
-                if oracle is not None and oracle["mrr"] > 0:
-                    row["mrr_rel"] = row["mrr"] / oracle["mrr"]
-                rows.append(row)
-                print(
-                    f"  {job_name} {name}{' robust' if robust else ''}: MRR "
-                    f"{row.get('mrr_rel', float('nan')):.2f} x oracle, beyond {row['n_beyond']}, "
-                    f"min true margin {row['min_true_margin']:.3f}",
-                    flush=True,
-                )
+            row |= {
+                "feasible": bool(res.outcome.best.feasible),
+                "mrr": s.mrr_cm3_per_min,
+                "n_beyond": int(v.summary["n_beyond_limit"]),
+                "min_true_margin": v.min_margin,
+            }
+            if name == "oracle":
+                oracle = row
+                if done is not None:
+                    done.write_text(json.dumps(row))
+            if oracle is not None and oracle["mrr"] > 0:
+                row["mrr_rel"] = row["mrr"] / oracle["mrr"]
+            rows.append(row)
+            print(
+                f"  {job_name} {name}{' robust' if robust else ''}: MRR "
+                f"{row.get('mrr_rel', float('nan')):.2f} x oracle, beyond {row['n_beyond']}, "
+                f"min true margin {row['min_true_margin']:.3f}",
+                flush=True,
+            )
     return rows
 
 
@@ -451,12 +519,19 @@ def main() -> None:
         "--jobs", default="al", help="all, al, steel, none or job files (comma-separated)"
     )
     ap.add_argument("--out", type=Path, default=None)
+    ap.add_argument(
+        "--cache", type=Path, default=None, help="keep transfers and oracles here (development)"
+    )
+    ap.add_argument(
+        "--sources", default="", help="of oracle, plain, robust, region only, cut shifts (all)"
+    )
     a = ap.parse_args()
+    sources = tuple(x for x in a.sources.split(",") if x)
     rows: list[dict[str, Any]] = []
     for key in a.robots.split(","):
         for draw in range(a.first_draw, a.first_draw + a.draws):
             try:
-                rows += run_one(key, draw, a.jobs)
+                rows += run_one(key, draw, a.jobs, a.cache, sources)
             except Exception as exc:  # one robot's failure does not end the study
                 rows.append({"robot": key, "draw": draw, "error": f"{type(exc).__name__}: {exc}"})
                 print(f"{key} draw {draw}: {type(exc).__name__}: {exc}", flush=True)
@@ -491,6 +566,7 @@ def summarize(rows: list[dict[str, Any]]) -> dict[str, Any]:
         ("default (robust) plans", "default", True),
         ("plain plans", "default", False),
         ("robust on the joint region only (no mode shifts)", "region only", True),
+        ("robust, modes shifted by the cut's spread (not the default)", "cut shifts", True),
     ):
         plans = [r for r in rows if r.get("source") == source and r.get("robust") == robust]
         if not plans:

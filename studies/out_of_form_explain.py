@@ -244,7 +244,10 @@ def explain(key: str, draw: int, job_name: str, folder: Path, k_sigma: float = 2
     assert b is not None
     for c, (cm, w) in enumerate(b.corners()):
         lines.append(
-            f"bound corner {c} (t, u) = {np.round(region_corners()[c] * k_sigma, 2).tolist()} "
+            f"bound scenario {c} (t, u) = "
+            f"{np.round(region_corners()[c // 2 if b.mode_shifts else c] * k_sigma, 2).tolist()}"
+            + (f", other modes {('down', 'up')[c % 2]}" if b.mode_shifts else "")
+            + " "
             f"without its window (largest {100 * float(w.max()):.1f} %): "
             f"{lim(cm).min():.4f}-{lim(cm).max():.4f} mm"
         )

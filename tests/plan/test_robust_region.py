@@ -199,3 +199,62 @@ def test_mode_shifts_cover_a_weak_mode_that_sets_the_limit():
         out[shifts] = lob.table.a_lim[0]
     assert np.all(out[True] <= a_true * (1 + 1e-9))
     assert np.max(out[False] / a_true) > 1.2
+
+
+def test_joint_sigma_holds_m_intervals_together_with_the_regions_confidence():
+    """``m`` independent intervals of ``joint_sigma(k, m)`` sigmas hold together with
+    ``2 Phi(k) - 1`` (checked with math.erf and on sampled normal errors)."""
+    from robolobe.plan.modes import joint_sigma
+
+    k = 2.0
+    c = math.erf(k / math.sqrt(2.0))
+    ms = np.arange(1, 7)
+    km = joint_sigma(k, ms)
+    assert km[0] == pytest.approx(k)
+    assert np.all(np.diff(km) > 0)
+    for m, w in zip(ms, km, strict=True):
+        assert math.erf(w / math.sqrt(2.0)) ** m == pytest.approx(c, rel=1e-12)
+    e = np.random.default_rng(3).standard_normal((200_000, 4))
+    assert np.mean(np.all(np.abs(e) <= km[3], axis=1)) == pytest.approx(c, abs=0.002)
+
+
+def _coupled_weak_mode(s_x, s_y):
+    """A leading mode along x (30 Hz) and a weak one (40 Hz) whose shape is 1/3 in x and
+    1 in y (residue shares 10 % and 90 % of its x/y plane), coupled shapes."""
+    w = 2 * np.pi * np.array([[30.0, 40.0]])
+    u = np.array([[[0.02, 0.002, 0.0], [0.002, 0.006, 0.0]]])  # (1, modes, xyz) [1/sqrt(kg)]
+    model = ModalModel.from_shapes(w, np.full((1, 2), 0.04), u)
+    with np.errstate(divide="ignore"):
+        k = w[:, None, :] ** 2 / np.swapaxes(u, 1, 2) ** 2  # (1, 3, 2)
+    f = np.broadcast_to((w / (2 * np.pi))[:, None, :], k.shape)
+    std = np.zeros((1, 3, 2, 3))
+    std[..., 1:] = 0.05
+    std[0, :, 0, 0] = 0.01
+    std[0, 0, 1, 0], std[0, 1, 1, 0] = s_x, s_y
+    p = ModalParameters(f, np.full(k.shape, 0.04), k, ("xx", "yy", "zz"), log_std=std)
+    return RobotModes(p, model, None, "test", shapes_coupled=True, spread_calibrated=True)
+
+
+def test_cut_shift_spread_is_the_residue_weighted_spread_of_the_cut_plane(monkeypatch):
+    """``MODE_SHIFT_SPREAD = "cut"``: a weak mode seen 90 % in y is shifted by its x and y
+    spreads weighted by its residue there (in quadrature), widened for the shifted modes
+    together (one here: k_sigma); ``"largest"``: by its largest spread (x, 20 %)."""
+    import robolobe.plan.modes as pm
+
+    modes = _coupled_weak_mode(0.20, 0.02)
+    m0 = modes.model
+    weak = int(np.argmax(m0.omega[0]))
+    r = np.array([0.002**2, 0.006**2])
+    ref = math.sqrt(np.sum(r / r.sum() * np.array([0.20, 0.02]) ** 2))  # per sigma
+    for rule, per_sigma in (("cut", ref), ("largest", 0.20)):
+        monkeypatch.setattr(pm, "MODE_SHIFT_SPREAD", rule)
+        b = modes.robust(2.0, mode_shifts=True)
+        assert b is not None
+        for i, (c_t, _c_u) in enumerate(region_corners()):
+            up, _ = b.corners()[2 * i + 1]
+            g = up.omega[0, weak] / m0.omega[0, weak]
+            assert g == pytest.approx(math.exp(min(2.0 * c_t * per_sigma, pm.MAX_WINDOW)))
+    assert ref < 0.07
+    monkeypatch.setattr(pm, "MODE_SHIFT_SPREAD", "widest")
+    with pytest.raises(ValueError, match="MODE_SHIFT_SPREAD"):
+        modes.robust(2.0, mode_shifts=True)

@@ -49,3 +49,45 @@ def test_out_of_form_transfer_saves_a_model_that_loads(tmp_path):
     assert isinstance(back, CorrectedTwin)
     # the spread is calibrated on the campaign's held-out tests: as stated, cross-validated
     assert np.all(np.abs(back.spread_cover_ - SPREAD_CONFIDENCE) < 0.05)
+
+
+def test_study_summary_per_robust_variant():
+    """The study's figures per plan kind (written for the test): infeasible plans count
+    0 MRR, a (robot, job) whose truth has no feasible plan is left out of the MRR, and
+    each robust variant (the default, the region alone, the cut's spread) is its own row."""
+    from out_of_form import summarize
+
+    def plan(src, robust, job, mrr_rel, beyond=0, margin=1.5, draw=0, feasible=True):
+        return {
+            "robot": "C",
+            "draw": draw,
+            "transfer": True,
+            "job": job,
+            "source": src,
+            "robust": robust,
+            "feasible": feasible,
+            "mrr_rel": mrr_rel,
+            "n_beyond": beyond,
+            "min_true_margin": margin,
+        }
+
+    rows = [
+        plan("oracle", False, "a", 1.0),
+        plan("oracle", False, "b", 1.0),
+        plan("oracle", False, "c", 0.0, feasible=False),  # no oracle: MRR not compared
+        plan("default", True, "a", 0.6),
+        plan("default", True, "b", 0.9, margin=1.2),
+        plan("default", True, "c", 0.0, feasible=False),
+        plan("cut shifts", True, "a", 1.0, beyond=6, margin=0.93),
+        plan("cut shifts", True, "b", 0.8, feasible=False),
+        plan("region only", True, "a", 0.7),
+    ]
+    s = summarize(rows)
+    d = s["default (robust) plans"]
+    assert (d["plans"], d["infeasible"], d["beyond"]) == (3, 1, 0)
+    assert d["median_mrr_rel"] == pytest.approx(0.75)
+    assert d["min_true_margin"] == pytest.approx(1.2)
+    c = s["robust, modes shifted by the cut's spread (not the default)"]
+    assert (c["beyond"], c["min_true_margin"], c["mrr_rel"]) == (6, 0.93, [1.0, 0.0])
+    assert s["robust on the joint region only (no mode shifts)"]["mrr_rel"] == [0.7]
+    assert s["no_oracle"] == ["C0 c"]

@@ -28,6 +28,7 @@ from __future__ import annotations
 import dataclasses
 import logging
 import math
+import statistics
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -94,6 +95,11 @@ REGION_CORNERS = 3
 #: WINDOW_SHARE of the largest) by its own frequency spread, down and up, at each corner
 #: (issue 27: C14, low-speed titanium; see RobotModes.robust).
 MODE_SHIFTS = True
+#: Which frequency spread a coupled mode is shifted by (:data:`MODE_SHIFTS`):
+#: ``"cut"`` the spreads of the cut's plane (TCP x and y) weighted by the share of the
+#: mode's residue each carries (in quadrature), ``"largest"`` the largest over the
+#: directions that see the mode (issue 27; see RobotModes.robust).
+MODE_SHIFT_SPREAD = "largest"
 
 
 def region_corners(n: int = REGION_CORNERS) -> FloatArray:
@@ -153,6 +159,22 @@ def region_cover(k_sigma: float, t: FloatArray, u: FloatArray) -> NDArray[np.boo
     t = np.abs(np.asarray(t, dtype=np.float64))
     u = np.asarray(u, dtype=np.float64)
     return np.asarray(t**2 + np.maximum(u, 0.0) ** 2 <= k_sigma**2)
+
+
+def joint_sigma(k_sigma: float, m: ArrayLike) -> FloatArray:
+    """Half-width (in sigmas) of ``m`` independent normal intervals that hold together
+    with the probability one interval of ``k_sigma`` holds alone (:func:`region_confidence`).
+
+    Each interval then holds with ``c^(1/m)`` (Sidak), ``c = 2 Phi(k_sigma) - 1``:
+    ``Phi^-1((1 + c^(1/m)) / 2)``; ``k_sigma`` for ``m = 1`` (2.0 -> 2.50 for 4, 2.68
+    for 6).
+    """
+    c = region_confidence(k_sigma)
+    m_arr = np.maximum(np.asarray(m, dtype=np.float64), 1.0)
+    inv = statistics.NormalDist().inv_cdf  # the standard library's: no scipy on the plan path
+    vals, idx = np.unique(m_arr, return_inverse=True)
+    out = np.array([inv(0.5 * (1.0 + c ** (1.0 / v))) for v in vals], dtype=np.float64)
+    return np.asarray(out[idx].reshape(m_arr.shape), dtype=np.float64)
 
 
 def region_probability(k_sigma: float) -> float:
@@ -359,11 +381,26 @@ class RobotModes:
         # per corner (a weak mode's lobes move alone: no speed window is that wide)
         shift = np.zeros_like(window[:, None] * sm[..., 0])
         if MODE_SHIFTS if mode_shifts is None else bool(mode_shifts):
-            f_spread = (
-                np.max(s[..., 0], axis=1)  # s is 0 where a direction cannot see the mode
-                if self.shapes_coupled
-                else sm[..., 0]
-            )
+            f_spread = sm[..., 0]
+            if MODE_SHIFT_SPREAD not in ("largest", "cut"):
+                raise ValueError(
+                    f"MODE_SHIFT_SPREAD: expected 'largest' or 'cut', found {MODE_SHIFT_SPREAD!r}"
+                )
+            if self.shapes_coupled and MODE_SHIFT_SPREAD == "largest":
+                f_spread = np.max(s[..., 0], axis=1)  # 0 where a direction cannot see it
+            elif self.shapes_coupled:
+                # the cut (the tool's x/y plane) sees a mode through its residues there:
+                # its frequency error as the cut sees it is that of those directions,
+                # weighted by the share of the residue each carries
+                r = np.abs(np.stack([model.residues[..., a, a] for a in range(2)], axis=1))
+                tot = r.sum(axis=1, keepdims=True)
+                w = np.divide(r, tot, out=np.zeros_like(r), where=tot > 0)
+                f_spread = np.sqrt(np.sum(w * s[:, :2, :, 0] ** 2, axis=1))
+                # all shifted modes at once: each mode's interval widened so that the
+                # m shifted modes that matter lie in theirs together with the region's
+                # confidence (Sidak: each c^(1/m)), not each alone
+                m_sh = np.maximum(np.sum(matter & ~lead, axis=1, keepdims=True), 1)
+                f_spread = f_spread * (joint_sigma(k_sigma, m_sh) / k_sigma)
             shift = np.where(lead, 0.0, f_spread)
         scenarios = []
         for c_t, c_u in region_corners():
@@ -377,9 +414,8 @@ class RobotModes:
             for sign in (-1.0, 1.0):
                 g = np.exp(sign * np.minimum(c_t * shift, MAX_WINDOW))
                 # at the mode's own stiffness: residues scale with omega^2
-                scenarios.append(
-                    (ModalModel(model.omega * g, z_c, r_c * (g**2)[..., None, None]), w_c)
-                )
+                r_s = r_c * (g**2)[..., None, None]
+                scenarios.append((ModalModel(model.omega * g, z_c, r_s), w_c))
         # the spread stated: what was applied to the modes that matter
         used = sm[matter] / k_sigma if np.any(matter) else np.zeros((1, 3))
         applied = low[matter] if np.any(matter) else np.zeros((1, 2))
