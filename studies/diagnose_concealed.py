@@ -26,8 +26,10 @@ Run (about 1-3 min per 30-posture case on a loaded 2-core machine)::
 
 Options: ``--robots B,C``, ``--postures 30``, ``--seeds 0``, ``--groups
 single,pair,outside,null``, ``--file-error 0.1``, ``--no-seed-tables``,
-``--limit N`` (first N cases), ``--skip N``, ``--from-csv cases.csv`` (tables only;
-with ``--markdown`` the README's tables).
+``--limit N`` (first N cases), ``--skip N``, ``--cases LABEL [LABEL ...]`` (only
+the cases with these labels, as the tables print them, e.g. ``--cases "null" "tool
+mode 31 Hz y, exact file"``; an unknown label is refused with the list),
+``--from-csv cases.csv`` (tables only; with ``--markdown`` the README's tables).
 """
 
 from __future__ import annotations
@@ -43,6 +45,7 @@ import pandas as pd
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 from diagnose_reference import (
+    Case,
     markdown_tables,
     results_frame,
     run_case,
@@ -62,11 +65,13 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--no-seed-tables", action="store_true")
     p.add_argument("--limit", type=int, default=None)
     p.add_argument("--skip", type=int, default=0, help="leave out the first N cases")
+    p.add_argument(
+        "--cases", nargs="+", default=None, metavar="LABEL", help="only the cases with these labels"
+    )
     p.add_argument("--out", type=Path, default=Path("studies/out/diagnose"))
     p.add_argument("--from-csv", type=Path, nargs="+", default=None)
     p.add_argument("--markdown", action="store_true", help="with --from-csv: README tables")
     a = p.parse_args(argv)
-    a.out.mkdir(parents=True, exist_ok=True)
     pd.set_option("display.width", 220)
     pd.set_option("display.max_columns", 30)
     pd.set_option("display.max_colwidth", 60)
@@ -84,9 +89,16 @@ def main(argv: list[str] | None = None) -> int:
         file_error=a.file_error,
         groups=[g.strip() for g in a.groups.split(",")],
     )
+    if a.cases is not None:
+        try:
+            cases = select_cases(cases, a.cases)
+        except ValueError as e:
+            print(e, file=sys.stderr)
+            return 2
     cases = cases[a.skip :]
     if a.limit is not None:
         cases = cases[: a.limit]
+    a.out.mkdir(parents=True, exist_ok=True)
     print(
         f"{len(cases)} cases, {a.postures} postures each; load average {os.getloadavg()[0]:.1f}",
         flush=True,
@@ -121,6 +133,24 @@ def main(argv: list[str] | None = None) -> int:
         f"load average {os.getloadavg()[0]:.1f}; wrote {a.out}/cases.csv"
     )
     return 0
+
+
+def select_cases(cases: list[Case], labels: list[str]) -> list[Case]:
+    """The cases with these labels, in the study's order.
+
+    Raises
+    ------
+    ValueError
+        A label that no case has (the message lists the labels there are).
+    """
+    known = {c.label for c in cases}
+    unknown = [lab for lab in labels if lab not in known]
+    if unknown:
+        raise ValueError(
+            f"--cases: expected labels of the selected robots and groups "
+            f"({'; '.join(sorted(known))}), found {'; '.join(unknown)}"
+        )
+    return [c for c in cases if c.label in set(labels)]
 
 
 def _report(tables: dict[str, pd.DataFrame]) -> None:
