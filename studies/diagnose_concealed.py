@@ -26,9 +26,10 @@ Run (about 1-3 min per 30-posture case on a loaded 2-core machine)::
 
 Options: ``--robots B,C``, ``--postures 30``, ``--seeds 0``, ``--groups
 single,pair,outside,null``, ``--file-error 0.1``, ``--no-seed-tables``,
-``--limit N`` (first N cases), ``--skip N``, ``--cases LABEL [LABEL ...]`` (only
-the cases with these labels, as the tables print them, e.g. ``--cases "null" "tool
-mode 31 Hz y, exact file"``; an unknown label is refused with the list),
+``--limit N`` (first N cases), ``--skip N``, ``--cases LABEL [LABEL ...]``
+(only the cases with these labels, as the tables print them, robot by robot
+in the order given, e.g. ``--cases "null, exact file" "tool mode 31 Hz y,
+exact file"``; an unknown label is refused with the list),
 ``--from-csv cases.csv`` (tables only; with ``--markdown`` the README's tables).
 """
 
@@ -136,7 +137,7 @@ def main(argv: list[str] | None = None) -> int:
 
 
 def select_cases(cases: list[Case], labels: list[str]) -> list[Case]:
-    """The cases with these labels, in the study's order.
+    """The cases with these labels: robot by robot, each in the order of ``labels``.
 
     Raises
     ------
@@ -150,7 +151,10 @@ def select_cases(cases: list[Case], labels: list[str]) -> list[Case]:
             f"--cases: expected labels of the selected robots and groups "
             f"({'; '.join(sorted(known))}), found {'; '.join(unknown)}"
         )
-    return [c for c in cases if c.label in set(labels)]
+    order = {lab: i for i, lab in enumerate(dict.fromkeys(labels))}
+    robots = list(dict.fromkeys(c.robot for c in cases))
+    picked = [c for c in cases if c.label in order]
+    return sorted(picked, key=lambda c: (robots.index(c.robot), order[c.label]))
 
 
 def _report(tables: dict[str, pd.DataFrame]) -> None:

@@ -103,17 +103,17 @@ def test_the_scoring_catches_each_fault_the_study_guards() -> None:
 
 
 def test_the_study_runs_the_cases_named_and_refuses_an_unknown_label(tmp_path) -> None:
-    """``--cases``: the labelled cases in the study's order; a wrong label exits 2 and
-    writes nothing."""
+    """``--cases``: the labelled cases, robot by robot in the order given; a wrong label
+    exits 2 and writes nothing."""
     from diagnose_concealed import main, select_cases
 
     cases = standard_cases(("B", "C"), n_postures=N_POSTURES)
     picked = select_cases(cases, ["null, exact file", "tool mode 31 Hz y, exact file"])
     assert [(c.robot, c.label) for c in picked] == [
-        ("B", "tool mode 31 Hz y, exact file"),
         ("B", "null, exact file"),
-        ("C", "tool mode 31 Hz y, exact file"),
+        ("B", "tool mode 31 Hz y, exact file"),
         ("C", "null, exact file"),
+        ("C", "tool mode 31 Hz y, exact file"),
     ]
     with pytest.raises(ValueError, match=r"found null$"):
         select_cases(cases, ["null, exact file", "null"])
