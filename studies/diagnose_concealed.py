@@ -30,12 +30,14 @@ single,pair,outside,null``, ``--file-error 0.1``, ``--no-seed-tables``,
 (only the cases with these labels, as the tables print them, robot by robot
 in the order given, e.g. ``--cases "null, exact file" "tool mode 31 Hz y,
 exact file"``; an unknown label is refused with the list),
-``--from-csv cases.csv`` (tables only; with ``--markdown`` the README's tables).
+``--from-csv cases.csv`` (tables only; with ``--markdown`` the README's tables),
+``--json FILE`` (the per-robot figures and the cases, e.g. ``studies/diagnose_concealed.json``).
 """
 
 from __future__ import annotations
 
 import argparse
+import json
 import os
 import sys
 import time
@@ -52,8 +54,11 @@ from diagnose_reference import (
     run_case,
     run_seed_table,
     standard_cases,
+    study_summary,
     study_tables,
 )
+
+from robolobe._atomic import atomic_write_text
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -72,6 +77,12 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--out", type=Path, default=Path("studies/out/diagnose"))
     p.add_argument("--from-csv", type=Path, nargs="+", default=None)
     p.add_argument("--markdown", action="store_true", help="with --from-csv: README tables")
+    p.add_argument(
+        "--json",
+        type=Path,
+        default=None,
+        help="also write the per-robot figures and the cases as JSON (e.g. with --from-csv)",
+    )
     a = p.parse_args(argv)
     pd.set_option("display.width", 220)
     pd.set_option("display.max_columns", 30)
@@ -82,6 +93,8 @@ def main(argv: list[str] | None = None) -> int:
             print(markdown_tables(frame))
         else:
             _report(study_tables(frame))
+        if a.json is not None:
+            _write_json(a.json, frame, a.postures)
         return 0
     cases = standard_cases(
         [r.strip() for r in a.robots.split(",") if r.strip()],
@@ -121,6 +134,8 @@ def main(argv: list[str] | None = None) -> int:
     df = results_frame(results)
     df.to_csv(a.out / "cases.csv", index=False)
     _report(study_tables(df))
+    if a.json is not None:
+        _write_json(a.json, df, a.postures)
     if not a.no_seed_tables:
         rows = []
         for rb in ("B", "C"):
@@ -155,6 +170,11 @@ def select_cases(cases: list[Case], labels: list[str]) -> list[Case]:
     robots = list(dict.fromkeys(c.robot for c in cases))
     picked = [c for c in cases if c.label in order]
     return sorted(picked, key=lambda c: (robots.index(c.robot), order[c.label]))
+
+
+def _write_json(path: Path, frame: pd.DataFrame, postures: int) -> None:
+    data = {"study": "diagnose_concealed", "postures": postures, **study_summary(frame)}
+    atomic_write_text(path, json.dumps(data, indent=1, allow_nan=True) + "\n")
 
 
 def _report(tables: dict[str, pd.DataFrame]) -> None:
