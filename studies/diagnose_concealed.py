@@ -26,13 +26,18 @@ Run (about 1-3 min per 30-posture case on a loaded 2-core machine)::
 
 Options: ``--robots B,C``, ``--postures 30``, ``--seeds 0``, ``--groups
 single,pair,outside,null``, ``--file-error 0.1``, ``--no-seed-tables``,
-``--limit N`` (first N cases), ``--skip N``, ``--from-csv cases.csv`` (tables only;
-with ``--markdown`` the README's tables).
+``--limit N`` (first N cases), ``--skip N``, ``--cases LABEL [LABEL ...]``
+(only the cases with these labels, as the tables print them, robot by robot
+in the order given, e.g. ``--cases "null, exact file" "tool mode 31 Hz y,
+exact file"``; an unknown label is refused with the list),
+``--from-csv cases.csv`` (tables only; with ``--markdown`` the README's tables),
+``--json FILE`` (the per-robot figures and the cases, e.g. ``studies/diagnose_concealed.json``).
 """
 
 from __future__ import annotations
 
 import argparse
+import json
 import os
 import sys
 import time
@@ -43,13 +48,17 @@ import pandas as pd
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 from diagnose_reference import (
+    Case,
     markdown_tables,
     results_frame,
     run_case,
     run_seed_table,
     standard_cases,
+    study_summary,
     study_tables,
 )
+
+from robolobe._atomic import atomic_write_text
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -62,11 +71,19 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--no-seed-tables", action="store_true")
     p.add_argument("--limit", type=int, default=None)
     p.add_argument("--skip", type=int, default=0, help="leave out the first N cases")
+    p.add_argument(
+        "--cases", nargs="+", default=None, metavar="LABEL", help="only the cases with these labels"
+    )
     p.add_argument("--out", type=Path, default=Path("studies/out/diagnose"))
     p.add_argument("--from-csv", type=Path, nargs="+", default=None)
     p.add_argument("--markdown", action="store_true", help="with --from-csv: README tables")
+    p.add_argument(
+        "--json",
+        type=Path,
+        default=None,
+        help="also write the per-robot figures and the cases as JSON (e.g. with --from-csv)",
+    )
     a = p.parse_args(argv)
-    a.out.mkdir(parents=True, exist_ok=True)
     pd.set_option("display.width", 220)
     pd.set_option("display.max_columns", 30)
     pd.set_option("display.max_colwidth", 60)
@@ -76,6 +93,8 @@ def main(argv: list[str] | None = None) -> int:
             print(markdown_tables(frame))
         else:
             _report(study_tables(frame))
+        if a.json is not None:
+            _write_json(a.json, frame, a.postures)
         return 0
     cases = standard_cases(
         [r.strip() for r in a.robots.split(",") if r.strip()],
@@ -84,9 +103,16 @@ def main(argv: list[str] | None = None) -> int:
         file_error=a.file_error,
         groups=[g.strip() for g in a.groups.split(",")],
     )
+    if a.cases is not None:
+        try:
+            cases = select_cases(cases, a.cases)
+        except ValueError as e:
+            print(e, file=sys.stderr)
+            return 2
     cases = cases[a.skip :]
     if a.limit is not None:
         cases = cases[: a.limit]
+    a.out.mkdir(parents=True, exist_ok=True)
     print(
         f"{len(cases)} cases, {a.postures} postures each; load average {os.getloadavg()[0]:.1f}",
         flush=True,
@@ -108,6 +134,8 @@ def main(argv: list[str] | None = None) -> int:
     df = results_frame(results)
     df.to_csv(a.out / "cases.csv", index=False)
     _report(study_tables(df))
+    if a.json is not None:
+        _write_json(a.json, df, a.postures)
     if not a.no_seed_tables:
         rows = []
         for rb in ("B", "C"):
@@ -121,6 +149,32 @@ def main(argv: list[str] | None = None) -> int:
         f"load average {os.getloadavg()[0]:.1f}; wrote {a.out}/cases.csv"
     )
     return 0
+
+
+def select_cases(cases: list[Case], labels: list[str]) -> list[Case]:
+    """The cases with these labels: robot by robot, each in the order of ``labels``.
+
+    Raises
+    ------
+    ValueError
+        A label that no case has (the message lists the labels there are).
+    """
+    known = {c.label for c in cases}
+    unknown = [lab for lab in labels if lab not in known]
+    if unknown:
+        raise ValueError(
+            f"--cases: expected labels of the selected robots and groups "
+            f"({'; '.join(sorted(known))}), found {'; '.join(unknown)}"
+        )
+    order = {lab: i for i, lab in enumerate(dict.fromkeys(labels))}
+    robots = list(dict.fromkeys(c.robot for c in cases))
+    picked = [c for c in cases if c.label in order]
+    return sorted(picked, key=lambda c: (robots.index(c.robot), order[c.label]))
+
+
+def _write_json(path: Path, frame: pd.DataFrame, postures: int) -> None:
+    data = {"study": "diagnose_concealed", "postures": postures, **study_summary(frame)}
+    atomic_write_text(path, json.dumps(data, indent=1, allow_nan=True) + "\n")
 
 
 def _report(tables: dict[str, pd.DataFrame]) -> None:

@@ -713,6 +713,57 @@ def study_tables(df: pd.DataFrame) -> dict[str, pd.DataFrame]:
     return {"cases": df, "summary": summary}
 
 
+def study_summary(df: pd.DataFrame) -> dict[str, Any]:
+    """Per-robot figures of the README row and one record per case (for a JSON file).
+
+    Per robot: ``in_library_named`` / ``in_library_cases`` (every in-library
+    effect of a case named), ``pairs_named`` / ``pairs``, ``false_claims`` /
+    ``cases``, ``null_false_discoveries`` / ``nulls`` (a verdict other than
+    ``none``), ``outside_unexplained`` / ``outside`` (physics outside the
+    library left ``unexplained``; the others are listed with their verdicts),
+    ``cpu_seconds_median`` / ``_max`` (the diagnosis in one thread).
+
+    Parameters
+    ----------
+    df : DataFrame
+        :func:`results_frame` rows (read back from ``cases.csv`` too).
+    """
+    per_robot: dict[str, Any] = {}
+    for rb in dict.fromkeys(df["robot"]):
+        d = df[df["robot"] == rb]
+        lib = d[(d["truths"] != "none") & (d["truths"] != "file_parameters") & ~d["outside"]]
+        pairs = lib[lib["case"].str.contains(" and ")]
+        nul = d[d["case"].str.startswith("null")]
+        out = d[d["outside"]]
+        per_robot[str(rb)] = {
+            "cases": len(d),
+            "in_library_cases": len(lib),
+            "in_library_named": int(lib["found_all"].astype(bool).sum()),
+            "missed": [
+                {"case": r.case, "verdict": r.verdict, "misfit_x_noise": float(r.misfit_x_noise)}
+                for r in lib[~lib["found_all"].astype(bool)].itertuples()
+            ],
+            "pairs": len(pairs),
+            "pairs_named": int(pairs["found_all"].astype(bool).sum()),
+            "false_claims": int(d["false_claim"].astype(bool).sum()),
+            "nulls": len(nul),
+            "null_false_discoveries": int((nul["verdict"] != "none").sum()),
+            "outside": len(out),
+            "outside_unexplained": int(out["unexplained"].astype(bool).sum()),
+            "outside_verdicts": {
+                str(r.case): {"verdict": r.verdict, "misfit_x_noise": float(r.misfit_x_noise)}
+                for r in out.itertuples()
+            },
+            "cpu_seconds_median": float(d["cpu_seconds"].median()),
+            "cpu_seconds_max": float(d["cpu_seconds"].max()),
+        }
+    cases = [
+        {k: (v.item() if hasattr(v, "item") else v) for k, v in row.items()}
+        for row in df.to_dict(orient="records")
+    ]
+    return {"per_robot": per_robot, "cases": cases}
+
+
 def _yes(v: Any) -> str:
     return "yes" if bool(v) else "no"
 

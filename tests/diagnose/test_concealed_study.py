@@ -100,3 +100,59 @@ def test_the_scoring_catches_each_fault_the_study_guards() -> None:
     assert outside.outside
     assert not pair.outside
     assert dataclasses.replace(pair, physics=()).required == ()
+
+
+def test_the_study_runs_the_cases_named_and_refuses_an_unknown_label(tmp_path) -> None:
+    """``--cases``: the labelled cases, robot by robot in the order given; a wrong label
+    exits 2 and writes nothing."""
+    from diagnose_concealed import main, select_cases
+
+    cases = standard_cases(("B", "C"), n_postures=N_POSTURES)
+    picked = select_cases(cases, ["null, exact file", "tool mode 31 Hz y, exact file"])
+    assert [(c.robot, c.label) for c in picked] == [
+        ("B", "null, exact file"),
+        ("B", "tool mode 31 Hz y, exact file"),
+        ("C", "null, exact file"),
+        ("C", "tool mode 31 Hz y, exact file"),
+    ]
+    with pytest.raises(ValueError, match=r"found null$"):
+        select_cases(cases, ["null, exact file", "null"])
+    out = tmp_path / "out"
+    assert main(["--robots", "B", "--cases", "nul", "--out", str(out)]) == 2
+    assert not out.exists()
+
+
+def test_the_json_summary_counts_each_class_per_robot(tmp_path) -> None:
+    """``--json``: the README row's figures from results written for the test."""
+    import json
+
+    from diagnose_concealed import main
+    from diagnose_reference import results_frame
+
+    mass = Case("C", (P("mass", mass_kg=5.0),), "+5 kg", 0.1, 3)
+    pair = Case("C", (P("mass", mass_kg=6.0), P("sensor_rot", rz=0.07)), "m and s", 0.1, 3)
+    com = Case("C", (P("com", link=3, offset_m=(0.15, 0.0, 0.0)),), "com", 0.1, 3)
+    absorber = Case("C", (P("absorber", mass_kg=25.0, f_hz=18.0, zeta=0.02),), "abs", 0.1, 3)
+    null = Case("C", (), "null, exact file", 0.0, 3)
+    rows = [
+        _result(mass, ("added_mass", "file_parameters")),  # named
+        _result(pair, ("added_mass", "file_parameters")),  # one of two: missed
+        _result(com, ("file_parameters",), misfit=3.0, unexplained=True),
+        _result(absorber, ("file_parameters",)),  # "file off": no claim, not unexplained
+        _result(null, ("tcp_offset",)),  # a false discovery and a false claim
+        _result(dataclasses.replace(mass, robot="B"), ("tcp_offset", "file_parameters")),
+    ]
+    csv = tmp_path / "cases.csv"
+    results_frame(rows).to_csv(csv, index=False)
+    out = tmp_path / "study.json"
+    assert main(["--from-csv", str(csv), "--json", str(out)]) == 0
+    data = json.loads(out.read_text(encoding="utf-8"))
+    c, b = data["per_robot"]["C"], data["per_robot"]["B"]
+    assert (c["cases"], c["in_library_cases"], c["in_library_named"]) == (5, 2, 1)
+    assert [m["case"] for m in c["missed"]] == ["m and s"]
+    assert (c["pairs"], c["pairs_named"]) == (1, 0)
+    assert (c["false_claims"], c["nulls"], c["null_false_discoveries"]) == (1, 1, 1)
+    assert (c["outside"], c["outside_unexplained"]) == (2, 1)
+    assert c["outside_verdicts"]["abs"]["verdict"] == "file_parameters"
+    assert (b["cases"], b["in_library_named"], b["false_claims"]) == (1, 0, 1)
+    assert len(data["cases"]) == 6
