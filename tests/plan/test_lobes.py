@@ -431,21 +431,24 @@ def test_leaders_stand_in_the_middle_of_their_groups(how):
         assert np.all(dist <= lobes_mod._RADIUS)
 
 
-def _promise_case(entry_deg: np.ndarray, turn_deg: np.ndarray):
+def _promise_case(entry_deg: np.ndarray, turn_deg: np.ndarray, k_robot: np.ndarray | None = None):
     """Shared (a plan's default tolerance) and own lobes of waypoints at their own entry
     angles (exit 180 deg) with the pocket job's tool modes (isotropic: the limit they set
     goes as one over the eigenvalues of the directional factors) and a robot mode at
-    ``30 + turn_deg`` from the feed; the ratios shared / own at every third grid speed,
-    where the member is not next to a steep wall (:func:`steep_members`: those the planner
-    gives lobes of their own), and the number of steep members."""
-    from robolobe.plan.lobes import steep_members
+    ``30 + turn_deg`` from the feed (stiffness ``k_robot`` [N/m], default 1.5e6); the ratios
+    shared / own at every third grid speed, where the member does not get lobes of its own
+    (:func:`steep_members`, next to a steep wall, and :func:`size_members`, its own modes'
+    limit outside the promise to first order: those the planner gives lobes of their own),
+    and the share of such members."""
+    from robolobe.plan.lobes import size_members, steep_members
 
     n = entry_deg.size
     th = np.radians(30.0 + turn_deg)
     u = np.stack([np.cos(th), np.sin(th)], axis=1)
     w = 2 * np.pi * np.array([14.0, 850.0, 1850.0])
+    k0 = np.full(n, 1.5e6) if k_robot is None else k_robot
     res = np.zeros((n, 3, 2, 2))
-    res[:, 0] = w[0] ** 2 / 1.5e6 * np.einsum("ni,nj->nij", u, u)
+    res[:, 0] = w[0] ** 2 / k0[:, None, None] * np.einsum("ni,nj->nij", u, u)
     res[:, 1] = w[1] ** 2 / 6.0e7 * np.eye(2)
     res[:, 2] = w[2] ** 2 / 2.2e7 * np.eye(2)
     m = ModalModel(np.tile(w, (n, 1)), np.tile([0.03, 0.05, 0.035], (n, 1)), res)
@@ -455,13 +458,14 @@ def _promise_case(entry_deg: np.ndarray, turn_deg: np.ndarray):
     tol = DynamicsTolerance(0.003, 0.03, 0.021, 0.01, 150.0)  # a plan's default
     shared = waypoint_lobes([m], tol=tol, kr=MAT.kr, phi_entry=pe, phi_exit=px, **kw)
     own = converged_lobes(m, directional_factors(pe, px, MAT.kr), **kw)
-    ratios, n_steep = [], 0
+    cut = dict(teeth=3, kt=MAT.kt, kr=MAT.kr, phi_entry=pe, phi_exit=px)
+    ratios, n_own = [], 0
     for r in rpm[::3]:
         at = np.full(n, r)
-        steep = steep_members(shared, at)
-        n_steep += int(steep.sum())
-        ratios.append((shared.table.query(at) / own.query(at[:, None])[:, 0])[~steep])
-    return shared, np.concatenate(ratios), n_steep / (n * rpm[::3].size)
+        alone = steep_members(shared, at) | size_members(shared, m, at, **cut)
+        n_own += int(alone.sum())
+        ratios.append((shared.table.query(at) / own.query(at[:, None])[:, 0])[~alone])
+    return shared, np.concatenate(ratios), n_own / (n * rpm[::3].size)
 
 
 def test_sharing_across_an_engagement_change_keeps_the_promise():
@@ -476,25 +480,80 @@ def test_sharing_across_an_engagement_change_keeps_the_promise():
 
     entry = np.full(41, 90.0573)
     entry[[0, 20, 26, 33]] = [89.5617, 88.16, 85.845, 89.5617]
-    shared, ratio, steep = _promise_case(entry, np.zeros(41))
+    shared, ratio, alone = _promise_case(entry, np.zeros(41))
     assert shared.n_groups <= 5  # the moves at 90.06 deg still share
     assert ratio.max() <= 1.0 + LOBE_TOL, ratio.max()
     assert ratio.min() >= 0.99, ratio.min()
-    assert steep < 0.8  # (3 teeth on the tool modes' pockets: many steep flanks)
+    assert alone < 0.85  # (3 teeth on the tool modes' pockets: many steep flanks)
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason="open (issue 25): a mode's size is shared to the residue tolerance (2.1 % in a "
-    "plan), and the limit a dominant mode sets goes as one over it; a 0.5 % size "
-    "tolerance makes every waypoint of the 10k zig-zag its own group",
-)
 def test_sharing_along_a_turning_dominant_mode_keeps_the_promise():
-    """The other half of the promise, not kept yet: a dominant robot mode turning by
-    0.02 deg per waypoint at 30 deg from the feed (its size as the cut sees it changes by
-    ~0.1 % per waypoint) at one engagement: members up to +1.5 % over their own limit."""
+    """The other half of the promise: a dominant robot mode turning by 0.02 deg per
+    waypoint at 30 deg from the feed (its size as the cut sees it changes by ~0.1 % per
+    waypoint) at one engagement. Shared to the residue tolerance (2.1 %), members were up to
+    +1.44 % over their own limit (min 0.984) at the speeds where that mode's k = 0 tail sets
+    it; :func:`size_members` gives those their own lobes (the rest keep sharing: 3 groups)."""
     from robolobe.sld.converged import LOBE_TOL
 
-    shared, ratio, _ = _promise_case(np.full(41, 90.0573), 0.02 * np.arange(41))
+    shared, ratio, alone = _promise_case(np.full(41, 90.0573), 0.02 * np.arange(41))
     assert shared.n_groups < 20
+    assert alone < 0.9  # most members at most speeds still share (steep flanks: ~0.79)
+    assert ratio.min() >= 0.99, ratio.min()
     assert ratio.max() <= 1.0 + LOBE_TOL, ratio.max()
+
+
+def test_sharing_along_a_stiffening_dominant_mode_keeps_the_promise():
+    """A dominant robot mode whose size changes along the path by its stiffness (the
+    posture: +0.1 % a waypoint over 41 waypoints, 4 % in all) at a fixed direction and
+    engagement: shared to the residue tolerance (2.1 %) its limit goes as one over the size;
+    members whose own limit at a speed lies outside the promise get lobes of their own."""
+    from robolobe.sld.converged import LOBE_TOL
+
+    k = 1.5e6 * (1.0 + 0.001 * np.arange(41))
+    shared, ratio, alone = _promise_case(np.full(41, 90.0573), np.zeros(41), k)
+    assert shared.n_groups < 20
+    assert alone < 0.9
+    assert ratio.max() <= 1.0 + LOBE_TOL, ratio.max()
+    assert ratio.min() >= 0.99, ratio.min()
+
+
+def test_size_members_against_a_scaled_dominant_mode():
+    """:func:`size_members` on hand-made groups: a member whose robot mode is 3 % softer
+    than the others' (the same direction) is flagged at the speeds where its own limit
+    (its own converged lobes, the reference) lies over 0.5 % below the shared one (where
+    that mode's lobe sets it), and at none where it lies within 0.1 % (a tool mode sets
+    it); a member 0.1 % softer never is."""
+    from robolobe.plan.lobes import size_members
+    from robolobe.sld.converged import LOBE_TOL
+
+    w = 2 * np.pi * np.array([14.0, 1850.0])
+    u = np.array([np.cos(0.5), np.sin(0.5)])
+    res = np.zeros((3, 2, 2, 2))
+    for i, s in enumerate([1.0, 1.03, 1.001]):
+        res[i, 0] = s * w[0] ** 2 / 1.5e6 * np.outer(u, u)
+        res[i, 1] = w[1] ** 2 / 2.2e7 * np.eye(2)
+    m = ModalModel(np.tile(w, (3, 1)), np.tile([0.03, 0.035], (3, 1)), res)
+    rpm = np.linspace(6000.0, 24000.0, 300)
+    kw = dict(teeth=3, kt=MAT.kt, rpm=rpm, immersion=0.5)
+    pe, px = np.radians(90.0), np.pi
+    tol = DynamicsTolerance(0.3, 0.3, 0.3, 0.3, 150.0)  # the three share
+    shared = waypoint_lobes([m], tol=tol, kr=MAT.kr, phi_entry=pe, phi_exit=px, **kw)
+    assert shared.n_groups == 1
+    assert shared.leader[0] != 1
+    own = converged_lobes(m, directional_factors(pe, px, MAT.kr), **kw)
+    cut = dict(teeth=3, kt=MAT.kt, kr=MAT.kr, phi_entry=pe, phi_exit=px)
+    n_flag, n_far = 0, 0
+    for r in rpm[::5]:
+        at = np.full(3, r)
+        flag = size_members(shared, m, at, **cut)
+        ratio = shared.table.query(at) / own.query(at[:, None])[:, 0]
+        assert not flag[shared.leader[0]]
+        assert not flag[2 if shared.leader[0] == 0 else 0]  # 0.1 % apart: inside the promise
+        if ratio[1] > 1.0 + LOBE_TOL:
+            assert flag[1], (r, ratio)
+            n_far += 1
+        if abs(ratio[1] - 1.0) < 1e-3:
+            assert not flag[1], (r, ratio)
+        n_flag += int(flag[1])
+    assert n_far > 0
+    assert n_flag < rpm[::5].size

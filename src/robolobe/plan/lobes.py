@@ -53,12 +53,14 @@ __all__ = [
     "GroupedLobes",
     "group_dynamics",
     "group_features",
+    "size_members",
     "steep_members",
     "waypoint_lobes",
 ]
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
+ComplexArray = NDArray[np.complex128]
 
 _RADIUS = 0.75  # leader radius in tolerance units (plus the 0.25 cells: at most 1)
 #: Tolerance of the cut's directional factors ``alpha`` where each waypoint cuts at its own
@@ -1105,4 +1107,224 @@ def steep_members(
         with np.errstate(invalid="ignore", divide="ignore"):
             var = np.max(a, axis=1) / np.min(a, axis=1)
         out[c] = ~(var <= ratio) & np.isfinite(np.min(a, axis=1))  # NaN (inf/inf): steep
+    return out
+
+
+#: Share of the lobe-sharing promise (:data:`LOBE_TOL`) a member's first-order estimate
+#: of its own limit may lie below the shared one before it gets lobes of its own
+#: (:func:`size_members`): half of it, the other half left to the estimate's own error
+#: (second order in the size difference, ~2 % squared) and to the frequencies' tolerance.
+SIZE_SHARE = LOBE_TOL / 2.0
+#: The lowest stated limit over a waypoint's own that sharing may give (issue 25: not
+#: needlessly conservative); :func:`size_members` flags estimates below it plus ``share``.
+_LOW = 1.0 - 2.0 * LOBE_TOL
+#: Lobe pieces within this factor of the envelope at a speed are compared
+#: (:func:`size_members`): a member's own minimum may be another piece of the leader's
+#: than the lowest when their depths are close and its sizes differ (2.1 % in a plan).
+_NEAR_ENVELOPE = 1.05
+#: Elements (rows x branches x frequencies) per block of :func:`_lobe_pieces_at`.
+_PIECE_BLOCK = 1 << 22
+
+
+def _lobe_pieces_at(
+    d: LobeDiagram, g: IntArray, rpm: FloatArray, within: float
+) -> tuple[IntArray, FloatArray, FloatArray, FloatArray]:
+    """The lobe pieces of entries ``g`` that cross speeds ``rpm`` near the envelope there.
+
+    The argmin side of :func:`robolobe.sld.lobes.lobe_envelope` (the same
+    pieces, straight in speed between two frequency samples, lobes ``0..K``):
+    lobe ``k`` of the piece between samples ``i`` and ``i + 1`` of a branch
+    crosses speed ``n`` where ``kappa = (60 w / (N n) - eps) / (2 pi)`` passes
+    ``k`` between the two samples. Of each row's crossings, those whose depth
+    is within ``within`` times the row's smallest.
+
+    Parameters
+    ----------
+    d : LobeDiagram
+        ZOA lobes with their polylines, batch (nb,).
+    g : ndarray of int, shape (r,)
+        Entry of each row.
+    rpm : ndarray, shape (r,)
+        One speed per row [rpm].
+    within : float
+        Factor (>= 1) over the row's smallest crossing depth.
+
+    Returns
+    -------
+    row : ndarray of int, shape (p,)
+        Row of each piece kept.
+    omega : ndarray, shape (p,)
+        Its chatter frequency at the row's speed [rad/s] (linear along the piece).
+    depth : ndarray, shape (p,)
+        Its depth there [m].
+    eps : ndarray, shape (p,)
+        Its phase there [rad] (linear along the piece).
+    """
+    assert d.omega is not None
+    assert d.depth is not None
+    assert d.eps is not None
+    w_all = np.asarray(d.omega)
+    nf = w_all.shape[-1]
+    c = 60.0 / d.teeth
+    k1 = d.max_lobe + 1
+    rows_out: list[IntArray] = []
+    w_out: list[FloatArray] = []
+    a_out: list[FloatArray] = []
+    e_out: list[FloatArray] = []
+    step = max(1, _PIECE_BLOCK // max(2 * nf, 1))
+    for s in range(0, g.size, step):
+        gb, nb = g[s : s + step], rpm[s : s + step]
+        w = w_all[gb] if w_all.ndim > 1 else np.broadcast_to(w_all, (gb.size, nf))
+        a = np.asarray(d.depth)[gb]  # (r, 2, nf)
+        e = np.asarray(d.eps)[gb]
+        with np.errstate(invalid="ignore"):
+            kap = (c * w[:, None, :] / nb[:, None, None] - e) / (2.0 * math.pi)
+        fin = np.isfinite(a) & np.isfinite(kap)
+        ok = fin[..., :-1] & fin[..., 1:]
+        rr, jj, ii = np.nonzero(ok)
+        k0, k1_ = kap[rr, jj, ii], kap[rr, jj, ii + 1]
+        klo = np.maximum(np.ceil(np.minimum(k0, k1_)), 0.0)
+        khi = np.minimum(np.floor(np.maximum(k0, k1_)), k1 - 1.0)
+        cnt = np.maximum(khi - klo + 1.0, 0.0).astype(np.int64)
+        live = np.flatnonzero(cnt)
+        if live.size == 0:
+            continue
+        rep = np.repeat(live, cnt[live])
+        off = np.arange(rep.size) - np.repeat(np.cumsum(cnt[live]) - cnt[live], cnt[live])
+        kk = klo[rep] + off
+        r, j, i = rr[rep], jj[rep], ii[rep]
+        w0, w1 = w[r, i], w[r, i + 1]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            n0 = c * w0 / (e[r, j, i] + 2.0 * math.pi * kk)
+            n1 = c * w1 / (e[r, j, i + 1] + 2.0 * math.pi * kk)
+            t = np.where(n1 != n0, (nb[r] - n0) / (n1 - n0), 0.0)
+        good = np.isfinite(n0) & np.isfinite(n1) & (n0 > 0) & (n1 > 0)
+        t = np.clip(t, 0.0, 1.0)
+        a0, a1 = a[r, j, i], a[r, j, i + 1]
+        depth = np.maximum(a0 + t * (a1 - a0), np.minimum(a0, a1))
+        e0, e1 = e[r, j, i], e[r, j, i + 1]
+        om, ph = (w0 + t * (w1 - w0))[good], (e0 + t * (e1 - e0))[good]
+        r, depth = r[good], depth[good]
+        low = np.full(gb.size, np.inf)
+        np.minimum.at(low, r, depth)
+        near = depth <= low[r] * within
+        rows_out.append(r[near] + s)
+        w_out.append(om[near])
+        a_out.append(depth[near])
+        e_out.append(ph[near])
+    if not rows_out:
+        return np.zeros(0, np.int64), np.zeros(0), np.zeros(0), np.zeros(0)
+    cat = np.concatenate
+    return cat(rows_out), cat(w_out), cat(a_out), cat(e_out)
+
+
+def _zoa_mu(model: ModalModel, alpha: FloatArray, omega: FloatArray) -> ComplexArray:
+    """Both eigenvalues of ``alpha G(w)`` of each batch entry at its own frequency.
+
+    ``model`` batch (p,), ``alpha`` (p, 2, 2), ``omega`` (p,): returns (p, 2) [m/N].
+    """
+    from robolobe.sld.zoa import zoa_eigenvalues
+
+    frf = model.frf(omega[:, None])  # (p, 1, 2, 2)
+    return zoa_eigenvalues(frf, alpha, track=False)[:, :, 0]
+
+
+def size_members(
+    grouped: GroupedLobes,
+    model: ModalModel,
+    rpm: FloatArray,
+    *,
+    teeth: int,
+    kt: float,
+    kr: float,
+    phi_entry: float | FloatArray,
+    phi_exit: float | FloatArray,
+    share: float = SIZE_SHARE,
+) -> NDArray[np.bool_]:
+    """Members whose own limit at their planned speed is, to first order, below the shared one.
+
+    A member shares its leader's lobes where their modal models agree to the
+    grouping tolerance; a dominant mode's size (2.1 % in a plan) moves the
+    limit it sets by as much, which the promise (:data:`LOBE_TOL`) does not
+    allow. At each member's planned speed the leader's lobe pieces near the
+    envelope there (:func:`_lobe_pieces_at`: the chatter frequencies ``w``
+    that set it, within :data:`_NEAR_ENVELOPE`) are re-evaluated with the
+    member's own model and cut: the depth of a piece goes as one over
+    ``Re mu(w)`` (the ZOA, :func:`robolobe.sld.zoa.zoa_depth`), so the member's
+    estimate is ``min over pieces of depth * Re mu_leader / Re mu_member``
+    (the member's eigenvalue nearest the leader's of that piece's depth).
+    Members whose estimate lies below the shared limit by more than ``share``
+    (or above it by more than ``1 / (0.99 + share)``: the limit stated must not be
+    needlessly low either, :data:`_LOW`) should get lobes of their own
+    (``waypoint_lobes(..., own=...)``, as :func:`steep_members`). The estimate
+    is first order: the eigenvalue is compared at the leader's frequency, not at the member's own (a shift of
+    the piece along the lobe, second order at a lobe's bottom). Nominal
+    lobes only (a robust plan's scenarios are the nominal's scaled).
+
+    Parameters
+    ----------
+    grouped : GroupedLobes
+    model : ModalModel
+        Nominal feed-frame tool-point models of the cutting waypoints, batch
+        (n_cut,) (or an object with ``take``: only members' and leaders' are taken).
+    rpm : ndarray, shape (n_cut,)
+        Planned speed of each cutting waypoint [rpm].
+    teeth, kt, kr : int, float, float
+        Flutes, Kt [N/m^2], Kn/Kt.
+    phi_entry, phi_exit : float or ndarray, shape (n_cut,)
+        Engagement angles [rad] (as given to :func:`waypoint_lobes`).
+    share : float
+        Allowed relative shortfall of the estimate (default :data:`SIZE_SHARE`).
+
+    Returns
+    -------
+    ndarray of bool, shape (n_cut,)
+    """
+    tab = grouped.table
+    g = tab.group
+    n = g.size
+    out = np.zeros(n, bool)
+    lead = np.zeros(n, bool)
+    lead[grouped.leader] = True
+    cand = np.flatnonzero((g < grouped.n_groups) & ~lead)
+    if cand.size == 0 or not grouped.parts:
+        return out
+    d = grouped.diagrams[0]
+    if d.omega is None or d.depth is None or d.eps is None:
+        return out
+    rpm = np.asarray(rpm, dtype=np.float64)
+    for s in range(0, cand.size, _BLOCK):
+        c = cand[s : s + _BLOCK]
+        row, om, depth, eps = _lobe_pieces_at(d, g[c], rpm[c], _NEAR_ENVELOPE)
+        if row.size == 0:
+            continue
+        mem, led = c[row], grouped.leader[g[c][row]]
+        if np.ndim(phi_entry) == 0 and np.ndim(phi_exit) == 0:
+            al = directional_factors(phi_entry, phi_exit, kr)
+            alpha_m = np.broadcast_to(al, (row.size, 2, 2))
+            alpha_l = alpha_m
+        else:  # each waypoint's own engagement (finite where bounded: members and leaders)
+            pe = np.broadcast_to(np.asarray(phi_entry, dtype=np.float64), (n,))
+            px = np.broadcast_to(np.asarray(phi_exit, dtype=np.float64), (n,))
+            alpha_m = directional_factors(pe[mem], px[mem], kr)
+            alpha_l = directional_factors(pe[led], px[led], kr)
+        mu_l = _zoa_mu(model.take(led), alpha_l, om)
+        mu_m = _zoa_mu(model.take(mem), alpha_m, om)
+        # the leader's eigenvalue of this piece: the one nearest the piece's own (its depth
+        # and phase, zoa_depth inverted: both branches can have about one depth)
+        re_p = 2.0 * math.pi / (teeth * kt * depth)
+        mu_p = re_p + 1j * re_p * np.tan(0.5 * (eps - math.pi))
+        b = np.argmin(np.abs(mu_l - mu_p[:, None]), axis=1)
+        mu_lb = mu_l[np.arange(row.size), b]
+        # the member's eigenvalue nearest it (the same branch)
+        bm = np.argmin(np.abs(mu_m - mu_lb[:, None]), axis=1)
+        mu_mb = mu_m[np.arange(row.size), bm]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            est = np.where(mu_mb.real > 0, depth * mu_lb.real / mu_mb.real, np.inf)
+        own_est = np.full(c.size, np.inf)
+        np.minimum.at(own_est, row, est)
+        shared = np.full(c.size, np.inf)
+        np.minimum.at(shared, row, depth)
+        # too high (the promise) or needlessly low (below 1 - 2 LOBE_TOL = 0.99 of its own)
+        out[c] = (own_est * (1.0 + share) < shared) | (shared < own_est * (_LOW + share))
     return out
