@@ -1257,8 +1257,9 @@ def size_members(
     (or above it by more than ``1 / (0.99 + share)``: the limit stated must not be
     needlessly low either, :data:`_LOW`) should get lobes of their own
     (``waypoint_lobes(..., own=...)``, as :func:`steep_members`). The estimate
-    is first order: the eigenvalue is compared at the leader's frequency, not at the member's own (a shift of
-    the piece along the lobe, second order at a lobe's bottom). Nominal
+    is first order: the eigenvalue is compared at the leader's frequency, not
+    at the member's own (a shift of the piece along the lobe, second order at
+    a lobe's bottom). Nominal
     lobes only (a robust plan's scenarios are the nominal's scaled).
 
     Parameters
