@@ -1127,8 +1127,8 @@ _PIECE_BLOCK = 1 << 22
 
 
 def _lobe_pieces_at(
-    d: LobeDiagram, g: IntArray, rpm: FloatArray, within: float
-) -> tuple[IntArray, FloatArray, FloatArray, FloatArray]:
+    d: LobeDiagram, g: IntArray, rpm: FloatArray, bound: FloatArray, within: float
+) -> tuple[IntArray, FloatArray, FloatArray, FloatArray, FloatArray, FloatArray]:
     """The lobe pieces of entries ``g`` that cross speeds ``rpm`` near the envelope there.
 
     The argmin side of :func:`robolobe.sld.lobes.lobe_envelope` (the same
@@ -1136,7 +1136,10 @@ def _lobe_pieces_at(
     lobe ``k`` of the piece between samples ``i`` and ``i + 1`` of a branch
     crosses speed ``n`` where ``kappa = (60 w / (N n) - eps) / (2 pi)`` passes
     ``k`` between the two samples. Of each row's crossings, those whose depth
-    is within ``within`` times the row's smallest.
+    is within ``within`` times the row's smallest. Only pieces whose lower end
+    lies within ``within`` times the highest ``bound`` of the entry's rows are
+    examined (the others cannot be near the envelope: ``bound`` at least the
+    row's envelope).
 
     Parameters
     ----------
@@ -1146,6 +1149,8 @@ def _lobe_pieces_at(
         Entry of each row.
     rpm : ndarray, shape (r,)
         One speed per row [rpm].
+    bound : ndarray, shape (r,)
+        The envelope at each row's speed or more [m].
     within : float
         Factor (>= 1) over the row's smallest crossing depth.
 
@@ -1153,69 +1158,71 @@ def _lobe_pieces_at(
     -------
     row : ndarray of int, shape (p,)
         Row of each piece kept.
-    omega : ndarray, shape (p,)
-        Its chatter frequency at the row's speed [rad/s] (linear along the piece).
-    depth : ndarray, shape (p,)
-        Its depth there [m].
-    eps : ndarray, shape (p,)
-        Its phase there [rad] (linear along the piece).
+    omega, depth, eps : ndarray, shape (p,)
+        Its chatter frequency [rad/s], depth [m] and phase [rad] at the row's
+        speed (linear along the piece).
+    lobe : ndarray, shape (p,)
+        Its lobe number ``k`` (float).
+    span : ndarray, shape (p,)
+        Its frequency span ``w[i + 1] - w[i]`` [rad/s].
     """
     assert d.omega is not None
     assert d.depth is not None
     assert d.eps is not None
+    empty = np.zeros(0)
+    fin = np.isfinite(bound)
+    if not np.any(fin):
+        return np.zeros(0, np.int64), empty, empty, empty, empty, empty
+    rows_all = np.flatnonzero(fin)
+    gu, inv = np.unique(g[rows_all], return_inverse=True)
+    inv = inv.ravel()
+    top = np.zeros(gu.size)
+    np.maximum.at(top, inv, bound[rows_all])
     w_all = np.asarray(d.omega)
-    nf = w_all.shape[-1]
+    a_all = np.asarray(d.depth)
+    e_all = np.asarray(d.eps)
+    a = a_all[gu]  # (G, 2, nf)
+    with np.errstate(invalid="ignore"):
+        amin = np.minimum(a[..., :-1], a[..., 1:])  # inf/NaN ends: never kept
+        keep = amin <= within * top[:, None, None]
+    pg, pj, pi = np.nonzero(keep)  # pieces, sorted by entry
+    cnt_g = np.bincount(pg, minlength=gu.size)
+    start_g = np.cumsum(cnt_g) - cnt_g
+    # every row with each piece of its entry
+    cnt_r = cnt_g[inv]
+    rr = np.repeat(np.arange(rows_all.size), cnt_r)
+    pp = np.arange(rr.size) - np.repeat(np.cumsum(cnt_r) - cnt_r, cnt_r) + start_g[inv[rr]]
+    ge = gu[pg[pp]]
+    j, i = pj[pp], pi[pp]
+    w0 = w_all[ge, i] if w_all.ndim > 1 else w_all[i]
+    w1 = w_all[ge, i + 1] if w_all.ndim > 1 else w_all[i + 1]
+    e0, e1 = e_all[ge, j, i], e_all[ge, j, i + 1]
+    a0, a1 = a_all[ge, j, i], a_all[ge, j, i + 1]
     c = 60.0 / d.teeth
-    k1 = d.max_lobe + 1
-    rows_out: list[IntArray] = []
-    w_out: list[FloatArray] = []
-    a_out: list[FloatArray] = []
-    e_out: list[FloatArray] = []
-    step = max(1, _PIECE_BLOCK // max(2 * nf, 1))
-    for s in range(0, g.size, step):
-        gb, nb = g[s : s + step], rpm[s : s + step]
-        w = w_all[gb] if w_all.ndim > 1 else np.broadcast_to(w_all, (gb.size, nf))
-        a = np.asarray(d.depth)[gb]  # (r, 2, nf)
-        e = np.asarray(d.eps)[gb]
-        with np.errstate(invalid="ignore"):
-            kap = (c * w[:, None, :] / nb[:, None, None] - e) / (2.0 * math.pi)
-        fin = np.isfinite(a) & np.isfinite(kap)
-        ok = fin[..., :-1] & fin[..., 1:]
-        rr, jj, ii = np.nonzero(ok)
-        k0, k1_ = kap[rr, jj, ii], kap[rr, jj, ii + 1]
-        klo = np.maximum(np.ceil(np.minimum(k0, k1_)), 0.0)
-        khi = np.minimum(np.floor(np.maximum(k0, k1_)), k1 - 1.0)
-        cnt = np.maximum(khi - klo + 1.0, 0.0).astype(np.int64)
-        live = np.flatnonzero(cnt)
-        if live.size == 0:
-            continue
-        rep = np.repeat(live, cnt[live])
-        off = np.arange(rep.size) - np.repeat(np.cumsum(cnt[live]) - cnt[live], cnt[live])
-        kk = klo[rep] + off
-        r, j, i = rr[rep], jj[rep], ii[rep]
-        w0, w1 = w[r, i], w[r, i + 1]
-        with np.errstate(divide="ignore", invalid="ignore"):
-            n0 = c * w0 / (e[r, j, i] + 2.0 * math.pi * kk)
-            n1 = c * w1 / (e[r, j, i + 1] + 2.0 * math.pi * kk)
-            t = np.where(n1 != n0, (nb[r] - n0) / (n1 - n0), 0.0)
-        good = np.isfinite(n0) & np.isfinite(n1) & (n0 > 0) & (n1 > 0)
-        t = np.clip(t, 0.0, 1.0)
-        a0, a1 = a[r, j, i], a[r, j, i + 1]
-        depth = np.maximum(a0 + t * (a1 - a0), np.minimum(a0, a1))
-        e0, e1 = e[r, j, i], e[r, j, i + 1]
-        om, ph = (w0 + t * (w1 - w0))[good], (e0 + t * (e1 - e0))[good]
-        r, depth = r[good], depth[good]
-        low = np.full(gb.size, np.inf)
-        np.minimum.at(low, r, depth)
-        near = depth <= low[r] * within
-        rows_out.append(r[near] + s)
-        w_out.append(om[near])
-        a_out.append(depth[near])
-        e_out.append(ph[near])
-    if not rows_out:
-        return np.zeros(0, np.int64), np.zeros(0), np.zeros(0), np.zeros(0)
-    cat = np.concatenate
-    return cat(rows_out), cat(w_out), cat(a_out), cat(e_out)
+    nb = rpm[rows_all[rr]]
+    k0 = (c * w0 / nb - e0) / (2.0 * math.pi)
+    k1 = (c * w1 / nb - e1) / (2.0 * math.pi)
+    klo = np.maximum(np.ceil(np.minimum(k0, k1)), 0.0)
+    khi = np.minimum(np.floor(np.maximum(k0, k1)), float(d.max_lobe))
+    span = khi - klo + 1.0
+    cnt = np.where(np.isfinite(span) & (span > 0), span, 0.0).astype(np.int64)
+    live = np.flatnonzero(cnt)
+    rep = np.repeat(live, cnt[live])
+    kk = klo[rep] + (np.arange(rep.size) - np.repeat(np.cumsum(cnt[live]) - cnt[live], cnt[live]))
+    w0, w1, e0, e1, a0, a1, nb = (x[rep] for x in (w0, w1, e0, e1, a0, a1, nb))
+    row = rows_all[rr[rep]]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        n0 = c * w0 / (e0 + 2.0 * math.pi * kk)
+        n1 = c * w1 / (e1 + 2.0 * math.pi * kk)
+        t = np.clip(np.where(n1 != n0, (nb - n0) / (n1 - n0), 0.0), 0.0, 1.0)
+    good = np.isfinite(n0) & np.isfinite(n1) & (n0 > 0) & (n1 > 0)
+    depth = np.maximum(a0 + t * (a1 - a0), np.minimum(a0, a1))
+    low = np.full(rpm.size, np.inf)
+    np.minimum.at(low, row[good], depth[good])
+    near = good & (depth <= low[row] * within)
+    om = w0 + t * (w1 - w0)
+    ph = e0 + t * (e1 - e0)
+    return row[near], om[near], depth[near], ph[near], kk[near], (w1 - w0)[near]
 
 
 def _zoa_mu(model: ModalModel, alpha: FloatArray, omega: FloatArray) -> ComplexArray:
@@ -1227,6 +1234,53 @@ def _zoa_mu(model: ModalModel, alpha: FloatArray, omega: FloatArray) -> ComplexA
 
     frf = model.frf(omega[:, None])  # (p, 1, 2, 2)
     return zoa_eigenvalues(frf, alpha, track=False)[:, :, 0]
+
+
+def _lobe_depth(
+    model: ModalModel,
+    alpha: FloatArray,
+    omega: FloatArray,
+    mu0: ComplexArray,
+    lobe: tuple[FloatArray, FloatArray, FloatArray],
+    teeth: int,
+    kt: float,
+    steps: int = 3,
+) -> FloatArray:
+    """Depth of one lobe of each entry at one speed, from its own model (Newton in frequency).
+
+    The lobe ``k`` crosses the speed ``n`` where ``c w / n = eps(w) + 2 pi k``
+    (``c = 60 / N``); from ``omega`` (p,) [rad/s], the eigenvalue followed
+    from ``mu0`` (p,) (the nearest at each step), ``steps`` Newton steps
+    (the phase's slope by a difference), each at most the piece's ``span``.
+    ``lobe``: (k, c / n [rad^-1 s], span [rad/s]), each (p,).
+    Returns the depth ``2 pi / (N Kt Re mu)`` there [m] (``inf`` where
+    ``Re mu <= 0``: no such lobe).
+    """
+    kk, c_n, span = lobe
+    w = np.asarray(omega, dtype=np.float64).copy()
+    mu = np.asarray(mu0)
+    ar = np.arange(w.size)
+    h = 1e-7
+
+    def pick(ww: FloatArray, prev: ComplexArray) -> ComplexArray:
+        both = _zoa_mu(model, alpha, ww)
+        return both[ar, np.argmin(np.abs(both - prev[:, None]), axis=1)]
+
+    def phase(m: ComplexArray) -> FloatArray:
+        with np.errstate(divide="ignore", invalid="ignore"):
+            return np.pi + 2.0 * np.arctan(m.imag / m.real)
+
+    for _ in range(steps):
+        mu = pick(w, mu)
+        mu_h = pick(w * (1.0 + h), mu)
+        f = c_n * w - 2.0 * math.pi * kk - phase(mu)
+        fp = c_n - (phase(mu_h) - phase(mu)) / (w * h)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            step = np.clip(np.nan_to_num(-f / fp), -span, span)
+        w = np.maximum(w + step, 1e-3 * np.abs(w))
+    mu = pick(w, mu)
+    with np.errstate(divide="ignore"):
+        return np.where(mu.real > 0, 2.0 * math.pi / (teeth * kt * mu.real), np.inf)
 
 
 def size_members(
@@ -1281,22 +1335,50 @@ def size_members(
     -------
     ndarray of bool, shape (n_cut,)
     """
+    shared, own_est = _size_estimates(
+        grouped, model, rpm, teeth=teeth, kt=kt, kr=kr, phi_entry=phi_entry, phi_exit=phi_exit
+    )
+    # too high (the promise) or needlessly low (below 1 - 2 LOBE_TOL = 0.99 of its own)
+    return (own_est * (1.0 + share) < shared) | (shared < own_est * (_LOW + share))
+
+
+def _size_estimates(
+    grouped: GroupedLobes,
+    model: ModalModel,
+    rpm: FloatArray,
+    *,
+    teeth: int,
+    kt: float,
+    kr: float,
+    phi_entry: float | FloatArray,
+    phi_exit: float | FloatArray,
+) -> tuple[FloatArray, FloatArray]:
+    """The shared limit and the first-order estimate of each member's own (:func:`size_members`).
+
+    Returns two arrays (n_cut,) [m]; ``inf`` in both where not estimated (leaders,
+    unbounded waypoints, speeds no lobe crosses).
+    """
     tab = grouped.table
     g = tab.group
     n = g.size
-    out = np.zeros(n, bool)
+    shared_out = np.full(n, np.inf)
+    est_out = np.full(n, np.inf)
     lead = np.zeros(n, bool)
     lead[grouped.leader] = True
     cand = np.flatnonzero((g < grouped.n_groups) & ~lead)
     if cand.size == 0 or not grouped.parts:
-        return out
+        return shared_out, est_out
     d = grouped.diagrams[0]
     if d.omega is None or d.depth is None or d.eps is None:
-        return out
+        return shared_out, est_out
     rpm = np.asarray(rpm, dtype=np.float64)
     for s in range(0, cand.size, _BLOCK):
         c = cand[s : s + _BLOCK]
-        row, om, depth, eps = _lobe_pieces_at(d, g[c], rpm[c], _NEAR_ENVELOPE)
+        if grouped.query is not None:  # the nominal envelope (no robust window)
+            env = grouped.query(rpm[c, None], g[c])[:, 0]
+        else:
+            env = tab.rows(rpm[c, None], g[c])[:, 0]
+        row, om, depth, eps, kk, span = _lobe_pieces_at(d, g[c], rpm[c], env, _NEAR_ENVELOPE)
         if row.size == 0:
             continue
         mem, led = c[row], grouped.leader[g[c][row]]
@@ -1309,23 +1391,18 @@ def size_members(
             px = np.broadcast_to(np.asarray(phi_exit, dtype=np.float64), (n,))
             alpha_m = directional_factors(pe[mem], px[mem], kr)
             alpha_l = directional_factors(pe[led], px[led], kr)
-        mu_l = _zoa_mu(model.take(led), alpha_l, om)
-        mu_m = _zoa_mu(model.take(mem), alpha_m, om)
         # the leader's eigenvalue of this piece: the one nearest the piece's own (its depth
         # and phase, zoa_depth inverted: both branches can have about one depth)
         re_p = 2.0 * math.pi / (teeth * kt * depth)
         mu_p = re_p + 1j * re_p * np.tan(0.5 * (eps - math.pi))
-        b = np.argmin(np.abs(mu_l - mu_p[:, None]), axis=1)
-        mu_lb = mu_l[np.arange(row.size), b]
-        # the member's eigenvalue nearest it (the same branch)
-        bm = np.argmin(np.abs(mu_m - mu_lb[:, None]), axis=1)
-        mu_mb = mu_m[np.arange(row.size), bm]
+        lobe = (kk, 60.0 / (teeth * rpm[mem]), span)
+        a_l = _lobe_depth(model.take(led), alpha_l, om, mu_p, lobe, teeth, kt)
+        a_m = _lobe_depth(model.take(mem), alpha_m, om, mu_p, lobe, teeth, kt)
         with np.errstate(divide="ignore", invalid="ignore"):
-            est = np.where(mu_mb.real > 0, depth * mu_lb.real / mu_mb.real, np.inf)
+            est = np.where(np.isfinite(a_l) & (a_l > 0), depth * a_m / a_l, np.inf)
         own_est = np.full(c.size, np.inf)
         np.minimum.at(own_est, row, est)
-        shared = np.full(c.size, np.inf)
-        np.minimum.at(shared, row, depth)
-        # too high (the promise) or needlessly low (below 1 - 2 LOBE_TOL = 0.99 of its own)
-        out[c] = (own_est * (1.0 + share) < shared) | (shared < own_est * (_LOW + share))
-    return out
+        shared = np.where(np.isfinite(own_est), env, np.inf)
+        shared_out[c] = shared
+        est_out[c] = own_est
+    return shared_out, est_out
