@@ -1121,13 +1121,21 @@ _LOW = 1.0 - 2.0 * LOBE_TOL
 #: Lobe pieces within this factor of the envelope at a speed are compared
 #: (:func:`size_members`): a member's own minimum may be another piece of the leader's
 #: than the lowest when their depths are close and its sizes differ (2.1 % in a plan).
-_NEAR_ENVELOPE = 1.05
+#: (5 %: three times the CPU time on the 10k zig-zag, whose robot modes' flat lobe
+#: bottoms put ~190 pieces of a group within it.)
+_NEAR_ENVELOPE = 1.025
 #: Elements (rows x branches x frequencies) per block of :func:`_lobe_pieces_at`.
 _PIECE_BLOCK = 1 << 22
 
 
 def _lobe_pieces_at(
-    d: LobeDiagram, g: IntArray, rpm: FloatArray, bound: FloatArray, within: float
+    d: LobeDiagram,
+    g: IntArray,
+    rpm: FloatArray,
+    bound: FloatArray,
+    within: float,
+    *,
+    compiled: bool = False,
 ) -> tuple[IntArray, FloatArray, FloatArray, FloatArray, FloatArray, FloatArray]:
     """The lobe pieces of entries ``g`` that cross speeds ``rpm`` near the envelope there.
 
@@ -1138,8 +1146,8 @@ def _lobe_pieces_at(
     ``k`` between the two samples. Of each row's crossings, those whose depth
     is within ``within`` times the row's smallest. Only pieces whose lower end
     lies within ``within`` times the highest ``bound`` of the entry's rows are
-    examined (the others cannot be near the envelope: ``bound`` at least the
-    row's envelope).
+    examined: where a row's smallest crossing is at most its ``bound``, the
+    others cannot be near it.
 
     Parameters
     ----------
@@ -1150,9 +1158,13 @@ def _lobe_pieces_at(
     rpm : ndarray, shape (r,)
         One speed per row [rpm].
     bound : ndarray, shape (r,)
-        The envelope at each row's speed or more [m].
+        Pieces above ``within`` times the highest of an entry's rows are not
+        examined [m] (``inf``: all; NaN: the row is not examined).
     within : float
         Factor (>= 1) over the row's smallest crossing depth.
+    compiled : bool
+        With the compiled kernel (:func:`robolobe.sld._kernels.near_pieces`:
+        the same pieces) where numba is available.
 
     Returns
     -------
@@ -1170,7 +1182,7 @@ def _lobe_pieces_at(
     assert d.depth is not None
     assert d.eps is not None
     empty = np.zeros(0)
-    fin = np.isfinite(bound)
+    fin = ~np.isnan(bound)
     if not np.any(fin):
         return np.zeros(0, np.int64), empty, empty, empty, empty, empty
     rows_all = np.flatnonzero(fin)
@@ -1181,6 +1193,17 @@ def _lobe_pieces_at(
     w_all = np.asarray(d.omega)
     a_all = np.asarray(d.depth)
     e_all = np.asarray(d.eps)
+    from robolobe import _jit
+
+    if compiled and _jit.available():
+        from robolobe.sld import _kernels
+
+        w2 = w_all if w_all.ndim > 1 else np.tile(w_all, (a_all.shape[0], 1))
+        p = _kernels.near_pieces(
+            w2, a_all, e_all, g[rows_all], rpm[rows_all], top[inv],
+            within=within, teeth=d.teeth, max_lobe=d.max_lobe,
+        )  # fmt: skip
+        return (rows_all[p[:, 0].astype(np.int64)], p[:, 1], p[:, 2], p[:, 3], p[:, 4], p[:, 5])
     a = a_all[gu]  # (G, 2, nf)
     with np.errstate(invalid="ignore"):
         amin = np.minimum(a[..., :-1], a[..., 1:])  # inf/NaN ends: never kept
@@ -1222,7 +1245,15 @@ def _lobe_pieces_at(
     near = good & (depth <= low[row] * within)
     om = w0 + t * (w1 - w0)
     ph = e0 + t * (e1 - e0)
-    return row[near], om[near], depth[near], ph[near], kk[near], (w1 - w0)[near]
+    span = np.asarray(w1 - w0, dtype=np.float64)
+    return (
+        np.asarray(row[near], np.int64),
+        om[near],
+        np.asarray(depth[near], np.float64),
+        ph[near],
+        np.asarray(kk[near], np.float64),
+        span[near],
+    )
 
 
 def _zoa_mu(model: ModalModel, alpha: FloatArray, omega: FloatArray) -> ComplexArray:
@@ -1372,13 +1403,43 @@ def _size_estimates(
     if d.omega is None or d.depth is None or d.eps is None:
         return shared_out, est_out
     rpm = np.asarray(rpm, dtype=np.float64)
+    compiled = grouped.query_compiled  # where the plan's lobes run compiled (numba started)
     for s in range(0, cand.size, _BLOCK):
         c = cand[s : s + _BLOCK]
-        if grouped.query is not None:  # the nominal envelope (no robust window)
-            env = grouped.query(rpm[c, None], g[c])[:, 0]
-        else:
-            env = tab.rows(rpm[c, None], g[c])[:, 0]
-        row, om, depth, eps, kk, span = _lobe_pieces_at(d, g[c], rpm[c], env, _NEAR_ENVELOPE)
+        # members of one group at one speed: the same pieces (most of a path's members)
+        key = np.stack([g[c].astype(np.float64), rpm[c]], axis=1)
+        uk, first, inv = np.unique(key, axis=0, return_index=True, return_inverse=True)
+        inv = inv.ravel()
+        gu, nu = g[c][first], rpm[c][first]
+        # an upper bound of the envelope to examine fewer pieces: the nominal grid's at the
+        # neighbouring grid speeds (the rows it does not bound are done again without it)
+        j = np.clip(np.searchsorted(d.rpm, nu) - 1, 0, d.rpm.size - 2)
+        top = np.maximum(d.a_lim[gu, j], d.a_lim[gu, j + 1]) * (1.0 + 1e-3)
+        pieces: tuple[Any, ...] = _lobe_pieces_at(d, gu, nu, top, _NEAR_ENVELOPE, compiled=compiled)
+        low = np.full(uk.shape[0], np.inf)
+        np.minimum.at(low, pieces[0], pieces[2])
+        redo = np.flatnonzero(~(low <= top))
+        if redo.size:
+            more = _lobe_pieces_at(
+                d, gu[redo], nu[redo], np.full(redo.size, np.inf), _NEAR_ENVELOPE
+            )
+            keep = ~np.isin(pieces[0], redo)
+            pieces = tuple(
+                np.concatenate([p[keep], m if i else redo[m]])
+                for i, (p, m) in enumerate(zip(pieces, more, strict=True))
+            )
+        # each member with the pieces of its group and speed
+        order = np.argsort(pieces[0], kind="stable")
+        pieces = tuple(p[order] for p in pieces)
+        n_p = np.bincount(pieces[0], minlength=uk.shape[0])
+        at = np.cumsum(n_p) - n_p
+        cnt = n_p[inv]
+        owner = np.repeat(np.arange(c.size), cnt)
+        sel = np.arange(owner.size) - np.repeat(np.cumsum(cnt) - cnt, cnt) + at[inv[owner]]
+        row = owner
+        om, depth, eps, kk, span = (p[sel] for p in pieces[1:])
+        env = np.full(c.size, np.inf)
+        np.minimum.at(env, row, depth)
         if row.size == 0:
             continue
         mem, led = c[row], grouped.leader[g[c][row]]
