@@ -557,3 +557,44 @@ def test_size_members_against_a_scaled_dominant_mode():
         n_flag += int(flag[1])
     assert n_far > 0
     assert n_flag < rpm[::5].size
+
+
+def test_near_lobe_pieces_compiled_as_numpy():
+    """The compiled near-envelope pieces (:func:`robolobe.sld._kernels.near_pieces`) are
+    the numpy reference's (:func:`robolobe.plan.lobes._lobe_pieces_at`), row for row, on
+    lobes of robot and tool modes at speeds over the range, bounded and not; and each
+    row's smallest piece is the envelope there (:meth:`LobeDiagram.query`)."""
+    from robolobe import _jit
+    from robolobe.plan.lobes import _lobe_pieces_at
+
+    if not _jit.available():
+        pytest.skip("numba not installed")
+    n = 6
+    rng = np.random.default_rng(3)
+    w = 2 * np.pi * np.array([9.0, 14.0, 850.0, 1850.0])
+    res = np.zeros((n, 4, 2, 2))
+    for i in range(n):
+        for r, k in enumerate([2e6, 1.5e6, 6e7, 2.2e7]):
+            u = rng.normal(size=2)
+            u /= np.linalg.norm(u)
+            res[i, r] = w[r] ** 2 / (k * rng.uniform(0.8, 1.2)) * np.outer(u, u)
+    m = ModalModel(np.tile(w, (n, 1)), np.tile([0.03, 0.04, 0.05, 0.035], (n, 1)), res)
+    rpm = np.linspace(6000.0, 24000.0, 300)
+    d = converged_lobes(
+        m, directional_factors(np.radians(60.0), np.pi, MAT.kr), teeth=3, kt=MAT.kt, rpm=rpm,
+        immersion=0.75,
+    )  # fmt: skip
+    g = np.repeat(np.arange(n), 40)
+    speeds = rng.uniform(6000.0, 24000.0, g.size)
+    env = np.array([d.take(int(e)).query(np.array([s]))[0] for e, s in zip(g, speeds, strict=True)])
+    for bound in (env * 1.001, np.full(g.size, np.inf), env * 0.5):
+        ref = _lobe_pieces_at(d, g, speeds, bound, 1.025)
+        got = _lobe_pieces_at(d, g, speeds, bound, 1.025, compiled=True)
+        o1 = np.lexsort((ref[1], ref[0]))
+        o2 = np.lexsort((got[1], got[0]))
+        for a, b in zip(ref, got, strict=True):
+            np.testing.assert_allclose(b[o2], a[o1], rtol=1e-12, atol=0)
+        if bound[0] > env[0]:
+            low = np.full(g.size, np.inf)
+            np.minimum.at(low, ref[0], ref[2])
+            np.testing.assert_allclose(low, env, rtol=1e-9)
