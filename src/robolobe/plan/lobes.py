@@ -30,6 +30,7 @@ from __future__ import annotations
 
 import dataclasses
 import functools
+import itertools
 import math
 import time
 from collections.abc import Callable, Sequence
@@ -1410,8 +1411,15 @@ def _size_estimates(
         return shared_out, est_out
     rpm = np.asarray(rpm, dtype=np.float64)
     compiled = grouped.query_compiled  # where the plan's lobes run compiled (numba started)
-    for s in range(0, cand.size, _BLOCK):
-        c = cand[s : s + _BLOCK]
+    # the members' models a block of waypoints at a time: where the model offers
+    # ``block_models(lo, hi)`` (a streamed path's, made again from its modes as the
+    # streamed pass made them), from it; else taken
+    block_models = getattr(model, "block_models", None)
+    edges = np.searchsorted(cand, np.arange(0, n + _BLOCK, _BLOCK))
+    for s0, s1 in itertools.pairwise(edges):
+        c = cand[s0:s1]
+        if c.size == 0:
+            continue
         # members of one group at one speed: the same pieces (most of a path's members)
         key = np.stack([g[c].astype(np.float64), rpm[c]], axis=1)
         uk, first, inv = np.unique(key, axis=0, return_index=True, return_inverse=True)
@@ -1464,7 +1472,12 @@ def _size_estimates(
         mu_p = re_p + 1j * re_p * np.tan(0.5 * (eps - math.pi))
         lobe = (kk, 60.0 / (teeth * rpm[mem]), span)
         a_l = _lobe_depth(model.take(led), alpha_l, om, mu_p, lobe, teeth, kt)
-        a_m = _lobe_depth(model.take(mem), alpha_m, om, mu_p, lobe, teeth, kt)
+        if block_models is not None:
+            lo = int(c[0])
+            m_mem = block_models(lo, int(c[-1]) + 1).take(mem - lo)
+        else:
+            m_mem = model.take(mem)
+        a_m = _lobe_depth(m_mem, alpha_m, om, mu_p, lobe, teeth, kt)
         with np.errstate(divide="ignore", invalid="ignore"):
             # where the leader's own depth of the piece is not found: no estimate (0: its own)
             est = np.where(np.isfinite(a_l) & (a_l > 0), depth * a_m / a_l, 0.0)

@@ -583,7 +583,7 @@ def _lobes_for_rotation(
     FloatArray,
     RobustBound | None,
     Callable[[NDArray[np.bool_], GroupedLobes], GroupedLobes],
-    Callable[[GroupedLobes, FloatArray], NDArray[np.bool_]] | None,
+    Callable[[GroupedLobes, FloatArray], NDArray[np.bool_]],
 ]:
     """Postures, modes (or their table columns), lobes of the path at one tool rotation.
 
@@ -591,8 +591,8 @@ def _lobes_for_rotation(
     waypoints on lobes of their own (:func:`cut_lobes`'s ``own``/``reuse``);
     ``members(grouped, rpm)`` finds the members whose own limit at their planned
     speeds lies outside the promise of the shared one to first order
-    (:func:`~robolobe.plan.lobes.size_members`), None on a streamed path (its
-    members' models are not kept).
+    (:func:`~robolobe.plan.lobes.size_members`; on a streamed path the members'
+    models are made again for it, block by block).
     A path of at least :data:`_STREAM_MIN` cutting waypoints is streamed
     (:func:`_streamed_lobes`) unless the plan is robust. With ``eng`` every
     cutting move is planned at its own engagement, air moves without a limit.
@@ -615,9 +615,9 @@ def _lobes_for_rotation(
             job, source, q, f_tcp, material, tool, rpm, ci, len(wp), angles, air
         )
         if streamed is not None:
-            cols, plunge, grouped, t_lobes, feed_angle, split_s = streamed
+            cols, plunge, grouped, t_lobes, feed_angle, split_s, members_s = streamed
             timings.update(t_lobes)
-            return q, wm, cols, plunge, grouped, timings, feed_angle, None, split_s, None
+            return q, wm, cols, plunge, grouped, timings, feed_angle, None, split_s, members_s
     t = time.perf_counter()
     modes = _predict_modes(source, q[ci])
     timings["modes"] = time.perf_counter() - t
@@ -711,6 +711,9 @@ class _StreamedModels:
     f_use : ndarray, shape (n, 3)
         Feed directions in the TCP frame (plunges replaced, as in :func:`cut_lobes`).
     tool : ModalModel or None
+    tol : DynamicsTolerance, optional
+        The grouping tolerance the streamed pass interpolated the modes to
+        (:meth:`block_models`).
     """
 
     dim = 2
@@ -722,8 +725,10 @@ class _StreamedModels:
         rows: NDArray[np.int64],
         f_use: FloatArray,
         tool: ModalModel | None,
+        tol: DynamicsTolerance | None = None,
     ) -> None:
         self.source, self.q, self.rows, self.f_use, self.tool = source, q, rows, f_use, tool
+        self.tol = tol or DynamicsTolerance()
         self.batch_shape = (int(rows.shape[0]),)
         # the last models taken: the lobes take the leaders', the steep-wall split
         # takes them again with a few more (only those are made)
@@ -733,6 +738,15 @@ class _StreamedModels:
         modes = _predict_modes(self.source, self.q[self.rows[idx]])
         rot = feed_frame(self.f_use[idx], (0.0, 0.0, -1.0), rotation="cw")
         return _tool_point_models(rot, modes.model, self.tool)
+
+    def block_models(self, lo: int, hi: int) -> ModalModel:
+        """The models of waypoints ``lo .. hi - 1`` from their modes as the streamed pass
+        made them (exact at every :data:`_MODE_STRIDE`-th posture, interpolated where
+        checked: :func:`~robolobe.plan.modes.interpolated_modes`), for the members' check
+        (:func:`~robolobe.plan.lobes.size_members`) without every posture's modes."""
+        md = interpolated_modes(self.source, self.q[self.rows[lo:hi]], self.tol, _MODE_STRIDE)
+        rot = feed_frame(self.f_use[lo:hi], (0.0, 0.0, -1.0), rotation="cw")
+        return tool_point_model(rot, md.model, self.tool)
 
     def take(self, index: Any) -> ModalModel:
         """The models of waypoints ``index`` (int, slice or array of int)."""
@@ -782,6 +796,7 @@ def _streamed_lobes(
         dict[str, float],
         FloatArray,
         Callable[[NDArray[np.bool_], GroupedLobes], GroupedLobes],
+        Callable[[GroupedLobes, FloatArray], NDArray[np.bool_]],
     ]
     | None
 ):
@@ -804,7 +819,9 @@ def _streamed_lobes(
         The table's mode columns, the plunge mask, the grouped lobes, the
         timings (``modes`` covers the feed-frame models and the features too,
         ``frf`` is 0), the feed angles [deg] and ``split(own, reuse)`` (the
-        steep-wall split, as :func:`cut_lobes` with ``own``/``reuse``); None
+        steep-wall split, as :func:`cut_lobes` with ``own``/``reuse``) and
+        ``members(grouped, rpm)`` (:func:`~robolobe.plan.lobes.size_members`, the
+        members' models made again in blocks of the candidates); None
         for a robust plan (its bound needs every waypoint's modes at once:
         the caller plans in memory).
     """
@@ -886,7 +903,7 @@ def _streamed_lobes(
     timings = {"modes": time.perf_counter() - t, "frf": 0.0}
     t = time.perf_counter()
     # waypoint_lobes needs only dim, batch_shape and take of the models given features
-    models = cast("ModalModel", _StreamedModels(source, q, cut_rows, f_use, tool))
+    models = cast("ModalModel", _StreamedModels(source, q, cut_rows, f_use, tool, tol))
     # explicit keywords, not ``**args``: a call through ``**`` keeps its keyword dict (and
     # the features in it) alive until it returns, and waypoint_lobes frees them after
     # grouping, before the leaders' lobes (600 bytes a waypoint: the lobe stage's peak)
@@ -909,7 +926,15 @@ def _streamed_lobes(
     def split(own: NDArray[np.bool_], reuse: GroupedLobes) -> GroupedLobes:
         return waypoint_lobes([models], unbounded=unb, own=own, reuse=reuse, **args)
 
-    return cols, plunge, grouped, timings, feed_angle, split
+    def members(shared: GroupedLobes, planned: FloatArray) -> NDArray[np.bool_]:
+        return size_members(
+            shared,
+            models,
+            planned,
+            **{k: args[k] for k in ("teeth", "kt", "kr", "phi_entry", "phi_exit")},
+        )
+
+    return cols, plunge, grouped, timings, feed_angle, split, members
 
 
 def _tool_point_models(
@@ -1343,16 +1368,9 @@ def plan_path(
     # one there (a dominant mode's size, shared to the residue tolerance), get lobes of
     # their own, and the schedule is made again
     steep = steep_members(grouped, outcome.best.rpm)
-    if members is not None:
-        t_size = time.perf_counter()
-        steep |= members(grouped, outcome.best.rpm)
-        t_split += time.perf_counter() - t_size
-    else:
-        note = (note + "; " if note else "") + (
-            f"lobe sharing on this long path ({int(ci.size)} cutting moves, streamed): a "
-            "member's modes are not checked against its group's at its planned speed, so "
-            "its stated limit may be up to the mode-size tolerance (~2 %) above its own"
-        )
+    t_size = time.perf_counter()
+    steep |= members(grouped, outcome.best.rpm)
+    t_split += time.perf_counter() - t_size
     del members  # its models (~1 kB a cutting waypoint): not under the schedule made again
     n_split = int(steep.sum())
     if n_split:
