@@ -142,17 +142,31 @@ def test_robust_bound_keeps_invisible_modes_and_caps_spreads():
     assert b.window[0] == pytest.approx(0.02)
 
 
-@pytest.mark.parametrize("milling", ["down", "up"])
-def test_sharing_near_the_feed_direction_stays_within_one_percent(milling):
+@pytest.mark.parametrize(
+    "milling",
+    [
+        pytest.param(
+            "up",
+            marks=pytest.mark.xfail(
+                strict=True,
+                reason="open (issue 25): up milling, a member up to +0.98 % over its own limit "
+                "at 2,200-3,100 rpm (a dominant robot mode turning inside one group)",
+            ),
+        ),
+        "down",
+    ],
+)
+def test_sharing_near_the_feed_direction_keeps_the_promise(milling):
     """A robot mode within a few degrees of the feed (or normal) direction, turned in
     0.1 deg steps, plus a tool mode (issue 11: sharing once changed a limit by 38 %).
 
     Wherever a member is not next to a steep wall of its leader's lobes (where the
     planner gives it lobes of its own, :func:`steep_members`), the shared limit is within
-    1 % of its own (0.3 % here); next to walls a 0.1 deg turn moves a cusp by a grid step
-    (5x in depth),
-    which no tolerance can share."""
+    the lobe-sharing promise of its own (0.5 %, :data:`LOBE_TOL`; this test held 1 % until
+    issue 25, and up milling is still at 0.98 %); next to walls a 0.1 deg turn moves a cusp
+    by a grid step (5x in depth), which no tolerance can share."""
     from robolobe.plan.lobes import steep_members
+    from robolobe.sld.converged import LOBE_TOL
 
     deg = np.r_[np.arange(-3.0, 3.01, 0.1), 90.0 + np.arange(-3.0, 3.01, 0.1)]
     th = np.radians(deg)
@@ -181,7 +195,7 @@ def test_sharing_near_the_feed_direction_stays_within_one_percent(milling):
         err = np.abs(a_s / a_o - 1.0)[~steep]
         worst = max(worst, float(err.max(initial=0.0)))
         n_steep += int(steep.sum())
-    assert worst <= 0.01
+    assert worst <= LOBE_TOL, worst
     assert n_steep < 0.5 * n * speeds.size  # walls and steep flanks are the exception
 
 
