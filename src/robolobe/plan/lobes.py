@@ -24,6 +24,13 @@ engagement, its directional factors are compared too, to :data:`CUT_TOL`
 (a sixth of the lobes' 0.5 % tolerance): the limit goes as one over their
 eigenvalues, so the residue tolerance (2.1 % in a plan) let a move entering
 at 89.56 deg share lobes made at 90.06 deg, 0.9 % above its own limit.
+
+A mode's size is still shared to the residue tolerance, and the limit a
+dominant mode sets goes as one over it: after the schedule,
+:func:`size_members` finds the members whose own depth of the leader's lobe
+pieces near the envelope at their planned speed (Newton on the phase
+condition with the member's own model) lies outside the promise, and the
+planner gives them lobes of their own, as it does :func:`steep_members`.
 """
 
 from __future__ import annotations
