@@ -417,7 +417,9 @@ def test_streamed_path_with_interpolated_modes_plans_as_in_memory(
     monkeypatch.setattr(pipeline, "_MODE_STRIDE", 8)
     got = plan_path(path, job)
     n_cut = int(np.sum(ref.table["motion"] == "cut"))
-    assert sum(seen) < n_cut / 2  # (the leaders' models made again included)
+    # (the leaders' models made again included, and the members' check's models from
+    # interpolated modes again: size_members)
+    assert sum(seen) < 0.7 * n_cut
     tol, fr = DynamicsTolerance(), MODE_INTERP_FRACTION
     cut = (ref.table["motion"] == "cut").to_numpy()
     for c in ref.table.columns:

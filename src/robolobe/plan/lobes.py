@@ -24,12 +24,20 @@ engagement, its directional factors are compared too, to :data:`CUT_TOL`
 (a sixth of the lobes' 0.5 % tolerance): the limit goes as one over their
 eigenvalues, so the residue tolerance (2.1 % in a plan) let a move entering
 at 89.56 deg share lobes made at 90.06 deg, 0.9 % above its own limit.
+
+A mode's size is still shared to the residue tolerance, and the limit a
+dominant mode sets goes as one over it: after the schedule,
+:func:`size_members` finds the members whose own depth of the leader's lobe
+pieces near the envelope at their planned speed (Newton on the phase
+condition with the member's own model) lies outside the promise, and the
+planner gives them lobes of their own, as it does :func:`steep_members`.
 """
 
 from __future__ import annotations
 
 import dataclasses
 import functools
+import itertools
 import math
 import time
 from collections.abc import Callable, Sequence
@@ -53,12 +61,14 @@ __all__ = [
     "GroupedLobes",
     "group_dynamics",
     "group_features",
+    "size_members",
     "steep_members",
     "waypoint_lobes",
 ]
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
+ComplexArray = NDArray[np.complex128]
 
 _RADIUS = 0.75  # leader radius in tolerance units (plus the 0.25 cells: at most 1)
 #: Tolerance of the cut's directional factors ``alpha`` where each waypoint cuts at its own
@@ -1106,3 +1116,381 @@ def steep_members(
             var = np.max(a, axis=1) / np.min(a, axis=1)
         out[c] = ~(var <= ratio) & np.isfinite(np.min(a, axis=1))  # NaN (inf/inf): steep
     return out
+
+
+#: Share of the lobe-sharing promise (:data:`LOBE_TOL`) a member's first-order estimate
+#: of its own limit may lie below the shared one before it gets lobes of its own
+#: (:func:`size_members`): half of it, the other half left to the estimate's own error
+#: (second order in the size difference, ~2 % squared) and to the frequencies' tolerance.
+SIZE_SHARE = LOBE_TOL / 2.0
+#: The lowest stated limit over a waypoint's own that sharing may give (issue 25: not
+#: needlessly conservative); :func:`size_members` flags estimates below it plus ``share``.
+_LOW = 1.0 - 2.0 * LOBE_TOL
+#: Lobe pieces within this factor of the envelope at a speed are compared
+#: (:func:`size_members`): a member's own minimum may be another piece of the leader's
+#: than the lowest when their depths are close and its sizes differ (2.1 % in a plan).
+#: (5 %: three times the CPU time on the 10k zig-zag, whose robot modes' flat lobe
+#: bottoms put ~190 pieces of a group within it.)
+_NEAR_ENVELOPE = 1.025
+#: Elements (rows x branches x frequencies) per block of :func:`_lobe_pieces_at`.
+_PIECE_BLOCK = 1 << 22
+
+
+def _lobe_pieces_at(
+    d: LobeDiagram,
+    g: IntArray,
+    rpm: FloatArray,
+    bound: FloatArray,
+    within: float,
+    *,
+    compiled: bool = False,
+) -> tuple[IntArray, FloatArray, FloatArray, FloatArray, FloatArray, FloatArray]:
+    """The lobe pieces of entries ``g`` that cross speeds ``rpm`` near the envelope there.
+
+    The argmin side of :func:`robolobe.sld.lobes.lobe_envelope` (the same
+    pieces, straight in speed between two frequency samples, lobes ``0..K``):
+    lobe ``k`` of the piece between samples ``i`` and ``i + 1`` of a branch
+    crosses speed ``n`` where ``kappa = (60 w / (N n) - eps) / (2 pi)`` passes
+    ``k`` between the two samples. Of each row's crossings, those whose depth
+    is within ``within`` times the row's smallest. Only pieces whose lower end
+    lies within ``within`` times the highest ``bound`` of the entry's rows are
+    examined: where a row's smallest crossing is at most its ``bound``, the
+    others cannot be near it.
+
+    Parameters
+    ----------
+    d : LobeDiagram
+        ZOA lobes with their polylines, batch (nb,).
+    g : ndarray of int, shape (r,)
+        Entry of each row.
+    rpm : ndarray, shape (r,)
+        One speed per row [rpm].
+    bound : ndarray, shape (r,)
+        Pieces above ``within`` times the highest of an entry's rows are not
+        examined [m] (``inf``: all; NaN: the row is not examined).
+    within : float
+        Factor (>= 1) over the row's smallest crossing depth.
+    compiled : bool
+        With the compiled kernel (:func:`robolobe.sld._kernels.near_pieces`:
+        the same pieces) where numba is available.
+
+    Returns
+    -------
+    row : ndarray of int, shape (p,)
+        Row of each piece kept.
+    omega, depth, eps : ndarray, shape (p,)
+        Its chatter frequency [rad/s], depth [m] and phase [rad] at the row's
+        speed (linear along the piece).
+    lobe : ndarray, shape (p,)
+        Its lobe number ``k`` (float).
+    span : ndarray, shape (p,)
+        Its frequency span ``w[i + 1] - w[i]`` [rad/s].
+    """
+    assert d.omega is not None
+    assert d.depth is not None
+    assert d.eps is not None
+    empty = np.zeros(0)
+    fin = ~np.isnan(bound)
+    if not np.any(fin):
+        return np.zeros(0, np.int64), empty, empty, empty, empty, empty
+    rows_all = np.flatnonzero(fin)
+    gu, inv = np.unique(g[rows_all], return_inverse=True)
+    inv = inv.ravel()
+    top = np.zeros(gu.size)
+    np.maximum.at(top, inv, bound[rows_all])
+    w_all = np.asarray(d.omega)
+    a_all = np.asarray(d.depth)
+    e_all = np.asarray(d.eps)
+    from robolobe import _jit
+
+    if compiled and _jit.available():
+        from robolobe.sld import _kernels
+
+        w2 = w_all if w_all.ndim > 1 else np.tile(w_all, (a_all.shape[0], 1))
+        p = _kernels.near_pieces(
+            w2, a_all, e_all, g[rows_all], rpm[rows_all], top[inv],
+            within=within, teeth=d.teeth, max_lobe=d.max_lobe,
+        )  # fmt: skip
+        return (rows_all[p[:, 0].astype(np.int64)], p[:, 1], p[:, 2], p[:, 3], p[:, 4], p[:, 5])
+    a = a_all[gu]  # (G, 2, nf)
+    with np.errstate(invalid="ignore"):
+        amin = np.minimum(a[..., :-1], a[..., 1:])  # inf/NaN ends: never kept
+        keep = amin <= within * top[:, None, None]
+    pg, pj, pi = np.nonzero(keep)  # pieces, sorted by entry
+    cnt_g = np.bincount(pg, minlength=gu.size)
+    start_g = np.cumsum(cnt_g) - cnt_g
+    # every row with each piece of its entry
+    cnt_r = cnt_g[inv]
+    rr = np.repeat(np.arange(rows_all.size), cnt_r)
+    pp = np.arange(rr.size) - np.repeat(np.cumsum(cnt_r) - cnt_r, cnt_r) + start_g[inv[rr]]
+    ge = gu[pg[pp]]
+    j, i = pj[pp], pi[pp]
+    w0 = w_all[ge, i] if w_all.ndim > 1 else w_all[i]
+    w1 = w_all[ge, i + 1] if w_all.ndim > 1 else w_all[i + 1]
+    e0, e1 = e_all[ge, j, i], e_all[ge, j, i + 1]
+    a0, a1 = a_all[ge, j, i], a_all[ge, j, i + 1]
+    c = 60.0 / d.teeth
+    nb = rpm[rows_all[rr]]
+    k0 = (c * w0 / nb - e0) / (2.0 * math.pi)
+    k1 = (c * w1 / nb - e1) / (2.0 * math.pi)
+    klo = np.maximum(np.ceil(np.minimum(k0, k1)), 0.0)
+    khi = np.minimum(np.floor(np.maximum(k0, k1)), float(d.max_lobe))
+    span = khi - klo + 1.0
+    cnt = np.where(np.isfinite(span) & (span > 0), span, 0.0).astype(np.int64)
+    live = np.flatnonzero(cnt)
+    rep = np.repeat(live, cnt[live])
+    kk = klo[rep] + (np.arange(rep.size) - np.repeat(np.cumsum(cnt[live]) - cnt[live], cnt[live]))
+    w0, w1, e0, e1, a0, a1, nb = (x[rep] for x in (w0, w1, e0, e1, a0, a1, nb))
+    row = rows_all[rr[rep]]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        n0 = c * w0 / (e0 + 2.0 * math.pi * kk)
+        n1 = c * w1 / (e1 + 2.0 * math.pi * kk)
+        t = np.clip(np.where(n1 != n0, (nb - n0) / (n1 - n0), 0.0), 0.0, 1.0)
+    good = np.isfinite(n0) & np.isfinite(n1) & (n0 > 0) & (n1 > 0)
+    depth = np.maximum(a0 + t * (a1 - a0), np.minimum(a0, a1))
+    low = np.full(rpm.size, np.inf)
+    np.minimum.at(low, row[good], depth[good])
+    near = good & (depth <= low[row] * within)
+    om = w0 + t * (w1 - w0)
+    ph = e0 + t * (e1 - e0)
+    span = np.asarray(w1 - w0, dtype=np.float64)
+    return (
+        np.asarray(row[near], np.int64),
+        om[near],
+        np.asarray(depth[near], np.float64),
+        ph[near],
+        np.asarray(kk[near], np.float64),
+        span[near],
+    )
+
+
+def _zoa_mu(model: ModalModel, alpha: FloatArray, omega: FloatArray) -> ComplexArray:
+    """Both eigenvalues of ``alpha G(w)`` of each batch entry at its own frequency.
+
+    ``model`` batch (p,), ``alpha`` (p, 2, 2), ``omega`` (p,): returns (p, 2) [m/N].
+    """
+    from robolobe.sld.zoa import zoa_eigenvalues
+
+    frf = model.frf(omega[:, None])  # (p, 1, 2, 2)
+    return zoa_eigenvalues(frf, alpha, track=False)[:, :, 0]
+
+
+def _lobe_depth(
+    model: ModalModel,
+    alpha: FloatArray,
+    omega: FloatArray,
+    mu0: ComplexArray,
+    lobe: tuple[FloatArray, FloatArray, FloatArray],
+    teeth: int,
+    kt: float,
+    steps: int = 4,
+) -> FloatArray:
+    """Depth of one lobe of each entry at one speed, from its own model (Newton in frequency).
+
+    The lobe ``k`` crosses the speed ``n`` where ``c w / n = eps(w) + 2 pi k``
+    (``c = 60 / N``); from ``omega`` (p,) [rad/s], the eigenvalue followed
+    from ``mu0`` (p,) (the nearest at each step), ``steps`` Newton steps
+    (the phase's slope by a difference), each at most the piece's ``span``.
+    ``lobe``: (k, c / n [rad^-1 s], span [rad/s]), each (p,).
+    Returns the depth ``2 pi / (N Kt Re mu)`` there [m] (``inf`` where
+    ``Re mu <= 0``: no such lobe; 0 where the phase condition is not met to
+    1e-6 rad after the steps. On the 10k zig-zag 3 steps meet it everywhere,
+    to 1e-12 in the depth; 2 steps leave up to 18 %).
+    """
+    kk, c_n, span = lobe
+    w = np.asarray(omega, dtype=np.float64).copy()
+    mu = np.asarray(mu0)
+    ar = np.arange(w.size)
+    h = 1e-7
+
+    def pick(ww: FloatArray, prev: ComplexArray) -> ComplexArray:
+        both = _zoa_mu(model, alpha, ww)
+        return both[ar, np.argmin(np.abs(both - prev[:, None]), axis=1)]
+
+    def phase(m: ComplexArray) -> FloatArray:
+        with np.errstate(divide="ignore", invalid="ignore"):
+            return np.pi + 2.0 * np.arctan(m.imag / m.real)
+
+    for _ in range(steps):
+        mu = pick(w, mu)
+        mu_h = pick(w * (1.0 + h), mu)
+        f = c_n * w - 2.0 * math.pi * kk - phase(mu)
+        fp = c_n - (phase(mu_h) - phase(mu)) / (w * h)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            step = np.clip(np.nan_to_num(-f / fp), -span, span)
+        w = np.maximum(w + step, 1e-3 * np.abs(w))
+    mu = pick(w, mu)
+    # not converged (the phase condition missed by more than 1e-6 rad): no estimate, 0 (the
+    # caller then gives the member lobes of its own: never a silent overstatement)
+    miss = ~(np.abs(c_n * w - 2.0 * math.pi * kk - phase(mu)) <= 1e-6)
+    with np.errstate(divide="ignore"):
+        a = np.where(mu.real > 0, 2.0 * math.pi / (teeth * kt * mu.real), np.inf)
+    return np.where(miss & (mu.real > 0), 0.0, a)
+
+
+def size_members(
+    grouped: GroupedLobes,
+    model: ModalModel,
+    rpm: FloatArray,
+    *,
+    teeth: int,
+    kt: float,
+    kr: float,
+    phi_entry: float | FloatArray,
+    phi_exit: float | FloatArray,
+    share: float = SIZE_SHARE,
+) -> NDArray[np.bool_]:
+    """Members whose own limit at their planned speed is, to first order, below the shared one.
+
+    A member shares its leader's lobes where their modal models agree to the
+    grouping tolerance; a dominant mode's size (2.1 % in a plan) moves the
+    limit it sets by as much, which the promise (:data:`LOBE_TOL`) does not
+    allow. At each member's planned speed the leader's lobe pieces near the
+    envelope there (:func:`_lobe_pieces_at`: the chatter frequencies ``w``
+    that set it, within :data:`_NEAR_ENVELOPE`) are re-evaluated with the
+    member's own model and cut: the depth of a piece goes as one over
+    ``Re mu(w)`` (the ZOA, :func:`robolobe.sld.zoa.zoa_depth`), so the member's
+    estimate is ``min over pieces of depth * Re mu_leader / Re mu_member``
+    (the member's eigenvalue nearest the leader's of that piece's depth).
+    Members whose estimate lies below the shared limit by more than ``share``
+    (or above it by more than ``1 / (0.99 + share)``: the limit stated must not be
+    needlessly low either, :data:`_LOW`) should get lobes of their own
+    (``waypoint_lobes(..., own=...)``, as :func:`steep_members`). The estimate
+    is first order: the eigenvalue is compared at the leader's frequency, not
+    at the member's own (a shift of the piece along the lobe, second order at
+    a lobe's bottom). Nominal
+    lobes only (a robust plan's scenarios are the nominal's scaled).
+
+    Parameters
+    ----------
+    grouped : GroupedLobes
+    model : ModalModel
+        Nominal feed-frame tool-point models of the cutting waypoints, batch
+        (n_cut,) (or an object with ``take``: only members' and leaders' are taken).
+    rpm : ndarray, shape (n_cut,)
+        Planned speed of each cutting waypoint [rpm].
+    teeth, kt, kr : int, float, float
+        Flutes, Kt [N/m^2], Kn/Kt.
+    phi_entry, phi_exit : float or ndarray, shape (n_cut,)
+        Engagement angles [rad] (as given to :func:`waypoint_lobes`).
+    share : float
+        Allowed relative shortfall of the estimate (default :data:`SIZE_SHARE`).
+
+    Returns
+    -------
+    ndarray of bool, shape (n_cut,)
+    """
+    shared, own_est = _size_estimates(
+        grouped, model, rpm, teeth=teeth, kt=kt, kr=kr, phi_entry=phi_entry, phi_exit=phi_exit
+    )
+    # too high (the promise) or needlessly low (below 1 - 2 LOBE_TOL = 0.99 of its own)
+    return (own_est * (1.0 + share) < shared) | (shared < own_est * (_LOW + share))
+
+
+def _size_estimates(
+    grouped: GroupedLobes,
+    model: ModalModel,
+    rpm: FloatArray,
+    *,
+    teeth: int,
+    kt: float,
+    kr: float,
+    phi_entry: float | FloatArray,
+    phi_exit: float | FloatArray,
+) -> tuple[FloatArray, FloatArray]:
+    """The shared limit and the first-order estimate of each member's own (:func:`size_members`).
+
+    Returns two arrays (n_cut,) [m]; ``inf`` in both where not estimated (leaders,
+    unbounded waypoints, speeds no lobe crosses).
+    """
+    tab = grouped.table
+    g = tab.group
+    n = g.size
+    shared_out = np.full(n, np.inf)
+    est_out = np.full(n, np.inf)
+    lead = np.zeros(n, bool)
+    lead[grouped.leader] = True
+    cand = np.flatnonzero((g < grouped.n_groups) & ~lead)
+    if cand.size == 0 or not grouped.parts:
+        return shared_out, est_out
+    d = grouped.diagrams[0]
+    if d.omega is None or d.depth is None or d.eps is None:
+        return shared_out, est_out
+    rpm = np.asarray(rpm, dtype=np.float64)
+    compiled = grouped.query_compiled  # where the plan's lobes run compiled (numba started)
+    # the members' models a block of waypoints at a time: where the model offers
+    # ``block_models(lo, hi)`` (a streamed path's, made again from its modes as the
+    # streamed pass made them), from it; else taken
+    block_models = getattr(model, "block_models", None)
+    edges = np.searchsorted(cand, np.arange(0, n + _BLOCK, _BLOCK))
+    for s0, s1 in itertools.pairwise(edges):
+        c = cand[s0:s1]
+        if c.size == 0:
+            continue
+        # members of one group at one speed: the same pieces (most of a path's members)
+        key = np.stack([g[c].astype(np.float64), rpm[c]], axis=1)
+        uk, first, inv = np.unique(key, axis=0, return_index=True, return_inverse=True)
+        inv = inv.ravel()
+        gu, nu = g[c][first], rpm[c][first]
+        # an upper bound of the envelope to examine fewer pieces: the nominal grid's at the
+        # neighbouring grid speeds (the rows it does not bound are done again without it)
+        j = np.clip(np.searchsorted(d.rpm, nu) - 1, 0, d.rpm.size - 2)
+        top = np.maximum(d.a_lim[gu, j], d.a_lim[gu, j + 1]) * (1.0 + 1e-3)
+        pieces: tuple[Any, ...] = _lobe_pieces_at(d, gu, nu, top, _NEAR_ENVELOPE, compiled=compiled)
+        low = np.full(uk.shape[0], np.inf)
+        np.minimum.at(low, pieces[0], pieces[2])
+        redo = np.flatnonzero(~(low <= top))
+        if redo.size:
+            more = _lobe_pieces_at(
+                d, gu[redo], nu[redo], np.full(redo.size, np.inf), _NEAR_ENVELOPE
+            )
+            keep = ~np.isin(pieces[0], redo)
+            pieces = tuple(
+                np.concatenate([p[keep], m if i else redo[m]])
+                for i, (p, m) in enumerate(zip(pieces, more, strict=True))
+            )
+        # each member with the pieces of its group and speed
+        order = np.argsort(pieces[0], kind="stable")
+        pieces = tuple(p[order] for p in pieces)
+        n_p = np.bincount(pieces[0], minlength=uk.shape[0])
+        at = np.cumsum(n_p) - n_p
+        cnt = n_p[inv]
+        owner = np.repeat(np.arange(c.size), cnt)
+        sel = np.arange(owner.size) - np.repeat(np.cumsum(cnt) - cnt, cnt) + at[inv[owner]]
+        row = owner
+        om, depth, eps, kk, span = (p[sel] for p in pieces[1:])
+        env = np.full(c.size, np.inf)
+        np.minimum.at(env, row, depth)
+        if row.size == 0:
+            continue
+        mem, led = c[row], grouped.leader[g[c][row]]
+        if np.ndim(phi_entry) == 0 and np.ndim(phi_exit) == 0:
+            al = directional_factors(phi_entry, phi_exit, kr)
+            alpha_m = np.broadcast_to(al, (row.size, 2, 2))
+            alpha_l = alpha_m
+        else:  # each waypoint's own engagement (finite where bounded: members and leaders)
+            pe = np.broadcast_to(np.asarray(phi_entry, dtype=np.float64), (n,))
+            px = np.broadcast_to(np.asarray(phi_exit, dtype=np.float64), (n,))
+            alpha_m = directional_factors(pe[mem], px[mem], kr)
+            alpha_l = directional_factors(pe[led], px[led], kr)
+        # the leader's eigenvalue of this piece: the one nearest the piece's own (its depth
+        # and phase, zoa_depth inverted: both branches can have about one depth)
+        re_p = 2.0 * math.pi / (teeth * kt * depth)
+        mu_p = re_p + 1j * re_p * np.tan(0.5 * (eps - math.pi))
+        lobe = (kk, 60.0 / (teeth * rpm[mem]), span)
+        a_l = _lobe_depth(model.take(led), alpha_l, om, mu_p, lobe, teeth, kt)
+        if block_models is not None:
+            lo = int(c[0])
+            m_mem = block_models(lo, int(c[-1]) + 1).take(mem - lo)
+        else:
+            m_mem = model.take(mem)
+        a_m = _lobe_depth(m_mem, alpha_m, om, mu_p, lobe, teeth, kt)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            # where the leader's own depth of the piece is not found: no estimate (0: its own)
+            est = np.where(np.isfinite(a_l) & (a_l > 0), depth * a_m / a_l, 0.0)
+        own_est = np.full(c.size, np.inf)
+        np.minimum.at(own_est, row, est)
+        shared = np.where(np.isfinite(own_est), env, np.inf)
+        shared_out[c] = shared
+        est_out[c] = own_est
+    return shared_out, est_out

@@ -52,7 +52,13 @@ from robolobe.plan._summary import PlanSummary
 from robolobe.plan.engagement import engagement_note, plan_engagement
 from robolobe.plan.job import Job, check_tool_modes_on, load_job
 from robolobe.plan.limits import ProcessLimits, process_limits
-from robolobe.plan.lobes import DynamicsTolerance, GroupedLobes, steep_members, waypoint_lobes
+from robolobe.plan.lobes import (
+    DynamicsTolerance,
+    GroupedLobes,
+    size_members,
+    steep_members,
+    waypoint_lobes,
+)
 from robolobe.plan.modes import (
     MODE_STRIDE,
     CorrectedTwinSource,
@@ -577,11 +583,16 @@ def _lobes_for_rotation(
     FloatArray,
     RobustBound | None,
     Callable[[NDArray[np.bool_], GroupedLobes], GroupedLobes],
+    Callable[[GroupedLobes, FloatArray], NDArray[np.bool_]],
 ]:
     """Postures, modes (or their table columns), lobes of the path at one tool rotation.
 
-    The last item, ``split(own, reuse)``, gives the lobes again with ``own``
-    waypoints on lobes of their own (:func:`cut_lobes`'s ``own``/``reuse``).
+    The last items: ``split(own, reuse)`` gives the lobes again with ``own``
+    waypoints on lobes of their own (:func:`cut_lobes`'s ``own``/``reuse``);
+    ``members(grouped, rpm)`` finds the members whose own limit at their planned
+    speeds lies outside the promise of the shared one to first order
+    (:func:`~robolobe.plan.lobes.size_members`; on a streamed path the members'
+    models are made again for it, block by block).
     A path of at least :data:`_STREAM_MIN` cutting waypoints is streamed
     (:func:`_streamed_lobes`) unless the plan is robust. With ``eng`` every
     cutting move is planned at its own engagement, air moves without a limit.
@@ -604,24 +615,33 @@ def _lobes_for_rotation(
             job, source, q, f_tcp, material, tool, rpm, ci, len(wp), angles, air
         )
         if streamed is not None:
-            cols, plunge, grouped, t_lobes, feed_angle, split_s = streamed
+            cols, plunge, grouped, t_lobes, feed_angle, split_s, members_s = streamed
             timings.update(t_lobes)
-            return q, wm, cols, plunge, grouped, timings, feed_angle, None, split_s
+            return q, wm, cols, plunge, grouped, timings, feed_angle, None, split_s, members_s
     t = time.perf_counter()
     modes = _predict_modes(source, q[ci])
     timings["modes"] = time.perf_counter() - t
     # the nominal tool-point models (the caller does not keep them: ~1 kB per waypoint)
-    _, plunge, grouped, t_lobes, feed_angle, bound = cut_lobes(
+    model0, plunge, grouped, t_lobes, feed_angle, bound = cut_lobes(
         job, modes, f_tcp, material, tool, rpm, engagement=angles, air=air
     )
     timings.update(t_lobes)
+    cut_args = _lobe_args(job, material, rpm, engagement=angles)
+
+    def members(shared: GroupedLobes, planned: FloatArray) -> NDArray[np.bool_]:
+        return size_members(
+            shared,
+            model0,
+            planned,
+            **{k: cut_args[k] for k in ("teeth", "kt", "kr", "phi_entry", "phi_exit")},
+        )
 
     def split(own: NDArray[np.bool_], reuse: GroupedLobes) -> GroupedLobes:
         return cut_lobes(
             job, modes, f_tcp, material, tool, rpm, own=own, reuse=reuse, engagement=angles, air=air
         )[2]
 
-    return q, wm, modes, plunge, grouped, timings, feed_angle, bound, split
+    return q, wm, modes, plunge, grouped, timings, feed_angle, bound, split, members
 
 
 def feed_tcp(
@@ -691,6 +711,9 @@ class _StreamedModels:
     f_use : ndarray, shape (n, 3)
         Feed directions in the TCP frame (plunges replaced, as in :func:`cut_lobes`).
     tool : ModalModel or None
+    tol : DynamicsTolerance, optional
+        The grouping tolerance the streamed pass interpolated the modes to
+        (:meth:`block_models`).
     """
 
     dim = 2
@@ -702,8 +725,10 @@ class _StreamedModels:
         rows: NDArray[np.int64],
         f_use: FloatArray,
         tool: ModalModel | None,
+        tol: DynamicsTolerance | None = None,
     ) -> None:
         self.source, self.q, self.rows, self.f_use, self.tool = source, q, rows, f_use, tool
+        self.tol = tol or DynamicsTolerance()
         self.batch_shape = (int(rows.shape[0]),)
         # the last models taken: the lobes take the leaders', the steep-wall split
         # takes them again with a few more (only those are made)
@@ -713,6 +738,15 @@ class _StreamedModels:
         modes = _predict_modes(self.source, self.q[self.rows[idx]])
         rot = feed_frame(self.f_use[idx], (0.0, 0.0, -1.0), rotation="cw")
         return _tool_point_models(rot, modes.model, self.tool)
+
+    def block_models(self, lo: int, hi: int) -> ModalModel:
+        """The models of waypoints ``lo .. hi - 1`` from their modes as the streamed pass
+        made them (exact at every :data:`_MODE_STRIDE`-th posture, interpolated where
+        checked: :func:`~robolobe.plan.modes.interpolated_modes`), for the members' check
+        (:func:`~robolobe.plan.lobes.size_members`) without every posture's modes."""
+        md = interpolated_modes(self.source, self.q[self.rows[lo:hi]], self.tol, _MODE_STRIDE)
+        rot = feed_frame(self.f_use[lo:hi], (0.0, 0.0, -1.0), rotation="cw")
+        return tool_point_model(rot, md.model, self.tool)
 
     def take(self, index: Any) -> ModalModel:
         """The models of waypoints ``index`` (int, slice or array of int)."""
@@ -762,6 +796,7 @@ def _streamed_lobes(
         dict[str, float],
         FloatArray,
         Callable[[NDArray[np.bool_], GroupedLobes], GroupedLobes],
+        Callable[[GroupedLobes, FloatArray], NDArray[np.bool_]],
     ]
     | None
 ):
@@ -784,7 +819,9 @@ def _streamed_lobes(
         The table's mode columns, the plunge mask, the grouped lobes, the
         timings (``modes`` covers the feed-frame models and the features too,
         ``frf`` is 0), the feed angles [deg] and ``split(own, reuse)`` (the
-        steep-wall split, as :func:`cut_lobes` with ``own``/``reuse``); None
+        steep-wall split, as :func:`cut_lobes` with ``own``/``reuse``) and
+        ``members(grouped, rpm)`` (:func:`~robolobe.plan.lobes.size_members`, the
+        members' models made again in blocks of the candidates); None
         for a robust plan (its bound needs every waypoint's modes at once:
         the caller plans in memory).
     """
@@ -866,7 +903,7 @@ def _streamed_lobes(
     timings = {"modes": time.perf_counter() - t, "frf": 0.0}
     t = time.perf_counter()
     # waypoint_lobes needs only dim, batch_shape and take of the models given features
-    models = cast("ModalModel", _StreamedModels(source, q, cut_rows, f_use, tool))
+    models = cast("ModalModel", _StreamedModels(source, q, cut_rows, f_use, tool, tol))
     # explicit keywords, not ``**args``: a call through ``**`` keeps its keyword dict (and
     # the features in it) alive until it returns, and waypoint_lobes frees them after
     # grouping, before the leaders' lobes (600 bytes a waypoint: the lobe stage's peak)
@@ -889,7 +926,15 @@ def _streamed_lobes(
     def split(own: NDArray[np.bool_], reuse: GroupedLobes) -> GroupedLobes:
         return waypoint_lobes([models], unbounded=unb, own=own, reuse=reuse, **args)
 
-    return cols, plunge, grouped, timings, feed_angle, split
+    def members(shared: GroupedLobes, planned: FloatArray) -> NDArray[np.bool_]:
+        return size_members(
+            shared,
+            models,
+            planned,
+            **{k: args[k] for k in ("teeth", "kt", "kr", "phi_entry", "phi_exit")},
+        )
+
+    return cols, plunge, grouped, timings, feed_angle, split, members
 
 
 def _tool_point_models(
@@ -1242,7 +1287,7 @@ def plan_path(
         rotation, rot_note = _stiffest_rotation(
             job, wp, robot, source, cut, material, tool, rpm, cons, eng
         )
-    q, wm, modes, plunge, grouped, t_stage, feed_angle, bound, split = _lobes_for_rotation(
+    q, wm, modes, plunge, grouped, t_stage, feed_angle, bound, split, members = _lobes_for_rotation(
         job, wp, robot, source, rotation, cut, material, tool, rpm, eng
     )
     timings.update(t_stage)
@@ -1319,14 +1364,21 @@ def plan_path(
             raise
         raise InfeasibleError(_robust_infeasible(str(exc), grouped, bound, cons)) from None
     # lobe sharing keeps its promise: members planned next to a steep wall of their
-    # leader's lobes get lobes of their own, and the schedule is made again
+    # leader's lobes, or whose own modes set a limit outside the promise of the shared
+    # one there (a dominant mode's size, shared to the residue tolerance), get lobes of
+    # their own, and the schedule is made again
     steep = steep_members(grouped, outcome.best.rpm)
+    t_size = time.perf_counter()
+    steep |= members(grouped, outcome.best.rpm)
+    t_split += time.perf_counter() - t_size
+    del members  # its models (~1 kB a cutting waypoint): not under the schedule made again
     n_split = int(steep.sum())
     if n_split:
-        t_split = time.perf_counter()
+        t0_split = time.perf_counter()
         grouped = split(steep, grouped)
-        t_split = time.perf_counter() - t_split
-        timings["lobes"] += t_split
+        t_split += time.perf_counter() - t0_split
+    timings["lobes"] += t_split
+    if n_split:
         outcome = schedule(grouped.table)
     del split  # its models' inputs (feed directions, angles: ~40 bytes a waypoint)
     outcome = dataclasses.replace(outcome, timings=opt_s)
@@ -1452,7 +1504,7 @@ def _stiffest_rotation(
     best, best_val, tried = None, -np.inf, []
     for r in cands:
         try:
-            *_, grouped, _, _, _, _ = _lobes_for_rotation(
+            *_, grouped, _, _, _, _, _ = _lobes_for_rotation(
                 job, wp, robot, source, float(r), keep, material, tool, rpm, eng
             )
         except (ReachabilityError, SingularityError) as exc:

@@ -1059,3 +1059,122 @@ def refine(
             status,
         )
     return w_o, dep, eps, n_out, status, bd
+
+
+# ----------------------------------------------------------------------------------
+# Lobe pieces at a speed near the envelope (robolobe.plan.lobes._lobe_pieces_at: the
+# numpy reference, the same arithmetic and the same pieces)
+
+
+@njit()
+def _crossing(
+    w0: float, w1: float, e0: float, e1: float, a0: float, a1: float, k: float, c: float, n: float
+) -> tuple[bool, float, float, float]:
+    """Whether lobe ``k`` of a piece crosses speed ``n``; its depth, frequency, phase there."""
+    n0 = c * w0 / (e0 + _TWO_PI * k)
+    n1 = c * w1 / (e1 + _TWO_PI * k)
+    if not (np.isfinite(n0) and np.isfinite(n1) and n0 > 0 and n1 > 0):
+        return False, 0.0, 0.0, 0.0
+    t = (n - n0) / (n1 - n0) if n1 != n0 else 0.0
+    t = min(max(t, 0.0), 1.0)
+    depth = max(a0 + t * (a1 - a0), min(a0, a1))
+    return True, depth, w0 + t * (w1 - w0), e0 + t * (e1 - e0)
+
+
+@njit()
+def _pieces_pass(
+    w: FloatArray,
+    depth: FloatArray,
+    eps: FloatArray,
+    g: NDArray[np.int64],
+    rpm: FloatArray,
+    top: FloatArray,
+    within: float,
+    teeth: int,
+    max_lobe: int,
+    low: FloatArray,
+    count: NDArray[np.int64],
+    out: FloatArray,
+    fill: bool,
+) -> None:
+    """One pass over the rows' pieces: their smallest crossing (``low``, when not
+    ``fill``), or the crossings within ``within`` of it counted (``count``) and, with
+    ``fill``, written into ``out`` (rows of row, omega, depth, eps, k, span) from
+    ``count``'s offsets."""
+    c = 60.0 / teeth
+    nf = w.shape[1]
+    pos = 0
+    for r in range(g.shape[0]):
+        e = g[r]
+        n = rpm[r]
+        lim = within * top[r]
+        cut = within * low[r]
+        for j in range(2):
+            for i in range(nf - 1):
+                a0 = depth[e, j, i]
+                a1 = depth[e, j, i + 1]
+                if not (np.isfinite(a0) and np.isfinite(a1)) or min(a0, a1) > lim:
+                    continue
+                w0 = w[e, i]
+                w1 = w[e, i + 1]
+                e0 = eps[e, j, i]
+                e1 = eps[e, j, i + 1]
+                k0 = (c * w0 / n - e0) / _TWO_PI
+                k1 = (c * w1 / n - e1) / _TWO_PI
+                if not (np.isfinite(k0) and np.isfinite(k1)):
+                    continue
+                klo = max(np.ceil(min(k0, k1)), 0.0)
+                khi = min(np.floor(max(k0, k1)), float(max_lobe))
+                k = klo
+                while k <= khi:
+                    ok, d, om, ph = _crossing(w0, w1, e0, e1, a0, a1, k, c, n)
+                    if ok:
+                        if count[r] < 0:
+                            low[r] = min(low[r], d)
+                        elif d <= cut:
+                            if fill:
+                                out[pos, 0] = r
+                                out[pos, 1] = om
+                                out[pos, 2] = d
+                                out[pos, 3] = ph
+                                out[pos, 4] = k
+                                out[pos, 5] = w1 - w0
+                                pos += 1
+                            else:
+                                count[r] += 1
+                    k += 1.0
+
+
+def near_pieces(
+    omega: FloatArray,
+    depth: FloatArray,
+    eps: FloatArray,
+    g: NDArray[np.int64],
+    rpm: FloatArray,
+    top: FloatArray,
+    *,
+    within: float,
+    teeth: int,
+    max_lobe: int,
+) -> FloatArray:
+    """The lobe pieces near the envelope of entries ``g`` at speeds ``rpm`` (one per row).
+
+    The compiled counterpart of :func:`robolobe.plan.lobes._lobe_pieces_at` with
+    ``top`` (r,) the bound of each row's entry (the highest over its rows).
+    Returns (p, 6): row, omega, depth, eps, lobe k, span of each piece.
+    """
+    w = np.ascontiguousarray(omega, dtype=np.float64)
+    gg = np.ascontiguousarray(g, dtype=np.int64)
+    s = np.ascontiguousarray(rpm, dtype=np.float64)
+    tp = np.ascontiguousarray(top, dtype=np.float64)
+    a = np.ascontiguousarray(depth, dtype=np.float64)
+    e = np.ascontiguousarray(eps, dtype=np.float64)
+    low = np.full(gg.size, np.inf)
+    count = np.full(gg.size, -1, np.int64)
+    dummy = np.zeros((0, 6))
+    _pieces_pass(w, a, e, gg, s, tp, within, teeth, max_lobe, low, count, dummy, False)
+    count[:] = 0
+    _pieces_pass(w, a, e, gg, s, tp, within, teeth, max_lobe, low, count, dummy, False)
+    out = np.empty((int(count.sum()), 6))
+    _pieces_pass(w, a, e, gg, s, tp, within, teeth, max_lobe, low, count, out, True)
+    return out
