@@ -76,7 +76,7 @@ import numpy as np
 from robolobe.errors import InputError
 from robolobe.plan.job import Job, load_job
 from robolobe.plan.paths import read_toolpath
-from robolobe.stock import LEVEL_TOL_M, compute_engagement, default_stock
+from robolobe.stock import LEVEL_TOL_M, MIN_ARC_DEG, compute_engagement, default_stock
 
 REPO = Path(__file__).resolve().parents[1]
 REALWORLD = REPO.parent / "shared" / "realworld" / "cam"
@@ -195,16 +195,6 @@ class Reference:
         mat, top = self.material(pts(ph), z, near)
         if not mat.any():
             return math.nan, math.nan, 0, 0.0
-        # the material height one cell inside the engaged edge (at the edge itself it
-        # jumps where the edge runs along the wall of an earlier, deeper cut)
-        inner = c + (self.r - self.res) * (
-            np.sin(ph[mat])[:, None] * f + np.cos(ph[mat])[:, None] * left
-        )
-        top_in = self.tops(inner, near)
-        base = max(z, self.stock.z_bottom)
-        deep = top_in > z + LEVEL_TOL
-        depth = float(np.max((top_in if deep.any() else top[mat]) - base, initial=0.0))
-        runs = int(np.sum(mat & ~np.r_[False, mat[:-1]]))
 
         def refine(a: float, b: float, a_mat: bool) -> float:
             for _ in range(12):
@@ -215,11 +205,29 @@ class Reference:
                     b = m
             return 0.5 * (a + b)
 
-        k0 = int(np.argmax(mat))
-        k1 = len(mat) - 1 - int(np.argmax(mat[::-1]))
-        entry = 0.0 if k0 == 0 else refine(ph[k0 - 1], ph[k0], False)
-        exit_ = math.pi if k1 == len(mat) - 1 else refine(ph[k1], ph[k1 + 1], True)
-        return entry, exit_, runs, depth
+        # every arc of the samples, both ends refined; one narrower than MIN_ARC_DEG is
+        # none (its samples leave the material too: they add no depth)
+        edges = np.flatnonzero(np.diff(np.r_[0, mat.astype(np.int8), 0]))
+        kept: list[tuple[float, float]] = []
+        for k0, k1 in zip(edges[::2], edges[1::2] - 1, strict=True):
+            lo = 0.0 if k0 == 0 else refine(ph[k0 - 1], ph[k0], False)
+            hi = math.pi if k1 == len(mat) - 1 else refine(ph[k1], ph[k1 + 1], True)
+            if hi - lo >= math.radians(MIN_ARC_DEG):
+                kept.append((lo, hi))
+            else:
+                mat[k0 : k1 + 1] = False
+        if not kept:
+            return math.nan, math.nan, 0, 0.0
+        # the material height one cell inside the engaged edge (at the edge itself it
+        # jumps where the edge runs along the wall of an earlier, deeper cut)
+        inner = c + (self.r - self.res) * (
+            np.sin(ph[mat])[:, None] * f + np.cos(ph[mat])[:, None] * left
+        )
+        top_in = self.tops(inner, near)
+        base = max(z, self.stock.z_bottom)
+        deep = top_in > z + LEVEL_TOL
+        depth = float(np.max((top_in if deep.any() else top[mat]) - base, initial=0.0))
+        return kept[0][0], kept[-1][1], len(kept), depth
 
 
 def reference_engagement(

@@ -61,8 +61,17 @@ _RECENT = 4
 #: Bound on the material value's change per radian of edge angle, in tool radii (a
 #: distance field is 1; the bilinear interpolation of one, up to sqrt 2).
 _LIPSCHITZ = 1.5
-#: Sub-samples of a sample step searched for a narrow arc (4 deg / 4 = 1 deg).
+#: Sub-samples of a sample step searched for a narrow arc (4 deg / 4 = 1 deg: every arc
+#: of :data:`MIN_ARC_DEG` holds one).
 _SUB = 4
+#: An arc of material on the cutting edge narrower than this [deg] is none: a graze (a
+#: sliver a micrometre over the level tolerance, as where the edge runs tangent to the
+#: stock's outline) whose outermost angle would set the move's entry or exit by up to
+#: tens of degrees though it carries under 1/180 of a slot's edge; the arc is dropped
+#: with its angles and its depth. The references of ``studies/engagement.py`` and
+#: ``tests/stock`` apply the same rule.
+MIN_ARC_DEG = 1.0
+_MIN_ARC = math.radians(MIN_ARC_DEG)
 #: Four cells whose tops differ by at most this [m] are level (their top is exact enough).
 _LEVEL_CELLS = 1e-6
 #: Material thinner than this many cells at the edge is none (float rounding on a wall).
@@ -475,7 +484,7 @@ def _sample_crossing(w, ids, xyz, x0, y0, res, radius, cx, cy, z, fx, fy, tol, d
 
 
 def _engage(w, ids, xyz, x0, y0, res, radius, cx, cy, z, fx, fy, bottom, ztop, tol, nphi, vals,
-            pend, out, cand, chain):  # fmt: skip
+            pend, out, cand, chain, arcs, subs):  # fmt: skip
     """Engagement of the cutting edge at one tool position.
 
     The front half of the edge is sampled at ``nphi`` angles; each change
@@ -485,89 +494,49 @@ def _engage(w, ids, xyz, x0, y0, res, radius, cx, cy, z, fx, fy, bottom, ztop, t
     number of separate engaged arcs, and the axial depth [m] of the material
     under the engaged edge (the top one cell inside each engaged edge point
     above the tip or the stock bottom; for a sliver with nothing there, the
-    highest cell around the edge point). No engagement: ``n_arcs = 0`` and NaN angles.
+    highest cell around the edge point). An arc of material narrower than
+    :data:`MIN_ARC_DEG` is none (a graze: its angles would hang on a
+    micrometre of material): it adds no arc, angle or depth. No engagement:
+    ``n_arcs = 0`` and NaN angles. ``pend``, ``arcs`` (rows ``lo, hi, k0, k1``:
+    an arc's angles and, from the samples, its first and last sample; ``-1``
+    for one found between samples) and ``subs`` (rows ``angle, arc``) are scratch.
     """
     dphi = math.pi / (nphi - 1)
     rr = radius + max(_EDGE_EPS * res, tol)
     rin = radius - res
     base = max(z, bottom)
-    depth = 0.0
-    full = ztop - base  # the deepest there is: no need to look further
     for k in range(nphi):
-        ph = k * dphi
-        v = _edge_value(w, ids, xyz, x0, y0, res, radius, cx, cy, z, fx, fy, tol, ph, cand, chain)
-        vals[k] = v
-        pend[k] = False
-        if v < 0.0 and depth < full:
-            # the material top one cell inside the engaged edge point (at the edge itself
-            # the top jumps where the edge runs along the wall of an earlier, deeper cut):
-            # level cells now, the others (exact, slower) after, where they may be deeper
-            ux = math.sin(ph) * fx - math.cos(ph) * fy
-            uy = math.sin(ph) * fy + math.cos(ph) * fx
-            lo, hi = _top_bounds(w, x0, y0, res, cx + rin * ux, cy + rin * uy)
-            if hi - lo <= _LEVEL_CELLS:
-                if lo > z + tol:
-                    depth = max(depth, lo - base)
-            else:
-                pend[k] = True
-    for k in range(nphi):
-        if pend[k] and depth < full:
-            ph = k * dphi
-            ux = math.sin(ph) * fx - math.cos(ph) * fy
-            uy = math.sin(ph) * fy + math.cos(ph) * fx
-            lo, hi = _top_bounds(w, x0, y0, res, cx + rin * ux, cy + rin * uy)
-            if hi - base > depth:
-                top = _exact_top(
-                    w, ids, xyz, x0, y0, res, rr, ztop, cx + rin * ux, cy + rin * uy, cand, chain
-                )
-                if top > z + tol:
-                    depth = max(depth, top - base)
-    sliver = 0.0
-    if depth == 0.0:
-        # where nothing is one cell inside (a sliver), the top at the engaged edge points
-        for k in range(nphi):
-            if vals[k] < 0.0:
-                ph = k * dphi
-                ux = math.sin(ph) * fx - math.cos(ph) * fy
-                uy = math.sin(ph) * fy + math.cos(ph) * fx
-                top = _exact_top(
-                    w, ids, xyz, x0, y0, res, rr, ztop, cx + radius * ux, cy + radius * uy, cand,
-                    chain,
-                )  # fmt: skip
-                if top > z + tol:
-                    sliver = max(sliver, top - base)
-    narcs = 0
-    entry = math.nan
-    exit_ = math.nan
-    prev = 1.0
-    for k in range(nphi):
-        v = vals[k]
-        if v < 0.0 and prev >= 0.0:
-            narcs += 1
-            if narcs == 1:
-                if k == 0:
-                    entry = 0.0
-                else:
-                    entry = _sample_crossing(
-                        w, ids, xyz, x0, y0, res, radius, cx, cy, z, fx, fy, tol, dphi, vals, k,
-                        cand, chain,
-                    )  # fmt: skip
-        prev = v
-    if narcs > 0:
-        if prev < 0.0:
-            exit_ = math.pi
-        else:
-            k = nphi - 1
-            while vals[k - 1] >= 0.0:
-                k -= 1
-            exit_ = _sample_crossing(w, ids, xyz, x0, y0, res, radius, cx, cy, z, fx, fy, tol, dphi,
-                                     vals, k, cand, chain)  # fmt: skip
+        vals[k] = _edge_value(w, ids, xyz, x0, y0, res, radius, cx, cy, z, fx, fy, tol, k * dphi,
+                              cand, chain)  # fmt: skip
+    # the arcs of the samples, each end refined
+    na = 0
+    k = 0
+    while k < nphi:
+        if vals[k] < 0.0:
+            k0 = k
+            while k + 1 < nphi and vals[k + 1] < 0.0:
+                k += 1
+            lo = 0.0
+            if k0 > 0:
+                lo = _sample_crossing(w, ids, xyz, x0, y0, res, radius, cx, cy, z, fx, fy, tol,
+                                      dphi, vals, k0, cand, chain)  # fmt: skip
+            hi = math.pi
+            if k < nphi - 1:
+                hi = _sample_crossing(w, ids, xyz, x0, y0, res, radius, cx, cy, z, fx, fy, tol,
+                                      dphi, vals, k + 1, cand, chain)  # fmt: skip
+            arcs[na, 0] = lo
+            arcs[na, 1] = hi
+            arcs[na, 2] = k0
+            arcs[na, 3] = k
+            na += 1
+        k += 1
     # arcs narrower than a sample step, between two samples in air: the value is about
     # Lipschitz in the edge angle (at most R per rad: a distance field along an edge
     # point moving at R), so two samples whose values sum to more than the step's travel
-    # have none between them; the others are sampled every quarter step (1 deg), and an
-    # arc found there is refined as the others are (a narrower arc, under 1 deg, is not seen)
+    # have none between them; the others are sampled every quarter step (1 deg, so that
+    # no arc of MIN_ARC_DEG is missed), and an arc found there is refined as the others are
     lim = _LIPSCHITZ * radius * dphi
+    ns = 0
     for k in range(1, nphi):
         va = vals[k - 1]
         vb = vals[k]
@@ -585,30 +554,94 @@ def _engage(w, ids, xyz, x0, y0, res, radius, cx, cy, z, fx, fy, bottom, ztop, t
                 cr = _crossing(w, ids, xyz, x0, y0, res, radius, cx, cy, z, fx, fy, tol, pa, pv,
                                ph, v, cand, chain)  # fmt: skip
                 if v < 0.0:
-                    narcs += 1
-                    if not cr >= entry:  # also where entry is NaN
-                        entry = cr
-                elif not cr <= exit_:
-                    exit_ = cr
+                    arcs[na, 0] = cr
+                    arcs[na, 2] = -1.0
+                    arcs[na, 3] = -1.0
+                else:  # the interval ends in air: every arc opened in it closes
+                    arcs[na, 1] = cr
+                    na += 1
             if v < 0.0:
-                ux = math.sin(ph) * fx - math.cos(ph) * fy
-                uy = math.sin(ph) * fy + math.cos(ph) * fx
-                top = _exact_top(
-                    w, ids, xyz, x0, y0, res, rr, ztop, cx + rin * ux, cy + rin * uy, cand, chain
-                )
-                if top > z + tol:
-                    depth = max(depth, top - base)
-                else:
-                    top = _exact_top(
-                        w, ids, xyz, x0, y0, res, rr, ztop, cx + radius * ux, cy + radius * uy,
-                        cand, chain,
-                    )  # fmt: skip
-                    if top > z + tol:
-                        sliver = max(sliver, top - base)
+                subs[ns, 0] = ph
+                subs[ns, 1] = na
+                ns += 1
             pa = ph
             pv = v
-    out[0] = entry
-    out[1] = exit_
+    # the arcs that count, and the depth under their edge points
+    narcs = 0
+    entry = math.inf
+    exit_ = -math.inf
+    for a in range(na):
+        if arcs[a, 1] - arcs[a, 0] >= _MIN_ARC:
+            narcs += 1
+            entry = min(entry, arcs[a, 0])
+            exit_ = max(exit_, arcs[a, 1])
+    depth = 0.0
+    sliver = 0.0
+    if narcs > 0:
+        full = ztop - base  # the deepest there is: no need to look further
+        for k in range(nphi):
+            pend[k] = False
+        for a in range(na):
+            if arcs[a, 2] < 0.0 or arcs[a, 1] - arcs[a, 0] < _MIN_ARC:
+                continue
+            for k in range(int(arcs[a, 2]), int(arcs[a, 3]) + 1):
+                if depth >= full:
+                    break
+                # the material top one cell inside the engaged edge point (at the edge
+                # itself the top jumps where the edge runs along the wall of an earlier,
+                # deeper cut): level cells now, the others (exact, slower) after, where
+                # they may be deeper
+                ph = k * dphi
+                ux = math.sin(ph) * fx - math.cos(ph) * fy
+                uy = math.sin(ph) * fy + math.cos(ph) * fx
+                lo, hi = _top_bounds(w, x0, y0, res, cx + rin * ux, cy + rin * uy)
+                if hi - lo <= _LEVEL_CELLS:
+                    if lo > z + tol:
+                        depth = max(depth, lo - base)
+                else:
+                    pend[k] = True
+        for k in range(nphi):
+            if pend[k] and depth < full:
+                ph = k * dphi
+                ux = math.sin(ph) * fx - math.cos(ph) * fy
+                uy = math.sin(ph) * fy + math.cos(ph) * fx
+                lo, hi = _top_bounds(w, x0, y0, res, cx + rin * ux, cy + rin * uy)
+                if hi - base > depth:
+                    top = _exact_top(w, ids, xyz, x0, y0, res, rr, ztop, cx + rin * ux,
+                                     cy + rin * uy, cand, chain)  # fmt: skip
+                    if top > z + tol:
+                        depth = max(depth, top - base)
+        if depth == 0.0:
+            # where nothing is one cell inside (a sliver), the top at the engaged edge points
+            for a in range(na):
+                if arcs[a, 2] < 0.0 or arcs[a, 1] - arcs[a, 0] < _MIN_ARC:
+                    continue
+                for k in range(int(arcs[a, 2]), int(arcs[a, 3]) + 1):
+                    ph = k * dphi
+                    ux = math.sin(ph) * fx - math.cos(ph) * fy
+                    uy = math.sin(ph) * fy + math.cos(ph) * fx
+                    top = _exact_top(w, ids, xyz, x0, y0, res, rr, ztop, cx + radius * ux,
+                                     cy + radius * uy, cand, chain)  # fmt: skip
+                    if top > z + tol:
+                        sliver = max(sliver, top - base)
+        for s in range(ns):
+            a = int(subs[s, 1])
+            if arcs[a, 1] - arcs[a, 0] < _MIN_ARC:
+                continue
+            ph = subs[s, 0]
+            ux = math.sin(ph) * fx - math.cos(ph) * fy
+            uy = math.sin(ph) * fy + math.cos(ph) * fx
+            top = _exact_top(w, ids, xyz, x0, y0, res, rr, ztop, cx + rin * ux, cy + rin * uy,
+                             cand, chain)  # fmt: skip
+            if top > z + tol:
+                depth = max(depth, top - base)
+            else:
+                top = _exact_top(w, ids, xyz, x0, y0, res, rr, ztop, cx + radius * ux,
+                                 cy + radius * uy, cand, chain)  # fmt: skip
+                if top > z + tol:
+                    sliver = max(sliver, top - base)
+    out[0] = entry if narcs > 0 else math.nan
+    out[1] = exit_ if narcs > 0 else math.nan
     out[2] = narcs
     out[3] = depth if depth > 0.0 else sliver
 
@@ -670,6 +703,8 @@ def _run(
     n = xyz.shape[0]
     vals = np.empty(nphi)
     pend = np.zeros(nphi, dtype=np.bool_)
+    arc_rows = np.empty((nphi * _SUB, 4))  # _engage's scratch
+    sub_rows = np.empty((nphi * _SUB, 2))
     out = np.empty(4)
     cand = np.zeros(1 + _RECENT + 8 * (1 + 2 * CHAIN_MAX), dtype=np.int64)
     p0 = np.empty(3)
@@ -749,6 +784,8 @@ def _run(
                 out,
                 cand,
                 chain,
+                arc_rows,
+                sub_rows,
             )
             if out[2] > 0:
                 ent = min(ent, out[0])
