@@ -288,7 +288,7 @@ def compute_engagement(
     run(
         w, ids, gx0, gy0, res, radius, band, p, cut, cum, 2.0 * res, 0.5 * radius,
         math.cos(math.radians(5.0)), stock.z_bottom, stock.z_top, LEVEL_TOL_M, N_PHI,
-        phi_entry, phi_exit, n_arcs, depth, plunge, chain_neighbours(p, cut, res, LEVEL_TOL_M),
+        phi_entry, phi_exit, n_arcs, depth, plunge, chain_neighbours(p, cut, res),
     )  # fmt: skip
     notes = [stock.note] if stock.note else []
     n_air = int((cut & (n_arcs == 0))[1:].sum())
