@@ -20,7 +20,8 @@ reference written here:
   the part of the move that covers the point) has cleared it down to the
   tool tip;
 * the front half of the edge sampled every 0.25 deg and each change refined
-  by bisection on that exact test (1e-4 deg); the axial depth is the
+  by bisection on that exact test (1e-4 deg), an arc narrower than 1 deg
+  dropped (:data:`robolobe.stock.MIN_ARC_DEG`); the axial depth is the
   largest material height one cell inside the engaged edge above the tip (at
   the edge itself it jumps where the edge runs along an earlier, deeper wall);
 * the same definition of a move's engagement as the production (its
@@ -53,8 +54,17 @@ A move called air by one side and cutting by the other errs by the width of
 its arc (``air_mismatch_max_arc_deg``). Dryless's one run found the Z-map's
 floor of a helix too high (its chords each drop 8.3 um, under the level
 tolerance, and skipped their start disc): 202 moves over 2 deg, up to 84 deg,
-on level moves over its bores' floors; fixed, the same reference run finds 6
-(the entry of a contour's 8 um lead-in ramp move) and 88 air in one only.
+on level moves over its bores' floors; fixed, the same reference run found 6
+(18.8 deg) and 88 air in one only. The 6 are the last move of each contour
+level's lead-out ramp (8 um in x-y, 49 um up), which ends at the program's
+largest x: its edge runs tangent to the default stock's side and meets, beyond
+the disc the level's plunge cleared, a sliver 0.6 deg wide and at most 1.4 um
+over the level tolerance (80.3-80.9 deg; checked by sampled tool positions
+every 1/10 cell); the reference took its entry, the Z-map's 1-deg search missed
+it and took the next arc's (99.1 deg). An arc narrower than
+:data:`robolobe.stock.MIN_ARC_DEG` (1 deg) is now none on both sides (the
+reference below drops it with its depth): Dryless 0 over 2 deg (max 1.09, an
+arc move), 80 air in one only (the holding-tab grazes).
 
 Goal (issue 26): every angle within 2 deg of the reference at the stated cell.
 """
