@@ -505,9 +505,25 @@ def _engage(w, ids, xyz, x0, y0, res, radius, cx, cy, z, fx, fy, bottom, ztop, t
     rr = radius + max(_EDGE_EPS * res, tol)
     rin = radius - res
     base = max(z, bottom)
+    depth = 0.0
+    full = ztop - base  # the deepest there is: no need to look further
     for k in range(nphi):
-        vals[k] = _edge_value(w, ids, xyz, x0, y0, res, radius, cx, cy, z, fx, fy, tol, k * dphi,
-                              cand, chain)  # fmt: skip
+        ph = k * dphi
+        v = _edge_value(w, ids, xyz, x0, y0, res, radius, cx, cy, z, fx, fy, tol, ph, cand, chain)
+        vals[k] = v
+        pend[k] = False
+        if v < 0.0 and depth < full:
+            # the material top one cell inside the engaged edge point (at the edge itself
+            # the top jumps where the edge runs along the wall of an earlier, deeper cut):
+            # level cells now, the others (exact, slower) after, where they may be deeper
+            ux = math.sin(ph) * fx - math.cos(ph) * fy
+            uy = math.sin(ph) * fy + math.cos(ph) * fx
+            lo, hi = _top_bounds(w, x0, y0, res, cx + rin * ux, cy + rin * uy)
+            if hi - lo <= _LEVEL_CELLS:
+                if lo > z + tol:
+                    depth = max(depth, lo - base)
+            else:
+                pend[k] = True
     # the arcs of the samples, each end refined
     na = 0
     k = 0
@@ -575,31 +591,33 @@ def _engage(w, ids, xyz, x0, y0, res, radius, cx, cy, z, fx, fy, bottom, ztop, t
             narcs += 1
             entry = min(entry, arcs[a, 0])
             exit_ = max(exit_, arcs[a, 1])
-    depth = 0.0
     sliver = 0.0
-    if narcs > 0:
-        full = ztop - base  # the deepest there is: no need to look further
-        for k in range(nphi):
-            pend[k] = False
-        for a in range(na):
-            if arcs[a, 2] < 0.0 or arcs[a, 1] - arcs[a, 0] < _MIN_ARC:
-                continue
-            for k in range(int(arcs[a, 2]), int(arcs[a, 3]) + 1):
-                if depth >= full:
-                    break
-                # the material top one cell inside the engaged edge point (at the edge
-                # itself the top jumps where the edge runs along the wall of an earlier,
-                # deeper cut): level cells now, the others (exact, slower) after, where
-                # they may be deeper
-                ph = k * dphi
-                ux = math.sin(ph) * fx - math.cos(ph) * fy
-                uy = math.sin(ph) * fy + math.cos(ph) * fx
-                lo, hi = _top_bounds(w, x0, y0, res, cx + rin * ux, cy + rin * uy)
-                if hi - lo <= _LEVEL_CELLS:
-                    if lo > z + tol:
-                        depth = max(depth, lo - base)
-                else:
-                    pend[k] = True
+    redo = False  # a dropped arc holds samples: their depth is none
+    for a in range(na):
+        if arcs[a, 2] >= 0.0 and arcs[a, 1] - arcs[a, 0] < _MIN_ARC:
+            redo = True
+    if narcs == 0:
+        depth = 0.0
+    else:
+        if redo:
+            depth = 0.0
+            for k in range(nphi):
+                pend[k] = False
+            for a in range(na):
+                if arcs[a, 2] < 0.0 or arcs[a, 1] - arcs[a, 0] < _MIN_ARC:
+                    continue
+                for k in range(int(arcs[a, 2]), int(arcs[a, 3]) + 1):
+                    if depth >= full:
+                        break
+                    ph = k * dphi
+                    ux = math.sin(ph) * fx - math.cos(ph) * fy
+                    uy = math.sin(ph) * fy + math.cos(ph) * fx
+                    lo, hi = _top_bounds(w, x0, y0, res, cx + rin * ux, cy + rin * uy)
+                    if hi - lo <= _LEVEL_CELLS:
+                        if lo > z + tol:
+                            depth = max(depth, lo - base)
+                    else:
+                        pend[k] = True
         for k in range(nphi):
             if pend[k] and depth < full:
                 ph = k * dphi
