@@ -20,7 +20,8 @@ reference written here:
   the part of the move that covers the point) has cleared it down to the
   tool tip;
 * the front half of the edge sampled every 0.25 deg and each change refined
-  by bisection on that exact test (1e-4 deg); the axial depth is the
+  by bisection on that exact test (1e-4 deg), an arc narrower than 1 deg
+  dropped (:data:`robolobe.stock.MIN_ARC_DEG`); the axial depth is the
   largest material height one cell inside the engaged edge above the tip (at
   the edge itself it jumps where the edge runs along an earlier, deeper wall);
 * the same definition of a move's engagement as the production (its
@@ -53,8 +54,17 @@ A move called air by one side and cutting by the other errs by the width of
 its arc (``air_mismatch_max_arc_deg``). Dryless's one run found the Z-map's
 floor of a helix too high (its chords each drop 8.3 um, under the level
 tolerance, and skipped their start disc): 202 moves over 2 deg, up to 84 deg,
-on level moves over its bores' floors; fixed, the same reference run finds 6
-(the entry of a contour's 8 um lead-in ramp move) and 88 air in one only.
+on level moves over its bores' floors; fixed, the same reference run found 6
+(18.8 deg) and 88 air in one only. The 6 are the last move of each contour
+level's lead-out ramp (8 um in x-y, 49 um up), which ends at the program's
+largest x: its edge runs tangent to the default stock's side and meets, beyond
+the disc the level's plunge cleared, a sliver 0.6 deg wide and at most 1.4 um
+over the level tolerance (80.3-80.9 deg; checked by sampled tool positions
+every 1/10 cell); the reference took its entry, the Z-map's 1-deg search missed
+it and took the next arc's (99.1 deg). An arc narrower than
+:data:`robolobe.stock.MIN_ARC_DEG` (1 deg) is now none on both sides (the
+reference below drops it with its depth): Dryless 0 over 2 deg (max 1.09, an
+arc move), 80 air in one only (the holding-tab grazes).
 
 Goal (issue 26): every angle within 2 deg of the reference at the stated cell.
 """
@@ -76,7 +86,7 @@ import numpy as np
 from robolobe.errors import InputError
 from robolobe.plan.job import Job, load_job
 from robolobe.plan.paths import read_toolpath
-from robolobe.stock import LEVEL_TOL_M, compute_engagement, default_stock
+from robolobe.stock import LEVEL_TOL_M, MIN_ARC_DEG, compute_engagement, default_stock
 
 REPO = Path(__file__).resolve().parents[1]
 REALWORLD = REPO.parent / "shared" / "realworld" / "cam"
@@ -195,16 +205,6 @@ class Reference:
         mat, top = self.material(pts(ph), z, near)
         if not mat.any():
             return math.nan, math.nan, 0, 0.0
-        # the material height one cell inside the engaged edge (at the edge itself it
-        # jumps where the edge runs along the wall of an earlier, deeper cut)
-        inner = c + (self.r - self.res) * (
-            np.sin(ph[mat])[:, None] * f + np.cos(ph[mat])[:, None] * left
-        )
-        top_in = self.tops(inner, near)
-        base = max(z, self.stock.z_bottom)
-        deep = top_in > z + LEVEL_TOL
-        depth = float(np.max((top_in if deep.any() else top[mat]) - base, initial=0.0))
-        runs = int(np.sum(mat & ~np.r_[False, mat[:-1]]))
 
         def refine(a: float, b: float, a_mat: bool) -> float:
             for _ in range(12):
@@ -215,11 +215,29 @@ class Reference:
                     b = m
             return 0.5 * (a + b)
 
-        k0 = int(np.argmax(mat))
-        k1 = len(mat) - 1 - int(np.argmax(mat[::-1]))
-        entry = 0.0 if k0 == 0 else refine(ph[k0 - 1], ph[k0], False)
-        exit_ = math.pi if k1 == len(mat) - 1 else refine(ph[k1], ph[k1 + 1], True)
-        return entry, exit_, runs, depth
+        # every arc of the samples, both ends refined; one narrower than MIN_ARC_DEG is
+        # none (its samples leave the material too: they add no depth)
+        edges = np.flatnonzero(np.diff(np.r_[0, mat.astype(np.int8), 0]))
+        kept: list[tuple[float, float]] = []
+        for k0, k1 in zip(edges[::2], edges[1::2] - 1, strict=True):
+            lo = 0.0 if k0 == 0 else refine(ph[k0 - 1], ph[k0], False)
+            hi = math.pi if k1 == len(mat) - 1 else refine(ph[k1], ph[k1 + 1], True)
+            if hi - lo >= math.radians(MIN_ARC_DEG):
+                kept.append((lo, hi))
+            else:
+                mat[k0 : k1 + 1] = False
+        if not kept:
+            return math.nan, math.nan, 0, 0.0
+        # the material height one cell inside the engaged edge (at the edge itself it
+        # jumps where the edge runs along the wall of an earlier, deeper cut)
+        inner = c + (self.r - self.res) * (
+            np.sin(ph[mat])[:, None] * f + np.cos(ph[mat])[:, None] * left
+        )
+        top_in = self.tops(inner, near)
+        base = max(z, self.stock.z_bottom)
+        deep = top_in > z + LEVEL_TOL
+        depth = float(np.max((top_in if deep.any() else top[mat]) - base, initial=0.0))
+        return kept[0][0], kept[-1][1], len(kept), depth
 
 
 def reference_engagement(

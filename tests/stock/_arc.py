@@ -7,9 +7,14 @@ from collections.abc import Callable
 
 import numpy as np
 
+from robolobe.stock import MIN_ARC_DEG
+
 
 def engaged_arc(
-    material: Callable[[np.ndarray], np.ndarray], steps: int, samples: int = 1801
+    material: Callable[[np.ndarray], np.ndarray],
+    steps: int,
+    samples: int = 1801,
+    min_arc_deg: float = MIN_ARC_DEG,
 ) -> tuple[float, float]:
     """(entry, exit) [rad] of the material over the cutting half [0, pi].
 
@@ -20,14 +25,16 @@ def engaged_arc(
     steps : int
         Bisection steps refining each edge between its two samples.
     samples : int
-        Equally spaced angles scanned first (the first and the last engaged one
-        bound the arc).
+        Equally spaced angles scanned first (each run of engaged ones is an arc).
+    min_arc_deg : float
+        Arcs narrower than this [deg] (both ends refined) are none, as in
+        :mod:`robolobe.stock.engagement` (0: every arc counts).
 
     Returns
     -------
     (float, float)
-        NaN, NaN where no sample meets material; 0 or pi where the arc
-        reaches the end of the half.
+        The first kept arc's entry and the last one's exit; NaN, NaN where no
+        arc is kept; 0 or pi where the arc reaches the end of the half.
     """
     ph = np.linspace(0.0, math.pi, samples)
     m = material(ph)
@@ -43,8 +50,13 @@ def engaged_arc(
                 hi = mid
         return 0.5 * (lo + hi)
 
-    k0 = int(np.argmax(m))
-    k1 = len(m) - 1 - int(np.argmax(m[::-1]))
-    entry = 0.0 if k0 == 0 else refine(ph[k0 - 1], ph[k0], False)
-    exit_ = math.pi if k1 == len(m) - 1 else refine(ph[k1], ph[k1 + 1], True)
-    return entry, exit_
+    edges = np.flatnonzero(np.diff(np.r_[0, m.astype(np.int8), 0]))
+    kept = []
+    for k0, k1 in zip(edges[::2], edges[1::2] - 1, strict=True):
+        lo = 0.0 if k0 == 0 else refine(ph[k0 - 1], ph[k0], False)
+        hi = math.pi if k1 == len(m) - 1 else refine(ph[k1], ph[k1 + 1], True)
+        if hi - lo >= math.radians(min_arc_deg):
+            kept.append((lo, hi))
+    if not kept:
+        return math.nan, math.nan
+    return kept[0][0], kept[-1][1]

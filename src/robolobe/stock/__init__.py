@@ -14,6 +14,7 @@ from __future__ import annotations
 
 from robolobe.stock.engagement import (
     LEVEL_TOL_M,
+    MIN_ARC_DEG,
     Engagement,
     compute_engagement,
     zmap_resolution,
@@ -22,6 +23,7 @@ from robolobe.stock.shapes import Stock, check_stock_contains, default_stock, si
 
 __all__ = [
     "LEVEL_TOL_M",
+    "MIN_ARC_DEG",
     "Engagement",
     "Stock",
     "check_stock_contains",

@@ -12,7 +12,12 @@ a slot spans 0..pi. A move's engagement is the envelope of its samples
 (the smallest entry, the largest exit): a move into a corner or across an
 earlier cut keeps its worst position. When the edge meets material in more
 than one arc (crossing a rib, a slot's two walls), the outermost entry and
-exit are reported and ``n_arcs`` says how many arcs there were.
+exit are reported and ``n_arcs`` says how many arcs there were. An arc
+narrower than :data:`MIN_ARC_DEG` (1 deg of edge angle) is none: a graze whose
+outermost angle would swing the entry or exit by tens of degrees (the edge
+tangent to the default stock's outline, which lies one tool radius outside the
+path's extreme points, meets it in a sliver a micrometre over the level
+tolerance).
 """
 
 from __future__ import annotations
@@ -25,13 +30,14 @@ import numpy as np
 from numpy.typing import NDArray
 
 from robolobe.errors import InputError, InputTypeError
-from robolobe.stock._kernels import chain_neighbours, kernels, work
+from robolobe.stock._kernels import MIN_ARC_DEG, chain_neighbours, kernels, work
 from robolobe.stock.shapes import Stock, signed_distance
 
 __all__ = [
     "DEFAULT_CELLS_PER_DIAMETER",
     "LEVEL_TOL_M",
     "MAX_CELLS",
+    "MIN_ARC_DEG",
     "MIN_CELLS_PER_DIAMETER",
     "Engagement",
     "compute_engagement",
@@ -56,8 +62,8 @@ LEVEL_TOL_M = 1e-5
 MAX_TILT_DEG = 0.5
 #: Angular samples of the front half of the cutting edge (4 deg apart; each sign change
 #: is then refined by bisection to 1/8 deg and interpolated). Between two samples in air
-#: whose values leave room for an arc, the edge is sampled every 1 deg: an arc narrower
-#: than 1 deg (at the ends of the half, a_e / D below 0.01 %) may be missed.
+#: whose values leave room for an arc, the edge is sampled every 1 deg, so that no arc of
+#: :data:`MIN_ARC_DEG` is missed (a narrower one is none by definition).
 N_PHI = 46
 
 
@@ -282,7 +288,7 @@ def compute_engagement(
     run(
         w, ids, gx0, gy0, res, radius, band, p, cut, cum, 2.0 * res, 0.5 * radius,
         math.cos(math.radians(5.0)), stock.z_bottom, stock.z_top, LEVEL_TOL_M, N_PHI,
-        phi_entry, phi_exit, n_arcs, depth, plunge, chain_neighbours(p, cut, res, LEVEL_TOL_M),
+        phi_entry, phi_exit, n_arcs, depth, plunge, chain_neighbours(p, cut, res),
     )  # fmt: skip
     notes = [stock.note] if stock.note else []
     n_air = int((cut & (n_arcs == 0))[1:].sum())
