@@ -321,6 +321,79 @@ def _top_bounds(w, x0, y0, res, px, py):
     return lo, hi
 
 
+def _cleared_deeper(w, i, j, z, tol):
+    """Whether one of the four cells ``(i..i+1, j..j+1)`` was reached by a sweep deeper than
+    the tip ``z`` [m] (its level or its top more than ``tol`` below): its records then
+    name that sweep, not necessarily the one that cleared the material at the tip's level."""
+    for dj in range(2):
+        for di in range(2):
+            ii = i + di
+            jj = j + dj
+            if ii < 0 or jj < 0 or ii >= w.shape[1] or jj >= w.shape[0]:
+                continue
+            if w[jj, ii, 2] < z - tol or w[jj, ii, 0] < z - tol:
+                return True
+    return False
+
+
+def _index_clear(index, xyz, px, py, z, rr, tol, newest):
+    """Exact clearance (:func:`_move_clear`) of the point ``(px, py)`` at tip height ``z`` by
+    every cutting move up to ``newest`` whose sweep may reach it: the moves of the
+    point's bucket of the sweep index (:func:`sweep_index`); the largest, ``-inf`` where
+    there is none (or no index). Stops at the first that clears the point."""
+    geo = index[0]
+    start = index[1]
+    moves = index[2]
+    nbx = int(geo[3])
+    nby = int(geo[4])
+    best = -_INF
+    if nbx == 0:
+        return best
+    bi = math.floor((px - geo[0]) / geo[2])
+    bj = math.floor((py - geo[1]) / geo[2])
+    if bi < 0 or bj < 0 or bi >= nbx or bj >= nby:
+        return best
+    b = bj * nbx + bi
+    for e in range(start[b], start[b + 1]):
+        k = moves[e]
+        if k > newest:
+            break  # in order of the path: the rest have not removed their material yet
+        best = max(best, _move_clear(xyz, k, px, py, z, rr, tol))
+        if best >= 0.0:
+            break
+    return best
+
+
+def _register(xyz, cutting, reach, bx0, by0, bs, nbx, nby, start, moves, fill):
+    """Bucket the cutting moves of a path: count (``fill`` False: ``start[b + 1]`` += 1 per
+    move that may reach bucket ``b``) or write (``fill`` True: the moves at ``start[b]``
+    on, in path order; ``start`` is advanced). A move may reach a bucket when its x-y
+    track passes within ``reach`` [m] of the bucket square (tested on the bucket's
+    circumscribed circle)."""
+    half = 0.5 * bs * math.sqrt(2.0)
+    for k in range(1, xyz.shape[0]):
+        if not cutting[k]:
+            continue
+        ax = xyz[k - 1, 0]
+        ay = xyz[k - 1, 1]
+        bx = xyz[k, 0]
+        by = xyz[k, 1]
+        i0 = max(0, math.floor((min(ax, bx) - reach - bx0) / bs))
+        i1 = min(nbx - 1, math.floor((max(ax, bx) + reach - bx0) / bs))
+        j0 = max(0, math.floor((min(ay, by) - reach - by0) / bs))
+        j1 = min(nby - 1, math.floor((max(ay, by) + reach - by0) / bs))
+        for bj in range(j0, j1 + 1):
+            for bi in range(i0, i1 + 1):
+                if _move_dist(xyz, k, bx0 + (bi + 0.5) * bs, by0 + (bj + 0.5) * bs) > reach + half:
+                    continue
+                b = bj * nbx + bi
+                if fill:
+                    moves[start[b]] = k
+                    start[b] += 1
+                else:
+                    start[b + 1] += 1
+
+
 def _exact_top(w, ids, xyz, x0, y0, res, rr, ztop, px, py, cand, chain):
     """Material top [m] at the point ``(px, py)``, within the four cells' tops.
 
@@ -380,7 +453,8 @@ def _stock_value(w, i, j, res):
     return w[j, i, 3]
 
 
-def _edge_value(w, ids, xyz, x0, y0, res, radius, cx, cy, z, fx, fy, tol, ph, cand, chain):
+def _edge_value(w, ids, xyz, x0, y0, res, radius, cx, cy, z, fx, fy, tol, ph, cand, chain,
+                index):  # fmt: skip
     """Material value at edge angle ``ph`` [rad] (negative: material).
 
     The larger of the sweep clearance and the interpolated distance to the stock
@@ -445,17 +519,25 @@ def _edge_value(w, ids, xyz, x0, y0, res, radius, cx, cy, z, fx, fy, tol, ph, ca
                             exact = max(exact, _move_clear(xyz, k, px, py, z, rr, tol))
         else:
             exact = _exact_clear(ids, xyz, i, j, px, py, z, radius + shift, tol, cand, chain)
+            if exact < 0.0 and _cleared_deeper(w, i, j, z, tol):
+                # a deeper sweep has replaced the cells' records since: the sweep at the
+                # tip's level that cleared the point (a pass over a holding tab, over
+                # the floor of a deeper pass) may be remembered by none of them
+                exact = max(exact, _index_clear(index, xyz, px, py, z, radius + shift, tol,
+                                                cand[1] if cand[0] > 0 else 0))  # fmt: skip
         if exact > -_INF:
             return max(exact, stock + shift)
     sweep = w00 * v00 + w10 * v10 + w01 * v01 + w11 * v11
     return max(sweep, stock) + shift
 
 
-def _crossing(w, ids, xyz, x0, y0, res, radius, cx, cy, z, fx, fy, tol, a, va, b, vb, cand, chain):
+def _crossing(w, ids, xyz, x0, y0, res, radius, cx, cy, z, fx, fy, tol, a, va, b, vb, cand, chain,
+              index):  # fmt: skip
     """Angle [rad] between ``a`` and ``b`` where the value changes sign (bisection, then linear)."""
     for _ in range(_BISECT):
         m = 0.5 * (a + b)
-        vm = _edge_value(w, ids, xyz, x0, y0, res, radius, cx, cy, z, fx, fy, tol, m, cand, chain)
+        vm = _edge_value(w, ids, xyz, x0, y0, res, radius, cx, cy, z, fx, fy, tol, m, cand, chain,
+                         index)  # fmt: skip
         if (vm < 0.0) == (va < 0.0):
             a = m
             va = vm
@@ -466,16 +548,16 @@ def _crossing(w, ids, xyz, x0, y0, res, radius, cx, cy, z, fx, fy, tol, a, va, b
 
 
 def _sample_crossing(w, ids, xyz, x0, y0, res, radius, cx, cy, z, fx, fy, tol, dphi, vals, k,
-                     cand, chain):  # fmt: skip
+                     cand, chain, index):  # fmt: skip
     """:func:`_crossing` between the edge samples ``k - 1`` and ``k`` (values ``vals``)."""
     return _crossing(
         w, ids, xyz, x0, y0, res, radius, cx, cy, z, fx, fy, tol, (k - 1) * dphi, vals[k - 1],
-        k * dphi, vals[k], cand, chain,
+        k * dphi, vals[k], cand, chain, index,
     )  # fmt: skip
 
 
 def _engage(w, ids, xyz, x0, y0, res, radius, cx, cy, z, fx, fy, bottom, ztop, tol, nphi, vals,
-            pend, out, cand, chain):  # fmt: skip
+            pend, out, cand, chain, index):  # fmt: skip
     """Engagement of the cutting edge at one tool position.
 
     The front half of the edge is sampled at ``nphi`` angles; each change
@@ -495,7 +577,8 @@ def _engage(w, ids, xyz, x0, y0, res, radius, cx, cy, z, fx, fy, bottom, ztop, t
     full = ztop - base  # the deepest there is: no need to look further
     for k in range(nphi):
         ph = k * dphi
-        v = _edge_value(w, ids, xyz, x0, y0, res, radius, cx, cy, z, fx, fy, tol, ph, cand, chain)
+        v = _edge_value(w, ids, xyz, x0, y0, res, radius, cx, cy, z, fx, fy, tol, ph, cand, chain,
+                        index)  # fmt: skip
         vals[k] = v
         pend[k] = False
         if v < 0.0 and depth < full:
@@ -550,7 +633,7 @@ def _engage(w, ids, xyz, x0, y0, res, radius, cx, cy, z, fx, fy, bottom, ztop, t
                 else:
                     entry = _sample_crossing(
                         w, ids, xyz, x0, y0, res, radius, cx, cy, z, fx, fy, tol, dphi, vals, k,
-                        cand, chain,
+                        cand, chain, index,
                     )  # fmt: skip
         prev = v
     if narcs > 0:
@@ -561,7 +644,7 @@ def _engage(w, ids, xyz, x0, y0, res, radius, cx, cy, z, fx, fy, bottom, ztop, t
             while vals[k - 1] >= 0.0:
                 k -= 1
             exit_ = _sample_crossing(w, ids, xyz, x0, y0, res, radius, cx, cy, z, fx, fy, tol, dphi,
-                                     vals, k, cand, chain)  # fmt: skip
+                                     vals, k, cand, chain, index)  # fmt: skip
     # arcs narrower than a sample step, between two samples in air: the value is about
     # Lipschitz in the edge angle (at most R per rad: a distance field along an edge
     # point moving at R), so two samples whose values sum to more than the step's travel
@@ -580,10 +663,10 @@ def _engage(w, ids, xyz, x0, y0, res, radius, cx, cy, z, fx, fy, bottom, ztop, t
             v = vb
             if q < _SUB:
                 v = _edge_value(w, ids, xyz, x0, y0, res, radius, cx, cy, z, fx, fy, tol, ph,
-                                cand, chain)  # fmt: skip
+                                cand, chain, index)  # fmt: skip
             if (v < 0.0) != (pv < 0.0):
                 cr = _crossing(w, ids, xyz, x0, y0, res, radius, cx, cy, z, fx, fy, tol, pa, pv,
-                               ph, v, cand, chain)  # fmt: skip
+                               ph, v, cand, chain, index)  # fmt: skip
                 if v < 0.0:
                     narcs += 1
                     if not cr >= entry:  # also where entry is NaN
@@ -655,6 +738,7 @@ def _run(
     depth,
     plunge,
     chain,
+    index,
 ):
     """Walk the path: engagement of every cutting move, then its material removal.
 
@@ -749,6 +833,7 @@ def _run(
                 out,
                 cand,
                 chain,
+                index,
             )
             if out[2] > 0:
                 ent = min(ent, out[0])
@@ -824,6 +909,75 @@ def chain_neighbours(xyz: Any, cutting: Any, res: float, tol: float) -> Any:
     return out
 
 
+def sweep_index(
+    xyz: Any,
+    cutting: Any,
+    radius: float,
+    res: float,
+    x0: float,
+    y0: float,
+    nx: int,
+    ny: int,
+    tol: float,
+) -> tuple[Any, Any, Any]:
+    """The sweep index of a path: for each bucket of a square grid over the Z-map, the
+    cutting moves whose sweep may reach it, in path order.
+
+    The exact test of :func:`_edge_value` decides a point from the sweeps its four cells
+    remember; a cell remembers its lowest-level and lowest-top sweeps, so once a deeper
+    sweep reaches it the one that cleared it at a higher level is forgotten. A tip that
+    runs at such a level again (over a holding tab left by the pass before, over the
+    shoulder of a deeper pocket) is then decided from every earlier sweep near the
+    point, through this index (:func:`_index_clear`): exact, as the definition. Only a
+    path where a cutting move rises more than ``tol`` above an earlier one needs it;
+    for the others (one level, or only descending) the index is empty.
+
+    Parameters
+    ----------
+    xyz : ndarray, shape (n, 3)
+        Tool-tip positions [m].
+    cutting : ndarray of bool, shape (n,)
+        Feed moves.
+    radius, res : float
+        Tool radius and Z-map cell [m].
+    x0, y0 : float
+        Corner of the Z-map [m]; ``nx``, ``ny`` its cells.
+    tol : float
+        Level tolerance [m].
+
+    Returns
+    -------
+    tuple
+        ``(geo, start, moves)``: ``geo = (x0, y0, bucket, nbx, nby)`` (float64; bucket
+        side the tool diameter), ``start`` (int64, ``nbx * nby + 1``) and ``moves``
+        (int32): bucket ``b`` holds ``moves[start[b] : start[b + 1]]``.
+    """
+    p = np.asarray(xyz, dtype=np.float64)
+    cut = np.asarray(cutting, dtype=np.bool_)
+    empty = (np.zeros(5), np.zeros(1, dtype=np.int64), np.zeros(0, dtype=np.int32))
+    if len(p) < 2 or not cut[1:].any():
+        return empty
+    lo = np.minimum(p[:-1, 2], p[1:, 2])
+    hi = np.maximum(p[:-1, 2], p[1:, 2])
+    floor = np.minimum.accumulate(np.where(cut[1:], lo, np.inf))  # lowest tip so far
+    if not (cut[2:] & (hi[1:] > floor[:-1] + tol)).any():
+        return empty
+    bs = 2.0 * radius
+    nbx = max(1, math.ceil(nx * res / bs))
+    nby = max(1, math.ceil(ny * res / bs))
+    geo = np.array([x0, y0, bs, float(nbx), float(nby)])
+    reach = radius + res + tol  # beyond the exact test's radius + max(0.01 res, tol)
+    register = globals()["_register"]
+    start = np.zeros(nbx * nby + 1, dtype=np.int64)
+    moves = np.zeros(0, dtype=np.int32)
+    register(p, cut, reach, x0, y0, bs, nbx, nby, start, moves, False)
+    np.cumsum(start, out=start)
+    moves = np.zeros(int(start[-1]), dtype=np.int32)
+    fill = start[:-1].copy()
+    register(p, cut, reach, x0, y0, bs, nbx, nby, fill, moves, True)
+    return geo, start, moves
+
+
 _COMPILED: dict[str, Any] = {}
 #: The scalar :func:`_sweep` (what numba compiles) once the Python path has replaced it.
 _SCALAR: dict[str, Any] = {}
@@ -864,6 +1018,9 @@ def kernels(work: float = math.inf) -> Any:
             g["_candidates"] = deco(_candidates)
             g["_exact_clear"] = deco(_exact_clear)
             g["_exact_top"] = deco(_exact_top)
+            g["_cleared_deeper"] = deco(_cleared_deeper)
+            g["_index_clear"] = deco(_index_clear)
+            g["_register"] = deco(_register)
             g["_top_bounds"] = deco(_top_bounds)
             g["_stock_value"] = deco(_stock_value)
             g["_top"] = deco(_top)
