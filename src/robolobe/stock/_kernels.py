@@ -394,13 +394,17 @@ def _register(xyz, cutting, reach, bx0, by0, bs, nbx, nby, start, moves, fill):
                     start[b + 1] += 1
 
 
-def _exact_top(w, ids, xyz, x0, y0, res, rr, ztop, px, py, cand, chain):
+def _exact_top(w, ids, xyz, x0, y0, res, rr, ztop, px, py, cand, chain, index):
     """Material top [m] at the point ``(px, py)``, within the four cells' tops.
 
     Where the four cells around the point are level (within a micrometre), their
     lowest top; otherwise the lowest tip height of the remembered sweeps
     (:func:`_candidates`) that cover the point (the exact floor of a ramp, the
-    step of a wall), or the highest of the four cells where none does.
+    step of a wall), or the highest of the four cells where none does. Where that
+    leaves the point above the lowest of the four cells, the sweep that lowered it
+    may be one no cell remembers (a deeper sweep replaced its records: the floor of
+    a holding tab's first traverse next to the deeper passes): then every earlier
+    sweep of the point's bucket of the sweep index decides (:func:`_index_top`).
     """
     lo, hi = _top_bounds(w, x0, y0, res, px, py)
     if hi - lo <= _LEVEL_CELLS:
@@ -411,7 +415,34 @@ def _exact_top(w, ids, xyz, x0, y0, res, rr, ztop, px, py, cand, chain):
     for c in range(1, nc + 1):
         if _move_dist(xyz, cand[c], px, py) <= rr:
             top = min(top, _move_level(xyz, cand[c], px, py, rr))
+    if top > lo + _LEVEL_CELLS:
+        top = _index_top(index, xyz, px, py, rr, cand[1] if cand[0] > 0 else 0, top)
     return max(top, lo)
+
+
+def _index_top(index, xyz, px, py, rr, newest, top):
+    """``top`` [m] lowered to the lowest tip height (:func:`_move_level`) of the cutting
+    moves up to ``newest`` that pass within ``rr`` of the point ``(px, py)``, from the
+    point's bucket of the sweep index (:func:`sweep_index`; none where it is empty)."""
+    geo = index[0]
+    start = index[1]
+    moves = index[2]
+    nbx = int(geo[3])
+    nby = int(geo[4])
+    if nbx == 0:
+        return top
+    bi = math.floor((px - geo[0]) / geo[2])
+    bj = math.floor((py - geo[1]) / geo[2])
+    if bi < 0 or bj < 0 or bi >= nbx or bj >= nby:
+        return top
+    b = bj * nbx + bi
+    for e in range(start[b], start[b + 1]):
+        k = moves[e]
+        if k > newest:
+            break
+        if _move_dist(xyz, k, px, py) <= rr:
+            top = min(top, _move_level(xyz, k, px, py, rr))
+    return top
 
 
 def _move_level(xyz, k, px, py, rr):
@@ -601,8 +632,9 @@ def _engage(w, ids, xyz, x0, y0, res, radius, cx, cy, z, fx, fy, bottom, ztop, t
             lo, hi = _top_bounds(w, x0, y0, res, cx + rin * ux, cy + rin * uy)
             if hi - base > depth:
                 top = _exact_top(
-                    w, ids, xyz, x0, y0, res, rr, ztop, cx + rin * ux, cy + rin * uy, cand, chain
-                )
+                    w, ids, xyz, x0, y0, res, rr, ztop, cx + rin * ux, cy + rin * uy, cand, chain,
+                    index,
+                )  # fmt: skip
                 if top > z + tol:
                     depth = max(depth, top - base)
     sliver = 0.0
@@ -615,7 +647,7 @@ def _engage(w, ids, xyz, x0, y0, res, radius, cx, cy, z, fx, fy, bottom, ztop, t
                 uy = math.sin(ph) * fy + math.cos(ph) * fx
                 top = _exact_top(
                     w, ids, xyz, x0, y0, res, rr, ztop, cx + radius * ux, cy + radius * uy, cand,
-                    chain,
+                    chain, index,
                 )  # fmt: skip
                 if top > z + tol:
                     sliver = max(sliver, top - base)
@@ -677,14 +709,15 @@ def _engage(w, ids, xyz, x0, y0, res, radius, cx, cy, z, fx, fy, bottom, ztop, t
                 ux = math.sin(ph) * fx - math.cos(ph) * fy
                 uy = math.sin(ph) * fy + math.cos(ph) * fx
                 top = _exact_top(
-                    w, ids, xyz, x0, y0, res, rr, ztop, cx + rin * ux, cy + rin * uy, cand, chain
-                )
+                    w, ids, xyz, x0, y0, res, rr, ztop, cx + rin * ux, cy + rin * uy, cand, chain,
+                    index,
+                )  # fmt: skip
                 if top > z + tol:
                     depth = max(depth, top - base)
                 else:
                     top = _exact_top(
                         w, ids, xyz, x0, y0, res, rr, ztop, cx + radius * ux, cy + radius * uy,
-                        cand, chain,
+                        cand, chain, index,
                     )  # fmt: skip
                     if top > z + tol:
                         sliver = max(sliver, top - base)
@@ -1020,6 +1053,7 @@ def kernels(work: float = math.inf) -> Any:
             g["_exact_top"] = deco(_exact_top)
             g["_cleared_deeper"] = deco(_cleared_deeper)
             g["_index_clear"] = deco(_index_clear)
+            g["_index_top"] = deco(_index_top)
             g["_register"] = deco(_register)
             g["_top_bounds"] = deco(_top_bounds)
             g["_stock_value"] = deco(_stock_value)
