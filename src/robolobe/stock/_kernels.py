@@ -336,26 +336,30 @@ def _cleared_deeper(w, i, j, z, tol):
     return False
 
 
-def _index_clear(index, xyz, px, py, z, rr, tol, newest):
+def _bucket(index, x0, y0, res, px, py):
+    """Entries ``(lo, hi)`` of the sweep index (:func:`sweep_index`) of the bucket holding the
+    point ``(px, py)``: its moves are ``index[lo:hi]`` (none off the index or where it is empty)."""
+    nbx = index[0]
+    if nbx == 0:
+        return 0, 0
+    side = index[2] * res
+    bi = math.floor((px - x0) / side)
+    bj = math.floor((py - y0) / side)
+    if bi < 0 or bj < 0 or bi >= nbx or bj >= index[1]:
+        return 0, 0
+    b = 3 + bj * nbx + bi
+    return index[b], index[b + 1]
+
+
+def _index_clear(index, xyz, x0, y0, res, px, py, z, rr, tol, newest):
     """Exact clearance (:func:`_move_clear`) of the point ``(px, py)`` at tip height ``z`` by
     every cutting move up to ``newest`` whose sweep may reach it: the moves of the
     point's bucket of the sweep index (:func:`sweep_index`); the largest, ``-inf`` where
     there is none (or no index). Stops at the first that clears the point."""
-    geo = index[0]
-    start = index[1]
-    moves = index[2]
-    nbx = int(geo[3])
-    nby = int(geo[4])
+    lo, hi = _bucket(index, x0, y0, res, px, py)
     best = -_INF
-    if nbx == 0:
-        return best
-    bi = math.floor((px - geo[0]) / geo[2])
-    bj = math.floor((py - geo[1]) / geo[2])
-    if bi < 0 or bj < 0 or bi >= nbx or bj >= nby:
-        return best
-    b = bj * nbx + bi
-    for e in range(start[b], start[b + 1]):
-        k = moves[e]
+    for e in range(lo, hi):
+        k = index[e]
         if k > newest:
             break  # in order of the path: the rest have not removed their material yet
         best = max(best, _move_clear(xyz, k, px, py, z, rr, tol))
@@ -416,28 +420,17 @@ def _exact_top(w, ids, xyz, x0, y0, res, rr, ztop, px, py, cand, chain, index):
         if _move_dist(xyz, cand[c], px, py) <= rr:
             top = min(top, _move_level(xyz, cand[c], px, py, rr))
     if top > lo + _LEVEL_CELLS:
-        top = _index_top(index, xyz, px, py, rr, cand[1] if cand[0] > 0 else 0, top)
+        top = _index_top(index, xyz, x0, y0, res, px, py, rr, cand[1] if cand[0] > 0 else 0, top)
     return max(top, lo)
 
 
-def _index_top(index, xyz, px, py, rr, newest, top):
+def _index_top(index, xyz, x0, y0, res, px, py, rr, newest, top):
     """``top`` [m] lowered to the lowest tip height (:func:`_move_level`) of the cutting
     moves up to ``newest`` that pass within ``rr`` of the point ``(px, py)``, from the
     point's bucket of the sweep index (:func:`sweep_index`; none where it is empty)."""
-    geo = index[0]
-    start = index[1]
-    moves = index[2]
-    nbx = int(geo[3])
-    nby = int(geo[4])
-    if nbx == 0:
-        return top
-    bi = math.floor((px - geo[0]) / geo[2])
-    bj = math.floor((py - geo[1]) / geo[2])
-    if bi < 0 or bj < 0 or bi >= nbx or bj >= nby:
-        return top
-    b = bj * nbx + bi
-    for e in range(start[b], start[b + 1]):
-        k = moves[e]
+    lo, hi = _bucket(index, x0, y0, res, px, py)
+    for e in range(lo, hi):
+        k = index[e]
         if k > newest:
             break
         if _move_dist(xyz, k, px, py) <= rr:
@@ -554,7 +547,8 @@ def _edge_value(w, ids, xyz, x0, y0, res, radius, cx, cy, z, fx, fy, tol, ph, ca
                 # a deeper sweep has replaced the cells' records since: the sweep at the
                 # tip's level that cleared the point (a pass over a holding tab, over
                 # the floor of a deeper pass) may be remembered by none of them
-                exact = max(exact, _index_clear(index, xyz, px, py, z, radius + shift, tol,
+                exact = max(exact, _index_clear(index, xyz, x0, y0, res, px, py, z,
+                                                radius + shift, tol,
                                                 cand[1] if cand[0] > 0 else 0))  # fmt: skip
         if exact > -_INF:
             return max(exact, stock + shift)
@@ -952,7 +946,7 @@ def sweep_index(
     nx: int,
     ny: int,
     tol: float,
-) -> tuple[Any, Any, Any]:
+) -> Any:
     """The sweep index of a path: for each bucket of a square grid over the Z-map, the
     cutting moves whose sweep may reach it, in path order.
 
@@ -961,9 +955,9 @@ def sweep_index(
     sweep reaches it the one that cleared it at a higher level is forgotten. A tip that
     runs at such a level again (over a holding tab left by the pass before, over the
     shoulder of a deeper pocket) is then decided from every earlier sweep near the
-    point, through this index (:func:`_index_clear`): exact, as the definition. Only a
-    path where a cutting move rises more than ``tol`` above an earlier one needs it;
-    for the others (one level, or only descending) the index is empty.
+    point, through this index (:func:`_index_clear`, :func:`_index_top`): exact, as the
+    definition. Only a path where a cutting move rises more than ``tol`` above an
+    earlier one needs it; for the others (one level, or only descending) it is empty.
 
     Parameters
     ----------
@@ -974,41 +968,43 @@ def sweep_index(
     radius, res : float
         Tool radius and Z-map cell [m].
     x0, y0 : float
-        Corner of the Z-map [m]; ``nx``, ``ny`` its cells.
+        Corner of the Z-map [m] (the buckets' too); ``nx``, ``ny`` its cells.
     tol : float
         Level tolerance [m].
 
     Returns
     -------
-    tuple
-        ``(geo, start, moves)``: ``geo = (x0, y0, bucket, nbx, nby)`` (float64; bucket
-        side the tool diameter), ``start`` (int64, ``nbx * nby + 1``) and ``moves``
-        (int32): bucket ``b`` holds ``moves[start[b] : start[b + 1]]``.
+    ndarray of int64
+        One array (the kernels pass it down to every edge test): ``nbx, nby, side``
+        (buckets along x and y; bucket side in cells, at least the tool diameter),
+        then ``nbx * nby + 1`` offsets into this array, bucket ``b`` holding the moves
+        ``index[index[3 + b] : index[4 + b]]``. ``[0, 0, 0]`` when empty.
     """
     p = np.asarray(xyz, dtype=np.float64)
     cut = np.asarray(cutting, dtype=np.bool_)
-    empty = (np.zeros(5), np.zeros(1, dtype=np.int64), np.zeros(0, dtype=np.int32))
-    if len(p) < 2 or not cut[1:].any():
+    empty = np.zeros(3, dtype=np.int64)
+    if len(p) < 3 or not cut[1:].any():
         return empty
     lo = np.minimum(p[:-1, 2], p[1:, 2])
     hi = np.maximum(p[:-1, 2], p[1:, 2])
     floor = np.minimum.accumulate(np.where(cut[1:], lo, np.inf))  # lowest tip so far
     if not (cut[2:] & (hi[1:] > floor[:-1] + tol)).any():
         return empty
-    bs = 2.0 * radius
-    nbx = max(1, math.ceil(nx * res / bs))
-    nby = max(1, math.ceil(ny * res / bs))
-    geo = np.array([x0, y0, bs, float(nbx), float(nby)])
+    side = math.ceil(2.0 * radius / res)
+    bs = side * res
+    nbx = max(1, math.ceil(nx / side))
+    nby = max(1, math.ceil(ny / side))
+    nb = nbx * nby
     reach = radius + res + tol  # beyond the exact test's radius + max(0.01 res, tol)
     register = globals()["_register"]
-    start = np.zeros(nbx * nby + 1, dtype=np.int64)
-    moves = np.zeros(0, dtype=np.int32)
-    register(p, cut, reach, x0, y0, bs, nbx, nby, start, moves, False)
+    start = np.zeros(nb + 1, dtype=np.int64)
+    register(p, cut, reach, x0, y0, bs, nbx, nby, start, start, False)
     np.cumsum(start, out=start)
-    moves = np.zeros(int(start[-1]), dtype=np.int32)
-    fill = start[:-1].copy()
-    register(p, cut, reach, x0, y0, bs, nbx, nby, fill, moves, True)
-    return geo, start, moves
+    index = np.zeros(4 + nb + int(start[-1]), dtype=np.int64)
+    index[:3] = (nbx, nby, side)
+    index[3 : 4 + nb] = start + 4 + nb
+    register(p, cut, reach, x0, y0, bs, nbx, nby, index[3 : 3 + nb].copy(), index, True)
+    return index
 
 
 _COMPILED: dict[str, Any] = {}
@@ -1052,6 +1048,7 @@ def kernels(work: float = math.inf) -> Any:
             g["_exact_clear"] = deco(_exact_clear)
             g["_exact_top"] = deco(_exact_top)
             g["_cleared_deeper"] = deco(_cleared_deeper)
+            g["_bucket"] = deco(_bucket)
             g["_index_clear"] = deco(_index_clear)
             g["_index_top"] = deco(_index_top)
             g["_register"] = deco(_register)
