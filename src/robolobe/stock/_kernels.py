@@ -72,6 +72,9 @@ _EDGE_EPS = 0.01
 CHAIN_CELLS = 2.0
 #: At most this many chain neighbours on each side of a move.
 CHAIN_MAX = 8
+#: The work area of :func:`_candidates` at the head of ``cand`` (the tool's trail, the
+#: candidates); the sweep index (:func:`sweep_index`) follows it.
+_CAND = 1 + _RECENT + 8 * (1 + 2 * CHAIN_MAX)
 
 
 def _sweep(w, ids, m, x0, y0, res, radius, band, p0, p1, skip_start, tol):
@@ -337,8 +340,9 @@ def _cleared_deeper(w, i, j, z, tol):
 
 
 def _bucket(index, x0, y0, res, px, py):
-    """Entries ``(lo, hi)`` of the sweep index (:func:`sweep_index`) of the bucket holding the
-    point ``(px, py)``: its moves are ``index[lo:hi]`` (none off the index or where it is empty)."""
+    """Entries ``(lo, hi)`` of the sweep index (:func:`sweep_index`, ``cand[_CAND:]`` in the
+    kernels) of the bucket holding the point ``(px, py)``: its moves are ``index[lo:hi]``
+    (none off the index or where it is empty)."""
     nbx = index[0]
     if nbx == 0:
         return 0, 0
@@ -368,37 +372,7 @@ def _index_clear(index, xyz, x0, y0, res, px, py, z, rr, tol, newest):
     return best
 
 
-def _register(xyz, cutting, reach, bx0, by0, bs, nbx, nby, start, moves, fill):
-    """Bucket the cutting moves of a path: count (``fill`` False: ``start[b + 1]`` += 1 per
-    move that may reach bucket ``b``) or write (``fill`` True: the moves at ``start[b]``
-    on, in path order; ``start`` is advanced). A move may reach a bucket when its x-y
-    track passes within ``reach`` [m] of the bucket square (tested on the bucket's
-    circumscribed circle)."""
-    half = 0.5 * bs * math.sqrt(2.0)
-    for k in range(1, xyz.shape[0]):
-        if not cutting[k]:
-            continue
-        ax = xyz[k - 1, 0]
-        ay = xyz[k - 1, 1]
-        bx = xyz[k, 0]
-        by = xyz[k, 1]
-        i0 = max(0, math.floor((min(ax, bx) - reach - bx0) / bs))
-        i1 = min(nbx - 1, math.floor((max(ax, bx) + reach - bx0) / bs))
-        j0 = max(0, math.floor((min(ay, by) - reach - by0) / bs))
-        j1 = min(nby - 1, math.floor((max(ay, by) + reach - by0) / bs))
-        for bj in range(j0, j1 + 1):
-            for bi in range(i0, i1 + 1):
-                if _move_dist(xyz, k, bx0 + (bi + 0.5) * bs, by0 + (bj + 0.5) * bs) > reach + half:
-                    continue
-                b = bj * nbx + bi
-                if fill:
-                    moves[start[b]] = k
-                    start[b] += 1
-                else:
-                    start[b + 1] += 1
-
-
-def _exact_top(w, ids, xyz, x0, y0, res, rr, ztop, px, py, cand, chain, index):
+def _exact_top(w, ids, xyz, x0, y0, res, rr, ztop, px, py, cand, chain):
     """Material top [m] at the point ``(px, py)``, within the four cells' tops.
 
     Where the four cells around the point are level (within a micrometre), their
@@ -408,7 +382,8 @@ def _exact_top(w, ids, xyz, x0, y0, res, rr, ztop, px, py, cand, chain, index):
     leaves the point above the lowest of the four cells, the sweep that lowered it
     may be one no cell remembers (a deeper sweep replaced its records: the floor of
     a holding tab's first traverse next to the deeper passes): then every earlier
-    sweep of the point's bucket of the sweep index decides (:func:`_index_top`).
+    sweep of the point's bucket of the sweep index (``cand[_CAND:]``) decides
+    (:func:`_index_top`).
     """
     lo, hi = _top_bounds(w, x0, y0, res, px, py)
     if hi - lo <= _LEVEL_CELLS:
@@ -420,7 +395,8 @@ def _exact_top(w, ids, xyz, x0, y0, res, rr, ztop, px, py, cand, chain, index):
         if _move_dist(xyz, cand[c], px, py) <= rr:
             top = min(top, _move_level(xyz, cand[c], px, py, rr))
     if top > lo + _LEVEL_CELLS:
-        top = _index_top(index, xyz, x0, y0, res, px, py, rr, cand[1] if cand[0] > 0 else 0, top)
+        newest = cand[1] if cand[0] > 0 else 0
+        top = _index_top(cand[_CAND:], xyz, x0, y0, res, px, py, rr, newest, top)
     return max(top, lo)
 
 
@@ -477,8 +453,7 @@ def _stock_value(w, i, j, res):
     return w[j, i, 3]
 
 
-def _edge_value(w, ids, xyz, x0, y0, res, radius, cx, cy, z, fx, fy, tol, ph, cand, chain,
-                index):  # fmt: skip
+def _edge_value(w, ids, xyz, x0, y0, res, radius, cx, cy, z, fx, fy, tol, ph, cand, chain):
     """Material value at edge angle ``ph`` [rad] (negative: material).
 
     The larger of the sweep clearance and the interpolated distance to the stock
@@ -545,9 +520,9 @@ def _edge_value(w, ids, xyz, x0, y0, res, radius, cx, cy, z, fx, fy, tol, ph, ca
             exact = _exact_clear(ids, xyz, i, j, px, py, z, radius + shift, tol, cand, chain)
             if exact < 0.0 and _cleared_deeper(w, i, j, z, tol):
                 # a deeper sweep has replaced the cells' records since: the sweep at the
-                # tip's level that cleared the point (a pass over a holding tab, over
-                # the floor of a deeper pass) may be remembered by none of them
-                exact = max(exact, _index_clear(index, xyz, x0, y0, res, px, py, z,
+                # tip's level that cleared the point (a pass over a holding tab, over the
+                # floor of a deeper pass) may be remembered by none of them
+                exact = max(exact, _index_clear(cand[_CAND:], xyz, x0, y0, res, px, py, z,
                                                 radius + shift, tol,
                                                 cand[1] if cand[0] > 0 else 0))  # fmt: skip
         if exact > -_INF:
@@ -556,13 +531,11 @@ def _edge_value(w, ids, xyz, x0, y0, res, radius, cx, cy, z, fx, fy, tol, ph, ca
     return max(sweep, stock) + shift
 
 
-def _crossing(w, ids, xyz, x0, y0, res, radius, cx, cy, z, fx, fy, tol, a, va, b, vb, cand, chain,
-              index):  # fmt: skip
+def _crossing(w, ids, xyz, x0, y0, res, radius, cx, cy, z, fx, fy, tol, a, va, b, vb, cand, chain):
     """Angle [rad] between ``a`` and ``b`` where the value changes sign (bisection, then linear)."""
     for _ in range(_BISECT):
         m = 0.5 * (a + b)
-        vm = _edge_value(w, ids, xyz, x0, y0, res, radius, cx, cy, z, fx, fy, tol, m, cand, chain,
-                         index)  # fmt: skip
+        vm = _edge_value(w, ids, xyz, x0, y0, res, radius, cx, cy, z, fx, fy, tol, m, cand, chain)
         if (vm < 0.0) == (va < 0.0):
             a = m
             va = vm
@@ -573,16 +546,16 @@ def _crossing(w, ids, xyz, x0, y0, res, radius, cx, cy, z, fx, fy, tol, a, va, b
 
 
 def _sample_crossing(w, ids, xyz, x0, y0, res, radius, cx, cy, z, fx, fy, tol, dphi, vals, k,
-                     cand, chain, index):  # fmt: skip
+                     cand, chain):  # fmt: skip
     """:func:`_crossing` between the edge samples ``k - 1`` and ``k`` (values ``vals``)."""
     return _crossing(
         w, ids, xyz, x0, y0, res, radius, cx, cy, z, fx, fy, tol, (k - 1) * dphi, vals[k - 1],
-        k * dphi, vals[k], cand, chain, index,
+        k * dphi, vals[k], cand, chain,
     )  # fmt: skip
 
 
 def _engage(w, ids, xyz, x0, y0, res, radius, cx, cy, z, fx, fy, bottom, ztop, tol, nphi, vals,
-            pend, out, cand, chain, index):  # fmt: skip
+            pend, out, cand, chain):  # fmt: skip
     """Engagement of the cutting edge at one tool position.
 
     The front half of the edge is sampled at ``nphi`` angles; each change
@@ -602,8 +575,7 @@ def _engage(w, ids, xyz, x0, y0, res, radius, cx, cy, z, fx, fy, bottom, ztop, t
     full = ztop - base  # the deepest there is: no need to look further
     for k in range(nphi):
         ph = k * dphi
-        v = _edge_value(w, ids, xyz, x0, y0, res, radius, cx, cy, z, fx, fy, tol, ph, cand, chain,
-                        index)  # fmt: skip
+        v = _edge_value(w, ids, xyz, x0, y0, res, radius, cx, cy, z, fx, fy, tol, ph, cand, chain)
         vals[k] = v
         pend[k] = False
         if v < 0.0 and depth < full:
@@ -626,9 +598,8 @@ def _engage(w, ids, xyz, x0, y0, res, radius, cx, cy, z, fx, fy, bottom, ztop, t
             lo, hi = _top_bounds(w, x0, y0, res, cx + rin * ux, cy + rin * uy)
             if hi - base > depth:
                 top = _exact_top(
-                    w, ids, xyz, x0, y0, res, rr, ztop, cx + rin * ux, cy + rin * uy, cand, chain,
-                    index,
-                )  # fmt: skip
+                    w, ids, xyz, x0, y0, res, rr, ztop, cx + rin * ux, cy + rin * uy, cand, chain
+                )
                 if top > z + tol:
                     depth = max(depth, top - base)
     sliver = 0.0
@@ -641,7 +612,7 @@ def _engage(w, ids, xyz, x0, y0, res, radius, cx, cy, z, fx, fy, bottom, ztop, t
                 uy = math.sin(ph) * fy + math.cos(ph) * fx
                 top = _exact_top(
                     w, ids, xyz, x0, y0, res, rr, ztop, cx + radius * ux, cy + radius * uy, cand,
-                    chain, index,
+                    chain,
                 )  # fmt: skip
                 if top > z + tol:
                     sliver = max(sliver, top - base)
@@ -659,7 +630,7 @@ def _engage(w, ids, xyz, x0, y0, res, radius, cx, cy, z, fx, fy, bottom, ztop, t
                 else:
                     entry = _sample_crossing(
                         w, ids, xyz, x0, y0, res, radius, cx, cy, z, fx, fy, tol, dphi, vals, k,
-                        cand, chain, index,
+                        cand, chain,
                     )  # fmt: skip
         prev = v
     if narcs > 0:
@@ -670,7 +641,7 @@ def _engage(w, ids, xyz, x0, y0, res, radius, cx, cy, z, fx, fy, bottom, ztop, t
             while vals[k - 1] >= 0.0:
                 k -= 1
             exit_ = _sample_crossing(w, ids, xyz, x0, y0, res, radius, cx, cy, z, fx, fy, tol, dphi,
-                                     vals, k, cand, chain, index)  # fmt: skip
+                                     vals, k, cand, chain)  # fmt: skip
     # arcs narrower than a sample step, between two samples in air: the value is about
     # Lipschitz in the edge angle (at most R per rad: a distance field along an edge
     # point moving at R), so two samples whose values sum to more than the step's travel
@@ -689,10 +660,10 @@ def _engage(w, ids, xyz, x0, y0, res, radius, cx, cy, z, fx, fy, bottom, ztop, t
             v = vb
             if q < _SUB:
                 v = _edge_value(w, ids, xyz, x0, y0, res, radius, cx, cy, z, fx, fy, tol, ph,
-                                cand, chain, index)  # fmt: skip
+                                cand, chain)  # fmt: skip
             if (v < 0.0) != (pv < 0.0):
                 cr = _crossing(w, ids, xyz, x0, y0, res, radius, cx, cy, z, fx, fy, tol, pa, pv,
-                               ph, v, cand, chain, index)  # fmt: skip
+                               ph, v, cand, chain)  # fmt: skip
                 if v < 0.0:
                     narcs += 1
                     if not cr >= entry:  # also where entry is NaN
@@ -703,15 +674,14 @@ def _engage(w, ids, xyz, x0, y0, res, radius, cx, cy, z, fx, fy, bottom, ztop, t
                 ux = math.sin(ph) * fx - math.cos(ph) * fy
                 uy = math.sin(ph) * fy + math.cos(ph) * fx
                 top = _exact_top(
-                    w, ids, xyz, x0, y0, res, rr, ztop, cx + rin * ux, cy + rin * uy, cand, chain,
-                    index,
-                )  # fmt: skip
+                    w, ids, xyz, x0, y0, res, rr, ztop, cx + rin * ux, cy + rin * uy, cand, chain
+                )
                 if top > z + tol:
                     depth = max(depth, top - base)
                 else:
                     top = _exact_top(
                         w, ids, xyz, x0, y0, res, rr, ztop, cx + radius * ux, cy + radius * uy,
-                        cand, chain, index,
+                        cand, chain,
                     )  # fmt: skip
                     if top > z + tol:
                         sliver = max(sliver, top - base)
@@ -776,13 +746,16 @@ def _run(
     sampled at ``lag`` into the move after a turn (when longer than
     ``2 lag``) and every ``step`` [m] up to its end; the move keeps the
     smallest entry, the largest exit, the most arcs and the largest depth
-    of its samples.
+    of its samples. ``index``: the sweep index (:func:`sweep_index`), kept after the
+    candidates' work area in ``cand`` (``cand[_CAND:]``: the edge test reaches it there
+    without one more array passed down every call).
     """
     n = xyz.shape[0]
     vals = np.empty(nphi)
     pend = np.zeros(nphi, dtype=np.bool_)
     out = np.empty(4)
-    cand = np.zeros(1 + _RECENT + 8 * (1 + 2 * CHAIN_MAX), dtype=np.int64)
+    cand = np.zeros(_CAND + index.shape[0], dtype=np.int64)
+    cand[_CAND:] = index
     p0 = np.empty(3)
     p1 = np.empty(3)
     applied = 0  # moves [0, applied) have removed their material
@@ -860,7 +833,6 @@ def _run(
                 out,
                 cand,
                 chain,
-                index,
             )
             if out[2] > 0:
                 ent = min(ent, out[0])
@@ -877,6 +849,36 @@ def _run(
         prev_cut_end = _remove(w, ids, x0, y0, res, radius, band, xyz, cutting, tol, applied,
                                prev_cut_end, p0, p1)  # fmt: skip
         applied += 1
+
+
+def _register(xyz, cutting, reach, bx0, by0, bs, nbx, nby, start, moves, fill):
+    """Bucket the cutting moves of a path: count (``fill`` False: ``start[b + 1]`` += 1 per
+    move that may reach bucket ``b``) or write (``fill`` True: the moves at ``start[b]``
+    on, in path order; ``start`` is advanced). A move may reach a bucket when its x-y
+    track passes within ``reach`` [m] of the bucket square (tested on the bucket's
+    circumscribed circle)."""
+    half = 0.5 * bs * math.sqrt(2.0)
+    for k in range(1, xyz.shape[0]):
+        if not cutting[k]:
+            continue
+        ax = xyz[k - 1, 0]
+        ay = xyz[k - 1, 1]
+        bx = xyz[k, 0]
+        by = xyz[k, 1]
+        i0 = max(0, math.floor((min(ax, bx) - reach - bx0) / bs))
+        i1 = min(nbx - 1, math.floor((max(ax, bx) + reach - bx0) / bs))
+        j0 = max(0, math.floor((min(ay, by) - reach - by0) / bs))
+        j1 = min(nby - 1, math.floor((max(ay, by) + reach - by0) / bs))
+        for bj in range(j0, j1 + 1):
+            for bi in range(i0, i1 + 1):
+                if _move_dist(xyz, k, bx0 + (bi + 0.5) * bs, by0 + (bj + 0.5) * bs) > reach + half:
+                    continue
+                b = bj * nbx + bi
+                if fill:
+                    moves[start[b]] = k
+                    start[b] += 1
+                else:
+                    start[b + 1] += 1
 
 
 def chain_neighbours(xyz: Any, cutting: Any, res: float, tol: float) -> Any:
