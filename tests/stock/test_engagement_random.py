@@ -251,12 +251,12 @@ def test_random_moves_converge_with_the_cell(cells: int) -> None:
     assert len(errs) >= 20, len(errs)
 
 
-#: Known cases over :data:`TOL_DEG` at a cell coarser than the default, as (cells, seed):
-#: since a move that descends by less than the level tolerance sweeps its start disc (the
-#: helix fix, Dryless 202 -> 6 moves over 2 deg), seed 7's probe reads 106.56 deg against
-#: an exact 107.81 at D/20 (within 0.5 deg at D/26-D/50 and before the fix). Tracked here,
-#: strictly: the test fails when the case is mended, so the entry can be removed.
-KNOWN_COARSE = {(20, 7): "free ramp: 1.25 deg at D/20 after the helix floor fix"}
+#: Known cases over :data:`TOL_DEG` at a cell coarser than the default, as (cells, seed).
+#: Tracked here, strictly: the test fails when a case is mended, so its entry can be
+#: removed. Seed 7 at D/20 (free ramp over an arc at -6 mm and a corner at -4 mm: 106.56
+#: deg against an exact 107.81 after the helix floor fix) was mended by the sweep index
+#: (the cells near the probe remembered only the deeper arc; 107.8103 deg now).
+KNOWN_COARSE: dict[tuple[int, int], str] = {}
 
 
 @pytest.mark.slow
