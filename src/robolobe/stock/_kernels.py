@@ -32,11 +32,18 @@ tool's last four, or a short move next to a remembered one along the path
 move that clears a point is often shadowed at every cell centre by a deeper
 neighbour), passes within ``R + tol`` of it with its lowest tip height
 there within ``tol`` of the tip (the definition of
-:mod:`robolobe.stock.engagement`, no grid in it). The angle is then exact to
-the bisection (1/8 deg, interpolated) unless the sweep that clears the point
-is none of those (shadowed by deeper or wider sweeps of other passes, it
-reaches past them by less than a cell). The material top for the axial depth
-is decided the same way.
+:mod:`robolobe.stock.engagement`, no grid in it). A cell keeps the records of
+its deepest sweeps only: where none of those clears the point and one of the
+four cells was reached deeper than the tip (the tip runs again at a level a
+deeper pass has since cut below: a second pass over a holding tab, a ramp over
+the floor of a deeper pocket), the sweep that cleared it may be forgotten, and
+the point is decided by every earlier sweep whose track passes near it (the
+sweep index, :func:`sweep_index`, buckets of the tool diameter; built only for
+a path where a cutting move rises above an earlier one). The angle is then
+exact to the bisection (1/8 deg, interpolated) unless the sweep that clears
+the point is shadowed at the cells by a wider sweep at the same level (it
+reaches past it by less than a cell). The material top for the axial depth is
+decided the same way.
 
 The functions are plain Python compiled with numba where available
 (:func:`robolobe._jit.available`); without it they run as Python (slow:
