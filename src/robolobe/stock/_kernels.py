@@ -301,7 +301,7 @@ def _candidates(ids, i, j, cand, chain):
                         if cand[c] == k:
                             new = False
                             break
-                    if new and nc + 1 < cand.shape[0]:
+                    if new and nc + 1 < _CAND:  # the sweep index follows
                         nc += 1
                         cand[nc] = k
     return nc
