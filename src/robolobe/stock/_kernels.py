@@ -888,6 +888,21 @@ def _register(xyz, cutting, reach, bx0, by0, bs, nbx, nby, start, moves, fill):
                     start[b + 1] += 1
 
 
+def _rises(xyz, cutting, tol):
+    """Whether a cutting move of the path rises more than ``tol`` [m] above the lowest tip
+    of the cutting moves before it (a loop: no temporaries the size of the path)."""
+    floor = _INF
+    for k in range(1, xyz.shape[0]):
+        if not cutting[k]:
+            continue
+        za = xyz[k - 1, 2]
+        zb = xyz[k, 2]
+        if max(za, zb) > floor + tol:
+            return True
+        floor = min(floor, min(za, zb))
+    return False
+
+
 def chain_neighbours(xyz: Any, cutting: Any, res: float, tol: float) -> Any:
     """Per move, how many moves before and after it are its chain neighbours.
 
@@ -991,14 +1006,8 @@ def sweep_index(
     """
     p = np.asarray(xyz, dtype=np.float64)
     cut = np.asarray(cutting, dtype=np.bool_)
-    empty = np.zeros(3, dtype=np.int64)
-    if len(p) < 3 or not cut[1:].any():
-        return empty
-    lo = np.minimum(p[:-1, 2], p[1:, 2])
-    hi = np.maximum(p[:-1, 2], p[1:, 2])
-    floor = np.minimum.accumulate(np.where(cut[1:], lo, np.inf))  # lowest tip so far
-    if not (cut[2:] & (hi[1:] > floor[:-1] + tol)).any():
-        return empty
+    if not globals()["_rises"](p, cut, tol):
+        return np.zeros(3, dtype=np.int64)
     side = math.ceil(2.0 * radius / res)
     bs = side * res
     nbx = max(1, math.ceil(nx / side))
@@ -1061,6 +1070,7 @@ def kernels(work: float = math.inf) -> Any:
             g["_index_clear"] = deco(_index_clear)
             g["_index_top"] = deco(_index_top)
             g["_register"] = deco(_register)
+            g["_rises"] = deco(_rises)
             g["_top_bounds"] = deco(_top_bounds)
             g["_stock_value"] = deco(_stock_value)
             g["_top"] = deco(_top)
