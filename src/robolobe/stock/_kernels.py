@@ -32,11 +32,18 @@ tool's last four, or a short move next to a remembered one along the path
 move that clears a point is often shadowed at every cell centre by a deeper
 neighbour), passes within ``R + tol`` of it with its lowest tip height
 there within ``tol`` of the tip (the definition of
-:mod:`robolobe.stock.engagement`, no grid in it). The angle is then exact to
-the bisection (1/8 deg, interpolated) unless the sweep that clears the point
-is none of those (shadowed by deeper or wider sweeps of other passes, it
-reaches past them by less than a cell). The material top for the axial depth
-is decided the same way.
+:mod:`robolobe.stock.engagement`, no grid in it). A cell keeps the records of
+its deepest sweeps only: where none of those clears the point and one of the
+four cells was reached deeper than the tip (the tip runs again at a level a
+deeper pass has since cut below: a second pass over a holding tab, a ramp over
+the floor of a deeper pocket), the sweep that cleared it may be forgotten, and
+the point is decided by every earlier sweep whose track passes near it (the
+sweep index, :func:`sweep_index`, buckets of the tool diameter; built only for
+a path where a cutting move rises above an earlier one). The angle is then
+exact to the bisection (1/8 deg, interpolated) unless the sweep that clears
+the point is shadowed at the cells by a wider sweep at the same level (it
+reaches past it by less than a cell). The material top for the axial depth is
+decided the same way.
 
 The functions are plain Python compiled with numba where available
 (:func:`robolobe._jit.available`); without it they run as Python (slow:
@@ -81,6 +88,9 @@ _EDGE_EPS = 0.01
 CHAIN_CELLS = 2.0
 #: At most this many chain neighbours on each side of a move.
 CHAIN_MAX = 8
+#: The work area of :func:`_candidates` at the head of ``cand`` (the tool's trail, the
+#: candidates); the sweep index (:func:`sweep_index`) follows it.
+_CAND = 1 + _RECENT + 8 * (1 + 2 * CHAIN_MAX)
 
 
 def _sweep(w, ids, m, x0, y0, res, radius, band, p0, p1, skip_start, tol):
@@ -300,7 +310,7 @@ def _candidates(ids, i, j, cand, chain):
                         if cand[c] == k:
                             new = False
                             break
-                    if new and nc + 1 < cand.shape[0]:
+                    if new and nc + 1 < _CAND:  # the sweep index follows
                         nc += 1
                         cand[nc] = k
     return nc
@@ -330,13 +340,66 @@ def _top_bounds(w, x0, y0, res, px, py):
     return lo, hi
 
 
+def _cleared_deeper(w, i, j, z, tol):
+    """Whether one of the four cells ``(i..i+1, j..j+1)`` was reached by a sweep deeper than
+    the tip ``z`` [m] (its level or its top more than ``tol`` below): its records then
+    name that sweep, not necessarily the one that cleared the material at the tip's level."""
+    for dj in range(2):
+        for di in range(2):
+            ii = i + di
+            jj = j + dj
+            if ii < 0 or jj < 0 or ii >= w.shape[1] or jj >= w.shape[0]:
+                continue
+            if w[jj, ii, 2] < z - tol or w[jj, ii, 0] < z - tol:
+                return True
+    return False
+
+
+def _bucket(index, x0, y0, res, px, py):
+    """Entries ``(lo, hi)`` of the sweep index (:func:`sweep_index`, ``cand[_CAND:]`` in the
+    kernels) of the bucket holding the point ``(px, py)``: its moves are ``index[lo:hi]``
+    (none off the index or where it is empty)."""
+    nbx = index[0]
+    if nbx == 0:
+        return 0, 0
+    side = index[2] * res
+    bi = math.floor((px - x0) / side)
+    bj = math.floor((py - y0) / side)
+    if bi < 0 or bj < 0 or bi >= nbx or bj >= index[1]:
+        return 0, 0
+    b = 3 + bj * nbx + bi
+    return index[b], index[b + 1]
+
+
+def _index_clear(index, xyz, x0, y0, res, px, py, z, rr, tol, newest):
+    """Exact clearance (:func:`_move_clear`) of the point ``(px, py)`` at tip height ``z`` by
+    every cutting move up to ``newest`` whose sweep may reach it: the moves of the
+    point's bucket of the sweep index (:func:`sweep_index`); the largest, ``-inf`` where
+    there is none (or no index). Stops at the first that clears the point."""
+    lo, hi = _bucket(index, x0, y0, res, px, py)
+    best = -_INF
+    for e in range(lo, hi):
+        k = index[e]
+        if k > newest:
+            break  # in order of the path: the rest have not removed their material yet
+        best = max(best, _move_clear(xyz, k, px, py, z, rr, tol))
+        if best >= 0.0:
+            break
+    return best
+
+
 def _exact_top(w, ids, xyz, x0, y0, res, rr, ztop, px, py, cand, chain):
     """Material top [m] at the point ``(px, py)``, within the four cells' tops.
 
     Where the four cells around the point are level (within a micrometre), their
     lowest top; otherwise the lowest tip height of the remembered sweeps
     (:func:`_candidates`) that cover the point (the exact floor of a ramp, the
-    step of a wall), or the highest of the four cells where none does.
+    step of a wall), or the highest of the four cells where none does. Where that
+    leaves the point above the lowest of the four cells, the sweep that lowered it
+    may be one no cell remembers (a deeper sweep replaced its records: the floor of
+    a holding tab's first traverse next to the deeper passes): then every earlier
+    sweep of the point's bucket of the sweep index (``cand[_CAND:]``) decides
+    (:func:`_index_top`).
     """
     lo, hi = _top_bounds(w, x0, y0, res, px, py)
     if hi - lo <= _LEVEL_CELLS:
@@ -347,7 +410,24 @@ def _exact_top(w, ids, xyz, x0, y0, res, rr, ztop, px, py, cand, chain):
     for c in range(1, nc + 1):
         if _move_dist(xyz, cand[c], px, py) <= rr:
             top = min(top, _move_level(xyz, cand[c], px, py, rr))
+    if top > lo + _LEVEL_CELLS:
+        newest = cand[1] if cand[0] > 0 else 0
+        top = _index_top(cand[_CAND:], xyz, x0, y0, res, px, py, rr, newest, top)
     return max(top, lo)
+
+
+def _index_top(index, xyz, x0, y0, res, px, py, rr, newest, top):
+    """``top`` [m] lowered to the lowest tip height (:func:`_move_level`) of the cutting
+    moves up to ``newest`` that pass within ``rr`` of the point ``(px, py)``, from the
+    point's bucket of the sweep index (:func:`sweep_index`; none where it is empty)."""
+    lo, hi = _bucket(index, x0, y0, res, px, py)
+    for e in range(lo, hi):
+        k = index[e]
+        if k > newest:
+            break
+        if _move_dist(xyz, k, px, py) <= rr:
+            top = min(top, _move_level(xyz, k, px, py, rr))
+    return top
 
 
 def _move_level(xyz, k, px, py, rr):
@@ -454,6 +534,13 @@ def _edge_value(w, ids, xyz, x0, y0, res, radius, cx, cy, z, fx, fy, tol, ph, ca
                             exact = max(exact, _move_clear(xyz, k, px, py, z, rr, tol))
         else:
             exact = _exact_clear(ids, xyz, i, j, px, py, z, radius + shift, tol, cand, chain)
+            if exact < 0.0 and _cleared_deeper(w, i, j, z, tol):
+                # a deeper sweep has replaced the cells' records since: the sweep at the
+                # tip's level that cleared the point (a pass over a holding tab, over the
+                # floor of a deeper pass) may be remembered by none of them
+                exact = max(exact, _index_clear(cand[_CAND:], xyz, x0, y0, res, px, py, z,
+                                                radius + shift, tol,
+                                                cand[1] if cand[0] > 0 else 0))  # fmt: skip
         if exact > -_INF:
             return max(exact, stock + shift)
     sweep = w00 * v00 + w10 * v10 + w01 * v01 + w11 * v11
@@ -706,6 +793,7 @@ def _run(
     depth,
     plunge,
     chain,
+    index,
 ):
     """Walk the path: engagement of every cutting move, then its material removal.
 
@@ -716,7 +804,9 @@ def _run(
     sampled at ``lag`` into the move after a turn (when longer than
     ``2 lag``) and every ``step`` [m] up to its end; the move keeps the
     smallest entry, the largest exit, the most arcs and the largest depth
-    of its samples.
+    of its samples. ``index``: the sweep index (:func:`sweep_index`), kept after the
+    candidates' work area in ``cand`` (``cand[_CAND:]``: the edge test reaches it there
+    without one more array passed down every call).
     """
     n = xyz.shape[0]
     vals = np.empty(nphi)
@@ -724,7 +814,8 @@ def _run(
     arc_rows = np.empty((nphi * _SUB, 4))  # _engage's scratch
     sub_rows = np.empty((nphi * _SUB, 2))
     out = np.empty(4)
-    cand = np.zeros(1 + _RECENT + 8 * (1 + 2 * CHAIN_MAX), dtype=np.int64)
+    cand = np.zeros(_CAND + index.shape[0], dtype=np.int64)
+    cand[_CAND:] = index
     p0 = np.empty(3)
     p1 = np.empty(3)
     applied = 0  # moves [0, applied) have removed their material
@@ -822,6 +913,51 @@ def _run(
         applied += 1
 
 
+def _register(xyz, cutting, reach, bx0, by0, bs, nbx, nby, start, moves, fill):
+    """Bucket the cutting moves of a path: count (``fill`` False: ``start[b + 1]`` += 1 per
+    move that may reach bucket ``b``) or write (``fill`` True: the moves at ``start[b]``
+    on, in path order; ``start`` is advanced). A move may reach a bucket when its x-y
+    track passes within ``reach`` [m] of the bucket square (tested on the bucket's
+    circumscribed circle)."""
+    half = 0.5 * bs * math.sqrt(2.0)
+    for k in range(1, xyz.shape[0]):
+        if not cutting[k]:
+            continue
+        ax = xyz[k - 1, 0]
+        ay = xyz[k - 1, 1]
+        bx = xyz[k, 0]
+        by = xyz[k, 1]
+        i0 = max(0, math.floor((min(ax, bx) - reach - bx0) / bs))
+        i1 = min(nbx - 1, math.floor((max(ax, bx) + reach - bx0) / bs))
+        j0 = max(0, math.floor((min(ay, by) - reach - by0) / bs))
+        j1 = min(nby - 1, math.floor((max(ay, by) + reach - by0) / bs))
+        for bj in range(j0, j1 + 1):
+            for bi in range(i0, i1 + 1):
+                if _move_dist(xyz, k, bx0 + (bi + 0.5) * bs, by0 + (bj + 0.5) * bs) > reach + half:
+                    continue
+                b = bj * nbx + bi
+                if fill:
+                    moves[start[b]] = k
+                    start[b] += 1
+                else:
+                    start[b + 1] += 1
+
+
+def _rises(xyz, cutting, tol):
+    """Whether a cutting move of the path rises more than ``tol`` [m] above the lowest tip
+    of the cutting moves before it (a loop: no temporaries the size of the path)."""
+    floor = _INF
+    for k in range(1, xyz.shape[0]):
+        if not cutting[k]:
+            continue
+        za = xyz[k - 1, 2]
+        zb = xyz[k, 2]
+        if max(za, zb) > floor + tol:
+            return True
+        floor = min(floor, min(za, zb))
+    return False
+
+
 def chain_neighbours(xyz: Any, cutting: Any, res: float) -> Any:
     """Per move, how many moves before and after it are its chain neighbours.
 
@@ -881,6 +1017,71 @@ def chain_neighbours(xyz: Any, cutting: Any, res: float) -> Any:
     return out
 
 
+def sweep_index(
+    xyz: Any,
+    cutting: Any,
+    radius: float,
+    res: float,
+    x0: float,
+    y0: float,
+    nx: int,
+    ny: int,
+    tol: float,
+) -> Any:
+    """The sweep index of a path: for each bucket of a square grid over the Z-map, the
+    cutting moves whose sweep may reach it, in path order.
+
+    The exact test of :func:`_edge_value` decides a point from the sweeps its four cells
+    remember; a cell remembers its lowest-level and lowest-top sweeps, so once a deeper
+    sweep reaches it the one that cleared it at a higher level is forgotten. A tip that
+    runs at such a level again (over a holding tab left by the pass before, over the
+    shoulder of a deeper pocket) is then decided from every earlier sweep near the
+    point, through this index (:func:`_index_clear`, :func:`_index_top`): exact, as the
+    definition. Only a path where a cutting move rises more than ``tol`` above an
+    earlier one needs it; for the others (one level, or only descending) it is empty.
+
+    Parameters
+    ----------
+    xyz : ndarray, shape (n, 3)
+        Tool-tip positions [m].
+    cutting : ndarray of bool, shape (n,)
+        Feed moves.
+    radius, res : float
+        Tool radius and Z-map cell [m].
+    x0, y0 : float
+        Corner of the Z-map [m] (the buckets' too); ``nx``, ``ny`` its cells.
+    tol : float
+        Level tolerance [m].
+
+    Returns
+    -------
+    ndarray of int64
+        One array (the kernels pass it down to every edge test): ``nbx, nby, side``
+        (buckets along x and y; bucket side in cells, at least the tool diameter),
+        then ``nbx * nby + 1`` offsets into this array, bucket ``b`` holding the moves
+        ``index[index[3 + b] : index[4 + b]]``. ``[0, 0, 0]`` when empty.
+    """
+    p = np.asarray(xyz, dtype=np.float64)
+    cut = np.asarray(cutting, dtype=np.bool_)
+    if not globals()["_rises"](p, cut, tol):
+        return np.zeros(3, dtype=np.int64)
+    side = math.ceil(2.0 * radius / res)
+    bs = side * res
+    nbx = max(1, math.ceil(nx / side))
+    nby = max(1, math.ceil(ny / side))
+    nb = nbx * nby
+    reach = radius + res + tol  # beyond the exact test's radius + max(0.01 res, tol)
+    register = globals()["_register"]
+    start = np.zeros(nb + 1, dtype=np.int64)
+    register(p, cut, reach, x0, y0, bs, nbx, nby, start, start, False)
+    np.cumsum(start, out=start)
+    index = np.zeros(4 + nb + int(start[-1]), dtype=np.int64)
+    index[:3] = (nbx, nby, side)
+    index[3 : 4 + nb] = start + 4 + nb
+    register(p, cut, reach, x0, y0, bs, nbx, nby, index[3 : 3 + nb].copy(), index, True)
+    return index
+
+
 _COMPILED: dict[str, Any] = {}
 #: The scalar :func:`_sweep` (what numba compiles) once the Python path has replaced it.
 _SCALAR: dict[str, Any] = {}
@@ -921,6 +1122,12 @@ def kernels(work: float = math.inf) -> Any:
             g["_candidates"] = deco(_candidates)
             g["_exact_clear"] = deco(_exact_clear)
             g["_exact_top"] = deco(_exact_top)
+            g["_cleared_deeper"] = deco(_cleared_deeper)
+            g["_bucket"] = deco(_bucket)
+            g["_index_clear"] = deco(_index_clear)
+            g["_index_top"] = deco(_index_top)
+            g["_register"] = deco(_register)
+            g["_rises"] = deco(_rises)
             g["_top_bounds"] = deco(_top_bounds)
             g["_stock_value"] = deco(_stock_value)
             g["_top"] = deco(_top)

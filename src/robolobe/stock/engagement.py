@@ -30,7 +30,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from robolobe.errors import InputError, InputTypeError
-from robolobe.stock._kernels import MIN_ARC_DEG, chain_neighbours, kernels, work
+from robolobe.stock._kernels import MIN_ARC_DEG, chain_neighbours, kernels, sweep_index, work
 from robolobe.stock.shapes import Stock, signed_distance
 
 __all__ = [
@@ -289,6 +289,7 @@ def compute_engagement(
         w, ids, gx0, gy0, res, radius, band, p, cut, cum, 2.0 * res, 0.5 * radius,
         math.cos(math.radians(5.0)), stock.z_bottom, stock.z_top, LEVEL_TOL_M, N_PHI,
         phi_entry, phi_exit, n_arcs, depth, plunge, chain_neighbours(p, cut, res),
+        sweep_index(p, cut, radius, res, gx0, gy0, nx, ny, LEVEL_TOL_M),
     )  # fmt: skip
     notes = [stock.note] if stock.note else []
     n_air = int((cut & (n_arcs == 0))[1:].sum())
