@@ -37,8 +37,12 @@ import pytest
 
 ROOT = Path(__file__).resolve().parents[2]
 
-#: Bound on the outputs' peak above the plan's live memory, per waypoint [bytes].
-OUTPUTS_PER_WAYPOINT = 430.0
+#: Bound on the outputs' peak above the plan's live memory, per waypoint [bytes]. 430 until
+#: issue 25's member check on streamed paths (measured 417); with it the plan leaves
+#: ~100 MB less resident on this path (live 924 against 1,023 MB, the outputs' absolute
+#: peak 1,016 against 1,107 MB), so the outputs take a little more of theirs from the
+#: system instead of from freed memory: 459-463 measured.
+OUTPUTS_PER_WAYPOINT = 480.0
 
 _SCRIPT = textwrap.dedent(
     """
