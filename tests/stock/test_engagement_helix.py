@@ -27,7 +27,7 @@ import pytest
 
 from robolobe.stock import LEVEL_TOL_M, Stock, compute_engagement
 
-from ._arc import engaged_arc
+from ._arc import swept_positions, swept_reference
 
 D = 1.6e-3
 R = 0.5 * D
@@ -57,37 +57,6 @@ def _program(drop_um: float) -> tuple[np.ndarray, np.ndarray, int]:
     return xyz, cut, len(helix) + 1
 
 
-def _positions(xyz: np.ndarray, cut: np.ndarray, upto: int) -> np.ndarray:
-    """Tool-tip positions (m, 3) along the cutting moves before ``upto``, every micrometre."""
-    out = [xyz[:1]]
-    for m in range(1, upto):
-        if cut[m]:
-            n = max(2, math.ceil(np.linalg.norm(xyz[m] - xyz[m - 1]) / 1e-6) + 1)
-            t = np.linspace(0.0, 1.0, n)[:, None]
-            out.append(xyz[m - 1] + t * (xyz[m] - xyz[m - 1]))
-    return np.vstack(out)
-
-
-def _reference(
-    pos: np.ndarray, box: tuple[np.ndarray, np.ndarray], c: np.ndarray, z: float, f: np.ndarray
-) -> tuple[float, float]:
-    """(entry, exit) [rad] at centre ``c``, tip height ``z``, feed ``f``; NaN: no material."""
-    left = np.array([-f[1], f[0]])
-    # positions whose tip reaches the probe's level, near enough to reach its edge
-    low = pos[(pos[:, 2] <= z + TOL) & (np.hypot(*(pos[:, :2] - c).T) <= 2 * R + 2 * TOL), :2]
-
-    def material(ph: np.ndarray) -> np.ndarray:
-        q = c + R * (np.sin(ph)[:, None] * f + np.cos(ph)[:, None] * left)
-        cleared = np.zeros(len(q), dtype=bool)
-        for s in range(0, len(low), 20000):
-            d2 = ((q[:, None, :] - low[None, s : s + 20000]) ** 2).sum(axis=2)
-            cleared |= (d2 <= (R + TOL) ** 2).any(axis=1)
-        inside = np.all((q > box[0][:2] + TOL) & (q < box[1][:2] - TOL), axis=1)
-        return inside & (box[1][2] > z + TOL) & ~cleared
-
-    return engaged_arc(material, 20)
-
-
 @pytest.mark.parametrize("drop_um", [8.25, 4.0])
 def test_level_moves_over_a_helix_floor(drop_um: float) -> None:
     xyz, cut, first_level = _program(drop_um)
@@ -100,9 +69,9 @@ def test_level_moves_over_a_helix_floor(drop_um: float) -> None:
     # the level moves after the first (no turn: one sample, at the move's end)
     for i in range(first_level + 1, len(xyz)):
         upto = int(np.searchsorted(cum, cum[i] - 2 * res, side="right"))  # the lag
-        pos = _positions(xyz, cut, min(upto, i))
+        pos = swept_positions(xyz, cut, min(upto, i))
         f = (xyz[i, :2] - xyz[i - 1, :2]) / np.linalg.norm(xyz[i, :2] - xyz[i - 1, :2])
-        ref = _reference(pos, box, xyz[i, :2], float(xyz[i, 2]), f)
+        ref = swept_reference(pos, box, xyz[i, :2], float(xyz[i, 2]), f, R, TOL)
         ours = (float(e.phi_entry[i]), float(e.phi_exit[i]))
         assert math.isnan(ref[0]) == math.isnan(ours[0]), (i, ours, ref)
         if not math.isnan(ref[0]):

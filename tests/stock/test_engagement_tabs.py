@@ -37,7 +37,7 @@ import pytest
 
 from robolobe.stock import LEVEL_TOL_M, Stock, compute_engagement
 
-from ._arc import engaged_arc
+from ._arc import swept_positions, swept_reference
 
 D = 1.6e-3
 R = 0.5 * D
@@ -74,36 +74,6 @@ def _program(tab_drop: float) -> tuple[np.ndarray, np.ndarray, list[int]]:
     return np.array(pts), np.array(cut), tabs
 
 
-def _positions(xyz: np.ndarray, cut: np.ndarray, upto: int) -> np.ndarray:
-    """Tool-tip positions (m, 3) along the cutting moves before ``upto``, every micrometre."""
-    out = [np.zeros((0, 3))]
-    for m in range(1, upto):
-        if cut[m]:
-            n = max(2, math.ceil(np.linalg.norm(xyz[m] - xyz[m - 1]) / 1e-6) + 1)
-            t = np.linspace(0.0, 1.0, n)[:, None]
-            out.append(xyz[m - 1] + t * (xyz[m] - xyz[m - 1]))
-    return np.vstack(out)
-
-
-def _reference_at(
-    pos: np.ndarray, box: tuple[np.ndarray, np.ndarray], c: np.ndarray, z: float, f: np.ndarray
-) -> tuple[float, float]:
-    """(entry, exit) [rad] at centre ``c``, tip height ``z``, feed ``f``; NaN: no material."""
-    left = np.array([-f[1], f[0]])
-    low = pos[(pos[:, 2] <= z + TOL) & (np.hypot(*(pos[:, :2] - c).T) <= 2 * R + 2 * TOL), :2]
-
-    def material(ph: np.ndarray) -> np.ndarray:
-        q = c + R * (np.sin(ph)[:, None] * f + np.cos(ph)[:, None] * left)
-        cleared = np.zeros(len(q), dtype=bool)
-        for s in range(0, len(low), 5000):
-            d2 = ((q[:, None, :] - low[None, s : s + 5000]) ** 2).sum(axis=2)
-            cleared |= (d2 <= (R + TOL) ** 2).any(axis=1)
-        inside = np.all((q > box[0][:2] + TOL) & (q < box[1][:2] - TOL), axis=1)
-        return inside & (box[1][2] > z + TOL) & ~cleared
-
-    return engaged_arc(material, 20)
-
-
 def _reference_move(
     xyz: np.ndarray, cut: np.ndarray, i: int, box: tuple[np.ndarray, np.ndarray], res: float
 ) -> tuple[float, float]:
@@ -111,7 +81,7 @@ def _reference_move(
     cum = np.r_[0.0, np.cumsum(np.linalg.norm(np.diff(xyz, axis=0), axis=1))]
     lag = 2.0 * res
     upto = int(np.searchsorted(cum, cum[i] - lag, side="right"))  # moves [0, upto) applied
-    pos = _positions(xyz, cut, min(upto, i))
+    pos = swept_positions(xyz, cut, min(upto, i))
     a, b = xyz[i - 1], xyz[i]
     lxy = float(np.linalg.norm(b[:2] - a[:2]))
     f = (b[:2] - a[:2]) / lxy
@@ -122,7 +92,7 @@ def _reference_move(
     entry, exit_ = math.inf, -math.inf
     for t in ts:
         p = a + t * (b - a)
-        e, x = _reference_at(pos, box, p[:2], float(p[2]), f)
+        e, x = swept_reference(pos, box, p[:2], float(p[2]), f, R, TOL)
         if not math.isnan(e):
             entry, exit_ = min(entry, e), max(exit_, x)
     return (entry, exit_) if math.isfinite(entry) else (math.nan, math.nan)
