@@ -37,8 +37,8 @@ from __future__ import annotations
 
 import dataclasses
 import functools
-import itertools
 import math
+import os
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
@@ -1132,6 +1132,11 @@ _LOW = 1.0 - 2.0 * LOBE_TOL
 #: (5 %: three times the CPU time on the 10k zig-zag, whose robot modes' flat lobe
 #: bottoms put ~190 pieces of a group within it.)
 _NEAR_ENVELOPE = 1.025
+
+#: Members per block of :func:`size_members` (its temporaries: ~7 kB a member) and the
+#: threads that take the blocks.
+_CHECK_BLOCK = 8_192
+_CHECK_THREADS = min(2, os.cpu_count() or 1)
 #: Elements (rows x branches x frequencies) per block of :func:`_lobe_pieces_at`.
 _PIECE_BLOCK = 1 << 22
 
@@ -1418,15 +1423,27 @@ def _size_estimates(
         return shared_out, est_out
     rpm = np.asarray(rpm, dtype=np.float64)
     compiled = grouped.query_compiled  # where the plan's lobes run compiled (numba started)
-    # the members' models a block of waypoints at a time: where the model offers
-    # ``block_models(lo, hi)`` (a streamed path's, made again from its modes as the
-    # streamed pass made them), from it; else taken
+    # the leaders' models once (a streamed path makes them again from their exact modes,
+    # as its lobes did); the members' a block of waypoints at a time: where the model
+    # offers ``block_models(lo, hi)`` (a streamed path's: its blocks of ``block_rows``
+    # waypoints made again from their modes as the streamed pass made them, bit for
+    # bit), from it; else taken
+    leaders = model.take(grouped.leader)
     block_models = getattr(model, "block_models", None)
-    edges = np.searchsorted(cand, np.arange(0, n + _BLOCK, _BLOCK))
-    for s0, s1 in itertools.pairwise(edges):
-        c = cand[s0:s1]
+    rows_per_block = int(getattr(model, "block_rows", _CHECK_BLOCK))
+    if np.ndim(phi_entry) == 0 and np.ndim(phi_exit) == 0:
+        alpha_one: FloatArray | None = directional_factors(phi_entry, phi_exit, kr)
+        pe = px = np.zeros(0)
+    else:  # each waypoint's own engagement (finite where bounded: members and leaders)
+        alpha_one = None
+        pe = np.broadcast_to(np.asarray(phi_entry, dtype=np.float64), (n,))
+        px = np.broadcast_to(np.asarray(phi_exit, dtype=np.float64), (n,))
+
+    def block(r0: int) -> None:
+        r1 = min(n, r0 + rows_per_block)
+        c = cand[np.searchsorted(cand, r0) : np.searchsorted(cand, r1)]
         if c.size == 0:
-            continue
+            return
         # members of one group at one speed: the same pieces (most of a path's members)
         key = np.stack([g[c].astype(np.float64), rpm[c]], axis=1)
         uk, first, inv = np.unique(key, axis=0, return_index=True, return_inverse=True)
@@ -1455,42 +1472,52 @@ def _size_estimates(
         n_p = np.bincount(pieces[0], minlength=uk.shape[0])
         at = np.cumsum(n_p) - n_p
         cnt = n_p[inv]
-        owner = np.repeat(np.arange(c.size), cnt)
-        sel = np.arange(owner.size) - np.repeat(np.cumsum(cnt) - cnt, cnt) + at[inv[owner]]
-        row = owner
-        om, depth, eps, kk, span = (p[sel] for p in pieces[1:])
+        row = np.repeat(np.arange(c.size), cnt)
+        sel = np.arange(row.size) - np.repeat(np.cumsum(cnt) - cnt, cnt) + at[inv[row]]
         env = np.full(c.size, np.inf)
-        np.minimum.at(env, row, depth)
+        np.minimum.at(env, row, pieces[2][sel])
         if row.size == 0:
-            continue
-        mem, led = c[row], grouped.leader[g[c][row]]
-        if np.ndim(phi_entry) == 0 and np.ndim(phi_exit) == 0:
-            al = directional_factors(phi_entry, phi_exit, kr)
-            alpha_m = np.broadcast_to(al, (row.size, 2, 2))
-            alpha_l = alpha_m
-        else:  # each waypoint's own engagement (finite where bounded: members and leaders)
-            pe = np.broadcast_to(np.asarray(phi_entry, dtype=np.float64), (n,))
-            px = np.broadcast_to(np.asarray(phi_exit, dtype=np.float64), (n,))
-            alpha_m = directional_factors(pe[mem], px[mem], kr)
-            alpha_l = directional_factors(pe[led], px[led], kr)
-        # the leader's eigenvalue of this piece: the one nearest the piece's own (its depth
-        # and phase, zoa_depth inverted: both branches can have about one depth)
+            return
+        # the leader's own depth of each piece: once per piece (its group's and speed's
+        # members share it), from the leader's eigenvalue of the piece: the one nearest
+        # the piece's own (its depth and phase, zoa_depth inverted: both branches can
+        # have about one depth)
+        pk, om, depth, eps, kk, span = pieces
+        g_p = gu[pk]
+        lead_p = grouped.leader[g_p]
         re_p = 2.0 * math.pi / (teeth * kt * depth)
         mu_p = re_p + 1j * re_p * np.tan(0.5 * (eps - math.pi))
-        lobe = (kk, 60.0 / (teeth * rpm[mem]), span)
-        a_l = _lobe_depth(model.take(led), alpha_l, om, mu_p, lobe, teeth, kt)
-        if block_models is not None:
-            lo = int(c[0])
-            m_mem = block_models(lo, int(c[-1]) + 1).take(mem - lo)
+        if alpha_one is not None:
+            alpha_p = np.broadcast_to(alpha_one, (pk.size, 2, 2))
+            alpha_m = np.broadcast_to(alpha_one, (row.size, 2, 2))
         else:
-            m_mem = model.take(mem)
-        a_m = _lobe_depth(m_mem, alpha_m, om, mu_p, lobe, teeth, kt)
+            alpha_p = directional_factors(pe[lead_p], px[lead_p], kr)
+            alpha_m = directional_factors(pe[c[row]], px[c[row]], kr)
+        lobe_p = (kk, 60.0 / (teeth * nu[pk]), span)
+        a_l = _lobe_depth(leaders.take(g_p), alpha_p, om, mu_p, lobe_p, teeth, kt)[sel]
+        mem = c[row]
+        lobe = (kk[sel], lobe_p[1][sel], span[sel])
+        m_mem = model.take(mem) if block_models is None else block_models(r0, r1).take(mem - r0)
+        a_m = _lobe_depth(m_mem, alpha_m, om[sel], mu_p[sel], lobe, teeth, kt)
+        depth = depth[sel]
         with np.errstate(divide="ignore", invalid="ignore"):
             # where the leader's own depth of the piece is not found: no estimate (0: its own)
             est = np.where(np.isfinite(a_l) & (a_l > 0), depth * a_m / a_l, 0.0)
         own_est = np.full(c.size, np.inf)
         np.minimum.at(own_est, row, est)
-        shared = np.where(np.isfinite(own_est), env, np.inf)
-        shared_out[c] = shared
+        shared_out[c] = np.where(np.isfinite(own_est), env, np.inf)
         est_out[c] = own_est
+
+    blocks = list(range(0, n, rows_per_block))
+    if _CHECK_THREADS > 1 and len(blocks) > 1:
+        # disjoint blocks written into disjoint rows: the same values on any thread count
+        from concurrent.futures import ThreadPoolExecutor
+
+        from robolobe._threads import one_blas_thread
+
+        with one_blas_thread(), ThreadPoolExecutor(_CHECK_THREADS) as ex:
+            list(ex.map(block, blocks))
+    else:
+        for r0 in blocks:
+            block(r0)
     return shared_out, est_out

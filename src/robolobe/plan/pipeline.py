@@ -734,16 +734,22 @@ class _StreamedModels:
         # takes them again with a few more (only those are made)
         self._last: tuple[NDArray[np.int64], ModalModel] | None = None
 
+    #: Waypoints per block of :meth:`block_models` where the blocks start at multiples of it:
+    #: the streamed pass's chunks, so each block's modes are the ones that pass made
+    block_rows = _STREAM_CHUNK
+
     def _make(self, idx: NDArray[np.int64]) -> ModalModel:
         modes = _predict_modes(self.source, self.q[self.rows[idx]])
         rot = feed_frame(self.f_use[idx], (0.0, 0.0, -1.0), rotation="cw")
         return _tool_point_models(rot, modes.model, self.tool)
 
     def block_models(self, lo: int, hi: int) -> ModalModel:
-        """The models of waypoints ``lo .. hi - 1`` from their modes as the streamed pass
-        made them (exact at every :data:`_MODE_STRIDE`-th posture, interpolated where
-        checked: :func:`~robolobe.plan.modes.interpolated_modes`), for the members' check
-        (:func:`~robolobe.plan.lobes.size_members`) without every posture's modes."""
+        """The models of waypoints ``lo .. hi - 1`` from their modes made as the streamed
+        pass made them (exact at every :data:`_MODE_STRIDE`-th posture from ``lo``,
+        interpolated where checked: :func:`~robolobe.plan.modes.interpolated_modes`), for
+        the members' check (:func:`~robolobe.plan.lobes.size_members`) without every
+        posture's modes. With ``lo`` a multiple of :attr:`block_rows` and ``hi`` the next
+        one (or the end), the same values bit for bit as the pass's chunk."""
         md = interpolated_modes(self.source, self.q[self.rows[lo:hi]], self.tol, _MODE_STRIDE)
         rot = feed_frame(self.f_use[lo:hi], (0.0, 0.0, -1.0), rotation="cw")
         return tool_point_model(rot, md.model, self.tool)
