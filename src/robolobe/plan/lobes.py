@@ -37,6 +37,7 @@ from __future__ import annotations
 
 import dataclasses
 import functools
+import hashlib
 import math
 import os
 import time
@@ -752,7 +753,10 @@ def waypoint_lobes(
     # the steep-wall split): the answers are kept. After the split, the groups of
     # ``reuse`` have the same lobes, so their answers come from its queries (the
     # kernel computes each row on its own: the same values).
-    memo: dict[tuple[tuple[int, ...], bytes, bytes], FloatArray] = {}
+    # keyed by a digest of the question (a copy of its bytes as the key held as much
+    # again as the answers, uncounted: ~150 MB per lobes on the 1e6 path, two lobes alive
+    # after a split); 128-bit BLAKE2b, so two questions never share a key in practice
+    memo: dict[tuple[tuple[int, ...], bytes], FloatArray] = {}
     memo_bytes = [0]
     n_prev = reuse.n_groups if reuse is not None else 0
     prev = reuse.query if reuse is not None and reuse.query_compiled == (kern is not None) else None
@@ -764,7 +768,11 @@ def waypoint_lobes(
         # large questions (robust windows: many shifted speeds) are neither kept nor
         # looked up: the key would copy them
         small = rows.nbytes <= _MEMO_BYTES // 8
-        key = (rows.shape, rows.tobytes(), g.tobytes()) if small else None
+        key = None
+        if small:
+            h = hashlib.blake2b(rows.data.cast("B"), digest_size=16)
+            h.update(g.data.cast("B"))
+            key = (rows.shape, h.digest())
         val = memo.get(key) if key is not None else None
         if val is not None:
             return val
