@@ -86,6 +86,8 @@ _RADIUS = 0.75  # leader radius in tolerance units (plus the 0.25 cells: at most
 CUT_TOL = LOBE_TOL / 6.0
 #: Bytes of exact-query answers kept per :class:`GroupedLobes` (later answers are not kept).
 _MEMO_BYTES = 64 << 20
+#: Rows per block of a query answered from two parts of lobes (after a split).
+_QUERY_ROWS = 65_536
 
 
 @dataclass(frozen=True)
@@ -751,16 +753,19 @@ def waypoint_lobes(
     # The optimizer asks the same questions more than once (the constant and the
     # searched schedule verified at the same speeds; the schedule made again after
     # the steep-wall split): the answers are kept. After the split, the groups of
-    # ``reuse`` have the same lobes, so their answers come from its queries (the
-    # kernel computes each row on its own: the same values).
+    # ``reuse`` are answered from its lobes and the added ones from theirs (the kernel
+    # computes each row on its own: the same values as from the parts joined).
     # keyed by a digest of the question (a copy of its bytes as the key held as much
     # again as the answers, uncounted: ~150 MB per lobes on the 1e6 path, two lobes alive
     # after a split); 128-bit BLAKE2b, so two questions never share a key in practice
     memo: dict[tuple[tuple[int, ...], bytes], FloatArray] = {}
     memo_bytes = [0]
     n_prev = reuse.n_groups if reuse is not None else 0
-    prev = reuse.query if reuse is not None and reuse.query_compiled == (kern is not None) else None
-    prev = prev if kern is not None else None
+    # the added groups' lobes beside ``reuse``'s, each part on its own (not joined: a copy
+    # of every polyline), where both run the same kernel (the same values as joined); a
+    # question about ``reuse``'s groups alone goes to it (its kept answers)
+    by_part = kern is not None and reuse is not None and reuse.query_compiled
+    prev = reuse.query if by_part and reuse is not None else None
 
     def query(rows: FloatArray, g: IntArray) -> FloatArray:
         rows = np.ascontiguousarray(rows, dtype=np.float64)
@@ -776,14 +781,23 @@ def waypoint_lobes(
         val = memo.get(key) if key is not None else None
         if val is not None:
             return val
-        old = g < n_prev
-        if prev is not None and len(parts) == 2:
-            # the kernel computes each row on its own: the added groups from their own lobes
+        if prev is not None and len(parts) == 2 and not np.any(g >= n_prev):
+            val = prev(rows, g)
+        elif by_part and len(parts) == 2:
+            # in blocks of rows: the masked copies of a whole table's question (1e6 rows x
+            # its speeds) stay small
             val = np.empty(rows.shape)
-            if np.any(old):
-                val[old] = prev(rows[old], g[old])
-            if not np.all(old):
-                val[~old] = lobes_at(rows[~old], g[~old] - n_prev, parts[1])
+            for s0 in range(0, g.size, _QUERY_ROWS):
+                rb, gb = rows[s0 : s0 + _QUERY_ROWS], g[s0 : s0 + _QUERY_ROWS]
+                vb = val[s0 : s0 + _QUERY_ROWS]
+                old = gb < n_prev
+                if np.all(old):
+                    vb[...] = lobes_at(rb, gb, parts[0])
+                elif not np.any(old):
+                    vb[...] = lobes_at(rb, gb - n_prev, parts[1])
+                else:
+                    vb[old] = lobes_at(rb[old], gb[old], parts[0])
+                    vb[~old] = lobes_at(rb[~old], gb[~old] - n_prev, parts[1])
         elif len(parts) == 1:
             val = lobes_at(rows, g, parts[0])
         else:

@@ -1378,6 +1378,7 @@ def plan_path(
     steep |= members(grouped, outcome.best.rpm)
     t_split += time.perf_counter() - t_size
     del members  # its models (~1 kB a cutting waypoint): not under the schedule made again
+    release_free_memory(len(wp))  # the check's blocks (two threads' heaps): not under it either
     n_split = int(steep.sum())
     if n_split:
         t0_split = time.perf_counter()
