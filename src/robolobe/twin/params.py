@@ -682,32 +682,45 @@ class ParametrizedTwin:
         s, com_off, mb = st.scales, st.com_off, st.body_parts
         n, p, nd = self._bodies.n_postures, self.n_params, self._nd
         k, c = np.diag(st.K), np.diag(st.C)
-        dm = np.zeros((n, p, nd, nd))
+        # the derivatives of K and of M are zero but for the stiffness and the mass
+        # parameters: the products below are taken for those rows alone
+        k_rows: list[int] = []
+        m_rows: list[int] = []
+        dm_parts: list[FloatArray] = []
         dk = np.zeros((p, nd))
         dc = np.zeros((p, nd))
         i0 = 0
         for g in self.groups:
             size = PARAMETER_GROUPS[g]
+            rows = list(range(i0, i0 + size))
             if g == "stiffness":
                 dk[i0 : i0 + 6, :6] = np.diag(k[:6])
+                k_rows += rows
             elif g == "damping":
                 dc[i0 : i0 + 6, :6] = np.diag(c[:6])
             elif g == "ee_mass":
-                dm[:, i0] = s[6] * mb[:, 6]
+                dm_parts.append(s[6] * mb[:, 6:7])
+                m_rows += rows
             elif g == "link_mass":
-                dm[:, i0 : i0 + 6] = s[:6, None, None] * mb[:, :6]
+                dm_parts.append(s[:6, None, None] * mb[:, :6])
+                m_rows += rows
             else:  # link_com: one unit is COM_UNIT_M along a link's own axis
                 dcom = self._bodies.com_derivatives(slice(None), com_off, COM_UNIT_M)[0]
                 dcom = s[None, :6, None, None, None] * dcom  # (n, 6, 3, nd, nd)
-                dm[:, i0 : i0 + 18] = dcom.reshape(n, 18, nd, nd)
+                dm_parts.append(dcom.reshape(n, 18, nd, nd))
+                m_rows += rows
             i0 += size
         w0, phi = st.w0, st.phi
         lam = w0**2  # (n, r)
         # phi^T dK_p phi and phi^T dM_p phi as batched products (the three-operand
         # einsums, unoptimised, were most of a calibration's time)
         pt = np.swapaxes(phi, -1, -2)[:, None]  # (n, 1, r, i)
-        gk = (pt * dk[None, :, None, :]) @ phi[:, None]
-        hm = pt @ dm @ phi[:, None]
+        gk = np.zeros((n, p, nd, nd))
+        hm = np.zeros((n, p, nd, nd))
+        if k_rows:
+            gk[:, k_rows] = (pt * dk[None, k_rows, None, :]) @ phi[:, None]
+        if m_rows:
+            hm[:, m_rows] = pt @ np.concatenate(dm_parts, axis=1) @ phi[:, None]
         a = gk - lam[:, None, None, :] * hm  # (n, p, s, r): phi_s^T (dK - lam_r dM) phi_r
         dlam = np.diagonal(a, axis1=-2, axis2=-1)  # (n, p, r)
         gap = lam[:, None, :] - lam[:, :, None]  # (n, s, r): lam_r - lam_s
