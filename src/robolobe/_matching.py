@@ -139,7 +139,7 @@ def _row_minima(
     col = np.argmin(masked, axis=-1)  # (n_p, n_a)
     least = np.take_along_axis(masked, col[..., None], axis=-1)[..., 0]
     second = np.partition(masked, 1, axis=-1)[..., 1] if n_b > 1 else np.full((n_p, n_a), np.inf)
-    active = ok.any(axis=-1)  # (n_p, n_a)
+    active: NDArray[np.bool_] = np.asarray(ok.any(axis=-1))  # (n_p, n_a)
     # a margin far above the rounding of the assignment's sums (costs and big)
     margin = 1e-9 * (np.abs(big) + np.abs(lo) + 1.0)
     with np.errstate(invalid="ignore"):  # inf - inf in rows without a partner
@@ -147,5 +147,5 @@ def _row_minima(
     # least-cost columns all different (a row without a partner takes part in no pair)
     key = np.where(active, col, -1 - np.arange(n_a))
     distinct = (np.diff(np.sort(key, axis=-1), axis=-1) != 0).all(axis=-1)
-    easy = strict.all(axis=-1) & distinct
+    easy: NDArray[np.bool_] = np.asarray(strict.all(axis=-1) & distinct)
     return easy, np.asarray(col, dtype=np.intp), active
