@@ -497,11 +497,10 @@ class BodyMassModel:
         jvs = self.com_jacobians(offsets_m)
         for n, (i, g, jv) in enumerate(zip(self.com_bodies, self._g, jvs, strict=True)):
             m = self.mass_kg[i]
-            for k in range(3):
-                gk = g[posture, k] * unit_m  # (..., 3, nd)
-                a = m * np.swapaxes(gk, -1, -2) @ jv[posture]
-                dm[..., n, k, :, :] = a + np.swapaxes(a, -1, -2)
-                dtau[..., n, k, :] = m * self.gravity_m_per_s2 @ gk[..., :6]
+            gk = g[posture] * unit_m  # (..., 3 (k), 3, nd)
+            a = m * np.swapaxes(gk, -1, -2) @ jv[posture][..., None, :, :]
+            dm[..., n, :, :, :] = a + np.swapaxes(a, -1, -2)
+            dtau[..., n, :, :] = m * self.gravity_m_per_s2 @ gk[..., :6]
         return dm, dtau
 
     def moment_derivatives(
