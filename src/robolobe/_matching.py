@@ -71,6 +71,10 @@ def match_modes(cost: ArrayLike, *, gate: float = np.inf) -> tuple[IntArray, ...
     -----
     The pairing has the most admissible pairs possible and, among those,
     the least sum of their costs; every mode takes part in at most one pair.
+    A problem whose rows each have one strictly least admissible cost, in
+    distinct columns, is solved by those minima without the assignment (its
+    one optimum: the same pairs); most problems of a calibration near its
+    fit are such.
     """
     c = np.asarray(cost, dtype=np.float64)
     if c.ndim < 2:

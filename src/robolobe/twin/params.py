@@ -564,6 +564,12 @@ class ParametrizedTwin:
         Driving points of :meth:`values`.
     n_modes : int
         Modes per direction of :meth:`values`.
+
+    Notes
+    -----
+    The last theta's matrices and undamped modes, and its values, are kept
+    and reused (a fit asks for the values and the Jacobian at the same
+    theta); :meth:`values` returns a copy.
     """
 
     def __init__(
