@@ -75,3 +75,54 @@ def test_empty_and_wrong_inputs() -> None:
     assert rows.size == 0
     with pytest.raises(InputError, match="cost"):
         match_modes(np.ones(3))
+
+
+def test_row_minima_shortcut_gives_the_assignment() -> None:
+    """Batches where most problems are solved by their rows' least costs (the shortcut) and
+    some are not (ties, two rows wanting one column, near-ties, absent rows): each problem's
+    pairs are those of scipy's assignment on the gated matrix (written for the test)."""
+    from scipy.optimize import linear_sum_assignment
+
+    rng = np.random.default_rng(11)
+    for trial in range(40):
+        n_a, n_b = int(rng.integers(2, 7)), int(rng.integers(2, 9))
+        cost = rng.exponential(1.0, (20, n_a, n_b))
+        cost[rng.random(cost.shape) < 0.15] = np.inf
+        cost[rng.random(cost.shape[:2]) < 0.1] = np.nan  # absent modes
+        if trial % 4 == 1:
+            cost = np.round(cost, 1)  # ties
+        if trial % 4 == 2:
+            cost[:5, :, 1] = cost[:5, :, 0] * (1.0 + 1e-14)  # near-ties
+        if trial % 4 == 3:
+            cost[:, :, -1] = 0.5  # one column the best of many rows
+        gate = [np.inf, 1.2][trial % 2]
+        got = match_modes(cost, gate=gate)
+        for b in range(20):
+            c = cost[b]
+            ok = np.isfinite(c) & (c <= gate)
+            mine = got[0] == b
+            rows, cols = got[1][mine], got[2][mine]
+            if not ok.any():
+                assert rows.size == 0
+                continue
+            big = c[ok].max() + (np.ptp(c[ok]) + 1.0) * (min(c.shape) + 1)
+            r, k = linear_sum_assignment(np.where(ok, c, big))
+            keep = ok[r, k]
+            assert rows.size == int(keep.sum())
+            # the same number of pairs and the same total: ties may pick other partners
+            assert float(c[rows, cols].sum()) == pytest.approx(float(c[r, k][keep].sum()))
+            col = np.where(ok, c, np.inf).argmin(axis=1)
+            least = np.sort(np.where(ok, c, np.inf), axis=1)
+            unique = ok.any(axis=1)
+            strict = least[unique, 1] - least[unique, 0] > 1e-6 if c.shape[1] > 1 else True
+            if np.all(strict) and len(set(col[unique])) == unique.sum():
+                # one optimum: every row with a partner at its least cost
+                assert rows.tolist() == np.flatnonzero(unique).tolist()
+                assert cols.tolist() == col[unique].tolist()
+
+
+def test_huge_costs_are_refused_in_a_batch() -> None:
+    cost = np.ones((3, 2, 2))
+    cost[2, 0, 0] = 1e308
+    with pytest.raises(InputError, match="1e300"):
+        match_modes(cost)

@@ -34,6 +34,7 @@ BENCHMARKS = {
     "bench_paths.py": "bench_paths.py --lines 2000 --others 500",
     "bench_sld.py": "bench_sld.py --batch 40 --loop 5 --repeat 1",
     "bench_tl.py": "bench_tl.py --threads 1",
+    "bench_transfer.py": "bench_transfer.py --draws B1",
 }
 
 STUDIES = {

@@ -71,16 +71,85 @@ def match_modes(cost: ArrayLike, *, gate: float = np.inf) -> tuple[IntArray, ...
     -----
     The pairing has the most admissible pairs possible and, among those,
     the least sum of their costs; every mode takes part in at most one pair.
+    A problem whose rows each have one strictly least admissible cost, in
+    distinct columns, is solved by those minima without the assignment (its
+    one optimum: the same pairs); most problems of a calibration near its
+    fit are such.
     """
     c = np.asarray(cost, dtype=np.float64)
     if c.ndim < 2:
         raise InputError(f"cost: expected shape (..., n_a, n_b), found {c.shape}")
     batch = c.shape[:-2]
     flat = c.reshape(int(np.prod(batch, dtype=np.intp)), *c.shape[-2:])
-    out: list[list[IntArray]] = [[] for _ in range(c.ndim)]
-    for b in range(flat.shape[0]):
+    easy, col, active = _row_minima(flat, gate)
+    # the easy problems at once: every row that has a partner takes its least-cost one
+    b0, i0 = np.nonzero(easy[:, None] & active)
+    b_parts, i_parts, j_parts = [b0], [i0], [col[b0, i0]]
+    for b in np.flatnonzero(~easy):
         i, j = _assign(flat[b], gate)
-        idx = np.unravel_index(np.full(i.size, b, dtype=np.intp), batch) if batch else ()
-        for d, a in enumerate((*idx, i, j)):
-            out[d].append(np.asarray(a, dtype=np.intp))
-    return tuple(np.concatenate(parts) if parts else np.zeros(0, dtype=np.intp) for parts in out)
+        b_parts.append(np.full(i.size, b, dtype=np.intp))
+        i_parts.append(i)
+        j_parts.append(j)
+    bb, ii, jj = (np.concatenate(p).astype(np.intp) for p in (b_parts, i_parts, j_parts))
+    order = np.argsort(bb, kind="stable")  # by problem, each one's rows rising
+    bb, ii, jj = bb[order], ii[order], jj[order]
+    idx = np.unravel_index(bb, batch) if batch else ()
+    return tuple(np.asarray(a, dtype=np.intp) for a in (*idx, ii, jj))
+
+
+def _row_minima(
+    flat: NDArray[np.float64], gate: float
+) -> tuple[NDArray[np.bool_], IntArray, NDArray[np.bool_]]:
+    """Problems solved by their row minima, and each row's least-cost column.
+
+    A problem whose rows with an admissible pair each have one strictly least
+    admissible cost (by more than rounding), all in different columns, has
+    that pairing as its one optimum (every such row is paired, each at the
+    least cost it can have): :func:`_assign` would return it. These are most
+    problems of a fit near its solution; the others go to :func:`_assign`.
+
+    Parameters
+    ----------
+    flat : ndarray, shape (n_problems, n_a, n_b)
+    gate : float
+
+    Returns
+    -------
+    easy : ndarray of bool, shape (n_problems,)
+    col : ndarray of int, shape (n_problems, n_a)
+        Least-cost admissible column of each row (meaningless where a row has none).
+    active : ndarray of bool, shape (n_problems, n_a)
+        Rows with an admissible pair.
+
+    Raises
+    ------
+    InputError
+        Admissible costs so large that :func:`_assign` could not order them.
+    """
+    n_p, n_a, n_b = flat.shape
+    if n_p == 0 or n_a == 0 or n_b == 0:
+        none = np.zeros((n_p, n_a), dtype=bool)
+        return np.zeros(n_p, dtype=bool), np.zeros((n_p, n_a), dtype=np.intp), none
+    ok = np.isfinite(flat) & (flat <= gate)
+    masked = np.where(ok, flat, np.inf)
+    any_ok = ok.any(axis=(-2, -1))
+    with np.errstate(invalid="ignore", over="ignore"):
+        lo = np.where(any_ok, masked.min(axis=(-2, -1)), 0.0)
+        hi = np.where(any_ok, np.where(ok, flat, -np.inf).max(axis=(-2, -1)), 0.0)
+        big = hi + (hi - lo + 1.0) * (min(n_a, n_b) + 1)
+    if not np.all(np.isfinite(big)):
+        bad = float(hi[~np.isfinite(big)][0])
+        raise InputError(f"cost: expected admissible costs of magnitude < 1e300, found {bad:.3g}")
+    col = np.argmin(masked, axis=-1)  # (n_p, n_a)
+    least = np.take_along_axis(masked, col[..., None], axis=-1)[..., 0]
+    second = np.partition(masked, 1, axis=-1)[..., 1] if n_b > 1 else np.full((n_p, n_a), np.inf)
+    active: NDArray[np.bool_] = np.asarray(ok.any(axis=-1))  # (n_p, n_a)
+    # a margin far above the rounding of the assignment's sums (costs and big)
+    margin = 1e-9 * (np.abs(big) + np.abs(lo) + 1.0)
+    with np.errstate(invalid="ignore"):  # inf - inf in rows without a partner
+        strict = ~active | (second - least > margin[:, None])
+    # least-cost columns all different (a row without a partner takes part in no pair)
+    key = np.where(active, col, -1 - np.arange(n_a))
+    distinct = (np.diff(np.sort(key, axis=-1), axis=-1) != 0).all(axis=-1)
+    easy: NDArray[np.bool_] = np.asarray(strict.all(axis=-1) & distinct)
+    return easy, np.asarray(col, dtype=np.intp), active

@@ -277,27 +277,73 @@ def _kernel(xa: FloatArray, xb: FloatArray, ell: FloatArray) -> FloatArray:
     return np.asarray(np.exp(-0.5 * np.sum(d * d, axis=-1)))
 
 
-def _pooled_nll(hyp: FloatArray, xs: list[FloatArray], ts: list[FloatArray], n_ell: int) -> float:
-    """Negative log marginal likelihood of unit-RMS outputs sharing one kernel."""
+#: Outputs of :func:`_grouped_nll` that share their postures: (postures (n, d), the
+#: outputs' values (k, n), their places in the list of outputs).
+_OutputGroup = tuple[FloatArray, FloatArray, list[int]]
+
+
+def _share_postures(xs: list[FloatArray], ts: list[FloatArray]) -> list[_OutputGroup]:
+    """The outputs grouped by their postures (one kernel matrix per group)."""
+    groups: list[_OutputGroup] = []
+    members: list[list[int]] = []
+    for o, x in enumerate(xs):
+        for g, (xg, _, _) in enumerate(groups):
+            if xg.shape == x.shape and np.array_equal(xg, x):
+                members[g].append(o)
+                break
+        else:
+            groups.append((x, np.empty(0), []))
+            members.append([o])
+    return [
+        (x, np.array([ts[o] for o in idx], dtype=float), idx)
+        for (x, _, _), idx in zip(groups, members, strict=True)
+    ]
+
+
+def _grouped_nll(hyp: FloatArray, groups: list[_OutputGroup], n_ell: int) -> float:
+    """:func:`_pooled_nll` of outputs grouped by :func:`_share_postures`.
+
+    One kernel matrix and Cholesky factor per group of outputs at the same
+    postures; every output's term as :func:`_pooled_nll` computes it, summed in
+    the outputs' order (the same number).
+    """
     ell = np.exp(hyp[:n_ell])
     rho = 1.0 / (1.0 + np.exp(-hyp[n_ell]))
-    total = 0.0
-    for x, t in zip(xs, ts, strict=True):
+    terms = np.zeros(sum(len(idx) for _, _, idx in groups))
+    for x, t, idx in groups:
         k = rho * _kernel(x, x, ell) + (1.0 - rho) * np.eye(len(x))
         try:
             c = np.linalg.cholesky(k)
         except np.linalg.LinAlgError:
             return 1e12
-        a = np.linalg.solve(c, t)
-        total += 0.5 * float(a @ a) + float(np.log(np.diag(c)).sum())
+        log_det = float(np.log(np.diag(c)).sum())
+        for o, t_o in zip(idx, t, strict=True):
+            a = np.linalg.solve(c, t_o)
+            terms[o] = 0.5 * float(a @ a) + log_det
+    total = 0.0
+    for v in terms:
+        total += float(v)
     return total
 
 
-def _frozen_nll(
-    logit_rho: FloatArray, log_ell: FloatArray, xs: list[FloatArray], ts: list[FloatArray]
-) -> float:
-    """:func:`_pooled_nll` with the length scales held fixed."""
-    return _pooled_nll(np.r_[log_ell, logit_rho], xs, ts, len(log_ell))
+def _pooled_nll(hyp: FloatArray, xs: list[FloatArray], ts: list[FloatArray], n_ell: int) -> float:
+    """Negative log marginal likelihood of unit-RMS outputs sharing one kernel.
+
+    Parameters
+    ----------
+    hyp : ndarray, shape (n_ell + 1,)
+        Log length scales, then the logit of the signal fraction ``rho``.
+    xs, ts : list of ndarray
+        Each output's postures (n_o, n_ell) and values (n_o,).
+    n_ell : int
+        Number of length scales.
+    """
+    return _grouped_nll(hyp, _share_postures(xs, ts), n_ell)
+
+
+def _frozen_nll(logit_rho: FloatArray, log_ell: FloatArray, groups: list[_OutputGroup]) -> float:
+    """:func:`_grouped_nll` with the length scales held fixed."""
+    return _grouped_nll(np.r_[log_ell, logit_rho], groups, len(log_ell))
 
 
 def is_corrected_twin_file(path: str | os.PathLike[str]) -> bool:
@@ -489,17 +535,22 @@ class CorrectedTwin:
             hyp0 = np.r_[ell0, np.log(rho0 / (1 - rho0))]
             if outs:
                 lo_r, hi_r = (np.log(b / (1 - b)) for b in _RHO_BOUNDS)
+                shared = _share_postures(xs, ts)
                 if src is None:
                     bounds = [_LOG_ELL_BOUNDS] * n_ell + [(lo_r, hi_r)]
                     res = minimize(
-                        _pooled_nll, hyp0, args=(xs, ts, n_ell), method="L-BFGS-B", bounds=bounds
+                        _grouped_nll,
+                        hyp0,
+                        args=(shared, n_ell),
+                        method="L-BFGS-B",
+                        bounds=bounds,
                     )
                     hyp = np.asarray(res.x)
                 else:  # length scales frozen: refit the signal fraction only
                     res = minimize(
                         _frozen_nll,
                         hyp0[n_ell:],
-                        args=(ell0, xs, ts),
+                        args=(ell0, shared),
                         method="L-BFGS-B",
                         bounds=[(lo_r, hi_r)],
                     )

@@ -497,11 +497,10 @@ class BodyMassModel:
         jvs = self.com_jacobians(offsets_m)
         for n, (i, g, jv) in enumerate(zip(self.com_bodies, self._g, jvs, strict=True)):
             m = self.mass_kg[i]
-            for k in range(3):
-                gk = g[posture, k] * unit_m  # (..., 3, nd)
-                a = m * np.swapaxes(gk, -1, -2) @ jv[posture]
-                dm[..., n, k, :, :] = a + np.swapaxes(a, -1, -2)
-                dtau[..., n, k, :] = m * self.gravity_m_per_s2 @ gk[..., :6]
+            gk = g[posture] * unit_m  # (..., 3 (k), 3, nd)
+            a = m * np.swapaxes(gk, -1, -2) @ jv[posture][..., None, :, :]
+            dm[..., n, :, :, :] = a + np.swapaxes(a, -1, -2)
+            dtau[..., n, :, :] = m * self.gravity_m_per_s2 @ gk[..., :6]
         return dm, dtau
 
     def moment_derivatives(
@@ -533,6 +532,23 @@ class BodyMassModel:
         return out
 
 
+@dataclasses.dataclass(frozen=True)
+class _State:
+    """:class:`ParametrizedTwin` at one theta: mass factors (nb,), COM offsets [m]
+    (6, 3) or None, body parts of M (n, nb, nd, nd), M (n, nd, nd), K and C
+    (nd, nd), undamped frequencies [rad/s] (n, nd) and mass-normalised shapes
+    (n, nd, nd)."""
+
+    scales: FloatArray
+    com_off: FloatArray | None
+    body_parts: FloatArray
+    M: FloatArray
+    K: FloatArray
+    C: FloatArray
+    w0: FloatArray
+    phi: FloatArray
+
+
 class ParametrizedTwin:
     """Modes of a robot file's twin at fixed postures as a function of ``theta``.
 
@@ -548,6 +564,12 @@ class ParametrizedTwin:
         Driving points of :meth:`values`.
     n_modes : int
         Modes per direction of :meth:`values`.
+
+    Notes
+    -----
+    The last theta's matrices and undamped modes, and its values, are kept
+    and reused (a fit asks for the values and the Jacobian at the same
+    theta); :meth:`values` returns a copy.
     """
 
     def __init__(
@@ -581,6 +603,10 @@ class ParametrizedTwin:
         self._bodies = BodyMassModel(sys_, com_bodies=range(6) if "link_com" in self.groups else ())
         self._J = sys_.J
         self._eye = np.eye(nd)
+        # the last theta's matrices and undamped modes, and the last values: a fit asks
+        # for the values and the Jacobian at the same theta (one entry each, exact reuse)
+        self._last_state: tuple[bytes, _State] | None = None
+        self._last_values: tuple[tuple[bytes, int, tuple[str, ...]], FloatArray] | None = None
 
     @property
     def n_params(self) -> int:
@@ -616,6 +642,22 @@ class ParametrizedTwin:
         s, d = self._mass_parts(parts)
         return (self._bodies.mass_matrix(s, d), *self._springs(parts))
 
+    def _state(self, theta: ArrayLike) -> _State:
+        """The matrices and undamped modes at ``theta`` (the last theta's reused)."""
+        th = np.array(theta, dtype=np.float64)
+        key = th.tobytes()
+        if self._last_state is not None and self._last_state[0] == key:
+            return self._last_state[1]
+        parts = _split(self.groups, th)
+        s, com_off = self._mass_parts(parts)
+        mb = self._bodies.body_matrices(com_off)  # (n, nb, nd, nd): d M / d log(mass factor)
+        m = self._bodies.mass_matrix(s, body_parts=mb)
+        kmat, cmat = self._springs(parts)
+        w0, phi = undamped_modes(m, kmat)
+        state = _State(s, com_off, mb, m, kmat, cmat, w0, phi)
+        self._last_state = (key, state)
+        return state
+
     def _springs(self, parts: dict[str, FloatArray]) -> tuple[FloatArray, FloatArray]:
         """K and C (nd, nd) for the parameter groups ``parts``."""
         k, c = self._k0.copy(), self._c0.copy()
@@ -641,39 +683,49 @@ class ParametrizedTwin:
             ``d log(f, zeta, k) / d theta``; 0 where a stiffness is capped
             (a mode that does not move the TCP along the direction).
         """
-        parts = _split(self.groups, theta)
-        s, com_off = self._mass_parts(parts)
+        st = self._state(theta)
+        s, com_off, mb = st.scales, st.com_off, st.body_parts
         n, p, nd = self._bodies.n_postures, self.n_params, self._nd
-        mb = self._bodies.body_matrices(com_off)  # (n, nb, nd, nd): d M / d log(mass factor)
-        m = self._bodies.mass_matrix(s, body_parts=mb)
-        kmat, cmat = self._springs(parts)
-        k, c = np.diag(kmat), np.diag(cmat)
-        dm = np.zeros((n, p, nd, nd))
+        k, c = np.diag(st.K), np.diag(st.C)
+        # the derivatives of K and of M are zero but for the stiffness and the mass
+        # parameters: the products below are taken for those rows alone
+        k_rows: list[int] = []
+        m_rows: list[int] = []
+        dm_parts: list[FloatArray] = []
         dk = np.zeros((p, nd))
         dc = np.zeros((p, nd))
         i0 = 0
         for g in self.groups:
             size = PARAMETER_GROUPS[g]
+            rows = list(range(i0, i0 + size))
             if g == "stiffness":
                 dk[i0 : i0 + 6, :6] = np.diag(k[:6])
+                k_rows += rows
             elif g == "damping":
                 dc[i0 : i0 + 6, :6] = np.diag(c[:6])
             elif g == "ee_mass":
-                dm[:, i0] = s[6] * mb[:, 6]
+                dm_parts.append(s[6] * mb[:, 6:7])
+                m_rows += rows
             elif g == "link_mass":
-                dm[:, i0 : i0 + 6] = s[:6, None, None] * mb[:, :6]
+                dm_parts.append(s[:6, None, None] * mb[:, :6])
+                m_rows += rows
             else:  # link_com: one unit is COM_UNIT_M along a link's own axis
                 dcom = self._bodies.com_derivatives(slice(None), com_off, COM_UNIT_M)[0]
                 dcom = s[None, :6, None, None, None] * dcom  # (n, 6, 3, nd, nd)
-                dm[:, i0 : i0 + 18] = dcom.reshape(n, 18, nd, nd)
+                dm_parts.append(dcom.reshape(n, 18, nd, nd))
+                m_rows += rows
             i0 += size
-        w0, phi = undamped_modes(m, kmat)
+        w0, phi = st.w0, st.phi
         lam = w0**2  # (n, r)
         # phi^T dK_p phi and phi^T dM_p phi as batched products (the three-operand
         # einsums, unoptimised, were most of a calibration's time)
         pt = np.swapaxes(phi, -1, -2)[:, None]  # (n, 1, r, i)
-        gk = (pt * dk[None, :, None, :]) @ phi[:, None]
-        hm = pt @ dm @ phi[:, None]
+        gk = np.zeros((n, p, nd, nd))
+        hm = np.zeros((n, p, nd, nd))
+        if k_rows:
+            gk[:, k_rows] = (pt * dk[None, k_rows, None, :]) @ phi[:, None]
+        if m_rows:
+            hm[:, m_rows] = pt @ np.concatenate(dm_parts, axis=1) @ phi[:, None]
         a = gk - lam[:, None, None, :] * hm  # (n, p, s, r): phi_s^T (dK - lam_r dM) phi_r
         dlam = np.diagonal(a, axis1=-2, axis2=-1)  # (n, p, r)
         gap = lam[:, None, :] - lam[:, :, None]  # (n, s, r): lam_r - lam_s
@@ -710,8 +762,11 @@ class ParametrizedTwin:
         an overdamped mode as under ``overdamped="keep"`` (frequency
         ``sqrt(p1 p2) / 2 pi`` and damping ratio >= 1 of its real poles).
         """
-        m, k, c = self._matrices(theta)
-        w0, phi = undamped_modes(m, k)
+        key = (np.array(theta, dtype=np.float64).tobytes(), self.n_modes, self.directions)
+        if self._last_values is not None and self._last_values[0] == key:
+            return self._last_values[1].copy()
+        st = self._state(theta)
+        m, k, c, w0, phi = st.M, st.K, st.C, st.w0, st.phi
         u = self._J @ phi  # (n, 3, nm)
         with np.errstate(divide="ignore"):
             k_modal = (w0**2)[:, None, :] / u**2
@@ -726,4 +781,5 @@ class ParametrizedTwin:
         for j, d in enumerate(self.directions):
             kk = np.abs(k_modal[:, dir_index(d)[0], :nm])
             out[:, j, :, 2] = np.where(np.isfinite(kk), np.minimum(kk, K_MAX), K_MAX)
+        self._last_values = (key, out.copy())
         return out
