@@ -122,6 +122,9 @@ VARIANTS: list[tuple[str, bool, dict[str, Any]]] = [
     # each shifted mode by the spread of the cut's plane (TCP x, y) weighted by its residue
     # there (plan.modes.MODE_SHIFT_SPREAD = "cut"), for comparison
     ("cut shifts", True, {"MODE_SHIFT_SPREAD": "cut"}),
+    # each shifted mode by its largest spread over the directions (the default before
+    # MODE_SHIFT_SPREAD = "pairs"), for comparison
+    ("largest shifts", True, {"MODE_SHIFT_SPREAD": "largest"}),
 ]
 
 
@@ -567,6 +570,12 @@ def summarize(rows: list[dict[str, Any]]) -> dict[str, Any]:
         ("plain plans", "default", False),
         ("robust on the joint region only (no mode shifts)", "region only", True),
         ("robust, modes shifted by the cut's spread (not the default)", "cut shifts", True),
+        ("robust, the cut's spread, the largest for modes that can meet", "pair shifts", True),
+        (
+            "robust, modes shifted by their largest spread (the default before)",
+            "largest shifts",
+            True,
+        ),
     ):
         plans = [r for r in rows if r.get("source") == source and r.get("robust") == robust]
         if not plans:

@@ -51,6 +51,7 @@ from robolobe.plan.modes import (
     CorrectedTwinSource,
     RobotModes,
     RobustBound,
+    _can_meet,
     joint_sigma,
     region_corners,
 )
@@ -240,7 +241,9 @@ def coverage_table(first: int, last: int, cache: Path) -> None:
                 res.append(r)
                 print(
                     f"{key}{draw}: {r['n']} shifted modes; "
-                    + ", ".join(f"{k} {100 * r[k]:.0f} %" for k in _RULES),
+                    + ", ".join(f"{k} {100 * r[k]:.0f} %" for k in _RULES)
+                    + f"; {r['n_meet']} can meet another ({r['shape_off_meet']} of them "
+                    f"with a shape off, MAC < {MAC_OFF}; {r['shape_off_apart']} of the others)",
                     flush=True,
                 )
     w = np.array([r["n"] for r in res], dtype=np.float64)
@@ -253,10 +256,20 @@ def coverage_table(first: int, last: int, cache: Path) -> None:
             f"spread {100 * med:.1f} %",
             flush=True,
         )
+    n_meet = sum(r["n_meet"] for r in res)
+    off_meet = sum(r["shape_off_meet"] for r in res)
+    off_apart = sum(r["shape_off_apart"] for r in res)
+    print(
+        f"shapes: {n_meet} of {int(w.sum())} shifted modes can meet another mode that matters "
+        f"within 2 cut spreads; tool-plane shape off (MAC < {MAC_OFF}) in {off_meet} of them "
+        f"({100 * off_meet / max(n_meet, 1):.0f} %) and in {off_apart} of the "
+        f"{int(w.sum()) - n_meet} others ({100 * off_apart / max(int(w.sum()) - n_meet, 1):.0f} %)",
+        flush=True,
+    )
 
 
 #: The rules :func:`shift_coverage` reports.
-_RULES = ("largest", "most", "cut", "cut_joint", "cut_amp", "cut_max")
+_RULES = ("largest", "most", "cut", "cut_joint", "cut_amp", "cut_max", "pairs")
 
 
 def main() -> None:
@@ -336,11 +349,43 @@ def shift_coverage(key: str, draw: int, cache: Path, tmp: Path, n: int = 60) -> 
     # the "cut" rule as the bound takes it: widened for the m shifted modes together
     m_sh = np.maximum(np.sum((share >= 0.05) & (share < WINDOW_SHARE), axis=1, keepdims=True), 1)
     rules["cut_joint"] = rules["cut"] * joint_sigma(2.0, m_sh) / 2.0
+    # the bound's "pairs" rule: the largest spread for a mode that can meet another mode
+    # that matters within their 2-sigma cut spreads (plan.modes._can_meet), else cut_joint
+    meet = _can_meet(mm.omega, 2.0 * rules["cut"], share >= 0.05)
+    rules["pairs"] = np.where(meet, rules["largest"], rules["cut_joint"])
     for name, sp in rules.items():
         z = np.divide(e, sp, out=np.full_like(e, np.inf), where=sp > 0)[sel]
         out[name] = float(np.mean(z <= 2.0))
         out[name + "_med_spread"] = float(np.median(sp[sel]))
+    # does the pair test find the modes whose shape the model has wrong? MAC of the
+    # model's and the truth's tool-plane (x, y) shapes, from each mode's residues
+    mac = _xy_mac(mm.residues, tm.residues[np.arange(n)[:, None], np.maximum(match, 0)])
+    out["n_meet"] = int((sel & meet).sum())
+    out["shape_off_meet"] = int((sel & meet & (mac < MAC_OFF)).sum())
+    out["shape_off_apart"] = int((sel & ~meet & (mac < MAC_OFF)).sum())
     return out
+
+
+#: A mode's tool-plane shape counts as off the truth's below this MAC.
+MAC_OFF = 0.9
+
+
+def _xy_mac(rm: FloatArray, rt: FloatArray) -> FloatArray:
+    """MAC of two modes' tool-plane shapes from their residues, shape (n, m).
+
+    A real mode's residue is ``phi phi^T``: its x/y shape is the column of its larger
+    diagonal entry over that entry's square root (sign and scale do not enter the MAC).
+    """
+
+    def shape(r: FloatArray) -> FloatArray:
+        rxy = r[..., :2, :2]
+        a = np.argmax(np.abs(np.stack([rxy[..., 0, 0], rxy[..., 1, 1]], axis=-1)), axis=-1)
+        return np.take_along_axis(rxy, a[..., None, None], axis=-1)[..., 0]
+
+    pm, pt = shape(rm), shape(rt)
+    num = np.sum(pm * pt, axis=-1) ** 2
+    den = np.sum(pm**2, axis=-1) * np.sum(pt**2, axis=-1)
+    return np.divide(num, den, out=np.zeros_like(num), where=den > 0)
 
 
 if __name__ == "__main__":
