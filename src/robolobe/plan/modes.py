@@ -197,11 +197,13 @@ def _can_meet(
     do not pin down. Returns (n, m).
     """
     lw = np.log(np.maximum(omega, 1e-300))
-    gap = np.abs(lw[:, :, None] - lw[:, None, :])
-    reach = np.hypot(spread[:, :, None], spread[:, None, :])
-    m = omega.shape[1]
-    partner = matter[:, None, :] & ~np.eye(m, dtype=bool)[None]
-    return np.asarray(np.any((gap <= reach) & partner, axis=2))
+    s2 = spread**2
+    out = np.zeros(omega.shape, dtype=bool)
+    for j in range(omega.shape[1]):  # m is small: (n, m) work per partner
+        near = (lw - lw[:, j : j + 1]) ** 2 <= s2 + s2[:, j : j + 1]
+        near[:, j] = False
+        out |= near & matter[:, j : j + 1]
+    return out
 
 
 def region_probability(k_sigma: float) -> float:
@@ -401,12 +403,13 @@ class RobotModes:
         # the joint region: the worst over the disk of radius k_sigma in standardized
         # (frequency, compliance) errors, one scenario per corner of a staircase that
         # holds it (region_corners); the frequency-only corner is the nominal's window
-        # a mode's frequency is one number whichever direction sees it: its spread is the
-        # largest of the directions that see it (issue 27, C14: a servo mode veering with
-        # an arm mode, 2.9 spreads off in the direction that sees the model's mode most,
-        # 0.5 in the other). The window covers the modes that lead; each other mode is
-        # moved by its own spread, all of them down in one scenario and up in the other,
-        # per corner (a weak mode's lobes move alone: no speed window is that wide)
+        # The window covers the modes that lead; each other mode is moved by its own
+        # spread, all of them down in one scenario and up in the other, per corner (a weak
+        # mode's lobes move alone: no speed window is that wide). Which spread:
+        # MODE_SHIFT_SPREAD. The cut's residue-weighted one covers the frequency errors of
+        # a mode whose shape the tests pin down; a mode that can meet another may veer
+        # with it (issue 27, C14: a servo mode veering with an arm mode, their cross
+        # residues 3x the model's) and keeps the largest of the directions that see it
         shift = np.zeros_like(window[:, None] * sm[..., 0])
         if MODE_SHIFTS if mode_shifts is None else bool(mode_shifts):
             f_spread = sm[..., 0]
