@@ -174,11 +174,16 @@ def analyse(key: str, draw: int, job_name: str, cache: Path | None, tmp: Path) -
     rdd = np.abs(np.stack([mm.residues[..., a, a] for a in range(2)], axis=1))  # (n, 2, m)
     w = rdd / np.maximum(rdd.sum(axis=1, keepdims=True), 1e-300)
     s_seen = np.sum(w * s_dir[:, :2], axis=1)
+    # the bound's pair test (MODE_SHIFT_SPREAD = "pairs"): 2-sigma cut spreads
+    cut2 = 2.0 * np.sqrt(np.sum(w * s_dir[:, :2] ** 2, axis=1))
+    meets = _can_meet(mm.omega, cut2, share >= 0.05)
     f_err = np.log(tm.omega[np.arange(len(q))[:, None], np.maximum(match, 0)] / mm.omega)
     lines.append(
         "  modes at the first binding waypoint: f [Hz], peak share, lead, f spread xx/yy/zz, "
         "taken (largest), seen by the cut (|R_dd|-weighted x, y), true error |log f_t/f|, "
-        "in units of taken / seen; limit with it alone shifted down / up at corner 0 [mm]"
+        "in units of taken / seen; whether it can meet another mode within 2 cut spreads; "
+        "cross residue R_xy of the model / the truth's paired mode; limit with it alone "
+        "shifted down / up at corner 0 [mm]"
     )
     base_lim = None
     for i in np.argsort(mm.omega[first]):
@@ -224,7 +229,9 @@ def analyse(key: str, draw: int, job_name: str, cache: Path | None, tmp: Path) -
             f"    {f0:7.2f} Hz  share {share[first, i]:.2f}  {'lead' if lead[first, i] else '    '}"
             f"  {' / '.join(f'{100 * v:4.1f}' for v in s_dir[first, :, i])} %  taken "
             f"{100 * taken:4.1f} %  seen {100 * seen:4.1f} %  error {100 * e:4.1f} % = "
-            f"{e / taken if taken else np.inf:.2f} / {e / seen if seen else np.inf:.2f}{sens}"
+            f"{e / taken if taken else np.inf:.2f} / {e / seen if seen else np.inf:.2f}"
+            f"  {'meets' if meets[first, i] else 'apart'}  R_xy {mm.residues[first, i, 0, 1]:.2e}"
+            f" / {tm.residues[first, max(int(match[first, i]), 0), 0, 1]:.2e}{sens}"
         )
     return lines
 
