@@ -74,7 +74,8 @@ for a mode whose shape the tests pin down and the largest only for a mode that
 can meet another mode within their spreads (a veering pair mixes shapes:
 ``plan.modes.MODE_SHIFT_SPREAD = "pairs"``, the default; the largest spread
 everywhere stays as rows ``source = "largest shifts"``), developed on draws
-0-21 (rows ``source = "pair shifts"``, on the kept transfers); draws 26-29
+0-21 (rows ``source = "pair shifts"``, on the kept transfers: ``--cache DIR
+--sources robust``); draws 26-29
 were drawn new and run once on that code (``--robots C --first-draw 26 --draws
 4 --jobs all``, the same for B; ``meta.pairs``).
 """
