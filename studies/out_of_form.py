@@ -69,7 +69,15 @@ shift spread tried (``plan.modes.MODE_SHIFT_SPREAD = "cut"``, rows ``source =
 "cut shifts"``, not the default) on draws 0-21 (all seen; ``--cache DIR
 --sources "cut shifts"`` re-plans on the kept transfers and oracles); draws
 22-25 were drawn new and run once on that code (``--robots C,B --first-draw 22
---draws 4 --jobs all``; ``meta.mrr``).
+--draws 4 --jobs all``; ``meta.mrr``). The shift spread then became the cut's
+for a mode whose shape the tests pin down and the largest only for a mode that
+can meet another mode within their spreads (a veering pair mixes shapes:
+``plan.modes.MODE_SHIFT_SPREAD = "pairs"``, the default; the largest spread
+everywhere stays as rows ``source = "largest shifts"``), developed on draws
+0-21 (rows ``source = "pair shifts"``, on the kept transfers: ``--cache DIR
+--sources robust``); draws 26-29
+were drawn new and run once on that code (``--robots C --first-draw 26 --draws
+4 --jobs all``, the same for B; ``meta.pairs``).
 """
 
 from __future__ import annotations
@@ -122,6 +130,9 @@ VARIANTS: list[tuple[str, bool, dict[str, Any]]] = [
     # each shifted mode by the spread of the cut's plane (TCP x, y) weighted by its residue
     # there (plan.modes.MODE_SHIFT_SPREAD = "cut"), for comparison
     ("cut shifts", True, {"MODE_SHIFT_SPREAD": "cut"}),
+    # each shifted mode by its largest spread over the directions (the default before
+    # MODE_SHIFT_SPREAD = "pairs"), for comparison
+    ("largest shifts", True, {"MODE_SHIFT_SPREAD": "largest"}),
 ]
 
 
@@ -523,7 +534,9 @@ def main() -> None:
         "--cache", type=Path, default=None, help="keep transfers and oracles here (development)"
     )
     ap.add_argument(
-        "--sources", default="", help="of oracle, plain, robust, region only, cut shifts (all)"
+        "--sources",
+        default="",
+        help="of oracle, plain, robust, region only, cut shifts, largest shifts (all)",
     )
     a = ap.parse_args()
     sources = tuple(x for x in a.sources.split(",") if x)
@@ -567,6 +580,12 @@ def summarize(rows: list[dict[str, Any]]) -> dict[str, Any]:
         ("plain plans", "default", False),
         ("robust on the joint region only (no mode shifts)", "region only", True),
         ("robust, modes shifted by the cut's spread (not the default)", "cut shifts", True),
+        ("robust, the cut's spread, the largest for modes that can meet", "pair shifts", True),
+        (
+            "robust, modes shifted by their largest spread (the default before)",
+            "largest shifts",
+            True,
+        ),
     ):
         plans = [r for r in rows if r.get("source") == source and r.get("robust") == robust]
         if not plans:

@@ -51,6 +51,7 @@ from robolobe.plan.modes import (
     CorrectedTwinSource,
     RobotModes,
     RobustBound,
+    _can_meet,
     joint_sigma,
     region_corners,
 )
@@ -173,11 +174,16 @@ def analyse(key: str, draw: int, job_name: str, cache: Path | None, tmp: Path) -
     rdd = np.abs(np.stack([mm.residues[..., a, a] for a in range(2)], axis=1))  # (n, 2, m)
     w = rdd / np.maximum(rdd.sum(axis=1, keepdims=True), 1e-300)
     s_seen = np.sum(w * s_dir[:, :2], axis=1)
+    # the bound's pair test (MODE_SHIFT_SPREAD = "pairs"): 2-sigma cut spreads
+    cut2 = 2.0 * np.sqrt(np.sum(w * s_dir[:, :2] ** 2, axis=1))
+    meets = _can_meet(mm.omega, cut2, share >= 0.05)
     f_err = np.log(tm.omega[np.arange(len(q))[:, None], np.maximum(match, 0)] / mm.omega)
     lines.append(
         "  modes at the first binding waypoint: f [Hz], peak share, lead, f spread xx/yy/zz, "
         "taken (largest), seen by the cut (|R_dd|-weighted x, y), true error |log f_t/f|, "
-        "in units of taken / seen; limit with it alone shifted down / up at corner 0 [mm]"
+        "in units of taken / seen; whether it can meet another mode within 2 cut spreads; "
+        "cross residue R_xy of the model / the truth's paired mode; limit with it alone "
+        "shifted down / up at corner 0 [mm]"
     )
     base_lim = None
     for i in np.argsort(mm.omega[first]):
@@ -223,7 +229,9 @@ def analyse(key: str, draw: int, job_name: str, cache: Path | None, tmp: Path) -
             f"    {f0:7.2f} Hz  share {share[first, i]:.2f}  {'lead' if lead[first, i] else '    '}"
             f"  {' / '.join(f'{100 * v:4.1f}' for v in s_dir[first, :, i])} %  taken "
             f"{100 * taken:4.1f} %  seen {100 * seen:4.1f} %  error {100 * e:4.1f} % = "
-            f"{e / taken if taken else np.inf:.2f} / {e / seen if seen else np.inf:.2f}{sens}"
+            f"{e / taken if taken else np.inf:.2f} / {e / seen if seen else np.inf:.2f}"
+            f"  {'meets' if meets[first, i] else 'apart'}  R_xy {mm.residues[first, i, 0, 1]:.2e}"
+            f" / {tm.residues[first, max(int(match[first, i]), 0), 0, 1]:.2e}{sens}"
         )
     return lines
 
@@ -240,7 +248,9 @@ def coverage_table(first: int, last: int, cache: Path) -> None:
                 res.append(r)
                 print(
                     f"{key}{draw}: {r['n']} shifted modes; "
-                    + ", ".join(f"{k} {100 * r[k]:.0f} %" for k in _RULES),
+                    + ", ".join(f"{k} {100 * r[k]:.0f} %" for k in _RULES)
+                    + f"; {r['n_meet']} can meet another ({r['shape_off_meet']} of them "
+                    f"with a shape off, MAC < {MAC_OFF}; {r['shape_off_apart']} of the others)",
                     flush=True,
                 )
     w = np.array([r["n"] for r in res], dtype=np.float64)
@@ -253,10 +263,20 @@ def coverage_table(first: int, last: int, cache: Path) -> None:
             f"spread {100 * med:.1f} %",
             flush=True,
         )
+    n_meet = sum(r["n_meet"] for r in res)
+    off_meet = sum(r["shape_off_meet"] for r in res)
+    off_apart = sum(r["shape_off_apart"] for r in res)
+    print(
+        f"shapes: {n_meet} of {int(w.sum())} shifted modes can meet another mode that matters "
+        f"within 2 cut spreads; tool-plane shape off (MAC < {MAC_OFF}) in {off_meet} of them "
+        f"({100 * off_meet / max(n_meet, 1):.0f} %) and in {off_apart} of the "
+        f"{int(w.sum()) - n_meet} others ({100 * off_apart / max(int(w.sum()) - n_meet, 1):.0f} %)",
+        flush=True,
+    )
 
 
 #: The rules :func:`shift_coverage` reports.
-_RULES = ("largest", "most", "cut", "cut_joint", "cut_amp", "cut_max")
+_RULES = ("largest", "most", "cut", "cut_joint", "cut_amp", "cut_max", "pairs")
 
 
 def main() -> None:
@@ -336,11 +356,43 @@ def shift_coverage(key: str, draw: int, cache: Path, tmp: Path, n: int = 60) -> 
     # the "cut" rule as the bound takes it: widened for the m shifted modes together
     m_sh = np.maximum(np.sum((share >= 0.05) & (share < WINDOW_SHARE), axis=1, keepdims=True), 1)
     rules["cut_joint"] = rules["cut"] * joint_sigma(2.0, m_sh) / 2.0
+    # the bound's "pairs" rule: the largest spread for a mode that can meet another mode
+    # that matters within their 2-sigma cut spreads (plan.modes._can_meet), else cut_joint
+    meet = _can_meet(mm.omega, 2.0 * rules["cut"], share >= 0.05)
+    rules["pairs"] = np.where(meet, rules["largest"], rules["cut_joint"])
     for name, sp in rules.items():
         z = np.divide(e, sp, out=np.full_like(e, np.inf), where=sp > 0)[sel]
         out[name] = float(np.mean(z <= 2.0))
         out[name + "_med_spread"] = float(np.median(sp[sel]))
+    # does the pair test find the modes whose shape the model has wrong? MAC of the
+    # model's and the truth's tool-plane (x, y) shapes, from each mode's residues
+    mac = _xy_mac(mm.residues, tm.residues[np.arange(n)[:, None], np.maximum(match, 0)])
+    out["n_meet"] = int((sel & meet).sum())
+    out["shape_off_meet"] = int((sel & meet & (mac < MAC_OFF)).sum())
+    out["shape_off_apart"] = int((sel & ~meet & (mac < MAC_OFF)).sum())
     return out
+
+
+#: A mode's tool-plane shape counts as off the truth's below this MAC.
+MAC_OFF = 0.9
+
+
+def _xy_mac(rm: FloatArray, rt: FloatArray) -> FloatArray:
+    """MAC of two modes' tool-plane shapes from their residues, shape (n, m).
+
+    A real mode's residue is ``phi phi^T``: its x/y shape is the column of its larger
+    diagonal entry over that entry's square root (sign and scale do not enter the MAC).
+    """
+
+    def shape(r: FloatArray) -> FloatArray:
+        rxy = r[..., :2, :2]
+        a = np.argmax(np.abs(np.stack([rxy[..., 0, 0], rxy[..., 1, 1]], axis=-1)), axis=-1)
+        return np.take_along_axis(rxy, a[..., None, None], axis=-1)[..., 0]
+
+    pm, pt = shape(rm), shape(rt)
+    num = np.sum(pm * pt, axis=-1) ** 2
+    den = np.sum(pm**2, axis=-1) * np.sum(pt**2, axis=-1)
+    return np.divide(num, den, out=np.zeros_like(num), where=den > 0)
 
 
 if __name__ == "__main__":

@@ -9,6 +9,7 @@ errors, as a few corners each planned in its own speed window.
 from __future__ import annotations
 
 import math
+from statistics import NormalDist
 
 import numpy as np
 import pytest
@@ -258,3 +259,52 @@ def test_cut_shift_spread_is_the_residue_weighted_spread_of_the_cut_plane(monkey
     monkeypatch.setattr(pm, "MODE_SHIFT_SPREAD", "widest")
     with pytest.raises(ValueError, match="MODE_SHIFT_SPREAD"):
         modes.robust(2.0, mode_shifts=True)
+
+
+def _weak_mode_and_neighbour(f3_hz):
+    """``_coupled_weak_mode``'s lead (30 Hz, x) and weak mode (40 Hz, spreads 20 % in x,
+    2 % in y) and a third mode at ``f3_hz`` (shape (0.008, 0.006), 2 % spread in x and y)
+    that matters (6-13 % of the lead's peak compliance) and does not lead."""
+    w = 2 * np.pi * np.array([[30.0, 40.0, f3_hz]])
+    u = np.array([[[0.02, 0.002, 0.0], [0.002, 0.006, 0.0], [0.008, 0.006, 0.0]]])
+    model = ModalModel.from_shapes(w, np.full((1, 3), 0.04), u)
+    with np.errstate(divide="ignore"):
+        k = w[:, None, :] ** 2 / np.swapaxes(u, 1, 2) ** 2  # (1, 3, 3)
+    f = np.broadcast_to((w / (2 * np.pi))[:, None, :], k.shape)
+    std = np.zeros((1, 3, 3, 3))
+    std[..., 1:] = 0.05
+    std[0, :, 0, 0] = 0.01
+    std[0, 0, 1, 0], std[0, 1, 1, 0] = 0.20, 0.02
+    std[0, :2, 2, 0] = 0.02
+    p = ModalParameters(f, np.full(k.shape, 0.04), k, ("xx", "yy", "zz"), log_std=std)
+    return RobotModes(p, model, None, "test", shapes_coupled=True, spread_calibrated=True)
+
+
+@pytest.mark.parametrize("f3_hz", [42.0, 60.0])
+def test_pair_shift_takes_the_largest_spread_only_where_two_modes_can_meet(monkeypatch, f3_hz):
+    """``MODE_SHIFT_SPREAD = "pairs"``: the weak 40 Hz mode is shifted by its cut-weighted
+    spread (widened for the two shifted modes together) when no other mode that matters
+    lies within their 2-sigma reach (60 Hz: log gap 0.41), and by its largest spread (x,
+    20 %) when one does (42 Hz: log gap 0.049 against a reach of 2 x 6.6 %): the shapes of
+    two modes that can meet mix, which driving-point tests do not pin down."""
+    import robolobe.plan.modes as pm
+
+    monkeypatch.setattr(pm, "MODE_SHIFT_SPREAD", "pairs")
+    modes = _weak_mode_and_neighbour(f3_hz)
+    m0 = modes.model
+    weak = int(np.argsort(m0.omega[0])[1])
+    assert m0.omega[0, weak] == pytest.approx(2 * np.pi * 40.0)
+    r = np.array([0.002**2, 0.006**2])
+    cut = math.sqrt(np.sum(r / r.sum() * np.array([0.20, 0.02]) ** 2))  # per sigma
+    # two shifted modes held together (Sidak) at the region's 95.45 %
+    c = math.erf(2.0 / math.sqrt(2.0))
+    k2 = NormalDist().inv_cdf(0.5 * (1.0 + math.sqrt(c)))
+    near = abs(math.log(f3_hz / 40.0)) <= 2.0 * math.hypot(cut, 0.02)
+    assert near == (f3_hz == 42.0)
+    per_corner = 2.0 * 0.20 if near else k2 * cut
+    b = modes.robust(2.0, mode_shifts=True)
+    assert b is not None
+    for i, (c_t, _c_u) in enumerate(region_corners()):
+        up, _ = b.corners()[2 * i + 1]
+        g = up.omega[0, weak] / m0.omega[0, weak]
+        assert g == pytest.approx(math.exp(min(c_t * per_corner, pm.MAX_WINDOW)))

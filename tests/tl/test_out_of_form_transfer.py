@@ -54,7 +54,8 @@ def test_out_of_form_transfer_saves_a_model_that_loads(tmp_path):
 def test_study_summary_per_robust_variant():
     """The study's figures per plan kind (written for the test): infeasible plans count
     0 MRR, a (robot, job) whose truth has no feasible plan is left out of the MRR, and
-    each robust variant (the default, the region alone, the cut's spread) is its own row."""
+    each robust variant (the default, the region alone, the cut's spread, the largest
+    spread) is its own row."""
     from out_of_form import summarize
 
     def plan(src, robust, job, mrr_rel, beyond=0, margin=1.5, draw=0, feasible=True):
@@ -81,6 +82,8 @@ def test_study_summary_per_robust_variant():
         plan("cut shifts", True, "a", 1.0, beyond=6, margin=0.93),
         plan("cut shifts", True, "b", 0.8, feasible=False),
         plan("region only", True, "a", 0.7),
+        plan("largest shifts", True, "a", 0.4, margin=2.9),
+        plan("largest shifts", True, "b", 0.5),
     ]
     s = summarize(rows)
     d = s["default (robust) plans"]
@@ -90,4 +93,6 @@ def test_study_summary_per_robust_variant():
     c = s["robust, modes shifted by the cut's spread (not the default)"]
     assert (c["beyond"], c["min_true_margin"], c["mrr_rel"]) == (6, 0.93, [1.0, 0.0])
     assert s["robust on the joint region only (no mode shifts)"]["mrr_rel"] == [0.7]
+    g = s["robust, modes shifted by their largest spread (the default before)"]
+    assert (g["plans"], g["median_mrr_rel"], g["min_true_margin"]) == (2, 0.45, 1.5)
     assert s["no_oracle"] == ["C0 c"]
