@@ -111,6 +111,8 @@ _TOOL_CHANGE = re.compile(r"\bT(\d+)\s*M0?6\b")
 
 LEVEL_TOL = LEVEL_TOL_M  # m: one height, and material thinner than it (in z or x-y) is none
 TURN_COS = math.cos(math.radians(5.0))
+#: The reference's depth is also taken this far [rad] inside each arc's refined end.
+END_INSET = math.radians(1e-3)
 
 
 # ------------------------------------------------------------ the reference
@@ -202,7 +204,7 @@ class Reference:
             return c + self.r * (np.sin(ph)[:, None] * f + np.cos(ph)[:, None] * left)
 
         ph = np.linspace(0.0, math.pi, 721)
-        mat, top = self.material(pts(ph), z, near)
+        mat = self.material(pts(ph), z, near)[0]
         if not mat.any():
             return math.nan, math.nan, 0, 0.0
 
@@ -228,15 +230,22 @@ class Reference:
                 mat[k0 : k1 + 1] = False
         if not kept:
             return math.nan, math.nan, 0, 0.0
-        # the material height one cell inside the engaged edge (at the edge itself it
-        # jumps where the edge runs along the wall of an earlier, deeper cut)
-        inner = c + (self.r - self.res) * (
-            np.sin(ph[mat])[:, None] * f + np.cos(ph[mat])[:, None] * left
-        )
-        top_in = self.tops(inner, near)
+        # the depth at the engaged samples and just inside each kept arc's refined ends
+        ends = [lo + END_INSET for lo, _ in kept if lo > 0.0]
+        ends += [hi - END_INSET for _, hi in kept if hi < math.pi]
+        pe = np.array(ends)
+        pe = pe[self.material(pts(pe), z, near)[0]] if pe.size else pe
+        pd = np.r_[ph[mat], pe]
+        u = np.sin(pd)[:, None] * f + np.cos(pd)[:, None] * left
+        # per engaged point: the material top one cell inside it where that stands above
+        # the tip (at the edge itself the top jumps where the edge runs along the wall of
+        # an earlier, deeper cut), else the top at the point itself (a crescent or wall
+        # thinner than a cell: the outer side of a turn, a finishing pass at a wall)
+        top_in = self.tops(c + (self.r - self.res) * u, near)
+        top_edge = self.tops(c + self.r * u, near)
+        h = np.where(top_in > z + LEVEL_TOL, top_in, top_edge)
         base = max(z, self.stock.z_bottom)
-        deep = top_in > z + LEVEL_TOL
-        depth = float(np.max((top_in if deep.any() else top[mat]) - base, initial=0.0))
+        depth = float(np.max(h - base, initial=0.0))
         return kept[0][0], kept[-1][1], len(kept), depth
 
 
