@@ -4,6 +4,7 @@
     python studies/engagement.py --max-moves 300      # the first 300 cutting moves of each
     python studies/engagement.py --max-moves 1500 --margins --out studies/engagement.json
     python studies/engagement.py --max-moves 1500 --cells 80 --only rustyford   # a finer cell
+    python studies/engagement.py --only freegroup,safaraz --merge --out studies/engagement.json
 
 For each program (the bundled pocket, contour, face and slot, and the real
 Fusion 360 programs ``freegroup_CamperGaskastenTuer.nc`` (pockets, 2-D
@@ -443,7 +444,7 @@ def study(
     rows = []
     with tempfile.TemporaryDirectory() as tmp:
         for name, path, diameter, job, held in programs(Path(tmp), held_out):
-            if only and only not in name:
+            if only and not any(o in name for o in only.split(",")):
                 continue
             rows += _program_rows(name, path, diameter, job, held, max_moves, margins, cells)
     return rows
@@ -515,6 +516,8 @@ def _program_rows(
         "p99_angle_err_deg": float(np.percentile(worst, 99)) if worst.size else 0.0,
         "over_2deg": int((worst > 2.0).sum()),
         "max_depth_err_mm": float(dd.max()) if dd.size else 0.0,
+        "p99_depth_err_mm": float(np.percentile(dd, 99)) if dd.size else 0.0,
+        "worst_depth_line": f"{name}:{int(lines[idx[np.argmax(dd)]])}" if dd.size else "",
         "worst_line": f"{name}:{int(lines[idx[np.argmax(worst)]])}" if worst.size else "",
         "classes": classes,
         "worst_moves": [
@@ -560,7 +563,8 @@ def _line(r: dict[str, Any]) -> str:
         f"air in one only): max angle error entry {r['max_entry_err_deg']:.3f} / exit "
         f"{r['max_exit_err_deg']:.3f} deg (p99 {r['p99_angle_err_deg']:.3f}, "
         f"{r['over_2deg']} over 2 deg, worst {r['worst_line']}), depth "
-        f"{r['max_depth_err_mm']:.4f} mm; CPU {r['cpu_s_engagement']} s "
+        f"{r['max_depth_err_mm']:.4f} mm (at {r['worst_depth_line']}); "
+        f"CPU {r['cpu_s_engagement']} s "
         f"(reference {r['cpu_s_reference']} s)"
     )
     if r["held_out"]:
@@ -603,7 +607,14 @@ def main() -> None:
         help="Z-map cells per tool diameter, one or a comma list for the convergence per move "
         "class (default: robolobe's, 40)",
     )
-    ap.add_argument("--only", help="only the programs whose name contains this")
+    ap.add_argument(
+        "--only", help="only the programs whose name contains this (a comma list: any of them)"
+    )
+    ap.add_argument(
+        "--merge",
+        action="store_true",
+        help="with --out: replace only the rows of the programs run in the existing file",
+    )
     ap.add_argument("--no-held-out", action="store_true", help="leave out the held-out programs")
     ap.add_argument(
         "--margins", action="store_true", help="bundled programs: margins at their own engagement"
@@ -636,7 +647,11 @@ def main() -> None:
                     + "  ".join(f"{lab} {e:6.3f}" for lab, e in zip(out, errs, strict=True))
                 )
     if args.out:
-        data = out["default"] if list(out) == ["default"] else out
+        data: Any = out["default"] if list(out) == ["default"] else out
+        if args.merge and args.out.is_file() and isinstance(data, list):
+            new = {r["program"]: r for r in data}
+            old = json.loads(args.out.read_text(encoding="utf-8"))
+            data = [new.pop(r["program"], r) for r in old] + list(new.values())
         args.out.write_text(json.dumps(data, indent=1), encoding="utf-8")
 
 

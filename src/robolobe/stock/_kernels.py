@@ -591,14 +591,16 @@ def _point_depth(w, ids, xyz, x0, y0, res, radius, rr, ztop, cx, cy, fx, fy, ph,
     ex = cx + radius * ux
     ey = cy + radius * uy
     lo, hi = _top_bounds(w, x0, y0, res, qx, qy)
+    level = hi - lo <= _LEVEL_CELLS
+    if level and lo > z + tol:
+        return max(depth, lo - base)
     elo, ehi = _top_bounds(w, x0, y0, res, ex, ey)
     if max(hi, ehi) - base <= depth:
         return depth
-    top = lo
-    if hi - lo > _LEVEL_CELLS:
+    if not level:
         top = _exact_top(w, ids, xyz, x0, y0, res, rr, ztop, qx, qy, cand, chain)
-    if top > z + tol:
-        return max(depth, top - base)
+        if top > z + tol:
+            return max(depth, top - base)
     if ehi - base <= depth:
         return depth
     top = elo
