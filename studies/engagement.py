@@ -23,8 +23,18 @@ reference written here:
 * the front half of the edge sampled every 0.25 deg and each change refined
   by bisection on that exact test (1e-4 deg), an arc narrower than 1 deg
   dropped (:data:`robolobe.stock.MIN_ARC_DEG`); the axial depth is the
-  largest material height one cell inside the engaged edge above the tip (at
-  the edge itself it jumps where the edge runs along an earlier, deeper wall);
+  largest, over the engaged samples and points just inside each arc's refined
+  ends, of the material height one cell inside the edge point above the tip
+  where there is any (at the edge itself it jumps where the edge runs along an
+  earlier, deeper wall), else of the height at the edge point itself. Until
+  this session the edge points counted only when no point one cell inside
+  stood above the tip anywhere (all or nothing), and production took its
+  depth at the 4-deg samples only: both understated safarazfadli line 2170 (a
+  full-height wall cut by the outer side of an arc of short chords, the points
+  one cell inside cleared by the tool's own trail: production 0.500 mm, this
+  reference 8.255, the true 8.255) and production freegroup line 2302 (a ramp
+  over a deeper pass, the wall's untouched top only between the arc's refined
+  entry and the sample at pi: 0.183 vs 1.433);
 * the same definition of a move's engagement as the production (its
   samples every quarter diameter and just after a turn, the workpiece as the
   earlier moves left it, lagged by two cells behind a chain of tiny moves,
