@@ -4,6 +4,7 @@
     python studies/engagement.py --max-moves 300      # the first 300 cutting moves of each
     python studies/engagement.py --max-moves 1500 --margins --out studies/engagement.json
     python studies/engagement.py --max-moves 1500 --cells 80 --only rustyford   # a finer cell
+    python studies/engagement.py --only freegroup,safaraz --merge --out studies/engagement.json
 
 For each program (the bundled pocket, contour, face and slot, and the real
 Fusion 360 programs ``freegroup_CamperGaskastenTuer.nc`` (pockets, 2-D
@@ -22,8 +23,18 @@ reference written here:
 * the front half of the edge sampled every 0.25 deg and each change refined
   by bisection on that exact test (1e-4 deg), an arc narrower than 1 deg
   dropped (:data:`robolobe.stock.MIN_ARC_DEG`); the axial depth is the
-  largest material height one cell inside the engaged edge above the tip (at
-  the edge itself it jumps where the edge runs along an earlier, deeper wall);
+  largest, over the engaged samples and points just inside each arc's refined
+  ends, of the material height one cell inside the edge point above the tip
+  where there is any (at the edge itself it jumps where the edge runs along an
+  earlier, deeper wall), else of the height at the edge point itself. Until
+  this session the edge points counted only when no point one cell inside
+  stood above the tip anywhere (all or nothing), and production took its
+  depth at the 4-deg samples only: both understated safarazfadli line 2170 (a
+  full-height wall cut by the outer side of an arc of short chords, the points
+  one cell inside cleared by the tool's own trail: production 0.500 mm, this
+  reference 8.255, the true 8.255) and production freegroup line 2302 (a ramp
+  over a deeper pass, the wall's untouched top only between the arc's refined
+  entry and the sample at pi: 0.183 vs 1.433);
 * the same definition of a move's engagement as the production (its
   samples every quarter diameter and just after a turn, the workpiece as the
   earlier moves left it, lagged by two cells behind a chain of tiny moves,
@@ -111,6 +122,8 @@ _TOOL_CHANGE = re.compile(r"\bT(\d+)\s*M0?6\b")
 
 LEVEL_TOL = LEVEL_TOL_M  # m: one height, and material thinner than it (in z or x-y) is none
 TURN_COS = math.cos(math.radians(5.0))
+#: The reference's depth is also taken this far [rad] inside each arc's refined end.
+END_INSET = math.radians(1e-3)
 
 
 # ------------------------------------------------------------ the reference
@@ -202,7 +215,7 @@ class Reference:
             return c + self.r * (np.sin(ph)[:, None] * f + np.cos(ph)[:, None] * left)
 
         ph = np.linspace(0.0, math.pi, 721)
-        mat, top = self.material(pts(ph), z, near)
+        mat = self.material(pts(ph), z, near)[0]
         if not mat.any():
             return math.nan, math.nan, 0, 0.0
 
@@ -228,15 +241,22 @@ class Reference:
                 mat[k0 : k1 + 1] = False
         if not kept:
             return math.nan, math.nan, 0, 0.0
-        # the material height one cell inside the engaged edge (at the edge itself it
-        # jumps where the edge runs along the wall of an earlier, deeper cut)
-        inner = c + (self.r - self.res) * (
-            np.sin(ph[mat])[:, None] * f + np.cos(ph[mat])[:, None] * left
-        )
-        top_in = self.tops(inner, near)
+        # the depth at the engaged samples and just inside each kept arc's refined ends
+        ends = [lo + END_INSET for lo, _ in kept if lo > 0.0]
+        ends += [hi - END_INSET for _, hi in kept if hi < math.pi]
+        pe = np.array(ends)
+        pe = pe[self.material(pts(pe), z, near)[0]] if pe.size else pe
+        pd = np.r_[ph[mat], pe]
+        u = np.sin(pd)[:, None] * f + np.cos(pd)[:, None] * left
+        # per engaged point: the material top one cell inside it where that stands above
+        # the tip (at the edge itself the top jumps where the edge runs along the wall of
+        # an earlier, deeper cut), else the top at the point itself (a crescent or wall
+        # thinner than a cell: the outer side of a turn, a finishing pass at a wall)
+        top_in = self.tops(c + (self.r - self.res) * u, near)
+        top_edge = self.tops(c + self.r * u, near)
+        h = np.where(top_in > z + LEVEL_TOL, top_in, top_edge)
         base = max(z, self.stock.z_bottom)
-        deep = top_in > z + LEVEL_TOL
-        depth = float(np.max((top_in if deep.any() else top[mat]) - base, initial=0.0))
+        depth = float(np.max(h - base, initial=0.0))
         return kept[0][0], kept[-1][1], len(kept), depth
 
 
@@ -434,7 +454,7 @@ def study(
     rows = []
     with tempfile.TemporaryDirectory() as tmp:
         for name, path, diameter, job, held in programs(Path(tmp), held_out):
-            if only and only not in name:
+            if only and not any(o in name for o in only.split(",")):
                 continue
             rows += _program_rows(name, path, diameter, job, held, max_moves, margins, cells)
     return rows
@@ -506,6 +526,8 @@ def _program_rows(
         "p99_angle_err_deg": float(np.percentile(worst, 99)) if worst.size else 0.0,
         "over_2deg": int((worst > 2.0).sum()),
         "max_depth_err_mm": float(dd.max()) if dd.size else 0.0,
+        "p99_depth_err_mm": float(np.percentile(dd, 99)) if dd.size else 0.0,
+        "worst_depth_line": f"{name}:{int(lines[idx[np.argmax(dd)]])}" if dd.size else "",
         "worst_line": f"{name}:{int(lines[idx[np.argmax(worst)]])}" if worst.size else "",
         "classes": classes,
         "worst_moves": [
@@ -551,7 +573,8 @@ def _line(r: dict[str, Any]) -> str:
         f"air in one only): max angle error entry {r['max_entry_err_deg']:.3f} / exit "
         f"{r['max_exit_err_deg']:.3f} deg (p99 {r['p99_angle_err_deg']:.3f}, "
         f"{r['over_2deg']} over 2 deg, worst {r['worst_line']}), depth "
-        f"{r['max_depth_err_mm']:.4f} mm; CPU {r['cpu_s_engagement']} s "
+        f"{r['max_depth_err_mm']:.4f} mm (at {r['worst_depth_line']}); "
+        f"CPU {r['cpu_s_engagement']} s "
         f"(reference {r['cpu_s_reference']} s)"
     )
     if r["held_out"]:
@@ -594,7 +617,14 @@ def main() -> None:
         help="Z-map cells per tool diameter, one or a comma list for the convergence per move "
         "class (default: robolobe's, 40)",
     )
-    ap.add_argument("--only", help="only the programs whose name contains this")
+    ap.add_argument(
+        "--only", help="only the programs whose name contains this (a comma list: any of them)"
+    )
+    ap.add_argument(
+        "--merge",
+        action="store_true",
+        help="with --out: replace only the rows of the programs run in the existing file",
+    )
     ap.add_argument("--no-held-out", action="store_true", help="leave out the held-out programs")
     ap.add_argument(
         "--margins", action="store_true", help="bundled programs: margins at their own engagement"
@@ -627,7 +657,11 @@ def main() -> None:
                     + "  ".join(f"{lab} {e:6.3f}" for lab, e in zip(out, errs, strict=True))
                 )
     if args.out:
-        data = out["default"] if list(out) == ["default"] else out
+        data: Any = out["default"] if list(out) == ["default"] else out
+        if args.merge and args.out.is_file() and isinstance(data, list):
+            new = {r["program"]: r for r in data}
+            old = json.loads(args.out.read_text(encoding="utf-8"))
+            data = [new.pop(r["program"], r) for r in old] + list(new.values())
         args.out.write_text(json.dumps(data, indent=1), encoding="utf-8")
 
 

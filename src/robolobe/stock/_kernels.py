@@ -570,6 +570,47 @@ def _sample_crossing(w, ids, xyz, x0, y0, res, radius, cx, cy, z, fx, fy, tol, d
     )  # fmt: skip
 
 
+def _point_depth(w, ids, xyz, x0, y0, res, radius, rr, ztop, cx, cy, fx, fy, ph, z, tol, base,
+                 depth, cand, chain):  # fmt: skip
+    """``depth`` [m] raised to the material height above ``base`` at the engaged edge point at
+    angle ``ph`` [rad] (tool centre ``(cx, cy)``, feed ``(fx, fy)``).
+
+    The height is the material top one cell inside the edge point where that stands above
+    the tip ``z`` (at the edge itself the top jumps where the edge runs along the wall of an
+    earlier, deeper cut); where the point one cell inside is cleared down to the tip (a
+    crescent or a wall thinner than a cell: the outer side of a turn, a finishing pass at
+    a step-down's wall, a sliver), the top at the edge point itself. The four cells'
+    highest top bounds both: where it leaves nothing above ``depth`` the exact tops
+    (:func:`_exact_top`) are not computed.
+    """
+    ux = math.sin(ph) * fx - math.cos(ph) * fy
+    uy = math.sin(ph) * fy + math.cos(ph) * fx
+    rin = radius - res
+    qx = cx + rin * ux
+    qy = cy + rin * uy
+    ex = cx + radius * ux
+    ey = cy + radius * uy
+    lo, hi = _top_bounds(w, x0, y0, res, qx, qy)
+    level = hi - lo <= _LEVEL_CELLS
+    if level and lo > z + tol:
+        return max(depth, lo - base)
+    elo, ehi = _top_bounds(w, x0, y0, res, ex, ey)
+    if max(hi, ehi) - base <= depth:
+        return depth
+    if not level:
+        top = _exact_top(w, ids, xyz, x0, y0, res, rr, ztop, qx, qy, cand, chain)
+        if top > z + tol:
+            return max(depth, top - base)
+    if ehi - base <= depth:
+        return depth
+    top = elo
+    if ehi - elo > _LEVEL_CELLS:
+        top = _exact_top(w, ids, xyz, x0, y0, res, rr, ztop, ex, ey, cand, chain)
+    if top > z + tol:
+        return max(depth, top - base)
+    return depth
+
+
 def _engage(w, ids, xyz, x0, y0, res, radius, cx, cy, z, fx, fy, bottom, ztop, tol, nphi, vals,
             pend, out, cand, chain, arcs, subs):  # fmt: skip
     """Engagement of the cutting edge at one tool position.
@@ -579,10 +620,11 @@ def _engage(w, ids, xyz, x0, y0, res, radius, cx, cy, z, fx, fy, bottom, ztop, t
     n_arcs, depth)``: entry and exit angles [rad] in the feed frame (x along
     ``(fx, fy)``, y to its left, angle clockwise from +y seen from +z), the
     number of separate engaged arcs, and the axial depth [m] of the material
-    under the engaged edge (the top one cell inside each engaged edge point
-    above the tip or the stock bottom; for a sliver with nothing there, the
-    highest cell around the edge point). An arc of material narrower than
-    :data:`MIN_ARC_DEG` is none (a graze: its angles would hang on a
+    under the engaged edge above the tip or the stock bottom: the largest, over
+    the engaged edge points (the samples, the sub-samples and each arc's two
+    refined ends), of the top one cell inside the point where that stands above
+    the tip, else the top at the point itself (:func:`_point_depth`). An arc of
+    material narrower than :data:`MIN_ARC_DEG` is none (a graze: its angles would hang on a
     micrometre of material): it adds no arc, angle or depth. No engagement:
     ``n_arcs = 0`` and NaN angles. ``pend``, ``arcs`` (rows ``lo, hi, k0, k1``:
     an arc's angles and, from the samples, its first and last sample; ``-1``
@@ -606,10 +648,9 @@ def _engage(w, ids, xyz, x0, y0, res, radius, cx, cy, z, fx, fy, bottom, ztop, t
             ux = math.sin(ph) * fx - math.cos(ph) * fy
             uy = math.sin(ph) * fy + math.cos(ph) * fx
             lo, hi = _top_bounds(w, x0, y0, res, cx + rin * ux, cy + rin * uy)
-            if hi - lo <= _LEVEL_CELLS:
-                if lo > z + tol:
-                    depth = max(depth, lo - base)
-            else:
+            if hi - lo <= _LEVEL_CELLS and lo > z + tol:
+                depth = max(depth, lo - base)
+            else:  # not level, or cleared there: decided after (:func:`_point_depth`)
                 pend[k] = True
     # the arcs of the samples, each end refined
     na = 0
@@ -678,7 +719,6 @@ def _engage(w, ids, xyz, x0, y0, res, radius, cx, cy, z, fx, fy, bottom, ztop, t
             narcs += 1
             entry = min(entry, arcs[a, 0])
             exit_ = max(exit_, arcs[a, 1])
-    sliver = 0.0
     redo = False  # a dropped arc holds samples: their depth is none
     for a in range(na):
         if arcs[a, 2] >= 0.0 and arcs[a, 1] - arcs[a, 0] < _MIN_ARC:
@@ -700,55 +740,40 @@ def _engage(w, ids, xyz, x0, y0, res, radius, cx, cy, z, fx, fy, bottom, ztop, t
                     ux = math.sin(ph) * fx - math.cos(ph) * fy
                     uy = math.sin(ph) * fy + math.cos(ph) * fx
                     lo, hi = _top_bounds(w, x0, y0, res, cx + rin * ux, cy + rin * uy)
-                    if hi - lo <= _LEVEL_CELLS:
-                        if lo > z + tol:
-                            depth = max(depth, lo - base)
+                    if hi - lo <= _LEVEL_CELLS and lo > z + tol:
+                        depth = max(depth, lo - base)
                     else:
                         pend[k] = True
         for k in range(nphi):
             if pend[k] and depth < full:
-                ph = k * dphi
-                ux = math.sin(ph) * fx - math.cos(ph) * fy
-                uy = math.sin(ph) * fy + math.cos(ph) * fx
-                lo, hi = _top_bounds(w, x0, y0, res, cx + rin * ux, cy + rin * uy)
-                if hi - base > depth:
-                    top = _exact_top(w, ids, xyz, x0, y0, res, rr, ztop, cx + rin * ux,
-                                     cy + rin * uy, cand, chain)  # fmt: skip
-                    if top > z + tol:
-                        depth = max(depth, top - base)
-        if depth == 0.0:
-            # where nothing is one cell inside (a sliver), the top at the engaged edge points
-            for a in range(na):
-                if arcs[a, 2] < 0.0 or arcs[a, 1] - arcs[a, 0] < _MIN_ARC:
-                    continue
-                for k in range(int(arcs[a, 2]), int(arcs[a, 3]) + 1):
-                    ph = k * dphi
-                    ux = math.sin(ph) * fx - math.cos(ph) * fy
-                    uy = math.sin(ph) * fy + math.cos(ph) * fx
-                    top = _exact_top(w, ids, xyz, x0, y0, res, rr, ztop, cx + radius * ux,
-                                     cy + radius * uy, cand, chain)  # fmt: skip
-                    if top > z + tol:
-                        sliver = max(sliver, top - base)
-        for s in range(ns):
-            a = int(subs[s, 1])
-            if arcs[a, 1] - arcs[a, 0] < _MIN_ARC:
+                depth = _point_depth(w, ids, xyz, x0, y0, res, radius, rr, ztop, cx, cy, fx, fy,
+                                     k * dphi, z, tol, base, depth, cand, chain)  # fmt: skip
+        for q in range(ns):
+            a = int(subs[q, 1])
+            if depth < full and arcs[a, 1] - arcs[a, 0] >= _MIN_ARC:
+                depth = _point_depth(w, ids, xyz, x0, y0, res, radius, rr, ztop, cx, cy, fx, fy,
+                                     subs[q, 0], z, tol, base, depth, cand, chain)  # fmt: skip
+        # each kept arc's refined ends, just inside (up to a sample step from the nearest
+        # sample: the material there may stand higher than anywhere the samples fall, as
+        # where a ramp's edge meets a wall's untouched top beside an earlier deeper pass)
+        inset = dphi / (1 << _BISECT)
+        for a in range(na):
+            width = arcs[a, 1] - arcs[a, 0]
+            if width < _MIN_ARC or depth >= full:
                 continue
-            ph = subs[s, 0]
-            ux = math.sin(ph) * fx - math.cos(ph) * fy
-            uy = math.sin(ph) * fy + math.cos(ph) * fx
-            top = _exact_top(w, ids, xyz, x0, y0, res, rr, ztop, cx + rin * ux, cy + rin * uy,
-                             cand, chain)  # fmt: skip
-            if top > z + tol:
-                depth = max(depth, top - base)
-            else:
-                top = _exact_top(w, ids, xyz, x0, y0, res, rr, ztop, cx + radius * ux,
-                                 cy + radius * uy, cand, chain)  # fmt: skip
-                if top > z + tol:
-                    sliver = max(sliver, top - base)
+            d_in = min(inset, 0.5 * width)
+            lo = arcs[a, 0] + d_in
+            hi = arcs[a, 1] - d_in
+            if arcs[a, 0] > 0.0:
+                depth = _point_depth(w, ids, xyz, x0, y0, res, radius, rr, ztop, cx, cy, fx, fy,
+                                     lo, z, tol, base, depth, cand, chain)  # fmt: skip
+            if arcs[a, 1] < math.pi:
+                depth = _point_depth(w, ids, xyz, x0, y0, res, radius, rr, ztop, cx, cy, fx, fy,
+                                     hi, z, tol, base, depth, cand, chain)  # fmt: skip
     out[0] = entry if narcs > 0 else math.nan
     out[1] = exit_ if narcs > 0 else math.nan
     out[2] = narcs
-    out[3] = depth if depth > 0.0 else sliver
+    out[3] = depth
 
 
 def _remove(w, ids, x0, y0, res, radius, band, xyz, cutting, tol, m, prev_cut_end, p0, p1):
@@ -1132,6 +1157,7 @@ def kernels(work: float = math.inf) -> Any:
             g["_stock_value"] = deco(_stock_value)
             g["_top"] = deco(_top)
             g["_edge_value"] = deco(_edge_value)
+            g["_point_depth"] = deco(_point_depth)
             g["_crossing"] = deco(_crossing)
             g["_sample_crossing"] = deco(_sample_crossing)
             g["_remove"] = deco(_remove)

@@ -81,7 +81,14 @@ class Engagement:
         angles are the outermost).
     depth_m : ndarray, shape (n,)
         Axial depth of cut [m]: material height under the engaged edge above
-        the tool tip (0 where the move does not cut).
+        the tool tip (0 where the move does not cut): the largest over the
+        engaged edge points of the material top one cell inside the point
+        where that stands above the tip (at the edge itself the top jumps
+        where the edge runs along an earlier, deeper wall), else the top at
+        the point itself (a crescent or wall thinner than a cell: the outer
+        side of a turn, a finishing pass at a step-down's wall). Within a
+        cell's resolution: a wall thinner than a cell between two cuts that no
+        cell centre falls in is measured at its cells' highest top.
     cutting : ndarray of bool, shape (n,)
         Feed moves of the program (rapid moves never cut here).
     plunge : ndarray of bool, shape (n,)
