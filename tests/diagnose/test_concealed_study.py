@@ -25,6 +25,9 @@ from diagnose_reference import Case, CaseResult, P, results_frame, run_case, sta
 #: against 70 s at 12 (one loaded 2-core machine).
 N_POSTURES = 8
 
+#: Cases in studies/diagnose_concealed.json (of the study's 44 at 30 postures).
+N_COMMITTED = 44
+
 LABELS = (
     "+5 kg at the tool",
     "tool mode 63 Hz x, local",
@@ -156,3 +159,39 @@ def test_the_json_summary_counts_each_class_per_robot(tmp_path) -> None:
     assert c["outside_verdicts"]["abs"]["verdict"] == "file_parameters"
     assert (b["cases"], b["in_library_named"], b["false_claims"]) == (1, 0, 1)
     assert len(data["cases"]) == 6
+
+
+def test_the_committed_figures_come_from_the_committed_cases() -> None:
+    """studies/diagnose_concealed.json: the README row's figures, each case marked with its run.
+
+    The per-robot figures are recomputed from the cases the file holds (a
+    hand-edited figure or a case added without re-running the summary
+    fails), every case is one of the study's 30-posture cases and says when
+    it ran, and the figures the docs and the README quote are checked.
+    """
+    import json
+    from pathlib import Path
+
+    import pandas as pd
+    from diagnose_reference import study_summary
+
+    path = Path(__file__).resolve().parents[2] / "studies" / "diagnose_concealed.json"
+    data = json.loads(path.read_text(encoding="utf-8"))
+    assert data["postures"] == 30
+    df = pd.DataFrame(data["cases"])
+    study = [(c.robot, c.label) for c in standard_cases(("B", "C"), n_postures=30)]
+    held = list(zip(df["robot"], df["case"], strict=True))
+    assert held == [k for k in study if k in set(held)]  # the study's cases, once each, in order
+    assert len(held) == N_COMMITTED
+    assert df["ran"].str.len().min() > 0
+    assert study_summary(df)["per_robot"] == data["per_robot"]
+    named = {
+        rb: (f["in_library_named"], f["in_library_cases"]) for rb, f in data["per_robot"].items()
+    }
+    assert named == {"B": (17, 17), "C": (16, 17)}
+    assert [m["case"] for m in data["per_robot"]["C"]["missed"]] == [
+        "tool mode 45 Hz and y channel +10 %"
+    ]
+    for rb in ("B", "C"):
+        fig = data["per_robot"][rb]
+        assert (fig["false_claims"], fig["nulls"], fig["null_false_discoveries"]) == (0, 3, 0)
