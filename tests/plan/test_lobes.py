@@ -618,3 +618,49 @@ def test_near_lobe_pieces_compiled_as_numpy():
             low = np.full(g.size, np.inf)
             np.minimum.at(low, ref[0], ref[2])
             np.testing.assert_allclose(low, env, rtol=1e-9)
+
+
+@pytest.mark.parametrize("compiled", [False, True])
+def test_single_precision_polylines_answer_as_double(monkeypatch, compiled):
+    """A plan's lobes stored in single precision from COMPACT_MIN_SAMPLES on (the 1e6 path's
+    polylines: 565 MB in double) answer every exact question within 1e-6 of the same lobes
+    in double precision, keep the double-precision grid, drop only sample columns no group
+    uses, and answer the same again after their kept answers are forgotten."""
+    from robolobe import _jit
+    from robolobe.plan import lobes as lobes_mod
+    from robolobe.sld import zoa
+
+    if compiled and not _jit.available():
+        pytest.skip("numba not installed")
+    monkeypatch.setattr(zoa, "JIT_MIN_SAMPLES", 0 if compiled else 10**12)
+    n = 60
+    m = models(n, spread=0.05, seed=11)
+    kw = dict(
+        teeth=3, kt=MAT.kt, kr=MAT.kr, phi_entry=0.0, phi_exit=np.pi / 2,
+        rpm=np.linspace(9000.0, 24000.0, 300), immersion=0.5,
+    )  # fmt: skip
+    monkeypatch.setattr(lobes_mod, "COMPACT_MIN_SAMPLES", 10**15)
+    ref = waypoint_lobes([m], **kw)
+    monkeypatch.setattr(lobes_mod, "COMPACT_MIN_SAMPLES", 0)
+    got = waypoint_lobes([m], **kw)
+    d64, d32 = ref.parts[0][0], got.parts[0][0]
+    assert d64.depth.dtype == np.float64
+    assert d32.depth.dtype == np.float32
+    assert d32.omega.dtype == np.float32
+    assert d32.eps.dtype == np.float32
+    k = d32.omega.shape[-1]
+    assert k <= d64.omega.shape[-1]
+    assert not np.any(np.isfinite(d64.depth[..., k:]))  # only unused columns dropped
+    np.testing.assert_array_equal(got.table.a_lim, ref.table.a_lim)
+    rng = np.random.default_rng(3)
+    rows = rng.uniform(9000.0, 24000.0, (n, 9))
+    g = got.table.group
+    a64, a32 = ref.table.rows(rows, g), got.table.rows(rows, g)
+    fin = np.isfinite(a64)
+    assert np.array_equal(fin, np.isfinite(a32))
+    assert fin.any()
+    assert np.max(np.abs(a32[fin] / a64[fin] - 1.0)) < 1e-6
+    assert got.query_compiled == compiled
+    assert got.forget is not None
+    got.forget()
+    np.testing.assert_array_equal(got.table.rows(rows, g), a32)

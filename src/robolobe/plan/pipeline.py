@@ -1391,6 +1391,8 @@ def plan_path(
     outcome = dataclasses.replace(outcome, timings=opt_s)
     timings["optimize"] = time.perf_counter() - t - t_split  # the split's lobes: in "lobes"
     t = time.perf_counter()
+    if grouped.forget is not None:
+        grouped.forget()  # the optimizer's kept answers: not under the table's and outputs' peaks
     release_free_memory(len(wp))
     table = _result_table(
         wp, q, wm, modes, grouped, outcome, ci, plunge, feed_angle, job, cons, seg

@@ -537,6 +537,16 @@ def _rows_batch(
             out[order[r0 + a], i] = env[t]
 
 
+def _samples(x: Any) -> Any:
+    """Lobe polyline samples for the kernels: single precision kept as it is (a plan's
+    long path stores them so: ``robolobe.plan.lobes.COMPACT_MIN_SAMPLES``), any other
+    as double; C-contiguous, copied only where not so already."""
+    a = np.asarray(x)
+    if a.dtype == np.float32:
+        return np.ascontiguousarray(a)
+    return np.ascontiguousarray(a, dtype=np.float64)
+
+
 def envelope_rows(
     omega: FloatArray,
     depth: FloatArray,
@@ -583,9 +593,9 @@ def envelope_rows(
     run = np.flatnonzero(np.r_[True, gs[1:] != gs[:-1], True]).astype(np.int64)
     with _LOCK:
         _rows_batch(
-            np.ascontiguousarray(omega, dtype=np.float64),
-            np.ascontiguousarray(depth, dtype=np.float64),
-            np.ascontiguousarray(eps, dtype=np.float64),
+            _samples(omega),
+            _samples(depth),
+            _samples(eps),
             g,
             order,
             run,
@@ -1163,12 +1173,12 @@ def near_pieces(
     ``top`` (r,) the bound of each row's entry (the highest over its rows).
     Returns (p, 6): row, omega, depth, eps, lobe k, span of each piece.
     """
-    w = np.ascontiguousarray(omega, dtype=np.float64)
+    w = _samples(omega)
     gg = np.ascontiguousarray(g, dtype=np.int64)
     s = np.ascontiguousarray(rpm, dtype=np.float64)
     tp = np.ascontiguousarray(top, dtype=np.float64)
-    a = np.ascontiguousarray(depth, dtype=np.float64)
-    e = np.ascontiguousarray(eps, dtype=np.float64)
+    a = _samples(depth)
+    e = _samples(eps)
     low = np.full(gg.size, np.inf)
     count = np.full(gg.size, -1, np.int64)
     dummy = np.zeros((0, 6))
