@@ -11,11 +11,11 @@ imports no robolobe package, so every layer may use it.
 from __future__ import annotations
 
 import functools
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from contextlib import AbstractContextManager
 from typing import Any, ParamSpec, TypeVar
 
-__all__ = ["one_blas_thread", "with_one_blas_thread"]
+__all__ = ["each_on_threads", "one_blas_thread", "with_one_blas_thread"]
 
 P = ParamSpec("P")
 T = TypeVar("T")
@@ -37,3 +37,21 @@ def with_one_blas_thread(fn: Callable[P, T]) -> Callable[P, T]:
             return fn(*args, **kwargs)
 
     return inner
+
+
+def each_on_threads(fn: Callable[[T], object], items: Sequence[T], threads: int) -> None:
+    """``fn(item)`` for every item, on up to ``threads`` threads with one BLAS thread each
+    (:func:`one_blas_thread`), or in turn where one thread or one item.
+
+    For work split into blocks that write disjoint parts of a result (numpy and
+    the compiled kernels release the GIL): the same values on any thread count.
+    An exception in ``fn`` is raised here.
+    """
+    if threads > 1 and len(items) > 1:
+        from concurrent.futures import ThreadPoolExecutor
+
+        with one_blas_thread(), ThreadPoolExecutor(threads) as ex:
+            list(ex.map(fn, items))
+    else:
+        for item in items:
+            fn(item)

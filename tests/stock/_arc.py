@@ -62,8 +62,8 @@ def engaged_arc(
     return kept[0][0], kept[-1][1]
 
 
-def swept_positions(xyz: np.ndarray, cut: np.ndarray, upto: int) -> np.ndarray:
-    """Tool-tip positions (m, 3) along the cutting moves before ``upto``, every micrometre.
+def swept_positions(xyz: np.ndarray, cut: np.ndarray, upto: int, step: float = 1e-6) -> np.ndarray:
+    """Tool-tip positions (m, 3) along the cutting moves before ``upto``, every ``step``.
 
     Parameters
     ----------
@@ -73,11 +73,13 @@ def swept_positions(xyz: np.ndarray, cut: np.ndarray, upto: int) -> np.ndarray:
         Feed moves (move ``m`` runs from point ``m - 1`` to point ``m``).
     upto : int
         The first move not swept.
+    step : float
+        Spacing of the positions along a move [m] (default a micrometre).
     """
     out = [np.zeros((0, 3))]
     for m in range(1, upto):
         if cut[m]:
-            n = max(2, math.ceil(np.linalg.norm(xyz[m] - xyz[m - 1]) / 1e-6) + 1)
+            n = max(2, math.ceil(np.linalg.norm(xyz[m] - xyz[m - 1]) / step) + 1)
             t = np.linspace(0.0, 1.0, n)[:, None]
             out.append(xyz[m - 1] + t * (xyz[m] - xyz[m - 1]))
     return np.vstack(out)

@@ -39,6 +39,8 @@ import pytest
 from robolobe.plan.paths import read_toolpath
 from robolobe.stock import LEVEL_TOL_M, MIN_ARC_DEG, Stock, compute_engagement, default_stock
 
+from ._arc import swept_positions
+
 D = 6e-3
 R = 0.5 * D
 RES = D / 40
@@ -47,17 +49,6 @@ BOX = (np.array([-0.02, -0.015, -0.01]), np.array([0.02, 0.015, 0.0]))
 
 def _stock() -> Stock:
     return Stock.box(tuple(BOX[0]), tuple(BOX[1]))
-
-
-def _positions(xyz: np.ndarray, cut: np.ndarray, upto: int) -> np.ndarray:
-    """Tool-tip positions (m, 3) along the cutting moves before ``upto``, every 10 um."""
-    out = [np.zeros((0, 3))]
-    for m in range(1, upto):
-        if cut[m]:
-            n = max(2, math.ceil(np.linalg.norm(xyz[m] - xyz[m - 1]) / 1e-5) + 1)
-            t = np.linspace(0.0, 1.0, n)[:, None]
-            out.append(xyz[m - 1] + t * (xyz[m] - xyz[m - 1]))
-    return np.vstack(out)
 
 
 def _depth_reference(
@@ -89,7 +80,7 @@ def _depth_reference(
     p0, d = xyz[: upto - 1, :2], np.diff(xyz[:upto, :2], axis=0)
     w = np.clip(((c - p0) * d).sum(1) / np.maximum((d * d).sum(1), 1e-30), 0.0, 1.0)
     reach = np.r_[False, np.hypot(*(p0 + w[:, None] * d - c).T) <= 2 * radius + 2 * tol]
-    pos = _positions(xyz, cut[:upto] & reach, upto)
+    pos = swept_positions(xyz, cut[:upto] & reach, upto, step=1e-5)
     z = a[2] + t * (b[2] - a[2])
     f = (b[:2] - a[:2]) / np.linalg.norm(b[:2] - a[:2])
     left = np.array([-f[1], f[0]])

@@ -1577,16 +1577,7 @@ def _size_estimates(
         shared_out[c] = np.where(np.isfinite(own_est), env, np.inf)
         est_out[c] = own_est
 
-    blocks = list(range(0, n, rows_per_block))
-    if _CHECK_THREADS > 1 and len(blocks) > 1:
-        # disjoint blocks written into disjoint rows: the same values on any thread count
-        from concurrent.futures import ThreadPoolExecutor
+    from robolobe._threads import each_on_threads
 
-        from robolobe._threads import one_blas_thread
-
-        with one_blas_thread(), ThreadPoolExecutor(_CHECK_THREADS) as ex:
-            list(ex.map(block, blocks))
-    else:
-        for r0 in blocks:
-            block(r0)
+    each_on_threads(block, range(0, n, rows_per_block), _CHECK_THREADS)  # disjoint rows
     return shared_out, est_out

@@ -47,6 +47,7 @@ import pandas as pd
 from numpy.typing import NDArray
 
 from robolobe._memory import release_free_memory
+from robolobe._threads import each_on_threads
 from robolobe.errors import InfeasibleError, InputError, ReachabilityError, SingularityError
 from robolobe.plan._summary import PlanSummary
 from robolobe.plan.engagement import engagement_note, plan_engagement
@@ -384,17 +385,7 @@ def _wrist_measure(robot: Robot, q: FloatArray) -> FloatArray:
         axes, _ = joint_axes(robot, frames)  # (m, 6, 3)
         out[c0 : c0 + _CHUNK] = np.linalg.norm(np.cross(axes[:, 3], axes[:, 5]), axis=-1)
 
-    starts = range(0, q.shape[0], _CHUNK)
-    if _THREADS > 1 and len(starts) > 1:
-        from concurrent.futures import ThreadPoolExecutor
-
-        from robolobe._threads import one_blas_thread
-
-        with one_blas_thread(), ThreadPoolExecutor(_THREADS) as ex:
-            list(ex.map(part, starts))
-    else:
-        for c0 in starts:
-            part(c0)
+    each_on_threads(part, range(0, q.shape[0], _CHUNK), _THREADS)
     return out
 
 
