@@ -424,3 +424,32 @@ def test_lobe_table_query_pads_groups_by_their_own_number_of_speeds():
     np.testing.assert_array_equal(got, want)
     pairs = np.unique(np.c_[group, speeds], axis=0).shape[0]
     assert sum(asked) <= 2 * pairs  # not n_groups x 20,000
+
+
+def test_limiting_labels_are_the_first_least_slack():
+    """The binding limit is the first least slack (a NaN first), as np.argmin over the
+    stacked slacks, and "schedule" where every slack exceeds ``free`` (written here as
+    that reference: the production code takes one limit at a time)."""
+
+    def reference(slack, free=None):
+        names = np.asarray(list(slack))
+        mat = np.stack(list(slack.values()))
+        lim = names[np.argmin(mat, axis=0)]
+        if free is not None:
+            lim = np.where(mat.min(axis=0) > free, "schedule", lim)
+        return lim
+
+    rng = np.random.default_rng(5)
+    pool = ["stability", "power", "torque", "depth_max", "rpm_min", "rpm_max", "ab"]
+    for _ in range(500):
+        n, k = int(rng.integers(1, 30)), int(rng.integers(1, 7))
+        slack = {}
+        for name in rng.choice(pool, k, replace=False):
+            if rng.random() < 0.5:  # ties, infinities and NaN
+                slack[str(name)] = rng.choice([-1.0, 0.0, 0.5, np.inf, np.nan], n)
+            else:
+                slack[str(name)] = rng.normal(size=n)
+        for free in (None, 0.01, -0.5):
+            np.testing.assert_array_equal(limiting_labels(slack, free=free), reference(slack, free))
+    # a short name list still holds "schedule" whole
+    assert limiting_labels({"ab": np.array([1.0])}, free=0.5)[0] == "schedule"

@@ -84,11 +84,21 @@ def limiting_labels(slack: dict[str, FloatArray], free: float | None = None) -> 
         A waypoint whose every slack exceeds this is labelled ``"schedule"``
         (its speed is held by the schedule, not by a limit there).
     """
-    names = np.asarray(list(slack))
-    mat = np.stack(list(slack.values()))
-    lim = names[np.argmin(mat, axis=0)]
+    # np.argmin over the stacked slacks, one limit at a time (no (limits, n) copy: at a
+    # million waypoints ~50 MB, in every optimizer run): the first least, a NaN first
+    names = list(slack)
+    values = list(slack.values())
+    best = np.array(values[0], dtype=np.float64, copy=True)
+    code = np.zeros(best.shape, np.intp)
+    for i, v in enumerate(values[1:], start=1):
+        nan_b = np.isnan(best)
+        better = (v < best) | (np.isnan(v) & ~nan_b)
+        code[better] = i
+        np.copyto(best, v, where=better)
+    width = max(len(x) for x in [*names, "schedule"])
+    lim = np.asarray(names, dtype=f"<U{width}")[code]
     if free is not None:
-        lim = np.where(mat.min(axis=0) > free, "schedule", lim)
+        lim[best > free] = "schedule"  # NaN: never free (as np.where's comparison)
     return lim
 
 
