@@ -49,6 +49,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from robolobe._threads import each_on_threads
 from robolobe.errors import InputError
 from robolobe.plan.optimize import LobeTable
 from robolobe.sld.converged import LOBE_TOL, converged_lobes
@@ -1000,7 +1001,7 @@ def _leader_lobes(
 #: Polyline samples (groups x frequencies) from which a plan keeps its lobes' polylines
 #: (frequencies, depths, phases) in single precision, without the trailing samples no
 #: group uses (:func:`_compact_polylines`): 19,501 groups of a 1e6-waypoint path took
-#: 565 MB in double precision, 664 samples wide where the widest group used 559.
+#: 565 MB in double precision, 664 samples wide.
 COMPACT_MIN_SAMPLES = 4_000_000
 
 
@@ -1202,8 +1203,8 @@ _LOW = 1.0 - 2.0 * LOBE_TOL
 #: bottoms put ~190 pieces of a group within it.)
 _NEAR_ENVELOPE = 1.025
 
-#: Members per block of :func:`size_members` (its temporaries: ~7 kB a member) and the
-#: threads that take the blocks.
+#: Waypoints per block of :func:`size_members` (its temporaries: ~7 kB a member) and
+#: the threads that take the blocks.
 _CHECK_BLOCK = 8_192
 _CHECK_THREADS = min(2, os.cpu_count() or 1)
 #: Elements (rows x branches x frequencies) per block of :func:`_lobe_pieces_at`.
@@ -1424,23 +1425,26 @@ def size_members(
     that set it, within :data:`_NEAR_ENVELOPE`) are re-evaluated with the
     member's own model and cut: the depth of a piece goes as one over
     ``Re mu(w)`` (the ZOA, :func:`robolobe.sld.zoa.zoa_depth`), so the member's
-    estimate is ``min over pieces of depth * Re mu_leader / Re mu_member``
-    (the member's eigenvalue nearest the leader's of that piece's depth).
-    Members whose estimate lies below the shared limit by more than ``share``
-    (or above it by more than ``1 / (0.99 + share)``: the limit stated must not be
-    needlessly low either, :data:`_LOW`) should get lobes of their own
-    (``waypoint_lobes(..., own=...)``, as :func:`steep_members`). The estimate
-    is first order: the eigenvalue is compared at the leader's frequency, not
-    at the member's own (a shift of the piece along the lobe, second order at
-    a lobe's bottom). Nominal
-    lobes only (a robust plan's scenarios are the nominal's scaled).
+    estimate is ``min over pieces of depth * a_member / a_leader``, where ``a``
+    is each one's own depth of that lobe at the planned speed (:func:`_lobe_depth`:
+    Newton in frequency on the phase condition from the piece's frequency and
+    eigenvalue; the leader's once per piece of its group and speed). An estimate
+    not converged to 1e-6 rad counts as 0 (its own lobes). Members whose
+    estimate lies below the shared limit by more than ``share`` (or above it by
+    more than ``1 / (0.99 + share)``: the limit stated must not be needlessly
+    low either, :data:`_LOW`) should get lobes of their own
+    (``waypoint_lobes(..., own=...)``, as :func:`steep_members`). Members are
+    taken in blocks of waypoints on up to :data:`_CHECK_THREADS` threads.
+    Nominal lobes only (a robust plan's scenarios are the nominal's scaled).
 
     Parameters
     ----------
     grouped : GroupedLobes
     model : ModalModel
         Nominal feed-frame tool-point models of the cutting waypoints, batch
-        (n_cut,) (or an object with ``take``: only members' and leaders' are taken).
+        (n_cut,) (or an object with ``take``: the leaders' are taken; with
+        ``block_models(lo, hi)`` and ``block_rows`` too, the members' come from
+        it in blocks of ``block_rows`` waypoints starting at its multiples).
     rpm : ndarray, shape (n_cut,)
         Planned speed of each cutting waypoint [rpm].
     teeth, kt, kr : int, float, float
@@ -1552,6 +1556,7 @@ def _size_estimates(
         # the piece's own (its depth and phase, zoa_depth inverted: both branches can
         # have about one depth)
         pk, om, depth, eps, kk, span = pieces
+        mem = c[row]
         g_p = gu[pk]
         lead_p = grouped.leader[g_p]
         re_p = 2.0 * math.pi / (teeth * kt * depth)
@@ -1561,10 +1566,9 @@ def _size_estimates(
             alpha_m = np.broadcast_to(alpha_one, (row.size, 2, 2))
         else:
             alpha_p = directional_factors(pe[lead_p], px[lead_p], kr)
-            alpha_m = directional_factors(pe[c[row]], px[c[row]], kr)
+            alpha_m = directional_factors(pe[mem], px[mem], kr)
         lobe_p = (kk, 60.0 / (teeth * nu[pk]), span)
         a_l = _lobe_depth(leaders.take(g_p), alpha_p, om, mu_p, lobe_p, teeth, kt)[sel]
-        mem = c[row]
         lobe = (kk[sel], lobe_p[1][sel], span[sel])
         m_mem = model.take(mem) if block_models is None else block_models(r0, r1).take(mem - r0)
         a_m = _lobe_depth(m_mem, alpha_m, om[sel], mu_p[sel], lobe, teeth, kt)
@@ -1576,8 +1580,6 @@ def _size_estimates(
         np.minimum.at(own_est, row, est)
         shared_out[c] = np.where(np.isfinite(own_est), env, np.inf)
         est_out[c] = own_est
-
-    from robolobe._threads import each_on_threads
 
     each_on_threads(block, range(0, n, rows_per_block), _CHECK_THREADS)  # disjoint rows
     return shared_out, est_out
