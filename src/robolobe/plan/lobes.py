@@ -704,7 +704,16 @@ def waypoint_lobes(
         parts = _extend_diagrams(models, reuse, leader, zoa_args)
     elif n_groups:
         parts = [
-            [_leader_lobes(m.take(leader), zoa_args, max_lobe=None, idx=leader) for m in models]
+            [
+                _leader_lobes(
+                    m.take(leader),
+                    zoa_args,
+                    max_lobe=None,
+                    idx=leader,
+                    single_from=COMPACT_MIN_SAMPLES,
+                )
+                for m in models
+            ]
         ]
         for diagrams in parts:
             for j in range(len(diagrams)):
@@ -983,47 +992,53 @@ def _leader_lobes(
     max_lobe: int | None,
     jit: bool | None = None,
     idx: IntArray | None = None,
+    single_from: int | None = None,
 ) -> LobeDiagram:
     """Converged ZOA lobes of a batch of leaders (:func:`robolobe.sld.converged.converged_lobes`).
 
     Each leader's frequency samples are its own (they depend on its dynamics,
     the cut and the speed range only, not on the other leaders). ``idx``: the
-    leaders' waypoints, where the cut's factors are per waypoint.
+    leaders' waypoints, where the cut's factors are per waypoint;
+    ``single_from``: as in ``converged_lobes``.
     """
     args = dict(zoa_args)
     alpha = args.pop("alpha")
     if np.ndim(alpha) == 3:
         assert idx is not None
         alpha = alpha[idx]
-    return converged_lobes(reps, alpha, max_lobe=max_lobe, jit=jit, **args)
+    return converged_lobes(reps, alpha, max_lobe=max_lobe, jit=jit, single_from=single_from, **args)
 
 
 #: Polyline samples (groups x frequencies) from which a plan keeps its lobes' polylines
-#: (frequencies, depths, phases) in single precision, without the trailing samples no
-#: group uses (:func:`_compact_polylines`): 19,501 groups of a 1e6-waypoint path took
-#: 565 MB in double precision, 664 samples wide.
+#: (frequencies, depths, phases) in single precision, stored so as they are made
+#: (``converged_lobes``' ``single_from``), and without the trailing samples no group
+#: uses (:func:`_compact_polylines`): 19,501 groups of a 1e6-waypoint path took 565 MB
+#: in double precision, 664 samples wide.
 COMPACT_MIN_SAMPLES = 4_000_000
 
 
 def _compact_polylines(diagrams: list[LobeDiagram], j: int) -> None:
     """``diagrams[j]``'s polylines in single precision from :data:`COMPACT_MIN_SAMPLES` on.
 
-    The grid limits ``a_lim`` (made before, in double precision) are kept; the
-    exact queries then read single-precision samples: frequencies, depths and
+    Polylines made in single precision (``converged_lobes``' ``single_from``:
+    the grid limits ``a_lim`` are formed from the stored samples) only lose
+    their trailing samples; others are converted, the grid limits kept. The
+    exact queries read single-precision samples: frequencies, depths and
     phases to a relative 6e-8, so a limit moves by ~1e-7 of itself (against the
     lobes' stated 0.5 %). The trailing samples that no group uses (infinite depth
     on both branches in every row: no lobe piece) are dropped. One array at a
-    time, each double-precision array freed before the next is converted (the
-    diagram is replaced in ``diagrams``), so the conversion adds one array's
-    single-precision copy to the peak.
+    time, each array freed before the next is made (the diagram is replaced in
+    ``diagrams``), so this adds one array's single-precision copy to the peak.
     """
     d = diagrams[j]
     if d.omega is None or d.depth is None or d.eps is None or np.ndim(d.omega) != 2:
         return
-    if d.omega.size < COMPACT_MIN_SAMPLES or d.depth.dtype == np.float32:
+    if d.omega.size < COMPACT_MIN_SAMPLES:
         return
     used = np.flatnonzero(np.isfinite(d.depth).any(axis=(0, 1)))
     k = max(int(used[-1]) + 1 if used.size else 2, 2)
+    if d.depth.dtype == np.float32 and k == d.omega.shape[-1]:
+        return
     for name in ("omega", "depth", "eps"):
         # single precision where LobeDiagram states double: its readers take either
         arr: Any = np.ascontiguousarray(getattr(diagrams[j], name)[..., :k], dtype=np.float32)

@@ -160,9 +160,13 @@ def schedule_passes(
     p_lo = max(1, math.ceil(deepest_m / cons.depth_cap_m - 1e-9))
     d_hi = deepest_m / p_lo
     free = dataclasses.replace(cons, depth_min_m=min(cons.depth_min_m, d_hi), depth_max_m=d_hi)
-    first = run(free, p_lo, False)
+    first: PlanOutcome | None = run(free, p_lo, False)
+    assert first is not None
     p0 = max(p_lo, math.ceil(deepest_m / first.best.depth_m - 1e-9))
-    best: tuple[float, int, PlanOutcome, Constraints] | None = None
+    if refine:
+        # refined again below: not kept (a million waypoints: ~100 MB an outcome)
+        first = None
+    best: tuple[float, int, PlanOutcome | None, Constraints] | None = None
     for p in range(max(p_lo, p0 - PASS_SPAN), p0 + PASS_SPAN + 1):
         d = deepest_m / p
         fixed = dataclasses.replace(cons, depth_min_m=d, depth_max_m=d)
@@ -171,14 +175,16 @@ def schedule_passes(
         except InfeasibleError:
             continue
         t = p * out.best.cut_time_s
+        # with ``refine`` only the pass count is kept: its schedule is made again, refined
         if best is None or t < best[0] * (1 - 1e-9):
-            best = (t, p, out, fixed)
+            best = (t, p, None if refine else out, fixed)
+        del out  # not alive under the next count's run
     if best is None:  # the optimum's own speeds at its depth rounded down to passes
         d = deepest_m / p0
-        out = run(free, p_lo, True) if refine else first  # (not the same search twice)
-        return out, p0, dataclasses.replace(cons, depth_min_m=d, depth_max_m=d)
-    _, p, out, fixed = best
-    return (run(fixed, p, True) if refine else out), p, fixed
+        last = run(free, p_lo, True) if first is None else first  # (not the same search twice)
+        return last, p0, dataclasses.replace(cons, depth_min_m=d, depth_max_m=d)
+    _, p, kept, fixed = best
+    return (run(fixed, p, True) if kept is None else kept), p, fixed
 
 
 def section_passes(

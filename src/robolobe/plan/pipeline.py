@@ -1377,6 +1377,7 @@ def plan_path(
         t_split += time.perf_counter() - t0_split
     timings["lobes"] += t_split
     if n_split:
+        del outcome  # the first schedule (~100 bytes a waypoint): not under the second
         outcome = schedule(grouped.table)
     del split  # its models' inputs (feed directions, angles: ~40 bytes a waypoint)
     outcome = dataclasses.replace(outcome, timings=opt_s)

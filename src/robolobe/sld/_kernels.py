@@ -477,24 +477,35 @@ def envelope(
     rpm: FloatArray,
     max_lobe: int,
 ) -> tuple[FloatArray, FloatArray]:
-    """Envelope and ``complete`` of a flat batch from depth and phase (as :func:`zoa_fused`)."""
+    """Envelope and ``complete`` of a flat batch from depth and phase (as :func:`zoa_fused`).
+
+    Samples in single precision are read in blocks of :data:`_ENV_ROWS` entries,
+    each made double for the kernel (no double copy of the whole batch).
+    """
     nb = depth.shape[0]
     s, order, uniform = _sorted_speeds(rpm)
     env = np.empty((nb, s.size))
     complete = np.empty(nb)
+    step = nb if omega.dtype == depth.dtype == eps.dtype == np.float64 else _ENV_ROWS
     with _LOCK:
-        _env_batch(
-            np.ascontiguousarray(omega, dtype=np.float64),
-            np.ascontiguousarray(depth, dtype=np.float64),
-            np.ascontiguousarray(eps, dtype=np.float64),
-            int(teeth),
-            s,
-            uniform,
-            int(max_lobe) + 1,
-            env,
-            complete,
-        )
+        for b0 in range(0, nb, max(step, 1)):
+            b1 = min(nb, b0 + step)
+            _env_batch(
+                np.ascontiguousarray(omega[b0:b1], dtype=np.float64),
+                np.ascontiguousarray(depth[b0:b1], dtype=np.float64),
+                np.ascontiguousarray(eps[b0:b1], dtype=np.float64),
+                int(teeth),
+                s,
+                uniform,
+                int(max_lobe) + 1,
+                env[b0:b1],
+                complete[b0:b1],
+            )
     return _unsort(env, order), complete
+
+
+#: Entries per block when :func:`envelope` reads single-precision samples.
+_ENV_ROWS = 4096
 
 
 @njit(parallel=True)

@@ -450,7 +450,8 @@ def _widened(
     padded; only the first ``rows`` rows copied and padded (the others not written yet)."""
     nb, k = w2.shape
     m = nb if rows is None else rows
-    out = (np.empty((nb, n)), np.empty((nb, 2, n)), np.empty((nb, 2, n)))
+    dt = w2.dtype  # single precision stays so (converged_lobes' ``single_from``)
+    out = (np.empty((nb, n), dt), np.empty((nb, 2, n), dt), np.empty((nb, 2, n), dt))
     out[0][:m, :k] = w2[:m]
     out[1][:m, :, :k] = dep[:m]
     out[2][:m, :, :k] = eps[:m]
@@ -469,6 +470,7 @@ def converged_lobes(
     immersion: float = 1.0,
     max_lobe_cap: int = 400,
     jit: bool | None = None,
+    single_from: int | None = None,
 ) -> LobeDiagram:
     """Zero-order lobes of modal dynamics whose envelope is converged to :data:`LOBE_TOL`.
 
@@ -493,6 +495,14 @@ def converged_lobes(
         Upper bound of the automatic lobe number.
     jit : bool or None
         As in :func:`robolobe.sld.zoa.zoa_lobes` (same envelopes either way).
+    single_from : int or None
+        Store the polylines (``omega``, ``depth``, ``eps``) in single
+        precision when the result holds at least this many samples per array
+        (entries x samples; compiled path only): each sample is computed in
+        double precision and rounded when stored (relative 6e-8), and the
+        envelope ``a_lim`` is formed from the stored samples, so the grid and
+        any later query of the polylines agree. Halves the result's memory
+        (a 1e6-waypoint plan: ~260 MB less at the lobe stage's peak).
 
     Returns
     -------
@@ -585,22 +595,34 @@ def converged_lobes(
         # initial samples, corrected after the first chunk); the few entries that need
         # more are refined again wider. The kernel pads each row up to its room.
         width = _room(count)
-        w2 = np.empty((nb, width))
-        dep = np.empty((nb, 2, width))
-        eps = np.empty((nb, 2, width))
+        single = single_from is not None and nb * width >= single_from
+        dt = np.float32 if single else np.float64
+        w2 = np.empty((nb, width), dt)
+        dep = np.empty((nb, 2, width), dt)
+        eps = np.empty((nb, 2, width), dt)
         wide: list[tuple[IntArray, FloatArray, FloatArray, FloatArray]] = []
         for c0 in range(0, nb, _REFINE_CHUNK):
             c1 = min(nb, c0 + _REFINE_CHUNK)
             todo = np.arange(c0, c1)
             room = width
             while todo.size:
-                into = (w2[c0:c1], dep[c0:c1], eps[c0:c1]) if room == width else None
+                into = None
+                if room == width:
+                    # single precision: the kernel writes a chunk in double, stored rounded
+                    into = (
+                        (w2[c0:c1], dep[c0:c1], eps[c0:c1])
+                        if not single
+                        else (np.empty((c1 - c0, width)), np.empty((c1 - c0, 2, width)),
+                              np.empty((c1 - c0, 2, width)))
+                    )  # fmt: skip
                 o_w, o_d, o_e, n_out, status, bound[todo] = kern.refine(
                     om[todo], ze[todo], res[todo], al[todo], w0, start[todo], count[todo],
                     bound[todo], chord_tol=CHORD_TOL, speed_tol=SPEED_TOL,
                     max_depth=MAX_PASSES, cap=room, rpm=r, relevant=RELEVANT,
                     depth_span=DEPTH_SPAN, out=into, **kw,
                 )  # fmt: skip
+                if single and room == width:
+                    w2[c0:c1], dep[c0:c1], eps[c0:c1] = o_w, o_d, o_e
                 if np.any(status == 2):
                     bad = int(todo[np.flatnonzero(status == 2)[0]])
                     _unconverged(om, ze, bad, f"{MAX_PASSES} halvings")

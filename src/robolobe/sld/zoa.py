@@ -378,9 +378,10 @@ def _finish(
     nf = depth.shape[-1]
     if max_lobe is None and np.any(complete > r.min()):
         # lobes beyond k could still cut the envelope at the low speeds: add them
-        rel = np.isfinite(depth)
-        wmax = np.where(rel, np.asarray(w)[..., None, :], 0.0)
-        need = np.ceil(wmax.max() * 60.0 / (teeth * r.min() * _TWO_PI))
+        # the highest frequency on a branch (no (..., 2, n_freq) temporary of frequencies)
+        rel = np.isfinite(depth).any(axis=-2)
+        wmax = float(np.max(np.asarray(w), where=rel, initial=0.0))
+        need = np.ceil(wmax * 60.0 / (teeth * r.min() * _TWO_PI))
         k = int(min(max(need, k), max_lobe_cap))
         if kern is not None:
             env2, comp2 = kern.envelope(
@@ -436,9 +437,11 @@ def lobes_from_depth(
     teeth, rpm, max_lobe, immersion, max_lobe_cap, jit
         As in :func:`zoa_lobes`.
     """
-    w = np.ascontiguousarray(omega, dtype=np.float64)
-    d = np.ascontiguousarray(depth, dtype=np.float64)
-    e = np.ascontiguousarray(eps, dtype=np.float64)
+    # single-precision samples stay so (converged_lobes' single_from): read as they are
+    w, d, e = (
+        np.ascontiguousarray(x, dtype=np.float32 if x.dtype == np.float32 else np.float64)
+        for x in map(np.asarray, (omega, depth, eps))
+    )
     r = np.asarray(rpm, dtype=np.float64)
     nb, nf = w.shape
     if d.shape != (nb, 2, nf) or e.shape != d.shape:
