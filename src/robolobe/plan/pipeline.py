@@ -1422,6 +1422,13 @@ def plan_path(
                 f"cut at a_e/D < {LOW_IMMERSION:g} (first {labels[k]}: {imm[k]:.3f}), where "
                 "the zero-order lobes are least reliable"
             )
+    engagement_from = (
+        "cut.radial_width_mm"
+        if depth is None
+        else ("stock" if job.stock is not None else "default stock")
+    )
+    # per-move arrays, all in the table now: not under the last steps' peaks
+    eng = depth = None
     own_col = np.zeros(len(wp), bool)
     own_col[ci] = steep
     with _columns_added():
@@ -1453,9 +1460,7 @@ def plan_path(
         n_split=n_split,
         sections=passes_rows,
         limits=limits,
-        engagement="cut.radial_width_mm"
-        if depth is None
-        else ("stock" if job.stock is not None else "default stock"),
+        engagement=engagement_from,
     )
     timings["table"] = time.perf_counter() - t
     summary = summary.with_timings(timings)
@@ -1844,7 +1849,8 @@ def plan_record(
 
     p_hash = None
     if path is not None and Path(path).is_file():
-        p_hash = hashlib.sha256(Path(path).read_bytes()).hexdigest()
+        with open(path, "rb") as fh:  # in blocks (a long program: not its bytes whole)
+            p_hash = hashlib.file_digest(fh, "sha256").hexdigest()
     return {
         "format": "robolobe-plan-record/1",
         "job": job_fingerprint(job),

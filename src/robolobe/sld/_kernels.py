@@ -28,6 +28,7 @@ from numpy.typing import NDArray
 
 from robolobe._jit import njit
 from robolobe.errors import InputError
+from robolobe.sld.zoa import polyline_samples
 
 FloatArray = NDArray[np.float64]
 ComplexArray = NDArray[np.complex128]
@@ -548,16 +549,6 @@ def _rows_batch(
             out[order[r0 + a], i] = env[t]
 
 
-def _samples(x: Any) -> Any:
-    """Lobe polyline samples for the kernels: single precision kept as it is (a plan's
-    long path stores them so: ``robolobe.plan.lobes.COMPACT_MIN_SAMPLES``), any other
-    as double; C-contiguous, copied only where not so already."""
-    a = np.asarray(x)
-    if a.dtype == np.float32:
-        return np.ascontiguousarray(a)
-    return np.ascontiguousarray(a, dtype=np.float64)
-
-
 def envelope_rows(
     omega: FloatArray,
     depth: FloatArray,
@@ -604,9 +595,9 @@ def envelope_rows(
     run = np.flatnonzero(np.r_[True, gs[1:] != gs[:-1], True]).astype(np.int64)
     with _LOCK:
         _rows_batch(
-            _samples(omega),
-            _samples(depth),
-            _samples(eps),
+            polyline_samples(omega),
+            polyline_samples(depth),
+            polyline_samples(eps),
             g,
             order,
             run,
@@ -1184,12 +1175,12 @@ def near_pieces(
     ``top`` (r,) the bound of each row's entry (the highest over its rows).
     Returns (p, 6): row, omega, depth, eps, lobe k, span of each piece.
     """
-    w = _samples(omega)
+    w = polyline_samples(omega)
     gg = np.ascontiguousarray(g, dtype=np.int64)
     s = np.ascontiguousarray(rpm, dtype=np.float64)
     tp = np.ascontiguousarray(top, dtype=np.float64)
-    a = _samples(depth)
-    e = _samples(eps)
+    a = polyline_samples(depth)
+    e = polyline_samples(eps)
     low = np.full(gg.size, np.inf)
     count = np.full(gg.size, -1, np.int64)
     dummy = np.zeros((0, 6))

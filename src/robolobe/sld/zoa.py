@@ -25,7 +25,7 @@ import math
 from collections.abc import Callable
 from dataclasses import dataclass
 from types import ModuleType
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -414,6 +414,17 @@ def _finish(
     )
 
 
+def polyline_samples(x: ArrayLike) -> FloatArray:
+    """Lobe polyline samples as the kernels read them: C-contiguous, single precision
+    kept as it is (a long plan's lobes are stored so:
+    :func:`robolobe.sld.converged.converged_lobes`' ``single_from``), any other as
+    double; copied only where not so already."""
+    a = np.asarray(x)
+    if a.dtype == np.float32:
+        return cast("FloatArray", np.ascontiguousarray(a))
+    return np.ascontiguousarray(a, dtype=np.float64)
+
+
 def lobes_from_depth(
     omega: ArrayLike,
     depth: ArrayLike,
@@ -437,11 +448,7 @@ def lobes_from_depth(
     teeth, rpm, max_lobe, immersion, max_lobe_cap, jit
         As in :func:`zoa_lobes`.
     """
-    # single-precision samples stay so (converged_lobes' single_from): read as they are
-    w, d, e = (
-        np.ascontiguousarray(x, dtype=np.float32 if x.dtype == np.float32 else np.float64)
-        for x in map(np.asarray, (omega, depth, eps))
-    )
+    w, d, e = (polyline_samples(x) for x in (omega, depth, eps))
     r = np.asarray(rpm, dtype=np.float64)
     nb, nf = w.shape
     if d.shape != (nb, 2, nf) or e.shape != d.shape:
