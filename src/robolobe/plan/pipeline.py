@@ -46,7 +46,7 @@ import numpy as np
 import pandas as pd
 from numpy.typing import NDArray
 
-from robolobe._memory import release_free_memory
+from robolobe._memory import RELEASE_MIN_ROWS, large_blocks_mapped, release_free_memory
 from robolobe._threads import each_on_threads
 from robolobe.errors import InfeasibleError, InputError, ReachabilityError, SingularityError
 from robolobe.plan._summary import PlanSummary
@@ -1240,6 +1240,36 @@ def plan_path(
     InputError, ReachabilityError, SingularityError, InfeasibleError
         With the waypoint and its ``file:line``.
     """
+    # a long path's large arrays mapped, not from the heap, but in the lobe stages
+    # (robolobe._memory: the heap's fragments, not what is alive, set a long plan's peak)
+    with large_blocks_mapped(_long_path(path)):
+        return _plan_path(path, job, robot=robot, source=source, modes=modes, refine=refine)
+
+
+def _long_path(path: str | os.PathLike[str] | pd.DataFrame) -> bool:
+    """Whether ``path`` has (a program of the size of) :data:`RELEASE_MIN_ROWS` waypoints."""
+    if isinstance(path, pd.DataFrame):
+        return len(path) >= RELEASE_MIN_ROWS
+    try:
+        return os.path.getsize(path) >= RELEASE_MIN_ROWS * _PROGRAM_LINE_BYTES
+    except (OSError, TypeError, ValueError):
+        return False  # refused when read, with its message
+
+
+#: Bytes of a typical program line (a G1 move with coordinates), for :func:`_long_path`.
+_PROGRAM_LINE_BYTES = 24
+
+
+def _plan_path(
+    path: str | os.PathLike[str] | pd.DataFrame,
+    job: Job | str | os.PathLike[str],
+    *,
+    robot: Robot | str | os.PathLike[str] | None,
+    source: ModeSource | None,
+    modes: object | None,
+    refine: bool,
+) -> PlanResult:
+    """:func:`plan_path`'s work (its parameters)."""
     job = load_job(job)  # a path is read; anything but a Job or a path is refused
     timings: dict[str, float] = {}
     t = time.perf_counter()
@@ -1268,7 +1298,8 @@ def plan_path(
             Path(path_name).name,
         )
     t = time.perf_counter()
-    eng, eng_note = plan_engagement(job, wp, path_name)  # [stock]: refused before any lobes
+    with large_blocks_mapped(False):  # the Z-map's many blocks: the heap's (robolobe._memory)
+        eng, eng_note = plan_engagement(job, wp, path_name)  # [stock]: refused before any lobes
     timings["engagement"] = time.perf_counter() - t
     note = (note + "; " if note else "") + eng_note
     if eng is not None:
@@ -1280,13 +1311,14 @@ def plan_path(
     rotation = job.tool_rotation_rad
     cons = constraints_from_job(job, material.kt, limits)
     rot_note = ""
-    if job.tool_rotation == "stiffest":
-        rotation, rot_note = _stiffest_rotation(
-            job, wp, robot, source, cut, material, tool, rpm, cons, eng
+    with large_blocks_mapped(False):  # many large blocks made and freed: the heap's
+        if job.tool_rotation == "stiffest":
+            rotation, rot_note = _stiffest_rotation(
+                job, wp, robot, source, cut, material, tool, rpm, cons, eng
+            )
+        q, wm, modes, plunge, grouped, t_stage, feed_angle, bound, split, members = (
+            _lobes_for_rotation(job, wp, robot, source, rotation, cut, material, tool, rpm, eng)
         )
-    q, wm, modes, plunge, grouped, t_stage, feed_angle, bound, split, members = _lobes_for_rotation(
-        job, wp, robot, source, rotation, cut, material, tool, rpm, eng
-    )
     timings.update(t_stage)
     release_free_memory(len(wp))  # the lobe stage's temporaries: not under the next peaks
     t = time.perf_counter()
@@ -1366,14 +1398,16 @@ def plan_path(
     # their own, and the schedule is made again
     steep = steep_members(grouped, outcome.best.rpm)
     t_size = time.perf_counter()
-    steep |= members(grouped, outcome.best.rpm)
+    with large_blocks_mapped(False):
+        steep |= members(grouped, outcome.best.rpm)
     t_split += time.perf_counter() - t_size
     del members  # its models (~1 kB a cutting waypoint): not under the schedule made again
     release_free_memory(len(wp))  # the check's blocks (two threads' heaps): not under it either
     n_split = int(steep.sum())
     if n_split:
         t0_split = time.perf_counter()
-        grouped = split(steep, grouped)
+        with large_blocks_mapped(False):
+            grouped = split(steep, grouped)
         t_split += time.perf_counter() - t0_split
     timings["lobes"] += t_split
     if n_split:
