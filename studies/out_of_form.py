@@ -77,7 +77,12 @@ everywhere stays as rows ``source = "largest shifts"``), developed on draws
 0-21 (rows ``source = "pair shifts"``, on the kept transfers: ``--cache DIR
 --sources robust``); draws 26-29
 were drawn new and run once on that code (``--robots C --first-draw 26 --draws
-4 --jobs all``, the same for B; ``meta.pairs``).
+4 --jobs all``, the same for B; ``meta.pairs``). Where the robust plans below
+0.85 lose MRR was then looked at on draws 0-21 (``studies/out_of_form_mrr.py
+--passes``: pass counts set by the limit planned on, no speed or pass split
+lost); no planner change followed, and draws 30-33 were drawn new and run once
+on that code (``--robots C --first-draw 30 --draws 4 --jobs all``, the same for
+B; ``meta.mrr3``).
 """
 
 from __future__ import annotations

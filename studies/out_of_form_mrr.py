@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
+import math
 import sys
 import tempfile
 import warnings
@@ -44,6 +45,7 @@ from plan_safety import EX, JOBS, default_transfer, robot_file
 import robolobe.plan.pipeline as pipeline
 import robolobe.plan.verify as verify
 from robolobe.plan import load_job, plan_path, write_outputs
+from robolobe.plan.lobes import LOBE_TOL
 from robolobe.plan.modes import (
     INVISIBLE_K,
     MAX_LOG_STD,
@@ -290,7 +292,18 @@ def main() -> None:
         default="",
         help="FIRST,LAST: shift_coverage of draws FIRST..LAST-1 of B and C (from --cache)",
     )
+    ap.add_argument(
+        "--passes",
+        action="store_true",
+        help="pass_scan: passes, speeds and a constant-speed scan of the three plans",
+    )
     a = ap.parse_args()
+    if a.passes:
+        assert a.cache is not None, "--passes reads the draw's transfer in --cache"
+        with tempfile.TemporaryDirectory() as tmp:
+            for line in pass_scan(a.robot, a.draw, a.job, a.cache, Path(tmp)):
+                print(line, flush=True)
+        return
     if a.coverage:
         assert a.cache is not None, "--coverage reads the transfers in --cache"
         first, last = (int(v) for v in a.coverage.split(","))
@@ -299,6 +312,76 @@ def main() -> None:
     with tempfile.TemporaryDirectory() as tmp:
         for line in analyse(a.robot, a.draw, a.job, a.cache, Path(tmp)):
             print(line, flush=True)
+
+
+def pass_scan(key: str, draw: int, job_name: str, cache: Path, tmp: Path) -> list[str]:
+    """Where the MRR goes: passes, pass depth and speed of the oracle, plain and robust plans.
+
+    Each plan (on the truth, on the draw's transfer plain, and robust, as
+    ``out_of_form.py`` makes them) is listed with its pass counts, depth per
+    pass, speeds and the limits that bind; then each plan's own lobes are
+    scanned at 1201 constant speeds over the spindle range: the largest depth
+    per pass of the deepest move stable at every cutting move there (``a_lim /
+    (SF (1 + LOBE_TOL)) / share``, the headroom the planner's own pass check
+    takes) and the passes it needs. A plan whose passes equal the fewest any
+    constant speed allows on its own lobes lost nothing to its speed search or
+    pass split: its MRR is set by the limit it plans on.
+    """
+    spec, base = robot_file(key, tmp)
+    truth = draw_truth(base, key, draw)
+    path = next(p for p, j, _ in JOBS if j == job_name)
+    job = load_job(EX / job_name).replace(robot=spec, model="twin")
+    sf = job.plan.safety_factor
+    on_model = job.replace(model=str(cache / f"{key}{draw}" / "R_pred.npz"))
+    runs = (
+        ("oracle", job, False, TruthSource(truth)),
+        ("plain", on_model, False, None),
+        ("robust", on_model, None, None),
+    )
+    out = [f"{key}{draw} {job_name}: {truth.describe()}"]
+    for tag, jj, robust, src in runs:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            res = plan_path(
+                EX / path,
+                jj.replace(plan=dataclasses.replace(jj.plan, robust=robust)),
+                robot=base,
+                source=src,
+            )
+        t = res.table[(res.table["motion"] == "cut").to_numpy()]
+        secs = list(res.summary.passes or [])
+        n_pass = sorted({int(r["passes"]) for r in secs}) or [1]
+        rpm = res.outcome.best.rpm
+        out.append(
+            f"  {tag:6s} MRR {res.summary.mrr_cm3_per_min:8.3f} cm3/min, passes {n_pass}, "
+            f"depth per pass {res.outcome.best.depth_m * 1e3:.4g} mm, rpm {rpm.min():.0f}-"
+            f"{rpm.max():.0f}, binding {t['limiting'].value_counts().to_dict()}"
+        )
+        table = res.lobes.table
+        prog = t["program_depth_mm"].to_numpy() if "program_depth_mm" in t else None
+        speeds = np.linspace(table.rpm[0], table.rpm[-1], 1201)
+        best = (0.0, 0.0, 0, 0.0)  # (rate ~ rpm / passes, rpm, passes, depth)
+        fewest = (np.inf, 0.0)
+        for n in speeds:
+            a = table.query(np.full(table.group.size, n)) / (sf * (1 + LOBE_TOL)) * 1e3
+            if prog is None:  # one depth, no passes
+                d = float(np.min(a[np.isfinite(a)]))
+                p = 1
+            else:
+                share = np.where(np.isfinite(prog) & (prog > 0), prog / np.nanmax(prog), 0.0)
+                b = (share > 0) & np.isfinite(a)
+                d = float(np.min(a[b] / share[b]))
+                p = math.ceil(np.nanmax(prog) / d - 1e-9)
+            rate = n * (d if prog is None else 1.0 / p)
+            if rate > best[0]:
+                best = (rate, float(n), p, d)
+            if p < fewest[0]:
+                fewest = (p, float(n))
+        out.append(
+            f"  {tag:6s} scan: best constant speed {best[1]:.0f} rpm, {best[2]} passes of at "
+            f"most {best[3]:.4g} mm; fewest passes at any speed {fewest[0]} ({fewest[1]:.0f} rpm)"
+        )
+    return out
 
 
 #: Frequency spreads a shifted (coupled) mode can be given, per posture and mode, from
