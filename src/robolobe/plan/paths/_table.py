@@ -74,9 +74,9 @@ _WIDTH = 10  # numbers per waypoint in WaypointBuilder._rows
 #: blocks of this size, never as one buffer grown by reallocation: each move of a grown
 #: buffer left a freed copy in the heap (a million-line program read after a plan, as the
 #: written program's check does: ~100 bytes a waypoint above the buffer itself).
-_BLOCK_ROWS = 65_536
+_BLOCK_ROWS = 8_192
 #: Blocks copied into the table between two releases of their freed memory (:meth:`table`).
-_BLOCKS_PER_RELEASE = 4
+_BLOCKS_PER_RELEASE = 8
 _MAX_POS_M = 1e4  # 10 km: anything beyond is a corrupt or mis-scaled file
 
 
@@ -389,10 +389,21 @@ def feed_directions(pos: FloatArray, axis: FloatArray | None = None) -> FloatArr
     out = np.full((n, 3), np.nan)
     if n < 2:
         return out
-    d = np.diff(pos, axis=0)
-    ln = np.linalg.norm(d, axis=1)
+    # the moves' differences, lengths and unit directions made in ``out`` itself (no (n, 3)
+    # temporaries: a long program's reader peak); the lengths as np.linalg.norm's, to the bit
+    # (the squares summed x, y, z in that order)
+    d = out[1:]
+    np.subtract(pos[1:], pos[:-1], out=d)
+    ln = d[:, 0] * d[:, 0]
+    sq = np.empty_like(ln)
+    for c in (1, 2):
+        np.multiply(d[:, c], d[:, c], out=sq)
+        ln += sq
+    del sq
+    np.sqrt(ln, out=ln)
     ok = ln > 1e-12
-    np.divide(d, ln[:, None], out=out[1:], where=ok[:, None])  # in place: no (n, 3) copies
+    np.divide(d, ln[:, None], out=d, where=ok[:, None])
+    d[~ok] = np.nan
     del d, ln
     has = np.r_[False, ok]
     del ok

@@ -76,6 +76,7 @@ from typing import NamedTuple
 import numpy as np
 import pandas as pd
 
+from robolobe._memory import release_free_memory
 from robolobe.errors import InputError
 from robolobe.plan.paths._arcs import arc_point_list
 from robolobe.plan.paths._compensation import Element, compensate
@@ -1129,6 +1130,9 @@ def write_gcode(text: str, source: str, edit: ProgramEdit, *, block_delete: bool
     # per line lists (a list index per line, not a mapping lookup: a long program's time)
     has, rpm_code, rpm_values, feed_code, feed_values = vals.lists()
     secs = sections(edit)
+    # their sorting temporaries given back: the program's lines below are Python objects,
+    # which never reuse the freed heap (a long program's peak)
+    release_free_memory(len(edit.waypoints))
     src = lines(text)
     wp_lines = edit.waypoints["line"].to_numpy()
     n = len(src)
