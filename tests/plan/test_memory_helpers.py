@@ -142,3 +142,33 @@ def test_streamed_lobes_hand_the_features_over(monkeypatch: pytest.MonkeyPatch) 
     with pytest.raises(_Handed):
         plan_path(path, job)
     assert kept == [False]
+
+
+@pytest.mark.parametrize(("block", "per_release"), [(1, 1), (7, 2), (64, 4)])
+def test_reader_blocks_make_the_table_of_the_program(
+    block: int, per_release: int, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A program read in blocks of a few waypoints: every row as the program states it."""
+    from robolobe.plan.paths import _table
+    from robolobe.plan.paths.gcode import parse_gcode
+
+    rng = np.random.default_rng(block)
+    n = 300
+    xyz = np.round(rng.uniform(-200.0, 200.0, (n, 3)), 3)
+    rapid = rng.random(n) < 0.2
+    text = ["%", "G90 G21 G17", "S12000 M3"]
+    for (x, y, z), r in zip(xyz, rapid, strict=True):
+        text.append(f"{'G0' if r else 'G1'} X{x:.3f} Y{y:.3f} Z{z:.3f}" + ("" if r else " F900."))
+    text += ["M30", "%"]
+    program = "\n".join(text) + "\n"
+    whole = parse_gcode(program, "p.nc")  # one block: the table as before blocks
+    monkeypatch.setattr(_table, "_BLOCK_ROWS", block)
+    monkeypatch.setattr(_table, "_BLOCKS_PER_RELEASE", per_release)
+    got = parse_gcode(program, "p.nc")
+    assert len(got) == n
+    np.testing.assert_array_equal(got[["x_m", "y_m", "z_m"]].to_numpy(), xyz * 1e-3)
+    assert got["line"].tolist() == list(range(4, 4 + n))
+    assert (got["motion"] == "rapid").tolist() == rapid.tolist()
+    f = got["feed_mm_per_min"].to_numpy()
+    assert np.all(f[~rapid] == 900.0)
+    pd.testing.assert_frame_equal(got, whole)

@@ -261,3 +261,51 @@ def test_margin_runs_colour_every_move_as_the_norm_does():
         per_move[i0 : i0 + len(line) - 1] = c
         np.testing.assert_array_equal(line[:, 1], 2 * line[:, 0])
     np.testing.assert_array_equal(per_move, cls)
+
+
+def _awkward_table(n: int, rng: np.random.Generator) -> pd.DataFrame:
+    """Floats with NaN, +-inf, -0.0, tiny and huge values; labels, missing ones; ints; flags."""
+    x = rng.standard_normal(n) * 10.0 ** rng.integers(-12, 14, n)
+    x[rng.random(n) < 0.2] = np.nan
+    x[rng.random(n) < 0.05] = np.inf
+    x[rng.random(n) < 0.05] = -np.inf
+    x[rng.random(n) < 0.05] = -0.0
+    labels = np.array(["cut", "rapid", "", 'say "a", b', "x\ny", "ü"], dtype=object)
+    lab = labels[rng.integers(0, len(labels), n)]
+    late = lab.copy()
+    late[: n // 2] = None  # missing in the first blocks only: the type comes from the rest
+    return pd.DataFrame(
+        {
+            "source": pd.Series(["a.nc", "b c.nc", None][i % 3] for i in range(n)).astype("str"),
+            "line": np.arange(n, dtype=np.int64) * 7 - 3,
+            "x_mm": x,
+            "all_nan": np.full(n, np.nan),
+            "limiting": lab,
+            "late_label": late,
+            "flag": rng.random(n) < 0.5,
+            "f32": x.astype(np.float32),
+        }
+    )
+
+
+@pytest.mark.parametrize("block", [1, 3, 64, 65_536])
+@pytest.mark.parametrize("n", [0, 1, 63, 64, 65, 1000])
+def test_csv_in_blocks_is_the_one_shot_file(tmp_path, n, block):
+    import pyarrow as pa
+    import pyarrow.csv as pacsv
+
+    df = _awkward_table(n, np.random.default_rng(n + block))
+    one = tmp_path / "one.csv"  # the reference: the whole table converted and written at once
+    pacsv.write_csv(
+        pa.Table.from_pandas(df, preserve_index=False),
+        one,
+        write_options=pacsv.WriteOptions(quoting_style="needed"),
+    )
+    got = tmp_path / "blocks.csv"
+    report.write_csv(df, got, block_rows=block)
+    assert got.read_bytes() == one.read_bytes()
+    if n >= 1000:  # the file holds what the table holds (the comparison is not vacuous)
+        back = pd.read_csv(got, keep_default_na=False, na_values=[""])
+        assert len(back) == n
+        assert np.isinf(back["x_mm"]).any()
+        assert back["x_mm"].isna().any()

@@ -54,7 +54,6 @@ from robolobe.plan.job import Job
 from robolobe.plan.limits import process_limits
 from robolobe.plan.paths import detect_format, read_toolpath, reader_options
 from robolobe.plan.paths._edit import ProgramEdit, expected_table
-from robolobe.plan.paths._table import segment_lengths
 from robolobe.plan.paths._text import TRUNCATED
 from robolobe.plan.pipeline import PlanResult
 
@@ -202,7 +201,7 @@ def _blocks(wp: pd.DataFrame, cut: NDArray[np.bool_]) -> tuple[IntArray, IntArra
         new[1:] = cut[1:] & (~cut[:-1] | (line[1:] != line[:-1]) | (src[1:] != src[:-1]))
     bid = np.cumsum(new) - 1
     bid[~cut] = -1
-    return bid.astype(np.int64), np.flatnonzero(new).astype(np.int64)
+    return bid.astype(np.int64, copy=False), np.flatnonzero(new).astype(np.int64)
 
 
 def _margin_at(res: AnyPlan, rows: IntArray, rpm: FloatArray) -> FloatArray:
@@ -250,48 +249,62 @@ def _whole_rpm(res: AnyPlan, rows: IntArray, w: float, sf: float) -> float:
     return float(cands[int(np.argmax(mins))])
 
 
-def program_edit(
-    res: AnyPlan,
-    *,
-    passes: ArrayLikeInt | None = None,
-    depth_mm: ArrayLikeFloat | None = None,
-) -> ProgramEdit:
-    """The per-move S, F and passes the written program carries (module docstring).
+def _move_lengths_mm(wp: pd.DataFrame, rows: IntArray) -> FloatArray:
+    """Length [mm] of the move ending at each of ``rows`` (0 at row 0), shape (len(rows),).
+
+    ``segment_lengths(pos)[rows] * 1e3`` to the bit (the squares summed x, y,
+    z in that order), from the table's columns: no (n, 3) copy of the positions.
+    """
+    prev = np.maximum(rows - 1, 0)  # row 0: its own position, length 0
+    acc: FloatArray | None = None
+    for c in ("x_m", "y_m", "z_m"):
+        v = wp[c].to_numpy(dtype=np.float64)
+        d = v[rows] - v[prev]
+        d *= d
+        if acc is None:
+            acc = d
+        else:
+            acc += d
+    assert acc is not None
+    np.sqrt(acc, out=acc)
+    acc *= 1e3
+    return acc
+
+
+def _block_speeds(res: AnyPlan, rows: IntArray, bid: IntArray, opts: dict[str, Any]) -> FloatArray:
+    """The S [rpm] of each block (module docstring): held, changed, or the plan's own.
 
     Parameters
     ----------
-    res : PlanResult
-    passes : int or array of int, shape (n,), optional
-        Passes per waypoint; default: the plan table's ``passes`` column, else 1.
-    depth_mm : float or array, shape (n,), optional
-        Total depth [mm] the passes divide; default: ``passes * depth_mm`` of
-        the plan table (its depth per pass).
+    res : PlanResult or FolderPlan
+    rows : ndarray of int, shape (m,)
+        The cutting rows, ascending.
+    bid : ndarray of int, shape (m,)
+        Each one's block (0 .. nb - 1, non-decreasing).
+    opts : dict
+        The ``[program]`` options.
 
     Returns
     -------
-    ProgramEdit
+    ndarray, shape (nb,)
+
+    Apart from :func:`program_edit` so that its per-block arrays are gone before
+    the per-row S, F and margins are made (a long program's peak).
     """
-    opts = _options(res)
-    wp = res.waypoints
     tab = res.table
-    n = len(wp)
-    cut = (wp["motion"] == "cut").to_numpy()
-    bid, first = _blocks(wp, cut)
     rpm_plan = tab["rpm"].to_numpy(dtype=np.float64)
     margin = tab["margin"].to_numpy(dtype=np.float64)
-    pos = wp[["x_m", "y_m", "z_m"]].to_numpy(dtype=np.float64)
-    seg = segment_lengths(pos) * 1e3
-    nb = len(first)
-    rows = np.flatnonzero(cut)
+    nb = int(bid[-1]) + 1 if len(bid) else 0
     # the tightest row of each block sets the block's wanted speed
     m = np.where(np.isfinite(margin[rows]), margin[rows], np.inf)
-    order = np.lexsort((m, bid[rows]))
-    starts = np.searchsorted(bid[rows][order], np.arange(nb))
-    tight = rows[order[starts]]
-    want = rpm_plan[tight]
-    length = np.bincount(bid[rows], weights=seg[rows], minlength=nb)
+    order = np.lexsort((m, bid))
+    del m
+    starts = np.searchsorted(bid[order], np.arange(nb))
+    want = rpm_plan[rows[order[starts]]]
+    del order, starts
+    length = np.bincount(bid, weights=_move_lengths_mm(res.waypoints, rows), minlength=nb)
     # the rows of block b: rows[b_start[b] : b_start[b + 1]] (not a million small arrays)
-    b_start = np.concatenate([[0], np.flatnonzero(np.diff(bid[rows])) + 1, [len(rows)]])
+    b_start = np.concatenate([[0], np.flatnonzero(np.diff(bid)) + 1, [len(rows)]])
     hyst = float(opts["hysteresis_pct"]) / 100.0
     min_seg = float(opts["min_segment_mm"])
     sf = res.job.plan.safety_factor
@@ -332,8 +345,43 @@ def program_edit(
         s_block[b] = held
         since += float(length[b])
         b += 1
+    return s_block
+
+
+def program_edit(
+    res: AnyPlan,
+    *,
+    passes: ArrayLikeInt | None = None,
+    depth_mm: ArrayLikeFloat | None = None,
+) -> ProgramEdit:
+    """The per-move S, F and passes the written program carries (module docstring).
+
+    Parameters
+    ----------
+    res : PlanResult
+    passes : int or array of int, shape (n,), optional
+        Passes per waypoint; default: the plan table's ``passes`` column, else 1.
+    depth_mm : float or array, shape (n,), optional
+        Total depth [mm] the passes divide; default: ``passes * depth_mm`` of
+        the plan table (its depth per pass).
+
+    Returns
+    -------
+    ProgramEdit
+    """
+    opts = _options(res)
+    wp = res.waypoints
+    tab = res.table
+    n = len(wp)
+    cut = (wp["motion"] == "cut").to_numpy()
+    rows = np.flatnonzero(cut)
+    bid = _blocks(wp, cut)[0][rows]  # each cutting row's block
+    rpm_plan = tab["rpm"].to_numpy(dtype=np.float64)
+    margin = tab["margin"].to_numpy(dtype=np.float64)
+    s_block = _block_speeds(res, rows, bid, opts)
     rpm = np.full(n, np.nan)
-    rpm[rows] = s_block[bid[rows]]
+    rpm[rows] = s_block[bid]
+    del s_block, bid
     mg = np.full(n, np.nan)
     same = np.abs(rpm[rows] - rpm_plan[rows]) < 1.0
     mg[rows[same]] = margin[rows[same]]
@@ -346,11 +394,15 @@ def program_edit(
     if res.job.cut.programmed_rpm is not None:
         s_old = np.where(np.isfinite(s_old), s_old, res.job.cut.programmed_rpm)
     with np.errstate(invalid="ignore", divide="ignore"):
-        per_rev_plan = tab["feed_mm_per_min"].to_numpy(dtype=np.float64) / rpm_plan
-        own = np.isfinite(f_old) & np.isfinite(s_old) & (s_old > 0)
-        feed = np.where(own, f_old * rpm / s_old, per_rev_plan * rpm)
+        # where(own, f_old * rpm / s_old, per_rev_plan * rpm), made in place (a long path's peak)
+        feed = tab["feed_mm_per_min"].to_numpy(dtype=np.float64) / rpm_plan
+        feed *= rpm
+        kept = f_old * rpm
+        kept /= s_old
+        np.copyto(feed, kept, where=np.isfinite(f_old) & np.isfinite(s_old) & (s_old > 0))
+        del kept
     # the robot's path speed (the job's key, else the robot file's, else the stated default)
-    feed = np.minimum(feed, process_limits(res.job).max_feed_m_per_s * 6e4)
+    np.minimum(feed, process_limits(res.job).max_feed_m_per_s * 6e4, out=feed)
     feed[~cut] = np.nan
     bad = cut & ~(np.isfinite(feed) & (feed > 0) & np.isfinite(rpm) & (rpm > 0))
     if np.any(bad):
@@ -484,6 +536,7 @@ def program_text(
     _check_translation(read_fmt, fmt, src.name)
     if edit is None:
         edit = program_edit(res)
+        release_free_memory(len(res.table))  # the edit's temporaries: not under the writer's peak
     opts = reader_options(read_fmt, res.job.path_options) if read_fmt != "table" else {}
     files = _write(fmt, read_fmt, src, edit, name, opts)
     release_free_memory(len(res.table))  # the writer's lines: not under the check's peak
@@ -629,39 +682,77 @@ def _check(
             "controller rejects it): complete the program and plan it again",
             source=source,
         )
-    # what the check needs of it, then the table goes (a million rows: the peak of the check)
-    g_line = got["line"].to_numpy(copy=True)  # copies: views would keep the table alive
-    g_motion = _labels(got["motion"])
-    g_rpm = got["rpm_programmed"].to_numpy(copy=True)
-    g_feed = got["feed_mm_per_min"].to_numpy(copy=True)
-    p = got[["x_m", "y_m", "z_m"]].to_numpy(dtype=np.float64) * 1e3
-    del got
+    # what the check reads of it (the other columns go: not beside the expected table)
+    got = got[["x_m", "y_m", "z_m", "motion", "rpm_programmed", "feed_mm_per_min", "line"]]
+    # the reader's freed buffers: not under the expected table's and the comparison's peak
+    release_free_memory(len(got))
     exp = expected_table(edit, full=False)
     where = f"{name}{EXTENSIONS[fmt]} (written from {source})"
     fix = " (not written; --program-format table or --no-program)"
-    if len(p) != len(exp):
+    if len(got) != len(exp):
         raise InputError(
-            f"robolobe cannot write this program faithfully: it reads back to {len(p)} "
+            f"robolobe cannot write this program faithfully: it reads back to {len(got)} "
             f"moves, expected {len(exp)}{fix}",
             source=where,
         )
-    q = exp[["x_mm", "y_mm", "z_mm"]].to_numpy(dtype=np.float64)
-    err = np.max(np.abs(p - q), axis=1)
-    mot = g_motion != _labels(exp["motion"])
-    cut = (exp["motion"] == "cut").to_numpy()
-    s_err = cut & ~np.isclose(g_rpm, exp["rpm"].to_numpy(), rtol=1e-9)
-    f_err = cut & ~np.isclose(g_feed, exp["feed_mm_per_min"].to_numpy(), rtol=1e-7)
-    bad = (err > 1e-6) | mot | s_err | f_err
-    if np.any(bad):
-        r = int(np.argmax(bad))
+    r = _first_difference(got, exp)
+    if r is not None:
+        p = [float(got[c].iloc[r]) * 1e3 for c in ("x_m", "y_m", "z_m")]
+        q = [float(exp[c].iloc[r]) for c in ("x_mm", "y_mm", "z_mm")]
         raise InputError(
             f"robolobe cannot write this program faithfully: move {r} (written line "
-            f"{g_line[r]}) reads back as {p[r].round(6).tolist()} mm {g_motion[r]} "
-            f"S{g_rpm[r]:g} F{g_feed[r]:g}, expected {q[r].round(6).tolist()} mm "
+            f"{got['line'].iloc[r]}) reads back as {np.round(p, 6).tolist()} mm "
+            f"{got['motion'].iloc[r]} S{got['rpm_programmed'].iloc[r]:g} "
+            f"F{got['feed_mm_per_min'].iloc[r]:g}, expected {np.round(q, 6).tolist()} mm "
             f"{exp['motion'].iloc[r]} S{exp['rpm'].iloc[r]:g} "
             f"F{exp['feed_mm_per_min'].iloc[r]:g}{fix}",
             source=where,
         )
+
+
+#: Rows the check of a written program compares at a time (:func:`_first_difference`).
+CHECK_BLOCK_ROWS = 65_536
+
+
+def _first_difference(
+    got: pd.DataFrame, exp: pd.DataFrame, block: int = CHECK_BLOCK_ROWS
+) -> int | None:
+    """The first row where the program read back is not the expected table, or None.
+
+    A row differs where a coordinate is off by more than 1e-6 mm, the motion
+    differs, or a cutting move's S (relative 1e-9) or F (relative 1e-7) does.
+    ``block`` rows are compared at a time: no copy of either table's columns
+    (on a million-move program the comparison's arrays were the check's peak).
+
+    Parameters
+    ----------
+    got : pandas.DataFrame, shape (n, ...)
+        The written program's waypoint table (its reader's: positions [m]).
+    exp : pandas.DataFrame, shape (n, ...)
+        :func:`~robolobe.plan.paths._edit.expected_table` (positions [mm]).
+    block : int
+        Rows compared at a time.
+    """
+    pos = [
+        (got[g].to_numpy(dtype=np.float64), exp[e].to_numpy(dtype=np.float64))
+        for g, e in (("x_m", "x_mm"), ("y_m", "y_mm"), ("z_m", "z_mm"))
+    ]
+    g_rpm = got["rpm_programmed"].to_numpy(dtype=np.float64)
+    e_rpm = exp["rpm"].to_numpy(dtype=np.float64)
+    g_feed = got["feed_mm_per_min"].to_numpy(dtype=np.float64)
+    e_feed = exp["feed_mm_per_min"].to_numpy(dtype=np.float64)
+    for lo in range(0, len(exp), max(1, int(block))):
+        sl = slice(lo, lo + max(1, int(block)))
+        e_mot = _labels(exp["motion"].iloc[sl])
+        bad = _labels(got["motion"].iloc[sl]) != e_mot
+        for g, e in pos:
+            bad |= np.abs(g[sl] * 1e3 - e[sl]) > 1e-6
+        cut = e_mot == "cut"
+        bad |= cut & ~np.isclose(g_rpm[sl], e_rpm[sl], rtol=1e-9)
+        bad |= cut & ~np.isclose(g_feed[sl], e_feed[sl], rtol=1e-7)
+        if np.any(bad):
+            return lo + int(np.argmax(bad))
+    return None
 
 
 def _labels(col: pd.Series) -> NDArray[np.object_]:

@@ -280,16 +280,15 @@ def expected_table(edit: ProgramEdit, *, full: bool = True) -> pd.DataFrame:
     from.
     """
     wp = edit.waypoints
-    pos = wp[["x_m", "y_m", "z_m"]].to_numpy(dtype=np.float64) * 1e3
-    rpm = np.where(edit.cut, edit.rpm, np.nan)
-    feed = np.where(edit.cut, edit.feed_mm_per_min, np.nan)
     secs = sections(edit)
+    cut = edit.cut
+    rpm = np.where(cut, edit.rpm, np.nan)
+    feed = np.where(cut, edit.feed_mm_per_min, np.nan)
     if not secs and not full:  # the program's own moves: no copies (a million rows: 40 MB)
         return pd.DataFrame(
             {
-                "x_mm": pos[:, 0],
-                "y_mm": pos[:, 1],
-                "z_mm": pos[:, 2],
+                # column by column (no (n, 3) copy of the positions beside them)
+                **{f"{c}_mm": wp[f"{c}_m"].to_numpy(dtype=np.float64) * 1e3 for c in "xyz"},
                 # the waypoint table's own labels (to_numpy(): a str object per row)
                 "motion": wp["motion"].array,
                 "rpm": rpm,
@@ -297,6 +296,7 @@ def expected_table(edit: ProgramEdit, *, full: bool = True) -> pd.DataFrame:
             },
             copy=False,
         )
+    pos = wp[["x_m", "y_m", "z_m"]].to_numpy(dtype=np.float64) * 1e3
     # each expected row: the original row it copies (links: the section's first row),
     # its position and whether it is a link (a rapid without S and F)
     parts_row: list[IntArray] = []

@@ -32,6 +32,7 @@ import numpy as np
 import pandas as pd
 from numpy.typing import NDArray
 
+from robolobe._memory import release_free_memory
 from robolobe.errors import InputError
 from robolobe.plan.paths._edit import ProgramEdit, expected_table
 
@@ -69,6 +70,13 @@ FloatArray = NDArray[np.float64]
 logger = logging.getLogger(__name__)
 
 _WIDTH = 10  # numbers per waypoint in WaypointBuilder._rows
+#: Waypoints per block of a reader's buffer (5.2 MB). A long program is collected in
+#: blocks of this size, never as one buffer grown by reallocation: each move of a grown
+#: buffer left a freed copy in the heap (a million-line program read after a plan, as the
+#: written program's check does: ~100 bytes a waypoint above the buffer itself).
+_BLOCK_ROWS = 8_192
+#: Blocks copied into the table between two releases of their freed memory (:meth:`table`).
+_BLOCKS_PER_RELEASE = 8
 _MAX_POS_M = 1e4  # 10 km: anything beyond is a corrupt or mis-scaled file
 
 
@@ -89,6 +97,8 @@ class WaypointBuilder:
     # one row per waypoint, flat: x y z [m], i j k, feed, rpm, rapid (0/1), line (80 bytes a
     # row: a list of tuples would take ~380 at a million waypoints)
     _rows: array = field(default_factory=lambda: array("d"))
+    # the full blocks of ``_BLOCK_ROWS`` rows before ``_rows``, in order
+    _blocks: list[array] = field(default_factory=list)
     # TCP x axes where the path fixes them, flat: row index, x, y, z
     _ref: array = field(default_factory=lambda: array("d"))
     warnings: list[str] = field(default_factory=list)
@@ -180,7 +190,7 @@ class WaypointBuilder:
             rx, ry, rz = rx - d * ax, ry - d * ay, rz - d * az
             rn = math.sqrt(rx * rx + ry * ry + rz * rz)
             if rn > 1e-9:
-                self._ref.extend((len(self._rows) // _WIDTH, rx / rn, ry / rn, rz / rn))
+                self._ref.extend((len(self), rx / rn, ry / rn, rz / rn))
         self._rows.extend(
             (
                 float(pos_m[0]),
@@ -195,6 +205,9 @@ class WaypointBuilder:
                 int(line),
             )
         )
+        if len(self._rows) >= _BLOCK_ROWS * _WIDTH:
+            self._blocks.append(self._rows)
+            self._rows = array("d")
 
     def add_unit(
         self,
@@ -214,14 +227,18 @@ class WaypointBuilder:
             (pos_m[0], pos_m[1], pos_m[2], axis[0], axis[1], axis[2], feed_mm_per_min, rpm,
              1.0 if rapid else 0.0, line)
         )  # fmt: skip
+        if len(self._rows) >= _BLOCK_ROWS * _WIDTH:
+            self._blocks.append(self._rows)
+            self._rows = array("d")
 
     def __len__(self) -> int:
-        return len(self._rows) // _WIDTH
+        return len(self._blocks) * _BLOCK_ROWS + len(self._rows) // _WIDTH
 
     @property
     def last_position(self) -> FloatArray | None:
         """The last position [m], or None."""
-        return np.array(self._rows[-_WIDTH : -_WIDTH + 3]) if self._rows else None
+        last = self._rows or (self._blocks[-1] if self._blocks else None)
+        return np.array(last[-_WIDTH : -_WIDTH + 3]) if last else None
 
     def notes(self) -> list[str]:
         """The warnings, each once, with ``(n times)`` where it repeated."""
@@ -242,17 +259,32 @@ class WaypointBuilder:
         InputError
             When the file holds no move at all.
         """
-        if not self._rows:
+        n = len(self)
+        if n == 0:
             raise InputError("expected at least one move, found none", source=self.source)
-        buf, self._rows = self._rows, array("d")  # handed over: the builder is empty now
-        flat = np.frombuffer(buf, dtype=np.float64).reshape(-1, _WIDTH)
-        line = flat[:, 9].astype(np.int64)
-        rapid = flat[:, 8] > 0
-        # the table's eight number columns, views of one block of their own: the buffer
-        # (its rapid and line numbers, its growth room: ~21 bytes a waypoint more) goes
-        # before the columns below are made (a long program's reader peak)
-        rows = flat[:, :8].copy()
-        del flat, buf
+        # handed over (the builder is empty now)
+        blocks = [*self._blocks, self._rows] if self._rows else self._blocks
+        self._blocks, self._rows = [], array("d")
+        # the table's eight number columns, views of one block of their own, its line
+        # numbers and whether each move is a rapid: filled block by block, each block
+        # freed once copied, the freed ones given back every few blocks (a long program's
+        # blocks and its table are not resident whole side by side)
+        rows = np.empty((n, 8))
+        line = np.empty(n, np.int64)
+        rapid = np.empty(n, bool)
+        at = 0
+        for k in range(len(blocks)):
+            flat = np.frombuffer(blocks[k], dtype=np.float64).reshape(-1, _WIDTH)
+            blocks[k] = array("d")  # the block goes with ``flat``
+            m = len(flat)
+            rows[at : at + m] = flat[:, :8]
+            line[at : at + m] = flat[:, 9]  # whole numbers: exact
+            np.greater(flat[:, 8], 0, out=rapid[at : at + m])
+            at += m
+            del flat
+            if k % _BLOCKS_PER_RELEASE == _BLOCKS_PER_RELEASE - 1:
+                release_free_memory(n)
+        del blocks
         pos = rows[:, 0:3]
         axis = rows[:, 3:6]
         bad = ~np.all(np.abs(pos) <= _MAX_POS_M, axis=1)
@@ -357,10 +389,21 @@ def feed_directions(pos: FloatArray, axis: FloatArray | None = None) -> FloatArr
     out = np.full((n, 3), np.nan)
     if n < 2:
         return out
-    d = np.diff(pos, axis=0)
-    ln = np.linalg.norm(d, axis=1)
+    # the moves' differences, lengths and unit directions made in ``out`` itself (no (n, 3)
+    # temporaries: a long program's reader peak); the lengths as np.linalg.norm's, to the bit
+    # (the squares summed x, y, z in that order)
+    d = out[1:]
+    np.subtract(pos[1:], pos[:-1], out=d)
+    ln = d[:, 0] * d[:, 0]
+    sq = np.empty_like(ln)
+    for c in (1, 2):
+        np.multiply(d[:, c], d[:, c], out=sq)
+        ln += sq
+    del sq
+    np.sqrt(ln, out=ln)
     ok = ln > 1e-12
-    np.divide(d, ln[:, None], out=out[1:], where=ok[:, None])  # in place: no (n, 3) copies
+    np.divide(d, ln[:, None], out=d, where=ok[:, None])
+    d[~ok] = np.nan
     del d, ln
     has = np.r_[False, ok]
     del ok

@@ -76,6 +76,7 @@ from typing import NamedTuple
 import numpy as np
 import pandas as pd
 
+from robolobe._memory import release_free_memory
 from robolobe.errors import InputError
 from robolobe.plan.paths._arcs import arc_point_list
 from robolobe.plan.paths._compensation import Element, compensate
@@ -1124,9 +1125,15 @@ def write_gcode(text: str, source: str, edit: ProgramEdit, *, block_delete: bool
         Passes where the program is incremental (G91), arcs with absolute
         centres (G90.1) or a tool axis other than Z.
     """
-    src = lines(text)
+    # the per-line values first: their sorting temporaries not beside the program's lines
     vals = line_values(edit)
+    # per line lists (a list index per line, not a mapping lookup: a long program's time)
+    has, rpm_code, rpm_values, feed_code, feed_values = vals.lists()
     secs = sections(edit)
+    # their sorting temporaries given back: the program's lines below are Python objects,
+    # which never reuse the freed heap (a long program's peak)
+    release_free_memory(len(edit.waypoints))
+    src = lines(text)
     wp_lines = edit.waypoints["line"].to_numpy()
     n = len(src)
     spans: dict[int, list[tuple[str, int, int]]] = {}  # words of lines with G/M/S/F letters
@@ -1175,8 +1182,6 @@ def write_gcode(text: str, source: str, edit: ProgramEdit, *, block_delete: bool
                 state = _Modal(sc, pr, sp, ab, aa, mo)
         states[ln] = state
     # states[ln]: the _Modal of line ln (shared tuples: 8 bytes a line, not six lists)
-    # per line lists (a list index per line, not a mapping lookup: a long program's time)
-    has, rpm_code, rpm_values, feed_code, feed_values = vals.lists()
     n_has = len(has)
     f_texts: dict[float, str] = {}  # fmt_num of each feed value met (a program has few)
 
@@ -1197,22 +1202,20 @@ def write_gcode(text: str, source: str, edit: ProgramEdit, *, block_delete: bool
                 return src[ln - 1][a:b].replace(" ", "")
         return None
 
-    cut_lines = list(vals)
-    # S and F words in the file: each governs the cutting lines up to the next such word
+    # the cutting lines, ascending (an array: not an int object per line of a long program)
+    cut_lines = np.flatnonzero(np.frombuffer(has, dtype=np.uint8))
+    # S and F words in the file: each governs the cutting lines up to the next such word;
+    # the first cutting line it governs sets its new value
     new_word: dict[tuple[int, str], str] = {}
     for letter in ("S", "F"):
         word_lines = [ln for ln in sorted(spans) if word_value(ln, letter) is not None]
-        k = 0
-        taken: set[int] = set()
-        for c in cut_lines:
-            while k < len(word_lines) and word_lines[k] <= c:
-                k += 1
-            if k == 0:
-                continue
-            w = word_lines[k - 1]
-            if w in taken:
-                continue
-            taken.add(w)
+        first_cut = np.searchsorted(cut_lines, word_lines).tolist()
+        for k, w in enumerate(word_lines):
+            i = first_cut[k]
+            nxt = word_lines[k + 1] if k + 1 < len(word_lines) else None
+            if i == len(cut_lines) or (nxt is not None and cut_lines[i] >= nxt):
+                continue  # no cutting line before the next such word
+            c = int(cut_lines[i])
             new_word[(w, letter)] = (
                 f"{int(rpm_values[rpm_code[c]])}" if letter == "S" else f_text(c)
             )
@@ -1340,7 +1343,8 @@ def write_gcode(text: str, source: str, edit: ProgramEdit, *, block_delete: bool
             at = ln - 1
         result.extend(src[at:])
         src = result
-    return "\n".join(src) + "\n"
+    src.append("")  # the last line's end (not a copy of the joined text with it)
+    return "\n".join(src)
 
 
 _MOTION_TEXT = {"0", "00", "1", "01", "2", "02", "3", "03", "0.", "1.", "2.", "3."}
