@@ -32,7 +32,7 @@ import pandas as pd
 from numpy.typing import NDArray
 
 from robolobe._atomic import atomic_dir
-from robolobe._memory import release_free_memory
+from robolobe._memory import RELEASE_MIN_ROWS, large_blocks_mapped, release_free_memory
 from robolobe._text import html_text, visible
 from robolobe.plan import _plots
 from robolobe.plan._plots import PlotWorker
@@ -707,29 +707,31 @@ def write_outputs(
     if worker is not None and records:
         # drawn there while the program, the tables and the report's text are made here
         worker.send(records)
-    release_free_memory(len(res.table))  # the plan's temporaries: not under the writers' peaks
-    program_files = _program_files(res, program, program_format)
-    release_free_memory(len(res.table))
-    with atomic_dir(out, "plan", option=option) as tmp:
-        # the program first: each text goes once written (not held while the table is)
-        program_names = list(program_files)
-        for name in program_names:
-            write_text_blocks(tmp / name, program_files.pop(name))
-        _write_waypoints(res.table, tmp, waypoints, int(waypoints_every))
-        (tmp / "summary.json").write_text(
-            json.dumps(res.summary.to_dict(), indent=2) + "\n", encoding="utf-8"
-        )
-        page = _report_parts(res, out, program_names) if html_report else None
-        got = worker.receive() if worker is not None and records else None
-        if got is None or set(got) != set(records):
-            got = {name: _plots.png(_plots.draw(rec)) for name, rec in records.items()}
-        images = {name: got[name] for name in records}  # the report's order: PLOTS
-        if plots:
-            (tmp / "plots").mkdir()
-            for name, data in images.items():
-                (tmp / "plots" / f"{name}.png").write_bytes(data)
-        if page is not None:
-            (tmp / "report.html").write_text(_with_images(page, images), encoding="utf-8")
+    # a long plan's large blocks mapped: each goes back when freed (robolobe._memory)
+    with large_blocks_mapped(len(res.table) >= RELEASE_MIN_ROWS):
+        release_free_memory(len(res.table))  # the plan's temporaries: not under the writers' peaks
+        program_files = _program_files(res, program, program_format)
+        release_free_memory(len(res.table))
+        with atomic_dir(out, "plan", option=option) as tmp:
+            # the program first: each text goes once written (not held while the table is)
+            program_names = list(program_files)
+            for name in program_names:
+                write_text_blocks(tmp / name, program_files.pop(name))
+            _write_waypoints(res.table, tmp, waypoints, int(waypoints_every))
+            (tmp / "summary.json").write_text(
+                json.dumps(res.summary.to_dict(), indent=2) + "\n", encoding="utf-8"
+            )
+            page = _report_parts(res, out, program_names) if html_report else None
+            got = worker.receive() if worker is not None and records else None
+            if got is None or set(got) != set(records):
+                got = {name: _plots.png(_plots.draw(rec)) for name, rec in records.items()}
+            images = {name: got[name] for name in records}  # the report's order: PLOTS
+            if plots:
+                (tmp / "plots").mkdir()
+                for name, data in images.items():
+                    (tmp / "plots" / f"{name}.png").write_bytes(data)
+            if page is not None:
+                (tmp / "report.html").write_text(_with_images(page, images), encoding="utf-8")
     return out
 
 
