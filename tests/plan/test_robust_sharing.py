@@ -30,10 +30,14 @@ import numpy as np
 import pytest
 
 from robolobe.plan.job import load_job
+from robolobe.plan.lobes import DynamicsTolerance, size_members, waypoint_lobes
 from robolobe.plan.modes import TwinSource, bound_scenario, plan_bound
 from robolobe.plan.pipeline import _tool_model, material_from_job, plan_path
 from robolobe.robots import load_robot
 from robolobe.sld.conditions import engagement_angles
+from robolobe.sld.converged import LOBE_TOL
+from robolobe.sld.frf import ModalModel
+from robolobe.sld.material import get_material
 from robolobe.sld.toolpoint import feed_frame, tool_point_model
 
 from ..sld.zoa_reference import alphas, reference_envelope
@@ -137,3 +141,67 @@ def test_robust_sharing_keeps_its_promise_in_every_scenario(tmp_path) -> None:
     assert by_bound > r.size // 2  # the bound's corners set the limit: the case in point
     bad = [(w, round(float(x), 5)) for w, x in zip(where, r, strict=True) if not 0.99 <= x <= 1.005]
     assert not bad, (len(bad), bad[:8])
+
+
+def test_size_members_checks_every_scenario():
+    """:func:`size_members` with one model per scenario, on hand-made groups: three
+    waypoints with the same nominal modes (a robot mode at 14 Hz, a tool mode at
+    1850 Hz) and a lowered scenario (the robot mode 1.6x softer, held at margin 1 over a
+    safety factor of 1.3) in which one member's robot mode is 3 % softer still and
+    another's 0.1 %. The reference: each member's own limit, the smallest over the two
+    scenarios of the test's own ZOA. The 3 % member is flagged at every checked speed
+    where the shared limit lies over its own by more than the promise (0.5 %), at none
+    where they agree to 0.1 %; the 0.1 % member never is; the nominal models alone
+    (the check before) flag the 3 % member nowhere."""
+    mat = get_material("Al7075-T6")
+    w = 2 * np.pi * np.array([14.0, 1850.0])
+    u = np.array([np.cos(0.5), np.sin(0.5)])
+    zeta = np.tile([0.03, 0.035], (3, 1))
+
+    def model(scale):
+        res = np.zeros((3, 2, 2, 2))
+        for i, s in enumerate(scale):
+            res[i, 0] = s * w[0] ** 2 / 1.5e6 * np.outer(u, u)
+            res[i, 1] = w[1] ** 2 / 2.2e7 * np.eye(2)
+        return ModalModel(np.tile(w, (3, 1)), zeta, res)
+
+    nominal = model([1.0, 1.0, 1.0])
+    low = model([1.6, 1.6 * 1.03, 1.6 * 1.001])
+    low = ModalModel(low.omega, low.zeta, low.residues / 1.3)  # margin 1 over SF 1.3
+    scenarios = [nominal, low]
+    rpm = np.linspace(6000.0, 24000.0, 300)
+    pe, px = np.radians(90.0), np.pi
+    kw = dict(teeth=3, kt=mat.kt, rpm=rpm, immersion=0.5)
+    tol = DynamicsTolerance(0.3, 0.3, 0.3, 0.3, 150.0)  # the three share
+    shared = waypoint_lobes(scenarios, tol=tol, kr=mat.kr, phi_entry=pe, phi_exit=px, **kw)
+    assert shared.n_groups == 1
+    assert shared.leader[0] == 0  # the first of equal nominal modes (hand-made: checked)
+    cut = dict(teeth=3, kt=mat.kt, kr=mat.kr, phi_entry=pe, phi_exit=px)
+    speeds = rpm[::6]
+    alpha = alphas(pe, px, mat.kr)
+    own = np.full((3, speeds.size), np.inf)
+    for i in (1, 2):
+        for m in scenarios:
+            mi = m.take(i)
+            ref = reference_envelope(
+                mi.f_hz, mi.zeta, mi.residues, alpha, teeth=3, kt=mat.kt, rpm=speeds
+            )
+            own[i] = np.minimum(own[i], ref)
+    n_far = n_missed = 0
+    for s_i, r in enumerate(speeds):
+        at = np.full(3, r)
+        flag = size_members(shared, scenarios, at, **cut)
+        before = size_members(shared, nominal, at, **cut)
+        stated = shared.table.query(at)
+        ratio = stated[1:] / own[1:, s_i]
+        assert not flag[0]
+        assert not flag[2], (r, ratio)  # 0.1 % apart: inside the promise
+        assert not before[1]
+        if ratio[0] > 1.0 + LOBE_TOL:
+            assert flag[1], (r, ratio)
+            n_far += 1
+            n_missed += int(not before[1])
+        if abs(ratio[0] - 1.0) < 1e-3:
+            assert not flag[1], (r, ratio)
+    assert n_far > 0
+    assert n_missed == n_far
