@@ -98,7 +98,8 @@ def test_robust_sharing_keeps_its_promise_in_every_scenario(tmp_path) -> None:
     # each waypoint's own scenario models, feed frame as the planner's (plunges skipped)
     modes = src.predict(q)
     bound, robust = plan_bound(j.plan, modes, True)
-    assert robust and bound is not None
+    assert robust
+    assert bound is not None
     fa = np.radians(sub["feed_angle_deg"].to_numpy(np.float64))
     f_tcp = np.stack([np.cos(fa), np.sin(fa), np.zeros_like(fa)], axis=1)
     plunge = (sub["limiting"] == "plunge").to_numpy()
