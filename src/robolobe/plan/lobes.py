@@ -1359,18 +1359,23 @@ def _lobe_depth(
     teeth: int,
     kt: float,
     steps: int = 4,
+    more: int = 4,
 ) -> FloatArray:
     """Depth of one lobe of each entry at one speed, from its own model (Newton in frequency).
 
     The lobe ``k`` crosses the speed ``n`` where ``c w / n = eps(w) + 2 pi k``
     (``c = 60 / N``); from ``omega`` (p,) [rad/s], the eigenvalue followed
     from ``mu0`` (p,) (the nearest at each step), ``steps`` Newton steps
-    (the phase's slope by a difference), each at most the piece's ``span``.
-    ``lobe``: (k, c / n [rad^-1 s], span [rad/s]), each (p,).
+    (the phase's slope by a difference), each at most the piece's ``span``;
+    the entries that have not met the phase condition then go on for up to
+    ``more`` steps. ``lobe``: (k, c / n [rad^-1 s], span [rad/s]), each (p,).
     Returns the depth ``2 pi / (N Kt Re mu)`` there [m] (``inf`` where
     ``Re mu <= 0``: no such lobe; 0 where the phase condition is not met to
     1e-6 rad after the steps. On the 10k zig-zag 3 steps meet it everywhere,
-    to 1e-12 in the depth; 2 steps leave up to 18 %).
+    to 1e-12 in the depth; 2 steps leave up to 18 %. In a robust plan's
+    lowered scenarios the k = 0 tails of its 7-11 Hz modes near 24,000 rpm,
+    whose pieces span 0.001-0.013 Hz, need 5-6 steps: 4 left 40 members of
+    the 10k zig-zag without an estimate, on lobes of their own).
     """
     kk, c_n, span = lobe
     w = np.asarray(omega, dtype=np.float64).copy()
@@ -1400,7 +1405,14 @@ def _lobe_depth(
     miss = ~(np.abs(c_n * w - 2.0 * math.pi * kk - phase(mu)) <= 1e-6)
     with np.errstate(divide="ignore"):
         a = np.where(mu.real > 0, 2.0 * math.pi / (teeth * kt * mu.real), np.inf)
-    return np.where(miss & (mu.real > 0), 0.0, a)
+    a = np.where(miss & (mu.real > 0), 0.0, a)
+    if more > 0 and np.any(miss):
+        # the missed entries go on from where they are (a few: not every entry's steps)
+        m = np.flatnonzero(miss)
+        a[m] = _lobe_depth(
+            model.take(m), alpha[m], w[m], mu[m], (kk[m], c_n[m], span[m]), teeth, kt, more, 0
+        )
+    return a
 
 
 def size_members(
@@ -1637,6 +1649,11 @@ def _scenario_estimates(
     a_l = _lobe_depth(leaders.take(g_p), alpha_p, om, mu_p, lobe_p, teeth, kt)[sel]
     lobe = (kk[sel], lobe_p[1][sel], span[sel])
     a_m = _lobe_depth(members(mem), alpha_m, om[sel], mu_p[sel], lobe, teeth, kt)
+    # where Newton left the leader's own piece for no lobe (Re mu <= 0: the k = 0 tails of
+    # 7-10 Hz modes near 24,000 rpm in a robust plan's mode-shift scenarios, a few pieces
+    # of the 10k zig-zag), the piece's own depth stands for it: the member's estimate is
+    # then its own depth of the lobe (a_m, converged)
+    a_l = np.where(np.isinf(a_l), depth[sel], a_l)
     with np.errstate(divide="ignore", invalid="ignore"):
         # where the leader's own depth of the piece is not found: no estimate (0: its own)
         est = np.where(np.isfinite(a_l) & (a_l > 0), depth[sel] * a_m / a_l, 0.0)
