@@ -1203,6 +1203,12 @@ _LOW = 1.0 - 2.0 * LOBE_TOL
 #: bottoms put ~190 pieces of a group within it.)
 _NEAR_ENVELOPE = 1.025
 
+#: A scenario's shared limit this far over the smallest of a member's scenarios cannot set
+#: the member's own (its models within the grouping tolerance of its leader's: a few %):
+#: where that scenario has no estimate of the member's (Newton not converged), the
+#: member keeps the shared lobes (:func:`size_members`).
+_NO_ESTIMATE_ABOVE = 1.1
+
 #: Waypoints per block of :func:`size_members` (its temporaries: ~7 kB a member) and
 #: the threads that take the blocks.
 _CHECK_BLOCK = 8_192
@@ -1558,16 +1564,33 @@ def _size_estimates(
         # each scenario's shared limit and own estimate; the smallest over them (a robust
         # plan's scenarios lower each waypoint by its own spread: a member's ratio to its
         # leader is not the nominal's there)
-        for j, d in enumerate(diagrams):
-            env, own_est = _scenario_estimates(
-                d, leaders[j], models[j].take if block_models is None else from_block,
-                grouped.leader, c, inv, gu, nu,
-                teeth=teeth, kt=kt, kr=kr, alpha_one=alpha_one, pe=pe, px=px,
+        per = [
+            _scenario_estimates(
+                d,
+                leaders[j],
+                models[j].take if block_models is None else from_block,
+                grouped.leader,
+                c,
+                inv,
+                gu,
+                nu,
+                teeth=teeth,
+                kt=kt,
+                kr=kr,
+                alpha_one=alpha_one,
+                pe=pe,
+                px=px,
                 compiled=compiled,
-            )  # fmt: skip
-            np.minimum(shared_out[c], np.where(np.isfinite(own_est), env, np.inf), out=env)
-            shared_out[c] = env
-            est_out[c] = np.minimum(est_out[c], own_est)
+            )
+            for j, d in enumerate(diagrams)
+        ]
+        shared = np.min([np.where(np.isfinite(e), s, np.inf) for s, e in per], axis=0)
+        # a scenario without an estimate (0) far above the smallest shared limit cannot
+        # set the member's own: not a reason for lobes of its own
+        far = [(e == 0.0) & (s > _NO_ESTIMATE_ABOVE * shared) for s, e in per]
+        est = np.min([np.where(f, np.inf, e) for (_, e), f in zip(per, far, strict=True)], axis=0)
+        shared_out[c] = np.where(np.isfinite(est), shared, np.inf)
+        est_out[c] = est
 
     each_on_threads(block, range(0, n, rows_per_block), _CHECK_THREADS)  # disjoint rows
     return shared_out, est_out
