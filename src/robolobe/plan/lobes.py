@@ -1227,6 +1227,12 @@ _LOW = 1.0 - 2.0 * LOBE_TOL
 #: bottoms put ~190 pieces of a group within it.)
 _NEAR_ENVELOPE = 1.025
 
+#: A scenario's shared limit this far over the smallest of a member's scenarios cannot set
+#: the member's own (its models within the grouping tolerance of its leader's: a few %):
+#: where that scenario has no estimate of the member's (Newton not converged), the
+#: member keeps the shared lobes (:func:`size_members`).
+_NO_ESTIMATE_ABOVE = 1.1
+
 #: Waypoints per block of :func:`size_members` (its temporaries: ~7 kB a member) and
 #: the threads that take the blocks.
 _CHECK_BLOCK = 8_192
@@ -1383,18 +1389,23 @@ def _lobe_depth(
     teeth: int,
     kt: float,
     steps: int = 4,
+    more: int = 4,
 ) -> FloatArray:
     """Depth of one lobe of each entry at one speed, from its own model (Newton in frequency).
 
     The lobe ``k`` crosses the speed ``n`` where ``c w / n = eps(w) + 2 pi k``
     (``c = 60 / N``); from ``omega`` (p,) [rad/s], the eigenvalue followed
     from ``mu0`` (p,) (the nearest at each step), ``steps`` Newton steps
-    (the phase's slope by a difference), each at most the piece's ``span``.
-    ``lobe``: (k, c / n [rad^-1 s], span [rad/s]), each (p,).
+    (the phase's slope by a difference), each at most the piece's ``span``;
+    the entries that have not met the phase condition then go on for up to
+    ``more`` steps. ``lobe``: (k, c / n [rad^-1 s], span [rad/s]), each (p,).
     Returns the depth ``2 pi / (N Kt Re mu)`` there [m] (``inf`` where
     ``Re mu <= 0``: no such lobe; 0 where the phase condition is not met to
     1e-6 rad after the steps. On the 10k zig-zag 3 steps meet it everywhere,
-    to 1e-12 in the depth; 2 steps leave up to 18 %).
+    to 1e-12 in the depth; 2 steps leave up to 18 %. In a robust plan's
+    lowered scenarios the k = 0 tails of its 7-11 Hz modes near 24,000 rpm,
+    whose pieces span 0.001-0.013 Hz, need 5-6 steps: 4 left 40 members of
+    the 10k zig-zag without an estimate, on lobes of their own).
     """
     kk, c_n, span = lobe
     w = np.asarray(omega, dtype=np.float64).copy()
@@ -1424,12 +1435,19 @@ def _lobe_depth(
     miss = ~(np.abs(c_n * w - 2.0 * math.pi * kk - phase(mu)) <= 1e-6)
     with np.errstate(divide="ignore"):
         a = np.where(mu.real > 0, 2.0 * math.pi / (teeth * kt * mu.real), np.inf)
-    return np.where(miss & (mu.real > 0), 0.0, a)
+    a = np.where(miss & (mu.real > 0), 0.0, a)
+    if more > 0 and np.any(miss):
+        # the missed entries go on from where they are (a few: not every entry's steps)
+        m = np.flatnonzero(miss)
+        a[m] = _lobe_depth(
+            model.take(m), alpha[m], w[m], mu[m], (kk[m], c_n[m], span[m]), teeth, kt, more, 0
+        )
+    return a
 
 
 def size_members(
     grouped: GroupedLobes,
-    model: ModalModel,
+    model: ModalModel | Sequence[ModalModel],
     rpm: FloatArray,
     *,
     teeth: int,
@@ -1439,7 +1457,7 @@ def size_members(
     phi_exit: float | FloatArray,
     share: float = SIZE_SHARE,
 ) -> NDArray[np.bool_]:
-    """Members whose own limit at their planned speed is, to first order, below the shared one.
+    """Members whose own limit at their planned speed lies outside the promise of the shared one.
 
     A member shares its leader's lobes where their modal models agree to the
     grouping tolerance; a dominant mode's size (2.1 % in a plan) moves the
@@ -1459,16 +1477,24 @@ def size_members(
     low either, :data:`_LOW`) should get lobes of their own
     (``waypoint_lobes(..., own=...)``, as :func:`steep_members`). Members are
     taken in blocks of waypoints on up to :data:`_CHECK_THREADS` threads.
-    Nominal lobes only (a robust plan's scenarios are the nominal's scaled).
+    With one model per scenario (a robust plan's), each scenario's lobes are
+    re-evaluated with each member's own model of that scenario, and the shared
+    limit and the estimate are each the smallest over the scenarios (the
+    limit the plan states, and the member's own): the scenarios lower each
+    waypoint by the spread at its own posture, so a member's ratio to its
+    leader in a scenario is not the nominal's (the speed windows are not
+    searched: each scenario at the planned speed).
 
     Parameters
     ----------
     grouped : GroupedLobes
-    model : ModalModel
-        Nominal feed-frame tool-point models of the cutting waypoints, batch
-        (n_cut,) (or an object with ``take``: the leaders' are taken; with
+    model : ModalModel or sequence of ModalModel
+        Feed-frame tool-point models of the cutting waypoints, batch (n_cut,):
+        the nominal's (or an object with ``take``: the leaders' are taken; with
         ``block_models(lo, hi)`` and ``block_rows`` too, the members' come from
-        it in blocks of ``block_rows`` waypoints starting at its multiples).
+        it in blocks of ``block_rows`` waypoints starting at its multiples), or
+        one per scenario of ``grouped`` in its order (nominal first, as given
+        to :func:`waypoint_lobes`).
     rpm : ndarray, shape (n_cut,)
         Planned speed of each cutting waypoint [rpm].
     teeth, kt, kr : int, float, float
@@ -1491,7 +1517,7 @@ def size_members(
 
 def _size_estimates(
     grouped: GroupedLobes,
-    model: ModalModel,
+    model: ModalModel | Sequence[ModalModel],
     rpm: FloatArray,
     *,
     teeth: int,
@@ -1500,10 +1526,11 @@ def _size_estimates(
     phi_entry: float | FloatArray,
     phi_exit: float | FloatArray,
 ) -> tuple[FloatArray, FloatArray]:
-    """The shared limit and the first-order estimate of each member's own (:func:`size_members`).
+    """The shared limit and the estimate of each member's own (:func:`size_members`).
 
-    Returns two arrays (n_cut,) [m]; ``inf`` in both where not estimated (leaders,
-    unbounded waypoints, speeds no lobe crosses).
+    With one model per scenario (a sequence), both are the smallest over the
+    scenarios. Returns two arrays (n_cut,) [m]; ``inf`` in both where not
+    estimated (leaders, unbounded waypoints, speeds no lobe crosses).
     """
     tab = grouped.table
     g = tab.group
@@ -1515,8 +1542,15 @@ def _size_estimates(
     cand = np.flatnonzero((g < grouped.n_groups) & ~lead)
     if cand.size == 0 or not grouped.parts:
         return shared_out, est_out
-    d = grouped.diagrams[0]
-    if d.omega is None or d.depth is None or d.eps is None:
+    # one per scenario; or the nominal only (a ModalModel, or a streamed path's blocks)
+    models: list[Any] = list(model) if isinstance(model, (list, tuple)) else [model]
+    if len(models) > 1 and len(models) != len(grouped.parts[0]):
+        raise InputError(
+            f"model: expected one model per scenario of the lobes ({len(grouped.parts[0])}), "
+            f"found {len(models)}"
+        )
+    diagrams = grouped.diagrams[: len(models)]
+    if any(d.omega is None or d.depth is None or d.eps is None for d in diagrams):
         return shared_out, est_out
     rpm = np.asarray(rpm, dtype=np.float64)
     compiled = grouped.query_compiled  # where the plan's lobes run compiled (numba started)
@@ -1525,9 +1559,9 @@ def _size_estimates(
     # offers ``block_models(lo, hi)`` (a streamed path's: its blocks of ``block_rows``
     # waypoints made again from their modes as the streamed pass made them, bit for
     # bit), from it; else taken
-    leaders = model.take(grouped.leader)
-    block_models = getattr(model, "block_models", None)
-    rows_per_block = int(getattr(model, "block_rows", _CHECK_BLOCK))
+    leaders = [m.take(grouped.leader) for m in models]
+    block_models = getattr(models[0], "block_models", None) if len(models) == 1 else None
+    rows_per_block = int(getattr(models[0], "block_rows", _CHECK_BLOCK))
     if np.ndim(phi_entry) == 0 and np.ndim(phi_exit) == 0:
         alpha_one: FloatArray | None = directional_factors(phi_entry, phi_exit, kr)
         pe = px = np.zeros(0)
@@ -1543,67 +1577,132 @@ def _size_estimates(
             return
         # members of one group at one speed: the same pieces (most of a path's members)
         key = np.stack([g[c].astype(np.float64), rpm[c]], axis=1)
-        uk, first, inv = np.unique(key, axis=0, return_index=True, return_inverse=True)
+        _, first, inv = np.unique(key, axis=0, return_index=True, return_inverse=True)
         inv = inv.ravel()
         gu, nu = g[c][first], rpm[c][first]
-        # an upper bound of the envelope to examine fewer pieces: the nominal grid's at the
-        # neighbouring grid speeds (the rows it does not bound are done again without it)
-        j = np.clip(np.searchsorted(d.rpm, nu) - 1, 0, d.rpm.size - 2)
-        top = np.maximum(d.a_lim[gu, j], d.a_lim[gu, j + 1]) * (1.0 + 1e-3)
-        pieces: tuple[Any, ...] = _lobe_pieces_at(d, gu, nu, top, _NEAR_ENVELOPE, compiled=compiled)
-        low = np.full(uk.shape[0], np.inf)
-        np.minimum.at(low, pieces[0], pieces[2])
-        redo = np.flatnonzero(~(low <= top))
-        if redo.size:
-            more = _lobe_pieces_at(
-                d, gu[redo], nu[redo], np.full(redo.size, np.inf), _NEAR_ENVELOPE
+
+        def from_block(rows: IntArray) -> ModalModel:
+            assert block_models is not None
+            return block_models(r0, r1).take(rows - r0)
+
+        # each scenario's shared limit and own estimate; the smallest over them (a robust
+        # plan's scenarios lower each waypoint by its own spread: a member's ratio to its
+        # leader is not the nominal's there)
+        per = [
+            _scenario_estimates(
+                d,
+                leaders[j],
+                models[j].take if block_models is None else from_block,
+                grouped.leader,
+                c,
+                inv,
+                gu,
+                nu,
+                teeth=teeth,
+                kt=kt,
+                kr=kr,
+                alpha_one=alpha_one,
+                pe=pe,
+                px=px,
+                compiled=compiled,
             )
-            keep = ~np.isin(pieces[0], redo)
-            pieces = tuple(
-                np.concatenate([p[keep], m if i else redo[m]])
-                for i, (p, m) in enumerate(zip(pieces, more, strict=True))
-            )
-        # each member with the pieces of its group and speed
-        order = np.argsort(pieces[0], kind="stable")
-        pieces = tuple(p[order] for p in pieces)
-        n_p = np.bincount(pieces[0], minlength=uk.shape[0])
-        at = np.cumsum(n_p) - n_p
-        cnt = n_p[inv]
-        row = np.repeat(np.arange(c.size), cnt)
-        sel = np.arange(row.size) - np.repeat(np.cumsum(cnt) - cnt, cnt) + at[inv[row]]
-        env = np.full(c.size, np.inf)
-        np.minimum.at(env, row, pieces[2][sel])
-        if row.size == 0:
-            return
-        # the leader's own depth of each piece: once per piece (its group's and speed's
-        # members share it), from the leader's eigenvalue of the piece: the one nearest
-        # the piece's own (its depth and phase, zoa_depth inverted: both branches can
-        # have about one depth)
-        pk, om, depth, eps, kk, span = pieces
-        mem = c[row]
-        g_p = gu[pk]
-        lead_p = grouped.leader[g_p]
-        re_p = 2.0 * math.pi / (teeth * kt * depth)
-        mu_p = re_p + 1j * re_p * np.tan(0.5 * (eps - math.pi))
-        if alpha_one is not None:
-            alpha_p = np.broadcast_to(alpha_one, (pk.size, 2, 2))
-            alpha_m = np.broadcast_to(alpha_one, (row.size, 2, 2))
-        else:
-            alpha_p = directional_factors(pe[lead_p], px[lead_p], kr)
-            alpha_m = directional_factors(pe[mem], px[mem], kr)
-        lobe_p = (kk, 60.0 / (teeth * nu[pk]), span)
-        a_l = _lobe_depth(leaders.take(g_p), alpha_p, om, mu_p, lobe_p, teeth, kt)[sel]
-        lobe = (kk[sel], lobe_p[1][sel], span[sel])
-        m_mem = model.take(mem) if block_models is None else block_models(r0, r1).take(mem - r0)
-        a_m = _lobe_depth(m_mem, alpha_m, om[sel], mu_p[sel], lobe, teeth, kt)
-        depth = depth[sel]
-        with np.errstate(divide="ignore", invalid="ignore"):
-            # where the leader's own depth of the piece is not found: no estimate (0: its own)
-            est = np.where(np.isfinite(a_l) & (a_l > 0), depth * a_m / a_l, 0.0)
-        own_est = np.full(c.size, np.inf)
-        np.minimum.at(own_est, row, est)
-        shared_out[c] = np.where(np.isfinite(own_est), env, np.inf)
-        est_out[c] = own_est
+            for j, d in enumerate(diagrams)
+        ]
+        shared = np.min([np.where(np.isfinite(e), s, np.inf) for s, e in per], axis=0)
+        # a scenario without an estimate (0) far above the smallest shared limit cannot
+        # set the member's own: not a reason for lobes of its own
+        far = [(e == 0.0) & (s > _NO_ESTIMATE_ABOVE * shared) for s, e in per]
+        est = np.min([np.where(f, np.inf, e) for (_, e), f in zip(per, far, strict=True)], axis=0)
+        shared_out[c] = np.where(np.isfinite(est), shared, np.inf)
+        est_out[c] = est
 
     each_on_threads(block, range(0, n, rows_per_block), _CHECK_THREADS)  # disjoint rows
     return shared_out, est_out
+
+
+def _scenario_estimates(
+    d: LobeDiagram,
+    leaders: ModalModel,
+    members: Callable[[IntArray], ModalModel],
+    leader: IntArray,
+    c: IntArray,
+    inv: IntArray,
+    gu: IntArray,
+    nu: FloatArray,
+    *,
+    teeth: int,
+    kt: float,
+    kr: float,
+    alpha_one: FloatArray | None,
+    pe: FloatArray,
+    px: FloatArray,
+    compiled: bool,
+) -> tuple[FloatArray, FloatArray]:
+    """One scenario's shared limit and member estimates of a block (:func:`_size_estimates`).
+
+    ``d``: the scenario's lobes (batch n_groups); ``leaders``: its models of the
+    group leaders (batch n_groups); ``members(rows)``: its models of cutting
+    waypoints ``rows``; ``leader``: each group's leader; ``c`` (b,): the
+    block's members, ``inv`` (b,): each one's (group, speed) pair among ``gu``,
+    ``nu`` (u,). Returns the shared limit (the leader's pieces near the envelope
+    there) and the estimate of each member's own, each (b,) [m] (``inf`` where
+    no piece crosses the speed).
+    """
+    env = np.full(c.size, np.inf)
+    own_est = np.full(c.size, np.inf)
+    # an upper bound of the envelope to examine fewer pieces: the scenario grid's at the
+    # neighbouring grid speeds (the rows it does not bound are done again without it)
+    j = np.clip(np.searchsorted(d.rpm, nu) - 1, 0, d.rpm.size - 2)
+    top = np.maximum(d.a_lim[gu, j], d.a_lim[gu, j + 1]) * (1.0 + 1e-3)
+    pieces: tuple[Any, ...] = _lobe_pieces_at(d, gu, nu, top, _NEAR_ENVELOPE, compiled=compiled)
+    low = np.full(gu.size, np.inf)
+    np.minimum.at(low, pieces[0], pieces[2])
+    redo = np.flatnonzero(~(low <= top))
+    if redo.size:
+        more = _lobe_pieces_at(d, gu[redo], nu[redo], np.full(redo.size, np.inf), _NEAR_ENVELOPE)
+        keep = ~np.isin(pieces[0], redo)
+        pieces = tuple(
+            np.concatenate([p[keep], m if i else redo[m]])
+            for i, (p, m) in enumerate(zip(pieces, more, strict=True))
+        )
+    # each member with the pieces of its group and speed
+    order = np.argsort(pieces[0], kind="stable")
+    pieces = tuple(p[order] for p in pieces)
+    n_p = np.bincount(pieces[0], minlength=gu.size)
+    at = np.cumsum(n_p) - n_p
+    cnt = n_p[inv]
+    row = np.repeat(np.arange(c.size), cnt)
+    sel = np.arange(row.size) - np.repeat(np.cumsum(cnt) - cnt, cnt) + at[inv[row]]
+    np.minimum.at(env, row, pieces[2][sel])
+    if row.size == 0:
+        return env, own_est
+    # the leader's own depth of each piece: once per piece (its group's and speed's
+    # members share it), from the leader's eigenvalue of the piece: the one nearest
+    # the piece's own (its depth and phase, zoa_depth inverted: both branches can
+    # have about one depth)
+    pk, om, depth, eps, kk, span = pieces
+    mem = c[row]
+    g_p = gu[pk]
+    lead_p = leader[g_p]
+    re_p = 2.0 * math.pi / (teeth * kt * depth)
+    mu_p = re_p + 1j * re_p * np.tan(0.5 * (eps - math.pi))
+    if alpha_one is not None:
+        alpha_p = np.broadcast_to(alpha_one, (pk.size, 2, 2))
+        alpha_m = np.broadcast_to(alpha_one, (row.size, 2, 2))
+    else:
+        alpha_p = directional_factors(pe[lead_p], px[lead_p], kr)
+        alpha_m = directional_factors(pe[mem], px[mem], kr)
+    lobe_p = (kk, 60.0 / (teeth * nu[pk]), span)
+    a_l = _lobe_depth(leaders.take(g_p), alpha_p, om, mu_p, lobe_p, teeth, kt)[sel]
+    lobe = (kk[sel], lobe_p[1][sel], span[sel])
+    a_m = _lobe_depth(members(mem), alpha_m, om[sel], mu_p[sel], lobe, teeth, kt)
+    # where Newton left the leader's own piece for no lobe (Re mu <= 0: the k = 0 tails of
+    # 7-10 Hz modes near 24,000 rpm in a robust plan's mode-shift scenarios, a few pieces
+    # of the 10k zig-zag), the piece's own depth stands for it: the member's estimate is
+    # then its own depth of the lobe (a_m, converged)
+    a_l = np.where(np.isinf(a_l), depth[sel], a_l)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        # where the leader's own depth of the piece is not found: no estimate (0: its own)
+        est = np.where(np.isfinite(a_l) & (a_l > 0), depth[sel] * a_m / a_l, 0.0)
+    np.minimum.at(own_est, row, est)
+    return env, own_est

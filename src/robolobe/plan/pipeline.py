@@ -581,9 +581,10 @@ def _lobes_for_rotation(
     The last items: ``split(own, reuse)`` gives the lobes again with ``own``
     waypoints on lobes of their own (:func:`cut_lobes`'s ``own``/``reuse``);
     ``members(grouped, rpm)`` finds the members whose own limit at their planned
-    speeds lies outside the promise of the shared one to first order
-    (:func:`~robolobe.plan.lobes.size_members`; on a streamed path the members'
-    models are made again for it, block by block).
+    speeds lies outside the promise of the shared one
+    (:func:`~robolobe.plan.lobes.size_members`: a robust plan's on every scenario's
+    models, made again for it; on a streamed path the members' models are made
+    again for it, block by block).
     A path of at least :data:`_STREAM_MIN` cutting waypoints is streamed
     (:func:`_streamed_lobes`) unless the plan is robust. With ``eng`` every
     cutting move is planned at its own engagement, air moves without a limit.
@@ -618,11 +619,16 @@ def _lobes_for_rotation(
     )
     timings.update(t_lobes)
     cut_args = _lobe_args(job, material, rpm, engagement=angles)
+    nominal = model0 if bound is None else None  # a robust plan's: made again for the check
+    del model0
 
     def members(shared: GroupedLobes, planned: FloatArray) -> NDArray[np.bool_]:
+        # a robust plan's members on every scenario's models (made again as the lobes
+        # made them, not held through the schedule: ~1 kB a waypoint and scenario)
+        models = [nominal] if nominal is not None else _scenario_models(job, modes, f_tcp, tool)[2]
         return size_members(
             shared,
-            model0,
+            models,
             planned,
             **{k: cut_args[k] for k in ("teeth", "kt", "kr", "phi_entry", "phi_exit")},
         )
@@ -1100,6 +1106,39 @@ def cut_lobes(
     """
     timings: dict[str, float] = {}
     t = time.perf_counter()
+    plunge, f_use, models, windows, bound = _scenario_models(job, modes, f_tcp, tool, robust)
+    timings["frf"] = time.perf_counter() - t
+    t = time.perf_counter()
+    grouped = waypoint_lobes(
+        models,
+        unbounded=plunge if air is None else plunge | air,
+        window=windows,
+        own=own,
+        reuse=reuse,
+        **_lobe_args(job, material, rpm, dynamics_tol, engagement),
+    )
+    timings["lobes"] = time.perf_counter() - t
+    feed_angle = np.degrees(np.arctan2(f_use[:, 1], f_use[:, 0]))
+    return models[0], plunge, grouped, timings, feed_angle, bound
+
+
+def _scenario_models(
+    job: Job,
+    modes: RobotModes,
+    f_tcp: FloatArray,
+    tool: ModalModel | None,
+    robust: bool | None = None,
+) -> tuple[
+    NDArray[np.bool_], FloatArray, list[ModalModel], list[FloatArray] | None, RobustBound | None
+]:
+    """The feed-frame tool-point models the lobes are computed on (:func:`cut_lobes`).
+
+    Returns the plunge mask (n,), the feed directions used (n, 3) (plunges
+    along TCP x), the models (nominal first, then each corner of the robust
+    bound held at margin 1, batch (n,)), their speed windows (None for a
+    nominal plan) and the bound (None for a nominal plan; ``robust``
+    overrides ``job.plan.robust``).
+    """
     plunge = _feed_lateral(f_tcp) < PLUNGE_LATERAL
     f_use = np.where(plunge[:, None], [[1.0, 0.0, 0.0]], f_tcp)
     rot = feed_frame(f_use, (0.0, 0.0, -1.0), rotation="cw")
@@ -1115,19 +1154,7 @@ def cut_lobes(
         for bm, bw in bound.corners():
             models.append(bound_scenario(_tool_point_models(rot, bm, tool), job.plan.safety_factor))
             windows.append(bw)
-    timings["frf"] = time.perf_counter() - t
-    t = time.perf_counter()
-    grouped = waypoint_lobes(
-        models,
-        unbounded=plunge if air is None else plunge | air,
-        window=windows,
-        own=own,
-        reuse=reuse,
-        **_lobe_args(job, material, rpm, dynamics_tol, engagement),
-    )
-    timings["lobes"] = time.perf_counter() - t
-    feed_angle = np.degrees(np.arctan2(f_use[:, 1], f_use[:, 0]))
-    return models[0], plunge, grouped, timings, feed_angle, bound
+    return plunge, f_use, models, windows, bound
 
 
 #: Damping ratio of a twin mode from which the plan says that its real-mode receptance
