@@ -79,7 +79,9 @@ def large_blocks_mapped(on: bool = True) -> Iterator[None]:
     before is restored on leaving (glibc's own dynamic threshold: :data:`HEAP_UP_TO_BYTES`).
 
     Results do not change: only where glibc takes a block from. Contexts nest (a
-    long plan's lobe stage runs with the heap inside a plan that maps).
+    long plan's lobe stage runs with the heap inside a plan that maps). The
+    threshold is the process's: plans on several threads at once may run a stage
+    with the other one's setting (memory placement only).
 
     Parameters
     ----------
