@@ -56,7 +56,7 @@ from robolobe.sld.converged import LOBE_TOL, converged_lobes
 from robolobe.sld.directional import directional_factors
 from robolobe.sld.frf import ModalModel
 from robolobe.sld.lobes import LobeDiagram, lobe_envelope
-from robolobe.sld.zoa import _use_kernels
+from robolobe.sld.zoa import _use_kernels, lobes_needed
 
 __all__ = [
     "DynamicsTolerance",
@@ -1059,8 +1059,7 @@ def _lobe_need(d: LobeDiagram, rpm_min: float) -> float:
     """Lobe count that reaches ``rpm_min`` from the diagram's highest live frequency."""
     assert d.depth is not None
     assert d.omega is not None
-    w = np.where(np.isfinite(d.depth), np.asarray(d.omega)[..., None, :], 0.0)
-    return float(np.ceil(w.max(initial=0.0) * 60.0 / (d.teeth * rpm_min * 2.0 * math.pi)))
+    return lobes_needed(d.omega, d.depth, teeth=d.teeth, rpm_min=rpm_min)
 
 
 def _extend_diagrams(

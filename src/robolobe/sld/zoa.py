@@ -378,10 +378,7 @@ def _finish(
     nf = depth.shape[-1]
     if max_lobe is None and np.any(complete > r.min()):
         # lobes beyond k could still cut the envelope at the low speeds: add them
-        # the highest frequency on a branch (no (..., 2, n_freq) temporary of frequencies)
-        rel = np.isfinite(depth).any(axis=-2)
-        wmax = float(np.max(np.asarray(w), where=rel, initial=0.0))
-        need = np.ceil(wmax * 60.0 / (teeth * r.min() * _TWO_PI))
+        need = lobes_needed(w, depth, teeth=teeth, rpm_min=float(r.min()))
         k = int(min(max(need, k), max_lobe_cap))
         if kern is not None:
             env2, comp2 = kern.envelope(
@@ -412,6 +409,29 @@ def _finish(
         eps=eps,
         complete_above_rpm=complete,
     )
+
+
+def lobes_needed(omega: ArrayLike, depth: ArrayLike, *, teeth: int, rpm_min: float) -> float:
+    """Lobe count that reaches ``rpm_min`` [rpm] from the highest frequency on a branch.
+
+    Parameters
+    ----------
+    omega : array_like, shape (..., n_freq)
+        Frequencies [rad/s].
+    depth : array_like, shape (..., 2, n_freq)
+        Depth per branch (``inf`` off the branch).
+    teeth : int
+    rpm_min : float
+
+    Returns
+    -------
+    float
+        ``ceil(w_max 60 / (N rpm_min 2 pi))`` (0 where no sample is on a branch).
+    """
+    # no (..., 2, n_freq) temporary of frequencies (a long plan's lobes: ~100 MB)
+    on = np.isfinite(depth).any(axis=-2)
+    w_max = float(np.max(np.asarray(omega), where=on, initial=0.0))
+    return float(np.ceil(w_max * 60.0 / (teeth * rpm_min * _TWO_PI)))
 
 
 def polyline_samples(x: ArrayLike) -> FloatArray:
