@@ -160,12 +160,11 @@ def schedule_passes(
     p_lo = max(1, math.ceil(deepest_m / cons.depth_cap_m - 1e-9))
     d_hi = deepest_m / p_lo
     free = dataclasses.replace(cons, depth_min_m=min(cons.depth_min_m, d_hi), depth_max_m=d_hi)
-    first: PlanOutcome | None = run(free, p_lo, False)
-    assert first is not None
+    first = run(free, p_lo, False)
     p0 = max(p_lo, math.ceil(deepest_m / first.best.depth_m - 1e-9))
-    if refine:
-        # refined again below: not kept (a million waypoints: ~100 MB an outcome)
-        first = None
+    # with ``refine`` refined again below: not kept (a million waypoints: ~100 MB an outcome)
+    unrefined = None if refine else first
+    del first
     best: tuple[float, int, PlanOutcome | None, Constraints] | None = None
     for p in range(max(p_lo, p0 - PASS_SPAN), p0 + PASS_SPAN + 1):
         d = deepest_m / p
@@ -181,7 +180,8 @@ def schedule_passes(
         del out  # not alive under the next count's run
     if best is None:  # the optimum's own speeds at its depth rounded down to passes
         d = deepest_m / p0
-        last = run(free, p_lo, True) if first is None else first  # (not the same search twice)
+        # (not the same search twice)
+        last = run(free, p_lo, True) if unrefined is None else unrefined
         return last, p0, dataclasses.replace(cons, depth_min_m=d, depth_max_m=d)
     _, p, kept, fixed = best
     return (run(fixed, p, True) if kept is None else kept), p, fixed
