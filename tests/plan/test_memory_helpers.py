@@ -11,7 +11,7 @@ import pytest
 
 from robolobe._memory import RELEASE_MIN_ROWS, release_free_memory
 from robolobe.plan.job import load_job
-from robolobe.plan.paths._table import feed_directions, label_column
+from robolobe.plan.paths._table import feed_directions, label_column, segment_lengths
 from robolobe.plan.pipeline import _hash_joined, _shared_labels, plan_path, waypoints_hash
 from robolobe.plan.program import _labels
 
@@ -44,6 +44,22 @@ def test_feed_directions_match_a_filled_reference() -> None:
 
 def test_a_path_that_never_moves_has_no_direction() -> None:
     assert np.all(np.isnan(feed_directions(np.zeros((5, 3)))))
+
+
+def test_segment_lengths_column_by_column_are_the_norms_to_the_bit() -> None:
+    """Positions, a table's columns or some rows only: np.linalg.norm of each move."""
+    rng = np.random.default_rng(5)
+    for scale in (1e-6, 1.0, 1e3):
+        pos = rng.normal(size=(2000, 3)) * scale
+        pos[7] = pos[6]  # a move of length 0
+        ref = np.zeros(len(pos))
+        ref[1:] = np.linalg.norm(np.diff(pos, axis=0), axis=1)
+        table = pd.DataFrame(pos, columns=["x_m", "y_m", "z_m"])
+        rows = np.r_[0, np.sort(rng.choice(np.arange(1, len(pos)), 300, replace=False))]
+        np.testing.assert_array_equal(segment_lengths(pos), ref)
+        np.testing.assert_array_equal(segment_lengths(table), ref)
+        np.testing.assert_array_equal(segment_lengths(table, rows), ref[rows])
+    assert segment_lengths(np.zeros((1, 3))).tolist() == [0.0]
 
 
 @pytest.mark.parametrize("block", [1, 3, 7, 1000])

@@ -54,6 +54,7 @@ from robolobe.plan.job import Job
 from robolobe.plan.limits import process_limits
 from robolobe.plan.paths import detect_format, read_toolpath, reader_options
 from robolobe.plan.paths._edit import ProgramEdit, expected_table
+from robolobe.plan.paths._table import segment_lengths
 from robolobe.plan.paths._text import TRUNCATED
 from robolobe.plan.pipeline import PlanResult
 
@@ -249,28 +250,6 @@ def _whole_rpm(res: AnyPlan, rows: IntArray, w: float, sf: float) -> float:
     return float(cands[int(np.argmax(mins))])
 
 
-def _move_lengths_mm(wp: pd.DataFrame, rows: IntArray) -> FloatArray:
-    """Length [mm] of the move ending at each of ``rows`` (0 at row 0), shape (len(rows),).
-
-    ``segment_lengths(pos)[rows] * 1e3`` to the bit (the squares summed x, y,
-    z in that order), from the table's columns: no (n, 3) copy of the positions.
-    """
-    prev = np.maximum(rows - 1, 0)  # row 0: its own position, length 0
-    acc: FloatArray | None = None
-    for c in ("x_m", "y_m", "z_m"):
-        v = wp[c].to_numpy(dtype=np.float64)
-        d = v[rows] - v[prev]
-        d *= d
-        if acc is None:
-            acc = d
-        else:
-            acc += d
-    assert acc is not None
-    np.sqrt(acc, out=acc)
-    acc *= 1e3
-    return acc
-
-
 def _block_speeds(res: AnyPlan, rows: IntArray, bid: IntArray, opts: dict[str, Any]) -> FloatArray:
     """The S [rpm] of each block (module docstring): held, changed, or the plan's own.
 
@@ -302,7 +281,9 @@ def _block_speeds(res: AnyPlan, rows: IntArray, bid: IntArray, opts: dict[str, A
     starts = np.searchsorted(bid[order], np.arange(nb))
     want = rpm_plan[rows[order[starts]]]
     del order, starts
-    length = np.bincount(bid, weights=_move_lengths_mm(res.waypoints, rows), minlength=nb)
+    seg_mm = segment_lengths(res.waypoints, rows) * 1e3  # the table's columns: no (n, 3) copy
+    length = np.bincount(bid, weights=seg_mm, minlength=nb)
+    del seg_mm
     # the rows of block b: rows[b_start[b] : b_start[b + 1]] (not a million small arrays)
     b_start = np.concatenate([[0], np.flatnonzero(np.diff(bid)) + 1, [len(rows)]])
     hyst = float(opts["hysteresis_pct"]) / 100.0

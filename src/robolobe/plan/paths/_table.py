@@ -359,11 +359,44 @@ def label_column(codes: NDArray[np.int8], names: tuple[str, ...]) -> Any:
     return np.asarray(list(names), dtype=object)[codes]
 
 
-def segment_lengths(pos: FloatArray) -> FloatArray:
-    """Length [m] of the move ending at each waypoint (0 for the first); shape (n,)."""
-    d = np.zeros(len(pos))
-    if len(pos) > 1:
-        d[1:] = np.linalg.norm(np.diff(pos, axis=0), axis=1)
+def _length3(dx: FloatArray, dy: FloatArray, dz: FloatArray) -> FloatArray:
+    """``sqrt(dx^2 + dy^2 + dz^2)``, the squares summed x, y, z in that order:
+    ``np.linalg.norm(d, axis=1)``'s values to the bit, a column at a time (no (n, 3)
+    temporary). A new array."""
+    acc = dx * dx
+    sq = np.empty_like(acc)
+    for c in (dy, dz):
+        np.multiply(c, c, out=sq)
+        acc += sq
+    np.sqrt(acc, out=acc)
+    return acc
+
+
+def segment_lengths(pos: Any, rows: NDArray[np.int64] | None = None) -> FloatArray:
+    """Length [m] of the move ending at each waypoint (0 for the first).
+
+    Parameters
+    ----------
+    pos : ndarray, shape (n, 3), or DataFrame with ``x_m y_m z_m``
+        Positions [m] (a table's columns are read as they are: no (n, 3) copy).
+    rows : ndarray of int, optional
+        Only these waypoints' moves.
+
+    Returns
+    -------
+    ndarray, shape (n,) or (len(rows),)
+        ``np.linalg.norm`` of each move's difference, to the bit.
+    """
+    if isinstance(pos, pd.DataFrame):
+        cols = [pos[c].to_numpy(dtype=np.float64) for c in ("x_m", "y_m", "z_m")]
+    else:
+        cols = [pos[:, j] for j in range(3)]
+    if rows is not None:
+        prev = np.maximum(rows - 1, 0)  # row 0: its own position, length 0
+        return _length3(*(c[rows] - c[prev] for c in cols))
+    d = np.zeros(len(cols[0]))
+    if len(d) > 1:
+        d[1:] = _length3(*(c[1:] - c[:-1] for c in cols))
     return d
 
 
@@ -389,18 +422,11 @@ def feed_directions(pos: FloatArray, axis: FloatArray | None = None) -> FloatArr
     out = np.full((n, 3), np.nan)
     if n < 2:
         return out
-    # the moves' differences, lengths and unit directions made in ``out`` itself (no (n, 3)
-    # temporaries: a long program's reader peak); the lengths as np.linalg.norm's, to the bit
-    # (the squares summed x, y, z in that order)
+    # the moves' differences and unit directions made in ``out`` itself (no (n, 3)
+    # temporaries: a long program's reader peak)
     d = out[1:]
     np.subtract(pos[1:], pos[:-1], out=d)
-    ln = d[:, 0] * d[:, 0]
-    sq = np.empty_like(ln)
-    for c in (1, 2):
-        np.multiply(d[:, c], d[:, c], out=sq)
-        ln += sq
-    del sq
-    np.sqrt(ln, out=ln)
+    ln = _length3(d[:, 0], d[:, 1], d[:, 2])
     ok = ln > 1e-12
     np.divide(d, ln[:, None], out=d, where=ok[:, None])
     d[~ok] = np.nan
