@@ -154,3 +154,60 @@ def test_standardized_residuals_are_the_leverage_corrected_ones_of_a_linear_fit(
     assert held_rms > 1.25 * sigma
     nan = standardized_residuals(np.array([np.nan, 0.1]), np.array([0.2, np.nan]))
     assert np.all(np.isnan(nan))
+
+
+def test_each_share_class_is_covered_at_the_confidence_not_only_all_pooled():
+    """Issue 27: lead modes were under-covered, weak modes over-covered by one pooled scale.
+
+    Needed scales drawn per class from distributions of different widths: the
+    pooled scale covers the wide class below the confidence and the narrow
+    one above; with the class factors each class is covered at its own
+    95.45 % quantile (written here with numpy's quantile per class). A class
+    with fewer than ``min_count`` tests keeps factor 1; the cross-validated
+    coverage is an explicit leave-posture-out loop.
+    """
+    from robolobe.tl.residual import _SCALE_BOUNDS, class_cover_factor
+
+    rng = np.random.default_rng(11)
+    n, nd, nm = 30, 2, 4
+    # shares per (posture, direction, mode): class 3 (lead) for mode 0, class 0 for the
+    # rest, and class 2 at only 5 tests
+    share = np.full((n, nd, nm), 0.01)
+    share[:, :, 0] = 0.9
+    share[:5, 0, 1] = 0.3
+    width = np.where(share >= 0.5, 2.0, 0.6)[..., None]  # lead modes need wider spreads
+    need = np.abs(rng.normal(size=(n, nd, nm, 3))) * width
+    need[0, 0, 3, :] = np.nan  # no test there
+    factor, cover = class_cover_factor(need, share, min_count=20)
+    for c in range(3):
+        v = need[..., c]
+        ok = np.isfinite(v)
+        pooled = np.clip(np.quantile(v[ok], SPREAD_CONFIDENCE), *_SCALE_BOUNDS)
+        for cls, sel in ((3, share >= 0.5), (0, share < 0.05)):
+            own = np.quantile(v[ok & sel], SPREAD_CONFIDENCE)
+            assert factor[c, cls] == pytest.approx(own / pooled, rel=1e-12)
+            # pooled alone: the wide class under-covered, the narrow one over-covered
+            if cls == 3:
+                assert np.mean(v[ok & sel] <= pooled) < SPREAD_CONFIDENCE - 0.02
+            else:
+                assert np.mean(v[ok & sel] <= pooled) > SPREAD_CONFIDENCE + 0.02
+            hit = np.mean(v[ok & sel] <= pooled * factor[c, cls])
+            assert hit == pytest.approx(SPREAD_CONFIDENCE, abs=0.01)
+        assert factor[c, 2] == 1.0  # 5 tests: too few for a factor of its own
+        assert factor[c, 1] == 1.0  # no tests
+        # cross-validated: each posture at the factors found without it
+        cls_all = np.searchsorted([0.05, 0.2, 0.5], share, side="right")
+        hits = []
+        for i in range(n):
+            rest = np.arange(n) != i
+            vr, kr = v[rest], cls_all[rest]
+            okr = np.isfinite(vr)
+            p = np.clip(np.quantile(vr[okr], SPREAD_CONFIDENCE), *_SCALE_BOUNDS)
+            f = np.ones(4)
+            for b in range(4):
+                s = okr & (kr == b)
+                if s.sum() >= 20:
+                    f[b] = np.clip(np.quantile(vr[s], SPREAD_CONFIDENCE), *_SCALE_BOUNDS) / p
+            here = np.isfinite(v[i])
+            hits.extend(v[i][here] <= p * f[cls_all[i][here]])
+        assert cover[c] == pytest.approx(np.mean(hits), abs=1e-12)
