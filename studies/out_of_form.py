@@ -591,6 +591,11 @@ def summarize(rows: list[dict[str, Any]]) -> dict[str, Any]:
             "largest shifts",
             True,
         ),
+        (
+            "robust on the spread pooled over compliance-share classes (the calibration before)",
+            "pooled spread",
+            True,
+        ),
     ):
         plans = [r for r in rows if r.get("source") == source and r.get("robust") == robust]
         if not plans:
