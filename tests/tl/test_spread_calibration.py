@@ -178,7 +178,7 @@ def test_each_share_class_is_covered_at_the_confidence_not_only_all_pooled():
     width = np.where(share >= 0.5, 2.0, 0.6)[..., None]  # lead modes need wider spreads
     need = np.abs(rng.normal(size=(n, nd, nm, 3))) * width
     need[0, 0, 3, :] = np.nan  # no test there
-    factor, cover = class_cover_factor(need, share, min_count=20)
+    _, factor, cover, _ = class_cover_factor(need, share, min_count=20)
     for c in range(3):
         v = need[..., c]
         ok = np.isfinite(v)

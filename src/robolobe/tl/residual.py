@@ -86,8 +86,10 @@ __all__ = [
     "SPREAD_SIGMA",
     "CorrectedTwin",
     "calibrate_spread",
+    "class_cover_factor",
     "compliance_share",
     "is_corrected_twin_file",
+    "needed_scales",
     "share_factor",
     "standardized_residuals",
 ]
@@ -176,27 +178,8 @@ def calibrate_spread(
     cover_raw : ndarray, shape (3,)
         The same at scale 1 (the spread before calibration).
     """
-    e = np.asarray(held, dtype=float)
-    need = needed_scales(e, var_p, h)
-    use = np.isfinite(need)
-    scale = np.ones(3)
-    cover = np.full(3, np.nan)
-    cover_raw = np.full(3, np.nan)
-    post = np.broadcast_to(np.arange(e.shape[0])[:, None, None], e.shape[:3])
-    for c in range(3):
-        u = use[..., c]
-        if u.sum() < 10:
-            continue
-        v = need[..., c][u]
-        p = post[u]
-        scale[c] = float(np.clip(np.quantile(v, SPREAD_CONFIDENCE), *_SCALE_BOUNDS))
-        hit = np.empty(v.size, bool)
-        for k in np.unique(p):
-            here = p == k
-            lam = np.clip(np.quantile(v[~here], SPREAD_CONFIDENCE), *_SCALE_BOUNDS)
-            hit[here] = v[here] <= lam
-        cover[c] = float(hit.mean())
-        cover_raw[c] = float(np.mean(v <= 1.0))
+    need = needed_scales(held, var_p, h)
+    scale, _, cover, cover_raw = class_cover_factor(need, np.zeros(need.shape[:3]))
     return scale, cover, cover_raw
 
 
@@ -249,20 +232,21 @@ def _class_scales(v: FloatArray, cls: NDArray[np.intp], n_cls: int, min_count: i
 
 def class_cover_factor(
     need: FloatArray, share: FloatArray, min_count: int = 20
-) -> tuple[FloatArray, FloatArray]:
-    """Factor per quantity and share class that covers each class at the confidence.
+) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
+    """Scale per quantity, and a factor per share class that covers each class alike.
 
-    :func:`calibrate_spread` scales each quantity's spread so that
-    :data:`SPREAD_CONFIDENCE` of all held-out tests are covered, pooled over
-    the compliance-share classes (:func:`share_classes`); the classes are then
-    not covered alike (the relative sizes of :func:`share_factor` are RMS
-    values, which a few large residuals of weak modes set: on out-of-form
-    robot C the true frequencies of the modes with over half a direction's
-    compliance were within two spreads at 93.6 %, those of the others at
-    97.3 %, issue 27). Per class, the ratio of the class's own quantile of
-    the scale its tests need to the pooled scale (1 for a class with fewer
-    than ``min_count`` tests), so that each class is covered at the
-    confidence.
+    The scale is :func:`calibrate_spread`'s: the :data:`SPREAD_CONFIDENCE`
+    quantile of the scale each held-out test needs, pooled over the outputs
+    and the compliance-share classes (:func:`share_classes`). Pooled, the
+    classes are not covered alike (the relative sizes of :func:`share_factor`
+    are RMS values, which a few large residuals of weak modes set: on
+    out-of-form robot C the true frequencies of the modes with over half a
+    direction's compliance were within two spreads at 93.6 %, those of the
+    others at 97.3 %, issue 27). Per class, the factor is the ratio of the
+    class's own quantile of the needed scale to the pooled scale (1 for a
+    class with fewer than ``min_count`` tests), so that each class is covered
+    at the confidence. With one class (every share alike) the factors are 1
+    and this is :func:`calibrate_spread`.
 
     Parameters
     ----------
@@ -275,31 +259,40 @@ def class_cover_factor(
 
     Returns
     -------
+    scale : ndarray, shape (3,)
+        Pooled scale per quantity, clipped to [0.25, 10] (1 with fewer than 10
+        tests).
     factor : ndarray, shape (3, len(SHARE_EDGES) + 1)
         Factor on the pooled scale per quantity and class.
     cover : ndarray, shape (3,)
         Cross-validated share of the tests within ``SPREAD_SIGMA`` spreads at
         the pooled scale times the class factor, each posture's tests checked
         at those found without the posture (NaN: fewer than 10 tests).
+    cover_raw : ndarray, shape (3,)
+        The share within ``SPREAD_SIGMA`` spreads at scale 1 (NaN alike).
     """
     cls = np.broadcast_to(share_classes(share), need.shape[:3])
     post = np.broadcast_to(np.arange(need.shape[0])[:, None, None], need.shape[:3])
     n_cls = len(SHARE_EDGES) + 1
+    scale = np.ones(3)
     factor = np.ones((3, n_cls))
     cover = np.full(3, np.nan)
+    cover_raw = np.full(3, np.nan)
     for c in range(3):
         ok = np.isfinite(need[..., c])
         if ok.sum() < 10:
             continue
         v, k, p = need[..., c][ok], cls[ok], post[ok]
-        factor[c] = _class_scales(v, k, n_cls, min_count)[1:]
+        sc = _class_scales(v, k, n_cls, min_count)
+        scale[c], factor[c] = sc[0], sc[1:]
         hit = np.empty(v.size, bool)
         for i in np.unique(p):
             here = p == i
             sc = _class_scales(v[~here], k[~here], n_cls, min_count)
             hit[here] = v[here] <= sc[0] * sc[1 + k[here]]
         cover[c] = float(hit.mean())
-    return factor, cover
+        cover_raw[c] = float(np.mean(v <= 1.0))
+    return scale, factor, cover, cover_raw
 
 
 #: Edges of the compliance-share classes of :func:`share_factor`.
@@ -705,13 +698,11 @@ class CorrectedTwin:
         form_r = standardized_residuals(inner, held)
         self.share_h_ = share_factor(form_r, share)
         h = np.moveaxis(self.share_h_[:, share_classes(share)], 0, -1)  # (n, nd, nm, 3)
-        # the model-form term alone: the parameters' variance is added at each posture
-        self.spread_scale_, self.spread_cover_, self.spread_cover_raw_ = calibrate_spread(
-            form_r, np.zeros_like(form_r), h
-        )
+        # the model-form term alone (the parameters' variance is added at each posture),
         # each compliance-share class covered at the confidence, not only all pooled
-        kappa, cover = class_cover_factor(needed_scales(form_r, np.zeros_like(form_r), h), share)
-        self.spread_cover_ = np.where(np.isfinite(cover), cover, self.spread_cover_)
+        self.spread_scale_, kappa, self.spread_cover_, self.spread_cover_raw_ = class_cover_factor(
+            needed_scales(form_r, np.zeros_like(form_r), h), share
+        )
         with np.errstate(invalid="ignore", divide="ignore"):
             u = form_r / h
             n_u = np.isfinite(u).sum(axis=0)
