@@ -30,15 +30,42 @@ def test_fast_modes_equal_rebuilt_robot(key):
     _, q, _ = design_arrays(seed_design(key))
     q = q[:12]
     theta = np.random.default_rng(1).normal(0.0, 0.2, sum(PARAMETER_GROUPS.values()))
+    theta[-6:] = 3.0 * np.abs(theta[-6:])  # load stiffening: >= 0, up to ~2x at 1e4 N m
     fast = ParametrizedTwin(robot, q, ALL).values(theta)
     slow = modal_values(Twin(apply_parameters(robot, ALL, theta)).modes(q), ("xx", "yy"), 5)
     np.testing.assert_allclose(fast, slow, rtol=1e-9)
     # theta = 0 is the robot file
     np.testing.assert_allclose(
-        ParametrizedTwin(robot, q, ALL).values(np.zeros(37)),
+        ParametrizedTwin(robot, q, ALL).values(np.zeros(len(theta))),
         modal_values(Twin(robot).modes(q), ("xx", "yy"), 5),
         rtol=1e-9,
     )
+
+
+def test_load_group_stiffens_each_joint_spring_with_its_gravity_torque():
+    """``load``: theta per 1e4 N m of |gravity torque| (the robot file's law), added to the
+    file's own stiffening; the fast twin of a file that already stiffens starts there."""
+    from robolobe.twin.dynamics import gravity_torques
+    from robolobe.twin.system import nominal_system
+
+    base = load_robot("B")
+    theta = np.array([0.0, 1.5, 0.5, 0.0, 0.0, 0.0])
+    r = apply_parameters(base, ("load",), theta)
+    np.testing.assert_allclose(r.load_stiffening, theta / 1e4)
+    q = np.radians([[0.0, -60.0, 100.0, 0.0, 30.0, 0.0], [20.0, -20.0, 60.0, 0.0, 0.0, 0.0]])
+    sm = nominal_system(r, q)
+    tau = np.abs(gravity_torques(r, q, sm.bodies))
+    k_diag = np.diagonal(sm.K, axis1=-2, axis2=-1)[:, :6]
+    np.testing.assert_allclose(k_diag, base.stiffness * (1.0 + theta / 1e4 * tau), rtol=1e-12)
+    assert tau[0, 1] > 1e3  # the test means something: axis 2 holds the arm
+    # a file that stiffens already: theta = 0 is it, and theta adds to it
+    fast = ParametrizedTwin(r, q, ("load",)).values(np.full(6, 0.3))
+    slow = modal_values(
+        Twin(apply_parameters(r, ("load",), np.full(6, 0.3))).modes(q), ("xx", "yy"), 5
+    )
+    np.testing.assert_allclose(fast, slow, rtol=1e-9)
+    with pytest.raises(InputError):
+        apply_parameters(base, ("load",), -theta - 1.0)
 
 
 def test_apply_parameters_meaning():

@@ -197,20 +197,25 @@ def _calibrate(
 _PARAM_LEGEND = (
     "k1..k6: joint stiffness, d1..d6: joint damping, m_ee: mass at the tool point, "
     "m1..m6: link mass (factors on the robot file's values, x1 = unchanged); "
-    "c1x..c6z: link centre-of-mass offset along x, y, z [mm]; +- 1 standard deviation"
+    "c1x..c6z: link centre-of-mass offset along x, y, z [mm]; l1..l6: joint spring's "
+    "stiffening under load (+1 = twice as stiff at 1e4 N m of gravity torque); "
+    "+- 1 standard deviation"
 )
 
 
 def _param_text(row: Any) -> str:
-    """One fitted parameter: ``k2 x0.988`` or ``c4y -11.2 mm``."""
+    """One fitted parameter: ``k2 x0.988``, ``c4y -11.2 mm`` or ``l2 +1.21``."""
     if row["unit"] == "m":
         return f"{row['param']} {1000 * row['value']:+.1f} mm"
+    if row["unit"] != "x":
+        return f"{row['param']} {row['value']:+.3f}"
     return f"{row['param']} x{row['value']:.3f}"
 
 
 def _largest_changes(table: Any, n: int = 3) -> str:
-    """The ``n`` factors furthest from 1 (centre-of-mass offsets are listed with -v)."""
-    factors = table[table["unit"] != "m"]
+    """The ``n`` factors furthest from 1 (centre-of-mass offsets and load stiffening are
+    listed with -v)."""
+    factors = table[table["unit"] == "x"]
     if not len(factors):
         return "none (centre-of-mass offsets only, see -v)"
     far = factors.assign(off=np.abs(np.log(factors["value"]))).nlargest(n, "off")
@@ -381,9 +386,9 @@ def register(app: typer.Typer) -> None:
             typer.Option(
                 "--params",
                 help="twin calibration: comma-separated groups out of stiffness, damping, "
-                "ee_mass, link_mass, link_com.",
+                "ee_mass, link_mass, link_com, load (default: all).",
             ),
-        ] = "stiffness,damping,ee_mass,link_mass,link_com",
+        ] = "stiffness,damping,ee_mass,link_mass,link_com,load",
         frozen: Annotated[int, typer.Option("--frozen", help="Frozen layers (seed: 3).")] = 3,
         epochs: Annotated[
             int | None, typer.Option("--epochs", min=1, help="Default: the source's.")

@@ -4,11 +4,15 @@ The black-box network of :mod:`robolobe.tl.estimator` has to learn how the
 modes move with five joint angles from ~20 postures. The twin
 (:class:`robolobe.twin.Twin`) already knows that dependence; what a robot
 file gets wrong are a few dozen physical parameters. :class:`TwinCalibration`
-fits them (:mod:`robolobe.twin.params`, 37 by default):
+fits them (:mod:`robolobe.twin.params`, 43 by default):
 
 * the 6 joint stiffnesses and the 6 joint dampings (factors),
 * the end-effector mass, its inertia scaled alike (a factor),
-* each link's mass and inertia (6 factors) and centre of mass (18 offsets)
+* each link's mass and inertia (6 factors) and centre of mass (18 offsets),
+* each joint spring's load stiffening (6 values >= 0: ``k (1 + s |tau_g|)``,
+  the gear stiffer under the gravity torque it holds; issue 27: on
+  out-of-form robots B and C the calibrated spread of the modes' compliance
+  halves, e.g. 0.23 -> 0.11 and 0.31 -> 0.10 per sigma)
 
 by bounded nonlinear least squares (:func:`scipy.optimize.least_squares`,
 factors log-parametrised) on the misfit between measured and twin modes plus
@@ -76,6 +80,7 @@ from robolobe.twin.params import (
     PARAMETER_GROUPS,
     ParametrizedTwin,
     apply_parameters,
+    group_values,
     modal_values,
     parameter_names,
 )
@@ -92,7 +97,7 @@ __all__ = [
 
 FloatArray = NDArray[np.float64]
 #: Default calibrated groups: every group of :data:`PARAMETER_GROUPS`.
-DEFAULT_PARAMS = ("stiffness", "damping", "ee_mass", "link_mass", "link_com")
+DEFAULT_PARAMS = ("stiffness", "damping", "ee_mass", "link_mass", "link_com", "load")
 _FIRST_STAGE = ("stiffness", "damping", "ee_mass", "link_mass")
 # held-out residuals: Gauss-Newton refit without a posture, from the fit (each step
 # costs one eigen-solve and one Jacobian of the tested postures: milliseconds)
@@ -102,6 +107,11 @@ _HELD_OUT_XTOL = 1e-4  # log-factor step at which the refit stops (0.01 %)
 #: same minimum: the stage stops there (out-of-form robot B draw 1: stage 2's six starts
 #: ran 2 s each, the second ended at the first's cost and none of the others lower).
 SAME_MINIMUM_RTOL = 1e-3
+
+
+def _group_of(groups: Sequence[str]) -> list[str]:
+    """The group of each parameter of ``groups``, in order."""
+    return [g for g in groups for _ in range(PARAMETER_GROUPS[g])]
 
 
 def _same_minimum(cost: float, best: float) -> bool:
@@ -120,7 +130,11 @@ PRIOR_STD: dict[str, float] = {
     "ee_mass": 0.1,
     "link_mass": 0.1,
     "link_com": 0.05 / COM_UNIT_M,
+    "load": 1.0,
 }
+#: Largest load stiffening a calibration fits (``load``, per 1e4 N m of gravity torque):
+#: a joint spring up to 11 x as stiff at 1e4 N m as at no load.
+LOAD_MAX = 10.0
 
 
 def parameter_covariance(jac: FloatArray, s2: float) -> FloatArray:
@@ -402,7 +416,7 @@ class TwinCalibration:
     params : sequence of str
         Groups to calibrate (:data:`robolobe.twin.params.PARAMETER_GROUPS`):
         ``"stiffness"``, ``"damping"``, ``"ee_mass"``, ``"link_mass"``,
-        ``"link_com"``; default all (37 parameters).
+        ``"link_com"``, ``"load"``; default all (43 parameters).
     bounds : (float, float)
         Bounds of every factor (stiffness, damping, masses).
     com_bound_m : float
@@ -450,13 +464,14 @@ class TwinCalibration:
     Attributes
     ----------
     factors_ : dict of str to ndarray
-        Fitted values per group: factors (shape (6,) or (1,)); for
-        ``link_com`` the offsets [m], shape (6, 3).
+        Fitted values per group (:func:`robolobe.twin.params.group_values`):
+        factors (shape (6,) or (1,)); for ``link_com`` the offsets [m], shape
+        (6, 3); for ``load`` the stiffening per 1e4 N m, shape (6,).
     robot_ : Robot
         The calibrated robot.
     param_names_ : tuple of str
-        ``k1..k6``, ``d1..d6``, ``m_ee``, ``m1..m6``, ``c1x..c6z`` for the
-        calibrated groups.
+        ``k1..k6``, ``d1..d6``, ``m_ee``, ``m1..m6``, ``c1x..c6z``, ``l1..l6``
+        for the calibrated groups.
     theta_ : ndarray, shape (n_params,)
         Fitted parameters (log factors; COM offsets in units of 0.1 m).
     param_std_ : ndarray, shape (n_params,)
@@ -580,6 +595,10 @@ class TwinCalibration:
         his: list[float] = []
         for g in groups:
             n = PARAMETER_GROUPS[g]
+            if g == "load":  # a stiffening: from none (the file's) up
+                los += [0.0] * n
+                his += [LOAD_MAX] * n
+                continue
             los += [-c if g == "link_com" else lo] * n
             his += [c if g == "link_com" else hi] * n
         return np.asarray(los), np.asarray(his)
@@ -871,15 +890,9 @@ class TwinCalibration:
             else float("nan")
             for c, name in enumerate(("f", "zeta", "k"))
         }
-        out: dict[str, FloatArray] = {}
-        k = 0
-        for g in groups:
-            v = theta[k : k + PARAMETER_GROUPS[g]]
-            out[g] = COM_UNIT_M * v.reshape(6, 3) if g == "link_com" else np.exp(v)
-            k += PARAMETER_GROUPS[g]
         rob = apply_parameters(base, groups, theta)
         self.theta_ = theta
-        self.factors_ = out
+        self.factors_ = group_values(groups, theta)
         self.robot_ = rob.replace(name=self.robot_name or f"{base.name}-calibrated")
         self.base_robot_ = base
         self.groups_ = groups
@@ -898,10 +911,12 @@ class TwinCalibration:
             # more measured modes than the twin: say which ones the model leaves out
             # (otherwise the count is reported as always, n_unmatched_)
             _warn_unmatched(self.unmatched_, self.match_tol, self.match_k_gate)
+        # (no load stiffening, the lower bound of ``load``, is the file's value: not a bound
+        # the data push against)
         self.at_bounds_ = tuple(
             n
-            for n, th, a, b in zip(names, theta, lo, hi, strict=True)
-            if min(th - a, b - th) < 1e-3
+            for n, th, a, b, g in zip(names, theta, lo, hi, _group_of(groups), strict=True)
+            if (b - th < 1e-3) or (g != "load" and th - a < 1e-3)
         )
         self.train_q_rad_ = np.array(q)
         return self
@@ -1063,17 +1078,22 @@ class TwinCalibration:
     def summary(self) -> pd.DataFrame:
         """Fitted parameters, one row each.
 
-        Columns: ``param``, ``value`` (a factor on the robot file's value, or
-        a centre-of-mass offset [m]), ``unit`` (``"x"`` or ``"m"``) and ``std``
-        (1 sigma: relative for factors, [m] for offsets).
+        Columns: ``param``, ``value`` (a factor on the robot file's value, a
+        centre-of-mass offset [m], or a joint's load stiffening: its relative
+        stiffening per 1e4 N m of gravity torque), ``unit`` (``"x"``, ``"m"`` or
+        ``"per 1e4 N m"``) and ``std`` (1 sigma: relative for factors, [m] for
+        offsets, in the value's units for the load stiffening).
         """
         self._check_fitted()
-        com = np.array([n[0] == "c" and len(n) == 3 for n in self.param_names_])
+        group = np.array(_group_of(self.groups_))
+        com, load = group == "link_com", group == "load"
         return pd.DataFrame(
             {
                 "param": self.param_names_,
-                "value": np.where(com, COM_UNIT_M * self.theta_, np.exp(self.theta_)),
-                "unit": np.where(com, "m", "x"),
+                "value": np.where(
+                    com, COM_UNIT_M * self.theta_, np.where(load, self.theta_, np.exp(self.theta_))
+                ),
+                "unit": np.where(com, "m", np.where(load, "per 1e4 N m", "x")),
                 "std": np.where(com, COM_UNIT_M * self.param_std_, self.param_std_),
             }
         )
@@ -1140,12 +1160,7 @@ class TwinCalibration:
             self.robot_ = apply_parameters(base, groups, theta).replace(
                 name=str(meta["robot_name"])
             )
-            self.factors_ = {}
-            k = 0
-            for g in groups:
-                v = theta[k : k + PARAMETER_GROUPS[g]]
-                self.factors_[g] = COM_UNIT_M * v.reshape(6, 3) if g == "link_com" else np.exp(v)
-                k += PARAMETER_GROUPS[g]
+            self.factors_ = group_values(groups, theta)
             self.residual_rms_ = {str(a): float(b) for a, b in meta["residual_rms"].items()}
             self.directions_ = tuple(str(d) for d in meta["directions"])
             self.n_modes_ = int(meta["n_modes"])

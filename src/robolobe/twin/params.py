@@ -28,6 +28,11 @@ ee_mass    1    log factor on the end-effector mass and inertia
 link_mass  6    log factor on each link's mass and inertia
 link_com   18   offset of each link's centre of mass in its own frame,
                 in units of 0.1 m (x, y, z per link)
+load       6    load stiffening of each joint spring, its relative
+                stiffening per 1e4 N m of gravity torque
+                (:func:`robolobe.twin.system.load_stiffened`: the joint
+                spring ``k (1 + s |tau_g|)``, ``s = theta / 1e4`` added to
+                the file's; >= 0)
 ========== ==== ====================================================
 
 :class:`ParametrizedTwin` evaluates the twin's modes for many ``theta`` at
@@ -68,6 +73,7 @@ __all__ = [
     "ParametrizedTwin",
     "apply_parameters",
     "body_indices",
+    "group_values",
     "modal_values",
     "parameter_names",
 ]
@@ -81,7 +87,11 @@ PARAMETER_GROUPS: dict[str, int] = {
     "ee_mass": 1,
     "link_mass": 6,
     "link_com": 18,
+    "load": 6,
 }
+LOAD_UNIT_NM = 1.0e4
+"""Gravity torque [N m] per unit of a fitted load stiffening (``load``): ``theta = 1`` is a
+joint spring twice as stiff at 1e4 N m as at no load."""
 COM_UNIT_M = 0.1
 """Length of one unit of a fitted centre-of-mass offset [m] (``link_com`` here, the
 seed-table fit's ``shape_bodies``): a ridge on the parameters pulls 0.1 m of offset as
@@ -110,9 +120,29 @@ def parameter_names(groups: Sequence[str]) -> tuple[str, ...]:
             names += [f"m{i}" for i in range(1, 7)]
         elif g == "link_com":
             names += [f"c{i}{a}" for i in range(1, 7) for a in "xyz"]
+        elif g == "load":
+            names += [f"l{i}" for i in range(1, 7)]
         else:
             raise InputError(f"params: expected groups from {tuple(PARAMETER_GROUPS)}, found {g!r}")
     return tuple(names)
+
+
+def group_values(groups: Sequence[str], theta: ArrayLike) -> dict[str, FloatArray]:
+    """Each group's fitted values in the robot file's terms.
+
+    Factors (``exp(theta)``) for the stiffness, damping and mass groups; the
+    centre-of-mass offsets [m], shape (6, 3); the load stiffening as the
+    relative stiffening per 1e4 N m (``theta`` itself, shape (6,)).
+    """
+    out: dict[str, FloatArray] = {}
+    for g, v in _split(groups, theta).items():
+        if g == "link_com":
+            out[g] = COM_UNIT_M * v.reshape(6, 3)
+        elif g == "load":
+            out[g] = np.array(v, dtype=np.float64)
+        else:
+            out[g] = np.exp(v)
+    return out
 
 
 def _split(groups: Sequence[str], theta: ArrayLike) -> dict[str, FloatArray]:
@@ -172,6 +202,8 @@ def apply_parameters(base: Robot, groups: Sequence[str], theta: ArrayLike) -> Ro
             for jt, b, s, d in zip(robot.joints, base.joints, scale, offset, strict=True)
         )
         robot = robot.replace(joints=joints)
+    if "load" in parts:
+        robot = robot.with_load_stiffening(base.load_stiffening + parts["load"] / LOAD_UNIT_NM)
     return robot
 
 
@@ -597,9 +629,14 @@ class ParametrizedTwin:
         sys_ = nominal_system(base, q_rad)
         nd = sys_.n_dof
         self._nd = nd
-        # diagonal springs/dampers: the six joints, then the file's compliance DOFs
+        # diagonal springs/dampers: the six joints (at no load), then the file's
+        # compliance DOFs
         self._k0 = np.diagonal(sys_.K.reshape(-1, nd, nd)[0]).copy()
+        self._k0[:6] = base.stiffness
         self._c0 = np.diagonal(sys_.C.reshape(-1, nd, nd)[0]).copy()
+        # the joint springs' load stiffening per N m: the file's, plus the fitted one
+        self._s0 = np.asarray(base.load_stiffening, dtype=np.float64)
+        self._loaded = "load" in self.groups or bool(np.any(self._s0 > 0))
         self._bodies = BodyMassModel(sys_, com_bodies=range(6) if "link_com" in self.groups else ())
         self._J = sys_.J
         self._eye = np.eye(nd)
@@ -637,10 +674,11 @@ class ParametrizedTwin:
         return s, d
 
     def _matrices(self, theta: ArrayLike) -> tuple[FloatArray, FloatArray, FloatArray]:
-        """M (n, nd, nd), K and C (nd, nd) for ``theta`` (nd = 6 + compliance DOFs)."""
+        """M (n, nd, nd), K ((n, nd, nd) with load stiffening, else (nd, nd)) and C
+        (nd, nd) for ``theta`` (nd = 6 + compliance DOFs)."""
         parts = _split(self.groups, theta)
         s, d = self._mass_parts(parts)
-        return (self._bodies.mass_matrix(s, d), *self._springs(parts))
+        return (self._bodies.mass_matrix(s, d), *self._springs(parts, s, d))
 
     def _state(self, theta: ArrayLike) -> _State:
         """The matrices and undamped modes at ``theta`` (the last theta's reused)."""
@@ -652,20 +690,36 @@ class ParametrizedTwin:
         s, com_off = self._mass_parts(parts)
         mb = self._bodies.body_matrices(com_off)  # (n, nb, nd, nd): d M / d log(mass factor)
         m = self._bodies.mass_matrix(s, body_parts=mb)
-        kmat, cmat = self._springs(parts)
+        kmat, cmat = self._springs(parts, s, com_off)
         w0, phi = undamped_modes(m, kmat)
         state = _State(s, com_off, mb, m, kmat, cmat, w0, phi)
         self._last_state = (key, state)
         return state
 
-    def _springs(self, parts: dict[str, FloatArray]) -> tuple[FloatArray, FloatArray]:
-        """K and C (nd, nd) for the parameter groups ``parts``."""
+    def _springs(
+        self, parts: dict[str, FloatArray], scales: FloatArray, com_off: FloatArray | None
+    ) -> tuple[FloatArray, FloatArray]:
+        """K and C for the parameter groups ``parts`` (mass factors ``scales`` and COM
+        offsets ``com_off`` give the gravity torques of the load stiffening): K (nd, nd),
+        or (n, nd, nd) where the joint springs stiffen with load; C (nd, nd)."""
         k, c = self._k0.copy(), self._c0.copy()
         if "stiffness" in parts:
             k[:6] *= np.exp(parts["stiffness"])
         if "damping" in parts:
             c[:6] *= np.exp(parts["damping"])
-        return self._eye * k, self._eye * c
+        if not self._loaded:
+            return self._eye * k, self._eye * c
+        kk = np.broadcast_to(k, (self._bodies.n_postures, k.size)).copy()
+        kk[:, :6] *= 1.0 + self._load_s(parts) * self._tau(scales, com_off)
+        return kk[:, :, None] * self._eye, self._eye * c
+
+    def _load_s(self, parts: dict[str, FloatArray]) -> FloatArray:
+        """Load stiffening per N m of each joint (6,): the file's plus the fitted one."""
+        return self._s0 + (parts["load"] / LOAD_UNIT_NM if "load" in parts else 0.0)
+
+    def _tau(self, scales: FloatArray, com_off: FloatArray | None) -> FloatArray:
+        """|gravity torque| on the six axes [N m], (n, 6), at these masses."""
+        return np.abs(self._bodies.gravity_torques(scales, com_off))
 
     def log_jacobian(self, theta: ArrayLike) -> FloatArray:
         """Derivatives of the log of :meth:`values` with respect to ``theta``.
@@ -686,29 +740,51 @@ class ParametrizedTwin:
         st = self._state(theta)
         s, com_off, mb = st.scales, st.com_off, st.body_parts
         n, p, nd = self._bodies.n_postures, self.n_params, self._nd
-        k, c = np.diag(st.K), np.diag(st.C)
+        k = np.broadcast_to(np.diagonal(st.K, axis1=-2, axis2=-1), (n, nd))
+        c = np.diag(st.C)
         # the derivatives of K and of M are zero but for the stiffness and the mass
-        # parameters: the products below are taken for those rows alone
+        # parameters: the products below are taken for those rows alone. With load
+        # stiffening the springs hold the gravity torques, which the mass factors scale
+        # (a term in K of theirs); the centres of mass move them too: that term is left
+        # out (Gauss-Newton steps; the residuals stay exact)
         k_rows: list[int] = []
         m_rows: list[int] = []
         dm_parts: list[FloatArray] = []
-        dk = np.zeros((p, nd))
+        dk = np.zeros((n, p, nd))
         dc = np.zeros((p, nd))
+        j6 = np.arange(6)
+        dk_mass = None
+        if self._loaded:
+            parts = _split(self.groups, theta)
+            k_free = self._k0[:6] * (np.exp(parts["stiffness"]) if "stiffness" in parts else 1.0)
+            tau_b = self._bodies.body_gravity(com_off)  # (n, nb, 6), linear in the factors
+            sign = np.sign(np.einsum("b,pbj->pj", s, tau_b))
+            # d K_jj / d log(mass factor b) = k_j s_j sign(tau_j) s_b tau_bj: (n, nb, 6)
+            dk_mass = (k_free * self._load_s(parts) * sign)[:, None, :] * (s[None, :, None] * tau_b)
         i0 = 0
         for g in self.groups:
             size = PARAMETER_GROUPS[g]
             rows = list(range(i0, i0 + size))
             if g == "stiffness":
-                dk[i0 : i0 + 6, :6] = np.diag(k[:6])
+                dk[:, i0 + j6, j6] = k[:, :6]
+                k_rows += rows
+            elif g == "load":
+                dk[:, i0 + j6, j6] = k_free * self._tau(s, com_off) / LOAD_UNIT_NM
                 k_rows += rows
             elif g == "damping":
                 dc[i0 : i0 + 6, :6] = np.diag(c[:6])
             elif g == "ee_mass":
                 dm_parts.append(s[6] * mb[:, 6:7])
                 m_rows += rows
+                if dk_mass is not None:
+                    dk[:, i0, :6] = dk_mass[:, 6]
+                    k_rows += rows
             elif g == "link_mass":
                 dm_parts.append(s[:6, None, None] * mb[:, :6])
                 m_rows += rows
+                if dk_mass is not None:
+                    dk[:, i0 : i0 + 6, :6] = dk_mass[:, :6]
+                    k_rows += rows
             else:  # link_com: one unit is COM_UNIT_M along a link's own axis
                 dcom = self._bodies.com_derivatives(slice(None), com_off, COM_UNIT_M)[0]
                 dcom = s[None, :6, None, None, None] * dcom  # (n, 6, 3, nd, nd)
@@ -723,7 +799,7 @@ class ParametrizedTwin:
         gk = np.zeros((n, p, nd, nd))
         hm = np.zeros((n, p, nd, nd))
         if k_rows:
-            gk[:, k_rows] = (pt * dk[None, k_rows, None, :]) @ phi[:, None]
+            gk[:, k_rows] = (pt * dk[:, k_rows, None, :]) @ phi[:, None]
         if m_rows:
             hm[:, m_rows] = pt @ np.concatenate(dm_parts, axis=1) @ phi[:, None]
         a = gk - lam[:, None, None, :] * hm  # (n, p, s, r): phi_s^T (dK - lam_r dM) phi_r
