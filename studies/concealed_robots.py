@@ -121,7 +121,6 @@ def concealed_robot(
     Robot
         Loaded from its own TOML file.
     """
-    from robolobe.tl.graybox import DEFAULT_PARAMS
     from robolobe.twin.params import COM_UNIT_M, apply_parameters
 
     if file_error not in ("full", "joints"):
@@ -134,7 +133,7 @@ def concealed_robot(
     groups: tuple[str, ...] = ("stiffness", "damping", "ee_mass")
     if file_error == "full":
         theta += [np.log(rng.uniform(0.9, 1.1, 6)), rng.normal(0.0, 0.05, 18) / COM_UNIT_M]
-        groups = DEFAULT_PARAMS
+        groups = ("stiffness", "damping", "ee_mass", "link_mass", "link_com")
     truth = apply_parameters(base, groups, np.concatenate(theta))
     if file_error == "full":
         joints = tuple(

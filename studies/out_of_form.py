@@ -596,6 +596,11 @@ def summarize(rows: list[dict[str, Any]]) -> dict[str, Any]:
             "pooled spread",
             True,
         ),
+        (
+            "robust on a transfer without the load group (the calibration before)",
+            "without load group",
+            True,
+        ),
     ):
         plans = [r for r in rows if r.get("source") == source and r.get("robust") == robust]
         if not plans:

@@ -79,7 +79,7 @@ from robolobe.robots.model import RigidBody, Robot
 from robolobe.tl.dataset import dataset_from_frame
 from robolobe.tl.design import design_postures
 from robolobe.tl.estimator import transfer_network
-from robolobe.tl.graybox import DEFAULT_PARAMS, TwinCalibration, twin_values
+from robolobe.tl.graybox import TwinCalibration, twin_values
 from robolobe.tl.models import load_model
 from robolobe.tl.residual import CorrectedTwin
 from robolobe.twin import Twin
@@ -153,7 +153,9 @@ def concealed_truth(key: str, base: Robot, draw: int, folder: Path) -> tuple[Rob
             rng.normal(0.0, 0.05, 18) / COM_UNIT_M,
         ]
     )
-    truth = apply_parameters(base, DEFAULT_PARAMS, theta)
+    truth = apply_parameters(
+        base, ("stiffness", "damping", "ee_mass", "link_mass", "link_com"), theta
+    )
     truth = _physical_shape_error(truth, rng, 0.2).replace(name=f"{key}-truth-{draw}")
     path = folder / f"{key}_truth_{draw}.toml"
     save_robot(truth, path)

@@ -34,7 +34,7 @@ Methods, all given the same training table:
 * ``network``: the shipped robot-A model transferred (the seed's method,
   improved preset);
 * ``graybox``: :class:`robolobe.tl.graybox.TwinCalibration` of the robot file
-  (all 37 parameters);
+  (all 43 parameters);
 * ``corrected``: :class:`robolobe.tl.residual.CorrectedTwin`, that calibrated
   twin plus the cross-validated Gaussian-process correction of its residuals
   (what ``robolobe transfer --robot R`` makes by default).

@@ -30,7 +30,7 @@ import pytest
 
 import robolobe._matching
 import robolobe.tl.residual
-from robolobe.twin.params import ParametrizedTwin
+from robolobe.twin.params import ParametrizedTwin, parameter_names
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "studies"))
 
@@ -168,7 +168,7 @@ def test_twin_reuse_gives_what_a_fresh_twin_gives() -> None:
     base = load_robot("B")
     q = base.q_min + (base.q_max - base.q_min) * np.random.default_rng(3).random((5, 6))
     rng = np.random.default_rng(4)
-    thetas = [rng.normal(0.0, 0.1, 37) for _ in range(3)]
+    thetas = [np.abs(rng.normal(0.0, 0.1, len(parameter_names(DEFAULT_PARAMS)))) for _ in range(3)]
     twin = ParametrizedTwin(base, q, DEFAULT_PARAMS, directions=("xx", "yy"), n_modes=6)
     for th in (thetas[0], thetas[1], thetas[1], thetas[0], thetas[2], thetas[2]):
         v = twin.values(th)

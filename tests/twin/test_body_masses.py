@@ -109,6 +109,7 @@ def test_parametrized_twin_equals_the_twin_of_the_file_apply_parameters_writes(
     q = SEED_TABLES["B"].postures_rad
     groups = tuple(PARAMETER_GROUPS)
     theta = np.random.default_rng(3).normal(0.0, 0.3, sum(PARAMETER_GROUPS.values()))
+    theta[-6:] = np.abs(theta[-6:])  # the load stiffening: >= 0 (the springs per posture)
     m, k, _ = ParametrizedTwin(robot, q, groups)._matrices(theta)
     want = nominal_system(_reloaded(apply_parameters(robot, groups, theta), tmp_path), q)
     np.testing.assert_allclose(m, want.M, rtol=1e-9, atol=1e-9 * np.abs(want.M).max())

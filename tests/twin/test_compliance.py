@@ -110,6 +110,7 @@ def test_parametrized_twin_with_compliance_dofs() -> None:
     q = sample_postures(r, 3, np.random.default_rng(0))
     groups = list(PARAMETER_GROUPS)
     theta = np.random.default_rng(1).normal(0.0, 0.1, sum(PARAMETER_GROUPS.values()))
+    theta[-6:] = 3.0 * np.abs(theta[-6:])  # load stiffening (>= 0) beside the compliance DOFs
     pt = ParametrizedTwin(r, q, groups, n_modes=8)
     m1 = pt.modes(theta)
     m2 = Twin(apply_parameters(r, groups, theta)).modes(q)
@@ -118,7 +119,7 @@ def test_parametrized_twin_with_compliance_dofs() -> None:
     # Jacobian of the frequencies against finite differences
     jac = pt.log_jacobian(theta)
     v0 = np.log(pt.values(theta))
-    for i in (1, 12, 20):
+    for i in (1, 12, 20, 38):
         d = np.zeros_like(theta)
         d[i] = 1e-6
         fd = (np.log(pt.values(theta + d)) - v0) / 1e-6

@@ -39,7 +39,7 @@ load       6    load stiffening of each joint spring, its relative
 fixed postures without rebuilding the robot (the mass matrix from
 :class:`BodyMassModel`). It gives the same
 modes as ``Twin(apply_parameters(robot, groups, theta)).modes(q)`` (tested to
-1e-9) about three times faster, which is what makes the 37-parameter fit
+1e-9) about three times faster, which is what makes the 43-parameter fit
 quick. A robot file with the optional tilt or mount compliances (docs/guide/robots.md
 extension, README "Robot description") keeps those DOFs at their
 file values: the groups act on the six joint springs and dampers and on the
