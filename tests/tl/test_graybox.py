@@ -332,25 +332,4 @@ def test_load_stiffening_is_recovered_where_the_gears_stiffen_under_load():
     np.testing.assert_allclose(fit.robot_.stiffness[:3], truth.stiffness[:3], rtol=0.05)
     without = TwinCalibration(robot=base, params=groups[:2]).fit_dataset(ds)
     assert fit.residual_rms_["f"] < 0.002 < without.residual_rms_["f"]
-    assert "l2" not in fit.at_bounds_
-    assert "l1" not in fit.at_bounds_  # none (its lower bound) is no bound
-
-
-def test_load_stiffening_is_fitted_on_the_joints_that_hold_the_arm():
-    """Joints 2 and 3 carry the arm's gravity torque on A, B and C (the wrist axes a few
-    per cent of it, axis 1 none): only theirs is free; the others' prior pins it."""
-    from robolobe.tl.graybox import LOAD_JOINT_SHARE, LOAD_PINNED, _load_joints
-    from robolobe.twin.params import ParametrizedTwin
-
-    for key in "ABC":
-        robot = load_robot(key)
-        _, q, _ = design_arrays(seed_design(key))
-        twin = ParametrizedTwin(robot, q, ("stiffness", "load"))
-        tau = np.max(np.abs(twin.gravity_torques()), axis=0)
-        want = tau >= LOAD_JOINT_SHARE * tau.max()
-        np.testing.assert_array_equal(_load_joints(twin), want)
-        np.testing.assert_array_equal(want, [False, True, True, False, False, False])
-        sd = TwinCalibration(robot=robot, params=("stiffness", "load"))._prior_vector(
-            ("stiffness", "load"), twin
-        )
-        np.testing.assert_array_equal(sd[6:], np.where(want, PRIOR_STD["load"], LOAD_PINNED))
+    assert "l2" not in fit.at_bounds_ and "l1" not in fit.at_bounds_  # none is no bound

@@ -10,12 +10,9 @@ fits them (:mod:`robolobe.twin.params`, 43 by default):
 * the end-effector mass, its inertia scaled alike (a factor),
 * each link's mass and inertia (6 factors) and centre of mass (18 offsets),
 * each joint spring's load stiffening (6 values >= 0: ``k (1 + s |tau_g|)``,
-  the gear stiffer under the gravity torque it holds), free on the joints
-  that hold at least :data:`LOAD_JOINT_SHARE` of the most loaded joint's
-  gravity torque at the tested postures (2 and 3 on A, B and C), pinned to
-  none on the others (issue 27: on out-of-form robots B and C the calibrated
-  spread of the modes' compliance halves, e.g. 0.23 -> 0.11 and 0.31 -> 0.10
-  per sigma)
+  the gear stiffer under the gravity torque it holds; issue 27: on
+  out-of-form robots B and C the calibrated spread of the modes' compliance
+  halves, e.g. 0.23 -> 0.11 and 0.31 -> 0.10 per sigma)
 
 by bounded nonlinear least squares (:func:`scipy.optimize.least_squares`,
 factors log-parametrised) on the misfit between measured and twin modes plus
@@ -112,14 +109,6 @@ _HELD_OUT_XTOL = 1e-4  # log-factor step at which the refit stops (0.01 %)
 SAME_MINIMUM_RTOL = 1e-3
 
 
-def _load_joints(twin: ParametrizedTwin) -> NDArray[np.bool_]:
-    """The joints whose load stiffening a calibration fits, (6,): their largest gravity
-    torque over ``twin``'s postures (at the file's masses) at least :data:`LOAD_JOINT_SHARE`
-    of the most loaded joint's."""
-    tau = np.max(np.abs(twin.gravity_torques()), axis=0)
-    return np.asarray(tau >= LOAD_JOINT_SHARE * max(float(tau.max()), 1e-300))
-
-
 def _group_of(groups: Sequence[str]) -> list[str]:
     """The group of each parameter of ``groups``, in order."""
     return [g for g in groups for _ in range(PARAMETER_GROUPS[g])]
@@ -143,13 +132,6 @@ PRIOR_STD: dict[str, float] = {
     "link_com": 0.05 / COM_UNIT_M,
     "load": 1.0,
 }
-#: Least largest gravity torque of a joint, relative to the most loaded joint's over the
-#: tested postures, for its load stiffening to be fitted (the others' is pinned to none:
-#: a wrist axis holds a few per cent of the arm's torque, and its stiffening per N m was
-#: free to take up other misfit, up to 3 per 1e4 N m on out-of-form robot C).
-LOAD_JOINT_SHARE = 0.25
-#: Prior standard deviation of a pinned load stiffening (``load``, per 1e4 N m).
-LOAD_PINNED = 1e-3
 #: Largest load stiffening a calibration fits (``load``, per 1e4 N m of gravity torque):
 #: a joint spring up to 11 x as stiff at 1e4 N m as at no load.
 LOAD_MAX = 10.0
@@ -593,23 +575,10 @@ class TwinCalibration:
             )
         return robot, groups
 
-    def _prior_vector(
-        self, groups: tuple[str, ...], twin: ParametrizedTwin | None = None
-    ) -> FloatArray:
-        """Prior standard deviation of every parameter [theta units], shape (n_params,).
-
-        ``twin`` (at the tested postures): the load stiffening is free only on the
-        joints that hold a gravity torque of at least :data:`LOAD_JOINT_SHARE` of the
-        largest joint's there (:func:`_load_joints`); the others' is pinned to none.
-        """
+    def _prior_vector(self, groups: tuple[str, ...]) -> FloatArray:
+        """Prior standard deviation of every parameter [theta units], shape (n_params,)."""
         sd = {**PRIOR_STD, **(self.prior_std or {})}
-        parts = []
-        for g in groups:
-            v = np.full(PARAMETER_GROUPS[g], float(sd[g]))
-            if g == "load" and twin is not None:
-                v = np.where(_load_joints(twin), v, LOAD_PINNED)
-            parts.append(v)
-        return np.concatenate(parts)
+        return np.concatenate([np.full(PARAMETER_GROUPS[g], float(sd[g])) for g in groups])
 
     def _noise_floor(self) -> float:
         """RMS of the weighted log residuals that identification scatter alone leaves."""
@@ -724,7 +693,7 @@ class TwinCalibration:
         _check_some_underdamped(base, q, ds.posture_ids, twin.values(np.zeros(p)))
         wf, wz, wk = (float(w) for w in self.weights)
         reg = float(self.regularization)
-        prior_sd = self._prior_vector(groups, twin)
+        prior_sd = self._prior_vector(groups)
         # weight of the prior rows: the scatter of the weighted data residuals
         # (updated from the fit in the last stage)
         prior_w = np.array([reg * self._noise_floor()])
@@ -1054,7 +1023,7 @@ class TwinCalibration:
         jac = -twin.log_jacobian(theta)[i, j, t] * w[None, :, None]  # (pairs, 3, p)
         r_w = np.where(ok, raw * w, 0.0)
         jac = np.where(ok[..., None], jac, 0.0)
-        prior_sd = self._prior_vector(self.groups_, twin)
+        prior_sd = self._prior_vector(self.groups_)
         used = r_w[ok]
         prior_w = float(self.regularization) * max(
             self._noise_floor(), float(np.sqrt(np.mean(used**2))) if used.size else 0.0

@@ -713,10 +713,6 @@ class ParametrizedTwin:
         kk[:, :6] *= 1.0 + self._load_s(parts) * self._tau(scales, com_off)
         return kk[:, :, None] * self._eye, self._eye * c
 
-    def gravity_torques(self) -> FloatArray:
-        """|gravity torque| on the six axes [N m] at the robot file's masses, (n, 6)."""
-        return self._tau(np.ones(len(self._bodies.mass_kg)), None)
-
     def _load_s(self, parts: dict[str, FloatArray]) -> FloatArray:
         """Load stiffening per N m of each joint (6,): the file's plus the fitted one."""
         return self._s0 + (parts["load"] / LOAD_UNIT_NM if "load" in parts else 0.0)
