@@ -332,4 +332,5 @@ def test_load_stiffening_is_recovered_where_the_gears_stiffen_under_load():
     np.testing.assert_allclose(fit.robot_.stiffness[:3], truth.stiffness[:3], rtol=0.05)
     without = TwinCalibration(robot=base, params=groups[:2]).fit_dataset(ds)
     assert fit.residual_rms_["f"] < 0.002 < without.residual_rms_["f"]
-    assert "l2" not in fit.at_bounds_ and "l1" not in fit.at_bounds_  # none is no bound
+    assert "l2" not in fit.at_bounds_
+    assert "l1" not in fit.at_bounds_  # none (its lower bound) is no bound
