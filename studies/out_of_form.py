@@ -601,6 +601,11 @@ def summarize(rows: list[dict[str, Any]]) -> dict[str, Any]:
             "without load group",
             True,
         ),
+        (
+            "robust, load stiffening fitted on joints 2 and 3 only (not kept)",
+            "load on joints 2-3",
+            True,
+        ),
     ):
         plans = [r for r in rows if r.get("source") == source and r.get("robust") == robust]
         if not plans:
