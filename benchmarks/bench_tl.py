@@ -46,13 +46,15 @@ def _data(key: str, roles: tuple[str, ...]):
 
 def _calibration_seconds() -> tuple[float, float, float]:
     """Seconds of one calibration, of the correction on top, of 10,000 predictions."""
-    from robolobe.tl.graybox import DEFAULT_PARAMS, TwinCalibration
+    from robolobe.tl.graybox import TwinCalibration
     from robolobe.twin.params import apply_parameters
 
     ids, q, role = design_arrays(seed_design("B"))
     base = load_robot("B")
     theta = np.random.default_rng(3).normal(0.0, 0.12, 37)  # factors ~ +-12 %, offsets ~ 1.2 cm
-    truth = apply_parameters(base, DEFAULT_PARAMS, theta)
+    truth = apply_parameters(
+        base, ("stiffness", "damping", "ee_mass", "link_mass", "link_com"), theta
+    )
     train = np.asarray(role) == "train"
     ds = twin_modal_dataset(Twin(truth), ids, q, rng=np.random.default_rng(0)).subset(train)
     t = time.perf_counter()
