@@ -250,3 +250,25 @@ def test_default_transfer_makes_a_corrected_twin_a_job_plans_on(tmp_path, b_moda
     assert summary["robust"] is True
     assert summary["robust_by_default"] is True
     assert "calibrated prediction-error spread" in summary["robust_bound"]["spread_from"]
+
+
+def test_transfer_line_names_the_gears_that_stiffen_under_load():
+    """The calibration's load stiffening is listed where found (>= 0.05 per 1e4 N m),
+    not among the factors (its 0 is no change, not a factor of 0)."""
+    import pandas as pd
+
+    from robolobe.cli.tl import _largest_changes, _load_stiffening
+
+    table = pd.DataFrame(
+        {
+            "param": ["k2", "d6", "c1x", "l2", "l3", "l5"],
+            "value": [1.2, 0.5, 0.01, 0.743, 0.0, 0.04],
+            "unit": ["x", "x", "m", "per 1e4 N m", "per 1e4 N m", "per 1e4 N m"],
+            "std": [0.1, 0.1, 0.01, 0.1, 0.1, 0.1],
+        }
+    )
+    assert _load_stiffening(table) == (
+        "; gears stiffer under load (per 1e4 N m of gravity torque): l2 +0.743"
+    )
+    assert _largest_changes(table, n=2) == "d6 x0.500, k2 x1.200"
+    assert _load_stiffening(table[table["unit"] != "per 1e4 N m"]) == ""

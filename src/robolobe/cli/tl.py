@@ -164,7 +164,7 @@ def _calibrate(
     console.print(
         f"  calibrated twin: residual RMS of log f {rms['f']:.4f}, zeta {rms['zeta']:.3f}, "
         f"k {rms['k']:.3f}; {count(len(params_table), 'parameter')} fitted, the largest "
-        f"changes: {_largest_changes(params_table)}",
+        f"changes: {_largest_changes(params_table)}{_load_stiffening(params_table)}",
         highlight=False,
     )
     if isinstance(model, CorrectedTwin):
@@ -220,6 +220,17 @@ def _largest_changes(table: Any, n: int = 3) -> str:
         return "none (centre-of-mass offsets only, see -v)"
     far = factors.assign(off=np.abs(np.log(factors["value"]))).nlargest(n, "off")
     return ", ".join(_param_text(r) for _, r in far.iterrows())
+
+
+def _load_stiffening(table: Any, least: float = 0.05) -> str:
+    """``; gears stiffer under load: l2 +0.740, l3 +0.180`` for the joints whose fitted
+    load stiffening is at least ``least`` (per 1e4 N m), else empty."""
+    load = table[(table["unit"] == "per 1e4 N m") & (table["value"] >= least)]
+    if not len(load):
+        return ""
+    return "; gears stiffer under load (per 1e4 N m of gravity torque): " + ", ".join(
+        _param_text(r) for _, r in load.iterrows()
+    )
 
 
 def _print_calibration(table: Any) -> None:
