@@ -1087,12 +1087,11 @@ class TwinCalibration:
         self._check_fitted()
         group = np.array(_group_of(self.groups_))
         com, load = group == "link_com", group == "load"
+        values = group_values(self.groups_, self.theta_)  # in the order of the groups
         return pd.DataFrame(
             {
                 "param": self.param_names_,
-                "value": np.where(
-                    com, COM_UNIT_M * self.theta_, np.where(load, self.theta_, np.exp(self.theta_))
-                ),
+                "value": np.concatenate([np.ravel(values[g]) for g in self.groups_]),
                 "unit": np.where(com, "m", np.where(load, "per 1e4 N m", "x")),
                 "std": np.where(com, COM_UNIT_M * self.param_std_, self.param_std_),
             }

@@ -758,9 +758,11 @@ class ParametrizedTwin:
             parts = _split(self.groups, theta)
             k_free = self._k0[:6] * (np.exp(parts["stiffness"]) if "stiffness" in parts else 1.0)
             tau_b = self._bodies.body_gravity(com_off)  # (n, nb, 6), linear in the factors
-            sign = np.sign(np.einsum("b,pbj->pj", s, tau_b))
+            tau = np.einsum("b,pbj->pj", s, tau_b)  # BodyMassModel.gravity_torques, once
             # d K_jj / d log(mass factor b) = k_j s_j sign(tau_j) s_b tau_bj: (n, nb, 6)
-            dk_mass = (k_free * self._load_s(parts) * sign)[:, None, :] * (s[None, :, None] * tau_b)
+            dk_mass = (k_free * self._load_s(parts) * np.sign(tau))[:, None, :] * (
+                s[None, :, None] * tau_b
+            )
         i0 = 0
         for g in self.groups:
             size = PARAMETER_GROUPS[g]
@@ -769,7 +771,7 @@ class ParametrizedTwin:
                 dk[:, i0 + j6, j6] = k[:, :6]
                 k_rows += rows
             elif g == "load":
-                dk[:, i0 + j6, j6] = k_free * self._tau(s, com_off) / LOAD_UNIT_NM
+                dk[:, i0 + j6, j6] = k_free * np.abs(tau) / LOAD_UNIT_NM
                 k_rows += rows
             elif g == "damping":
                 dc[i0 : i0 + 6, :6] = np.diag(c[:6])
