@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 import pytest
 
@@ -64,6 +66,22 @@ def test_check_dataset_errors_and_warnings():
     y[:, 0, 4] = np.nan
     with pytest.raises(InputError, match="mode 5: no posture has a value"):
         check_dataset(ModalDataset(ds.posture_ids, ds.q_rad, ds.directions, y), min_postures=3)
+    # the twin methods pair modes by frequency: a direction may see fewer modes (no
+    # error, and its modes beyond the ones it has are not "missing values")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        check_dataset(
+            ModalDataset(ds.posture_ids, ds.q_rad, ds.directions, y),
+            min_postures=3,
+            every_mode=False,
+        )
+    y[:, 0] = np.nan
+    with pytest.raises(InputError, match="direction 'xx': no posture has a mode"):
+        check_dataset(
+            ModalDataset(ds.posture_ids, ds.q_rad, ds.directions, y),
+            min_postures=3,
+            every_mode=False,
+        )
     y = np.array(ds.y)
     y[1, 1, 2] = np.nan
     with pytest.warns(TrustWarning, match=r"P1/yy/mode 3"):

@@ -283,6 +283,7 @@ def check_dataset(
     q_min_rad: ArrayLike | None = None,
     q_max_rad: ArrayLike | None = None,
     source: str = "modal dataset",
+    every_mode: bool = True,
 ) -> None:
     """Raise on data a model cannot be trained on; warn on what weakens it.
 
@@ -295,12 +296,18 @@ def check_dataset(
         Joint limits; postures outside them are an error.
     source : str
         Name used in messages.
+    every_mode : bool
+        True (a network's fixed outputs): each direction must have a value of
+        each of its ``n_modes`` modes somewhere. False (the twin methods, which
+        pair measured modes with the twin's by frequency): a direction may have
+        fewer modes than the others; it needs one.
 
     Raises
     ------
     InputError
         Too few postures, postures outside the joint limits, duplicated
-        postures, or a direction x mode with no value at all.
+        postures, a direction x mode with no value at all (``every_mode``) or
+        a direction without any.
 
     Warns
     -----
@@ -338,15 +345,24 @@ def check_dataset(
         )
     known = np.all(np.isfinite(ds.y), axis=3)  # (n, n_dir, n_modes)
     for j, d in enumerate(ds.directions):
-        for m in range(ds.n_modes):
+        if not every_mode and not np.any(known[:, j]):
+            raise InputError(
+                f"direction {d!r}: no posture has a mode; expected at least one per direction "
+                "(leave the direction out of the tests, or check its column 'dir')",
+                source=source,
+            )
+        for m in range(ds.n_modes if every_mode else 0):
             if not np.any(known[:, j, m]):
                 raise InputError(
                     f"direction {d!r}, mode {m + 1}: no posture has a value; expected "
                     f"{ds.n_modes} modes per direction",
                     source=source,
                 )
-    if not np.all(known):
-        miss = np.argwhere(~known)
+    # a direction's modes beyond those any posture has are not missing values (twin
+    # methods: that direction sees fewer modes)
+    seen = np.any(known, axis=0, keepdims=True)  # (1, n_dir, n_modes)
+    if not np.all(known | ~seen):
+        miss = np.argwhere(~known & seen)
         where = ", ".join(
             f"{ds.posture_ids[p]}/{ds.directions[d]}/mode {m + 1}" for p, d, m in miss[:6]
         )

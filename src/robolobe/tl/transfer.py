@@ -105,6 +105,7 @@ def checked_dataset(
     n_modes: int,
     robot: Robot | None,
     min_postures: int,
+    every_mode: bool = True,
 ) -> ModalDataset:
     """The tests as a dataset, checked: enough postures, inside the robot's limits.
 
@@ -122,6 +123,10 @@ def checked_dataset(
         Postures are checked against its joint limits.
     min_postures : int
         Fewest postures accepted.
+    every_mode : bool
+        Each direction must have each of the ``n_modes`` modes (a network's
+        outputs); False for the twin methods, where a direction may see fewer
+        modes than the others (:func:`~robolobe.tl.dataset.check_dataset`).
 
     Raises
     ------
@@ -139,6 +144,7 @@ def checked_dataset(
         q_min_rad=None if robot is None else robot.q_min,
         q_max_rad=None if robot is None else robot.q_max,
         source=name,
+        every_mode=every_mode,
     )
     return ds
 
@@ -317,7 +323,7 @@ def transfer(
         modes = pd.to_numeric(df.loc[df["dir"].astype(str).str.lower().isin(dirs), "mode"])
         if len(modes) and np.isfinite(modes.max()):
             n_modes = int(min(5, modes.max()))
-    checked_dataset(df, name, dirs, n_modes, rob, MIN_POSTURES[method])
+    checked_dataset(df, name, dirs, n_modes, rob, MIN_POSTURES[method], every_mode=False)
     groups = tuple(params)
     try:
         if method == "twin-calibration":
