@@ -15,6 +15,7 @@ import math
 import numpy as np
 import pytest
 
+import robolobe.plan.modes
 from robolobe._modal_parameters import ModalParameters
 from robolobe.plan.job import job_from_dict, job_to_dict, load_job
 from robolobe.plan.modes import (
@@ -76,7 +77,10 @@ def _modes(spread, calibrated, k):
     return RobotModes(params, model, None, "test", True, calibrated)
 
 
-def test_plan_bound_is_robust_by_default_only_on_a_calibrated_spread():
+def test_plan_bound_is_robust_by_default_only_on_a_calibrated_spread(monkeypatch):
+    # each mode lowered by k_sigma of its own spread (the sharing is tested in
+    # test_robust_sharing.py)
+    monkeypatch.setattr(robolobe.plan.modes, "MODE_LOWERING", "each")
     k = [[1e6, 1e12], [2e6, 5e6], [1e12, 1e12]]
     std = np.zeros((1, 3, 2, 3))
     std[..., 0], std[..., 1], std[..., 2] = 0.01, 0.05, 0.02
@@ -111,7 +115,8 @@ def test_plan_bound_is_robust_by_default_only_on_a_calibrated_spread():
     )
 
 
-def test_coupled_spread_is_that_of_the_direction_that_sees_the_mode():
+def test_coupled_spread_is_that_of_the_direction_that_sees_the_mode(monkeypatch):
+    monkeypatch.setattr(robolobe.plan.modes, "MODE_LOWERING", "each")
     # mode 1 is seen along x (k 1e6) and barely along z (k 1e10): the barely-seen
     # direction's huge relative stiffness spread must not soften the mode
     k = [[1e6, 1e12], [1e12, 5e6], [1e10, 1e12]]

@@ -14,6 +14,7 @@ from statistics import NormalDist
 import numpy as np
 import pytest
 
+import robolobe.plan.modes
 from robolobe._modal_parameters import ModalParameters
 from robolobe.errors import InputError
 from robolobe.plan.lobes import waypoint_lobes
@@ -80,7 +81,10 @@ def _one_mode_modes(s_f, s_z, s_k):
     return RobotModes(p, ModalModel.from_parameters(p), None, "test", spread_calibrated=True)
 
 
-def test_bound_corners_lower_and_window_by_their_share_of_k_sigma():
+def test_bound_corners_lower_and_window_by_their_share_of_k_sigma(monkeypatch):
+    # each mode lowered by k_sigma of its own spread (the sharing between modes:
+    # test_robust_sharing.py)
+    monkeypatch.setattr(robolobe.plan.modes, "MODE_LOWERING", "each")
     modes = _one_mode_modes(0.03, 0.06, 0.08)
     b = modes.robust(2.0)
     assert b is not None

@@ -107,6 +107,49 @@ MODE_SHIFTS = True
 #: 0.84. Of the shifted modes that can meet another, 27 % have a tool-plane shape off the
 #: truth's (MAC < 0.9), of the others 4 % (``studies/out_of_form_mrr.py --coverage``).
 MODE_SHIFT_SPREAD = "pairs"
+#: How the modes' peak compliances are lowered together. ``"independent"`` (the
+#: default): their errors taken as independent, the worst point of the ``k_sigma``
+#: ball of standardized errors for a limit that weighs each mode by its share of the
+#: posture's peak compliance (:func:`joint_lowering`: a lone mode at ``k_sigma``, modes
+#: that share the compliance each at less). ``"each"``: every mode at ``k_sigma`` of
+#: its own spread at once. Issue 27, out-of-form robots (``studies/out_of_form.py``,
+#: cached transfers of draws 38-45, 60 postures each): the standardized compliance
+#: errors of two modes that matter at one posture correlate at -0.01 (B) and -0.09 (C);
+#: with ``"each"`` weak modes with wide spreads set the limit (C's robust plans at 0.77
+#: of their plain plans' MRR).
+MODE_LOWERING = "independent"
+
+
+def joint_lowering(peak: ArrayLike, spread: ArrayLike) -> FloatArray:
+    """Share of its own lowering each mode takes at the worst point of the joint ball.
+
+    For a stability limit whose log falls with the modes' log peak compliances
+    weighted by their shares ``g_r`` of the posture's peak compliance, and
+    independent standardized errors ``u_r``, the worst point of the ball
+    ``|u| <= k_sigma`` lowers the limit by ``k_sigma sqrt(sum (g_r s_r)^2)``
+    (``s_r`` a mode's spread): there ``u_r = k_sigma g_r s_r / sqrt(sum (g s)^2)``.
+    A mode that holds the compliance alone takes its full ``k_sigma``; a weak
+    mode with a wide spread only as much as its share weighs.
+
+    Parameters
+    ----------
+    peak : array_like, shape (n, m)
+        Each mode's peak compliance [m/N] (>= 0) per posture.
+    spread : array_like, shape (n, m)
+        Each mode's spread of log peak compliance (any common scale).
+
+    Returns
+    -------
+    ndarray, shape (n, m)
+        ``u_r / k_sigma`` in [0, 1] (0 where no mode has a spread).
+    """
+    pk = np.nan_to_num(np.asarray(peak, dtype=np.float64), nan=0.0, posinf=0.0)
+    sp = np.nan_to_num(np.asarray(spread, dtype=np.float64), nan=0.0, posinf=0.0)
+    tot = pk.sum(axis=-1, keepdims=True)
+    g = np.divide(pk, tot, out=np.zeros_like(pk), where=tot > 0)
+    gs = g * sp
+    norm = np.sqrt(np.sum(gs**2, axis=-1, keepdims=True))
+    return np.asarray(np.divide(gs, norm, out=np.zeros_like(gs), where=norm > 0))
 
 
 def region_corners(n: int = REGION_CORNERS) -> FloatArray:
@@ -389,14 +432,20 @@ class RobotModes:
         # would put the product k_sigma * (s_k + s_z) low, up to sqrt(2) x too far
         both = np.hypot(sm[..., 1], sm[..., 2])
         frac_k = np.divide(sm[..., 2] ** 2, both**2, out=np.zeros_like(both), where=both > 0)
+        peak = np.abs(np.trace(model.residues, axis1=-2, axis2=-1)) / (
+            2.0 * model.zeta * model.omega**2
+        )
+        if MODE_LOWERING not in ("independent", "each"):
+            raise ValueError(
+                f"MODE_LOWERING: expected 'independent' or 'each', found {MODE_LOWERING!r}"
+            )
+        if MODE_LOWERING == "independent":
+            both = both * joint_lowering(peak, both)
         low = np.stack([both * (1.0 - frac_k), both * frac_k], axis=-1)  # log zeta, log k
         # the speed window, per posture: the frequency spread of the modes that set the
         # stability limit (peak compliance at least WINDOW_SHARE of the largest), not
         # the largest of every mode that matters: a weak mode's frequency is known
         # worse (its small share of the compliance) and its lobes lie deeper
-        peak = np.abs(np.trace(model.residues, axis1=-2, axis2=-1)) / (
-            2.0 * model.zeta * model.omega**2
-        )
         matter = peak >= 0.05 * peak.max(axis=1, keepdims=True)
         lead = peak >= WINDOW_SHARE * peak.max(axis=1, keepdims=True)
         window = np.minimum(np.max(np.where(lead, sm[..., 0], 0.0), axis=1), MAX_WINDOW)
