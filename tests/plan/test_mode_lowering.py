@@ -68,9 +68,7 @@ def _min_re(k: np.ndarray, zeta: np.ndarray) -> np.ndarray:
     wn = 2 * np.pi * F_HZ
     g = np.zeros((k.shape[0], w.size), dtype=complex)
     for r in range(2):
-        g += (wn[r] ** 2 / k[:, r, None]) / (
-            wn[r] ** 2 - w**2 + 2j * zeta[:, r, None] * wn[r] * w
-        )
+        g += (wn[r] ** 2 / k[:, r, None]) / (wn[r] ** 2 - w**2 + 2j * zeta[:, r, None] * wn[r] * w)
     return g.real.min(axis=1)
 
 
