@@ -82,7 +82,15 @@ were drawn new and run once on that code (``--robots C --first-draw 26 --draws
 --passes``: pass counts set by the limit planned on, no speed or pass split
 lost); no planner change followed, and draws 30-33 were drawn new and run once
 on that code (``--robots C --first-draw 30 --draws 4 --jobs all``, the same for
-B; ``meta.mrr3``).
+B; ``meta.mrr3``). The compliance-share classes of the spread (draws 34-37,
+``meta.class_cover``) and the twin calibration's load stiffening (38-45,
+``meta.load_group``) followed, each on new draws run once. Then a robust bound
+stopped lowering every mode by ``k_sigma`` of its own spread at once: the modes
+go together to the worst point of the ``k_sigma`` ball of their independent
+errors (:data:`robolobe.plan.modes.MODE_LOWERING`, rows ``source = "each mode
+lowered"`` the old rule); draws 46-49 were drawn new and run once on it
+(``--robots C --first-draw 46 --draws 4 --jobs all --sources "oracle,plain,
+robust,each mode lowered"``, the same for B; ``meta.independent``).
 """
 
 from __future__ import annotations

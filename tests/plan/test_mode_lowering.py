@@ -89,6 +89,7 @@ def test_bound_limit_holds_for_independent_mode_errors(monkeypatch, how):
     held = float(np.mean(lim_true >= lim_bound[0]))
     # one-sided 2 sigma of a limit linear in the errors: 97.7 %
     assert held >= 0.96, held
+    assert ("independent errors" in b.describe()["statement"]) == (how == "independent")
     if how == "independent":
         # no more conservative than it needs to be: every mode at 2 sigma at once is
         # the 'each' bound, lower still

@@ -338,11 +338,18 @@ class RobotModes:
 
         Each visible mode's stiffness and damping are lowered together so that
         their product (the mode's peak compliance ``1 / (2 k zeta)``, which sets
-        its stability limit) falls by ``k_sigma`` standard deviations of its log
-        spread ``sqrt(s_k^2 + s_zeta^2)`` (each spread capped at
+        its stability limit) falls by up to ``k_sigma`` standard deviations of
+        its log spread ``sqrt(s_k^2 + s_zeta^2)`` (each spread capped at
         :data:`MAX_LOG_STD` per sigma), shared in proportion to their
         variances (``k_sigma`` spreads of each would lower the product by
-        ``k_sigma (s_k + s_zeta)``: up to sqrt(2) times the bound stated);
+        ``k_sigma (s_k + s_zeta)``: up to sqrt(2) times the bound stated).
+        The modes are lowered together as :data:`MODE_LOWERING` says: by
+        default to the worst point of the ``k_sigma`` ball of their
+        independent errors for a limit weighted by each mode's share of the
+        posture's peak compliance (:func:`joint_lowering`: a mode that holds
+        the compliance alone by ``k_sigma`` spreads, weak modes with wide
+        spreads by what their share weighs), not every mode at its own
+        ``k_sigma`` at once;
         frequencies keep their nominal values
         and their uncertainty becomes a relative speed window
         ``+-k_sigma * std(log f)`` (the lobes of modes all shifted by a factor
@@ -514,6 +521,7 @@ class RobotModes:
             lowered_max=np.asarray(applied.max(axis=0), dtype=np.float64),
             scenarios=tuple(scenarios),
             mode_shifts=bool(np.any(shift > 0)),
+            independent=MODE_LOWERING == "independent",
         )
 
 
@@ -524,8 +532,8 @@ class RobustBound:
     Attributes
     ----------
     model : ModalModel
-        TCP-frame model with stiffness and damping lowered the most (by
-        ``k_sigma`` spreads of their product), batch (n,).
+        TCP-frame model with stiffness and damping lowered the most (by up to
+        ``k_sigma`` spreads of their product, :data:`MODE_LOWERING`), batch (n,).
     window : ndarray, shape (n,)
         Relative half-width of the whole speed window (frequency uncertainty,
         ``k_sigma`` spreads): the first corner's.
@@ -549,6 +557,10 @@ class RobustBound:
         frequency spread (:meth:`RobotModes.robust`).
     mode_shifts : bool
         Whether the scenarios carry mode shifts.
+    independent : bool
+        Whether the modes were lowered together to the worst point of the
+        ``k_sigma`` ball of their independent errors (:data:`MODE_LOWERING`,
+        :func:`joint_lowering`), not each by ``k_sigma`` of its own spread.
     """
 
     model: ModalModel
@@ -560,6 +572,7 @@ class RobustBound:
     lowered_max: FloatArray | None = None
     scenarios: tuple[tuple[ModalModel, FloatArray], ...] = ()
     mode_shifts: bool = False
+    independent: bool = False
 
     @property
     def confidence(self) -> float:
@@ -607,6 +620,13 @@ class RobustBound:
                 f"stiffness above {100 * math.exp(-float(lk)):.3g} % and damping above "
                 f"{100 * math.exp(-float(lz)):.3g} % of the prediction (their product, a "
                 f"mode's peak compliance, lowered by k_sigma = {ks:g} spreads of it"
+                + (
+                    ", the modes together to the worst point of that ball of their "
+                    "independent errors, each as far as its share of the peak compliance "
+                    "weighs"
+                    if self.independent
+                    else ""
+                )
                 + (
                     f"), not both at once: the worst over the disk of radius {ks:g} in "
                     f"standardized (frequency, compliance) errors ({REGION_CORNERS} "
