@@ -98,3 +98,24 @@ def test_bound_limit_holds_for_independent_mode_errors(monkeypatch, how):
         e = _modes().robust(2.0).model
         k_e = (e.omega[0, :2] ** 2 / e.residues[0, :2, 0, 0])[None]
         assert -1.0 / _min_re(k_e, e.zeta[:, :2])[0] < lim_bound[0] < lim_nominal[0]
+
+
+def test_a_mode_along_the_tool_axis_takes_no_share_from_the_cut():
+    """The weights are the peak compliances in the cut's plane (the tool's x and y): a
+    softer mode along z leaves an x mode its full k_sigma, as if alone."""
+    f = np.broadcast_to(F_HZ, (1, 3, 2)).copy()
+    z = np.full((1, 3, 2), ZETA)
+    k = np.full((1, 3, 2), np.nan)
+    k[0, 0, 0] = 2.0e6  # mode 1 along x
+    k[0, 2, 1] = 0.5e6  # mode 2 along z, four times as compliant
+    std = np.zeros((1, 3, 2, 3))
+    std[..., 2] = 0.1
+    p = ModalParameters(f, z, k, ("xx", "yy", "zz"), log_std=std)
+    modes = RobotModes(p, ModalModel.from_parameters(p), None, "test", spread_calibrated=True)
+    b = modes.robust(2.0)
+    assert b is not None
+    m0, m1 = modes.model, b.model
+    x = np.flatnonzero(np.abs(m0.residues[0, :, 0, 0]) > 0)
+    assert x.size == 1
+    ratio = m1.residues[0, x[0], 0, 0] / m0.residues[0, x[0], 0, 0]
+    assert ratio == pytest.approx(np.exp(2.0 * 0.1))

@@ -110,7 +110,8 @@ MODE_SHIFT_SPREAD = "pairs"
 #: How the modes' peak compliances are lowered together. ``"independent"`` (the
 #: default): their errors taken as independent, the worst point of the ``k_sigma``
 #: ball of standardized errors for a limit that weighs each mode by its share of the
-#: posture's peak compliance (:func:`joint_lowering`: a lone mode at ``k_sigma``, modes
+#: posture's peak compliance in the cut's plane (the tool's x and y;
+#: :func:`joint_lowering`: a lone mode at ``k_sigma``, modes
 #: that share the compliance each at less). ``"each"``: every mode at ``k_sigma`` of
 #: its own spread at once. Issue 27, out-of-form robots (``studies/out_of_form.py``,
 #: cached transfers of draws 38-45, 60 postures each): the standardized compliance
@@ -346,7 +347,8 @@ class RobotModes:
         The modes are lowered together as :data:`MODE_LOWERING` says: by
         default to the worst point of the ``k_sigma`` ball of their
         independent errors for a limit weighted by each mode's share of the
-        posture's peak compliance (:func:`joint_lowering`: a mode that holds
+        posture's peak compliance in the cut's plane, the tool's x and y
+        (:func:`joint_lowering`: a mode that holds
         the compliance alone by ``k_sigma`` spreads, weak modes with wide
         spreads by what their share weighs), not every mode at its own
         ``k_sigma`` at once;
@@ -447,7 +449,11 @@ class RobotModes:
                 f"MODE_LOWERING: expected 'independent' or 'each', found {MODE_LOWERING!r}"
             )
         if MODE_LOWERING == "independent":
-            both = both * joint_lowering(peak, both)
+            # weights: each mode's peak compliance in the cut's plane (the tool's x and
+            # y: what the cut's limit sees; a mode along the tool axis does not take a
+            # share from them)
+            cut = np.abs(model.residues[..., 0, 0]) + np.abs(model.residues[..., 1, 1])
+            both = both * joint_lowering(cut / (2.0 * model.zeta * model.omega**2), both)
         low = np.stack([both * (1.0 - frac_k), both * frac_k], axis=-1)  # log zeta, log k
         # the speed window, per posture: the frequency spread of the modes that set the
         # stability limit (peak compliance at least WINDOW_SHARE of the largest), not
