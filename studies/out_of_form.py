@@ -623,6 +623,11 @@ def summarize(rows: list[dict[str, Any]]) -> dict[str, Any]:
             "each mode lowered",
             True,
         ),
+        (
+            "robust, modes lowered together, weights over all three directions (first version)",
+            "first version (trace weights)",
+            True,
+        ),
     ):
         plans = [r for r in rows if r.get("source") == source and r.get("robust") == robust]
         if not plans:
