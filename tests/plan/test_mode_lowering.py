@@ -119,3 +119,18 @@ def test_a_mode_along_the_tool_axis_takes_no_share_from_the_cut():
     assert x.size == 1
     ratio = m1.residues[0, x[0], 0, 0] / m0.residues[0, x[0], 0, 0]
     assert ratio == pytest.approx(np.exp(2.0 * 0.1))
+
+
+def test_an_uncalibrated_spread_lowers_each_mode_by_its_own_k_sigma():
+    """Independence was measured for the calibrated prediction-error spread; a network
+    ensemble's spread (not calibrated) keeps every mode at its own k_sigma."""
+    cal = _modes()
+    ens = RobotModes(cal.parameters, cal.model, None, "ensemble", spread_calibrated=False)
+    b_cal, b_ens = cal.robust(2.0), ens.robust(2.0)
+    assert b_cal is not None
+    assert b_ens is not None
+    assert b_cal.independent
+    assert not b_ens.independent
+    low = b_ens.model.residues[0, 1, 0, 0] / ens.model.residues[0, 1, 0, 0]
+    assert low == pytest.approx(np.exp(2.0 * S_K[1]))  # the weak mode: all of its 2 sigma
+    assert b_cal.model.residues[0, 1, 0, 0] < b_ens.model.residues[0, 1, 0, 0]

@@ -182,18 +182,14 @@ def test_robust_mode_plans_on_the_lower_bound(pocket_job, monkeypatch):
     src = PredictorSource(_FakePredictor(TwinSource(load_robot("A"))), "fake ensemble")
     nominal = plan_path(example("pocket.nc"), pocket_job, source=src, refine=False)
     job = pocket_job.replace(plan=dataclasses.replace(pocket_job.plan, robust=True, k_sigma=2.0))
-    together = plan_path(example("pocket.nc"), job, source=src, refine=False)
-    # every mode lowered by its own 2 sigma at once (the figures below are that rule's;
-    # the default lowers the modes together to the worst point of the 2-sigma ball of
-    # independent errors: tests/plan/test_mode_lowering.py)
+    default = plan_path(example("pocket.nc"), job, source=src, refine=False)
+    # an ensemble's spread is not a calibrated prediction-error spread: the modes are
+    # not lowered together (plan.modes.MODE_LOWERING holds for calibrated spreads), each
+    # takes its own 2 sigma as under the rule "each" (the figures below)
     monkeypatch.setattr(robolobe.plan.modes, "MODE_LOWERING", "each")
     robust = plan_path(example("pocket.nc"), job, source=src, refine=False)
-    tb = together.summary.robust_bound
-    assert tb is not None
-    assert together.summary.robust is True
-    assert tb.stiffness_lowered_to_pct >= robust.summary.robust_bound.stiffness_lowered_to_pct
-    assert nominal.summary.cycle_time_s <= together.summary.cycle_time_s
-    assert together.summary.cycle_time_s <= robust.summary.cycle_time_s
+    assert default.summary.robust_bound == robust.summary.robust_bound
+    assert default.summary.cycle_time_s == robust.summary.cycle_time_s
     assert robust.summary.robust is True
     # in passes of the program's 5 mm: the robust plan is the slower one (more passes or
     # a lower speed)

@@ -112,7 +112,11 @@ MODE_SHIFT_SPREAD = "pairs"
 #: ball of standardized errors for a limit that weighs each mode by its share of the
 #: posture's peak compliance in the cut's plane (the tool's x and y;
 #: :func:`joint_lowering`: a lone mode at ``k_sigma``, modes
-#: that share the compliance each at less). ``"each"``: every mode at ``k_sigma`` of
+#: that share the compliance each at less), on a calibrated prediction-error spread
+#: (:attr:`RobotModes.spread_calibrated`, where the independence was measured; other
+#: spreads, a network ensemble's or a job's assumed one, as ``"each"``: on the in-form
+#: robots of ``studies/plan_safety.py`` the network's robust plans lowered together
+#: reached a true margin of 0.51 against 0.85). ``"each"``: every mode at ``k_sigma`` of
 #: its own spread at once. Issue 27, out-of-form robots (``studies/out_of_form.py``,
 #: cached transfers of draws 38-45, 60 postures each): the standardized compliance
 #: errors of two modes that matter at one posture correlate at -0.01 (B) and -0.09 (C);
@@ -402,12 +406,14 @@ class RobotModes:
         if k_sigma <= 0:
             return None
         n, nd, m = self.f_hz.shape
+        job_spread = True  # the job's spread for some quantity (not the source's)
         if self.log_std is not None and np.any(self.log_std > 0):
             std = np.clip(np.nan_to_num(self.log_std, nan=0.0, posinf=0.0), 0.0, MAX_LOG_STD)
             kind = "calibrated prediction-error spread" if self.spread_calibrated else "spread"
             how = f"{self.source}'s {kind}"
             over = [bool(o) for o in override][:3] if len(assumed) == 3 else []
-            if any(over):
+            job_spread = any(over)
+            if job_spread:
                 a = np.clip(np.asarray(assumed, dtype=np.float64), 0.0, MAX_LOG_STD)
                 names = []
                 for c, name in enumerate(("f", "zeta", "k")):
@@ -448,7 +454,11 @@ class RobotModes:
             raise ValueError(
                 f"MODE_LOWERING: expected 'independent' or 'each', found {MODE_LOWERING!r}"
             )
-        if MODE_LOWERING == "independent":
+        # the modes' errors are independent where that was measured: the calibrated
+        # prediction-error spread (a network ensemble's or a job's assumed spread says
+        # nothing of how its modes' errors go together: each mode at its own k_sigma)
+        independent = MODE_LOWERING == "independent" and self.spread_calibrated and not job_spread
+        if independent:
             # weights: each mode's peak compliance in the cut's plane (the tool's x and
             # y: what the cut's limit sees; a mode along the tool axis does not take a
             # share from them)
@@ -527,7 +537,7 @@ class RobotModes:
             lowered_max=np.asarray(applied.max(axis=0), dtype=np.float64),
             scenarios=tuple(scenarios),
             mode_shifts=bool(np.any(shift > 0)),
-            independent=MODE_LOWERING == "independent",
+            independent=independent,
         )
 
 
