@@ -635,13 +635,13 @@ class RobustBound:
                 f"+-{100 * float(np.max(self.window, initial=0.0)):.2g} %, "
                 f"stiffness above {100 * math.exp(-float(lk)):.3g} % and damping above "
                 f"{100 * math.exp(-float(lz)):.3g} % of the prediction (their product, a "
-                f"mode's peak compliance, lowered by k_sigma = {ks:g} spreads of it"
                 + (
-                    ", the modes together to the worst point of that ball of their "
-                    "independent errors, each as far as its share of the peak compliance "
-                    "weighs"
+                    f"mode's peak compliance, lowered by up to k_sigma = {ks:g} spreads of "
+                    f"it: the modes together, at the worst point of the ball of radius {ks:g} "
+                    "in their independent errors, each as far as its share of the peak "
+                    "compliance in the cut's plane weighs"
                     if self.independent
-                    else ""
+                    else f"mode's peak compliance, lowered by k_sigma = {ks:g} spreads of it"
                 )
                 + (
                     f"), not both at once: the worst over the disk of radius {ks:g} in "
