@@ -29,6 +29,7 @@ import dataclasses
 import numpy as np
 import pytest
 
+import robolobe.plan.modes
 from robolobe.plan.job import load_job
 from robolobe.plan.lobes import DynamicsTolerance, size_members, waypoint_lobes
 from robolobe.plan.modes import TwinSource, bound_scenario, plan_bound
@@ -79,7 +80,14 @@ def _zigzag(path, passes: int = 3, per: int = 100, width_mm: float = 200.0) -> N
 
 
 @pytest.mark.slow
-def test_robust_sharing_keeps_its_promise_in_every_scenario(tmp_path) -> None:
+def test_robust_sharing_keeps_its_promise_in_every_scenario(tmp_path, monkeypatch) -> None:
+    # every mode lowered by its own k_sigma: the members' scenarios then differ by the
+    # spread alone and most waypoints share lobes, which is what is tested here. Under
+    # the default joint lowering (plan.modes.MODE_LOWERING) each mode's part of the
+    # lowering also follows its share of the compliance, and on this path 298 of 303
+    # waypoints get lobes of their own (as on the study's corrected twins under either
+    # rule: 162 of 165 on C's pocket)
+    monkeypatch.setattr(robolobe.plan.modes, "MODE_LOWERING", "each")
     path = tmp_path / "zigzag.nc"
     _zigzag(path)
     j = load_job(example("job_A_pocket.toml"))
