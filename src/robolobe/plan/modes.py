@@ -447,9 +447,9 @@ class RobotModes:
         # would put the product k_sigma * (s_k + s_z) low, up to sqrt(2) x too far
         both = np.hypot(sm[..., 1], sm[..., 2])
         frac_k = np.divide(sm[..., 2] ** 2, both**2, out=np.zeros_like(both), where=both > 0)
-        peak = np.abs(np.trace(model.residues, axis1=-2, axis2=-1)) / (
-            2.0 * model.zeta * model.omega**2
-        )
+        # a mode's peak compliance: its residue over 2 zeta omega^2
+        peak_den = 2.0 * model.zeta * model.omega**2
+        peak = np.abs(np.trace(model.residues, axis1=-2, axis2=-1)) / peak_den
         if MODE_LOWERING not in ("independent", "each"):
             raise ValueError(
                 f"MODE_LOWERING: expected 'independent' or 'each', found {MODE_LOWERING!r}"
@@ -463,7 +463,7 @@ class RobotModes:
             # y: what the cut's limit sees; a mode along the tool axis does not take a
             # share from them)
             cut = np.abs(model.residues[..., 0, 0]) + np.abs(model.residues[..., 1, 1])
-            both = both * joint_lowering(cut / (2.0 * model.zeta * model.omega**2), both)
+            both = both * joint_lowering(cut / peak_den, both)
         low = np.stack([both * (1.0 - frac_k), both * frac_k], axis=-1)  # log zeta, log k
         # the speed window, per posture: the frequency spread of the modes that set the
         # stability limit (peak compliance at least WINDOW_SHARE of the largest), not
