@@ -17,6 +17,7 @@ import pytest
 
 from robolobe.errors import InputError
 from robolobe.robots import load_robot
+from robolobe.tl.dataset import ModalDataset
 from robolobe.tl.design import design_postures
 from robolobe.tl.residual import CorrectedTwin
 from robolobe.tl.transfer import transfer
@@ -42,7 +43,7 @@ def campaign():
     )
     y = np.array(ds.y)
     y[:, 1, 2:] = np.nan  # yy: modes 3-5 not seen at any posture
-    return ds.__class__(ds.posture_ids, ds.q_rad, ds.directions, y).to_frame()
+    return ModalDataset(ds.posture_ids, ds.q_rad, ds.directions, y).to_frame()
 
 
 def test_default_transfer_takes_a_direction_with_fewer_modes(campaign):

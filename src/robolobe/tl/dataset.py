@@ -345,19 +345,19 @@ def check_dataset(
         )
     known = np.all(np.isfinite(ds.y), axis=3)  # (n, n_dir, n_modes)
     for j, d in enumerate(ds.directions):
-        if not every_mode and not np.any(known[:, j]):
+        empty = ~np.any(known[:, j], axis=0)  # (n_modes,): modes no posture has
+        if every_mode and empty.any():
+            raise InputError(
+                f"direction {d!r}, mode {int(np.flatnonzero(empty)[0]) + 1}: no posture has a "
+                f"value; expected {ds.n_modes} modes per direction",
+                source=source,
+            )
+        if empty.all():
             raise InputError(
                 f"direction {d!r}: no posture has a mode; expected at least one per direction "
                 "(leave the direction out of the tests, or check its column 'dir')",
                 source=source,
             )
-        for m in range(ds.n_modes if every_mode else 0):
-            if not np.any(known[:, j, m]):
-                raise InputError(
-                    f"direction {d!r}, mode {m + 1}: no posture has a value; expected "
-                    f"{ds.n_modes} modes per direction",
-                    source=source,
-                )
     # a direction's modes beyond those any posture has are not missing values (twin
     # methods: that direction sees fewer modes)
     seen = np.any(known, axis=0, keepdims=True)  # (1, n_dir, n_modes)
