@@ -90,7 +90,9 @@ go together to the worst point of the ``k_sigma`` ball of their independent
 errors (:data:`robolobe.plan.modes.MODE_LOWERING`, rows ``source = "each mode
 lowered"`` the old rule); draws 46-49 were drawn new and run once on it
 (``--robots C --first-draw 46 --draws 4 --jobs all --sources "oracle,plain,
-robust,each mode lowered"``, the same for B; ``meta.independent``).
+robust,each mode lowered"``, the same for B; ``meta.independent``), then draws
+50-53 on the final code (its weights the modes' peak compliances in the cut's
+plane; ``--first-draw 50``).
 """
 
 from __future__ import annotations

@@ -78,8 +78,8 @@ def _modes(spread, calibrated, k):
 
 
 def test_plan_bound_is_robust_by_default_only_on_a_calibrated_spread(monkeypatch):
-    # each mode lowered by k_sigma of its own spread (the sharing is tested in
-    # test_robust_sharing.py)
+    # each mode lowered by k_sigma of its own spread (the lowering together is tested in
+    # test_mode_lowering.py)
     monkeypatch.setattr(robolobe.plan.modes, "MODE_LOWERING", "each")
     k = [[1e6, 1e12], [2e6, 5e6], [1e12, 1e12]]
     std = np.zeros((1, 3, 2, 3))

@@ -82,8 +82,8 @@ def _one_mode_modes(s_f, s_z, s_k):
 
 
 def test_bound_corners_lower_and_window_by_their_share_of_k_sigma(monkeypatch):
-    # each mode lowered by k_sigma of its own spread (the sharing between modes:
-    # test_robust_sharing.py)
+    # each mode lowered by k_sigma of its own spread (the lowering together:
+    # test_mode_lowering.py)
     monkeypatch.setattr(robolobe.plan.modes, "MODE_LOWERING", "each")
     modes = _one_mode_modes(0.03, 0.06, 0.08)
     b = modes.robust(2.0)
